@@ -1,0 +1,83 @@
+"""Frozen capabilities: what the controller knows about a rotator model.
+
+One value per profile (DESIGN.md convention 4). A variant is a new caps value, never an
+``if model ==`` branch. Per-instance overrides (offsets, user limits, keep-out zones)
+live in the rotator's state/settings, never here.
+
+The physical truth a simulator needs (motor constants, inertia, friction ...) is not
+caps: the controller must work without knowing it. It lives in ``urc.hardware.sim``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Literal
+
+SensorKind = Literal["encoder", "pulse", "pot", "as5600", "magnetometer"]
+DriveKind = Literal["pwm", "relay"]
+
+
+@dataclass(frozen=True)
+class SensorCaps:
+    kind: SensorKind
+    #: size of one sensor count (q) at the axis, degrees; for a pot, the coarsest step.
+    resolution_deg: float
+    #: False for encoders and pulse counters: position must be persisted or re-referenced.
+    absolute: bool
+    #: absolute sensors that only know the angle modulo 360 (AS5600, compass) set 360.
+    modulo_deg: float | None = None
+    #: expected 1-sigma reading noise, degrees (0 for clean digital sensors).
+    noise_deg: float = 0.0
+
+
+@dataclass(frozen=True)
+class AxisCaps:
+    name: Literal["az", "el"]
+    min_deg: float
+    max_deg: float
+    park_deg: float
+    max_rate_deg_per_s: float
+    #: slowest speed at which the motor still turns reliably (BIG-RAS "minimal turn").
+    min_rate_deg_per_s: float
+    accel_deg_per_s2: float
+    sensor: SensorCaps
+    drive: DriveKind = "pwm"
+    #: relay drives only: the |duty| levels the drive can produce besides 0 (slow, fast).
+    drive_levels: tuple[float, ...] = ()
+    #: settle band: the axis is "there" within this error and does not restart below
+    #: ``restart_deg`` (hysteresis, so relays do not chatter).
+    tolerance_deg: float = 0.1
+    restart_deg: float = 0.25
+    brake: bool = False
+    brake_release_s: float = 0.0
+    brake_engage_s: float = 0.0
+    limit_switches: bool = False
+    #: on/off drives: stop this far before the target to absorb coasting (Tartu OVRA).
+    overshoot_deg: float = 0.0
+
+    @property
+    def span_deg(self) -> float:
+        return self.max_deg - self.min_deg
+
+
+@dataclass(frozen=True)
+class RotatorCaps:
+    name: str
+    description: str
+    az: AxisCaps
+    el: AxisCaps
+    loop_hz: float = 50.0
+    #: named sets of commands the original controller supports, for protocol servers.
+    command_sets: tuple[str, ...] = field(default_factory=tuple)
+
+    @property
+    def can_flip(self) -> bool:
+        """Elevation reaches past the zenith, so a pass can be flown 'over the top'."""
+        return self.el.max_deg >= 180.0 - 1e-9
+
+    def axis(self, name: str) -> AxisCaps:
+        if name == "az":
+            return self.az
+        if name == "el":
+            return self.el
+        raise KeyError(name)

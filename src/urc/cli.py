@@ -1,0 +1,215 @@
+"""The ``urc`` command line."""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import logging
+import os
+import sys
+from pathlib import Path
+
+import click
+
+from . import __version__
+from .errors import ConfigError, UrcError
+
+DEFAULT_URL = "http://127.0.0.1:8080"
+
+
+def _load(config_path: str | None, profile: str | None = None):
+    from .config import Config, load_config
+
+    cfg = load_config(config_path)
+    if profile is not None and profile != cfg.rotator.profile:
+        data = cfg.to_dict()
+        data.setdefault("rotator", {})["profile"] = profile
+        cfg = Config.from_dict(data, source=f"{config_path or '<defaults>'} with --profile {profile}")
+    return cfg
+
+
+@click.group()
+@click.version_option(__version__, prog_name="urc")
+def main() -> None:
+    """urc — the Universal Rotator Controller."""
+
+
+@main.command()
+@click.option("--config", "config_path", type=click.Path(dir_okay=False), help="TOML configuration file.")
+@click.option("--profile", help="Simulator/rotator profile (see `urc profiles`).")
+@click.option("--state-dir", type=click.Path(file_okay=False), help="Where persistent state lives.")
+@click.option("--port", type=int, help="HTTP API port (overrides [api] port).")
+@click.option("-v", "--verbose", is_flag=True, help="Log debug detail.")
+def run(config_path: str | None, profile: str | None, state_dir: str | None, port: int | None,
+        verbose: bool) -> None:
+    """Start the controller (the simulator with no arguments)."""
+    from .app import serve
+
+    logging.basicConfig(level=logging.DEBUG if verbose else logging.INFO,
+                        format="%(asctime)s %(levelname)s %(name)s: %(message)s")
+    try:
+        cfg = _load(config_path, profile)
+        if port is not None:
+            from .config import Config
+            data = cfg.to_dict()
+            data.setdefault("api", {})["port"] = port
+            cfg = Config.from_dict(data, source="--port")
+        asyncio.run(serve(cfg, cfg.state.resolve_dir(state_dir)))
+    except ConfigError as exc:
+        raise click.ClickException(str(exc)) from None
+    except OSError as exc:
+        raise click.ClickException(f"cannot start: {exc}") from None
+
+
+@main.group()
+def config() -> None:
+    """Configuration helpers."""
+
+
+@config.command("example")
+def config_example() -> None:
+    """Print a commented example configuration."""
+    from .config import EXAMPLE_CONFIG
+
+    click.echo(EXAMPLE_CONFIG, nl=False)
+
+
+@config.command("check")
+@click.argument("path", type=click.Path(dir_okay=False))
+def config_check(path: str) -> None:
+    """Validate a configuration file."""
+    try:
+        cfg = _load(path)
+    except ConfigError as exc:
+        raise click.ClickException(str(exc)) from None
+    click.echo(f"{path}: ok (profile {cfg.rotator.profile})")
+
+
+@main.command()
+def profiles() -> None:
+    """List the rotator profiles."""
+    from .profiles import DEFAULT_PROFILE, PROFILES
+
+    for name, caps in PROFILES.items():
+        mark = " (default)" if name == DEFAULT_PROFILE else ""
+        click.echo(f"{name:14s}{caps.description}{mark}")
+
+
+# ---------------------------------------------------------------- client commands
+def _client_options(f):
+    f = click.option("--url", envvar="URC_URL", default=None,
+                     help=f"Controller API address (default from --config, else {DEFAULT_URL}).")(f)
+    f = click.option("--config", "config_path", type=click.Path(dir_okay=False),
+                     help="Read the API address and token from this configuration.")(f)
+    return f
+
+
+def _request(url: str | None, config_path: str | None, method: str, path: str, body: dict | None = None) -> dict:
+    import httpx
+
+    token = os.environ.get("URC_TOKEN", "")
+    if url is None:
+        url = DEFAULT_URL
+        if config_path:
+            try:
+                cfg = _load(config_path)
+            except ConfigError as exc:
+                raise click.ClickException(str(exc)) from None
+            host = "127.0.0.1" if cfg.api.host in ("0.0.0.0", "::") else cfg.api.host
+            url = f"http://{host}:{cfg.api.port}"
+            token = token or cfg.api.token
+    headers = {"Authorization": f"Bearer {token}"} if token else {}
+    try:
+        resp = httpx.request(method, url.rstrip("/") + path, json=body, headers=headers, timeout=5.0)
+    except httpx.HTTPError as exc:
+        raise click.ClickException(f"cannot reach urc at {url}: {exc} (is `urc run` running?)") from None
+    try:
+        data = resp.json()
+    except ValueError:
+        data = {"error": resp.text}
+    if resp.status_code >= 400:
+        detail = data.get("error") or data.get("detail") or data
+        raise click.ClickException(f"refused ({resp.status_code}): {detail}")
+    return data
+
+
+def _format_status(s: dict) -> str:
+    lines = [f"profile   {s['profile']}",
+             f"pointing  az {s['az_deg']:7.2f}  el {s['el_deg']:6.2f}"
+             + ("   (flipped)" if s["flipped"] else ""),
+             f"axes      az {s['az']['pos_deg']:7.2f} ({s['az']['mode']})  el {s['el']['pos_deg']:6.2f} "
+             f"({s['el']['mode']})  wrap turn {s['wrap_turns']}"]
+    if s["target_az_deg"] is not None:
+        lines.append(f"target    az {s['target_az_deg']:7.2f}  el {s['target_el_deg']:6.2f}")
+    state = "moving" if s["moving"] else ("parked" if s["parked"] else "stopped")
+    lines.append(f"state     {state}; position {'known' if s['position_known'] else 'UNCERTAIN'}")
+    for name in ("az", "el"):
+        if s[name]["uncertainty_deg"]:
+            lines.append(f"          {name} uncertain by ±{s[name]['uncertainty_deg']:.2f} deg")
+    for f in s["faults"]:
+        lines.append(f"FAULT     {f['kind']}: {f['reason']}")
+    truth = s.get("simulator_truth")
+    if truth:
+        lines.append(f"sim truth az {truth['az']['deg']:7.2f}  el {truth['el']['deg']:6.2f}  (simulator only)")
+    for e in s["events"][-3:]:
+        lines.append(f"event     {e}")
+    return "\n".join(lines)
+
+
+@main.command()
+@click.option("--json", "as_json", is_flag=True, help="Print the raw status snapshot as JSON.")
+@_client_options
+def status(as_json: bool, url: str | None, config_path: str | None) -> None:
+    """Show the running controller's status."""
+    data = _request(url, config_path, "GET", "/api/status")
+    click.echo(json.dumps(data, indent=2) if as_json else _format_status(data))
+
+
+@main.command()
+@click.argument("az", type=float)
+@click.argument("el", type=float)
+@_client_options
+def goto(az: float, el: float, url: str | None, config_path: str | None) -> None:
+    """Point the antenna at AZ EL (degrees)."""
+    data = _request(url, config_path, "POST", "/api/goto", {"az_deg": az, "el_deg": el})
+    route = " -> ".join(f"({a:.1f}, {e:.1f})" for a, e in data.get("route", []))
+    click.echo(f"going to az {az:g} el {el:g}" + (f" via {route}" if route else ""))
+
+
+@main.command()
+@click.option("--axis", type=click.Choice(["az", "el"]), default=None)
+@_client_options
+def stop(axis: str | None, url: str | None, config_path: str | None) -> None:
+    """Stop the antenna."""
+    _request(url, config_path, "POST", "/api/stop", {"axis": axis})
+    click.echo("stopping")
+
+
+@main.command()
+@_client_options
+def park(url: str | None, config_path: str | None) -> None:
+    """Park the antenna."""
+    _request(url, config_path, "POST", "/api/park")
+    click.echo("parking")
+
+
+@main.command("set-position")
+@click.option("--az", type=float, default=None)
+@click.option("--el", type=float, default=None)
+@_client_options
+def set_position(az: float | None, el: float | None, url: str | None, config_path: str | None) -> None:
+    """Re-reference: declare where the antenna points now."""
+    _request(url, config_path, "POST", "/api/set-position", {"az_deg": az, "el_deg": el})
+    click.echo("position set")
+
+
+@main.command("clear-faults")
+@_client_options
+def clear_faults(url: str | None, config_path: str | None) -> None:
+    """Clear latched faults."""
+    _request(url, config_path, "POST", "/api/clear-faults")
+    click.echo("faults cleared")
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

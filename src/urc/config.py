@@ -1,0 +1,797 @@
+"""The urc configuration file: a small, strict TOML schema.
+
+Every key is optional; ``load_config(None)`` gives the defaults, so urc runs with no file
+at all. Anything wrong (a TOML syntax error, a wrong type, a value out of range, an
+unknown key, a limit outside what the rotator profile can do) raises
+:class:`urc.errors.ConfigError` whose message names the file, the dotted key, what was
+expected and what was found::
+
+    /etc/urc.toml: limits.az.max_deg: expected a number (degrees), found 'abc' (str)
+
+Values are typed strictly: ``"1.5"`` (a string) is not a number and ``1`` is not ``true``;
+integers are accepted where a float is expected.
+
+Cross-checks that need the rotator profile (user limits inside the profile's range, park
+inside the limits, control overrides within the profile's capabilities ...) run whenever a
+:class:`Config` is built. The per-instance values here never go into the frozen caps
+(DESIGN.md convention 4); use :meth:`Config.effective_limits`, :meth:`Config.park` and
+:meth:`Config.effective_control` to combine the two.
+"""
+
+from __future__ import annotations
+
+import difflib
+import ipaddress
+import math
+import os
+import re
+import tomllib
+import types
+import typing
+from importlib import resources
+from pathlib import Path
+from typing import Any, Union
+
+import annotated_types
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+
+from .caps import AxisCaps, RotatorCaps
+from .errors import ConfigError
+from .profiles import DEFAULT_PROFILE, PROFILES
+
+__all__ = [
+    "EXAMPLE_CONFIG", "ApiSection", "AxisControl", "AxisLimits", "Config", "ControlSection",
+    "FaultsSection", "HardwareSection", "KeepoutZone", "LimitsSection", "OffsetsSection",
+    "ParkSection", "RotatorSection", "SimSection", "StateSection", "load_config", "loads_config",
+]
+
+#: the backends this module knows about when the hardware package cannot be asked.
+_BUILTIN_BACKENDS = ("sim",)
+#: elevation range any keep-out zone must lie in (degrees; > 90 is "over the top").
+_KEEPOUT_EL_RANGE = (-90.0, 180.0)
+
+_MODEL_CONFIG = ConfigDict(strict=True, frozen=True, extra="forbid", validate_default=False)
+
+
+def _num(default: Any = None, *, ge: float | None = None, le: float | None = None,
+         gt: float | None = None, lt: float | None = None, description: str = "") -> Any:
+    """A finite number field (ints accepted)."""
+    return Field(default, ge=ge, le=le, gt=gt, lt=lt, allow_inf_nan=False,
+                 description=description)
+
+
+# --------------------------------------------------------------------------- schema
+
+
+class _Section(BaseModel):
+    model_config = _MODEL_CONFIG
+
+
+class RotatorSection(_Section):
+    #: one of :data:`urc.profiles.PROFILES`
+    profile: str = DEFAULT_PROFILE
+    loop_hz: float = _num(50.0, ge=1.0, le=1000.0, description="control loop rate")
+    #: fly passes "over the top" (elevation past 90) on rotators whose el reaches 180.
+    flip: bool = False
+
+
+class SimSection(_Section):
+    seed: int = 1
+    wind: bool = True
+    #: where the simulated antenna starts; None = at the park position.
+    start_az_deg: float | None = _num(None)
+    start_el_deg: float | None = _num(None)
+
+
+class HardwareSection(_Section):
+    backend: str = "sim"
+    sim: SimSection = SimSection()
+
+
+class AxisLimits(_Section):
+    """User soft limits narrowing the profile's range; None = the profile's."""
+
+    min_deg: float | None = _num(None)
+    max_deg: float | None = _num(None)
+
+
+class LimitsSection(_Section):
+    az: AxisLimits = AxisLimits()
+    el: AxisLimits = AxisLimits()
+
+
+class OffsetsSection(_Section):
+    #: added to what the sensor says (mount misalignment).
+    az_deg: float = _num(0.0, ge=-180.0, le=180.0)
+    el_deg: float = _num(0.0, ge=-90.0, le=90.0)
+
+
+class ParkSection(_Section):
+    #: None = the profile's park position.
+    az_deg: float | None = _num(None)
+    el_deg: float | None = _num(None)
+    #: auto-park after this many seconds idle; 0 = never.
+    idle_park_s: float = _num(0.0, ge=0.0)
+
+    def __call__(self, caps: RotatorCaps) -> tuple[float, float]:
+        """``(az_deg, el_deg)`` to park at: these values, else the profile's park."""
+        az = caps.az.park_deg if self.az_deg is None else self.az_deg
+        el = caps.el.park_deg if self.el_deg is None else self.el_deg
+        return float(az), float(el)
+
+
+class KeepoutZone(_Section):
+    """A region the antenna must never pass through.
+
+    The azimuth sector is in compass degrees and may wrap: ``az_min_deg = 350``,
+    ``az_max_deg = 10`` is the 20 degree sector across north. Values in the profile's
+    wrap range (e.g. 370) mean the same compass direction (10).
+    """
+
+    name: str = ""
+    az_min_deg: float = _num(...)
+    az_max_deg: float = _num(...)
+    el_min_deg: float = _num(...)
+    el_max_deg: float = _num(...)
+
+    @property
+    def az_span_deg(self) -> float:
+        span = self.az_max_deg - self.az_min_deg
+        return span if span > 0 else span + 360.0
+
+    def contains_az(self, az_deg: float) -> bool:
+        """True if the compass direction ``az_deg`` (any turn) is inside the sector."""
+        if self.az_span_deg >= 360.0:
+            return True
+        return (az_deg - self.az_min_deg) % 360.0 <= self.az_span_deg
+
+    def contains(self, az_deg: float, el_deg: float) -> bool:
+        return self.el_min_deg <= el_deg <= self.el_max_deg and self.contains_az(az_deg)
+
+    def label(self, index: int) -> str:
+        return self.name or f"keepout[{index}]"
+
+
+class AxisControl(_Section):
+    """Per-axis control overrides; None = the profile's value."""
+
+    tolerance_deg: float | None = _num(None, gt=0.0)
+    restart_deg: float | None = _num(None, gt=0.0)
+    max_rate_deg_per_s: float | None = _num(None, gt=0.0)
+    accel_deg_per_s2: float | None = _num(None, gt=0.0)
+    kp_per_s: float = _num(6.0, ge=0.0)
+    ki_per_s2: float = _num(1.0, ge=0.0)
+    overshoot_deg: float | None = _num(None, ge=0.0)
+
+
+class ControlSection(_Section):
+    az: AxisControl = AxisControl()
+    el: AxisControl = AxisControl()
+
+
+class FaultsSection(_Section):
+    stall_timeout_s: float = _num(1.5, gt=0.0)
+    #: moved this far without a command, or the wrong way -> fault.
+    runaway_deg: float = _num(3.0, gt=0.0)
+    sensor_jump_deg: float = _num(5.0, gt=0.0)
+    #: 0 = the backend's default.
+    overcurrent_a: float = _num(0.0, ge=0.0)
+    #: control-loop deadline.
+    watchdog_s: float = _num(0.5, gt=0.0)
+
+
+class ApiSection(_Section):
+    host: str = Field("127.0.0.1", min_length=1)
+    port: int = Field(8080, ge=0, le=65535)
+    token: str = ""
+
+    @property
+    def is_loopback(self) -> bool:
+        host = self.host.strip().strip("[]").lower()
+        if host == "localhost" or host.endswith(".localhost"):
+            return True
+        try:
+            return ipaddress.ip_address(host).is_loopback
+        except ValueError:
+            return False
+
+    @property
+    def control_requires_token(self) -> bool:
+        """Control over the API needs ``token`` because the API is reachable from outside.
+
+        With an empty token that means remote control is refused (reading still works).
+        """
+        return not self.is_loopback
+
+
+class StateSection(_Section):
+    #: "" = the per-user data directory; the --state-dir option overrides.
+    dir: str = ""
+    save_interval_s: float = _num(0.02, gt=0.0)
+
+    def resolve_dir(self, override: str | os.PathLike[str] | None = None) -> Path:
+        """The state directory: ``override`` (--state-dir), else ``dir``, else per-user."""
+        if override is not None and str(override) != "":
+            return Path(override).expanduser()
+        if self.dir:
+            return Path(self.dir).expanduser()
+        import platformdirs
+
+        return Path(platformdirs.user_data_dir("urc"))
+
+
+class Config(_Section):
+    rotator: RotatorSection = RotatorSection()
+    hardware: HardwareSection = HardwareSection()
+    limits: LimitsSection = LimitsSection()
+    offsets: OffsetsSection = OffsetsSection()
+    #: ``cfg.park.az_deg`` is the setting; ``cfg.park(caps)`` the resolved position.
+    park: ParkSection = ParkSection()
+    keepout: tuple[KeepoutZone, ...] = Field((), strict=False)
+    control: ControlSection = ControlSection()
+    faults: FaultsSection = FaultsSection()
+    api: ApiSection = ApiSection()
+    state: StateSection = StateSection()
+
+    @model_validator(mode="after")
+    def _check_against_profile(self) -> Config:
+        issues = _cross_check(self)
+        if issues:
+            raise _error_from_issues(issues, "<config>")
+        return self
+
+    # -- construction --------------------------------------------------------------
+
+    @classmethod
+    def from_dict(cls, data: Any, source: str = "<dict>") -> Config:
+        """Validate a parsed TOML document (or a dict from the web settings page)."""
+        if not isinstance(data, dict):
+            raise ConfigError(
+                f"{source}: expected a table of settings, found {_describe(data)}",
+                path=source, key=None, expected="a table of settings", found=data)
+        try:
+            return cls.model_validate(data)
+        except ValidationError as exc:
+            raise _error_from_validation(exc, source) from None
+        except ConfigError as exc:
+            issues = getattr(exc, "_issues", None)
+            if issues is None:  # pragma: no cover - raised by something we called
+                raise
+            raise _error_from_issues(issues, source) from None
+
+    # -- derived values ---------------------------------------------------------------
+
+    @property
+    def caps(self) -> RotatorCaps:
+        """The frozen capabilities of ``rotator.profile``."""
+        return PROFILES[self.rotator.profile]
+
+    def effective_limits(self, caps: RotatorCaps | None = None) -> dict[str, tuple[float, float]]:
+        """``{'az': (min_deg, max_deg), 'el': (...)}`` after applying the user limits."""
+        caps = caps or self.caps
+        out = {}
+        for name in ("az", "el"):
+            axis: AxisCaps = caps.axis(name)
+            lim: AxisLimits = getattr(self.limits, name)
+            lo = axis.min_deg if lim.min_deg is None else lim.min_deg
+            hi = axis.max_deg if lim.max_deg is None else lim.max_deg
+            out[name] = (float(lo), float(hi))
+        return out
+
+    def park_position(self, caps: RotatorCaps | None = None) -> tuple[float, float]:
+        """``(az_deg, el_deg)`` to park at; same as ``cfg.park(caps)``."""
+        return self.park(caps or self.caps)
+
+    def effective_control(self, caps: RotatorCaps | None = None) -> dict[str, dict[str, float]]:
+        """Per axis: the control settings after applying the overrides to the caps."""
+        caps = caps or self.caps
+        out = {}
+        for name in ("az", "el"):
+            axis: AxisCaps = caps.axis(name)
+            c: AxisControl = getattr(self.control, name)
+            out[name] = {
+                "tolerance_deg": _pick(c.tolerance_deg, axis.tolerance_deg),
+                "restart_deg": _pick(c.restart_deg, axis.restart_deg),
+                "max_rate_deg_per_s": _pick(c.max_rate_deg_per_s, axis.max_rate_deg_per_s),
+                "accel_deg_per_s2": _pick(c.accel_deg_per_s2, axis.accel_deg_per_s2),
+                "kp_per_s": float(c.kp_per_s),
+                "ki_per_s2": float(c.ki_per_s2),
+                "overshoot_deg": _pick(c.overshoot_deg, axis.overshoot_deg),
+            }
+        return out
+
+    @property
+    def control_requires_token(self) -> bool:
+        return self.api.control_requires_token
+
+    # -- output -------------------------------------------------------------------------
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain nested dict, None values left out, as it would be written to TOML."""
+        return _strip_none(self.model_dump())
+
+    def to_toml(self) -> str:
+        """This configuration as a TOML document that loads back to an equal Config."""
+        return _dump_toml(self.to_dict())
+
+
+def _pick(override: float | None, default: float) -> float:
+    return float(default if override is None else override)
+
+
+# --------------------------------------------------------------------------- cross-checks
+
+_Issue = tuple[str, str, Any, str]  # key, expected, found, hint
+
+
+def _fmt(x: float) -> str:
+    return f"{x:g}"
+
+
+def _backends() -> list[str]:
+    try:
+        from .hardware import available_backends
+
+        return list(available_backends())
+    except ImportError:
+        return list(_BUILTIN_BACKENDS)
+
+
+def _cross_check(cfg: Config) -> list[_Issue]:
+    issues: list[_Issue] = []
+    caps = PROFILES.get(cfg.rotator.profile)
+    if caps is None:
+        valid = ", ".join(sorted(PROFILES))
+        hint = _suggest(cfg.rotator.profile, sorted(PROFILES))
+        return [("rotator.profile", f"one of {valid}", cfg.rotator.profile, hint)]
+
+    if cfg.rotator.flip and not caps.can_flip:
+        issues.append(("rotator.flip", f"false (profile {caps.name!r} elevation stops at "
+                       f"{_fmt(caps.el.max_deg)} deg, flip needs 180)", True, ""))
+
+    backends = _backends()
+    if cfg.hardware.backend not in backends:
+        issues.append(("hardware.backend", "one of " + ", ".join(backends),
+                       cfg.hardware.backend, _suggest(cfg.hardware.backend, backends)))
+
+    for name in ("az", "el"):
+        axis = caps.axis(name)
+        start = getattr(cfg.hardware.sim, f"start_{name}_deg")
+        if start is not None and not axis.min_deg <= start <= axis.max_deg:
+            issues.append((f"hardware.sim.start_{name}_deg",
+                           f"a number (degrees) in {_fmt(axis.min_deg)}..{_fmt(axis.max_deg)} "
+                           f"(profile {caps.name!r} {name} range)", start, ""))
+
+    # user limits inside the profile's range, min < max
+    limits_ok = True
+    for name in ("az", "el"):
+        axis = caps.axis(name)
+        lim = getattr(cfg.limits, name)
+        rng = f"profile {caps.name!r} {name} range {_fmt(axis.min_deg)}..{_fmt(axis.max_deg)}"
+        for end in ("min_deg", "max_deg"):
+            v = getattr(lim, end)
+            if v is not None and not axis.min_deg <= v <= axis.max_deg:
+                limits_ok = False
+                issues.append((f"limits.{name}.{end}",
+                               f"a number (degrees) in {_fmt(axis.min_deg)}..{_fmt(axis.max_deg)}"
+                               f" (the {rng})", v, ""))
+        lo = axis.min_deg if lim.min_deg is None else lim.min_deg
+        hi = axis.max_deg if lim.max_deg is None else lim.max_deg
+        if lo >= hi:
+            limits_ok = False
+            key = f"limits.{name}.max_deg" if lim.max_deg is not None else f"limits.{name}.min_deg"
+            found = hi if lim.max_deg is not None else lo
+            issues.append((key, f"limits.{name}.min_deg < limits.{name}.max_deg "
+                           f"(min is {_fmt(lo)}, max is {_fmt(hi)})", found, ""))
+
+    # park inside the limits
+    if limits_ok:
+        eff = cfg.effective_limits(caps)
+        park = cfg.park_position(caps)
+        for i, name in enumerate(("az", "el")):
+            lo, hi = eff[name]
+            v = park[i]
+            user = getattr(cfg.park, f"{name}_deg")
+            if not lo <= v <= hi:
+                hint = "" if user is not None else (
+                    f"the profile's park {name} is outside limits.{name}; set park.{name}_deg")
+                issues.append((f"park.{name}_deg",
+                               f"a number (degrees) inside the {name} limits "
+                               f"{_fmt(lo)}..{_fmt(hi)}", v, hint))
+
+    # keep-out zones
+    az_lo, az_hi = min(caps.az.min_deg, 0.0), max(caps.az.max_deg, 360.0)
+    el_lo, el_hi = _KEEPOUT_EL_RANGE
+    for i, z in enumerate(cfg.keepout):
+        pre = f"keepout[{i}]"
+        zone_ok = True
+        for end in ("az_min_deg", "az_max_deg"):
+            v = getattr(z, end)
+            if not az_lo <= v <= az_hi:
+                zone_ok = False
+                issues.append((f"{pre}.{end}", f"a number (degrees) in {_fmt(az_lo)}.."
+                               f"{_fmt(az_hi)} (compass, or profile {caps.name!r} wrap range)",
+                               v, ""))
+        for end in ("el_min_deg", "el_max_deg"):
+            v = getattr(z, end)
+            if not el_lo <= v <= el_hi:
+                zone_ok = False
+                issues.append((f"{pre}.{end}", f"a number (degrees) in {_fmt(el_lo)}.."
+                               f"{_fmt(el_hi)}", v, ""))
+        if z.az_min_deg == z.az_max_deg:
+            zone_ok = False
+            issues.append((f"{pre}.az_max_deg", f"a number different from az_min_deg "
+                           f"({_fmt(z.az_min_deg)}); a sector across north is written "
+                           f"az_min_deg = 350, az_max_deg = 10", z.az_max_deg, ""))
+        elif z.az_max_deg - z.az_min_deg > 360.0:
+            zone_ok = False
+            issues.append((f"{pre}.az_max_deg", f"at most 360 degrees past az_min_deg "
+                           f"({_fmt(z.az_min_deg)})", z.az_max_deg, ""))
+        if z.el_min_deg >= z.el_max_deg:
+            zone_ok = False
+            issues.append((f"{pre}.el_max_deg", f"a number greater than el_min_deg "
+                           f"({_fmt(z.el_min_deg)})", z.el_max_deg, ""))
+        if zone_ok and limits_ok:
+            paz, pel = cfg.park_position(caps)
+            if z.contains(paz, pel):
+                user = cfg.park.az_deg is not None or cfg.park.el_deg is not None
+                key = "park.az_deg" if user else pre
+                issues.append((key, f"a park position outside keep-out zone {z.label(i)!r}",
+                               (paz, pel), "" if user else
+                               "the profile's park position is inside this zone; set [park]"))
+
+    # control overrides within what the profile can do
+    eff_ctl = cfg.effective_control(caps)
+    for name in ("az", "el"):
+        axis = caps.axis(name)
+        c = getattr(cfg.control, name)
+        for fld, cap, unit in (("max_rate_deg_per_s", axis.max_rate_deg_per_s, "deg/s"),
+                               ("accel_deg_per_s2", axis.accel_deg_per_s2, "deg/s^2")):
+            v = getattr(c, fld)
+            if v is not None and v > cap:
+                issues.append((f"control.{name}.{fld}",
+                               f"a number <= {_fmt(cap)} {unit} (profile {caps.name!r} "
+                               f"{name} maximum)", v, ""))
+        e = eff_ctl[name]
+        if e["restart_deg"] < e["tolerance_deg"]:
+            key = f"control.{name}.restart_deg" if c.restart_deg is not None \
+                else f"control.{name}.tolerance_deg"
+            found = c.restart_deg if c.restart_deg is not None else c.tolerance_deg
+            issues.append((key, f"restart_deg >= tolerance_deg (restart "
+                           f"{_fmt(e['restart_deg'])}, tolerance {_fmt(e['tolerance_deg'])})",
+                           found, ""))
+    return issues
+
+
+# --------------------------------------------------------------------------- errors
+
+
+def _describe(value: Any) -> str:
+    """``'abc' (str)``; long values shortened."""
+    if isinstance(value, tuple) and len(value) == 2 and all(isinstance(v, float) for v in value):
+        return f"az {_fmt(value[0])}, el {_fmt(value[1])}"
+    if isinstance(value, dict):
+        return f"a table ({len(value)} key{'' if len(value) == 1 else 's'})"
+    text = repr(value)
+    if len(text) > 60:
+        text = text[:57] + "..."
+    return f"{text} ({type(value).__name__})"
+
+
+def _key(loc: tuple[Any, ...]) -> str:
+    out = ""
+    for part in loc:
+        if isinstance(part, int):
+            out += f"[{part}]"
+        else:
+            out += ("." if out else "") + str(part)
+    return out
+
+
+def _suggest(word: str, choices: list[str]) -> str:
+    close = difflib.get_close_matches(str(word), choices, n=1, cutoff=0.6)
+    return f"did you mean {close[0]!r}?" if close else ""
+
+
+def _make_error(source: str, key: str | None, expected: str, found: Any, hint: str = "",
+                *, found_text: str | None = None) -> ConfigError:
+    found_text = found_text if found_text is not None else _describe(found)
+    where = f"{source}: {key}: " if key else f"{source}: "
+    msg = f"{where}expected {expected}, found {found_text}"
+    if hint:
+        msg += f"; {hint}"
+    return ConfigError(msg, path=source, key=key, expected=expected, found=found)
+
+
+def _combine(errors: list[ConfigError]) -> ConfigError:
+    first = errors[0]
+    msg = str(first)
+    if len(errors) > 1:
+        msg += f"\n  ({len(errors) - 1} more problem{'s' if len(errors) > 2 else ''}:)"
+        msg += "".join(f"\n  {e}" for e in errors[1:])
+    err = ConfigError(msg, path=first.path, key=first.key, expected=first.expected,
+                      found=first.found)
+    err.errors = errors  # type: ignore[attr-defined]
+    return err
+
+
+def _error_from_issues(issues: list[_Issue], source: str) -> ConfigError:
+    errs = [_make_error(source, k, exp, found, hint) for k, exp, found, hint in issues]
+    err = _combine(errs)
+    err._issues = issues  # type: ignore[attr-defined]
+    return err
+
+
+def _unwrap_model(annotation: Any) -> type[BaseModel] | None:
+    if isinstance(annotation, type) and issubclass(annotation, BaseModel):
+        return annotation
+    origin = typing.get_origin(annotation)
+    if origin is typing.Annotated:
+        return _unwrap_model(typing.get_args(annotation)[0])
+    if origin in (Union, types.UnionType, tuple, list):
+        for arg in typing.get_args(annotation):
+            found = _unwrap_model(arg)
+            if found is not None:
+                return found
+    return None
+
+
+def _resolve(loc: tuple[Any, ...]) -> tuple[type[BaseModel] | None, Any]:
+    """The model holding ``loc[-1]`` and that field's FieldInfo (or None)."""
+    model: type[BaseModel] | None = Config
+    for part in loc[:-1]:
+        if isinstance(part, int) or model is None:
+            continue
+        info = _fields_by_name(model).get(part)
+        model = _unwrap_model(info.annotation) if info is not None else None
+    if model is None or not loc or isinstance(loc[-1], int):
+        return model, None
+    return model, _fields_by_name(model).get(loc[-1])
+
+
+def _fields_by_name(model: type[BaseModel]) -> dict[str, Any]:
+    return dict(model.model_fields)
+
+
+_UNITS = (("_deg_per_s2", "degrees per second squared"), ("_deg_per_s", "degrees per second"),
+          ("_per_s2", "per second squared"), ("_per_s", "per second"), ("_deg", "degrees"),
+          ("_hz", "Hz"), ("_s", "seconds"), ("_a", "amperes"))
+
+
+def _unit(name: str) -> str:
+    for suffix, unit in _UNITS:
+        if name.endswith(suffix):
+            return unit
+    return ""
+
+
+def _range_text(info: Any) -> str:
+    parts = {}
+    for m in getattr(info, "metadata", ()):
+        for attr in ("ge", "gt", "le", "lt"):
+            if isinstance(m, getattr(annotated_types, attr.capitalize())):
+                parts[attr] = getattr(m, attr)
+    lo = parts.get("ge", parts.get("gt"))
+    hi = parts.get("le", parts.get("lt"))
+    if "ge" in parts and "le" in parts:
+        return f" in {_fmt(lo)}..{_fmt(hi)}"
+    bits = []
+    if lo is not None:
+        bits.append(f"{'>=' if 'ge' in parts else '>'} {_fmt(lo)}")
+    if hi is not None:
+        bits.append(f"{'<=' if 'le' in parts else '<'} {_fmt(hi)}")
+    return (" " + " and ".join(bits)) if bits else ""
+
+
+def _kind(model: type[BaseModel] | None, info: Any, name: str) -> str:
+    """What a field holds, in words: 'a number (degrees)', 'an integer', ..."""
+    if info is None:
+        return "a value"
+    ann = info.annotation
+    args = set(typing.get_args(ann)) | {ann}
+    if _unwrap_model(ann) is not None:
+        if typing.get_origin(ann) is tuple:
+            return f"an array of tables ([[{name}]])"
+        return f"a table ([{name}])"
+    if bool in args:
+        return "true or false"
+    if float in args:
+        unit = _unit(name)
+        return f"a number ({unit})" if unit else "a number"
+    if int in args:
+        return "an integer"
+    if str in args:
+        return "a string"
+    return "a value"
+
+
+def _error_from_validation(exc: ValidationError, source: str) -> ConfigError:
+    errs = []
+    for e in exc.errors(include_url=False):
+        loc = tuple(e.get("loc", ()))
+        key = _key(loc) or None
+        etype = e.get("type", "")
+        value = e.get("input")
+        model, info = _resolve(loc)
+        name = str(loc[-1]) if loc else ""
+        if etype == "extra_forbidden":
+            known = sorted(_fields_by_name(model)) if model is not None else []
+            shown = name
+            hint = _suggest(shown, known)
+            where = _key(loc[:-1])
+            expected = (f"one of the keys of [{where}]: " if where else
+                        "one of the top-level sections: ") + ", ".join(known)
+            errs.append(_make_error(source, key, expected, shown,
+                                    hint, found_text=f"unknown key {shown!r}"))
+            continue
+        kind = _kind(model, info, name)
+        if etype == "missing":
+            errs.append(_make_error(source, key, f"{kind} (required)", None,
+                                    found_text="nothing"))
+            continue
+        if etype in ("finite_number",):
+            expected = kind + _range_text(info) + ", finite (not nan or inf)"
+        elif etype.startswith(("greater_than", "less_than")):
+            expected = kind + _range_text(info)
+        elif etype in ("string_too_short",):
+            expected = "a non-empty string"
+        else:
+            expected = kind + (_range_text(info) if kind.startswith(("a number", "an int"))
+                               else "")
+        errs.append(_make_error(source, key, expected, value))
+    if not errs:  # pragma: no cover - pydantic always reports at least one
+        errs.append(_make_error(source, None, "a valid configuration", str(exc)))
+    return _combine(errs)
+
+
+# --------------------------------------------------------------------------- loading
+
+
+def load_config(path: str | os.PathLike[str] | None) -> Config:
+    """Read a TOML configuration file; ``None`` gives the defaults."""
+    if path is None:
+        return Config()
+    source = os.fspath(path)
+    try:
+        raw = Path(source).read_bytes()
+    except FileNotFoundError:
+        raise ConfigError(f"{source}: configuration file not found: expected an existing file, "
+                          "found no such file",
+                          path=source, expected="an existing file", found="no such file"
+                          ) from None
+    except IsADirectoryError:
+        raise ConfigError(f"{source}: expected a configuration file, found a directory",
+                          path=source, expected="a file", found="a directory") from None
+    except OSError as exc:
+        raise ConfigError(f"{source}: cannot read the configuration file: {exc.strerror or exc}",
+                          path=source, expected="a readable file", found=str(exc)) from None
+    return loads_config(raw, source=source)
+
+
+def loads_config(text: str | bytes, source: str = "<string>") -> Config:
+    """Parse TOML text (str or UTF-8 bytes) into a Config."""
+    if isinstance(text, bytes):
+        try:
+            text = text.decode("utf-8")
+        except UnicodeDecodeError as exc:
+            line = text[:exc.start].count(b"\n") + 1
+            col = exc.start - (text.rfind(b"\n", 0, exc.start) + 1) + 1
+            raise ConfigError(
+                f"{source}:{line}:{col}: expected UTF-8 text, found byte "
+                f"0x{text[exc.start]:02x} at line {line}, column {col}",
+                path=source, expected="UTF-8 text", found=text[exc.start:exc.end]) from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise _syntax_error(exc, text, source) from None
+    except RecursionError:
+        raise ConfigError(f"{source}: expected valid TOML, found nesting too deep to read",
+                          path=source, expected="valid TOML", found="deep nesting") from None
+    return Config.from_dict(data, source=source)
+
+
+_POS = re.compile(r"\s*\(at line (\d+), column (\d+)\)\s*$")
+
+
+def _syntax_error(exc: tomllib.TOMLDecodeError, text: str, source: str) -> ConfigError:
+    msg = str(exc)
+    m = _POS.search(msg)
+    if m:
+        line, col = int(m.group(1)), int(m.group(2))
+        what = msg[:m.start()]
+    else:
+        what = msg.replace("(at end of document)", "").strip()
+        lines = text.split("\n")
+        line, col = len(lines), len(lines[-1]) + 1
+    lines = text.split("\n")
+    snippet = lines[line - 1] if 0 < line <= len(lines) else ""
+    found = f"{what.rstrip('.').lower() or 'a syntax error'} in {snippet.strip()[:60]!r}"
+    err = ConfigError(
+        f"{source}:{line}:{col}: TOML syntax error at line {line}, column {col}: "
+        f"expected valid TOML, found {found}",
+        path=source, key=None, expected="valid TOML", found=found)
+    err.line, err.column = line, col  # type: ignore[attr-defined]
+    return err
+
+
+# --------------------------------------------------------------------------- writing
+
+
+def _strip_none(value: Any) -> Any:
+    if isinstance(value, dict):
+        return {k: _strip_none(v) for k, v in value.items() if v is not None}
+    if isinstance(value, (list, tuple)):
+        return [_strip_none(v) for v in value]
+    return value
+
+
+_BARE_KEY = re.compile(r"^[A-Za-z0-9_-]+$")
+
+
+def _toml_key(key: str) -> str:
+    return key if _BARE_KEY.match(key) else _toml_str(key)
+
+
+def _toml_str(s: str) -> str:
+    out = ['"']
+    for ch in s:
+        o = ord(ch)
+        if ch == '"':
+            out.append('\\"')
+        elif ch == "\\":
+            out.append("\\\\")
+        elif ch == "\n":
+            out.append("\\n")
+        elif ch == "\t":
+            out.append("\\t")
+        elif o < 0x20 or o == 0x7F:
+            out.append(f"\\u{o:04x}")
+        elif 0xD800 <= o <= 0xDFFF:  # lone surrogate: not representable, replace
+            out.append("\\ufffd")
+        else:
+            out.append(ch)
+    out.append('"')
+    return "".join(out)
+
+
+def _toml_value(v: Any) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, float):
+        if not math.isfinite(v):  # pragma: no cover - the schema forbids it
+            raise ValueError(f"cannot write {v!r}")
+        return repr(v)
+    if isinstance(v, str):
+        return _toml_str(v)
+    raise TypeError(f"cannot write {type(v).__name__} to TOML")  # pragma: no cover
+
+
+def _dump_toml(data: dict[str, Any]) -> str:
+    lines: list[str] = []
+
+    def table(prefix: str, d: dict[str, Any], header: str | None) -> None:
+        scalars = [(k, v) for k, v in d.items() if not isinstance(v, (dict, list))]
+        if header is not None and (scalars or (not d and header.startswith("[["))):
+            if lines:
+                lines.append("")
+            lines.append(header)
+        for k, v in scalars:
+            lines.append(f"{_toml_key(k)} = {_toml_value(v)}")
+        for k, v in d.items():
+            name = f"{prefix}.{_toml_key(k)}" if prefix else _toml_key(k)
+            if isinstance(v, dict):
+                table(name, v, f"[{name}]")
+            elif isinstance(v, list):
+                for item in v:
+                    table(name, item, f"[[{name}]]")
+
+    table("", data, None)
+    return "\n".join(lines) + "\n"
+
+
+# --------------------------------------------------------------------------- example
+
+EXAMPLE_CONFIG: str = resources.files(__package__).joinpath(
+    "config_example.toml").read_text(encoding="utf-8")

@@ -1,0 +1,149 @@
+"""Fault detection per axis: stall, runaway, sensor faults, limit switches, overcurrent.
+
+Pure like the law: ``check(state, inputs, limits) -> (state, fault | None)``. The rotator
+service latches the first fault, stops the motors and shows the reason everywhere until
+an explicit clear.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+#: consecutive unreadable ticks tolerated before the sensor counts as dead (one I2C
+#: glitch must not stop a pass; three in a row is a broken wire).
+SENSOR_DEAD_TICKS = 3
+OVERCURRENT_HOLD_S = 0.25
+#: how far outside the axis range a reading may lie before the sensor is distrusted.
+RANGE_MARGIN_DEG = 10.0
+
+
+@dataclass(frozen=True)
+class Fault:
+    kind: str  # stall, runaway, sensor_stuck, sensor_jump, sensor_range, sensor_dead,
+    #            limit_switch, overcurrent, watchdog, state
+    axis: str | None
+    reason: str
+    t_s: float
+
+    def as_dict(self) -> dict:
+        return {"kind": self.kind, "axis": self.axis, "reason": self.reason, "t_s": round(self.t_s, 3)}
+
+
+@dataclass(frozen=True)
+class FaultLimits:
+    axis: str
+    min_deg: float
+    max_deg: float
+    max_rate_deg_per_s: float
+    min_rate_deg_per_s: float
+    resolution_deg: float
+    noise_deg: float
+    stall_timeout_s: float = 1.5
+    runaway_deg: float = 3.0
+    sensor_jump_deg: float = 5.0
+    overcurrent_a: float = 0.0  # 0 = not checked
+
+    @property
+    def progress_deg(self) -> float:
+        """Movement that proves the axis turns: well above quantisation and noise."""
+        return 2.0 * self.resolution_deg + 4.0 * self.noise_deg
+
+    @property
+    def stall_after_s(self) -> float:
+        # A slow axis needs longer to show progress through a coarse sensor.
+        return self.stall_timeout_s + self.progress_deg / max(self.min_rate_deg_per_s, 1e-3)
+
+
+@dataclass(frozen=True)
+class MonitorState:
+    progress_deg: float | None = None
+    progress_t_s: float = 0.0
+    rest_deg: float | None = None      # where the motor was switched off
+    dir_sign: float = 0.0
+    dir_anchor_deg: float = 0.0
+    prev_deg: float | None = None
+    prev_t_s: float = 0.0
+    unreadable_ticks: int = 0
+    overcurrent_since_s: float | None = None
+    limit_min: bool = False
+    limit_max: bool = False
+
+
+@dataclass(frozen=True)
+class MonitorInputs:
+    now_s: float
+    meas_deg: float | None      # None: the sensor could not be read this tick
+    sensor_error: str = ""
+    duty: float = 0.0           # what the law asked for this tick
+    min_duty: float = 0.0
+    current_a: float = 0.0
+    limit_min: bool = False
+    limit_max: bool = False
+
+
+def check(st: MonitorState, x: MonitorInputs, lim: FaultLimits) -> tuple[MonitorState, Fault | None]:
+    ax = lim.axis
+
+    def fault(kind: str, reason: str) -> tuple[MonitorState, Fault]:
+        return st, Fault(kind, ax, f"{ax}: {reason}", x.now_s)
+
+    # Limit switches: a rising edge is a fault (the soft limits should have stopped us).
+    if x.limit_min and not st.limit_min:
+        st = replace(st, limit_min=True)
+        return fault("limit_switch", "lower limit switch hit")
+    if x.limit_max and not st.limit_max:
+        st = replace(st, limit_max=True)
+        return fault("limit_switch", "upper limit switch hit")
+    st = replace(st, limit_min=x.limit_min, limit_max=x.limit_max)
+
+    if lim.overcurrent_a > 0 and x.current_a > lim.overcurrent_a:
+        since = st.overcurrent_since_s if st.overcurrent_since_s is not None else x.now_s
+        st = replace(st, overcurrent_since_s=since)
+        if x.now_s - since >= OVERCURRENT_HOLD_S:
+            return fault("overcurrent", f"motor current {x.current_a:.2f} A above {lim.overcurrent_a:.2f} A")
+    else:
+        st = replace(st, overcurrent_since_s=None)
+
+    if x.meas_deg is None:
+        st = replace(st, unreadable_ticks=st.unreadable_ticks + 1)
+        if st.unreadable_ticks >= SENSOR_DEAD_TICKS:
+            return fault("sensor_dead", f"position sensor unreadable ({x.sensor_error or 'no reading'})")
+        return st, None
+    meas = x.meas_deg
+    st = replace(st, unreadable_ticks=0)
+
+    if not (lim.min_deg - RANGE_MARGIN_DEG <= meas <= lim.max_deg + RANGE_MARGIN_DEG):
+        return fault("sensor_range", f"reading {meas:.2f} deg outside {lim.min_deg:g}..{lim.max_deg:g} deg")
+
+    if st.prev_deg is not None:
+        dt = max(x.now_s - st.prev_t_s, 1e-6)
+        jump = abs(meas - st.prev_deg)
+        if jump > lim.max_rate_deg_per_s * dt * 2.0 + lim.sensor_jump_deg:
+            st = replace(st, prev_deg=meas, prev_t_s=x.now_s)
+            return fault("sensor_jump", f"reading jumped {jump:.2f} deg in {dt * 1000:.0f} ms")
+    st = replace(st, prev_deg=meas, prev_t_s=x.now_s)
+
+    driven = abs(x.duty) >= 0.9 * x.min_duty and x.duty != 0.0
+    sign = (x.duty > 0) - (x.duty < 0)
+    if not driven:
+        rest = st.rest_deg if st.rest_deg is not None else meas
+        st = replace(st, rest_deg=rest, progress_deg=None, dir_sign=0.0)
+        if abs(meas - rest) > lim.runaway_deg:
+            return fault("runaway", f"moved {meas - rest:+.2f} deg with the motor off")
+        return st, None
+
+    st = replace(st, rest_deg=None)
+    if sign != st.dir_sign:
+        st = replace(st, dir_sign=float(sign), dir_anchor_deg=meas, progress_deg=meas, progress_t_s=x.now_s)
+    if (meas - st.dir_anchor_deg) * sign < -lim.runaway_deg:
+        return fault("runaway", f"moving the wrong way: {meas - st.dir_anchor_deg:+.2f} deg while driven "
+                                f"{'up/cw' if sign > 0 else 'down/ccw'}")
+    if st.progress_deg is None or abs(meas - st.progress_deg) >= lim.progress_deg:
+        st = replace(st, progress_deg=meas, progress_t_s=x.now_s)
+    elif x.now_s - st.progress_t_s > lim.stall_after_s:
+        stuck_for = x.now_s - st.progress_t_s
+        if lim.overcurrent_a > 0 and x.current_a < 0.5 * lim.overcurrent_a:
+            return fault("sensor_stuck", f"driven for {stuck_for:.1f} s at normal current "
+                                         f"{x.current_a:.2f} A but the reading does not change")
+        return fault("stall", f"driven for {stuck_for:.1f} s without moving (current {x.current_a:.2f} A)")
+    return st, None

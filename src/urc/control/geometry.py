@@ -1,0 +1,183 @@
+"""Where the antenna may go: soft limits, cable wrap, flip, keep-out zones, and paths.
+
+Two frames:
+
+* mechanical (``az_m``, ``el_m``): what the axes and sensors know, the wrap range
+  included (e.g. 0..450 deg), elevation up to 180 on rotators that can flip;
+* sky (``az``, ``el``): compass azimuth 0..360 and elevation 0..90 where the beam points,
+  after the mount offsets and the flip mapping.
+
+Keep-out zones are regions of the sky. A path is checked by sampling the motion the axes
+will really make (each axis at its own speed, so not a straight line), every sample
+must stay inside the limits and out of every zone.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+#: path sampling step along the faster-changing axis, degrees.
+PATH_STEP_DEG = 0.25
+
+
+def wrap360(az_deg: float) -> float:
+    return az_deg % 360.0
+
+
+@dataclass(frozen=True)
+class KeepOut:
+    name: str
+    az_min_deg: float
+    az_max_deg: float
+    el_min_deg: float
+    el_max_deg: float
+
+    def contains(self, az_deg: float, el_deg: float, margin_deg: float = 0.0) -> bool:
+        if not (self.el_min_deg - margin_deg <= el_deg <= self.el_max_deg + margin_deg):
+            return False
+        lo = wrap360(self.az_min_deg - margin_deg)
+        width = self.az_max_deg - self.az_min_deg
+        if width <= 0.0:  # a sector across north (350..10)
+            width += 360.0
+        width += 2 * margin_deg
+        if width >= 360.0:
+            return True
+        return (wrap360(az_deg) - lo) % 360.0 <= width
+
+
+@dataclass(frozen=True)
+class Geometry:
+    az_min_deg: float
+    az_max_deg: float
+    el_min_deg: float
+    el_max_deg: float
+    az_offset_deg: float = 0.0
+    el_offset_deg: float = 0.0
+    flip: bool = False
+    zones: tuple[KeepOut, ...] = field(default_factory=tuple)
+    #: zones are grown by this much so sensor error and coasting cannot graze them.
+    zone_margin_deg: float = 0.5
+
+    # ---- frames -------------------------------------------------------------------
+    def to_sky(self, az_m: float, el_m: float) -> tuple[float, float]:
+        az, el = az_m + self.az_offset_deg, el_m + self.el_offset_deg
+        if el > 90.0:
+            az, el = az + 180.0, 180.0 - el
+        return wrap360(az), el
+
+    def in_limits(self, az_m: float, el_m: float, slack_deg: float = 1e-6) -> bool:
+        return (self.az_min_deg - slack_deg <= az_m <= self.az_max_deg + slack_deg
+                and self.el_min_deg - slack_deg <= el_m <= self.el_max_deg + slack_deg)
+
+    def zone_at(self, az_m: float, el_m: float, margin_deg: float | None = None) -> KeepOut | None:
+        if not self.zones:
+            return None
+        az, el = self.to_sky(az_m, el_m)
+        m = self.zone_margin_deg if margin_deg is None else margin_deg
+        for z in self.zones:
+            if z.contains(az, el, m):
+                return z
+        return None
+
+    def candidates(self, az_deg: float, el_deg: float) -> list[tuple[float, float]]:
+        """Every mechanical pose within the limits that points at sky (az, el)."""
+        poses = []
+        options = [(az_deg, el_deg)]
+        if self.flip:
+            options.append((az_deg + 180.0, 180.0 - el_deg))
+        for az_p, el_p in options:
+            el_m = el_p - self.el_offset_deg
+            if not (self.el_min_deg - 1e-9 <= el_m <= self.el_max_deg + 1e-9):
+                continue
+            base = az_p - self.az_offset_deg
+            k = math.ceil((self.az_min_deg - base) / 360.0 - 1e-12)
+            az_m = base + 360.0 * k
+            while az_m <= self.az_max_deg + 1e-9:
+                poses.append((min(max(az_m, self.az_min_deg), self.az_max_deg),
+                              min(max(el_m, self.el_min_deg), self.el_max_deg)))
+                az_m += 360.0
+        return poses
+
+    # ---- paths --------------------------------------------------------------------
+    def segment_clear(self, start: tuple[float, float], end: tuple[float, float],
+                      rates: tuple[float, float]) -> KeepOut | None:
+        """The first zone the motion start->end enters (None if clear).
+
+        Both axes start together at their own speeds. A start inside a zone is allowed
+        as long as the motion leaves it and never enters one again.
+        """
+        if not self.zones:
+            return None
+        (a0, e0), (a1, e1) = start, end
+        t_az, t_el = abs(a1 - a0) / rates[0], abs(e1 - e0) / rates[1]
+        total = max(t_az, t_el)
+        n = max(1, int(math.ceil(max(abs(a1 - a0), abs(e1 - e0)) / PATH_STEP_DEG)))
+        been_outside = self.zone_at(a0, e0) is None
+        for i in range(1, n + 1):
+            t = total * i / n
+            a = a0 + (a1 - a0) * (min(t, t_az) / t_az if t_az else 1.0)
+            e = e0 + (e1 - e0) * (min(t, t_el) / t_el if t_el else 1.0)
+            z = self.zone_at(a, e)
+            if z is None:
+                been_outside = True
+            elif been_outside:
+                return z
+        return None
+
+    def plan(self, start: tuple[float, float], az_deg: float, el_deg: float,
+             rates: tuple[float, float]) -> list[tuple[float, float]] | None:
+        """Fastest legal way to point at sky (az, el): a list of mechanical waypoints.
+
+        Tries every wrap/flip pose, each flown directly, elevation first, azimuth first,
+        or over the top of the zones in the way. None if nothing is legal.
+        """
+        best: tuple[float, list[tuple[float, float]]] | None = None
+        for pose in self.candidates(az_deg, el_deg):
+            if self.zone_at(*pose, margin_deg=0.0) is not None:
+                continue
+            for route in self._routes(start, pose):
+                if any(self.segment_clear(a, b, rates) for a, b in zip([start] + route, route)):
+                    continue
+                t = _route_time([start] + route, rates)
+                if pose[1] > 90.0:
+                    t += 1e-3  # prefer the unflipped pose when it is just as fast
+                if best is None or t < best[0] - 1e-9:
+                    best = (t, route)
+                break  # routes are tried simplest first
+        return None if best is None else best[1]
+
+    def _routes(self, start: tuple[float, float], end: tuple[float, float]):
+        (a0, e0), (a1, e1) = start, end
+        yield [end]
+        yield [(a0, e1), end]
+        yield [(a1, e0), end]
+        top = max([z.el_max_deg for z in self.zones] + [e0, e1]) + 2 * self.zone_margin_deg + 1.0
+        el_safe = min(top - self.el_offset_deg, self.el_max_deg)
+        if el_safe > max(e0, e1):
+            yield [(a0, el_safe), (a1, el_safe), end]
+
+    def clear_until(self, start: tuple[float, float], axis: str, limit_deg: float) -> float:
+        """Moving one axis from start towards limit_deg: how far it may go before a zone."""
+        a0, e0 = start
+        pos = a0 if axis == "az" else e0
+        direction = 1.0 if limit_deg >= pos else -1.0
+        n = int(abs(limit_deg - pos) / PATH_STEP_DEG)
+        been_outside = self.zone_at(a0, e0) is None
+        last_ok = pos
+        for i in range(1, n + 2):
+            p = pos + direction * min(i * PATH_STEP_DEG, abs(limit_deg - pos))
+            z = self.zone_at(p, e0) if axis == "az" else self.zone_at(a0, p)
+            if z is None:
+                been_outside = True
+                last_ok = p
+            elif been_outside:
+                return last_ok
+            else:
+                last_ok = p
+        return limit_deg
+
+
+def _route_time(points: list[tuple[float, float]], rates: tuple[float, float]) -> float:
+    return sum(max(abs(b[0] - a[0]) / rates[0], abs(b[1] - a[1]) / rates[1])
+               for a, b in zip(points, points[1:]))

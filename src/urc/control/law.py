@@ -1,0 +1,257 @@
+"""The per-axis control law: ``step(state, setpoint, measurement, now, dt) -> (state, output)``.
+
+Pure: the state is a frozen value and a new one is returned, so the law can be tested
+tick by tick and replayed exactly. One asyncio task (the rotator service) owns it.
+
+Two drive kinds:
+
+* PWM: the motion profile gives a reference; a PID with anti-windup plus velocity
+  feed-forward follows it; a minimum duty overcomes stiction.
+* Relay (on/off, slow/fast levels): bang-bang with early cut-off by the coast distance,
+  which the law learns from each stop (the Tartu controller's OVRA, set by hand there).
+
+Both settle into a tolerance band with hysteresis: once there (or once the target has
+been crossed) the motor stays off until the error exceeds ``restart_deg``, so relays do
+not chatter and rotors do not hunt.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+from typing import Literal
+
+from .profile import ProfileLimits, advance
+
+Mode = Literal["idle", "releasing", "driving", "holding"]
+
+#: under the minimum duty the axis must show movement within this time, else the
+#: minimum rises by KICK_GAIN (breakaway torque varies with temperature, wind, wear).
+KICK_WAIT_S = 0.25
+KICK_GAIN = 1.25
+KICK_MAX_DUTY = 0.6
+#: after overshooting, creep back this many times at most, then settle where it is
+#: (within restart_deg): more attempts is the hunting that wears relays out.
+MAX_REVERSALS = 2
+#: after this long holding a static target the brake engages even while tracking.
+BRAKE_AFTER_HOLD_S = 2.0
+#: the axis counts as standing still for coast learning after this long without motion.
+COAST_SETTLE_S = 0.4
+COAST_LEARN_GAIN = 0.4
+
+
+@dataclass(frozen=True)
+class AxisTuning:
+    max_rate_deg_per_s: float
+    min_rate_deg_per_s: float
+    accel_deg_per_s2: float
+    tolerance_deg: float
+    restart_deg: float
+    kp_per_s: float = 6.0
+    ki_per_s2: float = 1.0
+    #: speed-error gain (dimensionless): damping for inertia the feed-forward ignores
+    kv: float = 0.5
+    drive: Literal["pwm", "relay"] = "pwm"
+    drive_levels: tuple[float, ...] = ()
+    brake: bool = False
+    brake_release_s: float = 0.0
+    #: initial coast estimate for relay drives (the learnt value lives in the state).
+    overshoot_deg: float = 0.0
+
+    @property
+    def limits(self) -> ProfileLimits:
+        return ProfileLimits(self.max_rate_deg_per_s, self.min_rate_deg_per_s, self.accel_deg_per_s2)
+
+    @property
+    def min_duty(self) -> float:
+        return min(1.0, 1.15 * self.min_rate_deg_per_s / self.max_rate_deg_per_s)
+
+
+@dataclass(frozen=True)
+class Setpoint:
+    """Go to ``target_deg`` (mechanical axis frame), which moves at ``rate_deg_per_s``
+    from time ``t_ref_s`` on. ``seq`` changes with every new command."""
+
+    target_deg: float
+    rate_deg_per_s: float = 0.0
+    t_ref_s: float = 0.0
+    speed_cap_deg_per_s: float | None = None
+    seq: int = 0
+
+    def target_at(self, now_s: float) -> float:
+        return self.target_deg + self.rate_deg_per_s * (now_s - self.t_ref_s)
+
+
+@dataclass(frozen=True)
+class AxisState:
+    mode: Mode = "idle"
+    ref_deg: float = 0.0
+    ref_rate_deg_per_s: float = 0.0
+    integral_deg_s: float = 0.0
+    seq: int = -1
+    approach_sign: float = 0.0
+    phase_until_s: float = 0.0
+    hold_since_s: float = 0.0
+    arrived: bool = False
+    # relay coast learning: estimated coast per drive level, and the cut in progress
+    coast_deg: tuple[float, ...] = field(default_factory=tuple)
+    cut_deg: float | None = None
+    cut_level: int = 0
+    still_since_s: float = 0.0
+    #: where the axis was when it was last seen moving (coast learning anchor)
+    last_meas_deg: float = 0.0
+    # stiction: the smallest duty that has been seen to turn the motor, learnt upwards
+    # when the axis sits still under the present minimum (0 = start from the tuning)
+    kick_duty: float = 0.0
+    kick_anchor_deg: float = 0.0
+    kick_since_s: float = 0.0
+    #: target crossings allowed to creep back into the tolerance before settling anyway
+    reversals: int = 0
+
+
+@dataclass(frozen=True)
+class AxisOutput:
+    duty: float
+    brake_released: bool
+    driving: bool
+
+
+OFF = AxisOutput(0.0, False, False)
+
+
+def initial_state(tuning: AxisTuning, meas_deg: float) -> AxisState:
+    levels = tuning.drive_levels or (1.0,)
+    return AxisState(ref_deg=meas_deg, last_meas_deg=meas_deg,
+                     coast_deg=tuple(tuning.overshoot_deg * lv for lv in levels))
+
+
+def step(st: AxisState, sp: Setpoint | None, meas_deg: float, now_s: float, dt_s: float,
+         tun: AxisTuning, meas_rate_deg_per_s: float = 0.0) -> tuple[AxisState, AxisOutput]:
+    """Advance one tick. ``sp=None`` means motor off, brake on, forget the target."""
+    st = _learn_coast(st, meas_deg, now_s, tun)
+    if sp is None:
+        return replace(st, mode="idle", ref_deg=meas_deg, ref_rate_deg_per_s=0.0,
+                       integral_deg_s=0.0, arrived=False), OFF
+
+    target_deg = sp.target_at(now_s)
+    error_deg = target_deg - meas_deg
+    tracking = abs(sp.rate_deg_per_s) >= tun.min_rate_deg_per_s
+
+    if sp.seq != st.seq:
+        # A new command: plan afresh from where the axis really is.
+        restart = st.mode in ("idle", "holding") or abs(st.ref_deg - meas_deg) > tun.restart_deg
+        st = replace(st, seq=sp.seq, arrived=False, reversals=0,
+                     approach_sign=math.copysign(1.0, error_deg) if error_deg else 0.0,
+                     mode="driving" if st.mode == "holding" else st.mode)
+        if restart:
+            st = replace(st, ref_deg=meas_deg, ref_rate_deg_per_s=0.0, integral_deg_s=0.0)
+        if st.mode != "releasing" and abs(error_deg) <= tun.tolerance_deg and not tracking:
+            return _hold(st, meas_deg, now_s, tun, brake_released=st.mode == "driving")
+
+    if st.mode in ("idle", "holding"):
+        if abs(error_deg) <= tun.restart_deg and not (tracking and tun.drive == "pwm"):
+            return _hold(st, meas_deg, now_s, tun, brake_released=_keep_brake_off(st, now_s, tun, tracking))
+        st = replace(st, mode="driving", ref_deg=meas_deg, ref_rate_deg_per_s=0.0,
+                     integral_deg_s=0.0, arrived=False,
+                     approach_sign=math.copysign(1.0, error_deg))
+
+    if tun.brake and st.mode == "driving" and st.phase_until_s == 0.0:
+        # The brake needs voltage (and time) to release before the motor may pull.
+        st = replace(st, mode="releasing", phase_until_s=now_s + tun.brake_release_s)
+    if st.mode == "releasing":
+        if now_s < st.phase_until_s:
+            return replace(st, ref_deg=meas_deg, ref_rate_deg_per_s=0.0), AxisOutput(0.0, True, True)
+        st = replace(st, mode="driving", phase_until_s=-1.0)
+
+    if tun.drive == "relay":
+        return _relay(st, target_deg, error_deg, meas_deg, now_s, tun)
+    return _pwm(st, sp, target_deg, error_deg, meas_deg, meas_rate_deg_per_s, now_s, dt_s, tun, tracking)
+
+
+def _keep_brake_off(st: AxisState, now_s: float, tun: AxisTuning, tracking: bool) -> bool:
+    # While following a moving target the brake stays off for a while between bursts
+    # (engaging it every few seconds wears it and adds release delays).
+    return tracking and st.mode == "holding" and now_s - st.hold_since_s < BRAKE_AFTER_HOLD_S
+
+
+def _hold(st: AxisState, meas_deg: float, now_s: float, tun: AxisTuning,
+          brake_released: bool) -> tuple[AxisState, AxisOutput]:
+    if st.mode != "holding":
+        st = replace(st, mode="holding", hold_since_s=now_s)
+    st = replace(st, ref_deg=meas_deg, ref_rate_deg_per_s=0.0, integral_deg_s=0.0, arrived=True,
+                 phase_until_s=0.0 if not brake_released else st.phase_until_s)
+    return st, AxisOutput(0.0, brake_released and tun.brake, False)
+
+
+def _crossed(st: AxisState, error_deg: float) -> bool:
+    return st.approach_sign != 0.0 and error_deg * st.approach_sign < 0.0
+
+
+def _pwm(st: AxisState, sp: Setpoint, target_deg: float, error_deg: float, meas_deg: float,
+         meas_rate: float, now_s: float, dt_s: float, tun: AxisTuning, tracking: bool) -> tuple[AxisState, AxisOutput]:
+    ref, ref_rate, arrived = advance(st.ref_deg, st.ref_rate_deg_per_s, target_deg, sp.rate_deg_per_s,
+                                     tun.limits, dt_s, sp.speed_cap_deg_per_s)
+    arrived = arrived or st.arrived
+    if arrived and not tracking:
+        ref, ref_rate = target_deg, 0.0
+        if abs(error_deg) <= tun.tolerance_deg:
+            return _hold(st, meas_deg, now_s, tun, brake_released=False)
+        if _crossed(st, error_deg):
+            if st.reversals >= MAX_REVERSALS and abs(error_deg) < tun.restart_deg:
+                return _hold(st, meas_deg, now_s, tun, brake_released=False)
+            st = replace(st, approach_sign=-st.approach_sign, reversals=st.reversals + 1,
+                         integral_deg_s=0.0)
+    follow_err = ref - meas_deg
+    integral = st.integral_deg_s
+    # velocity feed-forward + PI on the position error + damping on the speed error
+    # (the damping brakes the inertia that velocity feed-forward alone lets overshoot)
+    rate_cmd = ref_rate + tun.kp_per_s * follow_err + tun.ki_per_s2 * integral + \
+        tun.kv * (ref_rate - meas_rate)
+    duty = rate_cmd / tun.max_rate_deg_per_s
+    if abs(duty) < 1.0:  # anti-windup: integrate only while the drive is not saturated
+        integral += follow_err * dt_s
+    kick = max(st.kick_duty, tun.min_duty)
+    anchor, since = st.kick_anchor_deg, st.kick_since_s
+    if abs(meas_deg - anchor) > 0.5 * tun.restart_deg:  # moved: more than count flicker
+        anchor, since = meas_deg, now_s
+    if duty and abs(duty) < kick and abs(error_deg) > tun.tolerance_deg:
+        # Below this the motor hums but does not turn (stiction): push at the minimum,
+        # and raise the minimum if even that leaves the axis standing.
+        if now_s - since > KICK_WAIT_S:
+            kick, since = min(KICK_MAX_DUTY, kick * KICK_GAIN), now_s
+        duty = math.copysign(kick, duty)
+    duty = max(-1.0, min(1.0, duty))
+    st = replace(st, mode="driving", ref_deg=ref, ref_rate_deg_per_s=ref_rate, integral_deg_s=integral,
+                 arrived=arrived, kick_duty=kick, kick_anchor_deg=anchor, kick_since_s=since)
+    return st, AxisOutput(duty, tun.brake, True)
+
+
+def _relay(st: AxisState, target_deg: float, error_deg: float, meas_deg: float, now_s: float,
+           tun: AxisTuning) -> tuple[AxisState, AxisOutput]:
+    levels = tun.drive_levels or (1.0,)
+    remaining = error_deg * st.approach_sign
+    fast, slow = len(levels) - 1, 0
+    # Go slow once within a couple of fast-coast distances plus a second of slow running.
+    slow_zone = 2.0 * st.coast_deg[fast] + levels[slow] * tun.max_rate_deg_per_s * 1.0 + tun.restart_deg
+    level = slow if remaining < slow_zone else fast
+    if (abs(error_deg) <= tun.tolerance_deg or remaining <= st.coast_deg[level] + 0.5 * tun.tolerance_deg
+            or _crossed(st, error_deg)):
+        st = replace(st, cut_deg=meas_deg, cut_level=level, still_since_s=now_s, last_meas_deg=meas_deg)
+        return _hold(st, meas_deg, now_s, tun, brake_released=False)
+    duty = math.copysign(levels[level], error_deg)
+    st = replace(st, mode="driving", ref_deg=target_deg, ref_rate_deg_per_s=0.0, cut_deg=None)
+    return st, AxisOutput(duty, tun.brake, True)
+
+
+def _learn_coast(st: AxisState, meas_deg: float, now_s: float, tun: AxisTuning) -> AxisState:
+    """After a relay cut-off, measure how far the axis coasted and refine the estimate."""
+    if st.cut_deg is None:
+        return st
+    if abs(meas_deg - st.last_meas_deg) > 0.5 * tun.tolerance_deg:  # still coasting
+        return replace(st, last_meas_deg=meas_deg, still_since_s=now_s)
+    if now_s - st.still_since_s < COAST_SETTLE_S:
+        return st
+    coast = max(0.0, (meas_deg - st.cut_deg) * st.approach_sign)
+    coasts = list(st.coast_deg)
+    coasts[st.cut_level] += COAST_LEARN_GAIN * (coast - coasts[st.cut_level])
+    return replace(st, coast_deg=tuple(coasts), cut_deg=None, last_meas_deg=meas_deg)

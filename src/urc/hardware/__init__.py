@@ -1,0 +1,7 @@
+"""Hardware: small device interfaces and the factories that build them by name."""
+
+from .interfaces import AxisHardware, Brake, Hardware, LimitSwitch, Motor, PositionSensor
+from .factory import available_backends, build_hardware, register_backend
+
+__all__ = ["AxisHardware", "Brake", "Hardware", "LimitSwitch", "Motor", "PositionSensor",
+           "available_backends", "build_hardware", "register_backend"]

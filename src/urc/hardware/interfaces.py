@@ -1,0 +1,99 @@
+"""The contracts every hardware backend implements.
+
+Devices never touch hardware directly; a backend (the physics simulator, Linux
+GPIO/I2C parts, a bridge to an existing controller) is chosen by name from config
+through :mod:`urc.hardware.factory` — gpiozero's pin-factory idea. The control code
+only sees these protocols, so a real driver plugs in without touching it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Protocol, runtime_checkable
+
+from ..caps import SensorCaps
+
+
+@runtime_checkable
+class Motor(Protocol):
+    def set_drive(self, duty: float) -> None:
+        """Drive in [-1, 1]; the sign is the direction (+ = increasing angle).
+
+        PWM drives use the magnitude as duty cycle. Relay drives switch to the nearest
+        of their levels (``AxisCaps.drive_levels``, e.g. slow/fast) and coast at 0.
+        """
+
+    def read_current_a(self) -> float:
+        """Motor current, amperes (0 when the drive cannot measure it)."""
+
+
+@runtime_checkable
+class Brake(Protocol):
+    def set_released(self, released: bool) -> None:
+        """Release (True) or engage (False). A powerless brake is engaged."""
+
+    def is_released(self) -> bool: ...
+
+
+@runtime_checkable
+class PositionSensor(Protocol):
+    caps: SensorCaps
+
+    def read_deg(self) -> float:
+        """The axis angle in degrees, calibrated.
+
+        Incremental sensors (encoder, pulse) return counts x resolution + reference.
+        Sensors with ``caps.modulo_deg`` return a value in [0, modulo). Raises
+        :class:`urc.errors.SensorError` when no usable reading exists.
+        """
+
+    def set_reference_deg(self, angle_deg: float) -> None:
+        """Declare that the current reading is ``angle_deg`` (re-reference, Tartu WRAZ)."""
+
+    def calibration(self) -> dict[str, Any]:
+        """Calibration constants worth persisting (pot M/C/Z, hard-iron, reference...)."""
+
+    def load_calibration(self, values: dict[str, Any]) -> None: ...
+
+
+@runtime_checkable
+class LimitSwitch(Protocol):
+    def is_active(self) -> bool: ...
+
+
+@dataclass
+class AxisHardware:
+    motor: Motor
+    sensor: PositionSensor
+    brake: Brake | None = None
+    limit_min: LimitSwitch | None = None
+    limit_max: LimitSwitch | None = None
+
+
+@dataclass
+class Hardware:
+    """Both axes of one rotator plus backend-wide hooks."""
+
+    backend: str
+    az: AxisHardware
+    el: AxisHardware
+    #: backends that simulate physics advance it here, before sensors are read.
+    poll_hook: Any = None
+    #: simulator only: returns the true mechanical state; None for real iron.
+    truth_hook: Any = None
+    close_hook: Any = None
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    def axis(self, name: str) -> AxisHardware:
+        return self.az if name == "az" else self.el
+
+    def poll(self, now_s: float) -> None:
+        if self.poll_hook is not None:
+            self.poll_hook(now_s)
+
+    def sim_truth(self) -> dict[str, Any] | None:
+        return self.truth_hook() if self.truth_hook is not None else None
+
+    def close(self) -> None:
+        if self.close_hook is not None:
+            self.close_hook()

@@ -1,0 +1,101 @@
+"""The physics-simulator hardware backend (the default backend, a real backend).
+
+``build_sim_hardware(caps, clock, state_dir, options)`` returns a
+:class:`~urc.hardware.interfaces.Hardware` whose devices sit on a :class:`SimWorld`:
+DC or relay/AC motors through a gearbox with backlash, stiction, end stops, brakes,
+limit switches, wind, and each profile's sensor (encoder, pulse counter, pot, AS5600,
+magnetometer). ``hardware.extra["world"]`` is the world, for fault injection and truth.
+
+Options (all optional): ``seed`` (int, 1), ``wind`` (bool, True), ``truth_file`` (path,
+default ``state_dir/"simulator-truth.json"``; ``None`` disables persistence),
+``start_az_deg`` / ``start_el_deg`` (initial true angles without a truth file, default
+park), ``fault_injection`` (faults active from the start: a list of
+``{"axis": "az", "kind": "jam", ...kwargs}`` or a mapping ``{"az": {"jam": {...}}}``),
+``sensor_noise`` (bool, True), ``truth_interval_s`` (float, 0.02: least clock time
+between truth writes), ``truth_wall_interval_s`` (float, 0.02: least wall time between
+writes, so a fast virtual clock is not slowed by file writes; 0 = exactly repeatable).
+"""
+
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+from typing import Any
+
+from ...caps import RotatorCaps
+from ...clock import Clock
+from ...errors import ConfigError
+from ..interfaces import AxisHardware, Hardware
+from .params import (PHYSICS, SimAxisParams, SimRotatorParams, SimSensorParams, params_for_caps,
+                     physics_for)
+from .world import FAULT_KINDS, SimWorld
+
+log = logging.getLogger(__name__)
+
+_OPTIONS = {"seed", "wind", "truth_file", "start_az_deg", "start_el_deg", "fault_injection",
+            "sensor_noise", "truth_interval_s", "truth_wall_interval_s"}
+
+
+def build_sim_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
+                       options: dict[str, Any]) -> Hardware:
+    options = dict(options or {})
+    unknown = set(options) - _OPTIONS
+    if unknown:
+        log.warning("simulator: ignoring unknown options %s", ", ".join(sorted(unknown)))
+    # A profile's own physics when the caps are that profile's; else derived from caps.
+    params = PHYSICS.get(caps.name)
+    if params is None or params_for_caps(caps) != params:
+        params = params_for_caps(caps)
+    truth_file = options.get("truth_file", Path(state_dir) / "simulator-truth.json")
+    start = {axis: float(options[f"start_{axis}_deg"])
+             for axis in ("az", "el") if options.get(f"start_{axis}_deg") is not None}
+    try:
+        world = SimWorld(caps, params, clock,
+                         truth_path=Path(truth_file) if truth_file else None,
+                         seed=int(options.get("seed", 1)), wind=bool(options.get("wind", True)),
+                         start_deg=start, sensor_noise=bool(options.get("sensor_noise", True)),
+                         truth_interval_s=float(options.get("truth_interval_s", 0.02)),
+                         truth_wall_interval_s=float(options.get("truth_wall_interval_s", 0.02)))
+    except (TypeError, ValueError) as exc:
+        raise ConfigError(f"simulator options: {exc}", key="hardware.options") from exc
+    for axis, kind, kw in _fault_list(options.get("fault_injection")):
+        world.inject(axis, kind, **kw)
+
+    def axis_hw(name: str) -> AxisHardware:
+        lo, hi = world.limits[name]
+        return AxisHardware(motor=world.motors[name], sensor=world.sensors[name],
+                            brake=world.brakes[name], limit_min=lo, limit_max=hi)
+
+    return Hardware(backend="sim", az=axis_hw("az"), el=axis_hw("el"),
+                    poll_hook=world.advance_to, truth_hook=world.truth,
+                    close_hook=world.close, extra={"world": world})
+
+
+def _fault_list(spec: Any) -> list[tuple[str, str, dict[str, Any]]]:
+    if not spec:
+        return []
+    out = []
+    try:
+        if isinstance(spec, dict):
+            for axis, kinds in spec.items():
+                for kind, kw in kinds.items():
+                    out.append((axis, kind, dict(kw or {})))
+        else:
+            for item in spec:
+                item = dict(item)
+                out.append((item.pop("axis"), item.pop("kind"), item))
+    except (TypeError, KeyError, AttributeError, ValueError) as exc:
+        raise ConfigError(f"simulator fault_injection: {exc}", key="hardware.fault_injection",
+                          expected="[{axis, kind, ...}] or {axis: {kind: {...}}}",
+                          found=spec) from exc
+    for axis, kind, _ in out:
+        if axis not in ("az", "el") or kind not in FAULT_KINDS:
+            raise ConfigError(f"simulator fault_injection: bad axis/kind {axis!r}/{kind!r}",
+                              key="hardware.fault_injection",
+                              expected=f"axis az|el, kind {'|'.join(FAULT_KINDS)}",
+                              found=(axis, kind))
+    return out
+
+
+__all__ = ["build_sim_hardware", "physics_for", "params_for_caps", "PHYSICS", "SimWorld",
+           "SimAxisParams", "SimRotatorParams", "SimSensorParams", "FAULT_KINDS"]

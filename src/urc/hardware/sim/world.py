@@ -1,0 +1,325 @@
+"""SimWorld: both axes of the simulated rotator, its devices, faults and persisted truth.
+
+The world advances its physics to a clock time in fixed substeps (``advance_to``), so
+the result does not depend on how often it is polled. Its true mechanical state is
+"real iron": written atomically to a truth file (at most every ``truth_interval_s`` of
+clock time, only when it changed, and on ``close``) and read back by the next world, as
+if the controller had been restarted on the same rotator.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import math
+import os
+import random
+import time
+from pathlib import Path
+from typing import Any
+
+from ...caps import RotatorCaps
+from ...clock import Clock
+from .drives import SimBrake, SimLimitSwitch, SimMotor
+from .params import SimRotatorParams
+from .physics import AxisPhysics
+from .sensors import SimSensor, make_sensor
+
+log = logging.getLogger(__name__)
+
+AXES = ("az", "el")
+TRUTH_VERSION = 1
+FAULT_KINDS = ("sensor_stuck", "sensor_jump", "sensor_dead", "jam", "runaway",
+               "limit_switch", "reverse_wiring")
+#: a coast-down after a restart is simulated for at most this long.
+_MAX_COAST_S = 120.0
+
+
+class SimWorld:
+    def __init__(self, caps: RotatorCaps, params: SimRotatorParams, clock: Clock, *,
+                 truth_path: Path | None, seed: int = 1, wind: bool = True,
+                 start_deg: dict[str, float] | None = None, sensor_noise: bool = True,
+                 truth_interval_s: float = 0.02, truth_wall_interval_s: float = 0.02):
+        self.caps = caps
+        self.params = params
+        self.clock = clock
+        self.seed = int(seed)
+        self.truth_path = Path(truth_path) if truth_path is not None else None
+        self.truth_interval_s = float(truth_interval_s)
+        # Writing a file costs ~0.1-0.4 ms; under a virtual clock running 100x real time
+        # that would dominate, so writes are also spaced by this much wall time. Set 0
+        # for a truth file that is exactly repeatable under a virtual clock.
+        self.truth_wall_interval_s = float(truth_wall_interval_s)
+        self.dt_s = params.substep_s
+        start_deg = start_deg or {}
+        saved = self._load_truth()
+
+        self.axes: dict[str, AxisPhysics] = {}
+        for name in AXES:
+            ax_caps, p = caps.axis(name), params.axis(name)
+            pulse_res = ax_caps.sensor.resolution_deg if ax_caps.sensor.kind == "pulse" else None
+            phys = AxisPhysics(
+                p, start_deg=float(start_deg.get(name, ax_caps.park_deg)), dt_s=self.dt_s,
+                wind_update_s=params.wind_update_s,
+                wind_rng=random.Random(f"urc-sim:{self.seed}:{name}:wind"),
+                wind_enabled=wind, relay_levels=ax_caps.drive_levels,
+                pulse_res_deg=pulse_res)
+            if saved is not None:
+                self._restore(phys, saved[name], ax_caps.brake_engage_s)
+            self.axes[name] = phys
+
+        # Devices. Incremental sensors start counting from 0 now (power-on); on a fresh
+        # rotator (no truth file) they start referenced to the true angle.
+        self.sensors: dict[str, SimSensor] = {}
+        self.motors: dict[str, SimMotor] = {}
+        self.brakes: dict[str, SimBrake | None] = {}
+        self.limits: dict[str, tuple[SimLimitSwitch | None, SimLimitSwitch | None]] = {}
+        for name in AXES:
+            ax_caps, p, phys = caps.axis(name), params.axis(name), self.axes[name]
+            self.sensors[name] = make_sensor(
+                name, ax_caps.sensor, phys, p.sensor,
+                random.Random(f"urc-sim:{self.seed}:{name}:sensor"),
+                noise=sensor_noise, referenced=saved is None)
+            self.motors[name] = SimMotor(phys, name)
+            self.brakes[name] = SimBrake(self, name) if p.has_brake else None
+            lo = hi = None
+            if ax_caps.limit_switches and p.switch_min_deg is not None:
+                lo = SimLimitSwitch(phys, "min", p.switch_min_deg)
+            if ax_caps.limit_switches and p.switch_max_deg is not None:
+                hi = SimLimitSwitch(phys, "max", p.switch_max_deg)
+            self.limits[name] = (lo, hi)
+
+        self._origin_s: float | None = None
+        self._brake_events: dict[str, tuple[float, bool]] = {}
+        self._faults: dict[str, dict[str, dict[str, Any]]] = {n: {} for n in AXES}
+        self._last_written: tuple | None = self._state_key() if saved is not None else None
+        self._last_write_s = -math.inf
+        self._last_write_wall_s = -math.inf
+        self._closed = False
+
+    # ------------------------------------------------------------------ time
+    @property
+    def time_s(self) -> float | None:
+        """Clock time the physics has reached (None before the first ``advance_to``)."""
+        if self._origin_s is None:
+            return None
+        return self._origin_s + self.axes["az"].tick * self.dt_s
+
+    def advance_to(self, now_s: float) -> None:
+        """Integrate from the last time to ``now_s``; the first call only sets the time."""
+        if self._origin_s is None:
+            self._origin_s = float(now_s)
+            return
+        target = math.floor((now_s - self._origin_s) / self.dt_s + 1e-9)
+        for name, phys in self.axes.items():
+            if target <= phys.tick:
+                continue
+            ev = self._brake_events.get(name)
+            if ev is not None:
+                ev_tick = max(phys.tick, math.ceil((ev[0] - self._origin_s) / self.dt_s - 1e-9))
+                if ev_tick <= target:
+                    phys.step_n(ev_tick - phys.tick)
+                    phys.brake_engaged = not ev[1]
+                    del self._brake_events[name]
+            phys.step_n(target - phys.tick)
+            self.sensors[name].after_advance()
+        if (self.truth_path is not None and now_s - self._last_write_s >= self.truth_interval_s
+                and time.monotonic() - self._last_write_wall_s >= self.truth_wall_interval_s):
+            key = self._state_key()
+            if key != self._last_written:
+                self._write_truth(key)
+                self._last_write_s = now_s
+                self._last_write_wall_s = time.monotonic()
+
+    def command_brake(self, name: str, released: bool) -> None:
+        """Brake coil on (release) / off (engage); the brake moves after its delay."""
+        phys = self.axes[name]
+        if not phys.p.has_brake:
+            return
+        pending = self._brake_events.get(name)
+        if pending is not None:
+            if pending[1] == released:
+                return
+            del self._brake_events[name]     # reversed before it moved: cancel
+        if (not phys.brake_engaged) == released:
+            return
+        ax = self.caps.axis(name)
+        delay_s = ax.brake_release_s if released else ax.brake_engage_s
+        self._brake_events[name] = (self.clock.now_s() + delay_s, released)
+
+    # ------------------------------------------------------------------ truth
+    def truth(self) -> dict[str, Any]:
+        out: dict[str, Any] = {}
+        for name, phys in self.axes.items():
+            lo, hi = self.limits[name]
+            out[name] = {
+                "deg": phys.load_deg,
+                "rate_deg_per_s": phys.load_deg_per_s,
+                "gear_deg": phys.gear_deg,
+                "gear_rate_deg_per_s": phys.gear_deg_per_s,
+                "current_a": phys.current_a(),
+                "brake_released": (not phys.brake_engaged) if phys.p.has_brake else None,
+                "wind_nm": phys.wind_nm if phys.wind_enabled else 0.0,
+                "limit_min": lo.is_active() if lo else None,
+                "limit_max": hi.is_active() if hi else None,
+                "faults": sorted(self._faults[name]),
+            }
+        return out
+
+    def _state_key(self) -> tuple:
+        return tuple((a.gear_deg, a.gear_deg_per_s, a.load_deg, a.load_deg_per_s,
+                      a.brake_engaged) for a in self.axes.values())
+
+    def _write_truth(self, key: tuple | None = None) -> None:
+        assert self.truth_path is not None
+        data = {"version": TRUTH_VERSION, "profile": self.caps.name, "axes": {
+            name: {"gear_deg": a.gear_deg, "gear_deg_per_s": a.gear_deg_per_s,
+                   "load_deg": a.load_deg, "load_deg_per_s": a.load_deg_per_s,
+                   "brake_released": not a.brake_engaged}
+            for name, a in self.axes.items()}}
+        try:
+            self.truth_path.parent.mkdir(parents=True, exist_ok=True)
+            tmp = self.truth_path.with_name(self.truth_path.name + ".tmp")
+            with open(tmp, "w", encoding="utf-8") as f:
+                json.dump(data, f)
+            os.replace(tmp, self.truth_path)
+            self._last_written = key if key is not None else self._state_key()
+        except OSError as exc:
+            log.warning("simulator: cannot write truth file %s: %s", self.truth_path, exc)
+
+    def _load_truth(self) -> dict[str, dict[str, float]] | None:
+        path = self.truth_path
+        if path is None or not path.exists():
+            return None
+        try:
+            data = json.loads(path.read_text(encoding="utf-8"))
+            if data.get("version") != TRUTH_VERSION:
+                raise ValueError(f"version {data.get('version')!r}")
+            if data.get("profile") != self.caps.name:
+                log.warning("simulator: truth file %s is for profile %r, not %r; starting "
+                            "from defaults", path, data.get("profile"), self.caps.name)
+                return None
+            out = {}
+            for name in AXES:
+                a = data["axes"][name]
+                vals = {k: float(a[k]) for k in ("gear_deg", "gear_deg_per_s", "load_deg",
+                                                 "load_deg_per_s")}
+                if not all(math.isfinite(v) for v in vals.values()):
+                    raise ValueError("non-finite value")
+                vals["brake_released"] = bool(a.get("brake_released", False))
+                out[name] = vals
+            return out
+        except (OSError, ValueError, KeyError, TypeError, AttributeError) as exc:
+            log.warning("simulator: truth file %s is unusable (%s); starting from defaults",
+                        path, exc)
+            return None
+
+    def _restore(self, phys: AxisPhysics, s: dict[str, float], brake_engage_s: float) -> None:
+        """Put the saved state back; if it was moving, coast down with the power cut."""
+        phys.gear_deg, phys.gear_deg_per_s = s["gear_deg"], s["gear_deg_per_s"]
+        phys.load_deg, phys.load_deg_per_s = s["load_deg"], s["load_deg_per_s"]
+        if abs(phys.gear_deg - phys.load_deg) > phys.half_gap_deg:
+            phys.gear_deg = phys.load_deg + math.copysign(phys.half_gap_deg,
+                                                          phys.gear_deg - phys.load_deg)
+        has_brake = phys.p.has_brake
+        if not phys.at_rest():
+            wind = phys.wind_enabled
+            phys.wind_enabled = False
+            phys.powered = False
+            phys._apply_drive()
+            phys.brake_engaged = has_brake and not s["brake_released"]
+            if has_brake and not phys.brake_engaged:
+                # the brake spring closes brake_engage_s after the power went
+                phys.step_n(round(brake_engage_s / phys.dt_s))
+                phys.brake_engaged = True
+            chunk = max(1, round(0.01 / phys.dt_s))
+            for _ in range(int(_MAX_COAST_S / (chunk * phys.dt_s))):
+                if phys.at_rest() or phys.held:
+                    break
+                phys.step_n(chunk)
+            phys.gear_deg_per_s = phys.load_deg_per_s = 0.0
+            phys.wind_enabled = wind
+            phys.powered = True
+        phys.brake_engaged = has_brake       # a brake without voltage holds
+        phys.tick = 0
+        phys._apply_drive()
+        phys.reset_pulse_counter()
+
+    def close(self) -> None:
+        """Power down: save the truth (always) and stop driving."""
+        if self.truth_path is not None:
+            self._write_truth()
+        self._closed = True
+
+    # ------------------------------------------------------------------ faults
+    def inject(self, axis: str, kind: str, **kw: Any) -> None:
+        """Inject a fault on ``axis`` ("az" | "el").
+
+        kinds: ``sensor_stuck`` (reading freezes), ``sensor_jump`` (deg=10: reading
+        offset by deg), ``sensor_dead`` (read raises SensorError), ``jam`` (axis cannot
+        move; the motor stalls), ``runaway`` (duty=1.0: the motor gets this duty whatever
+        is commanded, e.g. a welded relay), ``limit_switch`` (which="max" | "min" |
+        "both": switch forced active), ``reverse_wiring`` (motor turns the wrong way).
+        """
+        phys, sensor = self.axes[axis], self.sensors[axis]
+        if kind == "sensor_stuck":
+            sensor.freeze()
+        elif kind == "sensor_jump":
+            sensor.fault_jump_deg = float(kw.get("deg", 10.0))
+        elif kind == "sensor_dead":
+            sensor.fault_dead = True
+        elif kind == "jam":
+            phys.jammed = True
+            phys.gear_deg_per_s = phys.load_deg_per_s = 0.0
+        elif kind == "runaway":
+            phys.runaway_duty = max(-1.0, min(1.0, float(kw.get("duty", 1.0))))
+            phys._apply_drive()
+        elif kind == "limit_switch":
+            which = kw.get("which", "max")
+            lo, hi = self.limits[axis]
+            chosen = {"min": [lo], "max": [hi], "both": [lo, hi]}.get(which)
+            if chosen is None or any(sw is None for sw in chosen):
+                raise ValueError(f"{axis}: no {which!r} limit switch on {self.caps.name}")
+            for sw in chosen:
+                sw.forced = True  # type: ignore[union-attr]
+        elif kind == "reverse_wiring":
+            phys.reversed = True
+            phys._apply_drive()
+        else:
+            raise ValueError(f"unknown fault {kind!r}; expected one of {', '.join(FAULT_KINDS)}")
+        self._faults[axis][kind] = dict(kw)
+
+    def clear(self, axis: str, kind: str | None = None) -> None:
+        """Clear one fault, or every fault on ``axis`` when ``kind`` is None."""
+        kinds = list(self._faults[axis]) if kind is None else [kind]
+        phys, sensor = self.axes[axis], self.sensors[axis]
+        for k in kinds:
+            self._faults[axis].pop(k, None)
+            if k == "sensor_stuck":
+                sensor.fault_stuck_deg = None
+            elif k == "sensor_jump":
+                sensor.fault_jump_deg = 0.0
+            elif k == "sensor_dead":
+                sensor.fault_dead = False
+            elif k == "jam":
+                phys.jammed = False
+            elif k == "runaway":
+                phys.runaway_duty = None
+                phys._apply_drive()
+            elif k == "limit_switch":
+                for sw in self.limits[axis]:
+                    if sw is not None:
+                        sw.forced = False
+            elif k == "reverse_wiring":
+                phys.reversed = False
+                phys._apply_drive()
+
+    def faults(self) -> dict[str, dict[str, dict[str, Any]]]:
+        """Active faults: {axis: {kind: kwargs}}."""
+        return {a: {k: dict(v) for k, v in f.items()} for a, f in self._faults.items()}
+
+    def set_wind(self, enabled: bool, mean_nm: float | None = None,
+                 gust_nm: float | None = None, axis: str | None = None) -> None:
+        """Switch the wind load on/off and optionally set its mean and gust (1-sigma)."""
+        for name in ([axis] if axis else AXES):
+            self.axes[name].set_wind(enabled, mean_nm, gust_nm)

@@ -1,0 +1,124 @@
+"""The shipped rotator profiles: one frozen :class:`RotatorCaps` per seed machine.
+
+Each profile is also a simulator configuration: ``urc.hardware.sim.physics_for(name)``
+holds the matching mechanical truth (motor, gears, friction, sensor physics).
+"""
+
+from __future__ import annotations
+
+from .caps import AxisCaps, RotatorCaps, SensorCaps
+from .errors import ConfigError
+
+DEFAULT_PROFILE = "tartu-urc"
+
+_ENCODER_10PPD = SensorCaps(kind="encoder", resolution_deg=0.1, absolute=False)
+_AS5600 = SensorCaps(kind="as5600", resolution_deg=360.0 / 4096, absolute=True, modulo_deg=360.0)
+
+PROFILES: dict[str, RotatorCaps] = {
+    # Tartu University STM32 controller: 400 deg azimuth, 0-180 elevation, 360 deg/min,
+    # 10 pulses/degree incremental encoders, a brake that needs voltage to release.
+    "tartu-urc": RotatorCaps(
+        name="tartu-urc",
+        description="Tartu URC (STM32): encoders 10 p/deg, brake, 400 deg az, 0-180 el",
+        az=AxisCaps(name="az", min_deg=0.0, max_deg=400.0, park_deg=0.0,
+                    max_rate_deg_per_s=6.0, min_rate_deg_per_s=0.6, accel_deg_per_s2=12.0,
+                    sensor=_ENCODER_10PPD, tolerance_deg=0.1, restart_deg=0.2,
+                    brake=True, brake_release_s=0.15, brake_engage_s=0.1),
+        el=AxisCaps(name="el", min_deg=0.0, max_deg=180.0, park_deg=90.0,
+                    max_rate_deg_per_s=6.0, min_rate_deg_per_s=0.6, accel_deg_per_s2=12.0,
+                    sensor=_ENCODER_10PPD, tolerance_deg=0.1, restart_deg=0.2,
+                    brake=True, brake_release_s=0.15, brake_engage_s=0.1),
+        command_sets=("urc", "rotctld"),
+    ),
+    # SARCNET mini rotator (Arduino): 0.6 rpm motors, tilt-compensated magnetometer +
+    # accelerometer, no end-stop switches, azimuth windup tracked in software.
+    "sarcnet-mini": RotatorCaps(
+        name="sarcnet-mini",
+        description="SARCNET mini (Arduino): 0.6 rpm, magnetometer/accelerometer sensor",
+        az=AxisCaps(name="az", min_deg=-90.0, max_deg=450.0, park_deg=0.0,
+                    max_rate_deg_per_s=3.6, min_rate_deg_per_s=0.4, accel_deg_per_s2=6.0,
+                    sensor=SensorCaps(kind="magnetometer", resolution_deg=0.1, absolute=True,
+                                      modulo_deg=360.0, noise_deg=0.15),
+                    tolerance_deg=0.3, restart_deg=0.8),
+        el=AxisCaps(name="el", min_deg=0.0, max_deg=90.0, park_deg=0.0,
+                    max_rate_deg_per_s=3.6, min_rate_deg_per_s=0.4, accel_deg_per_s2=6.0,
+                    sensor=SensorCaps(kind="magnetometer", resolution_deg=0.1, absolute=True,
+                                      noise_deg=0.1),
+                    tolerance_deg=0.3, restart_deg=0.8),
+        command_sets=("sarcnet", "easycomm", "rotctld"),
+    ),
+    # AlfaSpid BIG-RAS (ESP32): pulse feedback, limit switches, minimum-speed ramps,
+    # overturn beyond 360 deg.
+    "bigras": RotatorCaps(
+        name="bigras",
+        description="AlfaSpid BIG-RAS (ESP32): pulse feedback 2 p/deg, limit switches, overturn",
+        az=AxisCaps(name="az", min_deg=0.0, max_deg=450.0, park_deg=0.0,
+                    max_rate_deg_per_s=4.0, min_rate_deg_per_s=0.8, accel_deg_per_s2=4.0,
+                    sensor=SensorCaps(kind="pulse", resolution_deg=0.5, absolute=False),
+                    tolerance_deg=0.5, restart_deg=1.0, limit_switches=True),
+        el=AxisCaps(name="el", min_deg=0.0, max_deg=90.0, park_deg=0.0,
+                    max_rate_deg_per_s=2.0, min_rate_deg_per_s=0.5, accel_deg_per_s2=3.0,
+                    sensor=SensorCaps(kind="pulse", resolution_deg=0.5, absolute=False),
+                    tolerance_deg=0.5, restart_deg=1.0, limit_switches=True),
+        command_sets=("gs232a", "gs232b", "spid", "rotctld", "pstrotator"),
+    ),
+    # G4JNT PIC controller: potentiometer read ratiometrically through a 10-bit ADC,
+    # relay-switched AC motor with slow (pulsed) and fast motion.
+    "g4jnt": RotatorCaps(
+        name="g4jnt",
+        description="G4JNT PIC: 10-bit ratiometric pot, relay AC motor, slow/fast",
+        az=AxisCaps(name="az", min_deg=0.0, max_deg=360.0, park_deg=0.0,
+                    max_rate_deg_per_s=6.0, min_rate_deg_per_s=1.5, accel_deg_per_s2=30.0,
+                    sensor=SensorCaps(kind="pot", resolution_deg=0.9, absolute=True,
+                                      noise_deg=0.2),
+                    drive="relay", drive_levels=(0.25, 1.0),
+                    tolerance_deg=0.9, restart_deg=1.8, overshoot_deg=0.3),
+        el=AxisCaps(name="el", min_deg=0.0, max_deg=90.0, park_deg=0.0,
+                    max_rate_deg_per_s=3.0, min_rate_deg_per_s=0.75, accel_deg_per_s2=30.0,
+                    sensor=SensorCaps(kind="pot", resolution_deg=0.25, absolute=True,
+                                      noise_deg=0.06),
+                    drive="relay", drive_levels=(0.25, 1.0),
+                    tolerance_deg=0.3, restart_deg=0.6, overshoot_deg=0.15),
+        command_sets=("g4jnt", "rotctld"),
+    ),
+    # Berkeley automatic rotor (ESP32): fast geared DC motors, AS5600 absolute encoders,
+    # noticeable play in the gears.
+    "berkeley": RotatorCaps(
+        name="berkeley",
+        description="Berkeley (ESP32): fast geared motors, AS5600 12-bit absolute, gear play",
+        az=AxisCaps(name="az", min_deg=0.0, max_deg=360.0, park_deg=0.0,
+                    max_rate_deg_per_s=30.0, min_rate_deg_per_s=3.0, accel_deg_per_s2=60.0,
+                    sensor=_AS5600, tolerance_deg=0.09, restart_deg=0.2),
+        el=AxisCaps(name="el", min_deg=0.0, max_deg=90.0, park_deg=0.0,
+                    max_rate_deg_per_s=30.0, min_rate_deg_per_s=3.0, accel_deg_per_s2=60.0,
+                    sensor=_AS5600, tolerance_deg=0.09, restart_deg=0.2),
+        command_sets=("rotctld",),
+    ),
+    # Yaesu G-5500 class: 450 deg azimuth, 0-180 elevation, pot feedback, on/off drive.
+    "g5500": RotatorCaps(
+        name="g5500",
+        description="Yaesu G-5500 class: 450 deg az, 0-180 el, pot feedback, on/off drive",
+        az=AxisCaps(name="az", min_deg=0.0, max_deg=450.0, park_deg=0.0,
+                    max_rate_deg_per_s=6.2, min_rate_deg_per_s=6.2, accel_deg_per_s2=40.0,
+                    sensor=SensorCaps(kind="pot", resolution_deg=450.0 / 1024, absolute=True,
+                                      noise_deg=0.1),
+                    drive="relay", drive_levels=(1.0,),
+                    tolerance_deg=0.45, restart_deg=1.0, overshoot_deg=0.4),
+        el=AxisCaps(name="el", min_deg=0.0, max_deg=180.0, park_deg=0.0,
+                    max_rate_deg_per_s=2.7, min_rate_deg_per_s=2.7, accel_deg_per_s2=30.0,
+                    sensor=SensorCaps(kind="pot", resolution_deg=180.0 / 1024, absolute=True,
+                                      noise_deg=0.05),
+                    drive="relay", drive_levels=(1.0,),
+                    tolerance_deg=0.2, restart_deg=0.5, overshoot_deg=0.15),
+        command_sets=("gs232a", "gs232b", "rotctld"),
+    ),
+}
+
+
+def get_profile(name: str) -> RotatorCaps:
+    try:
+        return PROFILES[name]
+    except KeyError:
+        raise ConfigError(
+            f"unknown profile {name!r}; expected one of {', '.join(sorted(PROFILES))}",
+            key="profile", expected=" | ".join(sorted(PROFILES)), found=name) from None

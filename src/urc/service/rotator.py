@@ -1,0 +1,650 @@
+"""The rotator service: the single owner of both axes.
+
+Everything else (protocol sessions, the tracker, the web page, the CLI) submits commands
+through the public methods below and reads immutable :class:`Status` snapshots. Command
+methods validate at once — limits, keep-out zones, faults and position uncertainty are
+enforced here, once, for every source — and raise :class:`CommandRejected` before
+anything moves; accepted commands are queued and applied by :meth:`tick`, the only code
+that changes axis state.
+"""
+
+from __future__ import annotations
+
+import collections
+import logging
+import math
+from dataclasses import dataclass, replace
+from typing import Any, Callable
+
+from ..clock import Clock
+from ..control import faults as faultmod
+from ..control import law
+from ..control.faults import Fault, MonitorInputs, MonitorState
+from ..control.geometry import Geometry, wrap360
+from ..control.profile import stopping_distance_deg
+from ..errors import CommandRejected, SensorError, StateFileError
+from ..hardware.interfaces import AxisHardware, Hardware
+from ..persistence import StateStore
+from .settings import RotatorSettings
+from .snapshot import AxisStatus, Status
+
+log = logging.getLogger(__name__)
+
+AXES = ("az", "el")
+#: guard look-ahead: how far ahead (seconds of current motion) keep-out zones are checked.
+GUARD_LOOKAHEAD_S = 0.3
+#: alpha-beta filter gains for noisy sensors (pots, compasses): smooths without lag
+#: at constant speed, which a plain moving average would add.
+FILTER_ALPHA = 0.3
+FILTER_BETA = 0.03
+
+
+class _Axis:
+    """Per-axis runtime: sensor reading, unwrapping, filtering, law and monitor state."""
+
+    def __init__(self, name: str, hw: AxisHardware, settings: RotatorSettings):
+        self.name = name
+        self.hw = hw
+        self.caps = settings.caps.axis(name)
+        self.tuning = settings.tuning(name)
+        self.flim = settings.fault_limits(name)
+        self.limits = settings.limits(name)
+        self.modulo = self.caps.sensor.modulo_deg
+        self.noisy = self.caps.sensor.noise_deg > 0
+        self.meas_deg = 0.0
+        self.rate_deg_per_s = 0.0
+        self.sensor_ok = False
+        self.sensor_error = ""
+        self.law = law.initial_state(self.tuning, 0.0)
+        self.mon = MonitorState()
+        self.sp: law.Setpoint | None = None
+        self.out = law.OFF
+        self.uncertainty_deg = 0.0
+        self.current_a = 0.0
+        self.limit_min = self.limit_max = False
+        # Speed of a quantised sensor: the slope over a window ten counts long at
+        # full speed (differencing tick to tick gives spikes of one count per tick).
+        window_s = min(0.5, max(0.1, 10.0 * self.caps.sensor.resolution_deg / self.caps.max_rate_deg_per_s))
+        self._history: collections.deque[tuple[float, float]] = collections.deque(
+            maxlen=max(2, round(window_s * settings.caps.loop_hz) + 1))
+        self._t_s = 0.0
+
+    # ---- sensing ------------------------------------------------------------------
+    def unwrap(self, raw_deg: float, near_deg: float) -> float:
+        if self.modulo is None:
+            return raw_deg
+        return raw_deg + self.modulo * round((near_deg - raw_deg) / self.modulo)
+
+    def read(self, dt_s: float) -> float | None:
+        self._t_s += dt_s
+        try:
+            raw = self.hw.sensor.read_deg()
+        except SensorError as exc:
+            self.sensor_ok, self.sensor_error = False, str(exc)
+            return None
+        if not math.isfinite(raw):
+            self.sensor_ok, self.sensor_error = False, f"non-finite reading {raw!r}"
+            return None
+        mech = self.unwrap(raw, self.meas_deg)
+        if self.noisy and self.sensor_ok and dt_s > 0:
+            pred = self.meas_deg + self.rate_deg_per_s * dt_s
+            resid = mech - pred
+            self.meas_deg = pred + FILTER_ALPHA * resid
+            self.rate_deg_per_s += FILTER_BETA * resid / dt_s
+        else:
+            self.meas_deg = mech
+            self._history.append((self._t_s, mech))
+            t_old, p_old = self._history[0]
+            if self._t_s - t_old > 0:
+                self.rate_deg_per_s = (mech - p_old) / (self._t_s - t_old)
+        self.sensor_ok, self.sensor_error = True, ""
+        return mech
+
+    def read_switches(self) -> None:
+        self.limit_min = bool(self.hw.limit_min and self.hw.limit_min.is_active())
+        self.limit_max = bool(self.hw.limit_max and self.hw.limit_max.is_active())
+        try:
+            self.current_a = float(self.hw.motor.read_current_a())
+        except Exception:  # a current sense failure must not stop the loop
+            self.current_a = 0.0
+
+    def stop_position_deg(self) -> float:
+        """Where the axis would come to rest if told to stop now."""
+        if self.tuning.drive == "relay":
+            dist = max(self.law.coast_deg, default=0.0)
+        else:
+            dist = stopping_distance_deg(self.rate_deg_per_s, self.tuning.accel_deg_per_s2)
+        return self.meas_deg + math.copysign(dist, self.rate_deg_per_s)
+
+    def status(self) -> AxisStatus:
+        return AxisStatus(
+            pos_deg=self.meas_deg, rate_deg_per_s=self.rate_deg_per_s,
+            target_deg=None if self.sp is None else self.sp.target_deg, mode=self.law.mode,
+            duty=self.out.duty, brake_released=self.out.brake_released,
+            uncertainty_deg=self.uncertainty_deg, limit_min=self.limit_min,
+            limit_max=self.limit_max, current_a=self.current_a)
+
+
+@dataclass(frozen=True)
+class _Command:
+    name: str
+    apply: Callable[[], None]
+
+
+class Rotator:
+    def __init__(self, settings: RotatorSettings, hardware: Hardware, clock: Clock,
+                 store: StateStore | None = None):
+        self.settings = settings.completed()
+        self.caps = self.settings.caps
+        self.hw = hardware
+        self.clock = clock
+        self.store = store
+        self.geometry: Geometry = self.settings.geometry()
+        self.axes = {n: _Axis(n, hardware.axis(n), self.settings) for n in AXES}
+        self._commands: collections.deque[_Command] = collections.deque()
+        self._route: list[tuple[float, float]] = []
+        self._faults: list[Fault] = []
+        self._events: collections.deque[str] = collections.deque(maxlen=20)
+        self._seq = 0
+        self._target_sky: tuple[float, float] | None = None
+        self._parked = False
+        self._last_t_s: float | None = None
+        self._last_command_t_s = clock.now_s()
+        self._last_save_t_s = -math.inf
+        self._saved_pos: dict[str, float] = {}
+        self._lateness_ms: collections.deque[float] = collections.deque(maxlen=500)
+        self._status: Status | None = None
+        self._tracking = False
+        self._restore()
+        self._status = self._build_status(clock.now_s())
+
+    # ======================================================================== startup
+    def _restore(self) -> None:
+        """Bring back position, wrap and calibration from the state file."""
+        payload: dict[str, Any] | None = None
+        damaged = False
+        if self.store is not None:
+            try:
+                payload = self.store.load()
+            except StateFileError as exc:
+                damaged = True
+                self._event(f"state file damaged, not trusted: {exc}")
+                self.store.quarantine()
+            if payload is not None and payload.get("profile") != self.caps.name:
+                self._event(f"state file belongs to profile {payload.get('profile')!r}, ignored")
+                payload = None
+        now = self.clock.now_s()
+        self.hw.poll(now)
+        saved_axes = (payload or {}).get("axes", {})
+        # with nothing saved, assume the mechanical home where the profile's rotator
+        # rests (sky park may differ by the mount offsets)
+        home = {"az": self.caps.az.park_deg, "el": self.caps.el.park_deg}
+        for name, ax in self.axes.items():
+            saved = saved_axes.get(name)
+            if saved and saved.get("calibration"):
+                try:
+                    ax.hw.sensor.load_calibration(saved["calibration"])
+                except Exception as exc:  # a bad calibration must not prevent start-up
+                    self._event(f"{name}: saved calibration rejected ({exc})")
+            if saved and saved.get("coast_deg"):
+                coast = tuple(float(c) for c in saved["coast_deg"])
+                if len(coast) == len(ax.law.coast_deg):
+                    ax.law = replace(ax.law, coast_deg=coast)
+            anchor = float(saved["mech_deg"]) if saved else home[name]
+            if not ax.caps.sensor.absolute:
+                self._restore_incremental(ax, saved, damaged, anchor)
+            ax.meas_deg = anchor
+            if ax.read(0.0) is None:
+                self._event(f"{name}: sensor unreadable at start-up ({ax.sensor_error})")
+            elif ax.modulo is not None:
+                self._check_wrap_ambiguity(ax, saved, damaged)
+            if saved and saved.get("uncertainty_deg"):
+                ax.uncertainty_deg = max(ax.uncertainty_deg, float(saved["uncertainty_deg"]))
+            ax.law = replace(ax.law, ref_deg=ax.meas_deg, last_meas_deg=ax.meas_deg)
+            self._saved_pos[name] = ax.meas_deg
+        if self.position_uncertain():
+            self._event("position uncertain: automatic motion refused until re-referenced "
+                        "(set position)")
+
+    def _restore_incremental(self, ax: _Axis, saved: dict | None, damaged: bool, anchor: float) -> None:
+        res = ax.caps.sensor.resolution_deg
+        if saved is None:
+            ax.hw.sensor.set_reference_deg(anchor)
+            if damaged:
+                ax.uncertainty_deg = ax.caps.span_deg
+            else:
+                self._event(f"{ax.name}: no saved position; assuming park {anchor:.1f} deg "
+                            "(re-reference if the antenna is elsewhere)")
+            return
+        rate = float(saved.get("rate_deg_per_s", 0.0))
+        if saved.get("moving"):
+            # The controller died mid-move: the axis kept going until the last save
+            # interval ended and then coasted with the power off. Report the middle of
+            # the possible range and say how wide it is.
+            travel = abs(rate) * 2 * self.settings.save_interval_s + \
+                stopping_distance_deg(rate, ax.tuning.accel_deg_per_s2)
+            if travel > res:
+                anchor += math.copysign(travel / 2, rate)
+                ax.uncertainty_deg = travel / 2 + res
+        ax.hw.sensor.set_reference_deg(anchor)
+
+    def _check_wrap_ambiguity(self, ax: _Axis, saved: dict | None, damaged: bool) -> None:
+        lo, hi = ax.limits
+        alternatives = [ax.meas_deg + k * ax.modulo for k in (-1, 1)
+                        if lo <= ax.meas_deg + k * ax.modulo <= hi]
+        if alternatives and saved is None:
+            if damaged:
+                ax.uncertainty_deg = ax.modulo
+            else:
+                self._event(f"{ax.name}: no saved wrap state; assuming {ax.meas_deg:.1f} deg, "
+                            f"nearest park (also possible: "
+                            f"{', '.join(f'{a:.1f}' for a in alternatives)})")
+
+    # ====================================================================== the tick
+    def tick(self) -> Status:
+        """Advance the whole rotator by one control period. Only this mutates state."""
+        now = self.clock.now_s()
+        dt = (1.0 / self.caps.loop_hz) if self._last_t_s is None else max(now - self._last_t_s, 0.0)
+        self._last_t_s = now
+        self.hw.poll(now)
+        for name, ax in self.axes.items():
+            meas = ax.read(dt)
+            ax.read_switches()
+            ax.mon, fault = faultmod.check(ax.mon, MonitorInputs(
+                now_s=now, meas_deg=meas, sensor_error=ax.sensor_error, duty=ax.out.duty,
+                min_duty=ax.tuning.min_duty if ax.tuning.drive == "pwm" else min(ax.tuning.drive_levels or (1.0,)),
+                current_a=ax.current_a, limit_min=ax.limit_min, limit_max=ax.limit_max), ax.flim)
+            if fault is not None:
+                self._latch(fault)
+        while self._commands:
+            self._commands.popleft().apply()
+        self._advance_route()
+        self._maybe_idle_park(now)
+        for name, ax in self.axes.items():
+            sp = None if self._faults else ax.sp
+            ax.law, ax.out = law.step(ax.law, sp, ax.meas_deg, now, dt, ax.tuning, ax.rate_deg_per_s)
+        self._guard()
+        for ax in self.axes.values():
+            self._apply(ax)
+        self._maybe_save(now)
+        self._status = self._build_status(now)
+        return self._status
+
+    def note_lateness(self, late_s: float) -> None:
+        """The loop runner reports how late each tick started; too late is a fault."""
+        self._lateness_ms.append(late_s * 1000.0)
+        if late_s > self.settings.watchdog_s:
+            self._latch(Fault("watchdog", None, f"control loop deadline missed by {late_s * 1000:.0f} ms",
+                              self.clock.now_s()))
+
+    def _apply(self, ax: _Axis) -> None:
+        duty = ax.out.duty
+        if ax.hw.brake is not None:
+            ax.hw.brake.set_released(ax.out.brake_released)
+            if not ax.hw.brake.is_released():
+                duty = 0.0
+        ax.hw.motor.set_drive(duty)
+
+    def _guard(self) -> None:
+        """Last line of defence: no drive beyond a soft limit, an active limit switch or
+        into a keep-out zone, whatever the law asked for."""
+        for ax in self.axes.values():
+            d = ax.out.duty
+            if d == 0.0:
+                continue
+            lo, hi = ax.limits
+            slack = ax.tuning.tolerance_deg
+            rest = ax.stop_position_deg()
+            # only drive that pushes outwards is cut; braking towards the inside is fine
+            if (d > 0 and (ax.limit_max or max(rest, ax.meas_deg) > hi + slack)) or \
+               (d < 0 and (ax.limit_min or min(rest, ax.meas_deg) < lo - slack)):
+                ax.out = replace(ax.out, duty=0.0)
+                ax.sp = None
+                self._event(f"guard: {ax.name} stopped at {ax.meas_deg:.2f} deg before its limit")
+        if not self.geometry.zones:
+            return
+        az, el = self.axes["az"], self.axes["el"]
+        now_pose = (az.meas_deg, el.meas_deg)
+        ahead = (az.meas_deg + az.rate_deg_per_s * GUARD_LOOKAHEAD_S,
+                 el.meas_deg + el.rate_deg_per_s * GUARD_LOOKAHEAD_S)
+        zone = self.geometry.zone_at(*ahead, margin_deg=0.0)
+        if zone is not None and self.geometry.zone_at(*now_pose, margin_deg=0.0) is None:
+            for ax in (az, el):
+                ax.out, ax.sp = law.OFF, None
+            self._route = []
+            self._event(f"guard: stopped before keep-out zone {zone.name!r}")
+
+    def _latch(self, fault: Fault) -> None:
+        if any(f.kind == fault.kind and f.axis == fault.axis for f in self._faults):
+            return
+        self._faults.append(fault)
+        for ax in self.axes.values():
+            ax.sp = None
+            ax.out = law.OFF
+            self._apply(ax)
+        self._route = []
+        self._tracking = False
+        log.error("FAULT %s: %s", fault.kind, fault.reason)
+        self._event(f"fault {fault.kind}: {fault.reason}")
+
+    def _event(self, text: str) -> None:
+        log.warning("%s", text)
+        self._events.append(text)
+
+    # ===================================================================== commands
+    def _submit(self, name: str, apply: Callable[[], None]) -> None:
+        self._last_command_t_s = self.clock.now_s()
+        self._commands.append(_Command(name, apply))
+
+    def _require_motion_ok(self, automatic: bool) -> None:
+        if self._faults:
+            raise CommandRejected("refused: fault latched (" + "; ".join(f.reason for f in self._faults)
+                                  + "); clear faults first", "fault")
+        if automatic and self.position_uncertain():
+            bounds = ", ".join(f"{n} ±{ax.uncertainty_deg:.2f} deg" for n, ax in self.axes.items()
+                               if ax.uncertainty_deg)
+            raise CommandRejected(f"refused: position uncertain ({bounds}); re-reference first",
+                                  "uncertain")
+
+    def _next_seq(self) -> int:
+        self._seq += 1
+        return self._seq
+
+    def _rates(self) -> tuple[float, float]:
+        return (self.axes["az"].tuning.max_rate_deg_per_s, self.axes["el"].tuning.max_rate_deg_per_s)
+
+    def _current_pose(self) -> tuple[float, float]:
+        return (self.axes["az"].meas_deg, self.axes["el"].meas_deg)
+
+    def _explicit_pose(self, az_deg: float, el_deg: float) -> tuple[float, float] | None:
+        """An azimuth outside 0..360 or an elevation past 90 names one mechanical pose."""
+        if 0.0 <= az_deg < 360.0 and el_deg <= 90.0:
+            return None
+        g = self.geometry
+        pose = (az_deg - g.az_offset_deg, el_deg - g.el_offset_deg)
+        if not g.in_limits(*pose):
+            raise CommandRejected(
+                f"position az {az_deg:g}, el {el_deg:g} outside the limits "
+                f"az {g.az_min_deg + g.az_offset_deg:g}..{g.az_max_deg + g.az_offset_deg:g}, "
+                f"el {g.el_min_deg + g.el_offset_deg:g}..{g.el_max_deg + g.el_offset_deg:g}", "limit")
+        return pose
+
+    def _plan(self, az_deg: float, el_deg: float) -> list[tuple[float, float]]:
+        for v, what in ((az_deg, "azimuth"), (el_deg, "elevation")):
+            if not isinstance(v, (int, float)) or not math.isfinite(v):
+                raise CommandRejected(f"{what} {v!r} is not a finite number", "invalid")
+        g = self.geometry
+        start = self._current_pose()
+        pose = self._explicit_pose(az_deg, el_deg)
+        if pose is not None:
+            route = g.plan(start, *g.to_sky(*pose), self._rates())
+            route = None if route is None else route[:-1] + [pose]
+            if route is not None and g.segment_clear((route[-2] if len(route) > 1 else start), pose, self._rates()):
+                route = None
+        else:
+            if not (-90.0 <= el_deg <= 90.0):
+                raise CommandRejected(f"elevation {el_deg:g} outside -90..90", "limit")
+            if not g.candidates(wrap360(az_deg), el_deg):
+                raise CommandRejected(
+                    f"position az {az_deg:g}, el {el_deg:g} outside the limits "
+                    f"el {g.el_min_deg + g.el_offset_deg:g}..{g.el_max_deg + g.el_offset_deg:g}", "limit")
+            route = g.plan(start, wrap360(az_deg), el_deg, self._rates())
+        if route is None:
+            zones = ", ".join(z.name for z in g.zones) or "none"
+            raise CommandRejected(f"no legal path to az {az_deg:g}, el {el_deg:g}: the target or every "
+                                  f"path to it lies in a keep-out zone ({zones})", "keepout")
+        return route
+
+    def goto(self, az_deg: float, el_deg: float) -> list[tuple[float, float]]:
+        """Point at sky (az, el). Returns the planned mechanical waypoints."""
+        self._require_motion_ok(automatic=True)
+        route = self._plan(az_deg, el_deg)
+        target = (wrap360(az_deg), el_deg) if self._explicit_pose(az_deg, el_deg) is None \
+            else self.geometry.to_sky(*route[-1])
+
+        def apply() -> None:
+            self._parked = False
+            self._tracking = False
+            self._target_sky = target
+            self._start_route(route)
+        self._submit("goto", apply)
+        return route
+
+    def goto_az(self, az_deg: float) -> list[tuple[float, float]]:
+        return self.goto(az_deg, self._target_sky[1] if self._target_sky else self.status().el_deg)
+
+    def goto_el(self, el_deg: float) -> list[tuple[float, float]]:
+        return self.goto(self._target_sky[0] if self._target_sky else self.status().az_deg, el_deg)
+
+    def park(self) -> list[tuple[float, float]]:
+        route = self.goto(self.settings.park_az_deg, self.settings.park_el_deg)
+
+        def mark() -> None:
+            self._parked = True
+        self._submit("park", mark)
+        return route
+
+    def track(self, az_deg: float, el_deg: float, az_rate_deg_per_s: float = 0.0,
+              el_rate_deg_per_s: float = 0.0, t_ref_s: float | None = None) -> None:
+        """Follow a moving sky target: (az, el) at t_ref_s, moving at the given rates.
+
+        Keeps the wrap and flip side of the previous track point (continuity), so a
+        pass planned on one side stays there; the pass planner chooses that side.
+        """
+        self._require_motion_ok(automatic=True)
+        for v in (az_deg, el_deg, az_rate_deg_per_s, el_rate_deg_per_s):
+            if not math.isfinite(v):
+                raise CommandRejected(f"track value {v!r} is not finite", "invalid")
+        t_ref = self.clock.now_s() if t_ref_s is None else t_ref_s
+        g = self.geometry
+        poses = g.candidates(wrap360(az_deg), el_deg)
+        if not poses:
+            raise CommandRejected(f"track point az {az_deg:g}, el {el_deg:g} outside the limits", "limit")
+        ref = (self.axes["az"].sp.target_at(t_ref) if self._tracking and self.axes["az"].sp else self.axes["az"].meas_deg,
+               self.axes["el"].sp.target_at(t_ref) if self._tracking and self.axes["el"].sp else self.axes["el"].meas_deg)
+        pose = min(poses, key=lambda p: abs(p[0] - ref[0]) + abs(p[1] - ref[1]))
+        if g.zone_at(*pose, margin_deg=0.0) or g.segment_clear(self._current_pose(), pose, self._rates()):
+            raise CommandRejected(f"track point az {az_deg:g}, el {el_deg:g} is in or behind a keep-out zone",
+                                  "keepout")
+        flipped = pose[1] > 90.0
+        az_rate = az_rate_deg_per_s
+        el_rate = -el_rate_deg_per_s if flipped else el_rate_deg_per_s
+
+        def apply() -> None:
+            self._parked = False
+            self._tracking = True
+            self._route = []
+            self._target_sky = (wrap360(az_deg), el_deg)
+            seq = self._next_seq()
+            for name, p, r in (("az", pose[0], az_rate), ("el", pose[1], el_rate)):
+                lo, hi = self.axes[name].limits
+                self.axes[name].sp = law.Setpoint(min(max(p, lo), hi), r, t_ref, seq=seq)
+        self._submit("track", apply)
+
+    def move(self, axis: str, direction: int, speed_frac: float = 1.0) -> None:
+        """Manual move (jog) of one axis at a fraction of its top speed, until stop.
+
+        Stops by itself at the soft limit or before a keep-out zone.
+        """
+        if axis not in AXES or direction not in (-1, 1):
+            raise CommandRejected(f"move needs axis az|el and direction -1|+1, got {axis!r}, {direction!r}")
+        if not (math.isfinite(speed_frac) and 0.0 < speed_frac <= 1.0):
+            raise CommandRejected(f"move speed {speed_frac!r} outside 0 < speed <= 1")
+        self._require_motion_ok(automatic=False)
+        ax = self.axes[axis]
+        if (direction > 0 and ax.limit_max) or (direction < 0 and ax.limit_min):
+            raise CommandRejected(f"{axis}: limit switch active in that direction", "limit")
+        lo, hi = ax.limits
+        end = self.geometry.clear_until(self._current_pose(), axis, hi if direction > 0 else lo)
+        cap = max(speed_frac * ax.tuning.max_rate_deg_per_s, ax.tuning.min_rate_deg_per_s)
+
+        def apply() -> None:
+            self._parked = False
+            self._tracking = False
+            self._route = []
+            ax.sp = law.Setpoint(end, 0.0, self.clock.now_s(), speed_cap_deg_per_s=cap, seq=self._next_seq())
+        self._submit("move", apply)
+
+    def stop(self, axis: str | None = None) -> None:
+        """Stop (both axes, or one): decelerate at the axis' limit and hold there."""
+        if axis is not None and axis not in AXES:
+            raise CommandRejected(f"stop takes az, el or nothing, got {axis!r}")
+
+        def apply() -> None:
+            self._route = []
+            self._tracking = False
+            for name in ([axis] if axis else AXES):
+                ax = self.axes[name]
+                if ax.tuning.drive == "relay" or ax.law.mode != "driving":
+                    ax.sp = None
+                    continue
+                lo, hi = ax.limits
+                rate = ax.law.ref_rate_deg_per_s
+                end = ax.law.ref_deg + math.copysign(stopping_distance_deg(rate, ax.tuning.accel_deg_per_s2), rate)
+                ax.sp = law.Setpoint(min(max(end, lo), hi), 0.0, self.clock.now_s(), seq=self._next_seq())
+        self._submit("stop", apply)
+
+    def set_position(self, az_deg: float | None = None, el_deg: float | None = None) -> None:
+        """Re-reference: declare where the antenna points now (Tartu WRAZ/WREL).
+
+        Values are in the extended azimuth frame (e.g. 400 on a 450 deg rotator names
+        the overlap), so the wrap side is explicit. Clears that axis' uncertainty.
+        """
+        g = self.geometry
+        values = {"az": az_deg, "el": el_deg}
+        for name, v in values.items():
+            if v is None:
+                continue
+            if not math.isfinite(v):
+                raise CommandRejected(f"{name} {v!r} is not a finite number")
+            lo, hi = self.axes[name].limits
+            off = g.az_offset_deg if name == "az" else g.el_offset_deg
+            if not lo - 1e-9 <= v - off <= hi + 1e-9:
+                raise CommandRejected(f"{name} {v:g} outside {lo + off:g}..{hi + off:g}", "limit")
+
+        def apply() -> None:
+            for name, v in values.items():
+                if v is None:
+                    continue
+                ax = self.axes[name]
+                off = g.az_offset_deg if name == "az" else g.el_offset_deg
+                mech = v - off
+                ax.hw.sensor.set_reference_deg(mech if ax.modulo is None else mech % ax.modulo)
+                ax.meas_deg = mech
+                ax.rate_deg_per_s = 0.0
+                ax.uncertainty_deg = 0.0
+                ax.sp = None
+                ax.law = replace(ax.law, ref_deg=mech, ref_rate_deg_per_s=0.0, mode="idle")
+                ax.mon = MonitorState()
+                self._event(f"{name} re-referenced to {v:.2f} deg")
+            self._route = []
+            self._last_save_t_s = -math.inf
+        self._submit("set_position", apply)
+
+    def clear_faults(self) -> None:
+        def apply() -> None:
+            if self._faults:
+                self._event("faults cleared: " + "; ".join(f.reason for f in self._faults))
+            self._faults.clear()
+            for ax in self.axes.values():
+                # re-arm the monitor from here; switches still pressed stay known
+                ax.mon = MonitorState(limit_min=ax.limit_min, limit_max=ax.limit_max)
+        self._submit("clear_faults", apply)
+
+    # ================================================================ route / park
+    def _start_route(self, route: list[tuple[float, float]]) -> None:
+        self._route = list(route)
+        self._set_waypoint(self._route[0])
+
+    def _set_waypoint(self, pose: tuple[float, float]) -> None:
+        seq = self._next_seq()
+        now = self.clock.now_s()
+        for name, p in zip(AXES, pose):
+            self.axes[name].sp = law.Setpoint(p, 0.0, now, seq=seq)
+
+    def _advance_route(self) -> None:
+        if len(self._route) <= 1:
+            return
+        if all(ax.law.mode == "holding" and ax.law.seq == ax.sp.seq for ax in self.axes.values()
+               if ax.sp is not None):
+            self._route.pop(0)
+            self._set_waypoint(self._route[0])
+
+    def _maybe_idle_park(self, now_s: float) -> None:
+        idle_s = self.settings.idle_park_s
+        if idle_s <= 0 or self._parked or self._faults or self._tracking or self.position_uncertain():
+            return
+        if now_s - self._last_command_t_s >= idle_s and not self._moving():
+            try:
+                self.park()
+                self._event(f"auto-park after {idle_s:g} s idle")
+            except CommandRejected as exc:
+                self._event(f"auto-park refused: {exc}")
+                self._last_command_t_s = now_s
+
+    # ====================================================================== state
+    def position_uncertain(self) -> bool:
+        return any(ax.uncertainty_deg > 0 for ax in self.axes.values())
+
+    def _moving(self) -> bool:
+        return any(ax.law.mode in ("driving", "releasing") or
+                   abs(ax.rate_deg_per_s) > 2 * ax.caps.sensor.resolution_deg for ax in self.axes.values())
+
+    def _maybe_save(self, now_s: float) -> None:
+        if self.store is None or now_s - self._last_save_t_s < self.settings.save_interval_s:
+            return
+        moving = self._moving()
+        changed = any(abs(ax.meas_deg - self._saved_pos.get(n, math.inf)) >= 0.5 * ax.caps.sensor.resolution_deg
+                      for n, ax in self.axes.items())
+        if not (moving or changed or self._last_save_t_s == -math.inf):
+            return
+        self.save_now(moving)
+        self._last_save_t_s = now_s
+
+    def save_now(self, moving: bool | None = None) -> None:
+        if self.store is None:
+            return
+        moving = self._moving() if moving is None else moving
+        axes = {}
+        for name, ax in self.axes.items():
+            try:
+                cal = ax.hw.sensor.calibration()
+            except Exception:
+                cal = {}
+            axes[name] = {"mech_deg": ax.meas_deg, "rate_deg_per_s": ax.rate_deg_per_s,
+                          "moving": moving, "calibration": cal, "coast_deg": list(ax.law.coast_deg),
+                          "uncertainty_deg": ax.uncertainty_deg}
+            self._saved_pos[name] = ax.meas_deg
+        try:
+            self.store.save({"profile": self.caps.name, "axes": axes})
+        except OSError as exc:
+            self._event(f"could not save state: {exc}")
+
+    def shutdown(self) -> None:
+        """Orderly stop: motors off, brakes on, state saved as standing still."""
+        for ax in self.axes.values():
+            ax.sp, ax.out = None, law.OFF
+            self._apply(ax)
+        self.save_now(moving=False)
+
+    # ==================================================================== status
+    def status(self) -> Status:
+        assert self._status is not None
+        return self._status
+
+    def _build_status(self, now_s: float) -> Status:
+        az, el = self.axes["az"], self.axes["el"]
+        sky_az, sky_el = self.geometry.to_sky(az.meas_deg, el.meas_deg)
+        lat = sorted(self._lateness_ms)
+        p99 = lat[min(len(lat) - 1, int(0.99 * len(lat)))] if lat else 0.0
+        tgt = self._target_sky
+        return Status(
+            t_s=now_s, profile=self.caps.name, az_deg=round(sky_az, 4) % 360.0, el_deg=sky_el,
+            az=az.status(), el=el.status(),
+            target_az_deg=None if tgt is None else tgt[0], target_el_deg=None if tgt is None else tgt[1],
+            flipped=el.meas_deg + self.geometry.el_offset_deg > 90.0,
+            wrap_turns=int(math.floor((az.meas_deg + self.geometry.az_offset_deg) / 360.0)),
+            moving=self._moving(), parked=self._parked, position_known=not self.position_uncertain(),
+            faults=tuple(self._faults), events=tuple(self._events), tick_late_p99_ms=p99,
+            sim_truth=self.hw.sim_truth(),
+            limits={"az": az.limits, "el": el.limits})

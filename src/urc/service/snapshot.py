@@ -1,0 +1,53 @@
+"""Immutable status snapshots: what every protocol, the CLI and the web page read."""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+from ..control.faults import Fault
+
+
+@dataclass(frozen=True)
+class AxisStatus:
+    pos_deg: float              # mechanical frame, wrap range included
+    rate_deg_per_s: float
+    target_deg: float | None
+    mode: str                   # idle | releasing | driving | holding
+    duty: float
+    brake_released: bool
+    uncertainty_deg: float      # 0 when the position is known
+    limit_min: bool
+    limit_max: bool
+    current_a: float
+
+
+@dataclass(frozen=True)
+class Status:
+    t_s: float
+    profile: str
+    az_deg: float               # where the beam points: compass azimuth 0..360
+    el_deg: float
+    az: AxisStatus
+    el: AxisStatus
+    target_az_deg: float | None
+    target_el_deg: float | None
+    flipped: bool
+    wrap_turns: int             # how many whole turns past the first: the cable-wrap side
+    moving: bool
+    parked: bool
+    position_known: bool
+    faults: tuple[Fault, ...]
+    events: tuple[str, ...]     # recent notable events (guard stops, state file problems)
+    tick_late_p99_ms: float
+    #: the simulator's true mechanical state (None on real hardware): benchmarks and
+    #: tests compare against it; the controller itself never uses it.
+    sim_truth: dict[str, Any] | None = None
+    limits: dict[str, tuple[float, float]] = field(default_factory=dict)
+
+    def as_dict(self) -> dict[str, Any]:
+        d = asdict(self)
+        d["faults"] = [f.as_dict() for f in self.faults]
+        d["events"] = list(self.events)
+        d["simulator_truth"] = d.pop("sim_truth")
+        return d

@@ -1,0 +1,57 @@
+"""Shared fixtures: a rotator on the physics simulator and a virtual clock."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from urc.app import build_rotator
+from urc.clock import VirtualClock
+from urc.config import Config
+from urc.profiles import PROFILES
+from urc.service.loop import run_virtual
+
+ALL_PROFILES = sorted(PROFILES)
+
+
+class Bench:
+    """A rotator on the simulator, driven on virtual time."""
+
+    def __init__(self, profile: str, state_dir: Path, **config):
+        config.setdefault("rotator", {})["profile"] = profile
+        config.setdefault("hardware", {}).setdefault("sim", {}).setdefault("wind", False)
+        self.cfg = Config.from_dict(config)
+        self.clock = VirtualClock(1000.0)
+        self.state_dir = state_dir
+        self.rot = build_rotator(self.cfg, self.clock, state_dir)
+        self.world = self.rot.hw.extra["world"]
+
+    def run(self, seconds: float, until=None, on_tick=None):
+        return run_virtual(self.rot, self.clock, seconds, until=until, on_tick=on_tick)
+
+    def settle(self, timeout_s: float = 200.0):
+        """Run until both axes hold still (or time out)."""
+        return self.run(timeout_s, until=lambda s: s.az.mode in ("holding", "idle")
+                        and s.el.mode in ("holding", "idle") and not s.moving)
+
+    def truth(self, axis: str) -> float:
+        return self.rot.status().sim_truth[axis]["deg"]
+
+    def restart(self, clean: bool = True) -> "Bench":
+        """Stop this controller (orderly, or as if killed) and start a new one on the same iron."""
+        if clean:
+            self.rot.shutdown()
+        self.rot.hw.close() if clean else self.world.close()
+        nxt = Bench.__new__(Bench)
+        nxt.cfg, nxt.clock, nxt.state_dir = self.cfg, self.clock, self.state_dir
+        nxt.rot = build_rotator(self.cfg, self.clock, self.state_dir)
+        nxt.world = nxt.rot.hw.extra["world"]
+        return nxt
+
+
+@pytest.fixture
+def bench(tmp_path):
+    def make(profile: str = "tartu-urc", **config) -> Bench:
+        return Bench(profile, tmp_path / f"state-{profile}", **config)
+    return make

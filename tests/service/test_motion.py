@@ -1,0 +1,128 @@
+"""The rotator service on every simulated profile: goto, wrap, flip, move, stop, park."""
+
+import math
+
+import pytest
+
+from conftest import ALL_PROFILES
+from urc.errors import CommandRejected
+
+
+def tol(rot, axis):
+    c = rot.caps.axis(axis)
+    return c.restart_deg + c.sensor.resolution_deg
+
+
+@pytest.mark.parametrize("profile", ALL_PROFILES)
+def test_goto_arrives_and_truth_agrees(bench, profile):
+    b = bench(profile)
+    b.rot.goto(123.0, 34.0)
+    s = b.settle()
+    assert abs(s.az.pos_deg - 123.0) <= tol(b.rot, "az")
+    assert abs(s.el.pos_deg - 34.0) <= tol(b.rot, "el")
+    # the simulator's truth (not what the sensor says) is where the antenna is
+    backlash_slack = 1.5
+    assert abs(b.truth("az") - 123.0) <= tol(b.rot, "az") + backlash_slack
+    assert abs(b.truth("el") - 34.0) <= tol(b.rot, "el") + backlash_slack
+    assert not s.faults, s.faults
+
+
+@pytest.mark.parametrize("profile", ALL_PROFILES)
+def test_holds_without_chattering(bench, profile):
+    """Once there, the motor stays off: no relay-wearing hunting around the target."""
+    b = bench(profile)
+    b.rot.goto(60.0, 20.0)
+    b.settle()
+    switches = []
+    b.run(30.0, on_tick=lambda s: switches.append(s.az.duty != 0 or s.el.duty != 0))
+    on_edges = sum(1 for a, c in zip(switches, switches[1:]) if c and not a)
+    assert on_edges == 0
+
+
+def test_wrap_uses_the_overlap_not_the_long_way(bench):
+    b = bench("g5500")  # 0..450 azimuth
+    b.rot.goto(350.0, 10.0)
+    b.settle()
+    route = b.rot.goto(20.0, 10.0)
+    assert route[-1][0] == pytest.approx(380.0)
+    s = b.settle()
+    assert s.az.pos_deg == pytest.approx(380.0, abs=tol(b.rot, "az"))
+    assert s.az_deg == pytest.approx(20.0, abs=tol(b.rot, "az"))
+    assert s.wrap_turns == 1
+
+
+def test_out_of_range_and_garbage_rejected_without_motion(bench):
+    b = bench("bigras")
+    before = (b.truth("az"), b.truth("el"))
+    for az, el in [(10, 95), (10, -5), (500, 10), (math.nan, 10), (10, math.inf)]:
+        with pytest.raises(CommandRejected):
+            b.rot.goto(az, el)
+    b.run(5.0)
+    assert (b.truth("az"), b.truth("el")) == pytest.approx(before, abs=0.01)
+
+
+def test_flip_pose_on_a_180_elevation_rotator(bench):
+    b = bench("tartu-urc", rotator={"flip": True})
+    b.rot.goto(10.0, 80.0)  # near zenith: either pose is fine
+    b.settle()
+    route = b.rot.goto(190.0, 80.0)  # the other side of the sky: flipping is far shorter
+    assert route[-1][1] > 90.0
+    s = b.settle()
+    assert s.flipped and s.az_deg == pytest.approx(190.0, abs=0.3) and s.el_deg == pytest.approx(80.0, abs=0.3)
+
+
+def test_move_and_stop(bench):
+    b = bench("tartu-urc")
+    b.rot.move("az", +1, 0.5)
+    b.run(5.0)
+    s = b.rot.status()
+    assert s.az.pos_deg > 5.0 and s.sim_truth["az"]["rate_deg_per_s"] == pytest.approx(3.0, abs=0.3)
+    assert s.az.rate_deg_per_s == pytest.approx(3.0, abs=1.0)
+    b.rot.stop()
+    s = b.settle()
+    stopped_at = s.az.pos_deg
+    b.run(5.0)
+    assert b.rot.status().az.pos_deg == pytest.approx(stopped_at, abs=0.2)
+
+
+def test_move_stops_at_soft_limit(bench):
+    b = bench("bigras", limits={"az": {"max_deg": 40.0}})
+    b.rot.move("az", +1, 1.0)
+    b.run(30.0)
+    assert b.truth("az") <= 40.0 + tol(b.rot, "az")
+    assert b.rot.status().az.pos_deg == pytest.approx(40.0, abs=tol(b.rot, "az"))
+
+
+def test_park_and_idle_park(bench):
+    b = bench("berkeley", park={"az_deg": 180.0, "el_deg": 45.0, "idle_park_s": 10.0})
+    b.rot.goto(90.0, 10.0)
+    b.settle()
+    b.run(15.0)
+    s = b.settle()
+    assert s.parked and s.az_deg == pytest.approx(180.0, abs=0.3) and s.el_deg == pytest.approx(45.0, abs=0.3)
+
+
+def test_keepout_goto_goes_around_and_move_stops_short(bench):
+    mast = {"name": "mast", "az_min_deg": 80.0, "az_max_deg": 100.0, "el_min_deg": 0.0, "el_max_deg": 20.0}
+    b = bench("berkeley", keepout=[mast])
+    b.rot.goto(60.0, 5.0)
+    b.settle()
+    poses = []
+    b.rot.goto(120.0, 5.0)
+    b.run(60.0, on_tick=lambda s: poses.append(
+        (s.sim_truth["az"]["deg"], s.sim_truth["el"]["deg"])))
+    assert all(not (80.0 <= a <= 100.0 and e <= 20.0) for a, e in poses)
+    assert poses[-1] == pytest.approx((120.0, 5.0), abs=0.5)
+    b.rot.move("az", -1, 1.0)
+    b.run(20.0)
+    assert b.truth("az") > 100.0
+    with pytest.raises(CommandRejected):
+        b.rot.goto(90.0, 10.0)  # inside the mast
+
+
+def test_set_offsets_map_pointing(bench):
+    b = bench("berkeley", offsets={"az_deg": 5.0})
+    b.rot.goto(100.0, 10.0)
+    s = b.settle()
+    assert s.az_deg == pytest.approx(100.0, abs=0.3)
+    assert s.az.pos_deg == pytest.approx(95.0, abs=0.3)
