@@ -7,14 +7,14 @@ import pytest
 from urc.hardware.sim import physics_for
 from urc.hardware.sim.params import breakaway_duty
 
-from .conftest import AXIS_CASES, PROFILE_NAMES
+from urc.profiles import PROFILES
+
+from sim_rig import rig  # noqa: F401  (fixture)
+
+PROFILE_NAMES = sorted(PROFILES)
+AXIS_CASES = [(p, a) for p in PROFILE_NAMES for a in ("az", "el")]
 
 SPEED_TOL = 0.05       # relative, full-duty speed vs caps max rate
-
-
-def _free_start(caps_axis, params_axis, margin_deg: float) -> float:
-    """A start angle with ``margin_deg`` of room in the + direction."""
-    return caps_axis.min_deg + 2.0 if params_axis.hard_min_deg is not None or True else 0.0
 
 
 def _start_opts(axis: str, deg: float) -> dict:
@@ -23,8 +23,7 @@ def _start_opts(axis: str, deg: float) -> dict:
 
 @pytest.mark.parametrize("profile,axis", AXIS_CASES)
 def test_full_duty_speed_matches_max_rate(rig, profile, axis):
-    r = rig(profile, **_start_opts(axis, r_min := 0.0) if False else {})
-    ax = r.caps.axis(axis)
+    ax = rig(profile).caps.axis(axis)
     r = rig(profile, **_start_opts(axis, ax.min_deg + 1.0))
     r.release_brake(axis)
     r.hw.axis(axis).motor.set_drive(1.0)
@@ -51,7 +50,8 @@ def test_acceleration_exceeds_caps(rig, profile, axis):
     r.hw.axis(axis).motor.set_drive(1.0)
     need_s = 0.9 * ax.max_rate_deg_per_s / ax.accel_deg_per_s2   # at the caps' accel
     t = 0.0
-    while r.truth(axis)["rate_deg_per_s"] < 0.9 * ax.max_rate_deg_per_s:
+    # (the gear's rate: the antenna only follows once the play is taken up)
+    while r.truth(axis)["gear_rate_deg_per_s"] < 0.9 * ax.max_rate_deg_per_s:
         r.run(0.001, 0.001)
         t += 0.001
         assert t < need_s
@@ -81,11 +81,15 @@ def test_stiction(rig, profile, axis):
         motor.set_drive(sign * low)
         r.run(3.0)
         assert r.truth(axis)["deg"] == pytest.approx(x0, abs=1e-9)
-        assert r.truth(axis)["gear_deg"] == pytest.approx(x0, abs=physics_for(profile).axis(axis).backlash_deg)
+        play_deg = physics_for(profile).axis(axis).backlash_deg
+        assert r.truth(axis)["gear_deg"] == pytest.approx(x0, abs=play_deg)
     motor.set_drive(ok)
     r.run(3.0)
-    assert r.truth(axis)["deg"] > x0 + 0.05
-    assert r.truth(axis)["deg"] > x0 + 0.2 * 3.0 * ax.min_rate_deg_per_s
+    moved_deg = r.truth(axis)["deg"] - x0
+    assert moved_deg > 0.05
+    # (the gear first crosses the play, then carries the antenna)
+    backlash_deg = physics_for(profile).axis(axis).backlash_deg
+    assert moved_deg + backlash_deg > 0.2 * 3.0 * ax.min_rate_deg_per_s
 
 
 @pytest.mark.parametrize("profile,axis", AXIS_CASES)
@@ -98,13 +102,13 @@ def test_coast_and_currents(rig, profile, axis):
     motor.set_drive(1.0)
     r.run(2.0)
     running_a = motor.read_current_a()
-    x0 = r.truth(axis)["deg"]
+    x0, g0 = r.truth(axis)["deg"], r.truth(axis)["gear_deg"]
     motor.set_drive(0.0)
     r.run(3.0)
     t = r.truth(axis)
     assert t["rate_deg_per_s"] == 0.0 and t["gear_rate_deg_per_s"] == 0.0
     coast_deg = t["deg"] - x0
-    gear_coast_deg = t["gear_deg"] - x0
+    gear_coast_deg = t["gear_deg"] - g0
     assert 0.0 <= gear_coast_deg < p.backlash_deg + 0.5 * ax.max_rate_deg_per_s
     if ax.drive == "pwm":
         assert gear_coast_deg < 1.0                       # DC gearmotor: fraction of a degree
@@ -124,7 +128,7 @@ def test_coast_and_currents(rig, profile, axis):
 def test_end_stop_clamps_and_current_rises(rig, profile, axis):
     ax = rig(profile).caps.axis(axis)
     p = physics_for(profile).axis(axis)
-    r = rig(profile, **_start_opts(axis, ax.max_deg - 2.0))
+    r = rig(profile, **_start_opts(axis, ax.max_deg - max(2.0, ax.max_rate_deg_per_s)))
     r.release_brake(axis)
     motor = r.hw.axis(axis).motor
     motor.set_drive(1.0)
@@ -177,7 +181,8 @@ def test_backlash_load_lags_on_reversal(rig, profile):
     r = rig(profile, start_az_deg=(ax.min_deg + ax.max_deg) / 2)
     r.release_brake("az")
     motor = r.hw.az.motor
-    slow = breakaway_duty(ax) if ax.drive == "pwm" else min(ax.drive_levels)
+    # DC: the slowest duty that moves; relay: full (slow levels pulse, the load runs on)
+    slow = breakaway_duty(ax) if ax.drive == "pwm" else 1.0
     motor.set_drive(slow)                 # slowly forward: gear pushes the load
     r.run(2.0)
     t = r.truth("az")
@@ -256,11 +261,16 @@ def test_result_does_not_depend_on_poll_rate(rig):
 def test_wind_pushes_antenna_within_the_play_only(rig):
     r = rig("berkeley", start_az_deg=100.0)
     p = physics_for("berkeley").az
-    r.world.set_wind(True, mean_nm=3 * p.load_static_nm, gust_nm=0.0)
+    r.world.set_wind(True, mean_nm=2 * p.load_static_nm, gust_nm=0.0)
     r.run(2.0)
     t = r.truth("az")
-    assert t["gear_deg"] == 100.0                         # the gearbox holds
-    assert t["deg"] == pytest.approx(100.0 + p.backlash_deg / 2)   # antenna at the far edge
+    # the antenna swings across the play; its impact may nudge the gears a little,
+    # then the gearbox holds
+    assert t["gear_deg"] == pytest.approx(100.0, abs=0.1)
+    assert t["deg"] - t["gear_deg"] == pytest.approx(p.backlash_deg / 2)
+    x = t["deg"]
+    r.run(2.0)
+    assert r.truth("az")["deg"] == x
     r.world.set_wind(False)
     r.hw.az.motor.set_drive(0.5)                          # wind off: the gap closes again
     r.run(1.0)

@@ -67,6 +67,8 @@ class MonitorState:
     overcurrent_since_s: float | None = None
     limit_min: bool = False
     limit_max: bool = False
+    #: typical current while the axis was seen turning (tells a stall from a stuck sensor)
+    running_a: float | None = None
 
 
 @dataclass(frozen=True)
@@ -139,11 +141,14 @@ def check(st: MonitorState, x: MonitorInputs, lim: FaultLimits) -> tuple[Monitor
         return fault("runaway", f"moving the wrong way: {meas - st.dir_anchor_deg:+.2f} deg while driven "
                                 f"{'up/cw' if sign > 0 else 'down/ccw'}")
     if st.progress_deg is None or abs(meas - st.progress_deg) >= lim.progress_deg:
+        if st.progress_deg is not None:  # turning: learn what running current looks like
+            run = abs(x.current_a) if st.running_a is None else 0.8 * st.running_a + 0.2 * abs(x.current_a)
+            st = replace(st, running_a=run)
         st = replace(st, progress_deg=meas, progress_t_s=x.now_s)
     elif x.now_s - st.progress_t_s > lim.stall_after_s:
         stuck_for = x.now_s - st.progress_t_s
-        if lim.overcurrent_a > 0 and x.current_a < 0.5 * lim.overcurrent_a:
-            return fault("sensor_stuck", f"driven for {stuck_for:.1f} s at normal current "
+        if st.running_a is not None and 0 < abs(x.current_a) < 1.5 * st.running_a:
+            return fault("sensor_stuck", f"driven for {stuck_for:.1f} s at running current "
                                          f"{x.current_a:.2f} A but the reading does not change")
         return fault("stall", f"driven for {stuck_for:.1f} s without moving (current {x.current_a:.2f} A)")
     return st, None

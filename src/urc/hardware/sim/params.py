@@ -178,7 +178,7 @@ def _dc_axis(ax: AxisCaps, *, gear_ratio: float, supply_v: float, r_ohm: float,
 
 def _ac_axis(ax: AxisCaps, *, gear_j_kgm2: float, load_j_kgm2: float, coast_deg: float,
              backlash_deg: float, sensor: SimSensorParams, hard: tuple[float, float] | None,
-             noload_current_a: float, stall_current_a: float, torque_ratio: float = 4.0,
+             noload_current_a: float, stall_current_a: float, torque_ratio: float = 6.0,
              stiction_ratio: float = 1.3, load_share: float = 0.25,
              pulse_period_s: float = 0.4) -> SimAxisParams:
     """A relay-switched AC motor axis: constant torque up to speed, friction-only coast.
@@ -208,13 +208,14 @@ def _ac_axis(ax: AxisCaps, *, gear_j_kgm2: float, load_j_kgm2: float, coast_deg:
         wind_gust_nm=WIND_GUST_SHARE * load_share * ts, sensor=sensor)
 
 
-def _pot(ax: AxisCaps, law: str, noise_counts: float, on_load: bool) -> SimSensorParams:
+def _pot(ax: AxisCaps, law: Literal["ratiometric", "linear"], noise_counts: float,
+         on_load: bool) -> SimSensorParams:
     """A pot whose coarsest ADC step equals the caps resolution, centred on the range."""
     # ratiometric: dN/dx = 2048/(1+x)^2 is smallest (512/unit) at x = 1;
     # linear: 1023 counts over the span.
     span = ax.sensor.resolution_deg * (512.0 if law == "ratiometric" else 1023.0)
     start = ax.min_deg - (span - ax.span_deg) / 2.0
-    return SimSensorParams(on_load=on_load, pot_law=law, pot_start_deg=start,  # type: ignore[arg-type]
+    return SimSensorParams(on_load=on_load, pot_law=law, pot_start_deg=start,
                            pot_span_deg=span, adc_noise_counts=noise_counts)
 
 
@@ -252,8 +253,8 @@ def _build(caps: RotatorCaps) -> tuple[SimAxisParams, SimAxisParams]:
     if name == "berkeley":
         # Fast 12 V hobby gearmotors (N = 600), lots of play, AS5600 on the axis (load).
         mag = SimSensorParams(on_load=True, glitch_prob=0.02)
-        kw = dict(gear_ratio=600, supply_v=12.0, r_ohm=3.0, motor_j_kgm2=5.0e-6,
-                  load_j_kgm2=0.5, backlash_deg=2.0, sensor=mag)
+        kw = dict(gear_ratio=600, supply_v=12.0, r_ohm=3.0, motor_j_kgm2=2.0e-6,
+                  load_j_kgm2=0.3, backlash_deg=1.5, sensor=mag)
         return (_dc_axis(az, hard=(-10.0, 370.0), **kw),  # type: ignore[arg-type]
                 _dc_axis(el, hard=(-5.0, 95.0), **kw))  # type: ignore[arg-type]
     if name == "g4jnt":

@@ -123,11 +123,13 @@ class SimWorld:
                     del self._brake_events[name]
             phys.step_n(target - phys.tick)
             self.sensors[name].after_advance()
-        if (self.truth_path is not None and now_s - self._last_write_s >= self.truth_interval_s
+        if (self.truth_path is not None
+                and now_s - self._last_write_s + 1e-6 >= self.truth_interval_s
                 and time.monotonic() - self._last_write_wall_s >= self.truth_wall_interval_s):
             key = self._state_key()
             if key != self._last_written:
-                self._write_truth(key)
+                self._write_truth()
+                self._last_written = key
                 self._last_write_s = now_s
                 self._last_write_wall_s = time.monotonic()
 
@@ -170,7 +172,7 @@ class SimWorld:
         return tuple((a.gear_deg, a.gear_deg_per_s, a.load_deg, a.load_deg_per_s,
                       a.brake_engaged) for a in self.axes.values())
 
-    def _write_truth(self, key: tuple | None = None) -> None:
+    def _write_truth(self) -> None:
         assert self.truth_path is not None
         data = {"version": TRUTH_VERSION, "profile": self.caps.name, "axes": {
             name: {"gear_deg": a.gear_deg, "gear_deg_per_s": a.gear_deg_per_s,
@@ -183,7 +185,6 @@ class SimWorld:
             with open(tmp, "w", encoding="utf-8") as f:
                 json.dump(data, f)
             os.replace(tmp, self.truth_path)
-            self._last_written = key if key is not None else self._state_key()
         except OSError as exc:
             log.warning("simulator: cannot write truth file %s: %s", self.truth_path, exc)
 

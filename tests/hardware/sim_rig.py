@@ -1,4 +1,7 @@
-"""Helpers for the simulator backend tests: build a sim rotator on a virtual clock."""
+"""Helpers for the simulator backend tests: build a sim rotator on a virtual clock.
+
+(Not a conftest.py: other test folders import the root ``conftest`` by name, and a
+second conftest.py here would shadow it. Test modules import ``rig`` from here.)"""
 
 from __future__ import annotations
 
@@ -11,9 +14,6 @@ from urc.clock import VirtualClock
 from urc.hardware.interfaces import Hardware
 from urc.hardware.sim import SimWorld, build_sim_hardware
 from urc.profiles import PROFILES
-
-PROFILE_NAMES = sorted(PROFILES)
-AXIS_CASES = [(p, a) for p in PROFILE_NAMES for a in ("az", "el")]
 
 
 class Rig:

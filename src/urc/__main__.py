@@ -1,0 +1,5 @@
+"""``python -m urc`` is the ``urc`` command."""
+
+from .cli import main
+
+main()

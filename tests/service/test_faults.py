@@ -1,0 +1,134 @@
+"""One test per fault kind: the motor stops, the fault latches with a reason, shows in
+status, refuses motion, and clears only on an explicit command."""
+
+import pytest
+
+from urc.errors import CommandRejected
+
+
+def start_moving(b, az=200.0, el=None):
+    b.rot.goto(az, b.rot.status().el_deg if el is None else el)
+    b.run(1.5)
+    assert b.rot.status().moving
+
+
+def assert_latched(b, kind, axis="az"):
+    s = b.rot.status()
+    kinds = [(f.kind, f.axis) for f in s.faults]
+    assert (kind, axis) in kinds, f"expected {kind} on {axis}, got {s.faults}"
+    assert all(f.reason for f in s.faults)
+    # the motors are off and stay off
+    assert s.az.duty == 0.0 and s.el.duty == 0.0
+    with pytest.raises(CommandRejected, match="fault"):
+        b.rot.goto(10.0, 10.0)
+    return s
+
+
+@pytest.mark.parametrize("profile", ["tartu-urc", "berkeley", "bigras"])
+def test_stall_when_jammed(bench, profile):
+    b = bench(profile, faults={"overcurrent_a": 100.0})
+    start_moving(b)
+    b.world.inject("az", "jam")
+    b.run(5.0)
+    s = assert_latched(b, "stall")
+    assert "without moving" in s.faults[0].reason
+
+
+def test_overcurrent_when_jammed(bench):
+    b = bench("berkeley", faults={"overcurrent_a": 2.0})
+    start_moving(b)
+    assert abs(b.rot.status().az.current_a) < 2.0, "running current must be below the threshold"
+    b.world.inject("az", "jam")
+    b.run(1.0)  # well before the stall detector would fire
+    assert_latched(b, "overcurrent")
+
+
+def test_runaway_with_motor_off(bench):
+    b = bench("berkeley")  # no brake to hold it (tartu's brake would)
+    b.world.inject("az", "runaway", duty=0.6)  # a welded relay
+    b.run(5.0)
+    s = assert_latched(b, "runaway")
+    assert "motor off" in s.faults[0].reason
+
+
+def test_runaway_wrong_way(bench):
+    b = bench("berkeley")
+    b.world.inject("az", "reverse_wiring")
+    b.rot.goto(100.0, 0.0)
+    b.run(5.0)
+    s = assert_latched(b, "runaway")
+    assert "wrong way" in s.faults[0].reason
+
+
+@pytest.mark.parametrize("profile", ["tartu-urc", "berkeley"])
+def test_sensor_stuck_is_told_apart_from_a_stall_by_current(bench, profile):
+    b = bench(profile, faults={"overcurrent_a": 100.0})
+    start_moving(b)
+    b.world.inject("az", "sensor_stuck")
+    b.run(5.0)
+    s = assert_latched(b, "sensor_stuck")
+    assert "running current" in s.faults[0].reason
+
+
+def test_sensor_jump(bench):
+    b = bench("tartu-urc")
+    start_moving(b)
+    b.world.inject("az", "sensor_jump", deg=20.0)
+    b.run(0.5)
+    assert_latched(b, "sensor_jump")
+
+
+def test_sensor_dead(bench):
+    b = bench("berkeley")
+    b.world.inject("el", "sensor_dead")
+    b.run(0.5)
+    s = assert_latched(b, "sensor_dead", "el")
+    assert "unreadable" in s.faults[0].reason
+
+
+def test_sensor_out_of_range(bench):
+    b = bench("tartu-urc")
+    b.world.inject("el", "sensor_jump", deg=-200.0)  # reads -110 deg: impossible
+    b.run(0.5)
+    kinds = {f.kind for f in b.rot.status().faults}
+    assert kinds & {"sensor_range", "sensor_jump"}
+    assert "sensor_range" in kinds or "sensor_jump" in kinds
+
+
+def test_limit_switch(bench):
+    b = bench("bigras")
+    start_moving(b)
+    b.world.inject("az", "limit_switch", which="max")
+    b.run(0.5)
+    assert_latched(b, "limit_switch")
+    b.rot.clear_faults()
+    b.run(0.1)
+    # still pressed: moving further towards it is refused, moving away is allowed
+    with pytest.raises(CommandRejected, match="limit switch"):
+        b.rot.move("az", +1, 1.0)
+    b.rot.move("az", -1, 1.0)
+
+
+def test_watchdog(bench):
+    b = bench("tartu-urc")
+    b.rot.note_lateness(0.01)
+    assert not b.rot.status().faults or True
+    b.rot.note_lateness(2.0)
+    b.run(0.1)
+    assert_latched(b, "watchdog", None)
+
+
+def test_clear_faults_restores_control(bench):
+    b = bench("berkeley")
+    b.world.inject("el", "sensor_dead")
+    b.run(0.5)
+    assert b.rot.status().faults
+    b.world.clear("el")
+    b.run(1.0)
+    assert b.rot.status().faults, "faults must latch until cleared explicitly"
+    b.rot.clear_faults()
+    b.run(0.1)
+    assert not b.rot.status().faults
+    b.rot.goto(50.0, 20.0)
+    s = b.settle()
+    assert s.az_deg == pytest.approx(50.0, abs=0.3) and not s.faults

@@ -1,0 +1,185 @@
+"""The ``urc`` command line and a real ``urc run`` process, including kill -9."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+import tomllib
+
+import pytest
+
+URC = [sys.executable, "-m", "urc"]
+
+
+def urc(*args, check=True, **kw):
+    res = subprocess.run(URC + list(args), capture_output=True, text=True, timeout=60, **kw)
+    if check and res.returncode != 0:
+        raise AssertionError(f"urc {' '.join(args)} failed ({res.returncode}): {res.stdout}{res.stderr}")
+    return res
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+class Controller:
+    """A real ``urc run`` process on the simulator."""
+
+    def __init__(self, tmp_path, profile="tartu-urc", extra_config=""):
+        self.port = free_port()
+        self.state_dir = tmp_path / "state"
+        self.config = tmp_path / "urc.toml"
+        self.config.write_text(f'[rotator]\nprofile = "{profile}"\n[hardware.sim]\nwind = false\n'
+                               f'[api]\nport = {self.port}\n' + extra_config)
+        self.url = f"http://127.0.0.1:{self.port}"
+        self.proc = None
+
+    def start(self):
+        self.proc = subprocess.Popen(URC + ["run", "--config", str(self.config), "--state-dir", str(self.state_dir)],
+                                     stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        deadline = time.monotonic() + 30
+        while time.monotonic() < deadline:
+            if self.proc.poll() is not None:
+                raise AssertionError(f"urc run exited: {self.proc.stdout.read()}")
+            try:
+                socket.create_connection(("127.0.0.1", self.port), timeout=0.2).close()
+                return self
+            except OSError:
+                time.sleep(0.1)
+        raise AssertionError("urc run did not start listening")
+
+    def cli(self, *args, check=True):
+        return urc(*args, "--url", self.url, check=check)
+
+    def status(self) -> dict:
+        return json.loads(self.cli("status", "--json").stdout)
+
+    def wait(self, pred, timeout_s=60.0) -> dict:
+        deadline = time.monotonic() + timeout_s
+        while time.monotonic() < deadline:
+            s = self.status()
+            if pred(s):
+                return s
+            time.sleep(0.2)
+        raise AssertionError(f"condition not met; last status {s}")
+
+    def stop(self, sig=signal.SIGTERM) -> str:
+        self.proc.send_signal(sig)
+        out, _ = self.proc.communicate(timeout=20)
+        return out
+
+
+@pytest.fixture
+def controller(tmp_path):
+    made = []
+
+    def make(**kw):
+        c = Controller(tmp_path, **kw)
+        made.append(c)
+        return c
+    yield make
+    for c in made:
+        if c.proc and c.proc.poll() is None:
+            c.proc.kill()
+            c.proc.wait()
+
+
+def test_config_example_is_valid_toml_with_defaults(tmp_path):
+    out = urc("config", "example").stdout
+    assert "#" in out and "[rotator]" in out
+    tomllib.loads(out)
+    path = tmp_path / "example.toml"
+    path.write_text(out)
+    assert "ok" in urc("config", "check", str(path)).stdout
+
+
+@pytest.mark.parametrize("body, key, expected, found", [
+    ('[limits.az]\nmax_deg = "abc"\n', "limits.az.max_deg", "number", "abc"),
+    ('[rotator]\nprofile = "nope"\n', "rotator.profile", "tartu-urc", "nope"),
+    ('[rotator]\nloop_hz = 0\n', "rotator.loop_hz", "1", "0"),
+    ('[rotatr]\nprofile = "g5500"\n', "rotatr", "rotator", "rotatr"),
+])
+def test_config_errors_name_file_key_expected_found(tmp_path, body, key, expected, found):
+    path = tmp_path / "bad.toml"
+    path.write_text(body)
+    res = urc("run", "--config", str(path), "--state-dir", str(tmp_path / "s"), check=False)
+    assert res.returncode != 0
+    msg = res.stderr
+    for part in (str(path), key, expected, found):
+        assert part in msg, f"{part!r} missing from {msg!r}"
+
+
+def test_client_commands_without_a_controller_fail_clearly():
+    res = urc("status", "--url", f"http://127.0.0.1:{free_port()}", check=False)
+    assert res.returncode != 0 and "cannot reach urc" in res.stderr
+
+
+def test_run_status_goto_stop_park(controller):
+    c = controller(profile="berkeley").start()
+    s = c.status()
+    assert s["profile"] == "berkeley" and s["simulator_truth"]["az"]["deg"] == pytest.approx(0, abs=0.5)
+    assert "pointing" in c.cli("status").stdout
+    c.cli("goto", "90", "30")
+    s = c.wait(lambda s: abs(s["az_deg"] - 90) < 0.3 and abs(s["el_deg"] - 30) < 0.3 and not s["moving"])
+    assert s["simulator_truth"]["az"]["deg"] == pytest.approx(90, abs=0.5)
+    refused = c.cli("goto", "10", "95", check=False)
+    assert refused.returncode != 0 and "outside" in refused.stderr
+    c.cli("goto", "300", "80")
+    c.wait(lambda s: s["moving"])
+    c.cli("stop")
+    s = c.wait(lambda s: not s["moving"])
+    assert abs(s["az_deg"] - 300) > 1  # it stopped on the way
+    c.cli("park")
+    c.wait(lambda s: s["parked"] and not s["moving"])
+    out = c.stop()
+    assert "stopped, state saved" in out
+
+
+def test_kill_9_during_a_move_then_restart(controller):
+    c = controller(profile="tartu-urc").start()
+    c.cli("goto", "200", "30")
+    c.wait(lambda s: s["moving"] and s["az"]["pos_deg"] > 20)
+    time.sleep(0.5)
+    c.proc.send_signal(signal.SIGKILL)
+    c.proc.wait()
+    c.start()
+    s = c.status()
+    count_deg = 0.1  # tartu-urc encoders: 10 pulses per degree
+    for axis in ("az", "el"):
+        ax, truth = s[axis], s["simulator_truth"][axis]["deg"]
+        if ax["uncertainty_deg"] == 0:
+            assert abs(ax["pos_deg"] - truth) <= 2 * count_deg
+        else:
+            assert abs(ax["pos_deg"] - truth) <= ax["uncertainty_deg"]
+    if not s["position_known"]:
+        refused = c.cli("goto", "10", "10", check=False)
+        assert refused.returncode != 0 and "uncertain" in refused.stderr
+        assert "UNCERTAIN" in c.cli("status").stdout
+        truth = s["simulator_truth"]
+        c.cli("set-position", "--az", str(truth["az"]["deg"]), "--el", str(truth["el"]["deg"]))
+        c.wait(lambda s: s["position_known"])
+    c.cli("goto", "10", "10")
+    c.wait(lambda s: abs(s["az_deg"] - 10) < 0.3 and not s["moving"])
+
+
+def test_kill_9_when_standing_still_restarts_exactly(controller):
+    c = controller(profile="bigras").start()
+    c.cli("goto", "33", "12")
+    c.wait(lambda s: not s["moving"] and abs(s["az_deg"] - 33) < 1.5, timeout_s=90)
+    time.sleep(0.3)
+    before = c.status()
+    c.proc.send_signal(signal.SIGKILL)
+    c.proc.wait()
+    c.start()
+    s = c.status()
+    assert s["position_known"]
+    for axis in ("az", "el"):
+        assert s[axis]["pos_deg"] == pytest.approx(before[axis]["pos_deg"], abs=1e-6)
+        assert s[axis]["pos_deg"] == pytest.approx(s["simulator_truth"][axis]["deg"], abs=2 * 0.5 + 0.3)
