@@ -24,7 +24,7 @@ class Bench:
         self.cfg = Config.from_dict(config)
         self.clock = VirtualClock(1000.0)
         self.state_dir = state_dir
-        self.rot = build_rotator(self.cfg, self.clock, state_dir)
+        self.rot = build_rotator(self.cfg, self.clock, state_dir, durable_state=False)
         self.world = self.rot.hw.extra["world"]
 
     def run(self, seconds: float, until=None, on_tick=None):
@@ -45,7 +45,7 @@ class Bench:
         self.rot.hw.close() if clean else self.world.close()
         nxt = Bench.__new__(Bench)
         nxt.cfg, nxt.clock, nxt.state_dir = self.cfg, self.clock, self.state_dir
-        nxt.rot = build_rotator(self.cfg, self.clock, self.state_dir)
+        nxt.rot = build_rotator(self.cfg, self.clock, self.state_dir, durable_state=False)
         nxt.world = nxt.rot.hw.extra["world"]
         return nxt
 

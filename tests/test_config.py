@@ -65,7 +65,7 @@ def test_defaults_without_file():
     assert cfg.offsets.az_deg == 0.0 and cfg.offsets.el_deg == 0.0
     assert cfg.park.az_deg is None and cfg.park.idle_park_s == 0
     assert cfg.keepout == ()
-    assert cfg.control.az.kp_per_s == 2.0 and cfg.control.el.ki_per_s2 == 0.5
+    assert cfg.control.az.kp_per_s == 6.0 and cfg.control.el.ki_per_s2 == 1.0
     assert cfg.faults.stall_timeout_s == 1.5 and cfg.faults.watchdog_s == 0.5
     assert cfg.api.host == "127.0.0.1" and cfg.api.port == 8080 and cfg.api.token == ""
     assert cfg.state.dir == "" and cfg.state.save_interval_s == 0.02
@@ -89,7 +89,7 @@ def test_helpers_use_profile_values():
     assert cfg.park(caps) == (0.0, 90.0)
     ctl = cfg.effective_control(caps)
     assert ctl["az"]["max_rate_deg_per_s"] == 6.0 and ctl["az"]["restart_deg"] == 0.2
-    assert ctl["el"]["kp_per_s"] == 2.0
+    assert ctl["el"]["kp_per_s"] == 6.0
 
 
 def test_helpers_apply_user_values():

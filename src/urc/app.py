@@ -55,7 +55,7 @@ def settings_from_config(cfg: Config) -> RotatorSettings:
         save_interval_s=cfg.state.save_interval_s, watchdog_s=cfg.faults.watchdog_s).completed()
 
 
-def build_rotator(cfg: Config, clock: Clock, state_dir: Path) -> Rotator:
+def build_rotator(cfg: Config, clock: Clock, state_dir: Path, durable_state: bool = True) -> Rotator:
     """Everything ``urc run`` builds, minus the servers: for tests and benchmarks too."""
     settings = settings_from_config(cfg)
     state_dir.mkdir(parents=True, exist_ok=True)
@@ -73,7 +73,7 @@ def build_rotator(cfg: Config, clock: Clock, state_dir: Path) -> Rotator:
                 settings = replace(settings,
                                az_faults=replace(settings.az_faults, overcurrent_a=default_a.get("az", 0.0)),
                                el_faults=replace(settings.el_faults, overcurrent_a=default_a.get("el", 0.0)))
-    return Rotator(settings, hardware, clock, StateStore(state_dir / STATE_FILE))
+    return Rotator(settings, hardware, clock, StateStore(state_dir / STATE_FILE, durable=durable_state))
 
 
 async def serve(cfg: Config, state_dir: Path, clock: Clock | None = None) -> None:

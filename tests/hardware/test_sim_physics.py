@@ -6,7 +6,6 @@ import pytest
 
 from urc.hardware.sim import physics_for
 from urc.hardware.sim.params import breakaway_duty
-
 from urc.profiles import PROFILES
 
 from sim_rig import rig  # noqa: F401  (fixture)

@@ -84,71 +84,82 @@ class MonitorInputs:
 
 
 def check(st: MonitorState, x: MonitorInputs, lim: FaultLimits) -> tuple[MonitorState, Fault | None]:
+    """One tick of fault detection. At most one new fault per tick, the most basic first."""
+    changes: dict = {}
+    fault = _check(st, x, lim, changes)
+    return (replace(st, **changes) if changes else st), fault
+
+
+def _check(st: MonitorState, x: MonitorInputs, lim: FaultLimits, ch: dict) -> Fault | None:
+    """Detect; record state changes in ``ch`` (one ``replace`` per tick, this runs at 50 Hz)."""
     ax = lim.axis
 
-    def fault(kind: str, reason: str) -> tuple[MonitorState, Fault]:
-        return st, Fault(kind, ax, f"{ax}: {reason}", x.now_s)
+    def fault(kind: str, reason: str) -> Fault:
+        return Fault(kind, ax, f"{ax}: {reason}", x.now_s)
 
     # Limit switches: a rising edge is a fault (the soft limits should have stopped us).
-    if x.limit_min and not st.limit_min:
-        st = replace(st, limit_min=True)
-        return fault("limit_switch", "lower limit switch hit")
-    if x.limit_max and not st.limit_max:
-        st = replace(st, limit_max=True)
-        return fault("limit_switch", "upper limit switch hit")
-    st = replace(st, limit_min=x.limit_min, limit_max=x.limit_max)
+    if x.limit_min != st.limit_min or x.limit_max != st.limit_max:
+        ch.update(limit_min=x.limit_min, limit_max=x.limit_max)
+        if x.limit_min and not st.limit_min:
+            return fault("limit_switch", "lower limit switch hit")
+        if x.limit_max and not st.limit_max:
+            return fault("limit_switch", "upper limit switch hit")
 
     if lim.overcurrent_a > 0 and x.current_a > lim.overcurrent_a:
         since = st.overcurrent_since_s if st.overcurrent_since_s is not None else x.now_s
-        st = replace(st, overcurrent_since_s=since)
+        ch["overcurrent_since_s"] = since
         if x.now_s - since >= OVERCURRENT_HOLD_S:
             return fault("overcurrent", f"motor current {x.current_a:.2f} A above {lim.overcurrent_a:.2f} A")
-    else:
-        st = replace(st, overcurrent_since_s=None)
+    elif st.overcurrent_since_s is not None:
+        ch["overcurrent_since_s"] = None
 
     if x.meas_deg is None:
-        st = replace(st, unreadable_ticks=st.unreadable_ticks + 1)
-        if st.unreadable_ticks >= SENSOR_DEAD_TICKS:
+        ch["unreadable_ticks"] = st.unreadable_ticks + 1
+        if st.unreadable_ticks + 1 >= SENSOR_DEAD_TICKS:
             return fault("sensor_dead", f"position sensor unreadable ({x.sensor_error or 'no reading'})")
-        return st, None
+        return None
     meas = x.meas_deg
-    st = replace(st, unreadable_ticks=0)
+    if st.unreadable_ticks:
+        ch["unreadable_ticks"] = 0
 
     if not (lim.min_deg - RANGE_MARGIN_DEG <= meas <= lim.max_deg + RANGE_MARGIN_DEG):
         return fault("sensor_range", f"reading {meas:.2f} deg outside {lim.min_deg:g}..{lim.max_deg:g} deg")
 
+    ch.update(prev_deg=meas, prev_t_s=x.now_s)
     if st.prev_deg is not None:
         dt = max(x.now_s - st.prev_t_s, 1e-6)
         jump = abs(meas - st.prev_deg)
         if jump > lim.max_rate_deg_per_s * dt * 2.0 + lim.sensor_jump_deg:
-            st = replace(st, prev_deg=meas, prev_t_s=x.now_s)
             return fault("sensor_jump", f"reading jumped {jump:.2f} deg in {dt * 1000:.0f} ms")
-    st = replace(st, prev_deg=meas, prev_t_s=x.now_s)
 
     driven = abs(x.duty) >= 0.9 * x.min_duty and x.duty != 0.0
     sign = (x.duty > 0) - (x.duty < 0)
     if not driven:
         rest = st.rest_deg if st.rest_deg is not None else meas
-        st = replace(st, rest_deg=rest, progress_deg=None, dir_sign=0.0)
+        ch.update(rest_deg=rest, progress_deg=None, dir_sign=0.0)
         if abs(meas - rest) > lim.runaway_deg:
             return fault("runaway", f"moved {meas - rest:+.2f} deg with the motor off")
-        return st, None
+        return None
 
-    st = replace(st, rest_deg=None)
+    ch["rest_deg"] = None
+    anchor, progress, progress_t = st.dir_anchor_deg, st.progress_deg, st.progress_t_s
     if sign != st.dir_sign:
-        st = replace(st, dir_sign=float(sign), dir_anchor_deg=meas, progress_deg=meas, progress_t_s=x.now_s)
-    if (meas - st.dir_anchor_deg) * sign < -lim.runaway_deg:
-        return fault("runaway", f"moving the wrong way: {meas - st.dir_anchor_deg:+.2f} deg while driven "
+        anchor, progress, progress_t = meas, meas, x.now_s
+        ch.update(dir_sign=float(sign), dir_anchor_deg=meas)
+    if (meas - anchor) * sign < -lim.runaway_deg:
+        return fault("runaway", f"moving the wrong way: {meas - anchor:+.2f} deg while driven "
                                 f"{'up/cw' if sign > 0 else 'down/ccw'}")
-    if st.progress_deg is None or abs(meas - st.progress_deg) >= lim.progress_deg:
-        if st.progress_deg is not None:  # turning: learn what running current looks like
+    if progress is None or abs(meas - progress) >= lim.progress_deg:
+        if progress is not None:  # turning: learn what running current looks like
             run = abs(x.current_a) if st.running_a is None else 0.8 * st.running_a + 0.2 * abs(x.current_a)
-            st = replace(st, running_a=run)
-        st = replace(st, progress_deg=meas, progress_t_s=x.now_s)
-    elif x.now_s - st.progress_t_s > lim.stall_after_s:
-        stuck_for = x.now_s - st.progress_t_s
-        if st.running_a is not None and 0 < abs(x.current_a) < 1.5 * st.running_a:
-            return fault("sensor_stuck", f"driven for {stuck_for:.1f} s at running current "
-                                         f"{x.current_a:.2f} A but the reading does not change")
-        return fault("stall", f"driven for {stuck_for:.1f} s without moving (current {x.current_a:.2f} A)")
-    return st, None
+            ch["running_a"] = run
+        ch.update(progress_deg=meas, progress_t_s=x.now_s)
+    else:
+        ch.update(progress_deg=progress, progress_t_s=progress_t)
+        if x.now_s - progress_t > lim.stall_after_s:
+            stuck_for = x.now_s - progress_t
+            if st.running_a is not None and 0 < abs(x.current_a) < 1.5 * st.running_a:
+                return fault("sensor_stuck", f"driven for {stuck_for:.1f} s at running current "
+                                             f"{x.current_a:.2f} A but the reading does not change")
+            return fault("stall", f"driven for {stuck_for:.1f} s without moving (current {x.current_a:.2f} A)")
+    return None

@@ -587,14 +587,18 @@ class Rotator:
         return any(ax.uncertainty_deg > 0 for ax in self.axes.values())
 
     def _moving(self) -> bool:
+        # coasting counts as moving; sensor noise on a standing axis does not
         return any(ax.law.mode in ("driving", "releasing") or
-                   abs(ax.rate_deg_per_s) > 2 * ax.caps.sensor.resolution_deg for ax in self.axes.values())
+                   abs(ax.rate_deg_per_s) > max(2 * ax.caps.sensor.resolution_deg, 0.5 * ax.caps.min_rate_deg_per_s)
+                   for ax in self.axes.values())
 
     def _maybe_save(self, now_s: float) -> None:
         if self.store is None or now_s - self._last_save_t_s < self.settings.save_interval_s:
             return
         moving = self._moving()
-        changed = any(abs(ax.meas_deg - self._saved_pos.get(n, math.inf)) >= 0.5 * ax.caps.sensor.resolution_deg
+        # a change worth a write: more than a flickering count or sensor noise
+        changed = any(abs(ax.meas_deg - self._saved_pos.get(n, math.inf)) >=
+                      1.5 * ax.caps.sensor.resolution_deg + 3 * ax.caps.sensor.noise_deg
                       for n, ax in self.axes.items())
         if not (moving or changed or self._last_save_t_s == -math.inf):
             return

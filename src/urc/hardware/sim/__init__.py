@@ -68,7 +68,11 @@ def build_sim_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
 
     return Hardware(backend="sim", az=axis_hw("az"), el=axis_hw("el"),
                     poll_hook=world.advance_to, truth_hook=world.truth,
-                    close_hook=world.close, extra={"world": world})
+                    close_hook=world.close,
+                    # what a motor driver's over-current trip would be set to: well above
+                    # running current, below the stall current a jam draws
+                    extra={"world": world,
+                           "overcurrent_a": {n: 0.8 * params.axis(n).stall_current_a for n in ("az", "el")}})
 
 
 def _fault_list(spec: Any) -> list[tuple[str, str, dict[str, Any]]]:
