@@ -18,14 +18,20 @@ ALL_PROFILES = sorted(PROFILES)
 class Bench:
     """A rotator on the simulator, driven on virtual time."""
 
-    def __init__(self, profile: str, state_dir: Path, **config):
+    def __init__(self, profile: str, state_dir: Path, exact: bool = False, **config):
+        """``exact=True``: every state/truth record written on virtual time (restart
+        tests); otherwise writes are spaced in wall time too, which is much faster."""
         config.setdefault("rotator", {})["profile"] = profile
         config.setdefault("hardware", {}).setdefault("sim", {}).setdefault("wind", False)
         self.cfg = Config.from_dict(config)
         self.clock = VirtualClock(1000.0)
         self.state_dir = state_dir
-        self.rot = build_rotator(self.cfg, self.clock, state_dir, durable_state=False)
+        self.exact = exact
+        self.rot = self._build()
         self.world = self.rot.hw.extra["world"]
+
+    def _build(self):
+        return build_rotator(self.cfg, self.clock, self.state_dir, durable_state=False, fast_virtual=not self.exact)
 
     def run(self, seconds: float, until=None, on_tick=None):
         return run_virtual(self.rot, self.clock, seconds, until=until, on_tick=on_tick)
@@ -44,14 +50,14 @@ class Bench:
             self.rot.shutdown()
         self.rot.hw.close() if clean else self.world.close()
         nxt = Bench.__new__(Bench)
-        nxt.cfg, nxt.clock, nxt.state_dir = self.cfg, self.clock, self.state_dir
-        nxt.rot = build_rotator(self.cfg, self.clock, self.state_dir, durable_state=False)
+        nxt.cfg, nxt.clock, nxt.state_dir, nxt.exact = self.cfg, self.clock, self.state_dir, self.exact
+        nxt.rot = nxt._build()
         nxt.world = nxt.rot.hw.extra["world"]
         return nxt
 
 
 @pytest.fixture
 def bench(tmp_path):
-    def make(profile: str = "tartu-urc", **config) -> Bench:
-        return Bench(profile, tmp_path / f"state-{profile}", **config)
+    def make(profile: str = "tartu-urc", exact: bool = False, **config) -> Bench:
+        return Bench(profile, tmp_path / f"state-{profile}", exact=exact, **config)
     return make

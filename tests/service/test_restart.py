@@ -14,7 +14,7 @@ def counts(b, axis):
 
 @pytest.mark.parametrize("profile", ALL_PROFILES)
 def test_orderly_restart_keeps_position_and_wrap(bench, profile):
-    b = bench(profile)
+    b = bench(profile, exact=True)
     lo, hi = b.rot.status().limits["az"]
     az_target = 380.0 if hi >= 390 else 200.0  # on the overlap where there is one
     b.rot.goto(az_target, 30.0)
@@ -33,7 +33,7 @@ def test_orderly_restart_keeps_position_and_wrap(bench, profile):
 
 @pytest.mark.parametrize("profile", ["tartu-urc", "bigras"])  # incremental sensors
 def test_kill_mid_move_reports_uncertainty_or_exact_position(bench, profile):
-    b = bench(profile)
+    b = bench(profile, exact=True)
     b.rot.goto(150.0, 40.0)
     b.run(6.0)
     assert b.rot.status().moving
@@ -64,7 +64,7 @@ def test_kill_mid_move_reports_uncertainty_or_exact_position(bench, profile):
 
 @pytest.mark.parametrize("damage", ["truncate", "flip", "garbage"])
 def test_damaged_state_file_is_detected_not_trusted(bench, damage):
-    b = bench("tartu-urc")
+    b = bench("tartu-urc", exact=True)
     b.rot.goto(100.0, 30.0)
     b.settle()
     b.rot.shutdown()
@@ -89,7 +89,7 @@ def test_damaged_state_file_is_detected_not_trusted(bench, damage):
 
 
 def test_absolute_sensor_restart_needs_no_state(bench):
-    b = bench("g5500")
+    b = bench("g5500", exact=True)
     b.rot.goto(200.0, 60.0)
     b.settle()
     (b.state_dir / "state.json").unlink()
@@ -100,7 +100,7 @@ def test_absolute_sensor_restart_needs_no_state(bench):
 
 
 def test_calibration_and_learnt_coast_persist(bench):
-    b = bench("g4jnt")
+    b = bench("g4jnt", exact=True)
     for az in (100.0, 200.0, 120.0):
         b.rot.goto(az, 20.0)
         b.settle()

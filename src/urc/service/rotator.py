@@ -13,6 +13,7 @@ from __future__ import annotations
 import collections
 import logging
 import math
+import time
 from dataclasses import dataclass, replace
 from typing import Any, Callable
 
@@ -151,6 +152,7 @@ class Rotator:
         self._last_t_s: float | None = None
         self._last_command_t_s = clock.now_s()
         self._last_save_t_s = -math.inf
+        self._last_save_wall_s = -math.inf
         self._saved_pos: dict[str, float] = {}
         self._lateness_ms: collections.deque[float] = collections.deque(maxlen=500)
         self._status: Status | None = None
@@ -538,7 +540,7 @@ class Rotator:
                 ax.mon = MonitorState()
                 self._event(f"{name} re-referenced to {v:.2f} deg")
             self._route = []
-            self._last_save_t_s = -math.inf
+            self._last_save_t_s = self._last_save_wall_s = -math.inf
         self._submit("set_position", apply)
 
     def clear_faults(self) -> None:
@@ -593,7 +595,8 @@ class Rotator:
                    for ax in self.axes.values())
 
     def _maybe_save(self, now_s: float) -> None:
-        if self.store is None or now_s - self._last_save_t_s < self.settings.save_interval_s:
+        if (self.store is None or now_s - self._last_save_t_s < self.settings.save_interval_s
+                or time.monotonic() - self._last_save_wall_s < self.settings.save_wall_spacing_s):
             return
         moving = self._moving()
         # a change worth a write: more than a flickering count or sensor noise
@@ -604,6 +607,7 @@ class Rotator:
             return
         self.save_now(moving)
         self._last_save_t_s = now_s
+        self._last_save_wall_s = time.monotonic()
 
     def save_now(self, moving: bool | None = None) -> None:
         if self.store is None:

@@ -42,6 +42,10 @@ class RotatorSettings:
     az_faults: FaultLimits | None = None
     el_faults: FaultLimits | None = None
     save_interval_s: float = 0.02
+    #: also space state writes this far apart in wall time: only for benchmarks on a
+    #: fast virtual clock, where the disk would otherwise be the bottleneck (a restart
+    #: then finds a record that is older in virtual time than the interval promises).
+    save_wall_spacing_s: float = 0.0
     watchdog_s: float = 0.5
 
     @classmethod

@@ -1,0 +1,93 @@
+"""Property tests: no sequence of commands, from any source, drives an axis past its soft
+limits or through a keep-out zone — on every profile, judged by the simulator's truth."""
+
+from __future__ import annotations
+
+import math
+import tempfile
+from pathlib import Path
+
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from conftest import ALL_PROFILES, Bench
+from urc.control.geometry import KeepOut
+from urc.errors import CommandRejected
+
+MAST = {"name": "mast", "az_min_deg": 80.0, "az_max_deg": 110.0, "el_min_deg": 0.0, "el_max_deg": 25.0}
+NORTH_ROOF = {"name": "roof", "az_min_deg": 330.0, "az_max_deg": 20.0, "el_min_deg": 0.0, "el_max_deg": 8.0}
+
+angle = st.one_of(st.floats(-720, 720), st.sampled_from([math.nan, math.inf, -math.inf]))
+command = st.one_of(
+    st.tuples(st.just("goto"), angle, st.one_of(st.floats(-100, 200), st.just(math.nan))),
+    st.tuples(st.just("move"), st.sampled_from(["az", "el"]), st.sampled_from([-1, 1]), st.floats(0.05, 1.0)),
+    st.tuples(st.just("stop"), st.sampled_from([None, "az", "el"])),
+    st.tuples(st.just("park")),
+    st.tuples(st.just("track"), st.floats(0, 360), st.floats(-10, 100), st.floats(-3, 3), st.floats(-2, 2)),
+)
+step = st.tuples(command, st.floats(0.2, 8.0))
+
+
+def slack(rot, axis: str) -> float:
+    """What sensor quantisation, gear play and coasting may legitimately add."""
+    c = rot.caps.axis(axis)
+    return c.tolerance_deg + 2 * c.sensor.resolution_deg + 4 * c.sensor.noise_deg + 1.6
+
+
+@pytest.mark.parametrize("profile", ALL_PROFILES)
+@settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(steps=st.lists(step, min_size=1, max_size=5))
+def test_no_command_sequence_leaves_limits_or_enters_a_zone(profile, steps):
+    with tempfile.TemporaryDirectory() as tmp:
+        b = Bench(profile, Path(tmp), keepout=[MAST, NORTH_ROOF],
+                  park={"az_deg": 180.0, "el_deg": 45.0})
+        rot = b.rot
+        geometry = rot.geometry
+        # zones shrunk by the allowed slack: the truth may graze, never enter
+        inner = [KeepOut(z.name, z.az_min_deg + 1.0, z.az_max_deg - 1.0, z.el_min_deg, z.el_max_deg - 1.0)
+                 for z in geometry.zones]
+        limits = {a: rot.settings.limits(a) for a in ("az", "el")}
+        violations: list[str] = []
+        outside = {z.name: False for z in inner}  # starting inside a zone is allowed: leave only
+
+        def check(s):
+            truth = s.sim_truth
+            for a in ("az", "el"):
+                lo, hi = limits[a]
+                t = truth[a]["deg"]
+                if not (lo - slack(rot, a) <= t <= hi + slack(rot, a)):
+                    violations.append(f"{a} truth {t:.2f} outside {lo}..{hi}")
+            az, el = geometry.to_sky(truth["az"]["deg"], truth["el"]["deg"])
+            for z in inner:
+                if not z.contains(az, el):
+                    outside[z.name] = True
+                elif outside[z.name]:
+                    violations.append(f"truth az {az:.2f} el {el:.2f} entered {z.name}")
+
+        for (cmd, *args), dwell_s in steps:
+            try:
+                getattr(rot, cmd)(*args)
+            except CommandRejected:
+                pass
+            b.run(dwell_s, on_tick=check)
+            assert not violations, violations[:3]
+        # finally let every command run to its end
+        b.run(60.0, on_tick=check, until=lambda s: not s.moving)
+        assert not violations, violations[:3]
+
+
+@settings(max_examples=200, deadline=None)
+@given(az=angle, el=st.one_of(st.floats(-1000, 1000), st.sampled_from([math.nan, math.inf])))
+def test_rejected_commands_never_change_the_target(az, el):
+    with tempfile.TemporaryDirectory() as tmp:
+        b = Bench("g5500", Path(tmp), keepout=[MAST])
+        try:
+            b.rot.goto(az, el)
+        except CommandRejected:
+            b.run(0.1)
+            s = b.rot.status()
+            assert s.az.target_deg is None and s.el.target_deg is None
+            assert not s.moving
+            return
+        assert math.isfinite(az) and math.isfinite(el)
