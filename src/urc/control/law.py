@@ -149,7 +149,10 @@ def step(st: AxisState, sp: Setpoint | None, meas_deg: float, now_s: float, dt_s
             return _hold(st, meas_deg, now_s, tun, brake_released=st.mode == "driving")
 
     if st.mode in ("idle", "holding"):
-        if abs(error_deg) <= tun.restart_deg and not (tracking and tun.drive == "pwm"):
+        # a relay following a moving target restarts at the tolerance, not the wider
+        # settling band: the target keeps walking away, so waiting costs accuracy
+        band = tun.tolerance_deg if tracking else tun.restart_deg
+        if abs(error_deg) <= band and not (tracking and tun.drive == "pwm"):
             return _hold(st, meas_deg, now_s, tun, brake_released=_keep_brake_off(st, now_s, tun, tracking))
         st = replace(st, mode="driving", ref_deg=meas_deg, ref_rate_deg_per_s=0.0,
                      integral_deg_s=0.0, arrived=False,
@@ -164,7 +167,7 @@ def step(st: AxisState, sp: Setpoint | None, meas_deg: float, now_s: float, dt_s
         st = replace(st, mode="driving", phase_until_s=-1.0)
 
     if tun.drive == "relay":
-        return _relay(st, target_deg, error_deg, meas_deg, now_s, tun)
+        return _relay(st, target_deg, sp.rate_deg_per_s, error_deg, meas_deg, now_s, tun)
     return _pwm(st, sp, target_deg, error_deg, meas_deg, meas_rate_deg_per_s, now_s, dt_s, tun, tracking)
 
 
@@ -226,16 +229,25 @@ def _pwm(st: AxisState, sp: Setpoint, target_deg: float, error_deg: float, meas_
     return st, AxisOutput(duty, tun.brake, True)
 
 
-def _relay(st: AxisState, target_deg: float, error_deg: float, meas_deg: float, now_s: float,
-           tun: AxisTuning) -> tuple[AxisState, AxisOutput]:
+def _relay(st: AxisState, target_deg: float, target_rate: float, error_deg: float, meas_deg: float,
+           now_s: float, tun: AxisTuning) -> tuple[AxisState, AxisOutput]:
     levels = tun.drive_levels or (1.0,)
     remaining = error_deg * st.approach_sign
     fast, slow = len(levels) - 1, 0
-    # Go slow once within a couple of fast-coast distances plus a second of slow running.
-    slow_zone = 2.0 * st.coast_deg[fast] + levels[slow] * tun.max_rate_deg_per_s * 1.0 + tun.restart_deg
-    level = slow if remaining < slow_zone else fast
-    if (abs(error_deg) <= tun.tolerance_deg or remaining <= st.coast_deg[level] + 0.5 * tun.tolerance_deg
-            or _crossed(st, error_deg)):
+    slow_rate = levels[slow] * tun.max_rate_deg_per_s
+    # A moving target in the direction of travel is overtaken by half the tolerance, so
+    # the error swings evenly around zero between bursts instead of always lagging.
+    lead = 0.5 * tun.tolerance_deg if target_rate * st.approach_sign > 0 else 0.0
+    # Go slow once within a couple of fast-coast distances plus a second of slow running,
+    # unless the target itself moves faster than the slow speed can follow.
+    slow_zone = 2.0 * st.coast_deg[fast] + slow_rate * 1.0 + tun.restart_deg
+    level = slow if remaining < slow_zone and abs(target_rate) < 0.8 * slow_rate else fast
+    if lead:
+        cut = remaining <= st.coast_deg[level] - lead
+    else:
+        cut = (abs(error_deg) <= tun.tolerance_deg or _crossed(st, error_deg)
+               or remaining <= st.coast_deg[level] + 0.5 * tun.tolerance_deg)
+    if cut:
         st = replace(st, cut_deg=meas_deg, cut_level=level, still_since_s=now_s, last_meas_deg=meas_deg)
         return _hold(st, meas_deg, now_s, tun, brake_released=False)
     duty = math.copysign(levels[level], error_deg)
