@@ -121,7 +121,7 @@ def cpu_share(profile: str, window_s: float = 5.0) -> dict:
     port = free_port()
     with tempfile.TemporaryDirectory() as tmp:
         cfg = Path(tmp) / "urc.toml"
-        cfg.write_text(f'[rotator]\nprofile = "{profile}"\n[api]\nport = {port}\n')
+        cfg.write_text(f'serve = []\n[rotator]\nprofile = "{profile}"\n[api]\nport = {port}\n')
         proc = subprocess.Popen([sys.executable, "-m", "urc", "run", "--config", str(cfg), "--state-dir", tmp],
                                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         try:

@@ -3,17 +3,14 @@
 from __future__ import annotations
 
 import json
-import os
 import signal
-import socket
 import subprocess
-import sys
 import time
 import tomllib
 
 import pytest
 
-URC = [sys.executable, "-m", "urc"]
+from urc_process import URC, UrcProcess, free_port
 
 
 def urc(*args, check=True, **kw):
@@ -23,52 +20,17 @@ def urc(*args, check=True, **kw):
     return res
 
 
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+class Controller(UrcProcess):
+    """A real ``urc run`` process on the simulator, driven through the ``urc`` CLI."""
 
-
-class Controller:
-    """A real ``urc run`` process on the simulator."""
-
-    def __init__(self, tmp_path, profile="tartu-urc", extra_config=""):
-        self.port = free_port()
-        self.state_dir = tmp_path / "state"
-        self.config = tmp_path / "urc.toml"
-        self.config.write_text(f'[rotator]\nprofile = "{profile}"\n[hardware.sim]\nwind = false\n'
-                               f'[api]\nport = {self.port}\n' + extra_config)
-        self.url = f"http://127.0.0.1:{self.port}"
-        self.proc = None
-
-    def start(self):
-        self.proc = subprocess.Popen(URC + ["run", "--config", str(self.config), "--state-dir", str(self.state_dir)],
-                                     stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-        deadline = time.monotonic() + 30
-        while time.monotonic() < deadline:
-            if self.proc.poll() is not None:
-                raise AssertionError(f"urc run exited: {self.proc.stdout.read()}")
-            try:
-                socket.create_connection(("127.0.0.1", self.port), timeout=0.2).close()
-                return self
-            except OSError:
-                time.sleep(0.1)
-        raise AssertionError("urc run did not start listening")
+    def __init__(self, tmp_path, profile="tartu-urc"):
+        super().__init__(tmp_path, profile=profile)
 
     def cli(self, *args, check=True):
         return urc(*args, "--url", self.url, check=check)
 
     def status(self) -> dict:
         return json.loads(self.cli("status", "--json").stdout)
-
-    def wait(self, pred, timeout_s=60.0) -> dict:
-        deadline = time.monotonic() + timeout_s
-        while time.monotonic() < deadline:
-            s = self.status()
-            if pred(s):
-                return s
-            time.sleep(0.2)
-        raise AssertionError(f"condition not met; last status {s}")
 
     def stop(self, sig=signal.SIGTERM) -> str:
         self.proc.send_signal(sig)

@@ -12,7 +12,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from pydantic import BaseModel
 
-from urc.config import EXAMPLE_CONFIG, Config, KeepoutZone, load_config, loads_config
+from urc.config import EXAMPLE_CONFIG, Config, KeepoutZone, ServeEntry, load_config, loads_config
 from urc.errors import ConfigError
 from urc.profiles import PROFILES, get_profile
 
@@ -156,11 +156,13 @@ def test_example_mentions_every_key():
                 yield prefix, name
     text = EXAMPLE_CONFIG
     for prefix, name in keys(Config()):
-        if name == "keepout":
-            assert "[[keepout]]" in text
+        if name in ("keepout", "serve"):
+            assert f"[[{name}]]" in text
             continue
         assert re.search(rf"^#? ?{name} = ", text, re.M), f"{prefix}{name} missing"
     for field in KeepoutZone.model_fields:
+        assert re.search(rf"^# {field} = ", text, re.M), field
+    for field in ServeEntry.model_fields:
         assert re.search(rf"^# {field} = ", text, re.M), field
 
 

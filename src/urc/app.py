@@ -109,12 +109,24 @@ async def serve(cfg: Config, state_dir: Path, clock: Clock | None = None) -> Non
           f"(OpenAPI at /openapi.json)", flush=True)
     for event in rotator.status().events:
         print(f"urc: {event}", flush=True)
+    from .servers import start_endpoints
+
+    try:
+        endpoints = await start_endpoints(cfg.served, rotator)
+    except BaseException:
+        rotator.shutdown()
+        rotator.hw.close()
+        raise
+    for ep in endpoints:
+        print(f"urc: serving {ep.description}", flush=True)
     control = asyncio.create_task(run_realtime(rotator, clock, stop), name="control-loop")
     web = asyncio.create_task(server.serve(), name="api")
     stopper = asyncio.create_task(stop.wait())
     done, _ = await asyncio.wait({control, web, stopper}, return_when=asyncio.FIRST_COMPLETED)
     stop.set()
     server.should_exit = True
+    for ep in endpoints:
+        ep.close()
     await asyncio.gather(control, web, return_exceptions=True)
     stopper.cancel()
     rotator.shutdown()

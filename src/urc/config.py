@@ -42,7 +42,8 @@ from .profiles import DEFAULT_PROFILE, PROFILES
 __all__ = [
     "EXAMPLE_CONFIG", "ApiSection", "AxisControl", "AxisLimits", "Config", "ControlSection",
     "FaultsSection", "HardwareSection", "KeepoutZone", "LimitsSection", "OffsetsSection",
-    "ParkSection", "RotatorSection", "SimSection", "StateSection", "load_config", "loads_config",
+    "ParkSection", "RotatorSection", "ServeEntry", "SimSection", "StateSection", "load_config",
+    "loads_config", "parse_host_port",
 ]
 
 #: the backends this module knows about when the hardware package cannot be asked.
@@ -220,6 +221,50 @@ class StateSection(_Section):
         return Path(platformdirs.user_data_dir("urc"))
 
 
+class ServeEntry(_Section):
+    """One protocol served on one transport: exactly one of tcp, pty, serial, udp."""
+
+    #: one of :data:`urc.protocols.PROTOCOLS`
+    protocol: str
+    #: "host:port" to listen on
+    tcp: str | None = None
+    #: path of a stable symlink to a pseudo-terminal urc creates (``rotctl -r PATH``)
+    pty: str | None = None
+    #: a real serial device, e.g. "/dev/ttyUSB0"
+    serial: str | None = None
+    baud: int = Field(9600, ge=50, le=4_000_000)
+    #: "host:port" to listen on for datagrams (PstRotator)
+    udp: str | None = None
+    #: UDP replies go to the sender's host on this port (PstRotator listens on 12001)
+    reply_port: int = Field(12001, ge=1, le=65535)
+    #: protocol-specific options, e.g. { hamlib_version = "4.6" }
+    options: dict[str, str | int | float | bool] = Field(default_factory=dict, strict=False)
+
+    @property
+    def transport(self) -> tuple[str, str]:
+        for kind in ("tcp", "pty", "serial", "udp"):
+            value = getattr(self, kind)
+            if value is not None:
+                return kind, value
+        raise ValueError("no transport")
+
+    def describe(self) -> str:
+        kind, where = self.transport
+        return f"{self.protocol} on {kind} {where}"
+
+
+#: what urc serves when the configuration has no [[serve]] entries at all
+DEFAULT_SERVE = (ServeEntry(protocol="rotctld", tcp="127.0.0.1:4533"),)
+
+
+def parse_host_port(text: str) -> tuple[str, int]:
+    """``"127.0.0.1:4533"`` or ``"[::1]:4533"`` -> (host, port); ValueError if not."""
+    host, sep, port = text.rpartition(":")
+    if not sep or not host or not port.isdigit() or not 0 <= int(port) <= 65535:
+        raise ValueError(text)
+    return host.strip("[]"), int(port)
+
+
 class Config(_Section):
     rotator: RotatorSection = RotatorSection()
     hardware: HardwareSection = HardwareSection()
@@ -232,6 +277,12 @@ class Config(_Section):
     faults: FaultsSection = FaultsSection()
     api: ApiSection = ApiSection()
     state: StateSection = StateSection()
+    #: protocols served and where; None (no [[serve]] at all) = rotctld on 127.0.0.1:4533
+    serve: tuple[ServeEntry, ...] | None = Field(None, strict=False)
+
+    @property
+    def served(self) -> tuple[ServeEntry, ...]:
+        return DEFAULT_SERVE if self.serve is None else self.serve
 
     @model_validator(mode="after")
     def _check_against_profile(self) -> Config:
@@ -439,6 +490,30 @@ def _cross_check(cfg: Config) -> list[_Issue]:
                 issues.append((key, f"a park position outside keep-out zone {z.label(i)!r}",
                                (paz, pel), "" if user else
                                "the profile's park position is inside this zone; set [park]"))
+
+    # served protocols: a known protocol, exactly one well-formed transport each
+    from .protocols.registry import PROTOCOLS
+
+    seen: dict[tuple[str, str], int] = {}
+    for i, entry in enumerate(cfg.serve or ()):
+        pre = f"serve[{i}]"
+        if entry.protocol not in PROTOCOLS:
+            issues.append((f"{pre}.protocol", "one of " + ", ".join(PROTOCOLS), entry.protocol,
+                           _suggest(entry.protocol, list(PROTOCOLS))))
+        given = [k for k in ("tcp", "pty", "serial", "udp") if getattr(entry, k) is not None]
+        if len(given) != 1:
+            issues.append((pre, "exactly one of tcp, pty, serial, udp", given or "none", ""))
+            continue
+        kind, where = entry.transport
+        if kind in ("tcp", "udp"):
+            try:
+                parse_host_port(where)
+            except ValueError:
+                issues.append((f"{pre}.{kind}", '"host:port", e.g. "127.0.0.1:4533"', where, ""))
+        if (kind, where) in seen:
+            issues.append((f"{pre}.{kind}", f"an address not already used by serve[{seen[kind, where]}]",
+                           where, ""))
+        seen[(kind, where)] = i
 
     # control overrides within what the profile can do
     eff_ctl = cfg.effective_control(caps)
