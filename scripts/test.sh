@@ -4,9 +4,8 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-# Debian packages the tests drive for real (none are needed by the core yet; Hamlib's
-# clients and Chromium join this list with the protocol and web issues).
-DEB_PACKAGES=()
+# Debian packages the tests drive for real: Hamlib's own rotctl/rotctld clients.
+DEB_PACKAGES=(libhamlib-utils)
 missing=()
 for pkg in "${DEB_PACKAGES[@]}"; do
   dpkg -s "$pkg" >/dev/null 2>&1 || missing+=("$pkg")

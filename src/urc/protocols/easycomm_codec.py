@@ -45,9 +45,9 @@ _EOL_RE = re.compile(rb"[\r\n]")
 
 
 class LineBuffer:
-    """Cuts a byte stream into lines ended by ``\r`` or ``\n``, any split allowed.
+    """Cuts a byte stream into lines ended by ``\\r`` or ``\\n``, any split allowed.
 
-    ``\r\n`` yields an extra empty line, which callers skip. Bounded: an unfinished
+    ``\\r\\n`` yields an extra empty line, which callers skip. Bounded: an unfinished
     line longer than ``max_bytes`` is dropped, reported once as ``None`` in the output,
     and everything up to the next terminator is discarded with it (its tail is not a
     command), so the stream resynchronises at the next line. Shared by the Easycomm and

@@ -65,10 +65,17 @@ class _Axis:
         self.limit_min = self.limit_max = False
         # Speed of a quantised sensor: the slope over a window ten counts long at
         # full speed (differencing tick to tick gives spikes of one count per tick).
-        window_s = min(0.5, max(0.1, 10.0 * self.caps.sensor.resolution_deg / self.caps.max_rate_deg_per_s))
-        self._history: collections.deque[tuple[float, float]] = collections.deque(
+        sensor = self.caps.sensor
+        window_s = min(0.5, max(0.1, 10.0 * (sensor.resolution_deg + sensor.noise_deg) / self.caps.max_rate_deg_per_s))
+        #: speed below which the axis counts as standing: 3 sigma of the estimate's noise
+        #: (filtered noise ~0.42 x sensor noise, differenced over the window), at least
+        #: two counts per second
+        self.still_rate_deg_per_s = max(2 * sensor.resolution_deg, 0.5 * self.caps.min_rate_deg_per_s,
+                                        3 * 0.84 * sensor.noise_deg / window_s)
+        self.history: collections.deque[tuple[float, float]] = collections.deque(
             maxlen=max(2, round(window_s * settings.caps.loop_hz) + 1))
         self._t_s = 0.0
+        self._filter_rate = 0.0
 
     # ---- sensing ------------------------------------------------------------------
     def unwrap(self, raw_deg: float, near_deg: float) -> float:
@@ -88,16 +95,17 @@ class _Axis:
             return None
         mech = self.unwrap(raw, self.meas_deg)
         if self.noisy and self.sensor_ok and dt_s > 0:
-            pred = self.meas_deg + self.rate_deg_per_s * dt_s
+            pred = self.meas_deg + self._filter_rate * dt_s
             resid = mech - pred
             self.meas_deg = pred + FILTER_ALPHA * resid
-            self.rate_deg_per_s += FILTER_BETA * resid / dt_s
+            self._filter_rate += FILTER_BETA * resid / dt_s
         else:
             self.meas_deg = mech
-            self._history.append((self._t_s, mech))
-            t_old, p_old = self._history[0]
-            if self._t_s - t_old > 0:
-                self.rate_deg_per_s = (mech - p_old) / (self._t_s - t_old)
+        # the reported speed: slope over the window (the filter's own rate is too noisy)
+        self.history.append((self._t_s, self.meas_deg))
+        t_old, p_old = self.history[0]
+        if self._t_s - t_old > 0:
+            self.rate_deg_per_s = (self.meas_deg - p_old) / (self._t_s - t_old)
         self.sensor_ok, self.sensor_error = True, ""
         return mech
 
@@ -297,9 +305,13 @@ class Rotator:
             lo, hi = ax.limits
             slack = ax.tuning.tolerance_deg
             rest = ax.stop_position_deg()
+            # The law brakes to a stop at a limit on its own; this only catches a gross
+            # overrun, so the predicted rest point gets half its own stopping distance of
+            # benefit of the doubt (the speed estimate lags and is quantised).
+            margin = slack + 0.5 * abs(rest - ax.meas_deg)
             # only drive that pushes outwards is cut; braking towards the inside is fine
-            if (d > 0 and (ax.limit_max or max(rest, ax.meas_deg) > hi + slack)) or \
-               (d < 0 and (ax.limit_min or min(rest, ax.meas_deg) < lo - slack)):
+            if (d > 0 and (ax.limit_max or ax.meas_deg > hi + slack or rest > hi + margin)) or \
+               (d < 0 and (ax.limit_min or ax.meas_deg < lo - slack or rest < lo - margin)):
                 ax.out = replace(ax.out, duty=0.0)
                 ax.sp = None
                 self._event(f"guard: {ax.name} stopped at {ax.meas_deg:.2f} deg before its limit")
@@ -326,6 +338,7 @@ class Rotator:
             self._apply(ax)
         self._route = []
         self._tracking = False
+        self._target_sky = None
         log.error("FAULT %s: %s", fault.kind, fault.reason)
         self._event(f"fault {fault.kind}: {fault.reason}")
 
@@ -404,18 +417,23 @@ class Rotator:
         target = (wrap360(az_deg), el_deg) if self._explicit_pose(az_deg, el_deg) is None \
             else self.geometry.to_sky(*route[-1])
 
+        # The target is known from now on (not from the next tick), so that a goto_el
+        # right after a goto_az in the same breath keeps the azimuth just asked for.
+        self._target_sky = target
+
         def apply() -> None:
             self._parked = False
             self._tracking = False
-            self._target_sky = target
             self._start_route(route)
         self._submit("goto", apply)
         return route
 
     def goto_az(self, az_deg: float) -> list[tuple[float, float]]:
+        """Azimuth only: elevation keeps its target (or where it is, after a stop)."""
         return self.goto(az_deg, self._target_sky[1] if self._target_sky else self.status().el_deg)
 
     def goto_el(self, el_deg: float) -> list[tuple[float, float]]:
+        """Elevation only: azimuth keeps its target (or where it is, after a stop)."""
         return self.goto(self._target_sky[0] if self._target_sky else self.status().az_deg, el_deg)
 
     def park(self) -> list[tuple[float, float]]:
@@ -452,11 +470,12 @@ class Rotator:
         az_rate = az_rate_deg_per_s
         el_rate = -el_rate_deg_per_s if flipped else el_rate_deg_per_s
 
+        self._target_sky = (wrap360(az_deg), el_deg)
+
         def apply() -> None:
             self._parked = False
             self._tracking = True
             self._route = []
-            self._target_sky = (wrap360(az_deg), el_deg)
             seq = self._next_seq()
             for name, p, r in (("az", pose[0], az_rate), ("el", pose[1], el_rate)):
                 lo, hi = self.axes[name].limits
@@ -479,6 +498,7 @@ class Rotator:
         lo, hi = ax.limits
         end = self.geometry.clear_until(self._current_pose(), axis, hi if direction > 0 else lo)
         cap = max(speed_frac * ax.tuning.max_rate_deg_per_s, ax.tuning.min_rate_deg_per_s)
+        self._target_sky = None
 
         def apply() -> None:
             self._parked = False
@@ -491,6 +511,7 @@ class Rotator:
         """Stop (both axes, or one): decelerate at the axis' limit and hold there."""
         if axis is not None and axis not in AXES:
             raise CommandRejected(f"stop takes az, el or nothing, got {axis!r}")
+        self._target_sky = None
 
         def apply() -> None:
             self._route = []
@@ -533,7 +554,8 @@ class Rotator:
                 mech = v - off
                 ax.hw.sensor.set_reference_deg(mech if ax.modulo is None else mech % ax.modulo)
                 ax.meas_deg = mech
-                ax.rate_deg_per_s = 0.0
+                ax.rate_deg_per_s = ax._filter_rate = 0.0
+                ax.history.clear()
                 ax.uncertainty_deg = 0.0
                 ax.sp = None
                 ax.law = replace(ax.law, ref_deg=mech, ref_rate_deg_per_s=0.0, mode="idle")
@@ -542,6 +564,25 @@ class Rotator:
             self._route = []
             self._last_save_t_s = self._last_save_wall_s = -math.inf
         self._submit("set_position", apply)
+
+    def set_overshoot(self, axis: str, overshoot_deg: float) -> None:
+        """Set the coast estimate of a relay axis (Tartu OVRA/OVRE); it keeps learning."""
+        if axis not in AXES:
+            raise CommandRejected(f"overshoot needs axis az|el, got {axis!r}")
+        if not (math.isfinite(overshoot_deg) and 0.0 <= overshoot_deg <= 20.0):
+            raise CommandRejected(f"overshoot {overshoot_deg!r} outside 0..20 deg")
+        ax = self.axes[axis]
+        levels = ax.tuning.drive_levels or (1.0,)
+
+        def apply() -> None:
+            # the coast scales with the speed of each drive level
+            ax.law = replace(ax.law, coast_deg=tuple(overshoot_deg * lv / max(levels) for lv in levels))
+            self._last_save_t_s = self._last_save_wall_s = -math.inf
+        self._submit("set_overshoot", apply)
+
+    def overshoot_deg(self, axis: str) -> float:
+        """The present coast estimate at full drive (what OVRA/OVRE read)."""
+        return max(self.axes[axis].law.coast_deg, default=0.0)
 
     def clear_faults(self) -> None:
         def apply() -> None:
@@ -590,8 +631,7 @@ class Rotator:
 
     def _moving(self) -> bool:
         # coasting counts as moving; sensor noise on a standing axis does not
-        return any(ax.law.mode in ("driving", "releasing") or
-                   abs(ax.rate_deg_per_s) > max(2 * ax.caps.sensor.resolution_deg, 0.5 * ax.caps.min_rate_deg_per_s)
+        return any(ax.law.mode in ("driving", "releasing") or abs(ax.rate_deg_per_s) > ax.still_rate_deg_per_s
                    for ax in self.axes.values())
 
     def _maybe_save(self, now_s: float) -> None:
@@ -655,4 +695,5 @@ class Rotator:
             moving=self._moving(), parked=self._parked, position_known=not self.position_uncertain(),
             faults=tuple(self._faults), events=tuple(self._events), tick_late_p99_ms=p99,
             sim_truth=self.hw.sim_truth(),
-            limits={"az": az.limits, "el": el.limits})
+            limits={"az": az.limits, "el": el.limits},
+            offsets={"az": self.geometry.az_offset_deg, "el": self.geometry.el_offset_deg})

@@ -43,7 +43,10 @@ class Status:
     #: the simulator's true mechanical state (None on real hardware): benchmarks and
     #: tests compare against it; the controller itself never uses it.
     sim_truth: dict[str, Any] | None = None
+    #: mechanical soft limits per axis; add ``offsets`` for the pointing frame
     limits: dict[str, tuple[float, float]] = field(default_factory=dict)
+    #: mount offsets (pointing = mechanical + offset), degrees
+    offsets: dict[str, float] = field(default_factory=dict)
 
     def as_dict(self) -> dict[str, Any]:
         d = asdict(self)

@@ -1,0 +1,180 @@
+"""rotctld protocol benchmark: urc against Hamlib's own ``rotctld -m 1`` in the same run.
+
+For each server: ``p`` (get_pos) round trip (median, p99) and throughput with 1, 8 and 32
+concurrent clients each sending ``p`` and waiting for the reply, and a burst of 64
+simultaneous connections (how many were accepted and answered). For urc also the control
+loop's tick lateness p99 idle and under the 32-client load (from its status).
+Prints a table with urc/Hamlib ratios, writes JSON (default bench/results/rotctld.json).
+Usage: python bench/rotctld_bench.py [--seconds 3] [--json PATH]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import shutil
+import socket
+import statistics
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+from urc_process import UrcProcess, free_port  # noqa: E402
+
+CLIENTS = (1, 8, 32)
+BURST = 64
+
+
+def wait_port(port: int, timeout_s: float = 10.0) -> None:
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        try:
+            socket.create_connection(("127.0.0.1", port), timeout=0.5).close()
+            return
+        except OSError:
+            time.sleep(0.05)
+    raise RuntimeError(f"nothing listening on {port}")
+
+
+def read_reply(sock: socket.socket, buf: bytearray, lines: int) -> None:
+    while buf.count(b"\n") < lines:
+        chunk = sock.recv(4096)
+        if not chunk:
+            raise ConnectionError("closed")
+        buf.extend(chunk)
+    for _ in range(lines):
+        del buf[: buf.index(b"\n") + 1]
+
+
+def load(port: int, clients: int, seconds: float) -> dict:
+    rtts: list[float] = []
+    lock = threading.Lock()
+    errors = [0]
+    start = threading.Barrier(clients + 1)
+
+    def client() -> None:
+        local = []
+        try:
+            sock = socket.create_connection(("127.0.0.1", port), timeout=5)
+            sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        except OSError:
+            errors[0] += 1
+            start.wait()
+            return
+        buf = bytearray()
+        start.wait()
+        end = time.perf_counter() + seconds
+        try:
+            while time.perf_counter() < end:
+                t0 = time.perf_counter()
+                sock.sendall(b"p\n")
+                read_reply(sock, buf, 2)
+                local.append(time.perf_counter() - t0)
+        except OSError:
+            errors[0] += 1
+        finally:
+            sock.close()
+        with lock:
+            rtts.extend(local)
+
+    threads = [threading.Thread(target=client) for _ in range(clients)]
+    for t in threads:
+        t.start()
+    start.wait()
+    t0 = time.perf_counter()
+    for t in threads:
+        t.join()
+    elapsed = time.perf_counter() - t0
+    rtts.sort()
+    return {"clients": clients, "requests": len(rtts), "throughput_per_s": len(rtts) / elapsed,
+            "median_ms": 1000 * statistics.median(rtts) if rtts else float("nan"),
+            "p99_ms": 1000 * rtts[int(0.99 * (len(rtts) - 1))] if rtts else float("nan"), "errors": errors[0]}
+
+
+def burst(port: int, n: int = BURST) -> dict:
+    """n clients connect at the same instant, each sends one p and reads the reply."""
+    ok = [0]
+    lock = threading.Lock()
+    go = threading.Barrier(n)
+
+    def one() -> None:
+        go.wait()
+        try:
+            with socket.create_connection(("127.0.0.1", port), timeout=5) as sock:
+                sock.sendall(b"p\n")
+                read_reply(sock, bytearray(), 2)
+                with lock:
+                    ok[0] += 1
+        except OSError:
+            pass
+    threads = [threading.Thread(target=one) for _ in range(n)]
+    t0 = time.perf_counter()
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    return {"connections": n, "answered": ok[0], "seconds": time.perf_counter() - t0}
+
+
+def measure(port: int, seconds: float) -> dict:
+    return {"load": [load(port, c, seconds) for c in CLIENTS], "burst": burst(port)}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--seconds", type=float, default=3.0, help="per load level")
+    ap.add_argument("--json", default="bench/results/rotctld.json")
+    args = ap.parse_args()
+    rotctld = shutil.which("rotctld")
+    if rotctld is None:
+        sys.exit("Hamlib's rotctld is needed as the reference (apt-get install libhamlib-utils)")
+    results: dict = {}
+    hport = free_port()
+    hamlib = subprocess.Popen([rotctld, "-m", "1", "-T", "127.0.0.1", "-t", str(hport)],
+                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        wait_port(hport)
+        results["hamlib"] = measure(hport, args.seconds)
+    finally:
+        hamlib.terminate()
+        hamlib.wait()
+    with tempfile.TemporaryDirectory() as tmp:
+        uport = free_port()
+        urc = UrcProcess(Path(tmp), serve=[{"protocol": "rotctld", "tcp": f"127.0.0.1:{uport}"}]).start()
+        try:
+            wait_port(uport)
+            time.sleep(12.0)  # let the lateness window (last 500 ticks = 10 s) fill idle
+            idle_late = urc.status()["tick_late_p99_ms"]
+            results["urc"] = measure(uport, args.seconds)
+            results["urc"]["tick_late_p99_ms_idle"] = idle_late
+            # lateness under load: 32 clients hammering while we sample
+            t = threading.Thread(target=load, args=(uport, 32, 10.0))
+            t.start()
+            t.join()
+            results["urc"]["tick_late_p99_ms_loaded"] = urc.status()["tick_late_p99_ms"]
+        finally:
+            urc.stop()
+
+    print(f"\nrotctld `p` round trip and throughput (localhost, {args.seconds:g} s per level)")
+    print(f"{'clients':>7s} | {'urc med ms':>10s} {'p99 ms':>7s} {'req/s':>8s} | {'hamlib med':>10s} "
+          f"{'p99 ms':>7s} {'req/s':>8s} | {'thr ratio':>9s} {'med ratio':>9s}")
+    for u, h in zip(results["urc"]["load"], results["hamlib"]["load"]):
+        print(f"{u['clients']:7d} | {u['median_ms']:10.3f} {u['p99_ms']:7.3f} {u['throughput_per_s']:8.0f} | "
+              f"{h['median_ms']:10.3f} {h['p99_ms']:7.3f} {h['throughput_per_s']:8.0f} | "
+              f"{u['throughput_per_s'] / h['throughput_per_s']:9.2f} {u['median_ms'] / h['median_ms']:9.2f}")
+    ub, hb = results["urc"]["burst"], results["hamlib"]["burst"]
+    print(f"burst of {BURST}: urc answered {ub['answered']}/{BURST}, hamlib answered {hb['answered']}/{BURST}")
+    print(f"urc control tick lateness p99: idle {results['urc']['tick_late_p99_ms_idle']:.2f} ms, "
+          f"under 32-client load {results['urc']['tick_late_p99_ms_loaded']:.2f} ms")
+    out = Path(args.json)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(json.dumps(results, indent=2))
+    print(f"JSON written to {out}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,185 @@
+"""Yaesu GS-232A / GS-232B / generic GS-232 / FoxDelta ST2 device emulation.
+
+What Hamlib models 601 (GS-232A), 603 (GS-232B), 602/607 (generic) and 608 (FoxDelta
+ST2) talk to. The command set is the same; the replies differ (protocols.md 3.2-3.5):
+
+====================  ======================  ==================  ===========
+                      C2 (position)           after a set         bad command
+====================  ======================  ==================  ===========
+GS-232A               ``+0aaa+0eee\\r\\n``      ``\\r`` (manual)     ``?>\\r``
+GS-232B               ``AZ=aaa  EL=eee\\r\\n``  nothing             ``?>\\r\\n``
+generic / FoxDelta    ``+0aaa+0eee\\r``         nothing             ``?>\\r``
+====================  ======================  ==================  ===========
+
+Positions are in the controller's own frame, as a G-5500's potentiometers read them:
+azimuth 0..450 including the cable wrap (Hamlib does not map 350 back to -10), elevation
+0..180 including the flip. Values sent in that frame name that pose and are passed to
+the rotator unchanged.
+"""
+
+from __future__ import annotations
+
+from ..errors import CommandRejected
+from ..service.snapshot import Status
+from .base import MAX_PENDING_BYTES, RotatorPort, protocol_logger
+from .easycomm_codec import LineBuffer
+from .gs232_codec import (SPEED_LEVELS, STYLE_A, STYLE_B, STYLE_GENERIC, Command, Gs232ParseError,
+                          format_error, format_position, parse_command)
+
+#: the speed a session starts with (X4, fastest), until the client sends X1..X4.
+DEFAULT_SPEED_LEVEL = 4
+
+
+def controller_pose(s: Status) -> tuple[float, float]:
+    """(az, el) in the controller frame: mechanical position plus mount offsets."""
+    offsets = getattr(s, "offsets", None) or {}
+    if "az" in offsets:
+        az_off, el_off = offsets["az"], offsets.get("el", 0.0)
+    else:
+        # a snapshot without offsets: they are the difference between the sky direction
+        # and the mechanical position (az offset within +-180, as configuration allows)
+        sky_el = 180.0 - s.el_deg if s.flipped else s.el_deg
+        az_unflipped = s.az_deg - 180.0 if s.flipped else s.az_deg
+        az_off = (az_unflipped - s.az.pos_deg + 180.0) % 360.0 - 180.0
+        el_off = sky_el - s.el.pos_deg
+    az, el = s.az.pos_deg + az_off, s.el.pos_deg + el_off
+    az_lo = s.limits.get("az", (0.0, 0.0))[0] + az_off
+    if az < -0.5 and az_lo < -0.5:
+        # a rotator whose range starts below 0 (e.g. -90..450): GS-232 has no sign for
+        # azimuth, and Hamlib adds 360 to negatives, so report the same direction
+        az += 360.0
+    return az, el
+
+
+class _Gs232Session:
+    protocol = "gs232"
+    style = STYLE_A
+
+    def __init__(self, rotator: RotatorPort) -> None:
+        self.rotator = rotator
+        self.closed = False
+        self._lines = LineBuffer(MAX_PENDING_BYTES)
+        self._log = protocol_logger(self.protocol)
+        self._speed_frac = SPEED_LEVELS[DEFAULT_SPEED_LEVEL]
+
+    # ------------------------------------------------------------------ Session API
+    def receive(self, data: bytes) -> list[bytes]:
+        out: list[bytes] = []
+        for line in self._lines.feed(bytes(data)):
+            if line is None:
+                self._log.warning("command longer than %d bytes dropped", MAX_PENDING_BYTES)
+                out.append(format_error(self.style))
+                continue
+            try:
+                out += self._line(line)
+            except Exception:  # a bug must not take the connection down
+                self._log.exception("internal error on %r", line)
+                out.append(format_error(self.style))
+        return out
+
+    def tick(self, now_s: float) -> list[bytes]:
+        return []
+
+    # ------------------------------------------------------------------ one command
+    def _line(self, line: bytes) -> list[bytes]:
+        if not line.strip(b" \t"):
+            # Hamlib 603 sends a bare CR after every write, and CRLF leaves an empty
+            # half: silence (a late "?>" could land in the next reply Hamlib reads)
+            return []
+        try:
+            cmd = parse_command(line)
+        except Gs232ParseError as exc:
+            self._log.warning("%s", exc)
+            return [format_error(self.style)]
+        try:
+            reply = self._do(cmd)
+        except CommandRejected as exc:
+            self._log.warning("%r refused (%s): %s", line, exc.reason, exc)
+            return self._refused()
+        return [reply] if reply is not None else self._ack()
+
+    def _ack(self) -> list[bytes]:
+        """After a command without data. GS-232A: a CR (its manual). Hamlib 601 waits
+        50 ms after every write and flushes before the next command, so it never reads it."""
+        return [b"\r"]
+
+    def _refused(self) -> list[bytes]:
+        return [format_error(self.style)]
+
+    def _do(self, cmd: Command) -> bytes | None:
+        rot = self.rotator
+        if cmd.op == "read":
+            az, el = controller_pose(rot.status())  # never cached
+            return format_position(self.style, az if cmd.what in ("az", "azel") else None,
+                                   el if cmd.what in ("el", "azel") else None)
+        if cmd.op == "goto":
+            rot.goto(cmd.az_deg, cmd.el_deg)
+        elif cmd.op == "goto_az":
+            rot.goto(cmd.az_deg, self._el_to_keep(rot.status()))
+        elif cmd.op == "stop":
+            rot.stop(cmd.what)
+        elif cmd.op == "move":
+            rot.move(cmd.what, cmd.direction, self._speed_frac)
+        elif cmd.op == "speed":
+            # applies to the next L/R/U/D (Hamlib sends X just before the direction)
+            self._speed_frac = SPEED_LEVELS[cmd.level]
+        return None
+
+    @staticmethod
+    def _el_to_keep(s: Status) -> float:
+        """``Maaa`` turns the azimuth only: elevation keeps its mechanical pose (a flipped
+        120 stays 120) or, while moving, its current target; clamped to the limits so
+        sensor noise at the bottom stop cannot make the command illegal."""
+        el = controller_pose(s)[1]
+        el_off = el - s.el.pos_deg
+        if s.moving and s.el.target_deg is not None:
+            el = s.el.target_deg + el_off
+        lo, hi = s.limits.get("el", (el - el_off, el - el_off))
+        return min(max(el, lo + el_off), hi + el_off)
+
+
+class Gs232aSession(_Gs232Session):
+    """Yaesu GS-232A (Hamlib 601): C2 -> ``+0aaa+0eee\\r\\n``, a CR after every command."""
+
+    protocol = "gs232a"
+    style = STYLE_A
+
+
+class Gs232bSession(_Gs232Session):
+    """Yaesu GS-232B (Hamlib 603): C2 -> ``AZ=aaa  EL=eee\\r\\n``.
+
+    What a real GS-232B sends after a successful set is not known (protocols.md 7). We
+    send nothing: Hamlib 603 stops reading at the first CR, so a stray CR that its flush
+    missed would be read as a one-byte reply to the next C2 and fail it (-8, no retry);
+    silence is always safe. Its extra bare CR after each write is ignored likewise.
+    """
+
+    protocol = "gs232b"
+    style = STYLE_B
+
+    def _ack(self) -> list[bytes]:
+        return []
+
+
+class Gs232GenericSession(_Gs232Session):
+    """Generic GS-232 (Hamlib 602/607): C2 -> ``+0aaa+0eee\\r`` (read to CR, 11 bytes max).
+
+    Hamlib writes these commands back to back with no delay and never reads a reply to
+    W or S, so a set is answered with nothing, not even when refused: a ``?>`` arriving
+    after Hamlib's flush would be read as the answer to its next C2.
+    """
+
+    protocol = "gs232"
+    style = STYLE_GENERIC
+
+    def _ack(self) -> list[bytes]:
+        return []
+
+    def _refused(self) -> list[bytes]:
+        return []
+
+
+class FoxDeltaSession(Gs232GenericSession):
+    """FoxDelta ST2 (Hamlib 608): Hamlib drives it with the generic GS-232 code."""
+
+    protocol = "foxdelta"

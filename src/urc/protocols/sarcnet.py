@@ -1,0 +1,255 @@
+"""The SARCNET mini rotator's serial console (Rotator7.ino, VK3FOWL/VK3YSP), on urc.
+
+Lines end CR, LF or CRLF. As on the Arduino, the port carries two kinds of line:
+
+**Console** (a person at a terminal; replies end CR LF):
+
+=======  ======================================================================
+az el    go to azimuth ``az`` (0..360 or -180..180) and elevation ``el``, e.g.
+         ``120 30`` or ``-90 45``; silent on success like the original, ``Error: ..``
+         when refused. While paused the target is kept and flown on resume.
+r        reset: leave any mode, stop, clear latched faults (the Arduino reboots its
+         state). Unlike the original, whose reset zeroes the set point and so drives
+         home, urc does not move on ``r``; send ``0 0`` for that.
+b        debug mode: stream ``az_mech,el_mech,az_rate,el_rate,az_duty,el_duty`` every
+         ``interval_s`` (the original streams raw magnetometer/accelerometer vectors,
+         which urc's sensor drivers keep to themselves)
+c        calibrate: not available on this rotator (the original's 12-point hard/soft
+         iron calibration needs the sensor waved by hand; urc keeps the calibration in
+         its sensor driver)
+d        demo mode: sweep the set point at 1 deg/s, azimuth -180..180 and elevation
+         0..90 bouncing at the ends, flying it and printing ``azSet,elSet`` each period
+m        monitor mode: stream ``az,el,azSet,elSet,azWindup,windup,azError,elError``
+         every ``interval_s`` (whole degrees; az in -180..180; azWindup = azimuth with
+         its cable wrap, e.g. 400 or -10; windup = 1 while that lies outside 0..360,
+         the overlap urc unwinds when it next can; error = position - set point)
+a        abort the running mode (debug, monitor, demo: demo motion stops)
+e[NN.N]  magnetic declination: not settable on this rotator (it lives in urc's
+         compass driver calibration) -> ``Error: ..``
+s        save calibration: nothing to do, urc saves position and calibration itself
+p        pause: stop and hold; ``p`` again resumes (flying a target given meanwhile)
+h        help
+=======  ======================================================================
+
+**Easycomm II subset** (Hamlib rotctld model 202 / Gpredict; replies end LF only):
+``AZ`` -> ``AZ123.4``, ``EL`` -> ``EL45.6``, ``AZ EL`` (Hamlib 4.5) -> ``AZ123.4 EL45.6``,
+``AZx ELy`` (optionally with Easycomm I ``UPnnn XXX DNnnn XXX``) sets, ``SA``/``SE`` stop;
+sets and stops are answered with nothing, malformed Easycomm lines are logged only.
+
+Options: ``interval_s`` (0.1): period of the monitor, debug and demo streams (the
+Arduino's 100 ms timer); they are emitted from ``tick(now_s)``.
+"""
+
+from __future__ import annotations
+
+from ..errors import CommandRejected
+from ..service.snapshot import Status
+from .base import MAX_PENDING_BYTES, RotatorPort, protocol_logger
+from . import sarcnet_codec as codec
+from .sarcnet_codec import SarcnetCommand, SarcnetSyntaxError, signed180
+from .tartu_support import LineSplitter, TargetMemory, extended_pose_deg
+
+log = protocol_logger("sarcnet")
+
+DEMO_RATE_DEG_PER_S = 1.0       # the original: 0.05 deg every 50 ms
+DEMO_GOTO_EVERY_S = 0.5         # refresh the rotator's target no faster than this
+
+
+class SarcnetSession:
+    """One connection to the SARCNET console. Option ``interval_s`` (0.1 s): period of
+    the monitor, debug and demo streams."""
+
+    def __init__(self, rotator: RotatorPort, *, interval_s: float = 0.1):
+        if not interval_s > 0:
+            raise ValueError(f"interval_s must be > 0, got {interval_s!r}")
+        self.rotator = rotator
+        self.closed = False
+        self.interval_s = float(interval_s)
+        self.mode = "tracking"        # tracking | monitoring | debugging | demonstrating | pausing
+        self._lines = LineSplitter(MAX_PENDING_BYTES)
+        self._targets = TargetMemory()
+        self._next_s: float | None = None
+        self._last_s: float | None = None
+        self._held: tuple[float, float] | None = None      # target given while paused
+        self._demo = [0.0, 0.0]                             # set point: az (-180..180), el
+        self._demo_inc = [DEMO_RATE_DEG_PER_S, DEMO_RATE_DEG_PER_S]
+        self._demo_goto_s = -1e300
+
+    # ------------------------------------------------------------------ Session
+    def receive(self, data: bytes) -> list[bytes]:
+        out: list[bytes] = []
+        for item in self._lines.feed(data):
+            if item.overflowed:
+                log.warning("line longer than %d bytes dropped", MAX_PENDING_BYTES)
+                out.append(codec.console(f"Error: line too long (over {MAX_PENDING_BYTES} characters)"))
+                continue
+            try:
+                cmd = codec.parse_line(item.text)
+                if cmd is None:
+                    continue
+                out.extend(self._execute(cmd))
+            except SarcnetSyntaxError as exc:
+                log.info("rejected %r: %s", item.text[:80], exc)
+                # Easycomm has no error reply (Hamlib reads none): log only
+                if item.text.strip().lstrip(b";").strip()[:2] not in (b"AZ", b"EL", b"SA", b"SE"):
+                    out.append(codec.console(f"Error: {exc}"))
+            except Exception:
+                log.exception("line %r failed", item.text[:80])
+                out.append(codec.console("Error: internal error"))
+        return out
+
+    def tick(self, now_s: float) -> list[bytes]:
+        if self.mode not in ("monitoring", "debugging", "demonstrating"):
+            self._next_s = self._last_s = None
+            return []
+        if self._next_s is None:
+            self._next_s, self._last_s = now_s, now_s
+        if now_s < self._next_s - 1e-9:   # float drift
+            return []
+        dt = max(0.0, now_s - (self._last_s if self._last_s is not None else now_s))
+        self._last_s = now_s
+        # one row per tick at most; after a stall, restart the period from now
+        nxt = self._next_s + self.interval_s
+        self._next_s = nxt if nxt > now_s else now_s + self.interval_s
+        st = self.rotator.status()
+        if self.mode == "monitoring":
+            return [self._monitor_row(st)]
+        if self.mode == "debugging":
+            return [codec.console(f"{st.az.pos_deg:.2f},{st.el.pos_deg:.2f},{st.az.rate_deg_per_s:.2f},"
+                                  f"{st.el.rate_deg_per_s:.2f},{st.az.duty:.2f},{st.el.duty:.2f}")]
+        return self._demo_step(st, now_s, dt)
+
+    # ----------------------------------------------------------------- commands
+    def _execute(self, cmd: SarcnetCommand) -> list[bytes]:
+        if cmd.kind == "goto":
+            assert cmd.az_deg is not None and cmd.el_deg is not None
+            try:
+                self._set(cmd.az_deg, cmd.el_deg)
+            except CommandRejected as exc:
+                log.info("goto %g %g refused: %s", cmd.az_deg, cmd.el_deg, exc)
+                return [codec.console(f"Error: {exc}")]
+            return []
+        if cmd.kind == "ec_query":
+            st = self.rotator.status()
+            return [codec.easycomm_position(cmd.axes, st.az_deg, st.el_deg)]
+        if cmd.kind == "ec_set":
+            st = self.rotator.status()
+            base = self._held or self._targets.base(st)
+            az = base[0] if cmd.az_deg is None else cmd.az_deg
+            el = base[1] if cmd.el_deg is None else cmd.el_deg
+            try:
+                self._set(az, el)
+            except CommandRejected as exc:
+                log.warning("Easycomm set az %g el %g refused (%s): %s", az, el, exc.reason, exc)
+            return []
+        if cmd.kind == "ec_stop":
+            self._stop(cmd.axes[0] if len(set(cmd.axes)) == 1 else None)
+            return []
+        return getattr(self, "_letter_" + cmd.letter)(cmd)
+
+    def _set(self, az: float, el: float) -> None:
+        """Fly (az, el), or keep it for later while paused. Azimuth 0..360 or -180..180:
+        the SARCNET unwinds by itself, so it names a direction, not a wrap pose."""
+        if not -180.0 <= az <= 360.0:
+            raise CommandRejected(f"azimuth {az:g} outside 0..360 (or -180..180)", "limit")
+        az %= 360.0
+        if self.mode == "pausing":
+            self._held = (az, el)
+            return
+        if self.mode == "demonstrating":
+            # as on the Arduino, the sweep carries on from the new set point
+            self._demo = [signed180(az), el]
+        self._targets.goto(self.rotator, self.rotator.status(), az, el)
+
+    def _stop(self, axis: str | None = None) -> None:
+        st = self.rotator.status()
+        self.rotator.stop(axis)
+        self._targets.stopped(st, axis)
+
+    def _letter_r(self, cmd: SarcnetCommand) -> list[bytes]:
+        out = [codec.console("Reset in progress")]
+        self.mode, self._held = "tracking", None
+        self._stop()
+        self.rotator.clear_faults()
+        out.append(codec.console("Reset complete"))
+        return out
+
+    def _letter_b(self, cmd: SarcnetCommand) -> list[bytes]:
+        self._enter("debugging")
+        return [codec.console("Debugging in progress: Press 'a' to abort")]
+
+    def _letter_m(self, cmd: SarcnetCommand) -> list[bytes]:
+        self._enter("monitoring")
+        return [codec.console("Monitoring in progress: Press 'a' to abort")]
+
+    def _letter_c(self, cmd: SarcnetCommand) -> list[bytes]:
+        return [codec.console("Error: calibration not available on this rotator "
+                              "(urc keeps the magnetometer calibration in its sensor driver)")]
+
+    def _letter_d(self, cmd: SarcnetCommand) -> list[bytes]:
+        st = self.rotator.status()
+        self._demo = [signed180(st.az_deg), st.el_deg]
+        self._demo_inc = [DEMO_RATE_DEG_PER_S, DEMO_RATE_DEG_PER_S]
+        self._demo_goto_s = -1e300
+        self._enter("demonstrating")
+        return [codec.console("Demo in progress: Press 'a' to abort")]
+
+    def _letter_a(self, cmd: SarcnetCommand) -> list[bytes]:
+        if self.mode == "demonstrating":
+            self._stop()
+        self.mode, self._held = "tracking", None
+        return [codec.console("Function aborted")]
+
+    def _letter_e(self, cmd: SarcnetCommand) -> list[bytes]:
+        return [codec.console("Error: magnetic declination not settable on this rotator "
+                              "(it is part of urc's compass calibration)")]
+
+    def _letter_s(self, cmd: SarcnetCommand) -> list[bytes]:
+        return [codec.console("Nothing to save: urc saves its position and calibration automatically")]
+
+    def _letter_p(self, cmd: SarcnetCommand) -> list[bytes]:
+        if self.mode != "pausing":
+            self._stop()
+            self.mode, self._held = "pausing", None
+            return [codec.console("Paused")]
+        self.mode = "tracking"
+        held, self._held = self._held, None
+        if held is not None:
+            try:
+                self._set(*held)
+            except CommandRejected as exc:
+                return [codec.console("Resumed"), codec.console(f"Error: {exc}")]
+        return [codec.console("Resumed")]
+
+    def _letter_h(self, cmd: SarcnetCommand) -> list[bytes]:
+        return [b"".join(codec.console(row) for row in codec.HELP)]
+
+    def _enter(self, mode: str) -> None:
+        self.mode, self._held = mode, None
+        self._next_s = self._last_s = None
+
+    # ------------------------------------------------------------------ streams
+    def _monitor_row(self, st: Status) -> bytes:
+        az, el = signed180(st.az_deg), st.el_deg
+        az_set = az if st.target_az_deg is None else signed180(st.target_az_deg)
+        el_set = el if st.target_el_deg is None else st.target_el_deg
+        az_windup = extended_pose_deg(st)[0]
+        return codec.monitor_line(az, el, az_set, el_set, az_windup, not 0.0 <= az_windup < 360.0,
+                                  signed180(az - az_set), el - el_set)
+
+    def _demo_step(self, st: Status, now_s: float, dt: float) -> list[bytes]:
+        for i, (lo, hi) in enumerate(((-180.0, 180.0), (0.0, 90.0))):
+            v = self._demo[i] + self._demo_inc[i] * dt
+            if v > hi or v < lo:                 # bounce at the ends
+                self._demo_inc[i] = -self._demo_inc[i]
+                v = min(max(v, lo), hi)
+            self._demo[i] = v
+        out = [codec.demo_line(*self._demo)]
+        if now_s - self._demo_goto_s >= DEMO_GOTO_EVERY_S:
+            self._demo_goto_s = now_s
+            try:
+                self._targets.goto(self.rotator, st, self._demo[0] % 360.0, self._demo[1])
+            except CommandRejected as exc:
+                self.mode = "tracking"
+                out.append(codec.console(f"Demo stopped: {exc}"))
+        return out

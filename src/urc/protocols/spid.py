@@ -1,0 +1,157 @@
+"""SPID controllers: Rot2Prog, Rot1Prog and MD-01/02 in ROT2 mode (protocols.md §4).
+
+Binary 13-byte commands, no checksum; frames in spid_codec. What each session does:
+
+* status (K 0x1F) and stop (K 0x0F): answer at once with the position, 12 bytes
+  (Rot2Prog, MD) or 5 bytes (Rot1Prog); stop first stops both axes.
+* set (K 0x2F): Rot2Prog/MD go to (az, el), Rot1Prog to az (elevation untouched).
+  Rot1Prog/Rot2Prog send no answer; MD-01/02 answers with the position (Hamlib 903
+  reads one).
+* move (K 0x14, MD-01/02 only): jog the axes named by the direction bits (left/right
+  azimuth, up/down elevation) at full speed until stop; no answer.
+
+Positions are reported in the controller's frame: azimuth with its overturn (e.g. 400.0
+on a 450 deg rotator, -10.0 below north on a -180..540 one), in tenths of a degree; PH/PV
+report ``resolution_deg``. A set azimuth outside 0..360 names that overturn pose; if the
+rotator cannot reach that pose but the same direction within 0..360, it goes there.
+
+Framing: a command starts with 'W' and is accepted only when its 13th byte is 0x20 and
+its fields are well formed, so after noise or a half frame the next whole frame is found
+again and nothing is ever done on a partial frame. SPID has no error reply: rejected or
+malformed input is logged and (like the real controller) left unanswered.
+"""
+
+from __future__ import annotations
+
+from ..errors import CommandRejected
+from .base import MAX_PENDING_BYTES, RotatorPort, protocol_logger
+from . import spid_codec as codec
+from .spid_codec import SpidCommand, SpidFrameError
+from .tartu_support import TargetMemory, extended_pose_deg
+
+log = protocol_logger("spid")
+
+_MOVES = ((codec.DIR_LEFT, "az", -1), (codec.DIR_RIGHT, "az", +1),
+          (codec.DIR_UP, "el", +1), (codec.DIR_DOWN, "el", -1))
+
+
+class _SpidSession:
+    variant = "rot2"
+    default_resolution_deg = 0.5
+
+    def __init__(self, rotator: RotatorPort, *, resolution_deg: float | None = None):
+        self.rotator = rotator
+        self.closed = False
+        res = self.default_resolution_deg if resolution_deg is None else float(resolution_deg)
+        self.pulses = codec.resolution_to_pulses(res)
+        self._buf = b""
+        self._targets = TargetMemory()
+
+    # ------------------------------------------------------------------ Session
+    def receive(self, data: bytes) -> list[bytes]:
+        buf = self._buf + data
+        if len(buf) > MAX_PENDING_BYTES:   # cannot happen (rest < 13 bytes); kept as a bound
+            log.warning("input buffer over %d bytes dropped", MAX_PENDING_BYTES)
+            buf = buf[-codec.COMMAND_LEN:]
+        frames, self._buf, dropped = codec.split_frames(buf, lambda f: codec.plausible(f, self.variant))
+        if dropped:
+            log.warning("discarded %d byte(s) that were not part of a whole 13-byte frame", dropped)
+        out: list[bytes] = []
+        for frame in frames:
+            try:
+                cmd = codec.decode_command(frame, self.variant, (self.pulses, self.pulses))
+                reply = self._execute(cmd)
+            except SpidFrameError as exc:   # plausible() let it through: should not happen
+                log.warning("frame %s ignored: %s", frame.hex(" "), exc)
+                continue
+            except Exception:
+                log.exception("frame %s failed", frame.hex(" "))
+                continue
+            if reply is not None:
+                out.append(reply)
+        return out
+
+    def tick(self, now_s: float) -> list[bytes]:
+        return []
+
+    # ----------------------------------------------------------------- commands
+    def _execute(self, cmd: SpidCommand) -> bytes | None:
+        if cmd.kind == "status":
+            return self._position()
+        if cmd.kind == "stop":
+            st = self.rotator.status()
+            self.rotator.stop()
+            self._targets.stopped(st)
+            return self._position()
+        if cmd.kind == "set":
+            self._set(cmd)
+            return self._position() if self.variant == "md01" else None
+        if cmd.kind == "move":
+            self._move(cmd.direction)
+        return None
+
+    def _set(self, cmd: SpidCommand) -> None:
+        assert cmd.az_deg is not None
+        try:
+            self._goto(cmd.az_deg, cmd.el_deg)
+        except CommandRejected as exc:
+            log.warning("set az %.1f el %s refused (%s): %s", cmd.az_deg,
+                        "-" if cmd.el_deg is None else f"{cmd.el_deg:.1f}", exc.reason, exc)
+
+    def _goto(self, az: float, el: float | None) -> None:
+        st = self.rotator.status()
+        if el is None:     # Rot1Prog: elevation keeps its target
+            el = self._targets.base(st, extended=True)[1]
+        try:
+            self._targets.goto(self.rotator, st, az, el)
+        except CommandRejected as exc:
+            # an overturn pose this rotator lacks (e.g. -10 on 0..450): the same direction
+            if exc.reason != "limit" or 0.0 <= az < 360.0:
+                raise
+            self._targets.goto(self.rotator, st, az % 360.0, el)
+
+    def _move(self, direction: int) -> None:
+        wanted = [(axis, sign) for bit, axis, sign in _MOVES if direction & bit]
+        axes = [a for a, _ in wanted]
+        if direction & ~0x0F or not wanted or len(set(axes)) != len(axes):
+            log.warning("move direction 0x%02X ignored: expected left/right and/or up/down bits", direction)
+            return
+        for axis, sign in wanted:
+            try:
+                st = self.rotator.status()
+                self.rotator.move(axis, sign, 1.0)
+                self._targets.stopped(st, axis)   # no target: it rests where it stops
+            except CommandRejected as exc:
+                log.warning("move %s %+d refused (%s): %s", axis, sign, exc.reason, exc)
+
+    def _position(self) -> bytes:
+        az, el = extended_pose_deg(self.rotator.status())
+        return codec.encode_rot2_position(az, el, self.pulses, self.pulses)
+
+
+class Rot2ProgSession(_SpidSession):
+    """SPID Rot2Prog (Hamlib 901). Option ``resolution_deg`` (0.5): reported as PH/PV
+    and used to decode set frames whose PH/PV bytes are 0."""
+
+    variant = "rot2"
+    default_resolution_deg = 0.5
+
+
+class Md01Session(_SpidSession):
+    """SPID MD-01/02 in ROT2 mode (Hamlib 903): Rot2Prog plus a position answer to set
+    and the move command. Option ``resolution_deg`` (0.5)."""
+
+    variant = "md01"
+    default_resolution_deg = 0.5
+
+
+class Rot1ProgSession(_SpidSession):
+    """SPID Rot1Prog (Hamlib 902): azimuth only, 5-byte answers in whole degrees.
+    Option ``resolution_deg`` (1): kept for symmetry; Rot1Prog frames carry no PH."""
+
+    variant = "rot1"
+    default_resolution_deg = 1.0
+
+    def _position(self) -> bytes:
+        az, _ = extended_pose_deg(self.rotator.status())
+        return codec.encode_rot1_position(az)

@@ -1,0 +1,217 @@
+"""The Tartu universal rotator controller's four-letter ASCII command set.
+
+Lines end CR, LF or CRLF; parameters are comma separated (``GOAE 123.4,45.0``); replies
+are lines ending CR LF. Angles are in the controller's own (extended) frame: azimuth
+with its cable wrap (0..400 on the Tartu rotator; 380.0 is the overlap), elevation 0..180
+(past 90 = flipped over the top). Angles print as ``xxx.x``.
+
+=========  ====================================================================
+VERS       ``URC urc-0.1.0 (Tartu URC command set)``
+HELP       one line per command
+BAUD [r]   ``BAUD 115200``: reports the rate; ``BAUD 9600`` accepts a standard rate
+           and answers ``OK`` (no effect on a pty or TCP)
+ECHO [on]  ``ECHO ON|OFF`` reports; ``ECHO ON``/``OFF``/``1``/``0`` sets character echo
+           for this connection (typed characters, backspace, CR LF at the end)
+GOAZ a     go to azimuth a, elevation keeps its target → ``OK``
+GOEL e     go to elevation e, azimuth keeps its target → ``OK``
+GOAE a,e   go to both → ``OK``
+RDAZ       present azimuth → ``123.4``
+RDEL       present elevation → ``045.0``
+WRAZ a     declare the present azimuth is a (re-reference, no motion) → ``OK``
+WREL e     the same for elevation → ``OK``
+RDAP       azimuth position and the axis' present setpoint → ``123.4,130.0``; the
+           setpoint is ``---.-`` when the axis holds none (idle or stopped)
+RDEP       the same for elevation
+OVRA       azimuth overshoot compensation (the on/off drive stops this far before the
+           target) → ``000.3``; ``OVRA x`` → ``ERR 7``: not settable here (the rotator
+           service has no setting for it yet; it comes from the profile)
+OVRE       the same for elevation
+HALT       stop both axes → ``OK``;  HLTA azimuth only;  HLTE elevation only
+LCDC       the two 20-character LCD rows, e.g. ``AZ 123.4>130.0   RUN`` and
+           ``EL 045.0         HLD`` (state: RUN driving, REL brake releasing, HLD
+           holding, IDL idle, FLT fault latched, UNK position not known)
+=========  ====================================================================
+
+Errors: ``ERR <code> <text>`` with code 1 unknown command, 2 bad parameter, 3 outside
+the limits, 4 keep-out zone, 5 fault, 6 position unknown (re-reference with WRAZ/WREL),
+7 not supported, 8 line too long, 9 refused otherwise. Nothing moves on an error.
+"""
+
+from __future__ import annotations
+
+from .. import __version__
+from ..errors import CommandRejected
+from ..service.snapshot import Status
+from .base import MAX_PENDING_BYTES, RotatorPort, protocol_logger
+from . import tartu_codec as codec
+from .tartu_codec import Command, TartuSyntaxError
+from .tartu_support import (LineSplitter, TargetMemory, TerminalEcho, extended_pose_deg,
+                            extended_targets_deg)
+
+log = protocol_logger("tartu")
+
+_MODE_STATE = {"driving": "RUN", "releasing": "REL", "holding": "HLD", "idle": "IDL"}
+
+
+class TartuSession:
+    """One connection speaking the Tartu URC command set.
+
+    Options: ``echo`` (bool, default False): start with character echo on.
+    """
+
+    def __init__(self, rotator: RotatorPort, *, echo: bool = False):
+        self.rotator = rotator
+        self.closed = False
+        self.echo = bool(echo)
+        self.baud = 115200
+        self._lines = LineSplitter(MAX_PENDING_BYTES)
+        self._echo = TerminalEcho()
+        self._targets = TargetMemory()
+
+    # ------------------------------------------------------------------ Session
+    def receive(self, data: bytes) -> list[bytes]:
+        out: list[bytes] = []
+        for item in self._lines.feed(data):
+            if item.overflowed:
+                log.warning("line longer than %d bytes dropped", MAX_PENDING_BYTES)
+                out.append(codec.error(codec.E_OVERFLOW, f"line too long: expected at most "
+                                                         f"{MAX_PENDING_BYTES} characters before CR/LF"))
+                continue
+            if self.echo:
+                out.append(self._echo.end_line(item.text))
+            if not item.text.strip():
+                continue
+            try:
+                reply = self._execute(codec.parse_line(item.text))
+            except TartuSyntaxError as exc:
+                log.info("rejected %r: %s", item.text[:80], exc)
+                reply = codec.error(exc.code, str(exc))
+            except CommandRejected as exc:
+                log.info("rotator refused %r: %s", item.text[:80], exc)
+                reply = codec.error(codec.REASON_CODES.get(exc.reason, codec.E_REJECTED), str(exc))
+            except Exception as exc:  # never let a bug in one command kill the connection
+                log.exception("command %r failed", item.text[:80])
+                reply = codec.error(codec.E_REJECTED, f"internal error: {exc}")
+            out.append(reply)
+        if self.echo:
+            shown = self._echo.update(self._lines.pending)
+            if shown:
+                out.append(shown)
+        return out
+
+    def tick(self, now_s: float) -> list[bytes]:
+        return []
+
+    # ----------------------------------------------------------------- commands
+    def _execute(self, cmd: Command) -> bytes:
+        handler = getattr(self, "_cmd_" + cmd.name.lower())
+        return handler(*cmd.args)
+
+    def _cmd_vers(self) -> bytes:
+        return codec.line(f"URC urc-{__version__} (Tartu URC command set)")
+
+    def _cmd_help(self) -> bytes:
+        return codec.help_text()
+
+    def _cmd_baud(self, rate: int | None = None) -> bytes:
+        if rate is None:
+            return codec.line(f"BAUD {self.baud}")
+        self.baud = rate           # nothing to change on a pty or socket
+        return codec.ok()
+
+    def _cmd_echo(self, on: bool | None = None) -> bytes:
+        if on is None:
+            return codec.line("ECHO " + ("ON" if self.echo else "OFF"))
+        self.echo = on
+        return codec.ok()
+
+    def _goto(self, az: float | None, el: float | None) -> bytes:
+        st = self.rotator.status()
+        base_az, base_el = self._targets.base(st, extended=True)
+        self._targets.goto(self.rotator, st, base_az if az is None else az, base_el if el is None else el)
+        return codec.ok()
+
+    def _cmd_goaz(self, az: float) -> bytes:
+        return self._goto(az, None)
+
+    def _cmd_goel(self, el: float) -> bytes:
+        return self._goto(None, el)
+
+    def _cmd_goae(self, az: float, el: float) -> bytes:
+        return self._goto(az, el)
+
+    def _cmd_rdaz(self) -> bytes:
+        return codec.line(codec.format_deg(extended_pose_deg(self.rotator.status())[0]))
+
+    def _cmd_rdel(self) -> bytes:
+        return codec.line(codec.format_deg(extended_pose_deg(self.rotator.status())[1]))
+
+    def _cmd_wraz(self, az: float) -> bytes:
+        self.rotator.set_position(az_deg=az)
+        self._targets.forget()
+        return codec.ok()
+
+    def _cmd_wrel(self, el: float) -> bytes:
+        self.rotator.set_position(el_deg=el)
+        self._targets.forget()
+        return codec.ok()
+
+    def _pos_target(self, i: int) -> bytes:
+        st = self.rotator.status()
+        pos, tgt = extended_pose_deg(st)[i], extended_targets_deg(st)[i]
+        return codec.line(f"{codec.format_deg(pos)},{codec.format_opt_deg(tgt)}")
+
+    def _cmd_rdap(self) -> bytes:
+        return self._pos_target(0)
+
+    def _cmd_rdep(self) -> bytes:
+        return self._pos_target(1)
+
+    def _overshoot(self, axis: str, value: float | None) -> bytes:
+        name = "OVRA" if axis == "az" else "OVRE"
+        if value is not None:
+            return codec.error(codec.E_UNSUPPORTED, f"{name}: overshoot compensation is not settable on "
+                                                    f"this rotator (it comes from the rotator profile)")
+        settings = getattr(self.rotator, "settings", None)
+        try:
+            deg = float(settings.tuning(axis).overshoot_deg)  # type: ignore[union-attr]
+        except Exception:
+            return codec.error(codec.E_UNSUPPORTED, f"{name}: this rotator does not report its overshoot compensation")
+        return codec.line(codec.format_deg(deg))
+
+    def _cmd_ovra(self, value: float | None = None) -> bytes:
+        return self._overshoot("az", value)
+
+    def _cmd_ovre(self, value: float | None = None) -> bytes:
+        return self._overshoot("el", value)
+
+    def _stop(self, axis: str | None) -> bytes:
+        st = self.rotator.status()
+        self.rotator.stop(axis)
+        self._targets.stopped(st, axis)
+        return codec.ok()
+
+    def _cmd_halt(self) -> bytes:
+        return self._stop(None)
+
+    def _cmd_hlta(self) -> bytes:
+        return self._stop("az")
+
+    def _cmd_hlte(self) -> bytes:
+        return self._stop("el")
+
+    def _cmd_lcdc(self) -> bytes:
+        st = self.rotator.status()
+        pos, tgt = extended_pose_deg(st), extended_targets_deg(st)
+        rows = [codec.lcd_line(label, pos[i], tgt[i], self._state(st, axis))
+                for i, (label, axis) in enumerate((("AZ", "az"), ("EL", "el")))]
+        return b"".join(codec.line(r) for r in rows)
+
+    @staticmethod
+    def _state(st: Status, axis: str) -> str:
+        if any(f.axis in (None, axis) for f in st.faults):
+            return "FLT"
+        ax = st.az if axis == "az" else st.el
+        if ax.uncertainty_deg > 0:
+            return "UNK"
+        return _MODE_STATE.get(ax.mode, ax.mode[:3].upper())

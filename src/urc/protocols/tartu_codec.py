@@ -1,0 +1,169 @@
+"""Tartu URC four-letter command set: parse a line, format replies (pure functions).
+
+Line syntax: a four-letter command (case-insensitive), optionally followed by spaces and
+comma-separated parameters, e.g. ``GOAE 123.4,45.0``. Numbers are plain decimals
+(``123``, ``-5.5``, ``.5``); no exponents, ``nan`` or ``inf``.
+
+Replies are lines ending CR LF. Angles print as ``xxx.x`` (0.1 deg, three integer digits,
+zero padded: ``045.0``; negative ``-005.0``). Errors print as ``ERR <code> <text>``, the
+text saying what was expected and what was received.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass
+from typing import Callable
+
+EOL = b"\r\n"
+
+# error codes (ERR <code> <text>)
+E_UNKNOWN = 1        # no such command
+E_SYNTAX = 2         # missing, extra or malformed parameter
+E_LIMIT = 3          # outside the rotator's limits
+E_KEEPOUT = 4        # target or path in a keep-out zone
+E_FAULT = 5          # a latched fault blocks motion
+E_UNCERTAIN = 6      # position not known: re-reference first (WRAZ/WREL)
+E_UNSUPPORTED = 7    # recognised but not possible on this rotator
+E_OVERFLOW = 8       # line too long, dropped
+E_REJECTED = 9       # refused by the rotator for another reason
+
+#: CommandRejected.reason -> error code
+REASON_CODES = {"limit": E_LIMIT, "keepout": E_KEEPOUT, "fault": E_FAULT,
+                "uncertain": E_UNCERTAIN, "invalid": E_REJECTED}
+
+BAUD_RATES = (1200, 2400, 4800, 9600, 19200, 38400, 57600, 115200, 230400, 460800)
+
+_NUMBER = re.compile(r"[+-]?(?:\d+(?:\.\d*)?|\.\d+)\Z")
+_LINE = re.compile(r"\s*([A-Za-z]{4})(.*)\Z", re.S)
+
+
+class TartuSyntaxError(ValueError):
+    def __init__(self, code: int, text: str):
+        self.code = code
+        super().__init__(text)
+
+
+@dataclass(frozen=True)
+class Command:
+    name: str                       # upper case, e.g. "GOAE"
+    args: tuple                     # parsed values (floats, an int for BAUD, bool for ECHO)
+
+
+def parse_number(text: str, what: str) -> float:
+    t = text.strip()
+    if not _NUMBER.match(t):
+        raise TartuSyntaxError(E_SYNTAX, f"{what}: expected a number like 123.4, got {t!r}")
+    v = float(t)
+    if not math.isfinite(v):
+        raise TartuSyntaxError(E_SYNTAX, f"{what}: number {t!r} out of range")
+    return v
+
+
+def _baud(text: str, what: str) -> int:
+    t = text.strip()
+    if not t.isdigit() or int(t) not in BAUD_RATES:
+        raise TartuSyntaxError(E_SYNTAX, f"{what}: expected one of {', '.join(map(str, BAUD_RATES))}, got {t!r}")
+    return int(t)
+
+
+def _onoff(text: str, what: str) -> bool:
+    t = text.strip().upper()
+    if t in ("1", "ON"):
+        return True
+    if t in ("0", "OFF"):
+        return False
+    raise TartuSyntaxError(E_SYNTAX, f"{what}: expected ON, OFF, 1 or 0, got {text.strip()!r}")
+
+
+_Conv = Callable[[str, str], object]
+
+#: name -> (parameter converters, how many may be left out from the end, "usage: help")
+COMMANDS: dict[str, tuple[tuple[_Conv, ...], int, str]] = {
+    "VERS": ((), 0, "VERS: firmware version"),
+    "HELP": ((), 0, "HELP: this list"),
+    "BAUD": ((_baud,), 1, "BAUD [rate]: serial speed (accepted, no effect on pty/TCP)"),
+    "ECHO": ((_onoff,), 1, "ECHO [ON|OFF]: character echo for this connection"),
+    "GOAZ": ((parse_number,), 0, "GOAZ az: go to azimuth"),
+    "GOEL": ((parse_number,), 0, "GOEL el: go to elevation"),
+    "GOAE": ((parse_number, parse_number), 0, "GOAE az,el: go to azimuth and elevation"),
+    "RDAZ": ((), 0, "RDAZ: read azimuth"),
+    "RDEL": ((), 0, "RDEL: read elevation"),
+    "WRAZ": ((parse_number,), 0, "WRAZ az: set the present azimuth (re-reference, no motion)"),
+    "WREL": ((parse_number,), 0, "WREL el: set the present elevation (re-reference, no motion)"),
+    "RDAP": ((), 0, "RDAP: read azimuth position,target"),
+    "RDEP": ((), 0, "RDEP: read elevation position,target"),
+    "OVRA": ((parse_number,), 1, "OVRA: read azimuth overshoot compensation"),
+    "OVRE": ((parse_number,), 1, "OVRE: read elevation overshoot compensation"),
+    "HALT": ((), 0, "HALT: stop both axes"),
+    "HLTA": ((), 0, "HLTA: stop azimuth"),
+    "HLTE": ((), 0, "HLTE: stop elevation"),
+    "LCDC": ((), 0, "LCDC: LCD contents (2 x 20 characters)"),
+}
+
+
+def parse_line(raw: bytes) -> Command:
+    """One line (terminator removed) -> Command; raises TartuSyntaxError."""
+    text = raw.decode("latin-1")
+    m = _LINE.match(text)
+    shown = text.strip()[:40]
+    if not m or m.group(1).upper() not in COMMANDS:
+        raise TartuSyntaxError(E_UNKNOWN, f"unknown command {shown!r}: expected one of "
+                                          f"{' '.join(COMMANDS)} (HELP lists them)")
+    name = m.group(1).upper()
+    convs, optional, _ = COMMANDS[name]
+    rest = m.group(2)
+    if rest and not rest[0].isspace() and not convs:
+        raise TartuSyntaxError(E_UNKNOWN, f"unknown command {shown!r}: expected one of "
+                                          f"{' '.join(COMMANDS)} (HELP lists them)")
+    rest = rest.strip()
+    parts = [p for p in rest.split(",")] if rest else []
+    if len(parts) > len(convs) or len(parts) < len(convs) - optional:
+        want = f"{len(convs) - optional}" if optional == 0 else f"{len(convs) - optional}..{len(convs)}"
+        raise TartuSyntaxError(E_SYNTAX, f"{name}: expected {want} parameter(s), got {len(parts)} ({rest!r})")
+    args = tuple(conv(p, name) for conv, p in zip(convs, parts))
+    return Command(name, args)
+
+
+# ------------------------------------------------------------------- formatting
+def format_deg(v: float) -> str:
+    """0.1 deg, three integer digits: 123.4, 045.0, 000.0, -005.0."""
+    v = round(v, 1)
+    if v == 0.0:
+        v = 0.0  # no "-000.0"
+    return ("-" if v < 0 else "") + f"{abs(v):05.1f}"
+
+
+def format_opt_deg(v: float | None) -> str:
+    return "---.-" if v is None else format_deg(v)
+
+
+def line(text: str) -> bytes:
+    return text.encode("ascii", "replace") + EOL
+
+
+def ok() -> bytes:
+    return line("OK")
+
+
+def error(code: int, text: str) -> bytes:
+    # one line whatever the text holds
+    return line(f"ERR {code} " + text.replace("\r", " ").replace("\n", " "))
+
+
+def help_text() -> bytes:
+    rows = []
+    for usage, _, desc in (h.partition(": ") for _, _, h in COMMANDS.values()):
+        rows.append(line(f"{usage:<14}{desc}"))
+    return b"".join(rows)
+
+
+LCD_WIDTH = 20
+
+
+def lcd_line(axis_label: str, pos_deg: float, target_deg: float | None, state: str) -> str:
+    """One 20-character LCD row: 'AZ 123.4>130.0  RUN'."""
+    tgt = ">" + format_deg(target_deg) if target_deg is not None else ""
+    body = f"{axis_label} {format_deg(pos_deg)}{tgt}"
+    return body[:LCD_WIDTH - 4].ljust(LCD_WIDTH - 4) + " " + state[:3].rjust(3)

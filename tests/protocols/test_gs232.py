@@ -1,0 +1,514 @@
+"""GS-232A / GS-232B / generic GS-232 / FoxDelta ST2 sessions (protocols.md 3, 5.3, 6).
+
+Codec tests the h11 way, Hamlib's byte captures as transcripts, and end-to-end runs on
+the simulator (g5500: 0..450 az, 0..180 el) judged by the simulator's truth.
+"""
+
+from __future__ import annotations
+
+import tempfile
+from pathlib import Path
+
+import pytest
+from hypothesis import HealthCheck, assume, given, settings
+from hypothesis import strategies as st
+
+from conftest import Bench
+from urc.protocols import MAX_PENDING_BYTES, Session, make_session
+from urc.protocols.easycomm_codec import LineBuffer
+from urc.protocols.gs232 import (FoxDeltaSession, Gs232aSession, Gs232bSession,
+                                 Gs232GenericSession, controller_pose)
+from urc.protocols.gs232_codec import (STYLE_A, STYLE_B, STYLE_GENERIC, Command, Gs232ParseError,
+                                       format_error, format_goto, format_position,
+                                       parse_command, parse_position_reply)
+
+SESSIONS = [Gs232aSession, Gs232bSession, Gs232GenericSession, FoxDeltaSession]
+STYLE = {Gs232aSession: STYLE_A, Gs232bSession: STYLE_B, Gs232GenericSession: STYLE_GENERIC,
+         FoxDeltaSession: STYLE_GENERIC}
+#: reported whole degrees vs the simulator's truth: rounding (0.5) plus the G-5500 pot's
+#: quantisation, noise and the position controller's tolerance
+AZ_TOL_DEG, EL_TOL_DEG = 1.6, 1.0
+
+
+def hamlib_read(style: str, out: bytes) -> bytes:
+    """The line Hamlib's reader takes from the device's output (protocols.md 3.2-3.4):
+    601 reads up to LF; 603 up to the first CR or LF; 602/608 up to CR, at most 11 bytes."""
+    if style == STYLE_A:
+        return out[:out.index(b"\n") + 1]
+    if style == STYLE_B:
+        ends = [i for i in (out.find(b"\r"), out.find(b"\n")) if i >= 0]
+        return out[:min(ends) + 1]
+    return out[:out.index(b"\r") + 1][:11]
+
+
+def c2(session, style: str) -> tuple[float, float]:
+    replies = session.receive(b"C2\r")
+    assert len(replies) == 1
+    return parse_position_reply(style, hamlib_read(style, replies[0]))
+
+
+# ======================================================================== codec
+@pytest.mark.parametrize("line, cmd", [
+    (b"C", Command("read", "az")),
+    (b"C2", Command("read", "azel")),
+    (b"B", Command("read", "el")),
+    (b"W100 020", Command("goto", az_deg=100.0, el_deg=20.0)),
+    (b"W450 180", Command("goto", az_deg=450.0, el_deg=180.0)),
+    (b"W350 006", Command("goto", az_deg=350.0, el_deg=6.0)),
+    (b"M270", Command("goto_az", az_deg=270.0)),
+    (b"S", Command("stop", None)),
+    (b"A", Command("stop", "az")),
+    (b"E", Command("stop", "el")),
+    (b"L", Command("move", "az", direction=-1)),
+    (b"R", Command("move", "az", direction=1)),
+    (b"U", Command("move", "el", direction=1)),
+    (b"D", Command("move", "el", direction=-1)),
+    (b"X1", Command("speed", level=1)),
+    (b"X4", Command("speed", level=4)),
+    # lower case (GS-232A manual; protocols.md 3.5) and stray spaces
+    (b"w100 020", Command("goto", az_deg=100.0, el_deg=20.0)),
+    (b"c2", Command("read", "azel")),
+    (b" x2 ", Command("speed", level=2)),
+    (b"W 90  5", Command("goto", az_deg=90.0, el_deg=5.0)),
+])
+def test_parse_whole_commands(line, cmd):
+    assert parse_command(line) == cmd
+
+
+@pytest.mark.parametrize("line", [
+    b"X5", b"X0", b"X", b"W100", b"W1000 000", b"W100 020 030", b"W-10 020", b"Wnan 020",
+    b"W100.5 020", b"Minf", b"M", b"C3", b"CC", b"Q", b"W100,020", b"W100\x00020",
+    b"W010 100 020 110 030",  # timed list (with T): not supported
+    b"\xff", b"S S",
+])
+def test_parse_rejects(line):
+    with pytest.raises(Gs232ParseError) as info:
+        parse_command(line)
+    assert info.value.found == line  # the error shows what was received
+
+
+def test_error_message_names_what_was_expected():
+    with pytest.raises(Gs232ParseError, match="expected one of C C2 B W"):
+        parse_command(b"Q")
+
+
+@pytest.mark.parametrize("style, az, el, wire", [
+    (STYLE_A, 100, 20, b"+0100+0020\r\n"),
+    (STYLE_A, 450, 180, b"+0450+0180\r\n"),
+    (STYLE_A, 5, None, b"+0005\r\n"),
+    (STYLE_A, None, 45, b"+0045\r\n"),
+    (STYLE_B, 100, 20, b"AZ=100  EL=020\r\n"),
+    (STYLE_B, 350, 6, b"AZ=350  EL=006\r\n"),
+    (STYLE_B, 100, None, b"AZ=100\r\n"),
+    (STYLE_B, None, 20, b"EL=020\r\n"),
+    (STYLE_GENERIC, 100, 20, b"+0100+0020\r"),
+    (STYLE_GENERIC, 0, 0, b"+0000+0000\r"),
+    # whole degrees; noise below the bottom stop is not a negative angle
+    (STYLE_A, 99.6, 20.4, b"+0100+0020\r\n"),
+    (STYLE_A, -0.3, -0.2, b"+0000+0000\r\n"),
+])
+def test_format_position(style, az, el, wire):
+    assert format_position(style, az, el) == wire
+
+
+def test_format_error():
+    assert format_error(STYLE_A) == b"?>\r"
+    assert format_error(STYLE_B) == b"?>\r\n"
+    assert format_error(STYLE_GENERIC) == b"?>\r"
+
+
+@given(az=st.integers(0, 450), el=st.integers(0, 180),
+       style=st.sampled_from([STYLE_A, STYLE_B, STYLE_GENERIC]))
+def test_position_round_trip_through_hamlib_parsers(az, el, style):
+    wire = format_position(style, az, el)
+    assert parse_position_reply(style, hamlib_read(style, wire)) == (az, el)
+
+
+@given(az=st.floats(-180.0, 450.0), el=st.floats(0.0, 180.0))
+def test_goto_round_trip(az, el):
+    """What Hamlib sends for set_position parses back to the same whole degrees."""
+    cmd = parse_command(format_goto(az, el)[:-1])
+    assert cmd.op == "goto"
+    assert cmd.az_deg == (round(az) + 360 if round(az) < 0 else round(az))
+    assert cmd.el_deg == round(el)
+
+
+def test_format_goto_matches_hamlib_capture():
+    assert format_goto(100, 20) == b"W100 020\r"
+    assert format_goto(-10, 5.6) == b"W350 006\r"  # protocols.md 3.2
+
+
+@pytest.mark.parametrize("reply, ok", [
+    (b"AZ=100EL=020\r", True), (b"AZ=100 EL=020\r", True), (b"AZ=100  EL=020\r", True),
+    (b"AZ=100\r", False), (b"+0100+0020\r", False),
+])
+def test_hamlib_603_parser_matches_captures(reply, ok):
+    """The host-side parser behaves like the captured Hamlib 603 (protocols.md 3.3)."""
+    if ok:
+        assert parse_position_reply(STYLE_B, reply) == (100, 20)
+    else:
+        with pytest.raises(Gs232ParseError):
+            parse_position_reply(STYLE_B, reply)
+
+
+def test_hamlib_601_rejects_b_style_and_unpadded():
+    for reply in (b"AZ=100  EL=020\r\n", b"+100+020\r\n"):
+        with pytest.raises(Gs232ParseError):
+            parse_position_reply(STYLE_A, reply)
+
+
+# ================================================================ session basics
+@pytest.fixture
+def g5500(bench):
+    return bench("g5500")
+
+
+@pytest.fixture
+def tartu(bench):
+    """Exact encoders (0.1 deg, no noise): positions read back exactly."""
+    return bench("tartu-urc")
+
+
+def at(b, az, el):
+    """Re-reference the (still) antenna so it reads exactly (az, el)."""
+    b.rot.set_position(az, el)
+    b.run(1.0)  # a few ticks at rest: the speed estimate settles, `moving` is False
+
+
+@pytest.mark.parametrize("name, cls", [("gs232a", Gs232aSession), ("gs232b", Gs232bSession),
+                                       ("gs232", Gs232GenericSession), ("foxdelta", FoxDeltaSession)])
+def test_registry_names(g5500, name, cls):
+    s = make_session(name, g5500.rot)
+    assert type(s) is cls and isinstance(s, Session)
+    assert s.closed is False and s.tick(0.0) == []
+
+
+def test_601_capture_transcript(tartu):
+    """protocols.md 3.2, Hamlib 601 against a GS-232A: replies byte for byte."""
+    s = Gs232aSession(tartu.rot)
+    at(tartu, 100, 20)
+    assert s.receive(b"W100 020\r") == [b"\r"]
+    assert s.receive(b"C2\r") == [b"+0100+0020\r\n"]
+    at(tartu, 350, 6)
+    for cmd in (b"S\r", b"X2\r", b"U\r", b"X1\r", b"D\r", b"X4\r", b"L\r", b"R\r", b"X2\r", b"S\r"):
+        assert s.receive(cmd) == [b"\r"]
+    tartu.settle()
+    at(tartu, 350, 6)
+    assert s.receive(b"C2\r") == [b"+0350+0006\r\n"]   # Hamlib prints 350.00 / 6.00
+
+
+def test_603_capture_transcript(tartu):
+    """protocols.md 3.3: the extra bare CR after every write gets no reply at all, so
+    nothing can be read as the answer to the next C2."""
+    s = Gs232bSession(tartu.rot)
+    at(tartu, 100, 20)
+    assert s.receive(b"W100 020\r") == []
+    assert s.receive(b"\r") == []
+    assert s.receive(b"C2\r") == [b"AZ=100  EL=020\r\n"]
+    at(tartu, 350, 6)
+    for cmd in (b"S\r", b"X2\r", b"U\r", b"X1\r", b"D\r", b"X4\r", b"L\r", b"R\r", b"X2\r", b"S\r"):
+        assert s.receive(cmd) == [] and s.receive(b"\r") == []
+    tartu.settle()
+    at(tartu, 350, 6)
+    assert s.receive(b"C2\r") == [b"AZ=350  EL=006\r\n"]
+
+
+@pytest.mark.parametrize("cls", [Gs232GenericSession, FoxDeltaSession])
+def test_602_608_capture_transcript(tartu, cls):
+    """protocols.md 3.4: writes go out back to back (`W350 006\\rS\\r` in one read);
+    sets are never answered; C2 -> +0aaa+0eee CR (11 bytes, what 4.6 reads at most)."""
+    s = cls(tartu.rot)
+    at(tartu, 100, 20)
+    assert s.receive(b"W100 020\r") == []
+    assert s.receive(b"C2\r") == [b"+0100+0020\r"]
+    assert s.receive(b"S\rW350 006\rS\r") == []
+    tartu.settle()
+    at(tartu, 350, 6)
+    assert s.receive(b"C2\r") == [b"+0350+0006\r"]
+
+
+@pytest.mark.parametrize("cls", SESSIONS)
+def test_single_axis_reads(tartu, cls):
+    s, style = cls(tartu.rot), STYLE[cls]
+    at(tartu, 123.4, 45.6)
+    term = b"\r" if style == STYLE_GENERIC else b"\r\n"
+    az, el = (b"AZ=123", b"EL=046") if style == STYLE_B else (b"+0123", b"+0046")
+    assert s.receive(b"C\r") == [az + term]
+    assert s.receive(b"B\r") == [el + term]
+    assert s.receive(b"c\rb\r") == [az + term, el + term]
+
+
+@pytest.mark.parametrize("cls", SESSIONS)
+def test_byte_at_a_time_equals_whole(bench, cls):
+    """Same replies, same motion, whatever the split."""
+    script = b"W100 020\rC2\rX2\r\rC\r\nB\rbogus\rS\rc2\r"
+    results = []
+    for chunks in ([script], [script[i:i + 1] for i in range(len(script))],
+                   [script[:5], script[5:13], script[13:]]):
+        b = bench("tartu-urc")
+        at(b, 10, 10)
+        s = cls(b.rot)
+        out = []
+        for c in chunks:
+            out += s.receive(c)
+        b.run(0.5)
+        st_ = b.rot.status()
+        results.append((out, st_.target_az_deg, st_.target_el_deg))
+    assert results[0] == results[1] == results[2]
+    out = results[0][0]
+    assert out.count(format_error(STYLE[cls])) == 1   # "bogus"
+    assert results[0][1:] == (100.0, 20.0)
+
+
+@pytest.mark.parametrize("cls", SESSIONS)
+def test_terminators_crlf_lf_and_trailing_partial(tartu, cls):
+    s, style = cls(tartu.rot), STYLE[cls]
+    at(tartu, 200, 30)
+    expect = format_position(style, 200, 30)
+    # CR, LF and CRLF each end a command; the CRLF's empty half gets no reply
+    assert s.receive(b"C2\r\nC2\nC2\rC") == [expect] * 3
+    assert s.receive(b"2\r") == [expect]          # the trailing partial completes later
+
+
+@pytest.mark.parametrize("cls", [Gs232aSession, Gs232bSession])
+def test_errors_answered_with_question_prompt(g5500, cls):
+    s = cls(g5500.rot)
+    err = format_error(STYLE[cls])
+    assert s.receive(b"Q\r") == [err]
+    assert s.receive(b"X9\r") == [err]
+    assert s.receive(b"W100\r") == [err]
+    # refused by the rotator (beyond the 450 deg limit): the same prompt, nothing moves
+    assert s.receive(b"W460 000\r") == [err]
+    assert s.receive(b"W100 181\r") == [err]
+    g5500.run(1.0)
+    assert not g5500.rot.status().moving and g5500.rot.status().target_az_deg is None
+
+
+@pytest.mark.parametrize("cls", [Gs232GenericSession, FoxDeltaSession])
+def test_generic_silent_on_refused_set(g5500, cls):
+    """Hamlib 602/608 write back to back and read nothing after W: a refused W is silent
+    (a late ?> would be read as the next C2's answer); garbage still gets ?>."""
+    s = cls(g5500.rot)
+    assert s.receive(b"W460 000\r") == []
+    assert s.receive(b"Q\r") == [b"?>\r"]
+    assert hamlib_read(STYLE_GENERIC, s.receive(b"C2\r")[0]) == b"+0000+0000\r"
+
+
+def test_rotator_fault_maps_to_error(bench):
+    """A jammed axis latches a stall fault: further motion is answered ?> and nothing
+    moves; position reads still work."""
+    b = bench("tartu-urc", faults={"overcurrent_a": 100.0})
+    s = Gs232aSession(b.rot)
+    assert s.receive(b"W200 045\r") == [b"\r"]
+    b.run(1.5)
+    b.world.inject("az", "jam")
+    b.run(5.0)
+    assert [f.kind for f in b.rot.status().faults] == ["stall"]
+    assert s.receive(b"W100 020\rR\rM010\r") == [b"?>\r"] * 3
+    assert s.receive(b"S\r") == [b"\r"]           # stop is always accepted
+    assert s.receive(b"C2\r")[0].startswith(b"+0")
+    b.run(1.0)
+    assert not b.rot.status().moving
+
+
+# ===================================================== end to end on the simulator
+@pytest.mark.parametrize("cls", SESSIONS)
+def test_set_then_read_back_matches_truth(g5500, cls):
+    s, style = cls(g5500.rot), STYLE[cls]
+    for az, el in ((100, 20), (300, 75), (30, 5)):
+        s.receive(format_goto(az, el))
+        g5500.settle()
+        raz, rel = c2(s, style)
+        assert abs(raz - g5500.truth("az")) <= AZ_TOL_DEG
+        assert abs(rel - g5500.truth("el")) <= EL_TOL_DEG
+        # below 360 the rotator picks the wrap side (30 may be reached as 390)
+        assert abs((raz - az + 180) % 360 - 180) <= AZ_TOL_DEG and abs(rel - el) <= EL_TOL_DEG
+
+
+@pytest.mark.parametrize("cls", SESSIONS)
+def test_450_azimuth_names_the_wrap_pose(g5500, cls):
+    """W400 and W120 elevation go to the overlap and the flipped side, not 40/60: the
+    controller frame is the mechanical one, and it is reported back the same way."""
+    s, style = cls(g5500.rot), STYLE[cls]
+    s.receive(b"W400 120\r")
+    g5500.settle()
+    assert abs(g5500.truth("az") - 400) <= AZ_TOL_DEG     # mechanically past 360
+    assert abs(g5500.truth("el") - 120) <= EL_TOL_DEG
+    raz, rel = c2(s, style)
+    assert abs(raz - 400) <= 1 and abs(rel - 120) <= 1
+    st_ = g5500.rot.status()
+    assert abs(st_.az_deg - 220) < 1.5 and abs(st_.el_deg - 60) < 1.5   # the sky direction
+    s.receive(b"W450 000\r")
+    g5500.settle()
+    assert c2(s, style)[0] in (449, 450, 451) and abs(g5500.truth("az") - 450) <= AZ_TOL_DEG
+
+
+def test_m_turns_azimuth_only_keeping_flipped_elevation(g5500):
+    s = Gs232bSession(g5500.rot)
+    s.receive(b"W100 120\r")
+    g5500.settle()
+    s.receive(b"M200\r")
+    g5500.settle()
+    raz, rel = c2(s, STYLE_B)
+    assert abs(raz - 200) <= 1 and abs(rel - 120) <= 1
+    assert abs(g5500.truth("el") - 120) <= EL_TOL_DEG
+
+
+def test_m_at_bottom_stop_with_noisy_elevation(bench):
+    """At el 0 a noisy sensor reads a little below zero at times (sarcnet-mini's
+    magnetometer, half of the time): M must still be accepted."""
+    b = bench("sarcnet-mini")
+    s = Gs232aSession(b.rot)
+    for az in (50, 10, 80):
+        assert b.run(5.0, until=lambda st_: st_.el_deg < 0).el_deg < 0
+        assert s.receive(f"M{az:03d}\r".encode()) == [b"\r"]
+        b.settle()
+        assert abs(c2(s, STYLE_A)[0] - az) <= 1
+
+
+def test_query_while_moving_reports_where_it_is_now(g5500):
+    s = Gs232aSession(g5500.rot)
+    s.receive(b"W300 090\r")
+    seen = []
+    for _ in range(5):
+        g5500.run(2.0)
+        seen.append(c2(s, STYLE_A))
+        assert abs(seen[-1][0] - controller_pose(g5500.rot.status())[0]) <= 0.5
+    assert seen[0][0] < seen[-1][0] < 300 or seen[-1][0] == 300
+    assert len({p for p in seen}) == len(seen)              # a fresh reading every time
+
+
+@pytest.mark.parametrize("cls", SESSIONS)
+def test_stop_all_and_single_axis(g5500, cls):
+    s, style = cls(g5500.rot), STYLE[cls]
+    s.receive(b"W300 150\r")
+    g5500.run(3.0)
+    s.receive(b"A\r")              # stop azimuth only: elevation goes on
+    g5500.run(3.0)
+    az1 = g5500.truth("az")
+    g5500.settle()
+    assert abs(g5500.truth("az") - az1) < 2.0 and g5500.truth("az") < 250
+    assert abs(g5500.truth("el") - 150) <= EL_TOL_DEG
+    s.receive(b"W300 000\r")
+    g5500.run(3.0)
+    s.receive(b"S\r")             # stop all, both axes halfway
+    g5500.settle()
+    st_ = g5500.rot.status()
+    assert not st_.moving
+    assert az1 + 5 < g5500.truth("az") < 250 and 100 < g5500.truth("el") < 148
+
+
+@pytest.mark.parametrize("cmd, axis, sign", [(b"R", "az", 1), (b"L", "az", -1),
+                                             (b"U", "el", 1), (b"D", "el", -1)])
+def test_manual_moves(g5500, cmd, axis, sign):
+    s = Gs232aSession(g5500.rot)
+    s.receive(b"W200 090\r")
+    g5500.settle()
+    before = g5500.truth(axis)
+    assert s.receive(cmd + b"\r") == [b"\r"]
+    g5500.run(3.0)
+    assert (g5500.truth(axis) - before) * sign > 5
+    s.receive(b"E\r" if axis == "el" else b"A\r")
+    g5500.settle()
+    assert not g5500.rot.status().moving
+
+
+def test_x_speed_levels(tartu):
+    """X1..X4 set the speed of the following manual move (on a PWM-driven axis)."""
+    rates = {}
+    for level in (1, 2, 4):
+        s = Gs232aSession(tartu.rot)
+        s.receive(b"W100 045\r")
+        tartu.settle()
+        s.receive(f"X{level}\rR\r".encode())
+        tartu.run(1.0)   # past the start ramp; then measure the true speed
+        a0 = tartu.truth("az")
+        tartu.run(3.0)
+        rates[level] = (tartu.truth("az") - a0) / 3.0
+        s.receive(b"S\r")
+        tartu.settle()
+    # X1 = 1/4, X2 = 1/2 of the top speed
+    assert 0.5 < rates[1] < rates[2] < rates[4]
+    assert abs(rates[2] / rates[1] - 2.0) < 0.1 and abs(rates[4] / rates[1] - 4.0) < 0.2
+
+
+def test_mount_offset_reported_in_controller_frame(bench):
+    b = bench("g5500", offsets={"az_deg": 10.0})
+    s = Gs232aSession(b.rot)
+    s.receive(b"W100 020\r")
+    b.settle()
+    assert abs(c2(s, STYLE_A)[0] - 100) <= 1
+    assert abs(b.truth("az") - 90) <= AZ_TOL_DEG          # the mechanics sit 10 deg back
+    s.receive(b"W400 020\r")
+    b.settle()
+    assert abs(c2(s, STYLE_A)[0] - 400) <= 1 and abs(b.truth("az") - 390) <= AZ_TOL_DEG
+
+
+def test_negative_range_reported_as_compass(bench):
+    """A rotator whose range starts below 0 (sarcnet-mini: -90..450): GS-232 has no sign,
+    so -30 is reported as 330 (what Hamlib would have sent for -30)."""
+    b = bench("sarcnet-mini")
+    b.rot.goto(-30.0, 10.0)
+    b.settle()
+    s = Gs232bSession(b.rot)
+    raz, _ = c2(s, STYLE_B)
+    assert abs(raz - 330) <= 1.5
+
+
+# ============================================================= bounded & fuzzed
+@pytest.mark.parametrize("cls", SESSIONS)
+def test_overlong_line_dropped_and_resynchronised(g5500, cls):
+    s = cls(g5500.rot)
+    err = format_error(STYLE[cls])
+    junk = b"W" * (MAX_PENDING_BYTES + 10)
+    replies = []
+    for i in range(0, len(junk), 1000):
+        replies += s.receive(junk[i:i + 1000])
+    assert s._lines.pending <= MAX_PENDING_BYTES
+    assert replies == [err]
+    # the rest of that overlong line is not a command, even if it looks like one
+    assert s.receive(b"W100 020\r") == []
+    g5500.run(1.0)
+    assert g5500.rot.status().target_az_deg is None
+    assert len(s.receive(b"C2\r")) == 1                 # back in step
+
+
+def _moves(data: bytes) -> bool:
+    """Would any complete line of ``data`` be a valid motion command? (the fuzz oracle)"""
+    for line in LineBuffer(MAX_PENDING_BYTES).feed(data):
+        try:
+            if line is not None and parse_command(line).op in ("goto", "goto_az", "move"):
+                return True
+        except Gs232ParseError:
+            pass
+    return False
+
+
+_PIECES = st.sampled_from([b"W", b"M", b"C", b"C2", b"X", b"R", b"U", b"1", b"100", b"450",
+                           b"999", b" ", b"\r", b"\n", b"\r\n", b"-", b".", b"nan", b"inf",
+                           b"\x00", b"\xff", b"?>", b"S"])
+GARBAGE = st.one_of(st.binary(max_size=300),
+                    st.lists(st.one_of(_PIECES, st.binary(max_size=4)), max_size=60).map(b"".join))
+
+
+@pytest.fixture(scope="module")
+def fuzz_bench():
+    return Bench("g5500", Path(tempfile.mkdtemp()))
+
+
+@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(data=GARBAGE, cls=st.sampled_from(SESSIONS), split=st.integers(1, 7))
+def test_fuzz_garbage_never_moves_or_raises(fuzz_bench, data, cls, split):
+    assume(not _moves(data))
+    b = fuzz_bench
+    s = cls(b.rot)
+    replies = []
+    for i in range(0, len(data), split):
+        replies += s.receive(data[i:i + split])
+    lines = data.count(b"\r") + data.count(b"\n") + 1
+    assert len(replies) <= lines
+    assert all(isinstance(r, bytes) and 0 < len(r) <= 16 for r in replies)
+    assert s._lines.pending <= MAX_PENDING_BYTES
+    b.run(0.5)
+    st_ = b.rot.status()
+    assert not st_.moving and st_.target_az_deg is None and st_.az.target_deg is None

@@ -1,0 +1,339 @@
+"""Tartu URC four-letter command set (DESIGN.md's first seed machine).
+
+Codec tests the h11 way, line splitting, session transcripts, and end-to-end runs on the
+tartu-urc profile (400 deg azimuth, 0..180 elevation, 10 pulses/degree encoders) judged
+by the simulator's truth.
+"""
+
+from __future__ import annotations
+
+import re
+
+import pytest
+from hypothesis import assume, given, settings
+from hypothesis import strategies as st
+
+from conftest import Bench
+from urc.protocols import MAX_PENDING_BYTES, make_session
+from urc.protocols import tartu_codec as codec
+from urc.protocols.tartu import TartuSession
+from urc.protocols.tartu_codec import Command, TartuSyntaxError
+from urc.protocols.tartu_support import Line, LineSplitter
+
+#: 0.1 deg encoders, 0.1 deg position tolerance, 0.1 deg print resolution
+TRUTH_TOL_DEG = 0.25
+VALUE = re.compile(rb"-?\d{3}\.\d\r\n\Z")
+
+
+def value(reply: bytes) -> float:
+    assert VALUE.match(reply), reply
+    return float(reply)
+
+
+@pytest.fixture
+def tartu(bench):
+    b = bench("tartu-urc")
+    return b, TartuSession(b.rot)
+
+
+def still(b: Bench) -> bool:
+    b.run(1.0)
+    s = b.rot.status()
+    return not s.moving and s.target_az_deg is None and s.az.target_deg is None and s.el.target_deg is None
+
+
+# ======================================================================== codec
+@pytest.mark.parametrize("line, cmd", [
+    (b"VERS", Command("VERS", ())),
+    (b"vers", Command("VERS", ())),
+    (b"  RDAZ  ", Command("RDAZ", ())),
+    (b"GOAZ 123.4", Command("GOAZ", (123.4,))),
+    (b"GOAZ123.4", Command("GOAZ", (123.4,))),
+    (b"GOEL -5", Command("GOEL", (-5.0,))),
+    (b"GOAE 123.4,45.0", Command("GOAE", (123.4, 45.0))),
+    (b"goae 123.4 , 45", Command("GOAE", (123.4, 45.0))),
+    (b"GOAE .5,0.", Command("GOAE", (0.5, 0.0))),
+    (b"WRAZ 380", Command("WRAZ", (380.0,))),
+    (b"BAUD", Command("BAUD", ())),
+    (b"BAUD 9600", Command("BAUD", (9600,))),
+    (b"ECHO on", Command("ECHO", (True,))),
+    (b"ECHO 0", Command("ECHO", (False,))),
+    (b"OVRA", Command("OVRA", ())),
+    (b"OVRE 0.5", Command("OVRE", (0.5,))),
+    (b"HLTE", Command("HLTE", ())),
+    (b"LCDC", Command("LCDC", ())),
+])
+def test_parse(line, cmd):
+    assert codec.parse_line(line) == cmd
+
+
+@pytest.mark.parametrize("line, code", [
+    (b"FOO", codec.E_UNKNOWN), (b"RDAZX", codec.E_UNKNOWN), (b"GO", codec.E_UNKNOWN),
+    (b"\xff\xfe\x00", codec.E_UNKNOWN),
+    (b"GOAZ", codec.E_SYNTAX), (b"GOAZ nan", codec.E_SYNTAX), (b"GOAZ inf", codec.E_SYNTAX),
+    (b"GOAZ 1e3", codec.E_SYNTAX), (b"GOAZ 12,3", codec.E_SYNTAX), (b"GOAE 123.4", codec.E_SYNTAX),
+    (b"GOAE 1,2,3", codec.E_SYNTAX), (b"GOAE 1,", codec.E_SYNTAX), (b"RDAZ 5", codec.E_SYNTAX),
+    (b"BAUD 1234", codec.E_SYNTAX), (b"ECHO maybe", codec.E_SYNTAX), (b"GOAZ " + b"9" * 400, codec.E_SYNTAX),
+])
+def test_parse_errors(line, code):
+    with pytest.raises(TartuSyntaxError) as e:
+        codec.parse_line(line)
+    assert e.value.code == code
+    assert "expected" in str(e.value) or "out of range" in str(e.value)
+
+
+@pytest.mark.parametrize("v, text", [(123.4, "123.4"), (45, "045.0"), (0, "000.0"), (-0.04, "000.0"),
+                                     (-5, "-005.0"), (399.96, "400.0"), (7.25, "007.2")])
+def test_format_deg(v, text):
+    assert codec.format_deg(v) == text
+
+
+@given(tenths=st.integers(-3600, 9999))
+def test_format_parse_round_trip(tenths):
+    text = codec.format_deg(tenths / 10)
+    assert re.fullmatch(r"-?\d{3}\.\d", text)
+    cmd = codec.parse_line(b"GOAZ " + text.encode())
+    assert round(cmd.args[0] * 10) == tenths
+
+
+def test_error_is_one_line():
+    assert codec.error(2, "a\r\nb") == b"ERR 2 a  b\r\n"
+
+
+# ================================================================ line splitter
+def test_line_endings_cr_lf_crlf_split_anywhere():
+    data = b"A\rB\nC\r\nD\n\rE\r"
+    whole = [l.text for l in LineSplitter().feed(data)]
+    assert whole == [b"A", b"B", b"C", b"D", b"", b"E"]
+    sp, bytewise = LineSplitter(), []
+    for byte in data:
+        bytewise += [l.text for l in sp.feed(bytes([byte]))]
+    assert bytewise == whole
+
+
+def test_backspace_and_overflow():
+    sp = LineSplitter(max_len=8)
+    assert [l.text for l in sp.feed(b"RDX\x7fAZ\x08Z\r")] == [b"RDAZ"]
+    out = sp.feed(b"x" * 20)
+    assert [l.overflowed for l in out] == [True]
+    assert sp.feed(b"y" * 20 + b"\rOK\r") == [Line(b"OK")]
+
+
+# =================================================================== transcripts
+def test_vers_help_baud(tartu):
+    _, s = tartu
+    assert s.receive(b"VERS\r") == [b"URC urc-0.1.0 (Tartu URC command set)\r\n"]
+    (help_,) = s.receive(b"HELP\r\n")
+    for name in "VERS HELP BAUD ECHO GOAZ GOEL GOAE RDAZ RDEL WRAZ WREL RDAP RDEP OVRA OVRE HALT HLTA HLTE LCDC".split():
+        assert re.search(rb"^" + name.encode() + rb"\b", help_, re.M), name
+    assert s.receive(b"BAUD\r") == [b"BAUD 115200\r\n"]
+    assert s.receive(b"BAUD 9600\r") == [b"OK\r\n"]
+    assert s.receive(b"BAUD\r") == [b"BAUD 9600\r\n"]
+    assert s.receive(b"BAUD 9601\r")[0].startswith(b"ERR 2 BAUD: expected one of 1200")
+
+
+def test_reads_at_start(tartu):
+    """The Tartu rotator parks at az 0, el 90."""
+    _, s = tartu
+    assert s.receive(b"RDAZ\rRDEL\r") == [b"000.0\r\n", b"090.0\r\n"]
+    assert s.receive(b"RDAP\nRDEP\n") == [b"000.0,---.-\r\n", b"090.0,---.-\r\n"]
+
+
+def test_same_replies_whole_bytewise_and_chunked(tartu):
+    _, s = tartu
+    data = b"RDAZ\rRDEL\nRDAP\r\nRDEP\rLCDC\rOVRA\rFOO\rGOAZ x\r"
+    whole = b"".join(s.receive(data))
+    bytewise = b"".join(r for byte in data for r in s.receive(bytes([byte])))
+    chunked = b"".join(r for i in range(0, len(data), 5) for r in s.receive(data[i:i + 5]))
+    assert whole == bytewise == chunked
+    assert whole.count(b"\r\n") == 9 and whole.count(b"ERR") == 2
+
+
+def test_echo(tartu):
+    _, s = tartu
+    assert s.receive(b"ECHO\r") == [b"ECHO OFF\r\n"]
+    assert s.receive(b"ECHO ON\r") == [b"OK\r\n"]
+    out = []
+    for byte in b"RDX\x7fAZ\r":
+        out += s.receive(bytes([byte]))
+    assert out == [b"R", b"D", b"X", b"\b \b", b"A", b"Z", b"\r\n", b"000.0\r\n"]
+    assert s.receive(b"ECHO OFF\r") == [b"ECHO OFF\r\n", b"OK\r\n"]
+    assert s.receive(b"RDAZ\r") == [b"000.0\r\n"]
+    assert TartuSession(None, echo=True).echo
+
+
+def test_lcdc(tartu):
+    b, s = tartu
+    (lcd,) = s.receive(b"LCDC\r")
+    rows = lcd.split(b"\r\n")
+    assert rows[2:] == [b""] and [len(r) for r in rows[:2]] == [20, 20]
+    assert rows[0].startswith(b"AZ 000.0") and rows[1].startswith(b"EL 090.0")
+    s.receive(b"GOAE 100,45\r")
+    b.run(3.0)
+    (lcd,) = s.receive(b"LCDC\r")
+    assert re.fullmatch(rb"AZ \d{3}\.\d>100\.0 +RUN\r\nEL \d{3}\.\d>045\.0 +RUN\r\n", lcd), lcd
+    b.settle()
+    (lcd,) = s.receive(b"LCDC\r")
+    assert re.fullmatch(rb"AZ 100\.0>100\.0   HLD\r\nEL 045\.0>045\.0   HLD\r\n", lcd), lcd
+
+
+def test_overshoot_read_and_not_settable(bench):
+    for profile, text in (("tartu-urc", b"000.0"), ("g4jnt", b"000.3")):
+        s = TartuSession(bench(profile).rot)
+        assert s.receive(b"OVRA\r") == [text + b"\r\n"]
+        (err,) = s.receive(b"OVRA 1.5\r")
+        assert err.startswith(b"ERR 7 OVRA: overshoot compensation is not settable")
+
+
+def test_errors_do_not_move(tartu):
+    b, s = tartu
+    replies = s.receive(b"GOAZ nan\rGOAZ 500\rGOEL 200\rGOAE 1\rFOO 1,2\rGOAZ\r")
+    assert [r[:5] for r in replies] == [b"ERR 2", b"ERR 3", b"ERR 3", b"ERR 2", b"ERR 1", b"ERR 2"]
+    assert b"400" in replies[1]                       # says what the limits are
+    assert all(r.endswith(b"\r\n") and r.count(b"\r\n") == 1 for r in replies)
+    assert still(b)
+
+
+def test_overflow(tartu):
+    b, s = tartu
+    replies = s.receive(b"G" * (MAX_PENDING_BYTES + 10))
+    assert len(replies) == 1 and replies[0].startswith(b"ERR 8 ")
+    assert s.receive(b"OAZ 100" * 100) == []           # still the same dropped line
+    assert s.receive(b"\rRDAZ\r") == [b"000.0\r\n"]
+    assert still(b)
+
+
+def test_wraz_wrel_re_reference_without_motion(tartu):
+    b, s = tartu
+    assert s.receive(b"WRAZ 200.0\rWREL 30\r") == [b"OK\r\n", b"OK\r\n"]
+    b.run(0.2)
+    assert s.receive(b"RDAZ\rRDEL\r") == [b"200.0\r\n", b"030.0\r\n"]
+    assert b.truth("az") == pytest.approx(0.0, abs=0.05)           # nothing moved
+    assert s.receive(b"WRAZ 450\r")[0].startswith(b"ERR 3")
+    assert still(b)
+
+
+# =================================================================== end to end
+def test_goae_then_read_matches_truth(tartu):
+    b, s = tartu
+    assert s.receive(b"GOAE 123.4,45.0\r") == [b"OK\r\n"]
+    b.settle()
+    az, el = (value(r) for r in s.receive(b"RDAZ\rRDEL\r"))
+    assert az == pytest.approx(b.truth("az"), abs=TRUTH_TOL_DEG)
+    assert el == pytest.approx(b.truth("el"), abs=TRUTH_TOL_DEG)
+    assert (az, el) == pytest.approx((123.4, 45.0), abs=0.15)
+    assert s.receive(b"RDAP\r") == [f"{codec.format_deg(az)},123.4\r\n".encode()]
+
+
+def test_goaz_and_goel_in_one_chunk_both_happen(tartu):
+    b, s = tartu
+    assert s.receive(b"GOAZ 100\rGOEL 20\r") == [b"OK\r\n", b"OK\r\n"]
+    b.settle()
+    assert b.truth("az") == pytest.approx(100.0, abs=TRUTH_TOL_DEG)
+    assert b.truth("el") == pytest.approx(20.0, abs=TRUTH_TOL_DEG)
+
+
+def test_wrap_and_flip_in_the_controller_frame(tartu):
+    """380 is the overlap of the 400 deg azimuth; 120 elevation is over the top."""
+    b, s = tartu
+    s.receive(b"GOAE 380,120\r")
+    b.settle()
+    assert [value(r) for r in s.receive(b"RDAZ\rRDEL\r")] == pytest.approx([380.0, 120.0], abs=0.15)
+    assert (b.truth("az"), b.truth("el")) == pytest.approx((380.0, 120.0), abs=TRUTH_TOL_DEG)
+    s.receive(b"GOEL 60\r")                            # azimuth stays in the overlap
+    b.settle()
+    assert b.truth("az") == pytest.approx(380.0, abs=TRUTH_TOL_DEG)
+    assert value(s.receive(b"RDEL\r")[0]) == pytest.approx(60.0, abs=0.15)
+
+
+def test_halt_then_goaz_keeps_elevation_where_it_stopped(tartu):
+    b, s = tartu
+    s.receive(b"GOAE 200,10\r")
+    b.run(4.0)
+    assert s.receive(b"HALT\r") == [b"OK\r\n"]
+    b.settle()
+    el_stop = b.truth("el")
+    assert el_stop > 40                                # stopped on the way down from 90
+    s.receive(b"GOAZ 50\r")
+    b.settle()
+    assert b.truth("el") == pytest.approx(el_stop, abs=0.5)
+    assert b.truth("az") == pytest.approx(50.0, abs=TRUTH_TOL_DEG)
+
+
+def test_hlte_stops_only_elevation(tartu):
+    b, s = tartu
+    s.receive(b"GOAE 60,10\r")
+    b.run(3.0)
+    assert s.receive(b"HLTE\r") == [b"OK\r\n"]
+    b.settle()
+    assert b.truth("az") == pytest.approx(60.0, abs=TRUTH_TOL_DEG)
+    assert b.truth("el") > 40
+    (rdep,) = s.receive(b"RDEP\r")
+    pos, tgt = rdep.strip().split(b",")
+    assert float(pos) == pytest.approx(b.truth("el"), abs=TRUTH_TOL_DEG)
+
+
+def test_hlta_mid_move(tartu):
+    b, s = tartu
+    s.receive(b"GOAZ 300\r")
+    b.run(3.0)
+    s.receive(b"HLTA\r")
+    b.settle()
+    assert 5.0 < b.truth("az") < 100.0
+
+
+def test_registry_name(tartu):
+    b, _ = tartu
+    assert isinstance(make_session("urc", b.rot), TartuSession)
+
+
+# ======================================================================== fuzz
+@pytest.fixture(scope="module")
+def quiet(tmp_path_factory):
+    return Bench("tartu-urc", tmp_path_factory.mktemp("tartu-fuzz"))
+
+
+_WORDS = st.sampled_from([b"GOAZ", b"GOAE", b"WRAZ", b"RDAZ", b"LCDC", b"nan", b"1e9", b",", b" ",
+                          b"\r", b"\n", b"\x7f", b"\x00", b"-", b"."])
+_DATA = st.lists(st.one_of(st.binary(max_size=20), _WORDS), max_size=20).map(b"".join)
+
+
+@settings(max_examples=150, deadline=None)
+@given(data=_DATA, split=st.integers(1, 9))
+def test_fuzz_never_raises_or_moves(quiet, data, split):
+    # a well-formed motion command could legitimately move: keep those out
+    assume(not re.search(rb"(?i)(GO(AZ|EL|AE)|WR(AZ|EL))\s*[+-]?[\d.]", data))
+    s = TartuSession(quiet.rot)
+    replies = []
+    for i in range(0, len(data), split):
+        replies += s.receive(data[i:i + split])
+    assert all(r.endswith(b"\r\n") for r in replies)
+    assert len(replies) <= data.count(b"\r") + data.count(b"\n") + 1
+    assert still(quiet)
+
+
+# ============================================================ extended frame
+def test_extended_pose_with_mount_offsets(bench):
+    """An azimuth mount offset of 200 deg: the controller frame is mechanical + 200."""
+    from dataclasses import replace as dc_replace
+
+    from urc.protocols.tartu_support import extended_pose_deg, frame_offsets_deg
+    b = bench("tartu-urc")
+    st_ = b.rot.status()
+    az_m, el_m = st_.az.pos_deg, st_.el.pos_deg
+    for az_off, el_off, az_m2, el_m2 in ((200.0, 0.0, 150.0, 30.0), (-30.0, 5.0, 10.0, 120.0)):
+        ext = az_m2 + az_off
+        el_ext = el_m2 + el_off
+        flipped = el_ext > 90
+        sky_az = (ext + (180 if flipped else 0)) % 360
+        sky_el = 180 - el_ext if flipped else el_ext
+        fake = dc_replace(st_, az=dc_replace(st_.az, pos_deg=az_m2), el=dc_replace(st_.el, pos_deg=el_m2),
+                          az_deg=sky_az, el_deg=sky_el, flipped=flipped, wrap_turns=int(ext // 360))
+        if hasattr(fake, "offsets"):
+            fake = dc_replace(fake, offsets={})          # the estimate, as without offsets
+        assert frame_offsets_deg(fake) == pytest.approx((az_off, el_off))
+        assert extended_pose_deg(fake) == pytest.approx((ext, el_ext))
+        if hasattr(fake, "offsets"):
+            exact = dc_replace(fake, offsets={"az": az_off, "el": el_off})
+            assert extended_pose_deg(exact) == pytest.approx((ext, el_ext))
+    assert extended_pose_deg(st_) == pytest.approx((az_m, el_m))
