@@ -48,6 +48,8 @@ class Session(Protocol):
     """One client connection's protocol state."""
 
     #: set when the client asked to close (rotctld ``q``); the adapter then closes.
+    #: (Sessions with unsolicited output — G4JNT stream, SARCNET monitor — also set a
+    #: class attribute ``wants_tick = True``; only those are ticked by the adapters.)
     closed: bool
 
     def receive(self, data: bytes) -> list[bytes]:

@@ -49,6 +49,8 @@ def _rotator_pot_calibration(rotator: RotatorPort) -> dict[str, float]:
 
 
 class G4jntSession:
+    wants_tick = True  # streams position lines (see base.Session)
+
     def __init__(self, rotator: RotatorPort, *, interval_s: float = 0.5):
         if not interval_s > 0:
             raise ValueError(f"interval_s must be > 0, got {interval_s!r}")

@@ -58,6 +58,8 @@ DEMO_GOTO_EVERY_S = 0.5         # refresh the rotator's target no faster than th
 class SarcnetSession:
     """One connection to the SARCNET console. Option ``interval_s`` (0.1 s): period of
     the monitor, debug and demo streams."""
+    wants_tick = True  # streams position lines (see base.Session)
+
 
     def __init__(self, rotator: RotatorPort, *, interval_s: float = 0.1):
         if not interval_s > 0:

@@ -26,6 +26,10 @@ def feed(session: Session, data: bytes, where: str) -> list[bytes]:
         return []
 
 
+def needs_tick(session: Session) -> bool:
+    return bool(getattr(session, "wants_tick", False))
+
+
 async def tick_loop(session: Session, write: Callable[[bytes], None], clock_now: Callable[[], float],
                     where: str) -> None:
     while not session.closed:

@@ -14,7 +14,7 @@ import time
 import tty
 from pathlib import Path
 
-from .common import READ_CHUNK, SessionFactory, feed, log, tick_loop
+from .common import READ_CHUNK, SessionFactory, feed, log, needs_tick, tick_loop
 
 
 class PtyEndpoint:
@@ -38,7 +38,8 @@ class PtyEndpoint:
     def start(self) -> None:
         loop = asyncio.get_running_loop()
         loop.add_reader(self.master_fd, self._readable)
-        self._ticker = asyncio.create_task(tick_loop(self.session, self._write, time.monotonic,
+        if needs_tick(self.session):
+            self._ticker = asyncio.create_task(tick_loop(self.session, self._write, time.monotonic,
                                                      f"{self.name} pty {self.link}"))
 
     def _readable(self) -> None:

@@ -7,7 +7,7 @@ import time
 
 import serial
 
-from .common import READ_CHUNK, SessionFactory, feed, log, tick_loop
+from .common import READ_CHUNK, SessionFactory, feed, log, needs_tick, tick_loop
 
 
 class SerialEndpoint:
@@ -20,7 +20,8 @@ class SerialEndpoint:
 
     def start(self) -> None:
         asyncio.get_running_loop().add_reader(self.port.fileno(), self._readable)
-        self._ticker = asyncio.create_task(tick_loop(self.session, self._write, time.monotonic, self.where))
+        if needs_tick(self.session):
+            self._ticker = asyncio.create_task(tick_loop(self.session, self._write, time.monotonic, self.where))
 
     def _readable(self) -> None:
         try:
