@@ -85,7 +85,8 @@ def build_rotator(cfg: Config, clock: Clock, state_dir: Path, durable_state: boo
     return Rotator(settings, hardware, clock, StateStore(state_dir / STATE_FILE, durable=durable_state))
 
 
-async def serve(cfg: Config, state_dir: Path, clock: Clock | None = None) -> None:
+async def serve(cfg: Config, state_dir: Path, clock: Clock | None = None,
+                config_path: Path | None = None) -> None:
     """The ``urc run`` process: control loop + HTTP API until SIGINT/SIGTERM."""
     import uvicorn
 
@@ -98,7 +99,11 @@ async def serve(cfg: Config, state_dir: Path, clock: Clock | None = None) -> Non
     loop = asyncio.get_running_loop()
     for sig in (signal.SIGINT, signal.SIGTERM):
         loop.add_signal_handler(sig, stop.set)
-    api = create_api(rotator, cfg)
+    from .tracking.service import TrackingService
+
+    tracking = TrackingService(rotator, cfg)
+    api = create_api(rotator, cfg, config_path=config_path, state_dir=state_dir,
+                     tracker=tracking if tracking.station is not None else None)
     server = uvicorn.Server(uvicorn.Config(api, host=cfg.api.host, port=cfg.api.port,
                                            log_level="warning", lifespan="off"))
     server.install_signal_handlers = lambda: None  # ours above stop everything in order
@@ -119,7 +124,21 @@ async def serve(cfg: Config, state_dir: Path, clock: Clock | None = None) -> Non
         raise
     for ep in endpoints:
         print(f"urc: serving {ep.description}", flush=True)
-    control = asyncio.create_task(run_realtime(rotator, clock, stop), name="control-loop")
+    if tracking.station is None:
+        print("urc: tracking off: no [station] configured", flush=True)
+    elif cfg.tracking.schedule:
+        try:
+            for p in tracking.run_schedule():
+                print(f"urc: scheduled {p.name} {p.aos:%Y-%m-%d %H:%M:%S}Z max el {p.max_el_deg:.0f}", flush=True)
+        except Exception as exc:  # a bad catalog must not keep the controller from running
+            print(f"urc: schedule not run: {exc}", flush=True)
+
+    def after_tick(now_s: float) -> None:
+        try:
+            tracking.step(now_s)
+        except Exception:  # the tracker must never take the control loop down
+            log.exception("tracker step failed")
+    control = asyncio.create_task(run_realtime(rotator, clock, stop, after_tick), name="control-loop")
     web = asyncio.create_task(server.serve(), name="api")
     stopper = asyncio.create_task(stop.wait())
     done, _ = await asyncio.wait({control, web, stopper}, return_when=asyncio.FIRST_COMPLETED)

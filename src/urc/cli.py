@@ -54,7 +54,8 @@ def run(config_path: str | None, profile: str | None, state_dir: str | None, por
             data = cfg.to_dict()
             data.setdefault("api", {})["port"] = port
             cfg = Config.from_dict(data, source="--port")
-        asyncio.run(serve(cfg, cfg.state.resolve_dir(state_dir)))
+        asyncio.run(serve(cfg, cfg.state.resolve_dir(state_dir),
+                          config_path=Path(config_path) if config_path else None))
     except ConfigError as exc:
         raise click.ClickException(str(exc)) from None
     except OSError as exc:
@@ -153,6 +154,8 @@ def _format_status(s: dict) -> str:
         lines.append(f"sim truth az {truth['az']['deg']:7.2f}  el {truth['el']['deg']:6.2f}  (simulator only)")
     for e in s["events"][-3:]:
         lines.append(f"event     {e}")
+    if s.get("tracking"):
+        lines.append(_format_tracking(s["tracking"]))
     return "\n".join(lines)
 
 
@@ -210,6 +213,72 @@ def clear_faults(url: str | None, config_path: str | None) -> None:
     _request(url, config_path, "POST", "/api/clear-faults")
     click.echo("faults cleared")
 
+
+@main.command()
+@click.argument("target", required=False)
+@click.option("--norad", type=int, help="Satellite by NORAD catalog number.")
+@click.option("--point", nargs=3, type=float, metavar="LAT LON ALT_M", help="A place on Earth.")
+@click.option("--azel", nargs=2, type=float, metavar="AZ EL", help="A fixed direction.")
+@click.option("--pass-aos", "pass_aos", help="Fly only the pass with this AOS (ISO time, UTC).")
+@click.option("--stop", "stop_tracking", is_flag=True, help="Stop tracking.")
+@_client_options
+def track(target: str | None, norad: int | None, point, azel, pass_aos: str | None, stop_tracking: bool,
+          url: str | None, config_path: str | None) -> None:
+    """Track a target with the running controller: ISS (a name), --norad 25544, sun,
+    moon, --point LAT LON ALT_M or --azel AZ EL. Satellites are flown pass by pass, each
+    planned before it starts (see `urc status`)."""
+    if stop_tracking:
+        _request(url, config_path, "POST", "/api/track/stop")
+        click.echo("tracking stopped")
+        return
+    if point:
+        body = {"kind": "point", "lat_deg": point[0], "lon_deg": point[1], "alt_m": point[2]}
+    elif azel:
+        body = {"kind": "azel", "az_deg": azel[0], "el_deg": azel[1]}
+    elif norad is not None:
+        body = {"kind": "satellite", "norad": norad}
+    elif target and target.lower() in ("sun", "moon"):
+        body = {"kind": target.lower()}
+    elif target:
+        body = {"kind": "satellite", "name": target}
+    else:
+        raise click.UsageError("name a target: a satellite, sun, moon, --norad, --point or --azel")
+    if pass_aos:
+        if body["kind"] != "satellite" or norad is None:
+            raise click.UsageError("--pass-aos needs --norad")
+        data = _request(url, config_path, "POST", "/api/track/pass", {"norad": norad, "aos": pass_aos})
+    else:
+        data = _request(url, config_path, "POST", "/api/track", body)
+    click.echo(_format_tracking(data))
+
+
+def _format_tracking(t: dict | None) -> str:
+    if not t:
+        return "not tracking"
+    lines = [f"tracking  {t.get('target')}"]
+    if t.get("az_deg") is not None:
+        lines.append(f"target    az {t['az_deg']:7.2f}  el {t['el_deg']:6.2f}")
+    plan = t.get("plan")
+    if plan:
+        lines.append(f"pass      AOS {plan['aos']}  LOS {plan['los']}  max el {plan['max_el_deg']:.1f}")
+        lines.append(f"plan      {'flip (over the top)' if plan['flip'] else 'no flip'}, wrap turn "
+                     f"{plan['wrap_turns']}, AOS pose az {plan['aos_pose'][0]:.1f} el {plan['aos_pose'][1]:.1f}, "
+                     f"peak az rate {plan['peak_az_rate_deg_per_s']:.2f} deg/s; state {t.get('state')}")
+        for note in plan.get("notes", []):
+            lines.append(f"note      {note}")
+    if t.get("error"):
+        lines.append(f"warning   {t['error']}")
+    return "\n".join(lines)
+
+
+def _register_tracking_commands() -> None:
+    from .tracking.cli import passes_command, tle_command
+
+    main.add_command(passes_command, "passes")
+    main.add_command(tle_command, "tle")
+
+
+_register_tracking_commands()
 
 if __name__ == "__main__":  # pragma: no cover
     sys.exit(main())

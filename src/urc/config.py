@@ -42,7 +42,7 @@ from .profiles import DEFAULT_PROFILE, PROFILES
 __all__ = [
     "EXAMPLE_CONFIG", "ApiSection", "AxisControl", "AxisLimits", "Config", "ControlSection",
     "FaultsSection", "HardwareSection", "KeepoutZone", "LimitsSection", "OffsetsSection",
-    "ParkSection", "RotatorSection", "ServeEntry", "SimSection", "StateSection", "load_config",
+    "ParkSection", "RotatorSection", "ScheduleEntry", "ServeEntry", "StationSection", "TrackingSection", "SimSection", "StateSection", "load_config",
     "loads_config", "parse_host_port",
 ]
 
@@ -221,6 +221,46 @@ class StateSection(_Section):
         return Path(platformdirs.user_data_dir("urc"))
 
 
+class StationSection(_Section):
+    """Where the antenna stands. Needed for tracking; None = not configured."""
+
+    lat_deg: float | None = _num(None, ge=-90.0, le=90.0)
+    lon_deg: float | None = _num(None, ge=-180.0, le=360.0)
+    alt_m: float = _num(0.0, ge=-500.0, le=100_000.0)
+    name: str = ""
+
+    @property
+    def configured(self) -> bool:
+        return self.lat_deg is not None and self.lon_deg is not None
+
+
+class ScheduleEntry(_Section):
+    #: satellite name (unique prefix, any case) or NORAD id as text
+    sat: str = Field(min_length=1)
+    #: larger wins when two passes compete for the antenna
+    priority: int = 0
+
+
+class TrackingSection(_Section):
+    #: where element sets are kept; "" = <per-user data dir>/catalog
+    catalog_dir: str = ""
+    #: passes below this maximum elevation are ignored; tracking starts at this elevation
+    min_el_deg: float = _num(0.0, ge=-5.0, le=90.0)
+    #: park when a pass ends
+    park_after_pass: bool = True
+    #: CelesTrak groups `urc tle update` downloads
+    groups: tuple[str, ...] = Field(("stations", "amateur", "cubesat", "weather"), strict=False)
+    #: satellites to track automatically, pass by pass, by priority
+    schedule: tuple[ScheduleEntry, ...] = Field((), strict=False)
+
+    def resolve_catalog_dir(self) -> Path:
+        if self.catalog_dir:
+            return Path(self.catalog_dir).expanduser()
+        import platformdirs
+
+        return Path(platformdirs.user_data_dir("urc")) / "catalog"
+
+
 class ServeEntry(_Section):
     """One protocol served on one transport: exactly one of tcp, pty, serial, udp."""
 
@@ -277,6 +317,8 @@ class Config(_Section):
     faults: FaultsSection = FaultsSection()
     api: ApiSection = ApiSection()
     state: StateSection = StateSection()
+    station: StationSection = StationSection()
+    tracking: TrackingSection = TrackingSection()
     #: protocols served and where; None (no [[serve]] at all) = rotctld on 127.0.0.1:4533
     serve: tuple[ServeEntry, ...] | None = Field(None, strict=False)
 
@@ -840,14 +882,21 @@ def _toml_value(v: Any) -> str:
         return repr(v)
     if isinstance(v, str):
         return _toml_str(v)
+    if isinstance(v, (list, tuple)):
+        return "[" + ", ".join(_toml_value(i) for i in v) + "]"
+    if isinstance(v, dict):  # inline table, e.g. [[serve]] options
+        return "{ " + ", ".join(f"{_toml_key(k)} = {_toml_value(i)}" for k, i in v.items()) + " }"
     raise TypeError(f"cannot write {type(v).__name__} to TOML")  # pragma: no cover
 
 
 def _dump_toml(data: dict[str, Any]) -> str:
     lines: list[str] = []
 
+    def is_tables(v: Any) -> bool:  # a non-empty list of tables: written as [[name]]
+        return isinstance(v, list) and bool(v) and all(isinstance(i, dict) for i in v)
+
     def table(prefix: str, d: dict[str, Any], header: str | None) -> None:
-        scalars = [(k, v) for k, v in d.items() if not isinstance(v, (dict, list))]
+        scalars = [(k, v) for k, v in d.items() if not isinstance(v, dict) and not is_tables(v)]
         if header is not None and (scalars or (not d and header.startswith("[["))):
             if lines:
                 lines.append("")
@@ -858,7 +907,7 @@ def _dump_toml(data: dict[str, Any]) -> str:
             name = f"{prefix}.{_toml_key(k)}" if prefix else _toml_key(k)
             if isinstance(v, dict):
                 table(name, v, f"[{name}]")
-            elif isinstance(v, list):
+            elif is_tables(v):
                 for item in v:
                     table(name, item, f"[[{name}]]")
 

@@ -19,9 +19,10 @@ from urc import __version__
 from urc.protocols import MAX_PENDING_BYTES, Session, make_session
 from urc.protocols.easycomm import Easycomm1Session, Easycomm2Session, Easycomm3Session
 from urc.protocols.easycomm_codec import (COMMANDS_II, COMMANDS_III, Command, EasycommParseError,
-                                          LineBuffer, format_axis, format_az_el, format_set_position,
+                                          format_axis, format_az_el, format_set_position,
                                           format_value, parse_axis_reply, parse_az_el_reply,
                                           parse_line)
+from urc.protocols.lines import LineSplitter
 
 SESSIONS = [Easycomm1Session, Easycomm2Session, Easycomm3Session]
 #: read back (0.1 deg) vs the simulator's truth on sarcnet-mini: a magnetometer with
@@ -111,18 +112,6 @@ def test_hamlib_reply_parsers_match_captures():
             parse_az_el_reply(bad)
     with pytest.raises(EasycommParseError):
         parse_axis_reply(b"AZ100.0 EL20.0\n", "EL")   # a combined reply fails EL%f
-
-
-def test_line_buffer_any_split_and_bounded():
-    data = b"AZ\nEL\r\nAZ EL \rVE"
-    whole = LineBuffer(64).feed(data)
-    assert whole == [b"AZ", b"EL", b"", b"AZ EL "]
-    lb = LineBuffer(64)
-    assert [x for i in range(len(data)) for x in lb.feed(data[i:i + 1])] == whole
-    assert lb.pending == 2
-    lb = LineBuffer(8)
-    assert lb.feed(b"0123456789") == [None] and lb.pending == 0
-    assert lb.feed(b"MORE\nAZ\n") == [b"AZ"]           # the overlong line's tail is dropped
 
 
 # ================================================================ session basics
@@ -393,10 +382,10 @@ _JOGS = {"ML", "MR", "MU", "MD", "VL", "VR", "VU", "VD", "PARK"}
 
 def _moves(data: bytes) -> bool:
     """Would any complete line of ``data`` command motion? (the fuzz oracle)"""
-    for line in LineBuffer(MAX_PENDING_BYTES).feed(data):
+    for item in LineSplitter(MAX_PENDING_BYTES).feed(data):
         try:
-            if line is not None and any(c.name in _JOGS or (c.name in ("AZ", "EL") and c.value is not None)
-                                        for c in parse_line(line)):
+            if not item.overflowed and any(c.name in _JOGS or (c.name in ("AZ", "EL") and c.value is not None)
+                                           for c in parse_line(item.text)):
                 return True
         except EasycommParseError:
             pass

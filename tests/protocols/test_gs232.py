@@ -15,12 +15,12 @@ from hypothesis import strategies as st
 
 from conftest import Bench
 from urc.protocols import MAX_PENDING_BYTES, Session, make_session
-from urc.protocols.easycomm_codec import LineBuffer
 from urc.protocols.gs232 import (FoxDeltaSession, Gs232aSession, Gs232bSession,
                                  Gs232GenericSession, controller_pose)
 from urc.protocols.gs232_codec import (STYLE_A, STYLE_B, STYLE_GENERIC, Command, Gs232ParseError,
                                        format_error, format_goto, format_position,
                                        parse_command, parse_position_reply)
+from urc.protocols.lines import LineSplitter
 
 SESSIONS = [Gs232aSession, Gs232bSession, Gs232GenericSession, FoxDeltaSession]
 STYLE = {Gs232aSession: STYLE_A, Gs232bSession: STYLE_B, Gs232GenericSession: STYLE_GENERIC,
@@ -475,9 +475,9 @@ def test_overlong_line_dropped_and_resynchronised(g5500, cls):
 
 def _moves(data: bytes) -> bool:
     """Would any complete line of ``data`` be a valid motion command? (the fuzz oracle)"""
-    for line in LineBuffer(MAX_PENDING_BYTES).feed(data):
+    for item in LineSplitter(MAX_PENDING_BYTES).feed(data):
         try:
-            if line is not None and parse_command(line).op in ("goto", "goto_az", "move"):
+            if not item.overflowed and parse_command(item.text).op in ("goto", "goto_az", "move"):
                 return True
         except Gs232ParseError:
             pass

@@ -18,7 +18,6 @@ from urc.protocols import MAX_PENDING_BYTES, make_session
 from urc.protocols import tartu_codec as codec
 from urc.protocols.tartu import TartuSession
 from urc.protocols.tartu_codec import Command, TartuSyntaxError
-from urc.protocols.tartu_support import Line, LineSplitter
 
 #: 0.1 deg encoders, 0.1 deg position tolerance, 0.1 deg print resolution
 TRUTH_TOL_DEG = 0.25
@@ -100,25 +99,6 @@ def test_error_is_one_line():
     assert codec.error(2, "a\r\nb") == b"ERR 2 a  b\r\n"
 
 
-# ================================================================ line splitter
-def test_line_endings_cr_lf_crlf_split_anywhere():
-    data = b"A\rB\nC\r\nD\n\rE\r"
-    whole = [l.text for l in LineSplitter().feed(data)]
-    assert whole == [b"A", b"B", b"C", b"D", b"", b"E"]
-    sp, bytewise = LineSplitter(), []
-    for byte in data:
-        bytewise += [l.text for l in sp.feed(bytes([byte]))]
-    assert bytewise == whole
-
-
-def test_backspace_and_overflow():
-    sp = LineSplitter(max_len=8)
-    assert [l.text for l in sp.feed(b"RDX\x7fAZ\x08Z\r")] == [b"RDAZ"]
-    out = sp.feed(b"x" * 20)
-    assert [l.overflowed for l in out] == [True]
-    assert sp.feed(b"y" * 20 + b"\rOK\r") == [Line(b"OK")]
-
-
 # =================================================================== transcripts
 def test_vers_help_baud(tartu):
     _, s = tartu
@@ -177,12 +157,22 @@ def test_lcdc(tartu):
     assert re.fullmatch(rb"AZ 100\.0>100\.0   HLD\r\nEL 045\.0>045\.0   HLD\r\n", lcd), lcd
 
 
-def test_overshoot_read_and_not_settable(bench):
+def test_overshoot_read_and_set(bench):
+    """OVRA/OVRE read and set the rotator service's overshoot (coast) estimate."""
     for profile, text in (("tartu-urc", b"000.0"), ("g4jnt", b"000.3")):
-        s = TartuSession(bench(profile).rot)
+        b = bench(profile)
+        s = TartuSession(b.rot)
         assert s.receive(b"OVRA\r") == [text + b"\r\n"]
-        (err,) = s.receive(b"OVRA 1.5\r")
-        assert err.startswith(b"ERR 7 OVRA: overshoot compensation is not settable")
+        assert s.receive(b"OVRA 1.5\rOVRE 0.5\r") == [b"OK\r\n", b"OK\r\n"]
+        b.run(0.1)                                     # applied on the next control tick
+        assert s.receive(b"OVRA\rOVRE\r") == [b"001.5\r\n", b"000.5\r\n"]
+        assert b.rot.overshoot_deg("az") == pytest.approx(1.5)
+        (err,) = s.receive(b"OVRE 25\r")
+        assert err.startswith(b"ERR 9 ") and b"0..20" in err
+        b.run(0.1)
+        assert s.receive(b"OVRE\r") == [b"000.5\r\n"]
+
+
 
 
 def test_errors_do_not_move(tartu):
@@ -310,30 +300,3 @@ def test_fuzz_never_raises_or_moves(quiet, data, split):
     assert all(r.endswith(b"\r\n") for r in replies)
     assert len(replies) <= data.count(b"\r") + data.count(b"\n") + 1
     assert still(quiet)
-
-
-# ============================================================ extended frame
-def test_extended_pose_with_mount_offsets(bench):
-    """An azimuth mount offset of 200 deg: the controller frame is mechanical + 200."""
-    from dataclasses import replace as dc_replace
-
-    from urc.protocols.tartu_support import extended_pose_deg, frame_offsets_deg
-    b = bench("tartu-urc")
-    st_ = b.rot.status()
-    az_m, el_m = st_.az.pos_deg, st_.el.pos_deg
-    for az_off, el_off, az_m2, el_m2 in ((200.0, 0.0, 150.0, 30.0), (-30.0, 5.0, 10.0, 120.0)):
-        ext = az_m2 + az_off
-        el_ext = el_m2 + el_off
-        flipped = el_ext > 90
-        sky_az = (ext + (180 if flipped else 0)) % 360
-        sky_el = 180 - el_ext if flipped else el_ext
-        fake = dc_replace(st_, az=dc_replace(st_.az, pos_deg=az_m2), el=dc_replace(st_.el, pos_deg=el_m2),
-                          az_deg=sky_az, el_deg=sky_el, flipped=flipped, wrap_turns=int(ext // 360))
-        if hasattr(fake, "offsets"):
-            fake = dc_replace(fake, offsets={})          # the estimate, as without offsets
-        assert frame_offsets_deg(fake) == pytest.approx((az_off, el_off))
-        assert extended_pose_deg(fake) == pytest.approx((ext, el_ext))
-        if hasattr(fake, "offsets"):
-            exact = dc_replace(fake, offsets={"az": az_off, "el": el_off})
-            assert extended_pose_deg(exact) == pytest.approx((ext, el_ext))
-    assert extended_pose_deg(st_) == pytest.approx((az_m, el_m))

@@ -134,8 +134,14 @@ def step(st: AxisState, sp: Setpoint | None, meas_deg: float, now_s: float, dt_s
                        integral_deg_s=0.0, arrived=False), OFF
 
     target_deg = sp.target_at(now_s)
-    error_deg = target_deg - meas_deg
     tracking = abs(sp.rate_deg_per_s) >= tun.min_rate_deg_per_s
+    # A target slower than the motor's slowest steady speed is followed in short bursts.
+    # Each burst overtakes it by half the tolerance (PWM here; the relay law does its
+    # own), so the error swings evenly around zero instead of always lagging.
+    creeping = not tracking and sp.rate_deg_per_s != 0.0
+    if creeping and tun.drive == "pwm":
+        target_deg += math.copysign(0.5 * tun.tolerance_deg, sp.rate_deg_per_s)
+    error_deg = target_deg - meas_deg
 
     if sp.seq != st.seq:
         # A new command: plan afresh from where the axis really is.
@@ -151,9 +157,10 @@ def step(st: AxisState, sp: Setpoint | None, meas_deg: float, now_s: float, dt_s
     if st.mode in ("idle", "holding"):
         # a relay following a moving target restarts at the tolerance, not the wider
         # settling band: the target keeps walking away, so waiting costs accuracy
-        band = tun.tolerance_deg if tracking else tun.restart_deg
+        band = tun.tolerance_deg if tracking or creeping else tun.restart_deg
         if abs(error_deg) <= band and not (tracking and tun.drive == "pwm"):
-            return _hold(st, meas_deg, now_s, tun, brake_released=_keep_brake_off(st, now_s, tun, tracking))
+            return _hold(st, meas_deg, now_s, tun,
+                         brake_released=_keep_brake_off(st, now_s, tun, tracking or creeping))
         st = replace(st, mode="driving", ref_deg=meas_deg, ref_rate_deg_per_s=0.0,
                      integral_deg_s=0.0, arrived=False,
                      approach_sign=math.copysign(1.0, error_deg))
@@ -168,7 +175,8 @@ def step(st: AxisState, sp: Setpoint | None, meas_deg: float, now_s: float, dt_s
 
     if tun.drive == "relay":
         return _relay(st, target_deg, sp.rate_deg_per_s, error_deg, meas_deg, now_s, tun)
-    return _pwm(st, sp, target_deg, error_deg, meas_deg, meas_rate_deg_per_s, now_s, dt_s, tun, tracking)
+    return _pwm(st, sp, target_deg, error_deg, meas_deg, meas_rate_deg_per_s, now_s, dt_s, tun, tracking,
+                creeping)
 
 
 def _keep_brake_off(st: AxisState, now_s: float, tun: AxisTuning, tracking: bool) -> bool:
@@ -191,14 +199,17 @@ def _crossed(st: AxisState, error_deg: float) -> bool:
 
 
 def _pwm(st: AxisState, sp: Setpoint, target_deg: float, error_deg: float, meas_deg: float,
-         meas_rate: float, now_s: float, dt_s: float, tun: AxisTuning, tracking: bool) -> tuple[AxisState, AxisOutput]:
+         meas_rate: float, now_s: float, dt_s: float, tun: AxisTuning, tracking: bool,
+         creeping: bool) -> tuple[AxisState, AxisOutput]:
     ref, ref_rate, arrived = advance(st.ref_deg, st.ref_rate_deg_per_s, target_deg, sp.rate_deg_per_s,
                                      tun.limits, dt_s, sp.speed_cap_deg_per_s)
     arrived = arrived or st.arrived
     if arrived and not tracking:
         ref, ref_rate = target_deg, 0.0
-        if abs(error_deg) <= tun.tolerance_deg:
-            return _hold(st, meas_deg, now_s, tun, brake_released=False)
+        # a creeping target's burst ends on reaching the (overtaking) aim point, not as
+        # soon as the error is inside the band it just left
+        if abs(error_deg) <= (0.25 if creeping else 1.0) * tun.tolerance_deg or (creeping and _crossed(st, error_deg)):
+            return _hold(st, meas_deg, now_s, tun, brake_released=creeping and tun.brake)
         if _crossed(st, error_deg):
             if st.reversals >= MAX_REVERSALS and abs(error_deg) < tun.restart_deg:
                 return _hold(st, meas_deg, now_s, tun, brake_released=False)

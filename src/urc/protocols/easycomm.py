@@ -17,9 +17,10 @@ from __future__ import annotations
 from .. import __version__
 from ..errors import CommandRejected
 from ..service.snapshot import Status
-from .base import MAX_PENDING_BYTES, RotatorPort, protocol_logger
-from .easycomm_codec import (COMMANDS_II, COMMANDS_III, Command, EasycommParseError, LineBuffer,
-                             format_axis, format_az_el, format_value, parse_line)
+from .base import RotatorPort, protocol_logger
+from .easycomm_codec import (COMMANDS_II, COMMANDS_III, Command, EasycommParseError, format_axis,
+                             format_az_el, format_value, parse_line)
+from .lines import LineSplitter
 
 _JOG = {"ML": ("az", -1), "MR": ("az", 1), "MU": ("el", 1), "MD": ("el", -1),
         "VL": ("az", -1), "VR": ("az", 1), "VU": ("el", 1), "VD": ("el", -1)}
@@ -54,20 +55,19 @@ class _EasycommSession:
     def __init__(self, rotator: RotatorPort) -> None:
         self.rotator = rotator
         self.closed = False
-        self._lines = LineBuffer(MAX_PENDING_BYTES)
         self._log = protocol_logger(self.protocol)
+        self._lines = LineSplitter(log=self._log)   # an overlong line: logged, no reply
 
     # ------------------------------------------------------------------ Session API
     def receive(self, data: bytes) -> list[bytes]:
         out: list[bytes] = []
-        for line in self._lines.feed(bytes(data)):
-            if line is None:
-                self._log.warning("input line longer than %d bytes dropped", MAX_PENDING_BYTES)
+        for item in self._lines.feed(data):
+            if item.overflowed:
                 continue
             try:
-                out += self._line(line)
+                out += self._line(item.text)
             except Exception:  # a bug must not take the connection down
-                self._log.exception("internal error on line %r", line)
+                self._log.exception("internal error on line %r", item.text)
         return out if self.replies else []
 
     def tick(self, now_s: float) -> list[bytes]:

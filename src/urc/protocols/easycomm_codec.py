@@ -41,47 +41,6 @@ _TEXT_RE = re.compile(rb"[\x21-\x7e]{1,32}")
 _MODE_RE = re.compile(rb"[A-Z]{1,8}")
 #: token separators: space, tab, and the ``;`` Hamlib leaves after its conf commands.
 _SEP_RE = re.compile(rb"[ \t;]+")
-_EOL_RE = re.compile(rb"[\r\n]")
-
-
-class LineBuffer:
-    """Cuts a byte stream into lines ended by ``\\r`` or ``\\n``, any split allowed.
-
-    ``\\r\\n`` yields an extra empty line, which callers skip. Bounded: an unfinished
-    line longer than ``max_bytes`` is dropped, reported once as ``None`` in the output,
-    and everything up to the next terminator is discarded with it (its tail is not a
-    command), so the stream resynchronises at the next line. Shared by the Easycomm and
-    GS-232 sessions.
-    """
-
-    def __init__(self, max_bytes: int):
-        self.max_bytes = max_bytes
-        self._buf = bytearray()
-        self._discarding = False
-
-    @property
-    def pending(self) -> int:
-        return len(self._buf)
-
-    def feed(self, data: bytes) -> list[bytes | None]:
-        out: list[bytes | None] = []
-        start = 0
-        for m in _EOL_RE.finditer(data):
-            chunk, start = data[start:m.start()], m.end()
-            if self._discarding:
-                self._discarding = False
-            elif len(self._buf) + len(chunk) > self.max_bytes:
-                out.append(None)
-            else:
-                out.append(bytes(self._buf) + chunk)
-            self._buf.clear()
-        if not self._discarding:
-            self._buf += data[start:]
-            if len(self._buf) > self.max_bytes:
-                self._buf.clear()
-                self._discarding = True
-                out.append(None)
-        return out
 
 
 class EasycommParseError(UrcError, ValueError):

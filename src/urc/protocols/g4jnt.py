@@ -31,7 +31,8 @@ from ..errors import CommandRejected
 from .base import MAX_PENDING_BYTES, RotatorPort, protocol_logger
 from . import g4jnt_codec as codec
 from .g4jnt_codec import G4jntCommand, G4jntSyntaxError
-from .tartu_support import LineSplitter, TargetMemory, extended_pose_deg
+from .lines import LineSplitter, next_due_s
+from .poses import ExtendedTarget, extended_pose_deg
 
 log = protocol_logger("g4jnt")
 
@@ -59,8 +60,8 @@ class G4jntSession:
         self.interval_s = float(interval_s)
         self.constants = {"Z": 0.0, "C": 0.0, "K": DEFAULT_K_DEG, "M": 360.0 / 4096.0}
         self.constants.update(_rotator_pot_calibration(rotator))
-        self._lines = LineSplitter(MAX_PENDING_BYTES)
-        self._targets = TargetMemory()
+        self._lines = LineSplitter(MAX_PENDING_BYTES, backspace=True, log=log)
+        self._targets = ExtendedTarget(rotator)
         self._next_s: float | None = None
 
     # ------------------------------------------------------------------ Session
@@ -68,7 +69,6 @@ class G4jntSession:
         out: list[bytes] = []
         for item in self._lines.feed(data):
             if item.overflowed:
-                log.warning("line longer than %d bytes dropped", MAX_PENDING_BYTES)
                 out.append(codec.line(f"? line too long: expected at most {MAX_PENDING_BYTES} characters"))
                 continue
             try:
@@ -87,11 +87,10 @@ class G4jntSession:
         return out
 
     def tick(self, now_s: float) -> list[bytes]:
-        if self._next_s is not None and now_s < self._next_s - 1e-9:   # float drift
+        nxt = next_due_s(self._next_s, now_s, self.interval_s)
+        if nxt is None:
             return []
-        # one line per tick at most; after a stall, restart the period from now
-        nxt = now_s if self._next_s is None else self._next_s + self.interval_s
-        self._next_s = nxt if nxt > now_s else now_s + self.interval_s
+        self._next_s = nxt
         return [self.stream_line()]
 
     def stream_line(self) -> bytes:
@@ -108,13 +107,9 @@ class G4jntSession:
         if cmd.kind == "all":
             return codec.line(" ".join(codec.format_constant(n, self.constants[n]) for n in codec.CONSTANTS))
         if cmd.kind == "stop":
-            st = self.rotator.status()
-            self.rotator.stop()
-            self._targets.stopped(st)
+            self._targets.stop()
             return codec.line("S")
         assert cmd.kind == "goto" and cmd.az_deg is not None
-        st = self.rotator.status()
-        el = self._targets.base(st, extended=True)[1] if cmd.el_deg is None else cmd.el_deg
-        self._targets.goto(self.rotator, st, cmd.az_deg, el)
+        self._targets.goto(cmd.az_deg, cmd.el_deg)
         echo = f"G{cmd.az_deg:g}" + ("" if cmd.el_deg is None else f",{cmd.el_deg:g}")
         return codec.line(echo)

@@ -26,13 +26,14 @@ import math
 import re
 from dataclasses import dataclass
 
-EOL = b"\r\n"
+from .lines import crlf_line as line
+from .numbers import DECIMAL, format_deg
+
 ADC_MAX = 1023
 CONSTANTS = "ZCKM"
 
-_NUM = r"[+-]?(?:\d+(?:\.\d*)?|\.\d+)"
-_SET = re.compile(rf"\s*([ZCKMzckm])\s*({_NUM})?\s*\Z")
-_GOTO = re.compile(rf"\s*[Gg]\s*({_NUM})(?:\s*,\s*({_NUM}))?\s*\Z")
+_SET = re.compile(rf"\s*([ZCKMzckm])\s*({DECIMAL})?\s*\Z")
+_GOTO = re.compile(rf"\s*[Gg]\s*({DECIMAL})(?:\s*,\s*({DECIMAL}))?\s*\Z")
 
 
 class G4jntSyntaxError(ValueError):
@@ -102,15 +103,8 @@ def bearing_for_p(p: float, m: float, c: float, z: float) -> float:
 
 
 # ---------------------------------------------------------------------- formatting
-def format_bearing(v: float) -> str:
-    v = round(v, 1)
-    if v == 0.0:
-        v = 0.0
-    return ("-" if v < 0 else "") + f"{abs(v):05.1f}"
-
-
 def stream_line(bearing_deg: float, p: int) -> bytes:
-    return f"b{format_bearing(bearing_deg)},p{p:04d}".encode("ascii") + EOL
+    return line(f"b{format_deg(bearing_deg)},p{p:04d}")
 
 
 def format_constant(name: str, value: float) -> str:
@@ -119,10 +113,6 @@ def format_constant(name: str, value: float) -> str:
     if not any(ch in text for ch in ".en"):
         text += ".0"
     return f"{name}{text}"
-
-
-def line(text: str) -> bytes:
-    return text.encode("ascii", "replace") + EOL
 
 
 def parse_stream_line(raw: bytes) -> tuple[float, int]:

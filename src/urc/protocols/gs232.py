@@ -21,32 +21,22 @@ from __future__ import annotations
 
 from ..errors import CommandRejected
 from ..service.snapshot import Status
-from .base import MAX_PENDING_BYTES, RotatorPort, protocol_logger
-from .easycomm_codec import LineBuffer
+from .base import RotatorPort, protocol_logger
 from .gs232_codec import (SPEED_LEVELS, STYLE_A, STYLE_B, STYLE_GENERIC, Command, Gs232ParseError,
                           format_error, format_position, parse_command)
+from .lines import LineSplitter
+from .poses import extended_pose_deg, frame_offsets_deg
 
 #: the speed a session starts with (X4, fastest), until the client sends X1..X4.
 DEFAULT_SPEED_LEVEL = 4
 
 
 def controller_pose(s: Status) -> tuple[float, float]:
-    """(az, el) in the controller frame: mechanical position plus mount offsets."""
-    offsets = getattr(s, "offsets", None) or {}
-    if "az" in offsets:
-        az_off, el_off = offsets["az"], offsets.get("el", 0.0)
-    else:
-        # a snapshot without offsets: they are the difference between the sky direction
-        # and the mechanical position (az offset within +-180, as configuration allows)
-        sky_el = 180.0 - s.el_deg if s.flipped else s.el_deg
-        az_unflipped = s.az_deg - 180.0 if s.flipped else s.az_deg
-        az_off = (az_unflipped - s.az.pos_deg + 180.0) % 360.0 - 180.0
-        el_off = sky_el - s.el.pos_deg
-    az, el = s.az.pos_deg + az_off, s.el.pos_deg + el_off
-    az_lo = s.limits.get("az", (0.0, 0.0))[0] + az_off
-    if az < -0.5 and az_lo < -0.5:
-        # a rotator whose range starts below 0 (e.g. -90..450): GS-232 has no sign for
-        # azimuth, and Hamlib adds 360 to negatives, so report the same direction
+    """(az, el) in the controller frame (the extended frame), except that GS-232 has no
+    sign for azimuth: on a rotator whose range starts below 0 (e.g. -90..450) a negative
+    azimuth is reported as the same direction + 360 (what Hamlib sends for it)."""
+    az, el = extended_pose_deg(s)
+    if az < -0.5 and s.limits.get("az", (0.0, 0.0))[0] + frame_offsets_deg(s)[0] < -0.5:
         az += 360.0
     return az, el
 
@@ -58,22 +48,21 @@ class _Gs232Session:
     def __init__(self, rotator: RotatorPort) -> None:
         self.rotator = rotator
         self.closed = False
-        self._lines = LineBuffer(MAX_PENDING_BYTES)
         self._log = protocol_logger(self.protocol)
+        self._lines = LineSplitter(log=self._log)
         self._speed_frac = SPEED_LEVELS[DEFAULT_SPEED_LEVEL]
 
     # ------------------------------------------------------------------ Session API
     def receive(self, data: bytes) -> list[bytes]:
         out: list[bytes] = []
-        for line in self._lines.feed(bytes(data)):
-            if line is None:
-                self._log.warning("command longer than %d bytes dropped", MAX_PENDING_BYTES)
+        for item in self._lines.feed(data):
+            if item.overflowed:
                 out.append(format_error(self.style))
                 continue
             try:
-                out += self._line(line)
+                out += self._line(item.text)
             except Exception:  # a bug must not take the connection down
-                self._log.exception("internal error on %r", line)
+                self._log.exception("internal error on %r", item.text)
                 out.append(format_error(self.style))
         return out
 
@@ -83,8 +72,8 @@ class _Gs232Session:
     # ------------------------------------------------------------------ one command
     def _line(self, line: bytes) -> list[bytes]:
         if not line.strip(b" \t"):
-            # Hamlib 603 sends a bare CR after every write, and CRLF leaves an empty
-            # half: silence (a late "?>" could land in the next reply Hamlib reads)
+            # Hamlib 603 sends a bare CR after every write (an empty line): silence
+            # (a late "?>" could land in the next reply Hamlib reads)
             return []
         try:
             cmd = parse_command(line)
@@ -130,12 +119,9 @@ class _Gs232Session:
         """``Maaa`` turns the azimuth only: elevation keeps its mechanical pose (a flipped
         120 stays 120) or, while moving, its current target; clamped to the limits so
         sensor noise at the bottom stop cannot make the command illegal."""
-        el = controller_pose(s)[1]
-        el_off = el - s.el.pos_deg
-        if s.moving and s.el.target_deg is not None:
-            el = s.el.target_deg + el_off
-        lo, hi = s.limits.get("el", (el - el_off, el - el_off))
-        return min(max(el, lo + el_off), hi + el_off)
+        el_m = s.el.target_deg if s.moving and s.el.target_deg is not None else s.el.pos_deg
+        lo, hi = s.limits.get("el", (el_m, el_m))
+        return min(max(el_m, lo), hi) + frame_offsets_deg(s)[1]
 
 
 class Gs232aSession(_Gs232Session):

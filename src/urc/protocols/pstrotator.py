@@ -25,8 +25,8 @@ from __future__ import annotations
 from ..errors import CommandRejected
 from .base import MAX_PENDING_BYTES, RotatorPort, protocol_logger
 from . import pstrotator_codec as codec
+from .numbers import compass_tenths
 from .pstrotator_codec import PstItem
-from .tartu_support import TargetMemory
 
 log = protocol_logger("pstrotator")
 
@@ -37,7 +37,6 @@ class PstRotatorSession:
     def __init__(self, rotator: RotatorPort):
         self.rotator = rotator
         self.closed = False
-        self._targets = TargetMemory()
 
     def receive(self, data: bytes) -> list[bytes]:
         if len(data) > MAX_PENDING_BYTES:
@@ -77,14 +76,17 @@ class PstRotatorSession:
         return []
 
     def _goto(self, az: float | None, el: float | None) -> None:
-        st = self.rotator.status()
-        base_az, base_el = self._targets.base(st)
-        az = base_az if az is None else az
-        el = base_el if el is None else el
+        """One axis alone: the other keeps its target (or where it is, after a stop)."""
         try:
-            self._targets.goto(self.rotator, st, az, el)
+            if el is None:
+                self.rotator.goto_az(az)
+            elif az is None:
+                self.rotator.goto_el(el)
+            else:
+                self.rotator.goto(az, el)
         except CommandRejected as exc:
-            log.warning("goto az %.2f el %.2f refused (%s): %s", az, el, exc.reason, exc)
+            given = " ".join(f"{n} {v:.2f}" for n, v in (("az", az), ("el", el)) if v is not None)
+            log.warning("goto %s refused (%s): %s", given, exc.reason, exc)
 
     def _execute(self, item: PstItem) -> list[bytes]:
         if item.kind == "end":
@@ -98,14 +100,11 @@ class PstRotatorSession:
         if name == "PARK":
             if value == "1":
                 self.rotator.park()
-                self._targets.forget()
             elif value != "0":
                 log.warning("<PARK> ignored: expected 1, got %r", value[:40])
         elif name == "STOP":
             if value == "1":
-                st = self.rotator.status()
                 self.rotator.stop()
-                self._targets.stopped(st)
             elif value != "0":
                 log.warning("<STOP> ignored: expected 1, got %r", value[:40])
         elif name == "TRACK":
@@ -119,18 +118,14 @@ class PstRotatorSession:
     def _query(self, name: str) -> list[bytes]:
         st = self.rotator.status()
         if name == "AZ":
-            return [codec.format_reply("AZ", _az(st.az_deg))]
+            return [codec.format_reply("AZ", compass_tenths(st.az_deg))]
         if name == "EL":
             return [codec.format_reply("EL", st.el_deg)]
         if name == "TGA":
-            return [codec.format_reply("TGA", _az(st.az_deg if st.target_az_deg is None else st.target_az_deg))]
+            return [codec.format_reply("TGA", compass_tenths(st.az_deg if st.target_az_deg is None
+                                                              else st.target_az_deg))]
         if name == "TGE":
             return [codec.format_reply("TGE", st.el_deg if st.target_el_deg is None else st.target_el_deg)]
         log.warning("unknown query %s? ignored (expected one of %s)", name,
                     ", ".join(q + "?" for q in codec.QUERIES))
         return []
-
-
-def _az(az_deg: float) -> float:
-    """359.97 prints as 0.0, not 360.0."""
-    return round(az_deg, 1) % 360.0

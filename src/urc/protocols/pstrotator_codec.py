@@ -16,10 +16,12 @@ import math
 import re
 from dataclasses import dataclass
 
+from .numbers import DECIMAL
+
 _ENVELOPE = re.compile(rb"<PST>(.*?)</PST>", re.S | re.I)
 _TOKEN = re.compile(rb"\s*(?:<([A-Z]+)>([^<]*)</\1>|([A-Z]+)\?)\s*", re.I)
 _TOKEN_START = re.compile(rb"<([A-Z]+)>([^<]*)</\1>|[A-Z]+\?", re.I)
-_LENIENT_NUMBER = re.compile(r"\s*([+-]?(?:\d+(?:\.\d*)?|\.\d+))((?:\.\d*)*)\s*\Z")
+_LENIENT_NUMBER = re.compile(rf"\s*({DECIMAL})((?:\.\d*)*)\s*\Z")
 
 SET_ELEMENTS = ("AZIMUTH", "ELEVATION", "PARK", "STOP", "TRACK")
 QUERIES = ("AZ", "EL", "TGA", "TGE")

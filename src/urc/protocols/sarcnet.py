@@ -46,8 +46,9 @@ from ..errors import CommandRejected
 from ..service.snapshot import Status
 from .base import MAX_PENDING_BYTES, RotatorPort, protocol_logger
 from . import sarcnet_codec as codec
+from .lines import LineSplitter, next_due_s
+from .poses import extended_pose_deg
 from .sarcnet_codec import SarcnetCommand, SarcnetSyntaxError, signed180
-from .tartu_support import LineSplitter, TargetMemory, extended_pose_deg
 
 log = protocol_logger("sarcnet")
 
@@ -68,8 +69,7 @@ class SarcnetSession:
         self.closed = False
         self.interval_s = float(interval_s)
         self.mode = "tracking"        # tracking | monitoring | debugging | demonstrating | pausing
-        self._lines = LineSplitter(MAX_PENDING_BYTES)
-        self._targets = TargetMemory()
+        self._lines = LineSplitter(MAX_PENDING_BYTES, backspace=True, log=log)
         self._next_s: float | None = None
         self._last_s: float | None = None
         self._held: tuple[float, float] | None = None      # target given while paused
@@ -82,7 +82,6 @@ class SarcnetSession:
         out: list[bytes] = []
         for item in self._lines.feed(data):
             if item.overflowed:
-                log.warning("line longer than %d bytes dropped", MAX_PENDING_BYTES)
                 out.append(codec.console(f"Error: line too long (over {MAX_PENDING_BYTES} characters)"))
                 continue
             try:
@@ -104,15 +103,11 @@ class SarcnetSession:
         if self.mode not in ("monitoring", "debugging", "demonstrating"):
             self._next_s = self._last_s = None
             return []
-        if self._next_s is None:
-            self._next_s, self._last_s = now_s, now_s
-        if now_s < self._next_s - 1e-9:   # float drift
+        nxt = next_due_s(self._next_s, now_s, self.interval_s)
+        if nxt is None:
             return []
-        dt = max(0.0, now_s - (self._last_s if self._last_s is not None else now_s))
-        self._last_s = now_s
-        # one row per tick at most; after a stall, restart the period from now
-        nxt = self._next_s + self.interval_s
-        self._next_s = nxt if nxt > now_s else now_s + self.interval_s
+        dt = 0.0 if self._last_s is None else max(0.0, now_s - self._last_s)
+        self._next_s, self._last_s = nxt, now_s
         st = self.rotator.status()
         if self.mode == "monitoring":
             return [self._monitor_row(st)]
@@ -135,43 +130,47 @@ class SarcnetSession:
             st = self.rotator.status()
             return [codec.easycomm_position(cmd.axes, st.az_deg, st.el_deg)]
         if cmd.kind == "ec_set":
-            st = self.rotator.status()
-            base = self._held or self._targets.base(st)
-            az = base[0] if cmd.az_deg is None else cmd.az_deg
-            el = base[1] if cmd.el_deg is None else cmd.el_deg
             try:
-                self._set(az, el)
+                self._set(cmd.az_deg, cmd.el_deg)
             except CommandRejected as exc:
-                log.warning("Easycomm set az %g el %g refused (%s): %s", az, el, exc.reason, exc)
+                given = " ".join(f"{n} {v:g}" for n, v in (("az", cmd.az_deg), ("el", cmd.el_deg)) if v is not None)
+                log.warning("Easycomm set %s refused (%s): %s", given, exc.reason, exc)
             return []
         if cmd.kind == "ec_stop":
-            self._stop(cmd.axes[0] if len(set(cmd.axes)) == 1 else None)
+            self.rotator.stop(cmd.axes[0] if len(set(cmd.axes)) == 1 else None)
             return []
         return getattr(self, "_letter_" + cmd.letter)(cmd)
 
-    def _set(self, az: float, el: float) -> None:
-        """Fly (az, el), or keep it for later while paused. Azimuth 0..360 or -180..180:
-        the SARCNET unwinds by itself, so it names a direction, not a wrap pose."""
-        if not -180.0 <= az <= 360.0:
-            raise CommandRejected(f"azimuth {az:g} outside 0..360 (or -180..180)", "limit")
-        az %= 360.0
+    def _set(self, az: float | None, el: float | None) -> None:
+        """Fly (az, el), or keep it for later while paused; None (an Easycomm set of one
+        axis): that axis keeps its target, or where it is after a stop. Azimuth 0..360
+        or -180..180: the SARCNET unwinds by itself, so it names a direction, not a wrap
+        pose."""
+        if az is not None:
+            if not -180.0 <= az <= 360.0:
+                raise CommandRejected(f"azimuth {az:g} outside 0..360 (or -180..180)", "limit")
+            az %= 360.0
         if self.mode == "pausing":
-            self._held = (az, el)
+            held = self._held
+            if held is None:                         # paused: stopped where it is
+                st = self.rotator.status()
+                held = (st.az_deg, st.el_deg)
+            self._held = (held[0] if az is None else az, held[1] if el is None else el)
             return
         if self.mode == "demonstrating":
             # as on the Arduino, the sweep carries on from the new set point
-            self._demo = [signed180(az), el]
-        self._targets.goto(self.rotator, self.rotator.status(), az, el)
-
-    def _stop(self, axis: str | None = None) -> None:
-        st = self.rotator.status()
-        self.rotator.stop(axis)
-        self._targets.stopped(st, axis)
+            self._demo = [self._demo[0] if az is None else signed180(az), self._demo[1] if el is None else el]
+        if el is None:
+            self.rotator.goto_az(az)
+        elif az is None:
+            self.rotator.goto_el(el)
+        else:
+            self.rotator.goto(az, el)
 
     def _letter_r(self, cmd: SarcnetCommand) -> list[bytes]:
         out = [codec.console("Reset in progress")]
         self.mode, self._held = "tracking", None
-        self._stop()
+        self.rotator.stop()
         self.rotator.clear_faults()
         out.append(codec.console("Reset complete"))
         return out
@@ -198,7 +197,7 @@ class SarcnetSession:
 
     def _letter_a(self, cmd: SarcnetCommand) -> list[bytes]:
         if self.mode == "demonstrating":
-            self._stop()
+            self.rotator.stop()
         self.mode, self._held = "tracking", None
         return [codec.console("Function aborted")]
 
@@ -211,7 +210,7 @@ class SarcnetSession:
 
     def _letter_p(self, cmd: SarcnetCommand) -> list[bytes]:
         if self.mode != "pausing":
-            self._stop()
+            self.rotator.stop()
             self.mode, self._held = "pausing", None
             return [codec.console("Paused")]
         self.mode = "tracking"
@@ -250,7 +249,7 @@ class SarcnetSession:
         if now_s - self._demo_goto_s >= DEMO_GOTO_EVERY_S:
             self._demo_goto_s = now_s
             try:
-                self._targets.goto(self.rotator, st, self._demo[0] % 360.0, self._demo[1])
+                self.rotator.goto(self._demo[0] % 360.0, self._demo[1])
             except CommandRejected as exc:
                 self.mode = "tracking"
                 out.append(codec.console(f"Demo stopped: {exc}"))

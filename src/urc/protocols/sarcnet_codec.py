@@ -12,13 +12,14 @@ import math
 import re
 from dataclasses import dataclass
 
-CONSOLE_EOL = b"\r\n"
+from .lines import crlf_line as console
+from .numbers import DECIMAL, compass_tenths
+
 EASYCOMM_EOL = b"\n"
 
-_NUM = r"[+-]?(?:\d+(?:\.\d*)?|\.\d+)"
-_PAIR = re.compile(rf"\s*({_NUM})(?:\s*,\s*|\s+)({_NUM})\s*\Z")
-_EASY_TOKEN = re.compile(rf"(AZ|EL|UP|DN|SA|SE)({_NUM})?\Z")
-_DECL = re.compile(rf"\s*({_NUM})\s*\Z")
+_PAIR = re.compile(rf"\s*({DECIMAL})(?:\s*,\s*|\s+)({DECIMAL})\s*\Z")
+_EASY_TOKEN = re.compile(rf"(AZ|EL|UP|DN|SA|SE)({DECIMAL})?\Z")
+_DECL = re.compile(rf"\s*({DECIMAL})\s*\Z")
 
 LETTERS = "rbcdmaesph"
 
@@ -100,13 +101,9 @@ def parse_line(raw: bytes) -> SarcnetCommand | None:
 
 
 # ------------------------------------------------------------------- formatting
-def console(text: str) -> bytes:
-    return text.encode("ascii", "replace") + CONSOLE_EOL
-
-
 def easycomm_position(axes: tuple[str, ...], az_deg: float, el_deg: float) -> bytes:
     """``AZ123.4\\n``, ``EL45.6\\n`` or (Hamlib 4.5's ``AZ EL``) ``AZ123.4 EL45.6\\n``."""
-    az_deg = round(az_deg, 1) % 360.0          # 359.97 is AZ0.0, not AZ360.0
+    az_deg = compass_tenths(az_deg)            # 359.97 is AZ0.0, not AZ360.0
     parts = [f"AZ{az_deg:.1f}" if a == "az" else f"EL{el_deg:.1f}" for a in axes]
     return " ".join(parts).encode("ascii") + EASYCOMM_EOL
 

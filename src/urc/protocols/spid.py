@@ -26,8 +26,8 @@ from __future__ import annotations
 from ..errors import CommandRejected
 from .base import MAX_PENDING_BYTES, RotatorPort, protocol_logger
 from . import spid_codec as codec
+from .poses import ExtendedTarget, extended_pose_deg
 from .spid_codec import SpidCommand, SpidFrameError
-from .tartu_support import TargetMemory, extended_pose_deg
 
 log = protocol_logger("spid")
 
@@ -45,7 +45,7 @@ class _SpidSession:
         res = self.default_resolution_deg if resolution_deg is None else float(resolution_deg)
         self.pulses = codec.resolution_to_pulses(res)
         self._buf = b""
-        self._targets = TargetMemory()
+        self._targets = ExtendedTarget(rotator)   # Rot1Prog: az-only sets keep elevation
 
     # ------------------------------------------------------------------ Session
     def receive(self, data: bytes) -> list[bytes]:
@@ -79,9 +79,7 @@ class _SpidSession:
         if cmd.kind == "status":
             return self._position()
         if cmd.kind == "stop":
-            st = self.rotator.status()
-            self.rotator.stop()
-            self._targets.stopped(st)
+            self._targets.stop()
             return self._position()
         if cmd.kind == "set":
             self._set(cmd)
@@ -99,16 +97,14 @@ class _SpidSession:
                         "-" if cmd.el_deg is None else f"{cmd.el_deg:.1f}", exc.reason, exc)
 
     def _goto(self, az: float, el: float | None) -> None:
-        st = self.rotator.status()
-        if el is None:     # Rot1Prog: elevation keeps its target
-            el = self._targets.base(st, extended=True)[1]
+        """el None (Rot1Prog): elevation keeps its target."""
         try:
-            self._targets.goto(self.rotator, st, az, el)
+            self._targets.goto(az, el)
         except CommandRejected as exc:
             # an overturn pose this rotator lacks (e.g. -10 on 0..450): the same direction
             if exc.reason != "limit" or 0.0 <= az < 360.0:
                 raise
-            self._targets.goto(self.rotator, st, az % 360.0, el)
+            self._targets.goto(az % 360.0, el)
 
     def _move(self, direction: int) -> None:
         wanted = [(axis, sign) for bit, axis, sign in _MOVES if direction & bit]
@@ -118,9 +114,7 @@ class _SpidSession:
             return
         for axis, sign in wanted:
             try:
-                st = self.rotator.status()
-                self.rotator.move(axis, sign, 1.0)
-                self._targets.stopped(st, axis)   # no target: it rests where it stops
+                self._targets.move(axis, sign, 1.0)   # no target: it rests where it stops
             except CommandRejected as exc:
                 log.warning("move %s %+d refused (%s): %s", axis, sign, exc.reason, exc)
 

@@ -22,10 +22,10 @@ WREL e     the same for elevation → ``OK``
 RDAP       azimuth position and the axis' present setpoint → ``123.4,130.0``; the
            setpoint is ``---.-`` when the axis holds none (idle or stopped)
 RDEP       the same for elevation
-OVRA       azimuth overshoot compensation (the on/off drive stops this far before the
-           target) → ``000.3``; ``OVRA x`` → ``ERR 7``: not settable here (the rotator
-           service has no setting for it yet; it comes from the profile)
-OVRE       the same for elevation
+OVRA [x]   azimuth overshoot compensation (the on/off drive stops this far before the
+           target) → ``000.3``; ``OVRA x`` sets it (0..20 deg; the rotator keeps learning
+           from there; read back after its next control tick) → ``OK``
+OVRE [x]   the same for elevation
 HALT       stop both axes → ``OK``;  HLTA azimuth only;  HLTE elevation only
 LCDC       the two 20-character LCD rows, e.g. ``AZ 123.4>130.0   RUN`` and
            ``EL 045.0         HLD`` (state: RUN driving, REL brake releasing, HLD
@@ -44,9 +44,9 @@ from ..errors import CommandRejected
 from ..service.snapshot import Status
 from .base import MAX_PENDING_BYTES, RotatorPort, protocol_logger
 from . import tartu_codec as codec
+from .lines import LineSplitter, TerminalEcho
+from .poses import ExtendedTarget, extended_pose_deg, extended_targets_deg
 from .tartu_codec import Command, TartuSyntaxError
-from .tartu_support import (LineSplitter, TargetMemory, TerminalEcho, extended_pose_deg,
-                            extended_targets_deg)
 
 log = protocol_logger("tartu")
 
@@ -64,16 +64,15 @@ class TartuSession:
         self.closed = False
         self.echo = bool(echo)
         self.baud = 115200
-        self._lines = LineSplitter(MAX_PENDING_BYTES)
+        self._lines = LineSplitter(MAX_PENDING_BYTES, backspace=True, log=log)
         self._echo = TerminalEcho()
-        self._targets = TargetMemory()
+        self._targets = ExtendedTarget(rotator)
 
     # ------------------------------------------------------------------ Session
     def receive(self, data: bytes) -> list[bytes]:
         out: list[bytes] = []
         for item in self._lines.feed(data):
             if item.overflowed:
-                log.warning("line longer than %d bytes dropped", MAX_PENDING_BYTES)
                 out.append(codec.error(codec.E_OVERFLOW, f"line too long: expected at most "
                                                          f"{MAX_PENDING_BYTES} characters before CR/LF"))
                 continue
@@ -94,7 +93,7 @@ class TartuSession:
                 reply = codec.error(codec.E_REJECTED, f"internal error: {exc}")
             out.append(reply)
         if self.echo:
-            shown = self._echo.update(self._lines.pending)
+            shown = self._echo.update(self._lines.partial)
             if shown:
                 out.append(shown)
         return out
@@ -126,9 +125,7 @@ class TartuSession:
         return codec.ok()
 
     def _goto(self, az: float | None, el: float | None) -> bytes:
-        st = self.rotator.status()
-        base_az, base_el = self._targets.base(st, extended=True)
-        self._targets.goto(self.rotator, st, base_az if az is None else az, base_el if el is None else el)
+        self._targets.goto(az, el)
         return codec.ok()
 
     def _cmd_goaz(self, az: float) -> bytes:
@@ -168,16 +165,10 @@ class TartuSession:
         return self._pos_target(1)
 
     def _overshoot(self, axis: str, value: float | None) -> bytes:
-        name = "OVRA" if axis == "az" else "OVRE"
-        if value is not None:
-            return codec.error(codec.E_UNSUPPORTED, f"{name}: overshoot compensation is not settable on "
-                                                    f"this rotator (it comes from the rotator profile)")
-        settings = getattr(self.rotator, "settings", None)
-        try:
-            deg = float(settings.tuning(axis).overshoot_deg)  # type: ignore[union-attr]
-        except Exception:
-            return codec.error(codec.E_UNSUPPORTED, f"{name}: this rotator does not report its overshoot compensation")
-        return codec.line(codec.format_deg(deg))
+        if value is None:
+            return codec.line(codec.format_deg(self.rotator.overshoot_deg(axis)))
+        self.rotator.set_overshoot(axis, value)
+        return codec.ok()
 
     def _cmd_ovra(self, value: float | None = None) -> bytes:
         return self._overshoot("az", value)
@@ -186,9 +177,7 @@ class TartuSession:
         return self._overshoot("el", value)
 
     def _stop(self, axis: str | None) -> bytes:
-        st = self.rotator.status()
-        self.rotator.stop(axis)
-        self._targets.stopped(st, axis)
+        self._targets.stop(axis)
         return codec.ok()
 
     def _cmd_halt(self) -> bytes:

@@ -16,7 +16,8 @@ import re
 from dataclasses import dataclass
 from typing import Callable
 
-EOL = b"\r\n"
+from .lines import crlf_line as line
+from .numbers import DECIMAL, format_deg
 
 # error codes (ERR <code> <text>)
 E_UNKNOWN = 1        # no such command
@@ -35,7 +36,7 @@ REASON_CODES = {"limit": E_LIMIT, "keepout": E_KEEPOUT, "fault": E_FAULT,
 
 BAUD_RATES = (1200, 2400, 4800, 9600, 19200, 38400, 57600, 115200, 230400, 460800)
 
-_NUMBER = re.compile(r"[+-]?(?:\d+(?:\.\d*)?|\.\d+)\Z")
+_NUMBER = re.compile(rf"{DECIMAL}\Z")
 _LINE = re.compile(r"\s*([A-Za-z]{4})(.*)\Z", re.S)
 
 
@@ -94,8 +95,8 @@ COMMANDS: dict[str, tuple[tuple[_Conv, ...], int, str]] = {
     "WREL": ((parse_number,), 0, "WREL el: set the present elevation (re-reference, no motion)"),
     "RDAP": ((), 0, "RDAP: read azimuth position,target"),
     "RDEP": ((), 0, "RDEP: read elevation position,target"),
-    "OVRA": ((parse_number,), 1, "OVRA: read azimuth overshoot compensation"),
-    "OVRE": ((parse_number,), 1, "OVRE: read elevation overshoot compensation"),
+    "OVRA": ((parse_number,), 1, "OVRA [deg]: azimuth overshoot compensation (read or set)"),
+    "OVRE": ((parse_number,), 1, "OVRE [deg]: elevation overshoot compensation (read or set)"),
     "HALT": ((), 0, "HALT: stop both axes"),
     "HLTA": ((), 0, "HLTA: stop azimuth"),
     "HLTE": ((), 0, "HLTE: stop elevation"),
@@ -127,20 +128,8 @@ def parse_line(raw: bytes) -> Command:
 
 
 # ------------------------------------------------------------------- formatting
-def format_deg(v: float) -> str:
-    """0.1 deg, three integer digits: 123.4, 045.0, 000.0, -005.0."""
-    v = round(v, 1)
-    if v == 0.0:
-        v = 0.0  # no "-000.0"
-    return ("-" if v < 0 else "") + f"{abs(v):05.1f}"
-
-
 def format_opt_deg(v: float | None) -> str:
     return "---.-" if v is None else format_deg(v)
-
-
-def line(text: str) -> bytes:
-    return text.encode("ascii", "replace") + EOL
 
 
 def ok() -> bytes:

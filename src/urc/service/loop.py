@@ -13,15 +13,19 @@ from .snapshot import Status
 RESYNC_PERIODS = 5
 
 
-async def run_realtime(rotator: Rotator, clock: Clock, stop: asyncio.Event) -> None:
-    """Tick at the profile's loop rate until ``stop`` is set; report lateness."""
+async def run_realtime(rotator: Rotator, clock: Clock, stop: asyncio.Event,
+                       on_tick: Callable[[float], None] | None = None) -> None:
+    """Tick at the profile's loop rate until ``stop`` is set; report lateness.
+    ``on_tick(now_s)`` runs after each tick (the tracker feeding setpoints)."""
     period_s = 1.0 / rotator.caps.loop_hz
     next_s = clock.now_s()
     while not stop.is_set():
         await clock.sleep_until(next_s)
         late_s = clock.now_s() - next_s
         rotator.note_lateness(late_s)
-        rotator.tick()
+        status = rotator.tick()
+        if on_tick is not None:
+            on_tick(status.t_s)
         next_s += period_s
         if clock.now_s() - next_s > RESYNC_PERIODS * period_s:
             next_s = clock.now_s()

@@ -78,6 +78,10 @@ class _Axis:
         self._filter_rate = 0.0
 
     # ---- sensing ------------------------------------------------------------------
+    def set_reference(self, mech_deg: float) -> None:
+        """Make the sensor read ``mech_deg`` here (re-reference), in the controller's frame."""
+        self.hw.sensor.set_reference_deg(mech_deg if self.modulo is None else mech_deg % self.modulo)
+
     def unwrap(self, raw_deg: float, near_deg: float) -> float:
         if self.modulo is None:
             return raw_deg
@@ -219,7 +223,7 @@ class Rotator:
     def _restore_incremental(self, ax: _Axis, saved: dict | None, damaged: bool, anchor: float) -> None:
         res = ax.caps.sensor.resolution_deg
         if saved is None:
-            ax.hw.sensor.set_reference_deg(anchor)
+            ax.set_reference(anchor)
             if damaged:
                 ax.uncertainty_deg = ax.caps.span_deg
             else:
@@ -236,7 +240,7 @@ class Rotator:
             if travel > res:
                 anchor += math.copysign(travel / 2, rate)
                 ax.uncertainty_deg = travel / 2 + res
-        ax.hw.sensor.set_reference_deg(anchor)
+        ax.set_reference(anchor)
 
     def _check_wrap_ambiguity(self, ax: _Axis, saved: dict | None, damaged: bool) -> None:
         lo, hi = ax.limits
@@ -472,15 +476,42 @@ class Rotator:
 
         self._target_sky = (wrap360(az_deg), el_deg)
 
-        def apply() -> None:
-            self._parked = False
-            self._tracking = True
-            self._route = []
-            seq = self._next_seq()
-            for name, p, r in (("az", pose[0], az_rate), ("el", pose[1], el_rate)):
-                lo, hi = self.axes[name].limits
-                self.axes[name].sp = law.Setpoint(min(max(p, lo), hi), r, t_ref, seq=seq)
-        self._submit("track", apply)
+        self._submit("track", lambda: self._follow(pose, (az_rate, el_rate), t_ref))
+
+    def track_pose(self, az_m_deg: float, el_m_deg: float, az_rate_deg_per_s: float = 0.0,
+                   el_rate_deg_per_s: float = 0.0, t_ref_s: float | None = None) -> None:
+        """Follow a planned *mechanical* trajectory point (wrap and flip already chosen
+        by the pass planner): the pose at t_ref_s, moving at the given mechanical rates."""
+        self._require_motion_ok(automatic=True)
+        values = (az_m_deg, el_m_deg, az_rate_deg_per_s, el_rate_deg_per_s)
+        if not all(math.isfinite(v) for v in values):
+            raise CommandRejected(f"track pose {values!r} is not finite", "invalid")
+        g = self.geometry
+        if not g.in_limits(az_m_deg, el_m_deg, slack_deg=1e-6):
+            raise CommandRejected(f"track pose az {az_m_deg:g}, el {el_m_deg:g} outside the limits", "limit")
+        zone = g.zone_at(az_m_deg, el_m_deg, margin_deg=0.0)
+        if zone is not None:
+            raise CommandRejected(f"track pose az {az_m_deg:g}, el {el_m_deg:g} is in keep-out zone "
+                                  f"{zone.name!r}", "keepout")
+        t_ref = self.clock.now_s() if t_ref_s is None else t_ref_s
+        self._target_sky = g.to_sky(az_m_deg, el_m_deg)
+
+        self._submit("track_pose", lambda: self._follow((az_m_deg, el_m_deg),
+                                                        (az_rate_deg_per_s, el_rate_deg_per_s), t_ref))
+
+    def _follow(self, pose: tuple[float, float], rates: tuple[float, float], t_ref: float) -> None:
+        """Set moving setpoints. Successive updates of one track keep their sequence
+        number, so the law keeps following instead of re-planning at every update."""
+        was_tracking = self._tracking
+        self._parked = False
+        self._tracking = True
+        self._route = []
+        seq = self._next_seq()
+        for name, p, r in zip(AXES, pose, rates):
+            ax = self.axes[name]
+            lo, hi = ax.limits
+            keep = was_tracking and ax.sp is not None
+            ax.sp = law.Setpoint(min(max(p, lo), hi), r, t_ref, seq=ax.sp.seq if keep else seq)
 
     def move(self, axis: str, direction: int, speed_frac: float = 1.0) -> None:
         """Manual move (jog) of one axis at a fraction of its top speed, until stop.
@@ -552,7 +583,7 @@ class Rotator:
                 ax = self.axes[name]
                 off = g.az_offset_deg if name == "az" else g.el_offset_deg
                 mech = v - off
-                ax.hw.sensor.set_reference_deg(mech if ax.modulo is None else mech % ax.modulo)
+                ax.set_reference(mech)
                 ax.meas_deg = mech
                 ax.rate_deg_per_s = ax._filter_rate = 0.0
                 ax.history.clear()

@@ -1,0 +1,126 @@
+"""Poses in the *extended* frame, shared by the sessions that speak it (Tartu, G4JNT,
+SPID, GS-232, SARCNET's monitor).
+
+The extended frame is what a controller's own display and encoders show and what
+``Rotator.goto`` accepts back: azimuth with its cable-wrap turns (e.g. 400 on a 450 deg
+rotator, -10 on a -180..540 one), elevation past 90 when flipped over the top.
+
+* :func:`extended_pose_deg` / :func:`extended_targets_deg`: a status in that frame.
+* :class:`ExtendedTarget`: single-axis gotos in that frame (the other axis keeps its
+  target in that frame, which the service's sky target cannot say).
+
+Pure, no I/O.
+"""
+
+from __future__ import annotations
+
+import math
+
+from ..service.snapshot import Status
+from .base import RotatorPort
+
+
+def frame_offsets_deg(st: Status) -> tuple[float, float]:
+    """(az, el) to add to a mechanical angle (``st.az.pos_deg``, ``target_deg``) to get
+    the extended frame: the mount offsets, from the snapshot (``Status.offsets``) or,
+    where a snapshot lacks them, recovered from its sky and mechanical angles."""
+    offsets = getattr(st, "offsets", None)
+    if offsets and "az" in offsets and "el" in offsets:
+        return float(offsets["az"]), float(offsets["el"])
+    az_m, el_m = st.az.pos_deg, st.el.pos_deg
+    el_off = ((180.0 - st.el_deg) if st.flipped else st.el_deg) - el_m
+    az_sky_base = st.az_deg - 180.0 if st.flipped else st.az_deg
+    az_off = (az_sky_base - az_m + 180.0) % 360.0 - 180.0
+    # a mount offset beyond +-180 deg: put the azimuth on the wrap turn the service says
+    ext = az_m + az_off
+    turns = math.floor(ext / 360.0)
+    near_boundary = abs(ext - 360.0 * round(ext / 360.0)) < 1e-3
+    if turns != st.wrap_turns and not near_boundary:
+        az_off += 360.0 * (st.wrap_turns - turns)
+    return az_off, el_off
+
+
+def extended_pose_deg(st: Status) -> tuple[float, float]:
+    """Where the axes are, in the frame a controller shows: azimuth including the wrap
+    (e.g. 400.0, or -10.0 on a -180..540 rotator), elevation past 90 when flipped.
+    Equals (st.az_deg, st.el_deg) for a rotator sitting in its first turn, unflipped."""
+    az_off, el_off = frame_offsets_deg(st)
+    return st.az.pos_deg + az_off, st.el.pos_deg + el_off
+
+
+def extended_targets_deg(st: Status) -> tuple[float | None, float | None]:
+    """The axes' present setpoints (where each axis is heading now) in the extended
+    frame; None for an axis that holds no setpoint (idle, stopped)."""
+    az_off, el_off = frame_offsets_deg(st)
+    az_t, el_t = st.az.target_deg, st.el.target_deg
+    return (None if az_t is None else az_t + az_off, None if el_t is None else el_t + el_off)
+
+
+def _sky(az_deg: float, el_deg: float) -> tuple[float, float]:
+    """The sky direction an extended (az, el) names (what the service keeps as target)."""
+    if el_deg > 90.0:
+        az_deg, el_deg = az_deg + 180.0, 180.0 - el_deg
+    return az_deg % 360.0, el_deg
+
+
+def _is_target(asked: tuple[float, float], st: Status) -> bool:
+    """Is the service's sky target the direction ``asked`` names?"""
+    if st.target_az_deg is None or st.target_el_deg is None:
+        return False
+    az, el = _sky(*asked)
+    return abs((az - st.target_az_deg + 180.0) % 360.0 - 180.0) < 1e-6 and abs(el - st.target_el_deg) < 1e-6
+
+
+class ExtendedTarget:
+    """Gotos in the extended frame where a command names one axis only (Tartu GOAZ/GOEL,
+    G4JNT ``G<az>``, Rot1Prog sets): the other axis keeps its target, in that frame.
+
+    ``Rotator.goto_az``/``goto_el`` keep the other axis' *sky* target, which cannot
+    tell elevation 60 from 120 over the top, or azimuth 20 from 380 in the overlap:
+    handing it back would unflip or unwind the axis the command leaves alone. So this
+    keeps the session's own last request, in its frame, for as long as the service
+    still holds it (the service's status shows a new target only after its next tick:
+    until then the session's own word stands). Otherwise the service decides, as for
+    ``goto_az``: its target, or where the axes are after a stop, a move or a fault.
+    """
+
+    def __init__(self, rotator: RotatorPort) -> None:
+        self.rotator = rotator
+        #: (status t_s when asked, extended (az, el) asked, or None: stopped / moved)
+        self._asked: tuple[float, tuple[float, float] | None] | None = None
+
+    def goto(self, az: float | None, el: float | None) -> None:
+        """``rotator.goto`` with None = that axis keeps its target (raises CommandRejected)."""
+        st = self.rotator.status()
+        keep_az, keep_el = self._kept(st)
+        az = keep_az if az is None else az
+        el = keep_el if el is None else el
+        self.rotator.goto(az, el)
+        self._asked = (st.t_s, (az, el))
+
+    def stop(self, axis: str | None = None) -> None:
+        """``rotator.stop``: like the service, no target from now on (either axis)."""
+        st = self.rotator.status()
+        self.rotator.stop(axis)
+        self._asked = (st.t_s, None)
+
+    def move(self, axis: str, direction: int, speed_frac: float = 1.0) -> None:
+        st = self.rotator.status()
+        self.rotator.move(axis, direction, speed_frac)
+        self._asked = (st.t_s, None)
+
+    def forget(self) -> None:
+        """After a re-reference (set_position): the service's word only."""
+        self._asked = None
+
+    def _kept(self, st: Status) -> tuple[float, float]:
+        if self._asked is not None:
+            t_s, asked = self._asked
+            if t_s == st.t_s:                       # no tick since: the session's word stands
+                return extended_pose_deg(st) if asked is None else asked
+            if asked is not None and _is_target(asked, st):
+                return asked                        # still the service's target
+            self._asked = None                      # superseded: the service decides
+        if st.target_az_deg is None or st.target_el_deg is None:
+            return extended_pose_deg(st)
+        return st.target_az_deg, st.target_el_deg

@@ -1,0 +1,608 @@
+"""Orbital element sets: TLE/3LE and CelesTrak OMM (JSON, CSV) into one type, and the
+local catalog that keeps the newest set per NORAD id.
+
+sgp4 does the orbit initialisation (``Satrec.twoline2rv``, ``sgp4.omm.initialize``), the
+same calls skyfield makes, so propagation here and in skyfield agree exactly. The
+column-by-column TLE check below is ours because sgp4's fast C++ parser accepts corrupt
+lines silently (``5x.6416`` reads as an inclination of 5 degrees); every error names the
+file, the line, the columns and what was expected there.
+"""
+
+from __future__ import annotations
+
+import csv
+import difflib
+import io
+import json
+import math
+import os
+import re
+from dataclasses import dataclass, field
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Any, Iterable, Iterator, Mapping
+
+from sgp4.api import SGP4_ERRORS, Satrec
+from sgp4.io import compute_checksum
+
+from .errors import AmbiguousSatellite, CatalogError, ChecksumError, ElementsError, \
+    SatelliteNotFound
+
+__all__ = [
+    "Catalog", "ElementSet", "MergeResult", "import_file", "load_elements", "parse_elements",
+    "parse_omm_csv", "parse_omm_json", "parse_tle",
+]
+
+#: file in the catalog directory holding the element sets.
+CATALOG_FILE = "catalog.json"
+_CATALOG_FORMAT = "urc-catalog"
+_CATALOG_VERSION = 1
+_TWO_PI = 2.0 * math.pi
+
+
+# --------------------------------------------------------------------------- the type
+
+
+@dataclass(frozen=True, eq=False)
+class ElementSet:
+    """One satellite's mean elements at one epoch, ready for SGP4.
+
+    ``tle`` or ``omm`` keeps the text it was read from, so the catalog stores exactly
+    what was imported (OMM carries more digits than a TLE can).
+    """
+
+    name: str
+    norad_id: int
+    epoch: datetime
+    satrec: Satrec = field(repr=False)
+    source: str = ""
+    tle: tuple[str, str] | None = field(default=None, repr=False)
+    omm: Mapping[str, Any] | None = field(default=None, repr=False)
+
+    @property
+    def label(self) -> str:
+        """The name, or ``NORAD 25544`` for a nameless two-line set."""
+        return self.name or f"NORAD {self.norad_id}"
+
+    @property
+    def epoch_unix_s(self) -> float:
+        return self.epoch.timestamp()
+
+    @property
+    def mean_motion_rev_per_day(self) -> float:
+        return self.satrec.no_kozai * 1440.0 / _TWO_PI
+
+    @property
+    def sgp4_error(self) -> str | None:
+        """Why sgp4 cannot propagate these elements even at their epoch (decayed ...), or None.
+
+        Such sets still load (the text is fine); propagation reports the error.
+        """
+        return SGP4_ERRORS.get(self.satrec.error, f"error {self.satrec.error}") \
+            if self.satrec.error else None
+
+    @property
+    def period_s(self) -> float:
+        return _TWO_PI / self.satrec.no_kozai * 60.0
+
+    def to_record(self) -> dict[str, Any]:
+        """A JSON-able record; :meth:`from_record` reads it back."""
+        rec: dict[str, Any] = {"name": self.name, "norad_id": self.norad_id,
+                               "epoch": self.epoch.isoformat(), "source": self.source}
+        if self.omm is not None:
+            rec["omm"] = dict(self.omm)
+        else:
+            rec["tle"] = list(self.tle or ())
+        return rec
+
+    @classmethod
+    def from_record(cls, rec: Mapping[str, Any], source: str) -> ElementSet:
+        if "omm" in rec:
+            es = _from_omm(dict(rec["omm"]), source, str(rec.get("name", "")))
+        elif "tle" in rec and len(rec["tle"]) == 2:
+            l1, l2 = rec["tle"]
+            es = _from_tle(str(rec.get("name", "")), str(l1), str(l2), source, 0, 0, True)
+        else:
+            raise CatalogError(f"{source}: record for {rec.get('name', '?')!r}: expected a "
+                               "'tle' pair or an 'omm' table, found neither")
+        return _replace_source(es, str(rec.get("source", "")) or source)
+
+
+def _replace_source(es: ElementSet, source: str) -> ElementSet:
+    return ElementSet(es.name, es.norad_id, es.epoch, es.satrec, source, es.tle, es.omm)
+
+
+def _epoch_of(sat: Satrec) -> datetime:
+    # jdsatepoch + jdsatepochF is the UTC epoch; round to the microsecond datetime holds.
+    u = (sat.jdsatepoch - 2440587.5) * 86400.0 + sat.jdsatepochF * 86400.0
+    return datetime.fromtimestamp(round(u, 6), tz=timezone.utc)
+
+
+# --------------------------------------------------------------------------- TLE / 3LE
+
+#: (first column, end column (Python slice), field, pattern, example), per TLE line.
+_LINE1_FIELDS = (
+    (0, 1, "line number", r"1", "1"),
+    (2, 7, "satellite number", r"[A-HJ-NP-Z]\d{4}|[ \d]{4}\d", "25544"),
+    (7, 8, "classification", r"[A-Z ]", "U"),
+    (9, 17, "international designator", r"[ -~]{8}", "98067A  "),
+    (18, 20, "epoch year", r"\d\d", "24"),
+    (20, 32, "epoch day of year", r"[ \d]{3}\.\d{8}", "001.50000000"),
+    (33, 43, "first derivative of mean motion", r"[ +-]\.\d{8}", " .00016717"),
+    (44, 52, "second derivative of mean motion", r"[ +-][ \d]{5}[ +-]\d", " 00000-0"),
+    (53, 61, "drag term (BSTAR)", r"[ +-][ \d]{5}[ +-]\d", " 10270-3"),
+    (62, 63, "ephemeris type", r"[\d ]", "0"),
+    (64, 68, "element set number", r"[ \d]{3}\d|    ", " 999"),
+)
+_LINE2_FIELDS = (
+    (0, 1, "line number", r"2", "2"),
+    (2, 7, "satellite number", r"[A-HJ-NP-Z]\d{4}|[ \d]{4}\d", "25544"),
+    (8, 16, "inclination (degrees)", r"[ \d]{3}\.[\d ]{4}", " 51.6416"),
+    (17, 25, "right ascension of the ascending node (degrees)", r"[ \d]{3}\.[\d ]{4}",
+     "247.4627"),
+    (26, 33, "eccentricity (decimal point assumed)", r"[ \d]{6}\d", "0006703"),
+    (34, 42, "argument of perigee (degrees)", r"[ \d]{3}\.[\d ]{4}", "130.5360"),
+    (43, 51, "mean anomaly (degrees)", r"[ \d]{3}\.[\d ]{4}", "325.0288"),
+    (52, 63, "mean motion (revolutions per day)", r"[ \d]{2}\.[\d ]{8}", "15.72125391"),
+    (63, 68, "revolution number at epoch", r"[ \d]{5}", "12345"),
+)
+_BLANK_COLUMNS = {1: (1, 8, 17, 32, 43, 52, 61, 63), 2: (1, 7, 16, 25, 33, 42, 51)}
+_COMPILED = {n: tuple((a, b, name, re.compile(f"(?:{pat})\\Z"), ex) for a, b, name, pat, ex in fs)
+             for n, fs in ((1, _LINE1_FIELDS), (2, _LINE2_FIELDS))}
+TLE_LINE_LENGTH = 69
+
+
+def parse_tle(text: str, source: str = "<string>", *, checksum: bool = True) -> list[ElementSet]:
+    """Element sets from TLE text: two-line sets, optionally each after a name line (3LE).
+
+    Name lines may carry space-track's ``0 `` prefix; blank lines and ``#`` comments are
+    skipped. ``checksum=False`` accepts lines whose checksum digit is wrong or missing.
+    """
+    lines = [(i, raw.rstrip()) for i, raw in enumerate(text.splitlines(), start=1)]
+    lines = [(i, s) for i, s in lines if s.strip() and not s.lstrip().startswith("#")]
+    out: list[ElementSet] = []
+    name: tuple[int, str] | None = None
+    k = 0
+    while k < len(lines):
+        lineno, line = lines[k]
+        if _looks_like(line, "1"):
+            if k + 1 >= len(lines):
+                raise ElementsError(
+                    f"{source}:{lineno}: truncated file: TLE line 1 of "
+                    f"{_who(name, line)} is not followed by its line 2",
+                    path=source, line=lineno, expected="TLE line 2", found="end of file")
+            lineno2, line2 = lines[k + 1]
+            if not line2.startswith("2"):
+                raise ElementsError(
+                    f"{source}:{lineno2}: expected line 2 of {_who(name, line)} "
+                    f"(starting '2 '), found {_short(line2)}",
+                    path=source, line=lineno2, column=1, expected="TLE line 2", found=line2)
+            out.append(_from_tle(name[1] if name else "", line, line2, source, lineno, lineno2,
+                                 checksum))
+            name = None
+            k += 2
+            continue
+        if line.startswith("2 ") and len(line) > 20:
+            hint = ""
+            if name and name[1][:2] == "1 ":
+                hint = (f"; line {name[0]} looks like a truncated line 1 ({len(name[1])} "
+                        f"characters, expected {TLE_LINE_LENGTH})")
+            raise ElementsError(f"{source}:{lineno}: found TLE line 2 without a line 1 "
+                                f"before it{hint}", path=source, line=lineno,
+                                expected="TLE line 1", found=line)
+        if name is not None:
+            raise ElementsError(
+                f"{source}:{lineno}: expected TLE line 1 (starting '1 ') after the name line "
+                f"{name[0]} {name[1]!r}, found {_short(line)}",
+                path=source, line=lineno, column=1, expected="TLE line 1", found=line)
+        name = (lineno, line[2:].strip() if line.startswith("0 ") else line.strip())
+        k += 1
+    if name is not None:
+        raise ElementsError(f"{source}:{name[0]}: truncated file: name line {name[1]!r} is "
+                            "not followed by its two element lines", path=source,
+                            line=name[0], expected="TLE line 1", found="end of file")
+    return out
+
+
+def _looks_like(line: str, number: str) -> bool:
+    # A name may start with "1 " too; a line 1 is long enough to hold the epoch.
+    return line.startswith(number + " ") and len(line) >= 24
+
+
+def _who(name: tuple[int, str] | None, line1: str) -> str:
+    return repr(name[1]) if name else f"satellite {line1[2:7].strip()!r}"
+
+
+def _short(text: str, n: int = 40) -> str:
+    return repr(text if len(text) <= n else text[: n - 3] + "...")
+
+
+def _check_line(line: str, number: int, source: str, lineno: int, checksum: bool) -> None:
+    where = f"{source}:{lineno}: TLE line {number}"
+    n = len(line)
+    if n < TLE_LINE_LENGTH - 1 or (n == TLE_LINE_LENGTH - 1 and checksum):
+        raise ElementsError(f"{where}: truncated line: {n} characters, expected "
+                            f"{TLE_LINE_LENGTH}", path=source, line=lineno, column=n + 1,
+                            expected=f"{TLE_LINE_LENGTH} characters", found=n)
+    if n > TLE_LINE_LENGTH:
+        raise ElementsError(f"{where}: unexpected text after column {TLE_LINE_LENGTH}: "
+                            f"{_short(line[TLE_LINE_LENGTH:])}", path=source, line=lineno,
+                            column=TLE_LINE_LENGTH + 1, expected="end of line",
+                            found=line[TLE_LINE_LENGTH:])
+    for col in _BLANK_COLUMNS[number]:
+        if line[col] != " ":
+            raise ElementsError(f"{where}, column {col + 1}: expected a blank, found "
+                                f"{line[col]!r}; the columns are shifted or the line is "
+                                "corrupt", path=source, line=lineno, column=col + 1,
+                                expected="' '", found=line[col])
+    for a, b, what, pattern, example in _COMPILED[number]:
+        text = line[a:b]
+        if not pattern.match(text):
+            cols = f"column {a + 1}" if b - a == 1 else f"columns {a + 1}-{b}"
+            raise ElementsError(f"{where}, {cols} ({what}): expected something like "
+                                f"{example!r}, found {text!r}", path=source, line=lineno,
+                                column=a + 1, expected=example, found=text)
+    if checksum:
+        given, computed = line[68], compute_checksum(line)
+        if not given.isdigit() or int(given) != computed:
+            raise ChecksumError(
+                f"{where}, column 69 (checksum): expected {computed} (digits plus one per "
+                f"minus sign, modulo 10), found {given!r}: the line is corrupt",
+                path=source, line=lineno, column=69, expected=str(computed), found=given)
+
+
+def _from_tle(name: str, line1: str, line2: str, source: str, lineno1: int, lineno2: int,
+              checksum: bool) -> ElementSet:
+    _check_line(line1, 1, source, lineno1, checksum)
+    _check_line(line2, 2, source, lineno2, checksum)
+    if line1[2:7] != line2[2:7]:
+        raise ElementsError(f"{source}:{lineno2}: TLE line 2, columns 3-7 (satellite number): "
+                            f"expected {line1[2:7]!r} as on line 1, found {line2[2:7]!r}",
+                            path=source, line=lineno2, column=3, expected=line1[2:7],
+                            found=line2[2:7])
+    where = f"{source}:{lineno2}: TLE line 2"
+    for a, b, what, limit in ((8, 16, "inclination", 180.0), (17, 25, "right ascension", 360.0),
+                              (34, 42, "argument of perigee", 360.0),
+                              (43, 51, "mean anomaly", 360.0)):
+        value = float(line2[a:b])
+        if value > limit:
+            raise ElementsError(f"{where}, columns {a + 1}-{b} ({what}): expected 0..{limit:g} "
+                                f"degrees, found {value:g}", path=source, line=lineno2,
+                                column=a + 1, expected=f"0..{limit:g}", found=value)
+    if float(line2[52:63]) <= 0.0:
+        raise ElementsError(f"{where}, columns 53-63 (mean motion): expected a positive number "
+                            f"of revolutions per day, found {line2[52:63]!r}", path=source,
+                            line=lineno2, column=53, expected="> 0", found=line2[52:63])
+    sat = Satrec.twoline2rv(line1, line2)
+    return ElementSet(name, int(sat.satnum), _epoch_of(sat), sat, source, (line1, line2), None)
+
+
+# --------------------------------------------------------------------------- OMM
+
+#: OMM keys sgp4 needs; the rest have defaults (CelesTrak always sends them all).
+_OMM_REQUIRED_NUMBERS = ("MEAN_MOTION", "ECCENTRICITY", "INCLINATION", "RA_OF_ASC_NODE",
+                         "ARG_OF_PERICENTER", "MEAN_ANOMALY", "BSTAR", "MEAN_MOTION_DOT")
+_OMM_DEFAULTS = {"CLASSIFICATION_TYPE": "U", "EPHEMERIS_TYPE": 0, "ELEMENT_SET_NO": 999,
+                 "REV_AT_EPOCH": 0, "MEAN_MOTION_DDOT": 0.0, "OBJECT_ID": ""}
+#: CelesTrak's OMM CSV column order
+#: (celestrak.org/NORAD/documentation/gp-data-formats.php)
+OMM_CSV_COLUMNS = ("OBJECT_NAME", "OBJECT_ID", "EPOCH", "MEAN_MOTION", "ECCENTRICITY",
+                   "INCLINATION", "RA_OF_ASC_NODE", "ARG_OF_PERICENTER", "MEAN_ANOMALY",
+                   "EPHEMERIS_TYPE", "CLASSIFICATION_TYPE", "NORAD_CAT_ID", "ELEMENT_SET_NO",
+                   "REV_AT_EPOCH", "BSTAR", "MEAN_MOTION_DOT", "MEAN_MOTION_DDOT")
+_EPOCH_RE = re.compile(r"(\d{4}-\d\d-\d\d)[T ](\d\d:\d\d:\d\d)(?:\.(\d+))?Z?\Z")
+
+
+def parse_omm_json(text: str, source: str = "<string>") -> list[ElementSet]:
+    """Element sets from CelesTrak OMM JSON (a list of objects, or one object)."""
+    try:
+        data = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise ElementsError(f"{source}:{exc.lineno}:{exc.colno}: expected OMM JSON, found "
+                            f"invalid JSON ({exc.msg})", path=source, line=exc.lineno,
+                            column=exc.colno, expected="JSON", found=exc.msg) from None
+    if isinstance(data, dict):
+        data = [data]
+    if not isinstance(data, list):
+        raise ElementsError(f"{source}: expected a JSON list of OMM objects, found "
+                            f"{type(data).__name__}", path=source, expected="a list",
+                            found=type(data).__name__)
+    out = []
+    for i, rec in enumerate(data, start=1):
+        where = f"{source}: record {i}"
+        if not isinstance(rec, dict):
+            raise ElementsError(f"{where}: expected an OMM object, found {_short(repr(rec))}",
+                                path=source, expected="an object", found=rec)
+        out.append(_from_omm(rec, where, None, path=source))
+    return out
+
+
+def parse_omm_csv(text: str, source: str = "<string>") -> list[ElementSet]:
+    """Element sets from CelesTrak OMM CSV (header line, one object per line)."""
+    reader = csv.DictReader(io.StringIO(text))
+    header = reader.fieldnames or []
+    missing = [k for k in ("EPOCH", "NORAD_CAT_ID", *_OMM_REQUIRED_NUMBERS) if k not in header]
+    if missing:
+        raise ElementsError(f"{source}:1: OMM CSV header: expected the columns "
+                            f"{', '.join(OMM_CSV_COLUMNS)}, missing {', '.join(missing)}",
+                            path=source, line=1, expected=", ".join(OMM_CSV_COLUMNS),
+                            found=",".join(header))
+    out = []
+    for row in reader:
+        where = f"{source}:{reader.line_num}"
+        if None in row:  # more cells than header columns
+            raise ElementsError(f"{where}: expected {len(header)} columns as in the header, "
+                                f"found {len(header) + len(row[None])}", path=source,
+                                line=reader.line_num, expected=len(header),
+                                found=len(header) + len(row[None]))
+        absent = [k for k in header if row.get(k) is None]
+        if absent:
+            raise ElementsError(f"{where}: truncated row: expected {len(header)} columns as "
+                                f"in the header, found {len(header) - len(absent)} (no "
+                                f"{', '.join(absent)})", path=source, line=reader.line_num,
+                                expected=len(header), found=len(header) - len(absent))
+        if not any((v or "").strip() for v in row.values()):
+            continue
+        out.append(_from_omm(row, where, None, path=source, line=reader.line_num))
+    return out
+
+
+def _from_omm(rec: dict, where: str, name: str | None, *, path: str | None = None,
+              line: int | None = None) -> ElementSet:
+    def bad(key: str, expected: str, found: object) -> ElementsError:
+        return ElementsError(f"{where}{_omm_who(rec)}: {key}: expected {expected}, found "
+                             f"{_short(repr(found))}", path=path or where, line=line,
+                             expected=expected, found=found)
+
+    fields = dict(_OMM_DEFAULTS)
+    fields.update({k: v for k, v in rec.items() if v not in (None, "")})
+    for key in ("EPOCH", "NORAD_CAT_ID", *_OMM_REQUIRED_NUMBERS):
+        if key not in fields:
+            raise bad(key, "a value (required)", None)
+    for key in (*_OMM_REQUIRED_NUMBERS, "MEAN_MOTION_DDOT"):
+        try:
+            value = float(fields[key])
+        except (TypeError, ValueError):
+            raise bad(key, "a number", fields[key]) from None
+        if not math.isfinite(value):
+            raise bad(key, "a finite number", fields[key])
+        fields[key] = value
+    for key in ("NORAD_CAT_ID", "ELEMENT_SET_NO", "REV_AT_EPOCH", "EPHEMERIS_TYPE"):
+        try:
+            value = float(fields[key])
+            if value != int(value) or value < 0:
+                raise ValueError
+        except (TypeError, ValueError, OverflowError):
+            raise bad(key, "a whole number >= 0", fields[key]) from None
+        fields[key] = int(value)
+    if fields["NORAD_CAT_ID"] > 339999:
+        raise bad("NORAD_CAT_ID", "a catalog number sgp4 can hold (<= 339999)",
+                  fields["NORAD_CAT_ID"])
+    if not 0.0 <= fields["ECCENTRICITY"] < 1.0:
+        raise bad("ECCENTRICITY", "0 <= e < 1", fields["ECCENTRICITY"])
+    if fields["MEAN_MOTION"] <= 0.0:
+        raise bad("MEAN_MOTION", "a positive number of revolutions per day", fields["MEAN_MOTION"])
+    m = _EPOCH_RE.match(str(fields["EPOCH"]).strip())
+    if not m:
+        raise bad("EPOCH", "a UTC time like '2024-01-01T12:00:00.000000'", fields["EPOCH"])
+    fields["EPOCH"] = f"{m.group(1)}T{m.group(2)}.{(m.group(3) or '0')[:6]:0<6}"
+    object_id = str(fields["OBJECT_ID"])
+    if object_id and not re.match(r"\d{4}-\d{3}[A-Z ]*\Z", object_id):
+        raise bad("OBJECT_ID", "an international designator like '1998-067A'", object_id)
+    fields["CLASSIFICATION_TYPE"] = str(fields["CLASSIFICATION_TYPE"])[:1] or "U"
+    sat = Satrec()
+    try:
+        from sgp4.omm import initialize
+
+        initialize(sat, {**fields, "OBJECT_ID": object_id})
+    except ValueError as exc:
+        raise ElementsError(f"{where}{_omm_who(rec)}: {exc}", path=path or where, line=line,
+                            expected="valid OMM fields", found=str(exc)) from None
+    name = name if name is not None else str(rec.get("OBJECT_NAME") or "").strip()
+    keep = {k: v for k, v in rec.items() if k is not None}
+    return ElementSet(name, fields["NORAD_CAT_ID"], _epoch_of(sat), sat,
+                      path or where, None, keep)
+
+
+def _omm_who(rec: Mapping) -> str:
+    bits = []
+    if rec.get("NORAD_CAT_ID") not in (None, ""):
+        bits.append(f"NORAD {rec['NORAD_CAT_ID']}")
+    if rec.get("OBJECT_NAME"):
+        bits.append(repr(str(rec["OBJECT_NAME"]).strip()))
+    return f" ({' '.join(bits)})" if bits else ""
+
+
+# --------------------------------------------------------------------------- files
+
+
+def parse_elements(text: str, source: str = "<string>", *,
+                   checksum: bool = True) -> list[ElementSet]:
+    """Element sets from text in any supported format, recognised by its content."""
+    stripped = text.lstrip("\ufeff \t\r\n")
+    if stripped.startswith(("[", "{")):
+        return parse_omm_json(stripped, source)
+    first = stripped.split("\n", 1)[0]
+    if "," in first and ("NORAD_CAT_ID" in first or "OBJECT_NAME" in first):
+        return parse_omm_csv(stripped, source)
+    if stripped.startswith("<"):
+        raise ElementsError(f"{source}: expected TLE, OMM JSON or OMM CSV, found markup "
+                            f"{_short(first)} (an HTML error page or OMM XML?)", path=source,
+                            line=1, expected="TLE, OMM JSON or CSV", found=first)
+    return parse_tle(text, source, checksum=checksum)
+
+
+def load_elements(path: str | os.PathLike[str], *, checksum: bool = True) -> list[ElementSet]:
+    """Read a TLE/3LE, OMM JSON or OMM CSV file."""
+    source = os.fspath(path)
+    try:
+        raw = Path(source).read_bytes()
+    except FileNotFoundError:
+        raise ElementsError(f"{source}: no such file", path=source, expected="a file",
+                            found="nothing") from None
+    except OSError as exc:
+        raise ElementsError(f"{source}: cannot read: {exc.strerror or exc}", path=source,
+                            expected="a readable file", found=str(exc)) from None
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        lineno = raw[:exc.start].count(b"\n") + 1
+        raise ElementsError(f"{source}:{lineno}: expected text (ASCII/UTF-8), found byte "
+                            f"0x{raw[exc.start]:02x}: a binary or corrupt file",
+                            path=source, line=lineno, expected="text",
+                            found=raw[exc.start:exc.start + 1]) from None
+    sets = parse_elements(text, source, checksum=checksum)
+    if not sets:
+        raise ElementsError(f"{source}: expected at least one element set, found none",
+                            path=source, expected="element sets", found="none")
+    return sets
+
+
+# --------------------------------------------------------------------------- catalog
+
+
+@dataclass(frozen=True)
+class MergeResult:
+    """NORAD ids added, replaced by a newer epoch, or kept (the catalog's was as new)."""
+
+    added: tuple[int, ...] = ()
+    updated: tuple[int, ...] = ()
+    kept: tuple[int, ...] = ()
+
+    def __add__(self, other: MergeResult) -> MergeResult:
+        return MergeResult(self.added + other.added, self.updated + other.updated,
+                           self.kept + other.kept)
+
+
+def _norm(name: str) -> str:
+    return " ".join(name.casefold().split())
+
+
+class Catalog:
+    """Element sets keyed by NORAD id, newest epoch wins; stored as one JSON file."""
+
+    def __init__(self, sets: Iterable[ElementSet] = ()):
+        self._by_id: dict[int, ElementSet] = {}
+        self.merge(sets)
+
+    # -- storage --------------------------------------------------------------------
+
+    @staticmethod
+    def path_in(directory: str | os.PathLike[str]) -> Path:
+        return Path(directory) / CATALOG_FILE
+
+    @classmethod
+    def load(cls, directory: str | os.PathLike[str]) -> Catalog:
+        """The catalog stored in ``directory`` (empty if there is none yet)."""
+        path = cls.path_in(directory)
+        try:
+            raw = path.read_text(encoding="utf-8")
+        except FileNotFoundError:
+            return cls()
+        except (OSError, UnicodeDecodeError) as exc:
+            raise CatalogError(f"{path}: cannot read the catalog: {exc}") from None
+        try:
+            data = json.loads(raw)
+        except json.JSONDecodeError as exc:
+            raise CatalogError(f"{path}:{exc.lineno}:{exc.colno}: corrupt catalog: {exc.msg}; "
+                               "re-import or `urc tle update --force` to rebuild it") from None
+        if not isinstance(data, dict) or data.get("format") != _CATALOG_FORMAT \
+                or not isinstance(data.get("sets"), list):
+            raise CatalogError(f"{path}: expected a urc catalog (format {_CATALOG_FORMAT!r}), "
+                               "found something else")
+        if data.get("version") != _CATALOG_VERSION:
+            raise CatalogError(f"{path}: catalog version {data.get('version')!r}, this urc "
+                               f"reads version {_CATALOG_VERSION}")
+        cat = cls()
+        for i, rec in enumerate(data["sets"], start=1):
+            try:
+                cat.merge([ElementSet.from_record(rec, f"{path}: set {i}")])
+            except (ElementsError, TypeError, KeyError, AttributeError) as exc:
+                raise CatalogError(f"{path}: set {i}: corrupt record: {exc}") from None
+        return cat
+
+    def save(self, directory: str | os.PathLike[str]) -> Path:
+        """Write atomically (temporary file + rename) so a crash never leaves half a file."""
+        path = self.path_in(directory)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        data = {"format": _CATALOG_FORMAT, "version": _CATALOG_VERSION,
+                "sets": [es.to_record() for es in self]}
+        tmp = path.with_name(path.name + ".tmp")
+        tmp.write_text(json.dumps(data, indent=1) + "\n", encoding="utf-8")
+        os.replace(tmp, path)
+        return path
+
+    # -- contents -------------------------------------------------------------------
+
+    def merge(self, sets: Iterable[ElementSet]) -> MergeResult:
+        """Add sets; a NORAD id already present is replaced only by a newer epoch."""
+        added, updated, kept = [], [], []
+        for es in sets:
+            old = self._by_id.get(es.norad_id)
+            if old is None:
+                added.append(es.norad_id)
+            elif es.epoch > old.epoch:
+                updated.append(es.norad_id)
+            else:
+                kept.append(es.norad_id)
+                continue
+            self._by_id[es.norad_id] = es
+        return MergeResult(tuple(added), tuple(updated), tuple(kept))
+
+    def __len__(self) -> int:
+        return len(self._by_id)
+
+    def __iter__(self) -> Iterator[ElementSet]:
+        return iter(sorted(self._by_id.values(), key=lambda es: es.norad_id))
+
+    def __contains__(self, norad_id: object) -> bool:
+        return norad_id in self._by_id
+
+    def get(self, key: str | int) -> ElementSet:
+        """By NORAD id (int or digits), else by name: exact (any case), else a unique prefix."""
+        if isinstance(key, int) and not isinstance(key, bool):
+            if key in self._by_id:
+                return self._by_id[key]
+            raise SatelliteNotFound(f"no satellite with NORAD id {key} in the catalog "
+                                    f"({len(self)} sets)")
+        text = str(key).strip()
+        if text.isdigit() and int(text) in self._by_id:
+            return self._by_id[int(text)]
+        want = _norm(text)
+        if not want:
+            raise SatelliteNotFound("expected a satellite name or NORAD id, found nothing")
+        exact = [es for es in self if _norm(es.name) == want]
+        if len(exact) == 1:
+            return exact[0]
+        if len(exact) > 1:
+            raise self._ambiguous(text, exact, "share the name")
+        prefix = [es for es in self if _norm(es.name).startswith(want)]
+        if len(prefix) == 1:
+            return prefix[0]
+        if len(prefix) > 1:
+            raise self._ambiguous(text, prefix, "start with")
+        close = difflib.get_close_matches(text.upper(), [es.name.upper() for es in self], n=3)
+        hint = f"; did you mean {', '.join(repr(c) for c in close)}?" if close else ""
+        what = "NORAD id" if text.isdigit() else "name"
+        raise SatelliteNotFound(f"no satellite with {what} {text!r} in the catalog "
+                                f"({len(self)} sets){hint}")
+
+    @staticmethod
+    def _ambiguous(text: str, matches: list[ElementSet], how: str) -> AmbiguousSatellite:
+        shown = ", ".join(f"{es.name!r} ({es.norad_id})" for es in matches[:8])
+        more = f" and {len(matches) - 8} more" if len(matches) > 8 else ""
+        return AmbiguousSatellite(f"{len(matches)} satellites {how} {text!r}: {shown}{more}; "
+                                  "give more of the name or the NORAD id", tuple(matches))
+
+    def select(self, keys: Iterable[str | int]) -> list[ElementSet]:
+        """:meth:`get` for each key, in order."""
+        return [self.get(k) for k in keys]
+
+
+def import_file(path: str | os.PathLike[str], catalog_dir: str | os.PathLike[str], *,
+                checksum: bool = True) -> MergeResult:
+    """Read an element file and merge it into the catalog stored in ``catalog_dir``."""
+    cat = Catalog.load(catalog_dir)
+    result = cat.merge(load_elements(path, checksum=checksum))
+    cat.save(catalog_dir)
+    return result

@@ -1,0 +1,126 @@
+"""Pointing error, as DESIGN.md defines it, for a pass flown on the simulator.
+
+The great-circle angle between where the simulated antenna truly points (simulator
+truth, after the flip mapping) and where the target truly is, sampled every control tick
+while the target is above the horizon mask.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+from ..clock import VirtualClock
+from ..service.loop import run_virtual
+
+
+def great_circle_deg(az1_deg, el1_deg, az2_deg, el2_deg) -> np.ndarray:
+    a1, e1, a2, e2 = (np.radians(np.asarray(x, dtype=float)) for x in (az1_deg, el1_deg, az2_deg, el2_deg))
+    # haversine form: accurate for the small angles that matter here
+    h = np.sin((e2 - e1) / 2) ** 2 + np.cos(e1) * np.cos(e2) * np.sin((a2 - a1) / 2) ** 2
+    return np.degrees(2 * np.arcsin(np.sqrt(np.clip(h, 0.0, 1.0))))
+
+
+@dataclass(frozen=True)
+class PointingStats:
+    rms_deg: float
+    p95_deg: float
+    max_deg: float
+    within_0_1_pct: float
+    within_0_5_pct: float
+    aos_error_deg: float     # error at the first sample of the pass
+    samples: int
+
+    @classmethod
+    def of(cls, err_deg: np.ndarray) -> "PointingStats":
+        e = np.asarray(err_deg, dtype=float)
+        return cls(float(math.sqrt(np.mean(e ** 2))), float(np.percentile(e, 95)), float(e.max()),
+                   float(100 * np.mean(e <= 0.1)), float(100 * np.mean(e <= 0.5)), float(e[0]), len(e))
+
+    def as_dict(self) -> dict:
+        return {k: round(v, 4) if isinstance(v, float) else v for k, v in self.__dict__.items()}
+
+
+def fly(rot, clock: VirtualClock, step: Callable[[float], None], unix_at: Callable[[float], float],
+        until_unix_s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Run the loop (calling ``step(now_s)`` after each tick, like ``urc run``) until
+    ``until_unix_s``; return UTC times and the true sky pointing at every tick."""
+    t, az, el = [], [], []
+    geometry = rot.geometry
+
+    def on_tick(s) -> None:
+        step(s.t_s)
+        truth = s.sim_truth
+        a, e = geometry.to_sky(truth["az"]["deg"], truth["el"]["deg"])
+        t.append(unix_at(s.t_s))
+        az.append(a)
+        el.append(e)
+    run_virtual(rot, clock, max(0.0, until_unix_s - unix_at(clock.now_s())), on_tick=on_tick)
+    return np.array(t), np.array(az), np.array(el)
+
+
+#: Gpredict's way of driving a rotator (protocols.md 1.7): a command every ~0.8 s, only
+#: when the target has moved more than the threshold from the last command.
+GPREDICT_PERIOD_S = 0.8
+GPREDICT_THRESHOLD_DEG = 5.0
+
+
+class GpredictDriver:
+    """Drives the rotator like Gpredict does through rotctld: threshold jumps, no plan."""
+
+    def __init__(self, rotator, target, unix_at: Callable[[float], float], aos_unix_s: float,
+                 los_unix_s: float, threshold_deg: float = GPREDICT_THRESHOLD_DEG):
+        self.rot, self.target, self.unix_at = rotator, target, unix_at
+        self.aos, self.los, self.threshold = aos_unix_s, los_unix_s, threshold_deg
+        self.next_s = -math.inf
+        self.last: tuple[float, float] | None = None
+
+    def step(self, now_s: float) -> None:
+        if now_s < self.next_s:
+            return
+        self.next_s = now_s + GPREDICT_PERIOD_S
+        u = self.unix_at(now_s)
+        if not self.aos - 60.0 <= u <= self.los:
+            return
+        az, el = self.target.position(u)
+        el = max(el, 0.0)
+        if self.last is None or max(abs((az - self.last[0] + 180) % 360 - 180), abs(el - self.last[1])) > self.threshold:
+            try:
+                self.rot.goto(az, el)
+                self.last = (az, el)
+            except Exception:  # refused (limits): Gpredict would just try again later
+                pass
+
+
+def fly_pass_on_sim(profile: str, elements, station, p, state_dir, *, flip: bool = False,
+                    driver: str = "urc", lead_s: float = 240.0, config: dict | None = None):
+    """Fly pass ``p`` on a fresh simulated rotator; returns (rotator, plan|None, stats)."""
+    from ..app import build_rotator
+    from ..config import Config
+    from .propagate import look_angles
+    from .targets import SatelliteTarget
+    from .tracker import Tracker
+
+    cfg = {"rotator": {"profile": profile, "flip": flip}, "hardware": {"sim": {"wind": False}}}
+    for k, v in (config or {}).items():
+        cfg.setdefault(k, {}).update(v)
+    clock = VirtualClock(0.0)
+    rot = build_rotator(Config.from_dict(cfg), clock, state_dir, fast_virtual=True)
+    start_u = p.aos_unix_s - lead_s
+
+    def unix_at(now_s: float) -> float:
+        return start_u + now_s
+    plan = None
+    if driver == "urc":
+        tracker = Tracker(rot, station, unix_at, park_after_pass=False)
+        plan = tracker.track_pass(elements, p, clock.now_s())
+        step = tracker.step
+    else:
+        step = GpredictDriver(rot, SatelliteTarget(elements, station), unix_at, p.aos_unix_s, p.los_unix_s).step
+    t, az, el = fly(rot, clock, step, unix_at, p.los_unix_s)
+    up = (t >= p.aos_unix_s) & (t <= p.los_unix_s)
+    la = look_angles(elements, station, t[up])
+    return rot, plan, PointingStats.of(great_circle_deg(az[up], el[up], la.az_deg, la.el_deg))

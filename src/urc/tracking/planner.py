@@ -1,0 +1,183 @@
+"""Plan a whole pass before it starts: wrap side, flip, rate-feasible trajectory, pre-position.
+
+Input: the target's sky track (az 0..360, el) sampled over the pass. Output: one
+mechanical trajectory (the wrap turn and flip chosen once, so the pass never crosses an
+end stop or swings 180 degrees at the zenith mid-pass), checked against the rotator's
+limits, speeds, accelerations and keep-out zones, plus when to start pre-positioning.
+
+Where the sky track needs more speed than an axis has (the keyhole of a near-zenith pass
+on a rotator that cannot flip), the trajectory is rate-limited symmetrically around the
+fast segment: the antenna starts the swing early and finishes late, halving the worst
+error instead of lagging behind the whole way.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..control.geometry import Geometry
+
+#: start pre-positioning this long before it is strictly needed
+PREPOSITION_MARGIN_S = 10.0
+#: speed budget the plan may use: headroom for the servo to correct errors
+RATE_BUDGET = 0.9
+
+
+@dataclass(frozen=True)
+class AxisLimits:
+    max_rate_deg_per_s: float
+    accel_deg_per_s2: float
+
+
+@dataclass(frozen=True)
+class Plan:
+    t_s: np.ndarray                 # sample times (seconds on the caller's time base)
+    sky_az_deg: np.ndarray
+    sky_el_deg: np.ndarray
+    az_deg: np.ndarray              # mechanical trajectory to fly (wrap range, flip applied)
+    el_deg: np.ndarray
+    flip: bool
+    wrap_turns: int                 # whole turns past the first of the mechanical azimuth at AOS
+    peak_az_rate_deg_per_s: float
+    peak_el_rate_deg_per_s: float
+    rate_limited: bool              # the sky track was faster than the axes: smoothed
+    blocked: np.ndarray             # samples inside a keep-out zone (the antenna waits there)
+    preposition_start_s: float      # leave for the AOS pose at this time
+    notes: tuple[str, ...] = field(default_factory=tuple)
+
+    @property
+    def aos_pose(self) -> tuple[float, float]:
+        return float(self.az_deg[0]), float(self.el_deg[0])
+
+    def pose_at(self, t_s: float) -> tuple[float, float, float, float]:
+        """Mechanical (az, el, az_rate, el_rate) at t_s, interpolated."""
+        t = float(np.clip(t_s, self.t_s[0], self.t_s[-1]))
+        i = int(np.clip(np.searchsorted(self.t_s, t) - 1, 0, len(self.t_s) - 2))
+        t0, t1 = self.t_s[i], self.t_s[i + 1]
+        f = (t - t0) / (t1 - t0)
+        az = self.az_deg[i] + f * (self.az_deg[i + 1] - self.az_deg[i])
+        el = self.el_deg[i] + f * (self.el_deg[i + 1] - self.el_deg[i])
+        inside = self.t_s[0] <= t_s <= self.t_s[-1]
+        az_rate = (self.az_deg[i + 1] - self.az_deg[i]) / (t1 - t0) if inside else 0.0
+        el_rate = (self.el_deg[i + 1] - self.el_deg[i]) / (t1 - t0) if inside else 0.0
+        return float(az), float(el), float(az_rate), float(el_rate)
+
+    def summary(self) -> dict:
+        return {"flip": self.flip, "wrap_turns": self.wrap_turns, "aos_pose": self.aos_pose,
+                "peak_az_rate_deg_per_s": round(self.peak_az_rate_deg_per_s, 3),
+                "peak_el_rate_deg_per_s": round(self.peak_el_rate_deg_per_s, 3),
+                "rate_limited": self.rate_limited, "blocked_fraction": float(self.blocked.mean()),
+                "preposition_start_s": self.preposition_start_s, "notes": list(self.notes)}
+
+
+class PlanError(ValueError):
+    """No legal way to fly this pass (entirely outside the limits)."""
+
+
+def _rate_limit(x: np.ndarray, t: np.ndarray, max_rate: float) -> np.ndarray:
+    """The average of a forward and a backward rate-limited pass: centred on the fast
+    segment, never faster than max_rate (the mean of two limited steps is limited)."""
+    dt = np.diff(t)
+    fwd = x.copy()
+    for i in range(1, len(x)):
+        step = max_rate * dt[i - 1]
+        fwd[i] = fwd[i - 1] + np.clip(x[i] - fwd[i - 1], -step, step)
+    bwd = x.copy()
+    for i in range(len(x) - 2, -1, -1):
+        step = max_rate * dt[i]
+        bwd[i] = bwd[i + 1] + np.clip(x[i] - bwd[i + 1], -step, step)
+    return 0.5 * (fwd + bwd)
+
+
+def _pointing_error_deg(az_m, el_m, sky_az, sky_el, g: Geometry) -> np.ndarray:
+    """Great-circle angle between where mechanical poses point and the sky track."""
+    from .evaluate import great_circle_deg
+    az = az_m + g.az_offset_deg
+    el = el_m + g.el_offset_deg
+    over = el > 90.0
+    az = np.where(over, az + 180.0, az)
+    el = np.where(over, 180.0 - el, el)
+    return great_circle_deg(az, el, sky_az, sky_el)
+
+
+def _peak_rate(x: np.ndarray, t: np.ndarray) -> float:
+    return float(np.max(np.abs(np.diff(x) / np.diff(t)))) if len(x) > 1 else 0.0
+
+
+def _base_trajectories(s_az: np.ndarray, s_el: np.ndarray, can_flip: bool):
+    """(flip, (az, el)) before wrap offsets: the plain track, and on rotators whose
+    elevation reaches 180, the all-flipped track and the two over-the-top tracks, which switch to the other pose
+    (az+180, 180-el) at the culmination: a pass through the zenith is then flown by
+    sweeping elevation past 90 while the azimuth stays put, instead of a 180 degree
+    azimuth swing (the keyhole)."""
+    def unwrap(a: np.ndarray) -> np.ndarray:
+        return np.degrees(np.unwrap(np.radians(a)))  # continuous: no jump at north
+    yield False, (unwrap(s_az), s_el)
+    if not can_flip:
+        return
+    tca = int(np.argmax(s_el))
+    after = np.arange(len(s_az)) > tca
+    # flipped after, before, or all the way (the last uses the far side of the azimuth
+    # range, e.g. a pass across north on a rotator with little overlap)
+    for flipped_part in (after, ~after, np.ones_like(after)):
+        az = np.where(flipped_part, (s_az + 180.0) % 360.0, s_az)
+        el = np.where(flipped_part, 180.0 - s_el, s_el)
+        yield True, (unwrap(az), el)
+
+
+def plan_pass(t_s: np.ndarray, sky_az_deg: np.ndarray, sky_el_deg: np.ndarray, geometry: Geometry,
+              az: AxisLimits, el: AxisLimits, start_pose: tuple[float, float], now_s: float) -> Plan:
+    """Choose wrap turn and flip for the pass and return the trajectory to fly."""
+    t = np.asarray(t_s, dtype=float)
+    s_az = np.asarray(sky_az_deg, dtype=float) % 360.0
+    s_el = np.asarray(sky_el_deg, dtype=float)
+    if len(t) < 2:
+        raise PlanError("a pass needs at least two samples")
+    g = geometry
+    candidates = []
+    for flip, (a, e) in _base_trajectories(s_az, s_el, g.flip):
+        a = a - g.az_offset_deg
+        e = e - g.el_offset_deg
+        if e.min() < g.el_min_deg - 1e-6 or e.max() > g.el_max_deg + 1e-6:
+            continue
+        k_lo = int(np.ceil((g.az_min_deg - a.min()) / 360.0 - 1e-9))
+        k_hi = int(np.floor((g.az_max_deg - a.max()) / 360.0 + 1e-9))
+        for k in range(k_lo, k_hi + 1):
+            candidates.append((flip, a + 360.0 * k, np.clip(e, g.el_min_deg, g.el_max_deg)))
+    if not candidates:
+        raise PlanError("the pass does not fit inside the azimuth/elevation limits on any wrap or flip")
+
+    az_budget, el_budget = RATE_BUDGET * az.max_rate_deg_per_s, RATE_BUDGET * el.max_rate_deg_per_s
+    best = None
+    for flip, a, e in candidates:
+        # what the axes can really fly: rate-limited where the sky track is too fast
+        fa = np.clip(_rate_limit(a, t, az_budget), g.az_min_deg, g.az_max_deg) if _peak_rate(a, t) > az_budget else a
+        fe = np.clip(_rate_limit(e, t, el_budget), g.el_min_deg, g.el_max_deg) if _peak_rate(e, t) > el_budget else e
+        err = _pointing_error_deg(fa, fe, s_az, s_el, g)
+        travel_s = max(abs(fa[0] - start_pose[0]) / az.max_rate_deg_per_s,
+                       abs(fe[0] - start_pose[1]) / el.max_rate_deg_per_s)
+        # the smallest worst-case pointing error wins (to 0.05 deg: below that the
+        # servo decides); then no flip; then the shorter pre-positioning move
+        cost = (round(float(err.max()) / 0.05), flip, travel_s)
+        if best is None or cost < best[0]:
+            best = (cost, flip, fa, fe, travel_s, a, e, float(err.max()))
+    _, flip, a_fly, e_fly, travel_s, a, e, worst = best
+    notes = []
+    rate_limited = not (a_fly is a and e_fly is e)
+    if rate_limited:
+        notes.append(f"the sky track needs {_peak_rate(a, t):.1f} deg/s in azimuth at the fastest (keyhole); "
+                     f"flown rate-limited, worst pointing error {worst:.2f} deg")
+    a, e = a_fly, e_fly
+    blocked = np.array([g.zone_at(x, y, margin_deg=0.0) is not None for x, y in zip(a, e)], dtype=bool)
+    if blocked.any():
+        notes.append(f"{blocked.mean() * 100:.0f}% of the pass lies in a keep-out zone; "
+                     "the antenna waits at its edge")
+    accel_s = az.max_rate_deg_per_s / az.accel_deg_per_s2 + el.max_rate_deg_per_s / el.accel_deg_per_s2
+    start = float(t[0] - travel_s - accel_s - PREPOSITION_MARGIN_S)
+    wrap = int(np.floor((a[0] + g.az_offset_deg) / 360.0))
+    return Plan(t_s=t, sky_az_deg=s_az, sky_el_deg=s_el, az_deg=a, el_deg=e, flip=flip, wrap_turns=wrap,
+                peak_az_rate_deg_per_s=_peak_rate(a, t), peak_el_rate_deg_per_s=_peak_rate(e, t),
+                rate_limited=rate_limited, blocked=blocked, preposition_start_s=max(start, now_s),
+                notes=tuple(notes))

@@ -1,0 +1,220 @@
+"""The tracker: feeds the rotator service time-tagged setpoints with feed-forward.
+
+A satellite is flown pass by pass: each pass is planned whole before it starts (wrap,
+flip, rate limits, keep-out, see planner.py), the antenna pre-positions at the AOS pose in
+time, follows the planned trajectory smoothly (moving setpoints, not threshold jumps)
+and parks after LOS if configured. Continuous targets (Sun, Moon, a fixed direction, a
+place, a balloon) are followed while above the horizon.
+
+Sans-I/O in time: ``step(now_s)`` is called periodically by the control loop (or a test
+on a virtual clock); ``unix_at(now_s)`` maps the loop's clock to UTC.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass
+from typing import Any, Callable
+
+import numpy as np
+
+from ..errors import CommandRejected
+from .elements import ElementSet
+from .passes import Pass, find_passes
+from .planner import AxisLimits, Plan, PlanError, plan_pass
+from .station import Station
+from .targets import SatelliteTarget, Target
+
+log = logging.getLogger(__name__)
+
+#: how often setpoints are refreshed; between updates the law extrapolates with the rate
+UPDATE_S = 0.2
+#: pass track sample step for planning
+PLAN_STEP_S = 1.0
+#: how far ahead the next pass of a followed satellite is searched
+SEARCH_HOURS = 24.0
+EARTH_RADIUS_KM = 6371.0
+
+
+@dataclass
+class _PassJob:
+    target: SatelliteTarget
+    pass_: Pass
+    plan: Plan
+    state: str = "waiting"  # waiting -> prepositioning -> tracking -> done
+
+
+class Tracker:
+    def __init__(self, rotator, station: Station, unix_at: Callable[[float], float], *,
+                 park_after_pass: bool = True, min_el_deg: float = 0.0):
+        self.rot = rotator
+        self.station = station
+        self.unix_at = unix_at
+        self.park_after_pass = park_after_pass
+        self.min_el_deg = min_el_deg
+        self.target: Target | None = None
+        self.job: _PassJob | None = None
+        self.follow_satellite = False
+        self.last_error = ""
+        self._next_update_s = -math.inf
+        self._last_sky: tuple[float, float] | None = None
+
+    # ------------------------------------------------------------------ commands
+    def track(self, target: Target, now_s: float) -> None:
+        """Follow a target: a satellite pass after pass, anything else continuously."""
+        self.stop_tracking()
+        self.target = target
+        if isinstance(target, SatelliteTarget):
+            self.follow_satellite = True
+            self._plan_next(target, now_s)
+        self._next_update_s = -math.inf
+
+    def track_pass(self, elements: ElementSet, p: Pass, now_s: float) -> Plan:
+        """Fly one given pass (the web page's "track this pass")."""
+        self.stop_tracking()
+        target = SatelliteTarget(elements, self.station)
+        self.target = target
+        self.job = _PassJob(target, p, self._plan(target, p, now_s))
+        return self.job.plan
+
+    def stop_tracking(self) -> None:
+        self.target = None
+        self.job = None
+        self.follow_satellite = False
+        self.last_error = ""
+        self._last_sky = None
+
+    # ------------------------------------------------------------------ planning
+    def _axis_limits(self) -> tuple[AxisLimits, AxisLimits]:
+        s = self.rot.settings
+        return (AxisLimits(s.az_tuning.max_rate_deg_per_s, s.az_tuning.accel_deg_per_s2),
+                AxisLimits(s.el_tuning.max_rate_deg_per_s, s.el_tuning.accel_deg_per_s2))
+
+    def _plan(self, target: SatelliteTarget, p: Pass, now_s: float) -> Plan:
+        t = np.arange(p.aos_unix_s, p.los_unix_s + PLAN_STEP_S, PLAN_STEP_S)
+        t[-1] = min(t[-1], p.los_unix_s)
+        la = target.look(t)
+        st = self.rot.status()
+        az, el = self._axis_limits()
+        # the plan's time base is UTC; the pre-positioning start is compared in UTC too
+        return plan_pass(t, la.az_deg, la.el_deg, self.rot.geometry, az, el,
+                         (st.az.pos_deg, st.el.pos_deg), self.unix_at(now_s))
+
+    def _plan_next(self, target: SatelliteTarget, now_s: float) -> None:
+        now_u = self.unix_at(now_s)
+        passes = [p for p in find_passes(target.elements, self.station, now_u,
+                                         duration_s=SEARCH_HOURS * 3600, min_el_deg=self.min_el_deg)
+                  if p.los_unix_s > now_u + 1.0]
+        if not passes:
+            self.job = None
+            self.last_error = f"{target.name}: no pass in the next {SEARCH_HOURS:g} h"
+            return
+        try:
+            self.job = _PassJob(target, passes[0], self._plan(target, passes[0], now_s))
+            self.last_error = ""
+        except PlanError as exc:
+            self.job = None
+            self.last_error = f"{target.name}: {exc}"
+
+    # ------------------------------------------------------------------ the loop
+    def step(self, now_s: float) -> None:
+        if now_s < self._next_update_s or self.target is None:
+            return
+        self._next_update_s = now_s + UPDATE_S
+        try:
+            if self.job is not None:
+                self._step_pass(now_s)
+            elif not isinstance(self.target, SatelliteTarget):
+                self._step_continuous(now_s)
+        except CommandRejected as exc:
+            # a fault or keep-out refuses this update; keep trying, show why
+            self.last_error = str(exc)
+
+    def _step_pass(self, now_s: float) -> None:
+        job = self.job
+        u = self.unix_at(now_s)
+        plan = job.plan
+        if u >= job.pass_.los_unix_s:
+            job.state = "done"
+            log.info("pass of %s ended", job.target.name)
+            if self.park_after_pass:
+                self.rot.park()
+            if self.follow_satellite:
+                self._plan_next(job.target, now_s)
+            else:
+                self.target = None
+                self.job = None
+            return
+        if u < plan.t_s[0]:
+            if u >= plan.preposition_start_s and job.state == "waiting":
+                az, el = plan.aos_pose
+                self.rot.track_pose(az, el, 0.0, 0.0, now_s)
+                job.state = "prepositioning"
+                log.info("pre-positioning for %s at az %.1f el %.1f", job.target.name, az, el)
+            return
+        job.state = "tracking"
+        i = int(np.clip(np.searchsorted(plan.t_s, u), 0, len(plan.t_s) - 1))
+        if plan.blocked[i]:
+            return  # inside a keep-out zone: wait at its edge
+        az, el, az_rate, el_rate = plan.pose_at(u)
+        self.rot.track_pose(az, el, az_rate, el_rate, now_s)
+
+    def _step_continuous(self, now_s: float) -> None:
+        u = self.unix_at(now_s)
+        az, el = self.target.position(u)
+        if el < self.min_el_deg:
+            self.last_error = f"{self.target.name} is below {self.min_el_deg:g} deg elevation"
+            return
+        az_rate, el_rate = self.target.rate(u)
+        self.rot.track(az, el, az_rate, el_rate, now_s)
+        self._last_sky = (az, el)
+        self.last_error = ""
+
+    # ------------------------------------------------------------------ status
+    def status(self, now_s: float) -> dict[str, Any] | None:
+        if self.target is None:
+            return None
+        u = self.unix_at(now_s)
+        out: dict[str, Any] = {"target": self.target.name, "error": self.last_error or None}
+        try:
+            out["az_deg"], out["el_deg"] = self.target.position(u)
+        except Exception as exc:  # a target that cannot be computed now must not break status
+            out["az_deg"] = out["el_deg"] = None
+            out["error"] = str(exc)
+        if self.job is not None:
+            plan, p = self.job.plan, self.job.pass_
+            step = max(1, len(plan.t_s) // 200)
+            out["state"] = self.job.state
+            out["plan"] = {"aos": p.aos.isoformat(), "los": p.los.isoformat(), "tca": p.tca.isoformat(),
+                           "max_el_deg": p.max_el_deg, "flip": plan.flip, "wrap_turns": plan.wrap_turns,
+                           **plan.summary(),
+                           "track": [[_iso(t), float(a), float(e)] for t, a, e in
+                                     zip(plan.t_s[::step], plan.sky_az_deg[::step], plan.sky_el_deg[::step])]}
+        if isinstance(self.target, SatelliteTarget):
+            out.update(_ground_track(self.target, u))
+        return out
+
+
+def _iso(unix_s: float) -> str:
+    from datetime import datetime, timezone
+    return datetime.fromtimestamp(unix_s, timezone.utc).isoformat()
+
+
+def _ground_track(target: SatelliteTarget, u: float) -> dict[str, Any]:
+    """Sub-satellite points +-45 min, the current point and the footprint radius."""
+    from skyfield.api import EarthSatellite, wgs84
+
+    from . import sky
+    ts = sky.timescale()
+    sat = EarthSatellite.from_satrec(target.elements.satrec, ts)
+    times = ts.from_datetimes([sky.utc_datetime(x) for x in np.arange(u - 2700.0, u + 2701.0, 60.0)])
+    sub = wgs84.subpoint_of(sat.at(times))
+    now = sat.at(ts.from_datetime(sky.utc_datetime(u)))
+    here = wgs84.subpoint_of(now)
+    height_km = float(wgs84.height_of(now).km)
+    footprint_km = EARTH_RADIUS_KM * math.acos(EARTH_RADIUS_KM / (EARTH_RADIUS_KM + max(height_km, 0.0)))
+    return {"ground_track": [[round(float(a), 3), round(float(o), 3)]
+                             for a, o in zip(sub.latitude.degrees, sub.longitude.degrees)],
+            "sat_lat_deg": float(here.latitude.degrees), "sat_lon_deg": float(here.longitude.degrees),
+            "footprint_km": footprint_km}

@@ -1,0 +1,124 @@
+"""``urc passes`` and ``urc tle`` through click's test runner."""
+
+from __future__ import annotations
+
+import json
+
+import click
+import pytest
+from click.testing import CliRunner
+
+from urc.tracking import download
+from urc.tracking.cli import passes_command, tle_command
+from urc.tracking.elements import load_elements
+from urc.tracking.errors import OfflineError
+from urc.tracking.passes import find_passes
+
+from .conftest import FIXTURES, T0, TARTU, synthetic_tle
+
+STATION_ARGS = ["--lat", "58.378", "--lon", "26.729", "--alt", "70"]
+START = ["--start", "2024-01-01T12:00:00Z"]
+
+
+@click.group()
+def cli() -> None:
+    """Stands in for urc's main group, which registers the two commands."""
+
+
+cli.add_command(passes_command)
+cli.add_command(tle_command)
+
+
+def run(*args, ok=True):
+    result = CliRunner().invoke(cli, [str(a) for a in args])
+    if ok:
+        assert result.exit_code == 0, result.output
+    return result
+
+
+def test_import_list_and_passes(tmp_path):
+    cat = ["--catalog-dir", tmp_path]
+    out = run("tle", "import", FIXTURES / "leo.tle", FIXTURES / "omm.csv", *cat).output
+    assert "leo.tle: 7 element sets: 7 new" in out
+    assert "omm.csv: 4 element sets: 0 new, 0 newer, 4 not newer" in out
+    listing = run("tle", "list", *cat).output
+    assert "25544  ISS (ZARYA)" in listing and "7 of 7 satellites" in listing
+    assert json.loads(run("tle", "list", "noaa", "--json", *cat).stdout)[0]["name"] == "NOAA 18"
+
+    table = run("passes", "iss", "metop", *STATION_ARGS, *START, *cat).output
+    assert "above 10 deg, 2024-01-01 12:00:00 to 2024-01-02 12:00:00 UTC" in table
+    assert "ISS (ZARYA)" in table and "METOP-B" in table
+
+    data = json.loads(run("passes", "25544", "--json", "--hours", "12", "--min-el", "5",
+                          *STATION_ARGS, *START, *cat).stdout)
+    ref = find_passes(load_elements(FIXTURES / "leo.tle")[0], TARTU, T0,
+                      duration_s=12 * 3600.0, min_el_deg=5.0)
+    assert [p["aos"] for p in data["passes"]] == [p.aos.isoformat() for p in ref]
+    assert data["passes"][0]["max_el_deg"] == pytest.approx(ref[0].max_el_deg, abs=1e-4)
+
+
+def test_passes_from_a_file_with_progress(tmp_path):
+    big = tmp_path / "big.tle"
+    big.write_text(synthetic_tle(150))
+    res = run("passes", "--tle", big, "--hours", "6", "--json", *STATION_ARGS, *START)
+    assert res.stdout.lstrip().startswith("{")
+    assert "Searching passes" in res.output  # progress bar on stderr
+    assert json.loads(res.stdout)["satellites"] == 150
+
+
+def test_passes_errors(tmp_path):
+    cat = ["--catalog-dir", tmp_path]
+    res = run("passes", "iss", *START, *cat, ok=False)
+    assert res.exit_code == 2 and "no station position" in res.output
+    res = run("passes", "iss", *STATION_ARGS, *cat, ok=False)
+    assert res.exit_code == 1 and "is empty: run `urc tle update`" in res.output
+    run("tle", "import", FIXTURES / "leo.tle", *cat)
+    res = run("passes", "noaa", *STATION_ARGS, *cat, ok=False)
+    assert res.exit_code == 1 and "2 satellites start with 'noaa'" in res.output
+    res = run("passes", *STATION_ARGS, *cat, ok=False)
+    assert res.exit_code == 2 and "--all" in res.output
+    res = run("passes", "--all", *STATION_ARGS, "--start", "yesterday", *cat, ok=False)
+    assert res.exit_code == 2 and "ISO 8601" in res.output
+    bad = tmp_path / "bad.tle"
+    bad.write_text((FIXTURES / "leo.tle").read_text().replace("51.6416", "5x.6416"))
+    res = run("passes", "--tle", bad, *STATION_ARGS, ok=False)
+    assert res.exit_code == 1 and "bad.tle:3: TLE line 2" in res.output
+
+
+def test_tle_update_with_a_fake_network(tmp_path, monkeypatch):
+    omm = (FIXTURES / "omm.json").read_bytes()
+    calls = []
+
+    def fake(url, timeout_s):
+        calls.append(url)
+        if "GROUP=weather" in url:
+            raise OfflineError("cannot reach celestrak.org: timed out")
+        return omm
+
+    monkeypatch.setattr(download, "fetch_url", fake)
+    cat = ["--catalog-dir", tmp_path]
+    out = run("tle", "update", "stations", *cat).output
+    assert "stations: 4 element sets, downloaded" in out and "4 new" in out
+    out = run("tle", "update", "stations", *cat).output
+    assert "cached copy" in out and len(calls) == 1
+    res = run("tle", "update", "stations", "weather", *cat, ok=False)
+    assert res.exit_code == 1
+    assert "cannot download 1 of 2 CelesTrak group(s)" in res.output
+    assert "weather: cannot reach celestrak.org: timed out (never downloaded)" in res.output
+
+
+def test_station_and_catalog_from_the_config(tmp_path):
+    from urc.config import Config
+
+    if "station" not in Config.model_fields or "tracking" not in Config.model_fields:
+        pytest.skip("this urc has no [station]/[tracking] configuration")
+    conf = tmp_path / "urc.toml"
+    conf.write_text(f"[station]\nlat_deg = 58.378\nlon_deg = 26.729\nalt_m = 70.0\n\n"
+                    f"[tracking]\ncatalog_dir = '{tmp_path / 'cat'}'\nmin_el_deg = 5.0\n")
+    run("tle", "import", FIXTURES / "leo.tle", "--config", conf)
+    data = json.loads(run("passes", "iss", "--json", "--config", conf, *START).stdout)
+    assert data["station"] == {"lat_deg": 58.378, "lon_deg": 26.729, "alt_m": 70.0}
+    assert data["min_el_deg"] == 5.0 and data["passes"]
+    over = json.loads(run("passes", "iss", "--json", "--min-el", "20", "--config", conf,
+                          *START).stdout)
+    assert over["min_el_deg"] == 20.0
