@@ -4,8 +4,10 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-# Debian packages the tests drive for real: Hamlib's own rotctl/rotctld clients.
-DEB_PACKAGES=(libhamlib-utils)
+# Debian packages the tests drive for real: Hamlib's own rotctl/rotctld clients, and
+# Chromium for the dashboard's browser tests (Playwright drives /usr/bin/chromium; it
+# never downloads a browser of its own).
+DEB_PACKAGES=(libhamlib-utils chromium)
 missing=()
 for pkg in "${DEB_PACKAGES[@]}"; do
   dpkg -s "$pkg" >/dev/null 2>&1 || missing+=("$pkg")
