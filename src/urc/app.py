@@ -102,8 +102,9 @@ async def serve(cfg: Config, state_dir: Path, clock: Clock | None = None,
     from .tracking.service import TrackingService
 
     tracking = TrackingService(rotator, cfg)
+    tracking.start()
     api = create_api(rotator, cfg, config_path=config_path, state_dir=state_dir,
-                     tracker=tracking if tracking.station is not None else None)
+                     tracker=tracking if tracking.station is not None or tracking.gps is not None else None)
     server = uvicorn.Server(uvicorn.Config(api, host=cfg.api.host, port=cfg.api.port,
                                            log_level="warning", lifespan="off"))
     server.install_signal_handlers = lambda: None  # ours above stop everything in order
@@ -124,8 +125,10 @@ async def serve(cfg: Config, state_dir: Path, clock: Clock | None = None,
         raise
     for ep in endpoints:
         print(f"urc: serving {ep.description}", flush=True)
-    if tracking.station is None:
+    if tracking.station is None and tracking.gps is None:
         print("urc: tracking off: no [station] configured", flush=True)
+    elif tracking.station is None:
+        print(f"urc: station position will come from the GPS on {cfg.station.gps}", flush=True)
     elif cfg.tracking.schedule:
         try:
             for p in tracking.run_schedule():
@@ -146,6 +149,7 @@ async def serve(cfg: Config, state_dir: Path, clock: Clock | None = None,
     server.should_exit = True
     for ep in endpoints:
         ep.close()
+    tracking.close()
     await asyncio.gather(control, web, return_exceptions=True)
     stopper.cancel()
     rotator.shutdown()

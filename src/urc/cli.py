@@ -219,19 +219,23 @@ def clear_faults(url: str | None, config_path: str | None) -> None:
 @click.option("--norad", type=int, help="Satellite by NORAD catalog number.")
 @click.option("--point", nargs=3, type=float, metavar="LAT LON ALT_M", help="A place on Earth.")
 @click.option("--azel", nargs=2, type=float, metavar="AZ EL", help="A fixed direction.")
+@click.option("--nmea", "nmea_source", metavar="SOURCE",
+              help="A moving target reporting NMEA GGA (a balloon): device path or tcp:HOST:PORT.")
 @click.option("--pass-aos", "pass_aos", help="Fly only the pass with this AOS (ISO time, UTC).")
 @click.option("--stop", "stop_tracking", is_flag=True, help="Stop tracking.")
 @_client_options
-def track(target: str | None, norad: int | None, point, azel, pass_aos: str | None, stop_tracking: bool,
-          url: str | None, config_path: str | None) -> None:
+def track(target: str | None, norad: int | None, point, azel, nmea_source: str | None, pass_aos: str | None,
+          stop_tracking: bool, url: str | None, config_path: str | None) -> None:
     """Track a target with the running controller: ISS (a name), --norad 25544, sun,
-    moon, --point LAT LON ALT_M or --azel AZ EL. Satellites are flown pass by pass, each
+    moon, --point LAT LON ALT_M, --azel AZ EL or --nmea SOURCE. Satellites are flown pass by pass, each
     planned before it starts (see `urc status`)."""
     if stop_tracking:
         _request(url, config_path, "POST", "/api/track/stop")
         click.echo("tracking stopped")
         return
-    if point:
+    if nmea_source:
+        body = {"kind": "nmea", "source": nmea_source}
+    elif point:
         body = {"kind": "point", "lat_deg": point[0], "lon_deg": point[1], "alt_m": point[2]}
     elif azel:
         body = {"kind": "azel", "az_deg": azel[0], "el_deg": azel[1]}

@@ -228,6 +228,10 @@ class StationSection(_Section):
     lon_deg: float | None = _num(None, ge=-180.0, le=360.0)
     alt_m: float = _num(0.0, ge=-500.0, le=100_000.0)
     name: str = ""
+    #: a GPS receiver's NMEA stream: a device path or "tcp:HOST:PORT"; its fix sets the
+    #: station when lat/lon are not given, and tells whether the system clock is right
+    gps: str = ""
+    gps_baud: int = Field(9600, ge=50, le=4_000_000)
 
     @property
     def configured(self) -> bool:

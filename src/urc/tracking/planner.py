@@ -21,6 +21,8 @@ from ..control.geometry import Geometry
 
 #: start pre-positioning this long before it is strictly needed
 PREPOSITION_MARGIN_S = 10.0
+#: elevation this far outside the limits is clipped to them rather than ruling a pose out
+EL_SLACK_DEG = 0.5
 #: speed budget the plan may use: headroom for the servo to correct errors
 RATE_BUDGET = 0.9
 
@@ -140,7 +142,9 @@ def plan_pass(t_s: np.ndarray, sky_az_deg: np.ndarray, sky_el_deg: np.ndarray, g
     for flip, (a, e) in _base_trajectories(s_az, s_el, g.flip):
         a = a - g.az_offset_deg
         e = e - g.el_offset_deg
-        if e.min() < g.el_min_deg - 1e-6 or e.max() > g.el_max_deg + 1e-6:
+        # AOS/LOS sit on the horizon mask to within a millidegree or so: a hair below the
+        # elevation limit is the limit, not a reason to give up the pass
+        if e.min() < g.el_min_deg - EL_SLACK_DEG or e.max() > g.el_max_deg + EL_SLACK_DEG:
             continue
         k_lo = int(np.ceil((g.az_min_deg - a.min()) / 360.0 - 1e-9))
         k_hi = int(np.floor((g.az_max_deg - a.max()) / 360.0 + 1e-9))

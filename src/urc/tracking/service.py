@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import asyncio
 import logging
 import time
 from pathlib import Path
@@ -12,8 +13,10 @@ from .elements import Catalog
 from .errors import TrackingError
 from .passes import Pass, find_passes
 from .schedule import Request, build_schedule
-from .station import Station
-from .targets import (FixedTarget, GeoPointTarget, MoonTarget, SatelliteTarget, SunTarget, Target)
+from ..servers.nmea_source import read_nmea
+from .station import NmeaStation, Station
+from .targets import (FixedTarget, GeoPointTarget, MoonTarget, NmeaTarget, SatelliteTarget, SunTarget,
+                      Target)
 from .tracker import Tracker
 
 log = logging.getLogger(__name__)
@@ -34,11 +37,49 @@ class TrackingService:
         self.unix_at = unix_at
         self.catalog_dir = catalog_dir or cfg.tracking.resolve_catalog_dir()
         st = cfg.station
-        self.station = Station(st.lat_deg, st.lon_deg, st.alt_m, st.name) if st.configured else None
-        self.tracker = Tracker(rotator, self.station, unix_at, park_after_pass=cfg.tracking.park_after_pass,
-                               min_el_deg=cfg.tracking.min_el_deg) if self.station else None
+        self.station: Station | None = None
+        self.tracker: Tracker | None = None
+        if st.configured:
+            self._set_station(Station(st.lat_deg, st.lon_deg, st.alt_m, st.name))
+        self.gps = NmeaStation() if st.gps else None
         self._catalog: Catalog | None = None
         self._schedule: list[Pass] = []
+        self._tasks: list[asyncio.Task] = []
+        self._target_reader: asyncio.Task | None = None
+
+    def _set_station(self, station: Station) -> None:
+        self.station = station
+        if self.tracker is None:
+            self.tracker = Tracker(self.rot, station, self.unix_at, park_after_pass=self.cfg.tracking.park_after_pass,
+                                   min_el_deg=self.cfg.tracking.min_el_deg)
+        else:
+            self.tracker.station = station
+
+    # ---------------------------------------------------------------- NMEA sources
+    def start(self) -> None:
+        """Start the GPS reader (call from the running event loop)."""
+        if self.gps is not None:
+            self._tasks.append(asyncio.get_running_loop().create_task(
+                read_nmea(self.cfg.station.gps, self._gps_feed, self.cfg.station.gps_baud), name="gps"))
+
+    def close(self) -> None:
+        for task in self._tasks + ([self._target_reader] if self._target_reader else []):
+            task.cancel()
+
+    def _gps_feed(self, data: bytes, received_unix_s: float) -> None:
+        fixes = self.gps.feed(data, received_unix_s)
+        if fixes and not self.cfg.station.configured and self.gps.last_valid_fix is not None:
+            station = self.gps.station()
+            if self.station is None or abs(station.lat_deg - self.station.lat_deg) > 1e-4 \
+                    or abs(station.lon_deg - self.station.lon_deg) > 1e-4:
+                log.info("station from GPS: %.5f %.5f %.0f m", station.lat_deg, station.lon_deg, station.alt_m)
+                self._set_station(station)
+
+    def gps_status(self) -> dict[str, Any] | None:
+        if self.gps is None:
+            return None
+        return {"source": self.cfg.station.gps, "fix": self.gps.has_fix,
+                "clock_offset_s": self.gps.clock_offset_s, "clock_trustworthy": self.gps.clock_trustworthy}
 
     # ---------------------------------------------------------------- helpers
     def _require_station(self) -> Station:
@@ -82,6 +123,15 @@ class TrackingService:
         if kind == "point":
             return GeoPointTarget(station, float(spec["lat_deg"]), float(spec["lon_deg"]),
                                   float(spec.get("alt_m") or 0.0))
+        if kind == "nmea":
+            source = str(spec.get("source") or "")
+            if not source:
+                raise TrackingError("an NMEA target needs a source: a device path or tcp:HOST:PORT")
+            target = NmeaTarget(station)
+            target.name = f"NMEA {source}"
+            self._target_reader = asyncio.get_running_loop().create_task(
+                read_nmea(source, target.feed), name="nmea-target")
+            return target
         if kind == "satellite":
             key = spec.get("norad") if spec.get("norad") is not None else spec.get("name")
             if key is None:
@@ -90,6 +140,9 @@ class TrackingService:
         raise TrackingError(f"unknown target kind {kind!r}; expected sun, moon, azel, point or satellite")
 
     def track(self, spec: dict[str, Any]) -> dict[str, Any]:
+        if self.tracker is None:
+            self._require_station()
+        self._stop_reader()
         target = self.make_target(spec)
         self.tracker.track(target, self.rot.clock.now_s())
         return self.status() or {}
@@ -107,7 +160,13 @@ class TrackingService:
         self.tracker.track_pass(es, found[0], self.rot.clock.now_s())
         return self.status() or {}
 
+    def _stop_reader(self) -> None:
+        if self._target_reader is not None:
+            self._target_reader.cancel()
+            self._target_reader = None
+
     def stop(self) -> None:
+        self._stop_reader()
         if self.tracker is not None:
             self.tracker.stop_tracking()
 
@@ -135,6 +194,8 @@ class TrackingService:
         self.tracker.step(now_s)
 
     def status(self) -> dict[str, Any] | None:
-        if self.tracker is None:
-            return None
-        return self.tracker.status(self.rot.clock.now_s())
+        out = self.tracker.status(self.rot.clock.now_s()) if self.tracker is not None else None
+        gps = self.gps_status()
+        if gps is not None:
+            out = dict(out or {}, gps=gps)
+        return out
