@@ -2,22 +2,29 @@
 
 Reading is open; control needs the configured token when the API listens beyond
 loopback (``Authorization: Bearer <token>``). Every command goes through the rotator
-service, which validates it; a refusal is HTTP 409 with the reason.
+service, which validates it; a refusal is HTTP 409 with the reason. The web dashboard
+(``urc.web``) is served from ``/`` by the same app, with its live feed on ``/api/ws``.
 """
 
 from __future__ import annotations
 
-import hmac
-from typing import Literal
+import asyncio
+import os
+from typing import Any, Literal
 
-from fastapi import Depends, FastAPI, Header, HTTPException
+from fastapi import Depends, FastAPI
 from fastapi.responses import JSONResponse
 from pydantic import BaseModel, Field
 
 from . import __version__
 from .config import Config
-from .errors import CommandRejected
+from .errors import CommandRejected, UrcError
 from .service import Rotator
+from .service.calibration import CalibrationError
+from .web import WebContext, install
+from .web.live import FRAME_HZ, Hub
+from .web.security import SecurityHeaders, control_guard
+from .web.settings_store import SettingsStore
 
 
 class GotoRequest(BaseModel):
@@ -45,24 +52,48 @@ class Accepted(BaseModel):
     route: list[tuple[float, float]] = []
 
 
-def create_api(rotator: Rotator, cfg: Config) -> FastAPI:
-    app = FastAPI(title="urc control API", version=__version__,
-                  description="Universal Rotator Controller: status and control")
+def create_api(rotator: Rotator, cfg: Config, *, config_path: str | os.PathLike | None = None,
+               state_dir: str | os.PathLike | None = None, tracker: Any = None,
+               frame_hz: float = FRAME_HZ) -> FastAPI:
+    """The app ``urc run`` serves.
 
-    def control_allowed(authorization: str | None = Header(None)) -> None:
-        if not cfg.api.control_requires_token:
-            return
-        supplied = (authorization or "").removeprefix("Bearer ").strip()
-        if not cfg.api.token or not hmac.compare_digest(supplied, cfg.api.token):
-            raise HTTPException(401, "control needs the API token (Authorization: Bearer <token>)")
+    ``config_path``: the file ``urc run`` was started with (the settings page saves
+    there; without one it saves to ``<state_dir>/urc.toml``). ``tracker``: the tracking
+    service (see ``urc.web.routes_tracking``); None = no tracking endpoints.
+    """
+    app = FastAPI(title="urc control API", version=__version__,
+                  description="Universal Rotator Controller: status, control, calibration, settings; "
+                              "the dashboard is at /")
+    if state_dir is None and getattr(rotator, "store", None) is not None:
+        state_dir = rotator.store.path.parent
+    hub = Hub(rotator, tracker, frame_hz)
+    control_allowed = control_guard(cfg)
+    ctx = WebContext(rotator=rotator, cfg=cfg, hub=hub, settings=SettingsStore(cfg, config_path, state_dir),
+                     control=control_allowed, tracker=tracker)
+    app.state.web = ctx
+    app.add_middleware(SecurityHeaders, on_request=hub.ensure_started)
+    try:  # inside ``urc run`` the loop runs already: record history from the start
+        asyncio.get_running_loop()
+        hub.ensure_started()
+    except RuntimeError:
+        pass  # tests: started by the first request instead
 
     @app.exception_handler(CommandRejected)
     async def rejected(_request, exc: CommandRejected) -> JSONResponse:
         return JSONResponse({"ok": False, "error": str(exc), "reason": exc.reason}, status_code=409)
 
+    @app.exception_handler(CalibrationError)
+    async def calibration_failed(_request, exc: CalibrationError) -> JSONResponse:
+        return JSONResponse({"ok": False, "error": str(exc), "reason": "calibration"}, status_code=409)
+
+    @app.exception_handler(UrcError)
+    async def refused(_request, exc: UrcError) -> JSONResponse:
+        return JSONResponse({"ok": False, "error": str(exc), "reason": type(exc).__name__}, status_code=409)
+
     @app.get("/api/status")
     def status() -> dict:
-        return rotator.status().as_dict()
+        """The rotator's snapshot, plus ``tracking`` (null when nothing is tracked)."""
+        return hub.status_dict()
 
     @app.post("/api/goto", dependencies=[Depends(control_allowed)])
     def goto(req: GotoRequest) -> Accepted:
@@ -73,8 +104,20 @@ def create_api(rotator: Rotator, cfg: Config) -> FastAPI:
         return Accepted(route=rotator.park())
 
     @app.post("/api/stop", dependencies=[Depends(control_allowed)])
-    def stop(req: StopRequest | None = None) -> Accepted:
-        rotator.stop(req.axis if req else None)
+    async def stop(req: StopRequest | None = None) -> Accepted:
+        """Stop. Without an axis: everything — jogs, a calibration, tracking, both axes."""
+        axis = req.axis if req else None
+        hub.release(axis)
+        if axis is None:
+            if hub.procedure is not None:
+                hub.procedure.cancel()
+            trk_stop = getattr(tracker, "stop", None)
+            if trk_stop is not None:
+                out = trk_stop()
+                if asyncio.iscoroutine(out):
+                    await out
+                await hub.refresh_tracking()
+        rotator.stop(axis)
         return Accepted()
 
     @app.post("/api/move", dependencies=[Depends(control_allowed)])
@@ -92,4 +135,5 @@ def create_api(rotator: Rotator, cfg: Config) -> FastAPI:
         rotator.clear_faults()
         return Accepted()
 
+    install(app, ctx)
     return app

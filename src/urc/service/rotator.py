@@ -313,9 +313,13 @@ class Rotator:
             # overrun, so the predicted rest point gets half its own stopping distance of
             # benefit of the doubt (the speed estimate lags and is quantised).
             margin = slack + 0.5 * abs(rest - ax.meas_deg)
-            # only drive that pushes outwards is cut; braking towards the inside is fine
-            if (d > 0 and (ax.limit_max or ax.meas_deg > hi + slack or rest > hi + margin)) or \
-               (d < 0 and (ax.limit_min or ax.meas_deg < lo - slack or rest < lo - margin)):
+            # only drive that pushes outwards is cut; braking towards the inside is fine, and
+            # so is a correction while backing away from a pressed switch
+            heading_deg = ax.sp.target_deg if ax.sp is not None else ax.meas_deg
+            to_max = ax.limit_max and heading_deg >= ax.meas_deg
+            to_min = ax.limit_min and heading_deg <= ax.meas_deg
+            if (d > 0 and (to_max or ax.meas_deg > hi + slack or rest > hi + margin)) or \
+               (d < 0 and (to_min or ax.meas_deg < lo - slack or rest < lo - margin)):
                 ax.out = replace(ax.out, duty=0.0)
                 ax.sp = None
                 self._event(f"guard: {ax.name} stopped at {ax.meas_deg:.2f} deg before its limit")

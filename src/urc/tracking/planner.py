@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..control.geometry import Geometry
+from .errors import TrackingError
 
 #: start pre-positioning this long before it is strictly needed
 PREPOSITION_MARGIN_S = 10.0
@@ -74,7 +75,7 @@ class Plan:
                 "preposition_start_s": self.preposition_start_s, "notes": list(self.notes)}
 
 
-class PlanError(ValueError):
+class PlanError(TrackingError, ValueError):
     """No legal way to fly this pass (entirely outside the limits)."""
 
 

@@ -59,6 +59,7 @@ class Tracker:
         self.last_error = ""
         self._next_update_s = -math.inf
         self._last_sky: tuple[float, float] | None = None
+        self._ground_cache: tuple | None = None
 
     # ------------------------------------------------------------------ commands
     def track(self, target: Target, now_s: float) -> None:
@@ -192,7 +193,11 @@ class Tracker:
                            "track": [[_iso(t), float(a), float(e)] for t, a, e in
                                      zip(plan.t_s[::step], plan.sky_az_deg[::step], plan.sky_el_deg[::step])]}
         if isinstance(self.target, SatelliteTarget):
-            out.update(_ground_track(self.target, u))
+            # the ground track costs ~15 ms of skyfield: recomputed every 10 s
+            key = (self.target.elements.norad_id, int(u // 10))
+            if self._ground_cache is None or self._ground_cache[0] != key:
+                self._ground_cache = (key, _ground_track(self.target, u))
+            out.update(self._ground_cache[1])
         return out
 
 

@@ -1,0 +1,507 @@
+"""Calibration procedures: zero, two-point pot (G4JNT), magnetometer (SARCNET), homing (BIG-RAS).
+
+Pure maths first (testable with numbers), then steps that use only the rotator's public
+commands and the axis' sensor (``rotator.hw.axis(name).sensor``). Long procedures are
+small state machines: :meth:`Procedure.poll` is called with each new status (after every
+control tick in tests on virtual time, every few tens of ms by the web server), issues
+rotator commands and reports progress. They never touch axis state directly; a
+calibration constant reaches the rotator through :func:`apply_sensor_calibration`, which
+keeps the reading continuous and re-references with ``set_position`` so the fault monitor
+sees no jump and the state save persists the new constants.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, Sequence
+
+import numpy as np
+
+from ..errors import CommandRejected, UrcError
+from .snapshot import Status
+
+
+class CalibrationError(UrcError):
+    """A calibration cannot be done or its result is not trustworthy."""
+
+
+# =========================================================================== maths
+def two_point_pot(bearing1_deg: float, p1: float, bearing2_deg: float, p2: float) -> tuple[float, float]:
+    """G4JNT: bearing = M*P + C through two known (bearing, P) points. Returns (M, C)."""
+    if not all(math.isfinite(v) for v in (bearing1_deg, p1, bearing2_deg, p2)):
+        raise CalibrationError("two-point calibration needs finite bearings and pot readings")
+    if abs(p2 - p1) < 1e-9:
+        raise CalibrationError(f"both points read the same pot value P={p1:g}: move further apart")
+    if abs(bearing2_deg - bearing1_deg) < 1e-9:
+        raise CalibrationError("both points have the same bearing: use two different directions")
+    m = (bearing2_deg - bearing1_deg) / (p2 - p1)
+    return m, bearing1_deg - m * p1
+
+
+@dataclass(frozen=True)
+class HardIronFit:
+    x: float
+    y: float
+    radius: float
+    #: RMS distance of the samples from the fitted circle, in units of the radius
+    rms_rel: float
+    #: largest angular gap between samples around the centre, degrees
+    max_gap_deg: float
+
+
+def fit_hard_iron(samples: Sequence[tuple[float, float]]) -> HardIronFit:
+    """Centre of the circle the horizontal field draws as the antenna turns (Kasa fit).
+
+    Solves x^2 + y^2 = 2a x + 2b y + c by least squares; (a, b) is the hard-iron offset.
+    """
+    pts = np.asarray(samples, dtype=float)
+    if pts.ndim != 2 or pts.shape[1] != 2 or len(pts) < 3:
+        raise CalibrationError("the hard-iron fit needs at least 3 field samples (bx, by)")
+    if not np.all(np.isfinite(pts)):
+        raise CalibrationError("field samples must be finite")
+    x, y = pts[:, 0], pts[:, 1]
+    design = np.column_stack([2 * x, 2 * y, np.ones_like(x)])
+    sol, *_ = np.linalg.lstsq(design, x * x + y * y, rcond=None)
+    a, b, c = (float(v) for v in sol)
+    r2 = c + a * a + b * b
+    if not r2 > 0:
+        raise CalibrationError("field samples do not lie on a circle (all in one direction?)")
+    radius = math.sqrt(r2)
+    dist = np.hypot(x - a, y - b)
+    rms_rel = float(np.sqrt(np.mean((dist - radius) ** 2)) / radius)
+    ang = np.sort(np.degrees(np.arctan2(y - b, x - a)) % 360.0)
+    gaps = np.diff(np.concatenate([ang, [ang[0] + 360.0]]))
+    return HardIronFit(a, b, radius, rms_rel, float(gaps.max()))
+
+
+def circular_mean_deg(values: Sequence[float]) -> float:
+    rad = np.radians(np.asarray(values, dtype=float))
+    return float(np.degrees(np.arctan2(np.sin(rad).mean(), np.cos(rad).mean())) % 360.0)
+
+
+# ================================================================= sensor access
+def _sensor(rotator: Any, axis: str) -> Any:
+    if axis not in ("az", "el"):
+        raise CalibrationError(f"axis must be az or el, got {axis!r}")
+    return rotator.hw.axis(axis).sensor
+
+
+def average_reading_deg(sensor: Any, samples: int = 16) -> float:
+    """Mean of several readings (circular for sensors that wrap at their modulo)."""
+    values = [sensor.read_deg() for _ in range(samples)]
+    modulo = getattr(sensor.caps, "modulo_deg", None)
+    return circular_mean_deg(values) * (modulo / 360.0) if modulo else float(np.mean(values))
+
+
+def pot_units(sensor: Any, samples: int = 32) -> float:
+    """The pot's linearised reading P (G4JNT: 4096 N/(2048-N)), averaged over samples."""
+    raw = getattr(sensor, "raw_units", None)
+    if raw is not None:
+        return float(np.mean([raw() for _ in range(samples)]))
+    if hasattr(sensor, "adc_counts") and hasattr(sensor, "linearised"):
+        return float(np.mean([sensor.linearised(sensor.adc_counts()) for _ in range(samples)]))
+    raise CalibrationError(f"the {sensor.caps.kind} sensor gives no raw pot reading (P)")
+
+
+def _sim_compass_field(sensor: Any) -> tuple[float, float]:
+    # Stand-in until the compass driver exposes read_field(): the simulator's raw
+    # body-frame field (same model as CompassSensor._heading, before hard-iron removal).
+    p = sensor._p
+    psi = math.radians(sensor._angle() - p.declination_deg)
+    sigma = math.radians(sensor.caps.noise_deg)
+    return (math.cos(psi) + p.hard_iron_x + sensor._gauss(sigma),
+            -math.sin(psi) + p.hard_iron_y + sensor._gauss(sigma))
+
+
+def compass_field(sensor: Any, samples: int = 16) -> tuple[float, float]:
+    """Raw horizontal field (bx, by), averaged: what the hard-iron fit needs."""
+    read = getattr(sensor, "read_field", None)
+    if read is None:
+        if hasattr(sensor, "hard_iron_x") and hasattr(sensor, "_p"):
+            read = lambda: _sim_compass_field(sensor)  # noqa: E731
+        else:
+            raise CalibrationError(f"the {sensor.caps.kind} sensor gives no raw magnetic field")
+    pts = np.array([read() for _ in range(samples)], dtype=float)
+    return float(pts[:, 0].mean()), float(pts[:, 1].mean())
+
+
+def describe_sensors(rotator: Any) -> dict[str, Any]:
+    """Per axis: sensor kind, present constants and which procedures apply."""
+    out = {}
+    for axis in ("az", "el"):
+        hw = rotator.hw.axis(axis)
+        sensor = hw.sensor
+        try:
+            constants = dict(sensor.calibration())
+        except Exception:  # a driver without constants still gets the zero page
+            constants = {}
+        procs = ["zero"]
+        if hasattr(sensor, "raw_units") or (hasattr(sensor, "adc_counts") and hasattr(sensor, "linearised")):
+            procs.append("pot")
+        if axis == "az" and (hasattr(sensor, "read_field") or hasattr(sensor, "hard_iron_x")):
+            procs.append("magnetometer")
+        if hw.limit_min is not None:
+            procs.append("homing")
+        out[axis] = {"kind": sensor.caps.kind, "absolute": sensor.caps.absolute,
+                     "resolution_deg": sensor.caps.resolution_deg, "calibration": constants,
+                     "procedures": procs}
+    return out
+
+
+# ================================================================= one-shot steps
+def apply_sensor_calibration(rotator: Any, axis: str, values: dict[str, Any], samples: int = 16) -> float:
+    """Load new constants into the sensor and re-reference the axis to what they say.
+
+    The sensor is first put back on its old reading (through its own reference), so the
+    next control tick sees no jump (no runaway/sensor-jump fault); then ``set_position``
+    moves the axis to the new calibrated angle, which the rotator treats as a deliberate
+    re-reference and persists with the constants. Must run between ticks (the event
+    loop thread). Returns the new mechanical angle.
+    """
+    sensor = _sensor(rotator, axis)
+    old = dict(sensor.calibration())
+    modulo = getattr(sensor.caps, "modulo_deg", None)
+    r0 = average_reading_deg(sensor, samples)
+    sensor.load_calibration(values)
+    try:
+        r1 = average_reading_deg(sensor, samples)
+        delta = r1 - r0
+        if modulo:
+            delta = (delta + modulo / 2) % modulo - modulo / 2
+        status = rotator.status()
+        mech_new = getattr(status, axis).pos_deg + delta
+        sensor.set_reference_deg(r0)
+        rotator.set_position(**{f"{axis}_deg": mech_new + status.offsets.get(axis, 0.0)})
+    except Exception:
+        sensor.load_calibration(old)
+        raise
+    return mech_new
+
+
+def zero(rotator: Any, az_deg: float | None = None, el_deg: float | None = None) -> None:
+    """Declare where the antenna points now (pointing frame, wrap side explicit)."""
+    rotator.set_position(az_deg, el_deg)
+
+
+def pot_apply(rotator: Any, axis: str, points: Sequence[tuple[float, float]]) -> dict[str, float]:
+    """Two (bearing_deg, P) points -> M, C; load them (Z back to 0) and re-reference.
+
+    Bearings are where the antenna pointed (pointing frame); the mount offset is taken
+    off, since the pot measures the mechanical angle.
+    """
+    if len(points) != 2:
+        raise CalibrationError(f"two-point calibration needs exactly 2 points, got {len(points)}")
+    sensor = _sensor(rotator, axis)
+    if "pot" not in describe_sensors(rotator)[axis]["procedures"]:
+        raise CalibrationError(f"{axis}: the {sensor.caps.kind} sensor is not a potentiometer")
+    off = rotator.status().offsets.get(axis, 0.0)
+    (b1, p1), (b2, p2) = points
+    m, c = two_point_pot(b1 - off, p1, b2 - off, p2)
+    if m == 0 or not math.isfinite(m):
+        raise CalibrationError("the fitted slope M is not usable")
+    old = dict(sensor.calibration())
+    mech = apply_sensor_calibration(rotator, axis, {"M": m, "C": c, "Z": 0.0})
+    return {"M": m, "C": c, "Z": 0.0, "old_M": float(old.get("M", math.nan)),
+            "old_C": float(old.get("C", math.nan)), "position_deg": mech + off}
+
+
+# =============================================================== long procedures
+class Procedure:
+    """A calibration that takes time. Call :meth:`poll` with each new status."""
+
+    kind = "procedure"
+
+    def __init__(self, rotator: Any, axis: str):
+        _sensor(rotator, axis)
+        self.rotator = rotator
+        self.axis = axis
+        self.state = "running"          # running | done | failed | cancelled
+        self.step = "starting"
+        self.progress = 0.0
+        self.error = ""
+        self.result: dict[str, Any] = {}
+        self._phase = "start"
+        self._since_s: float | None = None
+
+    @property
+    def finished(self) -> bool:
+        return self.state != "running"
+
+    def poll(self, status: Status) -> None:
+        if self.finished:
+            return
+        try:
+            self._poll(status)
+        except (CommandRejected, CalibrationError) as exc:
+            self._fail(str(exc))
+
+    def cancel(self) -> None:
+        if self.finished:
+            return
+        try:
+            self.rotator.stop()
+        except CommandRejected:
+            pass
+        self._undo()
+        self.state, self.step = "cancelled", "cancelled: antenna stopped" + \
+            (f"; {self.error}" if self.error else "")
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"kind": self.kind, "axis": self.axis, "state": self.state, "step": self.step,
+                "progress": round(self.progress, 3), "error": self.error, "result": self.result}
+
+    # -- helpers --------------------------------------------------------------------
+    def _fail(self, reason: str) -> None:
+        try:
+            self.rotator.stop()
+        except CommandRejected:
+            pass
+        self._undo()
+        reason = f"{reason}; {self.error}" if self.error else reason
+        self.state, self.error, self.step = "failed", reason, f"failed: {reason}"
+
+    def _undo(self) -> None:
+        """Put back anything temporary (subclasses)."""
+
+    def _goto_phase(self, phase: str, status: Status) -> None:
+        self._phase, self._since_s = phase, status.t_s
+
+    def _elapsed_s(self, status: Status) -> float:
+        return 0.0 if self._since_s is None else status.t_s - self._since_s
+
+    @staticmethod
+    def _still(status: Status) -> bool:
+        return not status.moving and status.az.mode in ("holding", "idle") and \
+            status.el.mode in ("holding", "idle")
+
+    def _poll(self, status: Status) -> None:
+        raise NotImplementedError
+
+
+class MagnetometerCalibration(Procedure):
+    """SARCNET: stop at 12 directions, sample the raw field, fit the hard-iron offset."""
+
+    kind = "magnetometer"
+    DIRECTIONS = 12
+    #: a sample is taken once the antenna has stood still this long (noise settles)
+    DWELL_S = 0.5
+    #: give up on one direction after this long
+    MOVE_TIMEOUT_S = 240.0
+    #: a fit worse than this (RMS off-circle / radius) is refused
+    MAX_RMS_REL = 0.05
+
+    def __init__(self, rotator: Any, axis: str = "az"):
+        super().__init__(rotator, axis)
+        if axis != "az" or "magnetometer" not in describe_sensors(rotator)[axis]["procedures"]:
+            raise CalibrationError("magnetometer calibration needs a compass on the azimuth axis")
+        self.samples: list[tuple[float, float]] = []
+        self._start_az_deg = 0.0
+        self._el_deg = 0.0
+
+    def _target_az(self) -> float:
+        return (self._start_az_deg + 360.0 * len(self.samples) / self.DIRECTIONS) % 360.0
+
+    def _poll(self, status: Status) -> None:
+        n = self.DIRECTIONS
+        if self._phase == "start":
+            if status.faults:
+                raise CalibrationError("clear the faults first")
+            lo, hi = status.limits["el"]
+            off = status.offsets.get("el", 0.0)
+            # hold elevation where it is (a noisy tilt sensor may read just below the limit)
+            self._start_az_deg = status.az_deg
+            self._el_deg = min(max(status.el_deg, lo + off), min(hi + off, 90.0))
+            self._move(status)
+        elif self._phase == "moving":
+            if status.faults:
+                raise CalibrationError("fault during the turn: " + status.faults[0].reason)
+            if self._elapsed_s(status) > self.MOVE_TIMEOUT_S:
+                raise CalibrationError(f"direction {len(self.samples) + 1} not reached in time")
+            # wait for the command to take effect, then for the antenna to stand still
+            if self._elapsed_s(status) >= 0.2 and self._still(status):
+                self._goto_phase("dwell", status)
+        elif self._phase == "dwell":
+            if not self._still(status):
+                self._goto_phase("moving", status)
+            elif self._elapsed_s(status) >= self.DWELL_S:
+                self.samples.append(compass_field(_sensor(self.rotator, self.axis)))
+                self.progress = len(self.samples) / (n + 1)
+                if len(self.samples) < n:
+                    self._move(status)
+                else:
+                    self._finish()
+
+    def _move(self, status: Status) -> None:
+        az = self._target_az()
+        self.step = f"turning to direction {len(self.samples) + 1} of {self.DIRECTIONS} (az {az:.0f} deg)"
+        self.rotator.goto(az, self._el_deg)
+        self._goto_phase("moving", status)
+
+    def _finish(self) -> None:
+        fit = fit_hard_iron(self.samples)
+        if fit.rms_rel > self.MAX_RMS_REL:
+            raise CalibrationError(f"field samples scatter {fit.rms_rel * 100:.1f}% off the circle "
+                                   "(soft iron or a magnet nearby?); calibration not applied")
+        if fit.max_gap_deg > 120.0:
+            raise CalibrationError(f"the samples leave a {fit.max_gap_deg:.0f} deg gap; "
+                                   "the antenna did not turn all the way round")
+        sensor = _sensor(self.rotator, self.axis)
+        old = dict(sensor.calibration())
+        mech = apply_sensor_calibration(self.rotator, self.axis,
+                                        {"hard_iron_x": fit.x, "hard_iron_y": fit.y})
+        self.result = {"hard_iron_x": fit.x, "hard_iron_y": fit.y, "field_radius": fit.radius,
+                       "rms_rel": fit.rms_rel, "max_gap_deg": fit.max_gap_deg,
+                       "old_hard_iron_x": old.get("hard_iron_x"), "old_hard_iron_y": old.get("hard_iron_y"),
+                       "samples": [list(s) for s in self.samples], "position_deg": mech}
+        self.progress, self.state = 1.0, "done"
+        self.step = f"done: hard iron ({fit.x:+.4f}, {fit.y:+.4f}), scatter {fit.rms_rel * 100:.2f}%"
+
+
+class LimitSwitchHoming(Procedure):
+    """BIG-RAS: jog slowly onto the lower limit switch, back off until it releases, and
+    re-reference from that edge.
+
+    ``switch_deg`` is the mechanical angle at which the switch trips (BIG-RAS mounts them
+    2 deg outside the working range, the default). To let the jog reach the switch even
+    when the count says the axis is already at its soft limit, the search runs in a
+    temporary frame shifted to the top of the range (undone on cancel or failure).
+    """
+
+    kind = "homing"
+    SEARCH_ROUNDS = 3
+    #: travel past the switch edge before the final reading (inside the soft limits)
+    CLEAR_MARGIN_DEG = 1.0
+    TIMEOUT_S = 900.0
+    BACKOFF_TRIES = 20
+
+    def __init__(self, rotator: Any, axis: str, speed_frac: float | None = None,
+                 switch_deg: float | None = None):
+        super().__init__(rotator, axis)
+        hw = rotator.hw.axis(axis)
+        if hw.limit_min is None:
+            raise CalibrationError(f"{axis}: no lower limit switch to home on")
+        caps = rotator.caps.axis(axis)
+        self.lo_deg, self.hi_deg = rotator.status().limits[axis]
+        self.switch_deg = self.lo_deg - 2.0 if switch_deg is None else float(switch_deg)
+        if not self.lo_deg - 20.0 <= self.switch_deg <= self.lo_deg:
+            raise CalibrationError(f"switch angle {self.switch_deg:g} must lie within 20 deg below "
+                                   f"the lower limit {self.lo_deg:g}")
+        self.speed_frac = speed_frac if speed_frac is not None else \
+            min(1.0, caps.min_rate_deg_per_s / caps.max_rate_deg_per_s)
+        if not 0.0 < self.speed_frac <= 1.0:
+            raise CalibrationError(f"speed {self.speed_frac!r} outside 0 < speed <= 1")
+        self.offset_deg = rotator.status().offsets.get(axis, 0.0)
+        self._shift_deg = 0.0           # temporary frame = true frame + shift
+        self._rounds = 0
+        self._edge_deg: float | None = None
+        self._backoff_tries = 0
+        self._t0_s: float | None = None
+
+    def _set(self, mech_deg: float) -> None:
+        self.rotator.set_position(**{f"{self.axis}_deg": mech_deg + self.offset_deg})
+
+    def _undo(self) -> None:
+        if self._shift_deg:
+            pos = getattr(self.rotator.status(), self.axis).pos_deg
+            try:
+                self._set(pos - self._shift_deg)
+            except CommandRejected as exc:
+                self.error = f"the search frame could not be undone ({exc}): re-reference {self.axis}"
+            self._shift_deg = 0.0
+
+    def _poll(self, status: Status) -> None:
+        ax = getattr(status, self.axis)
+        if self._t0_s is None:
+            self._t0_s = status.t_s
+        if status.t_s - self._t0_s > self.TIMEOUT_S:
+            raise CalibrationError("homing took too long")
+        other = [f for f in status.faults if not (f.kind == "limit_switch" and f.axis == self.axis)]
+        if other:
+            raise CalibrationError("fault: " + other[0].reason)
+        phase = self._phase
+        if phase == "start":
+            if status.faults or ax.limit_min:
+                self._clear(status)
+                return
+            self._search(status, ax.pos_deg)
+        elif phase == "search":
+            self.progress = 0.1 + 0.4 * min(1.0, self._elapsed_s(status) / 120.0)
+            if ax.limit_min or status.faults:
+                self.step = "lower limit switch reached; waiting for the axis to stop"
+                self._goto_phase("stopping", status)
+            elif self._elapsed_s(status) > 0.5 and self._still(status):
+                # the jog ended at the soft limit of the shifted frame: shift again
+                if self._rounds >= self.SEARCH_ROUNDS:
+                    raise CalibrationError("the lower limit switch was not found")
+                self._search(status, ax.pos_deg)
+        elif phase == "stopping":
+            if not status.moving:
+                self._clear(status)
+        elif phase == "clear":
+            # the clear is applied on the next tick; a move before that would be refused
+            if not status.faults:
+                self._back_off(status)
+            elif self._elapsed_s(status) > 2.0:
+                raise CalibrationError("the limit-switch fault did not clear")
+        elif phase == "backoff":
+            self.progress = 0.6
+            if self._elapsed_s(status) < 0.2:
+                return
+            if not ax.limit_min:
+                self._edge_deg = ax.pos_deg
+                self.step = "switch released; moving clear of it"
+                self._goto_phase("clearing", status)
+            elif self._still(status) and self._elapsed_s(status) > 0.5:
+                # The rotator's guard drops a jog the moment the law brakes (negative
+                # duty) while the lower switch is pressed, e.g. when a coarse count steps
+                # ahead of the ramp; each try still gains a count, so try again.
+                self._backoff_tries += 1
+                if self._backoff_tries > self.BACKOFF_TRIES:
+                    raise CalibrationError("the limit switch did not release when backing off")
+                self._back_off(status)
+        elif phase == "clearing":
+            self.progress = 0.75
+            assert self._edge_deg is not None
+            if ax.pos_deg - self._edge_deg >= (self.lo_deg - self.switch_deg) + self.CLEAR_MARGIN_DEG:
+                self.rotator.stop(self.axis)
+                self._goto_phase("settling", status)
+            elif self._still(status) and self._elapsed_s(status) > 0.5:
+                raise CalibrationError("the axis stopped before clearing the switch")
+        elif phase == "settling":
+            self.progress = 0.9
+            if self._elapsed_s(status) >= 0.3 and self._still(status):
+                self._finish(ax.pos_deg)
+
+    def _search(self, status: Status, pos_deg: float) -> None:
+        self._rounds += 1
+        # Shift the frame so (nearly) the whole range lies below: the jog may now reach
+        # the switch. Room is kept at the top for backing off and clearing the switch.
+        top = self.hi_deg - (self.lo_deg - self.switch_deg) - self.CLEAR_MARGIN_DEG - 2.0
+        self._set(top)
+        self._shift_deg += top - pos_deg
+        self.rotator.move(self.axis, -1, self.speed_frac)
+        self.step = f"jogging slowly down to the lower limit switch (round {self._rounds})"
+        self._goto_phase("search", status)
+
+    def _clear(self, status: Status) -> None:
+        if status.faults:
+            self.rotator.clear_faults()
+        self._goto_phase("clear", status)
+
+    def _back_off(self, status: Status) -> None:
+        self.rotator.move(self.axis, +1, self.speed_frac)
+        self.step = "backing off the switch"
+        self._goto_phase("backoff", status)
+
+    def _finish(self, pos_deg: float) -> None:
+        assert self._edge_deg is not None
+        true_deg = self.switch_deg + (pos_deg - self._edge_deg)
+        before_deg = pos_deg - self._shift_deg
+        self._shift_deg = 0.0
+        self._set(true_deg)
+        self.result = {"switch_deg": self.switch_deg, "position_deg": true_deg + self.offset_deg,
+                       "correction_deg": true_deg - before_deg}
+        self.progress, self.state = 1.0, "done"
+        self.step = (f"done: re-referenced to {true_deg + self.offset_deg:.2f} deg "
+                     f"(the count was off by {before_deg - true_deg:+.2f} deg)")

@@ -1,0 +1,100 @@
+"""Status history for the charts: a ring buffer of samples plus the current and last pass.
+
+A "pass" is one tracking session (the status' ``tracking`` object present, same target);
+the last finished one is kept whole after the ring buffer has moved on. Samples hold the
+pointing (where the antenna points), the setpoint (where it is told to point) and the
+great-circle pointing error between them.
+"""
+
+from __future__ import annotations
+
+import collections
+import math
+from dataclasses import dataclass
+from typing import Any, Iterable
+
+#: sample fields, in order (also the keys of the arrays the endpoint returns)
+FIELDS = ("t_wall_s", "az_deg", "el_deg", "target_az_deg", "target_el_deg", "error_deg",
+          "az_mech_deg", "az_target_mech_deg")
+
+
+def angular_distance_deg(az1_deg: float, el1_deg: float, az2_deg: float, el2_deg: float) -> float:
+    """Great-circle angle between two sky directions (haversine: exact for small angles)."""
+    p1, p2 = math.radians(el1_deg), math.radians(el2_deg)
+    dl = math.radians(az2_deg - az1_deg)
+    h = math.sin((p2 - p1) / 2) ** 2 + math.cos(p1) * math.cos(p2) * math.sin(dl / 2) ** 2
+    return math.degrees(2 * math.asin(min(1.0, math.sqrt(h))))
+
+
+def setpoint(status: dict[str, Any]) -> tuple[float | None, float | None]:
+    """Where the antenna is told to point: the rotator's target, updated every tick, also
+    while tracking (the tracked object itself may be below the horizon, waiting)."""
+    return status.get("target_az_deg"), status.get("target_el_deg")
+
+
+def pointing_error_deg(status: dict[str, Any]) -> float | None:
+    taz, tel = setpoint(status)
+    if taz is None or tel is None:
+        return None
+    return angular_distance_deg(status["az_deg"], status["el_deg"], taz, tel)
+
+
+@dataclass
+class Segment:
+    label: str
+    samples: list[tuple]
+
+
+class History:
+    def __init__(self, capacity: int = 36_000, max_pass_samples: int = 36_000):
+        self.recent: collections.deque[tuple] = collections.deque(maxlen=capacity)
+        self.current: Segment | None = None
+        self.last: Segment | None = None
+        self.max_pass_samples = max_pass_samples
+
+    def add(self, t_wall_s: float, status: dict[str, Any], error_deg: float | None) -> None:
+        taz, tel = setpoint(status)
+        sample = (round(t_wall_s, 3), round(status["az_deg"], 4), round(status["el_deg"], 4),
+                  None if taz is None else round(taz, 4), None if tel is None else round(tel, 4),
+                  None if error_deg is None else round(error_deg, 5),
+                  round(status["az"]["pos_deg"], 4),
+                  None if status["az"]["target_deg"] is None else round(status["az"]["target_deg"], 4))
+        self.recent.append(sample)
+        trk = status.get("tracking")
+        label = str(trk.get("target", "tracking")) if trk else None
+        if self.current is not None and label != self.current.label:
+            self.last, self.current = self.current, None
+        if label is not None:
+            if self.current is None:
+                self.current = Segment(label, [])
+            if len(self.current.samples) < self.max_pass_samples:
+                self.current.samples.append(sample)
+
+    def select(self, which: str, seconds: float | None = None, since_wall_s: float | None = None,
+               max_points: int = 3000) -> dict[str, Any]:
+        """Arrays for one window: ``recent`` (the ring, optionally the last ``seconds``),
+        ``current`` or ``last`` pass. ``since_wall_s`` returns only newer samples."""
+        label = "recent"
+        if which == "current":
+            seg = self.current
+            samples: Iterable[tuple] = seg.samples if seg else []
+            label = seg.label if seg else ""
+        elif which == "last":
+            seg = self.last
+            samples = seg.samples if seg else []
+            label = seg.label if seg else ""
+        else:
+            samples = self.recent
+            if seconds is not None and self.recent:
+                t_min = self.recent[-1][0] - seconds
+                samples = [s for s in self.recent if s[0] >= t_min]
+        if since_wall_s is not None:
+            samples = [s for s in samples if s[0] > since_wall_s]
+        rows = list(samples)
+        if len(rows) > max_points > 0:
+            step = math.ceil(len(rows) / max_points)
+            rows = rows[::step] + ([rows[-1]] if (len(rows) - 1) % step else [])
+        out: dict[str, Any] = {"which": which, "label": label, "count": len(rows)}
+        for i, name in enumerate(FIELDS):
+            out[name] = [r[i] for r in rows]
+        return out

@@ -1,0 +1,224 @@
+"""The live feed: one sampler task turns rotator snapshots into WebSocket frames.
+
+Each frame is built and serialised once and handed to every open dashboard (latest
+wins: a slow client skips frames instead of queueing them). The same task records the
+chart history, runs a calibration procedure's steps and expires jog leases, so a
+dashboard that vanishes mid-jog (closed tab, lost network) stops the antenna.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import json
+import logging
+import math
+import time
+from dataclasses import dataclass
+from typing import Any
+
+from starlette.websockets import WebSocket, WebSocketDisconnect, WebSocketState
+
+from ..errors import CommandRejected
+from .history import History, pointing_error_deg
+
+log = logging.getLogger(__name__)
+
+#: frames per second sent to dashboards (the page asks for >= 5)
+FRAME_HZ = 10.0
+#: a jog stops unless the page renews it within this time (press-and-hold dead man)
+JOG_LEASE_S = 0.6
+#: the tracker's status (ground track, plan) is recomputed at most this often
+TRACKING_REFRESH_S = 1.0
+
+
+@dataclass
+class JogLease:
+    direction: int
+    speed: float
+    expires_s: float
+
+
+class Hub:
+    def __init__(self, rotator: Any, tracker: Any = None, frame_hz: float = FRAME_HZ):
+        self.rotator = rotator
+        self.tracker = tracker
+        self.period_s = 1.0 / frame_hz
+        self.history = History()
+        self.procedure: Any = None
+        self.jogs: dict[str, JogLease] = {}
+        self.seq = 0
+        self.frame_text = ""
+        self.clients = 0
+        self._waiters: set[asyncio.Future] = set()
+        self._task: asyncio.Task | None = None
+        self._proc_task: asyncio.Task | None = None
+        self._tracking: dict | None = None
+        self._tracking_t = -math.inf
+        self._tracking_busy = False
+
+    # ------------------------------------------------------------------ snapshots
+    def _tracker_status(self) -> dict | None:
+        status = getattr(self.tracker, "status", None)
+        if status is None:
+            return None
+        try:
+            return status()
+        except Exception:  # a tracker bug must not take the dashboard down
+            log.exception("tracker status failed")
+            return None
+
+    def refresh_tracking_now(self) -> None:
+        self._tracking = self._tracker_status()
+        self._tracking_t = time.monotonic()
+
+    async def refresh_tracking(self) -> None:
+        """After a tracking command: the page should see the new target at once (computed
+        in a worker thread, like the periodic refresh)."""
+        self._tracking = await asyncio.to_thread(self._tracker_status)
+        self._tracking_t = time.monotonic()
+
+    def tracking(self) -> dict | None:
+        """The tracker's status, at most TRACKING_REFRESH_S old. Computing it costs tens of
+        ms (ground track, pass plan), too much for every frame on the control loop's
+        thread: the sampler refreshes it in a worker thread about once a second. The
+        setpoint itself reaches the page every frame through the rotator's target."""
+        if self.tracker is None:
+            return None
+        if self._task is None or self._task.done():
+            if time.monotonic() - self._tracking_t > TRACKING_REFRESH_S:
+                self.refresh_tracking_now()
+        return self._tracking
+
+    async def _refresh_tracking(self) -> None:
+        try:
+            self._tracking = await asyncio.to_thread(self._tracker_status)
+        finally:
+            self._tracking_t = time.monotonic()
+            self._tracking_busy = False
+
+    def status_dict(self) -> dict[str, Any]:
+        d = self.rotator.status().as_dict()
+        d.setdefault("tracking", self.tracking())
+        return d
+
+    def build_frame(self) -> str:
+        status = self.status_dict()
+        now = time.time()
+        error = pointing_error_deg(status)
+        self.history.add(now, status, error)
+        self.seq += 1
+        return json.dumps({"type": "status", "seq": self.seq, "t_wall_s": now, "status": status,
+                           "error_deg": error, "procedure": self.procedure_dict(),
+                           "jogs": sorted(self.jogs)}, separators=(",", ":"))
+
+    def procedure_dict(self) -> dict | None:
+        return None if self.procedure is None else self.procedure.as_dict()
+
+    # ------------------------------------------------------------------ sampler
+    def ensure_started(self) -> None:
+        """Start the sampler on the running loop (``urc run`` has no lifespan events)."""
+        if self._task is None or self._task.done():
+            self._task = asyncio.get_running_loop().create_task(self._run(), name="web-live")
+
+    async def _run(self) -> None:
+        next_s = time.monotonic()
+        while True:
+            if (self.tracker is not None and not self._tracking_busy
+                    and time.monotonic() - self._tracking_t > TRACKING_REFRESH_S):
+                self._tracking_busy = True
+                asyncio.get_running_loop().create_task(self._refresh_tracking())
+            try:
+                self.frame_text = self.build_frame()
+                self._expire_jogs()
+            except Exception:
+                log.exception("live frame failed")
+            for fut in self._waiters:
+                if not fut.done():
+                    fut.set_result(None)
+            self._waiters.clear()
+            next_s += self.period_s
+            delay = next_s - time.monotonic()
+            if delay < -self.period_s:
+                next_s, delay = time.monotonic(), 0.0
+            await asyncio.sleep(max(delay, 0.0))
+
+    async def next_frame(self) -> str:
+        fut = asyncio.get_running_loop().create_future()
+        self._waiters.add(fut)
+        await fut
+        return self.frame_text
+
+    async def serve(self, ws: WebSocket) -> None:
+        self.ensure_started()
+        await ws.accept()
+        self.clients += 1
+
+        async def sender() -> None:
+            if self.frame_text:
+                await ws.send_text(self.frame_text)
+            while True:
+                await ws.send_text(await self.next_frame())
+
+        async def receiver() -> None:
+            while True:  # the page sends nothing; this notices the close at once
+                msg = await ws.receive()
+                if msg["type"] == "websocket.disconnect":
+                    return
+
+        tasks = [asyncio.create_task(sender()), asyncio.create_task(receiver())]
+        try:
+            await asyncio.wait(tasks, return_when=asyncio.FIRST_COMPLETED)
+        finally:
+            for t in tasks:
+                t.cancel()
+            for t in tasks:
+                with contextlib.suppress(asyncio.CancelledError, WebSocketDisconnect, RuntimeError, OSError):
+                    await t
+            self.clients -= 1
+            if ws.client_state == WebSocketState.CONNECTED and ws.application_state == WebSocketState.CONNECTED:
+                with contextlib.suppress(RuntimeError, OSError, WebSocketDisconnect):
+                    await ws.close()
+
+    # ------------------------------------------------------------------ jog leases
+    def jog(self, axis: str, direction: int, speed: float) -> None:
+        """Start or renew a press-and-hold jog; it ends unless renewed in JOG_LEASE_S."""
+        self.ensure_started()
+        lease = self.jogs.get(axis)
+        now = time.monotonic()
+        if lease is None or lease.direction != direction or lease.speed != speed:
+            self.rotator.move(axis, direction, speed)
+        self.jogs[axis] = JogLease(direction, speed, now + JOG_LEASE_S)
+
+    def release(self, axis: str | None) -> None:
+        for name in ([axis] if axis else list(self.jogs)):
+            if self.jogs.pop(name, None) is not None:
+                self.rotator.stop(name)
+
+    def _expire_jogs(self) -> None:
+        now = time.monotonic()
+        for axis, lease in list(self.jogs.items()):
+            if now > lease.expires_s:
+                del self.jogs[axis]
+                with contextlib.suppress(CommandRejected):
+                    self.rotator.stop(axis)
+                log.warning("jog of %s not renewed by the page: stopped", axis)
+
+    # ------------------------------------------------------------------ procedures
+    def start_procedure(self, proc: Any) -> None:
+        if self.procedure is not None and not self.procedure.finished:
+            raise CommandRejected(f"a {self.procedure.kind} calibration is already running", "busy")
+        self.procedure = proc
+        self._proc_task = asyncio.get_running_loop().create_task(self._run_procedure(proc),
+                                                                 name="calibration")
+
+    async def _run_procedure(self, proc: Any) -> None:
+        """Feed each new status to the procedure (at the control loop's pace)."""
+        period_s = 0.5 / self.rotator.caps.loop_hz
+        last_t = None
+        while not proc.finished:
+            status = self.rotator.status()
+            if status.t_s != last_t:
+                last_t = status.t_s
+                proc.poll(status)
+            await asyncio.sleep(period_s)

@@ -1,0 +1,81 @@
+"""Live view: the WebSocket feed, chart history, press-and-hold jogging, page info."""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from fastapi import APIRouter, Depends, Query, WebSocket
+from pydantic import BaseModel, Field
+
+from .. import __version__
+from ..profiles import PROFILES
+from ..protocols.registry import PROTOCOLS
+from .context import WebContext
+from .live import JOG_LEASE_S
+
+
+class JogRequest(BaseModel):
+    axis: Literal["az", "el"]
+    direction: Literal[-1, 1]
+    speed: float = Field(1.0, gt=0.0, le=1.0, description="fraction of the axis' top speed")
+
+
+class JogRelease(BaseModel):
+    axis: Literal["az", "el"] | None = None
+
+
+def router(ctx: WebContext) -> APIRouter:
+    r = APIRouter()
+    control = [Depends(ctx.control)]
+
+    @r.websocket("/api/ws")
+    async def live(ws: WebSocket) -> None:
+        """Status frames (JSON) about ten times a second; viewing needs no token."""
+        await ctx.hub.serve(ws)
+
+    @r.get("/api/info")
+    def info() -> dict:
+        rot = ctx.rotator
+        caps = rot.caps
+        status = rot.status()
+
+        def axis(name: str) -> dict:
+            a = caps.axis(name)
+            return {"min_deg": a.min_deg, "max_deg": a.max_deg, "park_deg": a.park_deg,
+                    "max_rate_deg_per_s": a.max_rate_deg_per_s, "min_rate_deg_per_s": a.min_rate_deg_per_s,
+                    "sensor": a.sensor.kind, "resolution_deg": a.sensor.resolution_deg,
+                    "limit_switches": a.limit_switches}
+        return {"version": __version__, "profile": caps.name, "description": caps.description,
+                "backend": rot.hw.backend, "simulator": "world" in rot.hw.extra,
+                "control_requires_token": ctx.cfg.api.control_requires_token,
+                "token_configured": bool(ctx.cfg.api.token),
+                "can_flip": caps.can_flip, "caps": {"az": axis("az"), "el": axis("el")},
+                "limits": status.limits, "offsets": status.offsets,
+                "keepout": [z.model_dump() | {"name": z.label(i)} for i, z in enumerate(ctx.cfg.keepout)],
+                "frame_hz": round(1.0 / ctx.hub.period_s, 3), "jog_lease_s": JOG_LEASE_S,
+                "tracking_available": ctx.tracker is not None,
+                "profiles": {n: c.description for n, c in PROFILES.items()},
+                "protocols": list(PROTOCOLS)}
+
+    @r.get("/api/history")
+    def history(which: Literal["recent", "current", "last"] = "recent",
+                seconds: float | None = Query(None, gt=0, le=86_400),
+                since: float | None = Query(None, description="only samples after this wall time (s)"),
+                max_points: int = Query(3000, ge=10, le=50_000)) -> dict:
+        """Position, setpoint and pointing error over time, as arrays (for the charts)."""
+        ctx.hub.ensure_started()
+        return ctx.hub.history.select(which, seconds=seconds, since_wall_s=since, max_points=max_points)
+
+    @r.post("/api/jog", dependencies=control)
+    async def jog(req: JogRequest) -> dict:
+        """Start or renew a press-and-hold jog. It stops by itself unless renewed within
+        ``jog_lease_s`` (the page renews while the button is held)."""
+        ctx.hub.jog(req.axis, req.direction, req.speed)
+        return {"ok": True, "lease_s": JOG_LEASE_S}
+
+    @r.post("/api/jog/release", dependencies=control)
+    async def jog_release(req: JogRelease | None = None) -> dict:
+        ctx.hub.release(req.axis if req else None)
+        return {"ok": True}
+
+    return r

@@ -1,0 +1,73 @@
+"""Settings: read, validate, save (to the file ``urc run`` was started with) and apply."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from fastapi import APIRouter, Body, Depends
+from fastapi.responses import JSONResponse
+
+from .context import WebContext
+from .settings_store import RESTART_SECTIONS
+
+
+def _apply_live(ctx: WebContext, cfg: Any) -> tuple[bool, str]:
+    """Hand the new limits, zones, offsets, speeds and park to the rotator, if it can."""
+    reconfigure = getattr(ctx.rotator, "reconfigure", None)
+    if reconfigure is None:
+        return False, "this urc cannot change limits/zones/offsets while running: they apply at the next start"
+    from ..app import settings_from_config
+
+    try:
+        reconfigure(settings_from_config(cfg))
+    except Exception as exc:  # refused (e.g. the antenna sits in a new keep-out zone)
+        return False, f"saved, but not applied now: {exc}"
+    return True, "applied now"
+
+
+def router(ctx: WebContext) -> APIRouter:
+    r = APIRouter()
+    store = ctx.settings
+
+    @r.get("/api/settings")
+    def get_settings() -> dict:
+        """The configuration document (without the API token) and where it is saved."""
+        return store.document()
+
+    @r.post("/api/settings/validate")
+    def validate(data: Any = Body(...)) -> JSONResponse:
+        """Check a configuration document with the same rules as the file; nothing changes."""
+        cfg, errors = store.validate(data)
+        if errors:
+            return JSONResponse({"ok": False, "errors": errors}, status_code=422)
+        return JSONResponse({"ok": True, "errors": [], "changed": store.changed_sections(cfg)})
+
+    @r.post("/api/settings", dependencies=[Depends(ctx.control)])
+    async def save(data: Any = Body(...)) -> JSONResponse:
+        """Validate, save (previous file kept as .bak) and apply what can be applied live."""
+        cfg, errors = store.validate(data)
+        if errors:
+            return JSONResponse({"ok": False, "errors": errors}, status_code=422)
+        changed = store.changed_sections(cfg)
+        started_without_file = store.config_path is None
+        try:
+            path = store.save(cfg)
+        except OSError as exc:
+            return JSONResponse({"ok": False, "errors": [{"key": "", "message": f"could not save: {exc}"}]},
+                                status_code=500)
+        restart = [k for k in changed if k in RESTART_SECTIONS]
+        live = [k for k in changed if k not in RESTART_SECTIONS]
+        applied, note = (_apply_live(ctx, cfg) if live else (True, "nothing to apply"))
+        msgs = [f"saved to {path}"]
+        if started_without_file:
+            msgs.append(f"urc run was started without a configuration file; start it with --config {path} "
+                        "to use these settings")
+        if live:
+            msgs.append(f"{', '.join(live)}: {note}")
+        if restart:
+            msgs.append(f"{', '.join(restart)}: restart urc run for these to take effect")
+        return JSONResponse({"ok": True, "saved_to": str(path), "changed": changed, "restart_needed": restart,
+                             "applied_live": applied and bool(live), "started_without_file": started_without_file,
+                             "messages": msgs})
+
+    return r

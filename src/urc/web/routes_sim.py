@@ -1,0 +1,59 @@
+"""Simulator-only debug endpoints: inject and clear simulated hardware faults.
+
+Refused (403) on any other backend: on real iron there is nothing to inject into.
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from fastapi import APIRouter, Depends, HTTPException
+from pydantic import BaseModel, Field
+
+from .context import WebContext
+
+FaultKind = Literal["sensor_stuck", "sensor_jump", "sensor_dead", "jam", "runaway", "limit_switch",
+                    "reverse_wiring"]
+
+
+class SimFault(BaseModel):
+    axis: Literal["az", "el"]
+    kind: FaultKind
+    deg: float | None = Field(None, allow_inf_nan=False, ge=-360.0, le=360.0,
+                              description="sensor_jump: offset of the reading")
+    duty: float | None = Field(None, allow_inf_nan=False, ge=-1.0, le=1.0, description="runaway: stuck duty")
+    which: Literal["min", "max", "both"] | None = Field(None, description="limit_switch: which one")
+
+
+class SimClear(BaseModel):
+    axis: Literal["az", "el"]
+    kind: FaultKind | None = None
+
+
+def router(ctx: WebContext) -> APIRouter:
+    r = APIRouter(prefix="/api/sim")
+
+    def world():
+        w = ctx.rotator.hw.extra.get("world")
+        if w is None or ctx.rotator.hw.backend != "sim":
+            raise HTTPException(403, "fault injection exists only on the simulator backend")
+        return w
+
+    @r.post("/fault", dependencies=[Depends(ctx.control)])
+    async def inject(req: SimFault) -> dict:
+        """Simulator only: make the simulated hardware fail (the controller is not told)."""
+        w = world()
+        kw = {k: v for k, v in (("deg", req.deg), ("duty", req.duty), ("which", req.which)) if v is not None}
+        try:
+            w.inject(req.axis, req.kind, **kw)
+        except ValueError as exc:
+            raise HTTPException(409, str(exc)) from None
+        return {"ok": True}
+
+    @r.post("/clear", dependencies=[Depends(ctx.control)])
+    async def clear(req: SimClear) -> dict:
+        """Simulator only: repair the simulated hardware (latched faults still need clearing)."""
+        world().clear(req.axis, req.kind)
+        return {"ok": True}
+
+    return r

@@ -1,0 +1,132 @@
+"""Tracking endpoints, served when ``urc run`` hands the API a tracker.
+
+The tracker contract (duck-typed; methods may be plain or ``async``)::
+
+    passes(hours: float, min_el_deg: float) -> list[{"norad", "name", "aos", "tca", "los",
+                                                     "max_el_deg", "aos_az_deg", "los_az_deg"}]
+    track(request: dict) -> Any            # {"kind": "sun"|"moon"|"satellite"|"point"|"azel", ...}
+    track_pass(norad: int, aos: datetime) -> Any
+    stop() -> None
+    status() -> None | {"target", "az_deg", "el_deg", "plan": {...}, "ground_track", ...}
+
+``footprint_km`` in the status is the footprint's ground radius (sub-satellite point to
+the edge where the satellite sets). ``passes`` runs in a worker thread; ``status`` is
+called about once a second from a worker thread too (it is expensive), the commands on
+the event loop's thread.
+
+Without a tracker these routes do not exist (404): the page then hides its pass list
+and track buttons.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import inspect
+import logging
+import time
+from datetime import datetime
+from typing import Any, Literal
+
+from fastapi import APIRouter, Depends, HTTPException, Query
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+from ..errors import CommandRejected, UrcError
+from .context import WebContext
+
+log = logging.getLogger(__name__)
+
+#: a pass list is reused this long (seconds) before the search runs again
+PASSES_CACHE_S = 30.0
+
+
+class TrackRequest(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    kind: Literal["sun", "moon", "satellite", "point", "azel", "nmea"]
+    name: str | None = Field(None, min_length=1, max_length=100)
+    #: an NMEA GGA stream (balloon): a device path or tcp:HOST:PORT
+    source: str | None = Field(None, min_length=1, max_length=200, pattern=r"^(tcp:[\w.\-\[\]:]+|/[\w./\-]+)$")
+    norad: int | None = Field(None, ge=1, le=999_999_999)
+    lat_deg: float | None = Field(None, ge=-90.0, le=90.0, allow_inf_nan=False)
+    lon_deg: float | None = Field(None, ge=-180.0, le=360.0, allow_inf_nan=False)
+    alt_m: float | None = Field(None, ge=-1000.0, le=1e8, allow_inf_nan=False)
+    az_deg: float | None = Field(None, allow_inf_nan=False)
+    el_deg: float | None = Field(None, ge=-90.0, le=180.0, allow_inf_nan=False)
+
+    @model_validator(mode="after")
+    def _needs(self) -> "TrackRequest":
+        need = {"satellite": (), "point": ("lat_deg", "lon_deg"), "azel": ("az_deg", "el_deg"),
+                "nmea": ("source",)}.get(self.kind, ())
+        missing = [k for k in need if getattr(self, k) is None]
+        if missing:
+            raise ValueError(f"kind {self.kind!r} needs {', '.join(missing)}")
+        if self.kind == "satellite" and self.name is None and self.norad is None:
+            raise ValueError("kind 'satellite' needs name or norad")
+        return self
+
+
+class PassRequest(BaseModel):
+    norad: int = Field(ge=1, le=999_999_999)
+    aos: datetime
+
+
+async def _call(fn: Any, *args: Any, **kw: Any) -> Any:
+    """Run a tracker command. Its own errors (UrcError) keep their handlers; anything
+    else it raises (a plan that does not fit, a bad element set) is a refusal too, not
+    a server crash: the page shows the reason."""
+    try:
+        out = fn(*args, **kw)
+        return await out if inspect.isawaitable(out) else out
+    except (UrcError, HTTPException):
+        raise
+    except Exception as exc:
+        log.warning("tracker refused %s: %s", getattr(fn, "__name__", fn), exc, exc_info=True)
+        raise CommandRejected(f"{exc}", "tracking") from exc
+
+
+def _sync_call(fn: Any, **kw: Any) -> Any:
+    """In a worker thread: a plain call, or an async tracker method run to completion."""
+    out = fn(**kw)
+    return asyncio.run(out) if inspect.iscoroutine(out) else out
+
+
+def router(ctx: WebContext) -> APIRouter:
+    r = APIRouter()
+    control = [Depends(ctx.control)]
+    trk = ctx.tracker
+
+    cache: dict[tuple[float, float], tuple[float, list[dict]]] = {}
+
+    @r.get("/api/passes")
+    async def passes(hours: float = Query(24.0, gt=0.0, le=168.0),
+                     min_el: float = Query(10.0, ge=0.0, le=90.0)) -> list[dict]:
+        """Passes of the catalog's satellites over the station in the next ``hours``."""
+        # A pass search over a catalog takes long: off the control loop's thread, and
+        # shared for a while by every open dashboard.
+        key = (hours, min_el)
+        hit = cache.get(key)
+        if hit is not None and time.monotonic() - hit[0] < PASSES_CACHE_S:
+            return hit[1]
+        result = await asyncio.to_thread(_sync_call, trk.passes, hours=hours, min_el_deg=min_el)
+        cache.clear()
+        cache[key] = (time.monotonic(), result)
+        return result
+
+    @r.post("/api/track", dependencies=control)
+    async def track(req: TrackRequest) -> dict:
+        await _call(trk.track, req.model_dump(exclude_none=True))
+        await ctx.hub.refresh_tracking()
+        return {"ok": True}
+
+    @r.post("/api/track/pass", dependencies=control)
+    async def track_pass(req: PassRequest) -> dict:
+        await _call(trk.track_pass, norad=req.norad, aos=req.aos)
+        await ctx.hub.refresh_tracking()
+        return {"ok": True}
+
+    @r.post("/api/track/stop", dependencies=control)
+    async def track_stop() -> dict:
+        await _call(trk.stop)
+        await ctx.hub.refresh_tracking()
+        return {"ok": True}
+
+    return r

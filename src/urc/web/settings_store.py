@@ -1,0 +1,106 @@
+"""Settings page back end: validate with ``Config.from_dict``, save as TOML, apply.
+
+The page edits the whole configuration document and posts it back, so settings it has
+no field for survive a save. The API token is never sent to the page: a posted document
+without one keeps the present token. Sections that need a restart (profile, hardware,
+API address, state, protocol ports) are reported as such; the others are applied live
+when the rotator can take new settings (``Rotator.reconfigure``), else at the restart.
+"""
+
+from __future__ import annotations
+
+import copy
+import os
+from pathlib import Path
+from typing import Any
+
+from ..config import DEFAULT_SERVE, Config
+from ..errors import ConfigError
+
+SOURCE = "settings"
+#: top-level sections whose change only takes effect when ``urc run`` restarts
+RESTART_SECTIONS = ("rotator", "hardware", "api", "state", "serve", "station", "tracking")
+CONFIG_NAME = "urc.toml"
+
+
+def config_errors(exc: ConfigError) -> list[dict[str, str]]:
+    """One entry per problem: the dotted key (for the field) and the message."""
+    errs = getattr(exc, "errors", None) or [exc]
+    out = []
+    for e in errs:
+        text = str(e).split("\n")[0]
+        prefix = f"{SOURCE}: "
+        if text.startswith(prefix):
+            text = text[len(prefix):]
+        key = e.key or ""
+        if key and text.startswith(key + ": "):
+            text = text[len(key) + 2:]
+        out.append({"key": key, "message": text})
+    return out
+
+
+class SettingsStore:
+    def __init__(self, cfg: Config, config_path: str | os.PathLike | None,
+                 state_dir: str | os.PathLike | None):
+        self.cfg = cfg
+        self.config_path = Path(config_path) if config_path else None
+        self.state_dir = Path(state_dir) if state_dir else None
+
+    @property
+    def target_path(self) -> Path | None:
+        if self.config_path is not None:
+            return self.config_path
+        return self.state_dir / CONFIG_NAME if self.state_dir is not None else None
+
+    def document(self) -> dict[str, Any]:
+        """What the page edits: the configuration without the token."""
+        data = self.cfg.to_dict()
+        data.get("api", {}).pop("token", None)
+        target = self.target_path
+        return {
+            "config": data,
+            "token_set": bool(self.cfg.api.token),
+            "default_serve": [e.model_dump(exclude_none=True) for e in DEFAULT_SERVE],
+            "config_path": str(self.config_path) if self.config_path else None,
+            "save_path": str(target) if target else None,
+            "restart_sections": list(RESTART_SECTIONS),
+        }
+
+    def _merge_token(self, data: dict[str, Any]) -> dict[str, Any]:
+        data = copy.deepcopy(data)
+        api = data.setdefault("api", {})
+        if isinstance(api, dict) and not api.get("token") and self.cfg.api.token:
+            api["token"] = self.cfg.api.token
+        return data
+
+    def validate(self, data: Any) -> tuple[Config | None, list[dict[str, str]]]:
+        if not isinstance(data, dict):
+            return None, [{"key": "", "message": "expected a table of settings"}]
+        try:
+            return Config.from_dict(self._merge_token(data), source=SOURCE), []
+        except ConfigError as exc:
+            return None, config_errors(exc)
+
+    def changed_sections(self, new: Config) -> list[str]:
+        old_d, new_d = self.cfg.to_dict(), new.to_dict()
+        keys = sorted(set(old_d) | set(new_d))
+        return [k for k in keys if old_d.get(k) != new_d.get(k)]
+
+    def save(self, new: Config) -> Path:
+        """Write atomically; the previous file is kept as ``<name>.bak``."""
+        target = self.target_path
+        if target is None:
+            raise OSError("no configuration file and no state directory to save to")
+        target.parent.mkdir(parents=True, exist_ok=True)
+        tmp = target.with_name(target.name + ".tmp")
+        text = ("# written by the urc web settings page (comments of an earlier file are in "
+                f"{target.name}.bak)\n" + new.to_toml())
+        with open(tmp, "w", encoding="utf-8") as f:
+            f.write(text)
+            f.flush()
+            os.fsync(f.fileno())
+        if target.exists():
+            os.replace(target, target.with_name(target.name + ".bak"))
+        os.replace(tmp, target)
+        self.cfg = new
+        return target

@@ -1,0 +1,91 @@
+// Calibration page: sensors and constants, zero/re-reference, two-point pot, magnetometer
+// and limit-switch homing (progress arrives with every live frame).
+import { $, h, clear, setText, fmt, toast } from "./dom.js";
+import { get, post } from "./api.js";
+
+const pot = { p1: null, p2: null };
+
+function num(id) {
+  const v = $(id).value.trim();
+  return v === "" ? null : Number(v);
+}
+
+function options(select, axes) {
+  clear(select);
+  for (const a of axes) select.append(h("option", { value: a, text: a }));
+}
+
+export async function loadCalibration() {
+  const r = await get("/api/calibration", { quiet: true });
+  if (!r.ok) return;
+  const axes = r.data.axes;
+  const table = $("cal-sensors");
+  clear(table);
+  for (const [axis, d] of Object.entries(axes)) {
+    const consts = Object.entries(d.calibration).map(([k, v]) => `${k} = ${typeof v === "number" ? Number(v.toPrecision(6)) : v}`).join(", ");
+    table.append(h("tr", {}, h("td", { text: axis }), h("td", { text: `${d.kind}${d.absolute ? " (absolute)" : " (incremental)"}, ${fmt(d.resolution_deg, 3)}°/count` }),
+      h("td", { class: "muted small", text: consts || "no constants" })));
+  }
+  const withProc = (p) => Object.keys(axes).filter((a) => axes[a].procedures.includes(p));
+  $("pot-card").hidden = withProc("pot").length === 0;
+  options($("pot-axis"), withProc("pot"));
+  $("mag-card").hidden = withProc("magnetometer").length === 0;
+  $("home-card").hidden = withProc("homing").length === 0;
+  options($("home-axis"), withProc("homing"));
+  showProcedure(r.data.procedure);
+  const st = await get("/api/status", { quiet: true });
+  if (st.ok) {
+    if ($("zero-az").value === "") $("zero-az").value = (st.data.az.pos_deg + (st.data.offsets.az || 0)).toFixed(2);
+    if ($("zero-el").value === "") $("zero-el").value = (st.data.el.pos_deg + (st.data.offsets.el || 0)).toFixed(2);
+  }
+}
+
+export function showProcedure(proc) {
+  const card = $("proc-card");
+  if (!proc) { card.hidden = true; return; }
+  card.hidden = false;
+  setText($("proc-kind"), `${proc.kind} · ${proc.axis} · ${proc.state}`);
+  $("proc-progress").value = proc.progress;
+  setText($("proc-step"), proc.step);
+  $("proc-cancel").hidden = proc.state !== "running";
+  card.dataset.state = proc.state;
+}
+
+async function readPot(which) {
+  const axis = $("pot-axis").value;
+  const r = await post("/api/calibration/pot/read", { axis });
+  if (!r.ok) return;
+  pot[which] = r.data.p;
+  setText($(`pot-${which}`), `P = ${fmt(r.data.p, 1)} (reads ${fmt(r.data.reading_deg, 1)}°)`);
+}
+
+export function setupCalibration() {
+  $("zero-form").addEventListener("submit", async (ev) => {
+    ev.preventDefault();
+    const body = { az_deg: num("zero-az"), el_deg: num("zero-el") };
+    if (body.az_deg === null && body.el_deg === null) { toast("enter az and/or el", true); return; }
+    if ((await post("/api/calibration/zero", body)).ok) { toast("position set"); loadCalibration(); }
+  });
+  $("pot-read1").addEventListener("click", () => readPot("p1"));
+  $("pot-read2").addEventListener("click", () => readPot("p2"));
+  $("pot-apply").addEventListener("click", async () => {
+    const b1 = num("pot-b1"), b2 = num("pot-b2");
+    if (b1 === null || b2 === null || pot.p1 === null || pot.p2 === null) { toast("enter both bearings and read both points", true); return; }
+    const r = await post("/api/calibration/pot/apply", { axis: $("pot-axis").value,
+      points: [{ bearing_deg: b1, p: pot.p1 }, { bearing_deg: b2, p: pot.p2 }] });
+    if (r.ok) { toast(`calibrated: M = ${r.data.result.M.toPrecision(5)}, C = ${fmt(r.data.result.C, 2)}`); loadCalibration(); }
+  });
+  $("mag-start").addEventListener("click", async () => {
+    const r = await post("/api/calibration/magnetometer");
+    if (r.ok) showProcedure(r.data.procedure);
+  });
+  $("home-form").addEventListener("submit", async (ev) => {
+    ev.preventDefault();
+    const body = { axis: $("home-axis").value };
+    const sw = num("home-switch");
+    if (sw !== null) body.switch_deg = sw;
+    const r = await post("/api/calibration/homing", body);
+    if (r.ok) showProcedure(r.data.procedure);
+  });
+  $("proc-cancel").addEventListener("click", () => post("/api/calibration/procedure/cancel"));
+}

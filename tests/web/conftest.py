@@ -1,0 +1,65 @@
+"""Browser fixtures: Debian's chromium driven by Playwright (never a downloaded browser)."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import pytest
+
+CHROMIUM = os.environ.get("URC_CHROMIUM", "/usr/bin/chromium")
+CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+                 "--disable-background-networking", "--disable-component-update", "--disable-sync"]
+ARTIFACTS = Path(__file__).resolve().parents[2] / "test-artifacts"
+
+
+@pytest.fixture(scope="session")
+def browser():
+    if not Path(CHROMIUM).exists():
+        pytest.skip(f"browser tests need Debian's chromium at {CHROMIUM} (apt-get install chromium)")
+    sync_api = pytest.importorskip("playwright.sync_api", reason="browser tests need the playwright package")
+    with sync_api.sync_playwright() as p:
+        b = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=CHROMIUM_ARGS)
+        yield b
+        b.close()
+
+
+@pytest.fixture
+def artifacts() -> Path:
+    ARTIFACTS.mkdir(exist_ok=True)
+    return ARTIFACTS
+
+
+def expected_refusal(msg) -> bool:
+    """An API answer >= 400 the page handles (404 probe of /api/passes, 422 validation...);
+    a failed load of the page's own files is still a problem."""
+    url = (msg.location or {}).get("url", "")
+    return msg.text.startswith("Failed to load resource: the server responded") and "/api/" in url
+
+
+class PageProblems(list):
+    """JavaScript exceptions, CSP violations and other console errors of a page."""
+
+    def check(self) -> None:
+        assert not self, "page reported problems:\n" + "\n".join(self)
+
+
+@pytest.fixture
+def open_page(browser):
+    pages = []
+
+    def open_(url: str, width: int = 1400, height: int = 1100):
+        ctx = browser.new_context(viewport={"width": width, "height": height})
+        page = ctx.new_page()
+        problems = PageProblems()
+        page.on("pageerror", lambda e: problems.append(f"exception: {e}"))
+        page.on("console", lambda m: problems.append(f"console: {m.text} ({m.location.get('url')})")
+                if m.type == "error" and not expected_refusal(m) else None)
+        page.problems = problems
+        page.goto(url)
+        page.wait_for_selector("#conn.live", timeout=15_000)
+        pages.append((ctx, page))
+        return page
+    yield open_
+    for ctx, page in pages:
+        ctx.close()

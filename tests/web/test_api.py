@@ -1,0 +1,361 @@
+"""The web API without a browser: security (token, CSP), validation, settings, tracking
+contract, simulator-only debug endpoints, history, jog leases."""
+
+from __future__ import annotations
+
+import asyncio
+import math
+import re
+import tomllib
+from pathlib import Path
+
+import pytest
+from fastapi.testclient import TestClient
+
+from urc.api import create_api
+from urc.web import STATIC_DIR
+from urc.web.live import JOG_LEASE_S, Hub
+
+from .fake_tracker import FakeTracker
+
+TOKEN = "s3cret-token"
+
+
+@pytest.fixture
+def make_client(bench, tmp_path):
+    clients = []
+
+    def make(profile="berkeley", tracker=None, config_path=None, **config):
+        b = bench(profile, **config)
+        app = create_api(b.rot, b.cfg, config_path=config_path, tracker=tracker)
+        c = TestClient(app)
+        c.__enter__()
+        clients.append(c)
+        c.bench = b
+        return c
+    yield make
+    for c in clients:
+        c.__exit__(None, None, None)
+
+
+# ----------------------------------------------------------------------- security
+def test_csp_and_security_headers_on_page_and_api(make_client):
+    c = make_client()
+    for path in ("/", "/api/status", "/static/js/main.js"):
+        r = c.get(path)
+        assert r.status_code == 200, path
+        csp = r.headers["content-security-policy"]
+        script_src = re.search(r"script-src ([^;]*)", csp).group(1)
+        assert "'self'" in script_src and "unsafe-inline" not in csp and "unsafe-eval" not in csp
+        assert "frame-ancestors 'none'" in csp
+        assert r.headers["x-content-type-options"] == "nosniff"
+
+
+def test_static_files_have_no_inline_script_or_html_injection_sinks():
+    html = (STATIC_DIR / "index.html").read_text()
+    assert not re.search(r"<script(?![^>]*\bsrc=)[^>]*>", html), "inline <script> would need 'unsafe-inline'"
+    assert not re.search(r"\son[a-z]+\s*=", html), "inline event handlers would need 'unsafe-inline'"
+    assert "style=" not in html
+    for js in (STATIC_DIR / "js").glob("*.js"):
+        text = js.read_text()
+        for sink in ("innerHTML", "outerHTML", "insertAdjacentHTML", "document.write", "eval(", "new Function"):
+            assert sink not in text, f"{js.name} uses {sink}"
+
+
+def test_shipped_map_is_small_geojson():
+    path = STATIC_DIR / "world-110m.geojson"
+    assert path.stat().st_size < 300_000
+    import json
+    g = json.loads(path.read_text())
+    assert g["features"][0]["geometry"]["type"] == "MultiPolygon"
+    assert len(g["features"][0]["geometry"]["coordinates"]) > 100
+
+
+CONTROL_CALLS = [("post", "/api/goto", {"az_deg": 10, "el_deg": 10}), ("post", "/api/stop", {}),
+                 ("post", "/api/jog", {"axis": "az", "direction": 1, "speed": 0.5}),
+                 ("post", "/api/jog/release", {}), ("post", "/api/settings", {}),
+                 ("post", "/api/calibration/zero", {"az_deg": 1.0}),
+                 ("post", "/api/calibration/homing", {"axis": "az"}),
+                 ("post", "/api/sim/fault", {"axis": "az", "kind": "jam"}),
+                 ("post", "/api/track", {"kind": "sun"}), ("post", "/api/track/stop", {})]
+
+
+def test_remote_listener_needs_the_token_for_control_but_not_for_viewing(make_client):
+    c = make_client(tracker=FakeTracker(), api={"host": "0.0.0.0", "token": TOKEN})
+    for method, path, body in CONTROL_CALLS:
+        assert c.request(method, path, json=body).status_code == 401, path
+        bad = c.request(method, path, json=body, headers={"Authorization": "Bearer wrong"})
+        assert bad.status_code == 401, path
+    ok = c.post("/api/goto", json={"az_deg": 10, "el_deg": 10}, headers={"Authorization": f"Bearer {TOKEN}"})
+    assert ok.status_code == 200
+    for path in ("/", "/api/status", "/api/info", "/api/history", "/api/settings", "/api/calibration",
+                 "/api/passes"):
+        assert c.get(path).status_code == 200, path
+    with c.websocket_connect("/api/ws") as ws:
+        assert ws.receive_json()["type"] == "status"
+    assert c.get("/api/info").json()["control_requires_token"] is True
+
+
+def test_remote_listener_without_a_token_refuses_all_control(make_client):
+    c = make_client(api={"host": "0.0.0.0"})
+    assert c.post("/api/stop", json={}).status_code == 401
+    assert c.post("/api/stop", json={}, headers={"Authorization": "Bearer "}).status_code == 401
+
+
+def test_loopback_control_needs_no_token(make_client):
+    c = make_client()
+    assert c.post("/api/goto", json={"az_deg": 10, "el_deg": 10}).status_code == 200
+    assert c.get("/api/info").json()["control_requires_token"] is False
+
+
+def test_settings_never_reveal_the_token(make_client):
+    c = make_client(api={"host": "0.0.0.0", "token": TOKEN})
+    r = c.get("/api/settings")
+    assert TOKEN not in r.text and r.json()["token_set"] is True
+
+
+# ----------------------------------------------------------------------- validation
+@pytest.mark.parametrize("path,body", [
+    ("/api/goto", {"az_deg": "NaN", "el_deg": 10}),
+    ("/api/goto", {"az_deg": "north", "el_deg": 10}),
+    ("/api/jog", {"axis": "az", "direction": 2}),
+    ("/api/jog", {"axis": "az", "direction": 1, "speed": 1.5}),
+    ("/api/jog", {"axis": "roll", "direction": 1}),
+    ("/api/calibration/zero", {"az_deg": "inf"}),
+    ("/api/calibration/pot/apply", {"axis": "az", "points": [{"bearing_deg": 1, "p": 2}]}),
+    ("/api/calibration/homing", {"axis": "az", "speed_frac": 0}),
+    ("/api/sim/fault", {"axis": "az", "kind": "meteor"}),
+    ("/api/sim/fault", {"axis": "az", "kind": "runaway", "duty": 5}),
+    ("/api/track", {"kind": "point", "lat_deg": 10}),
+    ("/api/track", {"kind": "satellite"}),
+    ("/api/track", {"kind": "azel", "az_deg": 10, "el_deg": 10, "extra": 1}),
+    ("/api/track/pass", {"norad": 25544, "aos": "tomorrow"}),
+])
+def test_bad_input_is_rejected_before_anything_moves(make_client, path, body):
+    c = make_client(tracker=FakeTracker())
+    r = c.post(path, json=body)
+    assert r.status_code == 422, (path, r.text)
+
+
+def test_refused_command_is_409_with_reason(make_client):
+    c = make_client()
+    r = c.post("/api/goto", json={"az_deg": 10, "el_deg": 95})
+    assert r.status_code == 409 and r.json()["reason"] == "limit"
+
+
+def test_history_arrays_line_up(make_client):
+    c = make_client()
+    with c.websocket_connect("/api/ws") as ws:
+        for _ in range(3):
+            ws.receive_json()
+    h = c.get("/api/history?which=recent").json()
+    assert h["count"] >= 2
+    n = len(h["t_wall_s"])
+    assert all(len(h[k]) == n for k in ("az_deg", "el_deg", "target_az_deg", "error_deg"))
+    assert c.get("/api/history?which=last").json()["count"] == 0
+    assert c.get("/api/history?which=sometime").status_code == 422
+
+
+def test_live_frames_carry_status_error_and_procedure(make_client):
+    c = make_client()
+    c.post("/api/goto", json={"az_deg": 90, "el_deg": 30})
+    c.bench.run(0.02)  # the snapshot is rebuilt by the next control tick
+    with c.websocket_connect("/api/ws") as ws:
+        f = ws.receive_json()
+        f = ws.receive_json()
+    assert f["status"]["target_az_deg"] == 90 and f["status"]["tracking"] is None
+    assert f["error_deg"] == pytest.approx(math.degrees(math.acos(math.cos(math.radians(30)) * math.cos(math.radians(90)))), abs=1.0)
+    assert f["procedure"] is None and f["seq"] >= 1
+
+
+# ----------------------------------------------------------------------- settings
+def test_settings_validation_errors_name_the_field(make_client):
+    c = make_client()
+    doc = c.get("/api/settings").json()["config"]
+    doc["limits"]["az"]["max_deg"] = 999
+    r = c.post("/api/settings/validate", json=doc)
+    assert r.status_code == 422
+    keys = {e["key"]: e["message"] for e in r.json()["errors"]}
+    assert "expected" in keys["limits.az.max_deg"] and "999" in keys["limits.az.max_deg"]
+    doc["offsets"]["el_deg"] = "x"
+    doc["faults"]["runaway_deg"] = -1
+    keys = {e["key"] for e in c.post("/api/settings/validate", json=doc).json()["errors"]}
+    assert {"offsets.el_deg", "faults.runaway_deg"} <= keys
+
+
+def test_settings_save_to_the_started_file_keeping_token_and_a_backup(make_client, tmp_path):
+    cfg_file = tmp_path / "station.toml"
+    cfg_file.write_text("# my station\n")
+    c = make_client(config_path=cfg_file, api={"token": TOKEN})
+    doc = c.get("/api/settings").json()
+    assert doc["config_path"] == str(cfg_file)
+    data = doc["config"]
+    data["keepout"] = [{"name": "tree", "az_min_deg": 170, "az_max_deg": 190, "el_min_deg": 0, "el_max_deg": 20}]
+    data["rotator"]["profile"] = "g4jnt"
+    r = c.post("/api/settings", json=data)
+    assert r.status_code == 200, r.text
+    body = r.json()
+    assert body["saved_to"] == str(cfg_file)
+    assert "rotator" in body["restart_needed"] and "keepout" in body["changed"]
+    assert any("restart" in m for m in body["messages"])
+    saved = tomllib.loads(cfg_file.read_text())
+    assert saved["keepout"][0]["name"] == "tree" and saved["rotator"]["profile"] == "g4jnt"
+    assert saved["api"]["token"] == TOKEN
+    assert (tmp_path / "station.toml.bak").read_text() == "# my station\n"
+
+
+def test_settings_without_a_config_file_go_to_the_state_dir(make_client):
+    c = make_client()
+    doc = c.get("/api/settings").json()
+    assert doc["config_path"] is None and doc["save_path"].endswith("urc.toml")
+    data = doc["config"]
+    data["offsets"]["az_deg"] = 1.5
+    r = c.post("/api/settings", json=data)
+    assert r.status_code == 200
+    body = r.json()
+    assert body["started_without_file"] and Path(body["saved_to"]).parent == c.bench.state_dir
+    assert any("without a configuration file" in m for m in body["messages"])
+
+
+def test_settings_invalid_document_is_not_saved(make_client, tmp_path):
+    cfg_file = tmp_path / "station.toml"
+    c = make_client(config_path=cfg_file)
+    r = c.post("/api/settings", json={"limits": {"el": {"min_deg": -50}}})
+    assert r.status_code == 422 and not cfg_file.exists()
+
+
+# ----------------------------------------------------------------------- tracking contract
+def test_no_tracker_means_no_tracking_endpoints(make_client):
+    c = make_client()
+    assert c.get("/api/passes").status_code == 404
+    assert c.post("/api/track", json={"kind": "sun"}).status_code in (404, 405)
+    assert c.get("/api/status").json()["tracking"] is None
+
+
+def test_tracking_endpoints_follow_the_contract(make_client):
+    trk = FakeTracker()
+    c = make_client(tracker=trk)
+    passes = c.get("/api/passes?hours=12&min_el=20").json()
+    assert passes[0]["norad"] == 25544 and ("passes", 12.0, 20.0) in trk.calls
+    assert c.post("/api/track", json={"kind": "moon"}).status_code == 200
+    assert c.get("/api/status").json()["tracking"]["target"] == "moon"
+    assert c.post("/api/track/pass", json={"norad": 25544, "aos": passes[0]["aos"]}).status_code == 200
+    st = c.get("/api/status").json()["tracking"]
+    assert st["plan"]["track"] and st["ground_track"]
+    assert c.post("/api/stop", json={}).status_code == 200
+    assert ("stop",) in trk.calls and c.get("/api/status").json()["tracking"] is None
+
+
+# ----------------------------------------------------------------------- simulator debug
+def test_sim_fault_injection_latches_a_fault(make_client):
+    c = make_client()
+    assert c.post("/api/sim/fault", json={"axis": "el", "kind": "sensor_dead"}).status_code == 200
+    c.bench.run(0.2)
+    faults = c.get("/api/status").json()["faults"]
+    assert faults and faults[0]["kind"] == "sensor_dead"
+    assert c.post("/api/sim/clear", json={"axis": "el"}).status_code == 200
+
+
+def test_sim_fault_refused_off_the_simulator(make_client):
+    c = make_client()
+    c.bench.rot.hw.backend = "gpio"
+    r = c.post("/api/sim/fault", json={"axis": "az", "kind": "jam"})
+    assert r.status_code == 403 and "simulator" in r.json()["detail"]
+
+
+def test_sim_fault_not_possible_on_this_profile_is_409(make_client):
+    c = make_client("berkeley")
+    assert c.post("/api/sim/fault", json={"axis": "az", "kind": "limit_switch"}).status_code == 409
+
+
+# ----------------------------------------------------------------------- calibration API
+def test_calibration_overview_and_zero(make_client):
+    c = make_client("g4jnt")
+    d = c.get("/api/calibration").json()
+    assert "pot" in d["axes"]["az"]["procedures"]
+    p = c.post("/api/calibration/pot/read", json={"axis": "az"}).json()
+    assert p["p"] >= 0
+    assert c.post("/api/calibration/zero", json={"az_deg": 12.0}).status_code == 200
+    c.bench.run(0.1)
+    assert c.get("/api/status").json()["az"]["pos_deg"] == pytest.approx(12.0, abs=1.0)
+
+
+def test_calibration_refusals_are_409(make_client):
+    c = make_client("berkeley")
+    assert c.post("/api/calibration/magnetometer").status_code == 409
+    assert c.post("/api/calibration/homing", json={"axis": "az"}).status_code == 409
+    r = c.post("/api/calibration/pot/apply", json={"axis": "az", "points": [{"bearing_deg": 1, "p": 2},
+                                                                             {"bearing_deg": 3, "p": 4}]})
+    assert r.status_code == 409 and r.json()["reason"] == "calibration"
+
+
+# ----------------------------------------------------------------------- jog dead man
+class _Recorder:
+    def __init__(self):
+        self.calls = []
+
+    def move(self, axis, direction, speed):
+        self.calls.append(("move", axis, direction, speed))
+
+    def stop(self, axis=None):
+        self.calls.append(("stop", axis))
+
+    def status(self):
+        raise RuntimeError("not needed")
+
+
+def test_jog_stops_when_the_page_stops_renewing():
+    async def scenario():
+        rec = _Recorder()
+        hub = Hub(rec, frame_hz=50.0)
+        hub.build_frame = lambda: "{}"
+        hub.jog("az", 1, 0.5)
+        for _ in range(5):  # renewed: no second move, no stop
+            await asyncio.sleep(JOG_LEASE_S / 3)
+            hub.jog("az", 1, 0.5)
+        assert rec.calls == [("move", "az", 1, 0.5)]
+        await asyncio.sleep(JOG_LEASE_S + 0.2)
+        assert rec.calls[-1] == ("stop", "az") and not hub.jogs
+        hub.jog("el", -1, 1.0)
+        hub.release("el")
+        assert rec.calls[-1] == ("stop", "el")
+        hub._task.cancel()
+    asyncio.run(scenario())
+
+
+def test_static_files_served_from_memory_with_etag(make_client):
+    c = make_client()
+    r = c.get("/static/js/main.js")
+    assert r.status_code == 200 and r.headers["content-type"].startswith("text/javascript")
+    assert c.get("/static/js/main.js", headers={"If-None-Match": r.headers["etag"]}).status_code == 304
+    assert c.get("/static/../api.py").status_code == 404
+    assert c.get("/static/nothing.js").status_code == 404
+    index = c.get("/").text
+    for src in re.findall(r'(?:src|href)="(/static/[^"]+)"', index):
+        assert c.get(src).status_code == 200, src
+
+
+@pytest.mark.parametrize("origin,host,code", [
+    ("http://evil.example", "127.0.0.1:8080", 403),           # cross-site form or fetch
+    ("null", "127.0.0.1:8080", 403),                          # sandboxed frame, file://
+    ("http://rebound.example:8080", "rebound.example:8080", 403),  # DNS rebinding
+    ("http://127.0.0.1:8080", "127.0.0.1:8080", 200),         # the dashboard itself
+    ("http://localhost:8080", "localhost:8080", 200),
+    ("http://[::1]:8080", "[::1]:8080", 200),
+])
+def test_control_from_other_sites_is_refused(make_client, origin, host, code):
+    c = make_client()
+    r = c.post("/api/park", headers={"Origin": origin, "Host": host})
+    assert r.status_code == code, r.text
+    assert c.post("/api/park").status_code == 200        # no Origin: not a browser (CLI)
+
+
+def test_a_tracker_failure_is_a_refusal_with_its_reason(make_client):
+    trk = FakeTracker()
+
+    def no_fit(norad, aos):
+        raise ValueError("the pass does not fit inside the azimuth/elevation limits on any wrap or flip")
+    trk.track_pass = no_fit
+    c = make_client(tracker=trk)
+    r = c.post("/api/track/pass", json={"norad": 25544, "aos": "2026-01-01T00:00:00Z"})
+    assert r.status_code == 409 and "does not fit" in r.json()["error"] and r.json()["reason"] == "tracking"
