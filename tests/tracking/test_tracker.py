@@ -102,3 +102,17 @@ def test_planner_refuses_a_pass_it_cannot_fit():
     with pytest.raises(PlanError):
         plan_pass(t, np.full_like(t, 200.0), np.full_like(t, 30.0), g, AxisLimits(6, 10), AxisLimits(6, 10),
                   (0.0, 0.0), 0.0)
+
+
+def test_planner_flies_most_of_a_pass_wider_than_the_range():
+    """A pass across north spanning 129 -> -12 deg on a 0..450 rotator fits no wrap
+    turn: fly the turn that holds most of it and wait at the limit for the rest."""
+    from urc.control.geometry import Geometry
+    t = np.arange(0.0, 700.0, 1.0)
+    az = (129.0 - 0.2 * t) % 360.0
+    el = 10.0 + 30.0 * np.sin(np.pi * t / 700.0)
+    plan = plan_pass(t, az, el, Geometry(0.0, 450.0, 0.0, 90.0), AxisLimits(4, 4), AxisLimits(2, 3),
+                     (0.0, 0.0), 0.0)
+    assert plan.az_deg.min() >= 0.0 and plan.az_deg.max() <= 450.0
+    assert np.all(np.abs(np.diff(plan.az_deg)) <= 0.21)
+    assert any("beyond the azimuth limits" in n for n in plan.notes)

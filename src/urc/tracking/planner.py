@@ -151,8 +151,27 @@ def plan_pass(t_s: np.ndarray, sky_az_deg: np.ndarray, sky_el_deg: np.ndarray, g
         k_hi = int(np.floor((g.az_max_deg - a.max()) / 360.0 + 1e-9))
         for k in range(k_lo, k_hi + 1):
             candidates.append((flip, a + 360.0 * k, np.clip(e, g.el_min_deg, g.el_max_deg)))
+    notes = []
     if not candidates:
-        raise PlanError("the pass does not fit inside the azimuth/elevation limits on any wrap or flip")
+        # No wrap turn holds the whole pass (it spans more azimuth than the range has
+        # around its start, e.g. a pass across north on a 0..450 rotator): fly the turn
+        # that holds most of it; the antenna waits at the limit for the rest.
+        best_cover = None
+        for flip, (a, e) in _base_trajectories(s_az, s_el, g.flip):
+            a, e = a - g.az_offset_deg, e - g.el_offset_deg
+            if e.min() < g.el_min_deg - EL_SLACK_DEG or e.max() > g.el_max_deg + EL_SLACK_DEG:
+                continue
+            for k in range(int(np.floor((g.az_min_deg - a.max()) / 360.0)),
+                           int(np.ceil((g.az_max_deg - a.min()) / 360.0)) + 1):
+                inside = float(np.mean((a + 360.0 * k >= g.az_min_deg) & (a + 360.0 * k <= g.az_max_deg)))
+                if best_cover is None or inside > best_cover[0]:
+                    best_cover = (inside, flip, a + 360.0 * k, e)
+        if best_cover is None or best_cover[0] == 0.0:
+            raise PlanError("the pass does not fit inside the azimuth/elevation limits on any wrap or flip")
+        inside, flip, a, e = best_cover
+        candidates = [(flip, np.clip(a, g.az_min_deg, g.az_max_deg), np.clip(e, g.el_min_deg, g.el_max_deg))]
+        notes.append(f"no wrap turn holds the whole pass: {100 * (1 - inside):.0f}% of it lies beyond the "
+                     "azimuth limits; the antenna waits at the limit there")
 
     az_budget, el_budget = RATE_BUDGET * az.max_rate_deg_per_s, RATE_BUDGET * el.max_rate_deg_per_s
     best = None
@@ -169,7 +188,6 @@ def plan_pass(t_s: np.ndarray, sky_az_deg: np.ndarray, sky_el_deg: np.ndarray, g
         if best is None or cost < best[0]:
             best = (cost, flip, fa, fe, travel_s, a, e, float(err.max()))
     _, flip, a_fly, e_fly, travel_s, a, e, worst = best
-    notes = []
     rate_limited = not (a_fly is a and e_fly is e)
     if rate_limited:
         notes.append(f"the sky track needs {_peak_rate(a, t):.1f} deg/s in azimuth at the fastest (keyhole); "
