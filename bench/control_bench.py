@@ -15,7 +15,6 @@ Usage: python bench/control_bench.py [--profiles a,b] [--no-cpu] [--json PATH]
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import os
 import socket
@@ -25,6 +24,7 @@ import tempfile
 import time
 from pathlib import Path
 
+from bench_report import write_json
 from urc.app import build_rotator
 from urc.clock import VirtualClock
 from urc.config import Config
@@ -187,10 +187,7 @@ def main() -> None:
         print(f"{'profile':13s} {'idle %':>7s} {'moving %':>9s}")
         for p, r in results.items():
             print(f"{p:13s} {r['cpu']['idle_cpu_pct']:7.1f} {r['cpu']['moving_cpu_pct']:9.1f}")
-    out = Path(args.json)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(results, indent=2))
-    print(f"\nJSON written to {out}")
+    write_json(results, args.json)
 
 
 if __name__ == "__main__":

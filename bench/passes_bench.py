@@ -135,7 +135,6 @@ def compare(passes, sky_events, ids, by_id, min_el: float) -> dict:
 def run(n_sats: int, hours: float, min_el: float, subset: int | None, repeat: int,
         sky_repeat: int) -> dict:
     sets = parse_tle(make_catalog(n_sats), "synthetic")
-    ids = [es.norad_id for es in sets]
     best = best_cpu = math.inf
     for _ in range(repeat):
         t, c = time.perf_counter(), time.process_time()

@@ -11,7 +11,6 @@ Usage: python bench/rotctld_bench.py [--seconds 3] [--json PATH]
 from __future__ import annotations
 
 import argparse
-import json
 import shutil
 import socket
 import statistics
@@ -23,6 +22,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+from bench_report import write_json
 from urc_process import UrcProcess, free_port  # noqa: E402
 
 CLIENTS = (1, 8, 32)
@@ -170,10 +170,7 @@ def main() -> None:
     print(f"burst of {BURST}: urc answered {ub['answered']}/{BURST}, hamlib answered {hb['answered']}/{BURST}")
     print(f"urc control tick lateness p99: idle {results['urc']['tick_late_p99_ms_idle']:.2f} ms, "
           f"under 32-client load {results['urc']['tick_late_p99_ms_loaded']:.2f} ms")
-    out = Path(args.json)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(results, indent=2))
-    print(f"JSON written to {out}")
+    write_json(results, args.json)
 
 
 if __name__ == "__main__":

@@ -12,7 +12,6 @@ Usage: python bench/tracking_bench.py [--profiles a,b] [--json PATH]
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import sys
 import tempfile
@@ -22,6 +21,7 @@ from pathlib import Path
 import numpy as np
 from skyfield.api import EarthSatellite, wgs84
 
+from bench_report import write_json
 from urc.app import build_rotator
 from urc.clock import VirtualClock
 from urc.config import Config
@@ -112,10 +112,7 @@ def main() -> None:
         print(f"{r['profile']:13s} {r['scenario']:16s} {r['driver']:8s} {r['rms_deg']:6.3f} {r['p95_deg']:6.3f} "
               f"{r['max_deg']:6.3f} {r['within_0_1_pct']:6.1f} {r['within_0_5_pct']:6.1f} {r['aos_error_deg']:7.3f} "
               f"{r['floor_deg']:6.3f} {r['rms_deg'] / r['floor_deg']:7.1f} {str(r['flip']):>5s}")
-    out = Path(args.json)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(rows, indent=2))
-    print(f"\nJSON written to {out}")
+    write_json(rows, args.json)
 
 
 if __name__ == "__main__":

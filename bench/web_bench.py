@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import argparse
 import asyncio
-import json
 import os
 import statistics
 import sys
@@ -29,6 +28,7 @@ import httpx
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
+from bench_report import write_json
 from urc_process import UrcProcess  # noqa: E402
 
 CHROMIUM = "/usr/bin/chromium"
@@ -165,10 +165,7 @@ def main() -> None:
     print(f"web dashboard benchmark (profile {args.profile}, urc run on the simulator)")
     for name, value in rows:
         print(f"  {name:<{width}}  {value}")
-    out = Path(args.json)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(result, indent=2))
-    print(f"wrote {out}")
+    write_json(result, args.json)
 
 
 if __name__ == "__main__":

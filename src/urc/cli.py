@@ -12,7 +12,7 @@ from pathlib import Path
 import click
 
 from . import __version__
-from .errors import ConfigError, UrcError
+from .errors import ConfigError
 
 DEFAULT_URL = "http://127.0.0.1:8080"
 

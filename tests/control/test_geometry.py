@@ -1,6 +1,5 @@
 """Cable wrap, flip, keep-out zones and path planning."""
 
-import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 

@@ -14,6 +14,7 @@ from __future__ import annotations
 import logging
 from typing import Protocol, runtime_checkable
 
+from ..errors import UrcError
 from ..service.snapshot import Status
 
 #: no session buffers more than this many bytes of an unfinished command; beyond it the
@@ -58,6 +59,24 @@ class Session(Protocol):
 
     def tick(self, now_s: float) -> list[bytes]:
         """Unsolicited output due by ``now_s`` (the G4JNT position stream). Most return []."""
+
+
+class ProtocolError(UrcError, ValueError):
+    """Input a protocol could not parse; says what was expected and what was found."""
+
+    def __init__(self, expected: str, found: bytes):
+        self.expected, self.found = expected, found
+        super().__init__(f"expected {expected}, found {found!r}")
+
+
+def goto_named_axes(rotator: RotatorPort, az_deg: float | None, el_deg: float | None) -> None:
+    """Go to whichever of az/el the command named; the other axis keeps its target."""
+    if el_deg is None:
+        rotator.goto_az(az_deg)
+    elif az_deg is None:
+        rotator.goto_el(el_deg)
+    else:
+        rotator.goto(az_deg, el_deg)
 
 
 def protocol_logger(name: str) -> logging.Logger:

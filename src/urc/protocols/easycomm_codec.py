@@ -16,7 +16,8 @@ import math
 import re
 from dataclasses import dataclass
 
-from ..errors import UrcError
+from .base import ProtocolError
+
 
 #: Easycomm II commands (``easycomm.txt``) plus Hamlib's own PARK and RESET.
 COMMANDS_II = frozenset({
@@ -43,12 +44,8 @@ _MODE_RE = re.compile(rb"[A-Z]{1,8}")
 _SEP_RE = re.compile(rb"[ \t;]+")
 
 
-class EasycommParseError(UrcError, ValueError):
-    """A line that is not valid Easycomm; says what was expected and what was found."""
-
-    def __init__(self, expected: str, found: bytes):
-        self.expected, self.found = expected, found
-        super().__init__(f"expected {expected}, found {found!r}")
+class EasycommParseError(ProtocolError):
+    """A line that is not valid Easycomm."""
 
 
 @dataclass(frozen=True)

@@ -14,7 +14,8 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 
-from ..errors import UrcError
+from .base import ProtocolError
+
 
 #: reply styles: GS-232A, GS-232B, and the generic GS-232 / FoxDelta ST2 family.
 STYLE_A, STYLE_B, STYLE_GENERIC = "a", "b", "generic"
@@ -30,12 +31,8 @@ _X_RE = re.compile(rb"X *([1-4])")
 _TIMED_RE = re.compile(rb"[MW] *[0-9]{1,3}( +[0-9]{1,3}){2,}")
 
 
-class Gs232ParseError(UrcError, ValueError):
-    """A command line that is not valid GS-232; says what was expected and what was found."""
-
-    def __init__(self, expected: str, found: bytes):
-        self.expected, self.found = expected, found
-        super().__init__(f"expected {expected}, found {found!r}")
+class Gs232ParseError(ProtocolError):
+    """A line that is not valid GS-232."""
 
 
 @dataclass(frozen=True)

@@ -23,7 +23,7 @@ Items of one datagram run in order; a bad item does not stop the well-formed one
 from __future__ import annotations
 
 from ..errors import CommandRejected
-from .base import MAX_PENDING_BYTES, RotatorPort, protocol_logger
+from .base import MAX_PENDING_BYTES, RotatorPort, goto_named_axes, protocol_logger
 from . import pstrotator_codec as codec
 from .numbers import compass_tenths
 from .pstrotator_codec import PstItem
@@ -78,12 +78,7 @@ class PstRotatorSession:
     def _goto(self, az: float | None, el: float | None) -> None:
         """One axis alone: the other keeps its target (or where it is, after a stop)."""
         try:
-            if el is None:
-                self.rotator.goto_az(az)
-            elif az is None:
-                self.rotator.goto_el(el)
-            else:
-                self.rotator.goto(az, el)
+            goto_named_axes(self.rotator, az, el)
         except CommandRejected as exc:
             given = " ".join(f"{n} {v:.2f}" for n, v in (("az", az), ("el", el)) if v is not None)
             log.warning("goto %s refused (%s): %s", given, exc.reason, exc)

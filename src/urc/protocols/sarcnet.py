@@ -44,7 +44,7 @@ from __future__ import annotations
 
 from ..errors import CommandRejected
 from ..service.snapshot import Status
-from .base import MAX_PENDING_BYTES, RotatorPort, protocol_logger
+from .base import MAX_PENDING_BYTES, RotatorPort, goto_named_axes, protocol_logger
 from . import sarcnet_codec as codec
 from .lines import LineSplitter, next_due_s
 from .poses import extended_pose_deg
@@ -160,12 +160,7 @@ class SarcnetSession:
         if self.mode == "demonstrating":
             # as on the Arduino, the sweep carries on from the new set point
             self._demo = [self._demo[0] if az is None else signed180(az), self._demo[1] if el is None else el]
-        if el is None:
-            self.rotator.goto_az(az)
-        elif az is None:
-            self.rotator.goto_el(el)
-        else:
-            self.rotator.goto(az, el)
+        goto_named_axes(self.rotator, az, el)
 
     def _letter_r(self, cmd: SarcnetCommand) -> list[bytes]:
         out = [codec.console("Reset in progress")]
