@@ -619,6 +619,36 @@ class Rotator:
         """The present coast estimate at full drive (what OVRA/OVRE read)."""
         return max(self.axes[axis].law.coast_deg, default=0.0)
 
+    def reconfigure(self, settings: RotatorSettings) -> None:
+        """Apply new limits, keep-out zones, offsets, speeds, park and fault limits while
+        running (the settings page). Motion in progress stops: its route was planned
+        under the old rules. A new profile or loop rate needs a restart."""
+        settings = settings.completed()
+        if settings.caps.name != self.caps.name or settings.caps.loop_hz != self.caps.loop_hz:
+            raise CommandRejected("a new profile or loop rate takes effect at the next start")
+        geometry = settings.geometry()
+        pose = self._current_pose()
+        slack = max(self.caps.az.tolerance_deg, self.caps.el.tolerance_deg)
+        if not geometry.in_limits(*pose, slack_deg=slack):
+            raise CommandRejected(f"the antenna (az {pose[0]:.1f}, el {pose[1]:.1f} mechanical) is outside "
+                                  "the new limits: move it inside first", "limit")
+        zone = geometry.zone_at(*pose, margin_deg=0.0)
+        if zone is not None:
+            raise CommandRejected(f"the antenna is inside the new keep-out zone {zone.name!r}: "
+                                  "move it out first", "keepout")
+
+        def apply() -> None:
+            self.settings, self.geometry = settings, geometry
+            for name, ax in self.axes.items():
+                ax.tuning, ax.flim, ax.limits = settings.tuning(name), settings.fault_limits(name), \
+                    settings.limits(name)
+                ax.sp = None
+            self._route = []
+            self._tracking = False
+            self._target_sky = None
+            self._event("new settings applied (limits, keep-out zones, offsets, speeds, park)")
+        self._submit("reconfigure", apply)
+
     def clear_faults(self) -> None:
         def apply() -> None:
             if self._faults:
