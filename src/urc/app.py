@@ -111,7 +111,7 @@ async def serve(cfg: Config, state_dir: Path, clock: Clock | None = None,
     caps = rotator.caps
     print(f"urc: profile {caps.name} ({caps.description}) on the {cfg.hardware.backend} backend", flush=True)
     print(f"urc: state in {state_dir}", flush=True)
-    print(f"urc: control API on http://{cfg.api.host}:{cfg.api.port}/api "
+    print(f"urc: dashboard on http://{cfg.api.host}:{cfg.api.port}/ ; control API at /api "
           f"(OpenAPI at /openapi.json)", flush=True)
     for event in rotator.status().events:
         print(f"urc: {event}", flush=True)
