@@ -90,17 +90,20 @@ def create_api(rotator: Rotator, cfg: Config, *, config_path: str | os.PathLike 
     async def refused(_request, exc: UrcError) -> JSONResponse:
         return JSONResponse({"ok": False, "error": str(exc), "reason": type(exc).__name__}, status_code=409)
 
+    # Handlers are coroutines: they run on the event loop thread, like the control loop,
+    # so commands reach the rotator service from its own thread (FastAPI would run plain
+    # functions in a thread pool).
     @app.get("/api/status")
-    def status() -> dict:
+    async def status() -> dict:
         """The rotator's snapshot, plus ``tracking`` (null when nothing is tracked)."""
         return hub.status_dict()
 
     @app.post("/api/goto", dependencies=[Depends(control_allowed)])
-    def goto(req: GotoRequest) -> Accepted:
+    async def goto(req: GotoRequest) -> Accepted:
         return Accepted(route=rotator.goto(req.az_deg, req.el_deg))
 
     @app.post("/api/park", dependencies=[Depends(control_allowed)])
-    def park() -> Accepted:
+    async def park() -> Accepted:
         return Accepted(route=rotator.park())
 
     @app.post("/api/stop", dependencies=[Depends(control_allowed)])
@@ -121,17 +124,17 @@ def create_api(rotator: Rotator, cfg: Config, *, config_path: str | os.PathLike 
         return Accepted()
 
     @app.post("/api/move", dependencies=[Depends(control_allowed)])
-    def move(req: MoveRequest) -> Accepted:
+    async def move(req: MoveRequest) -> Accepted:
         rotator.move(req.axis, req.direction, req.speed)
         return Accepted()
 
     @app.post("/api/set-position", dependencies=[Depends(control_allowed)])
-    def set_position(req: PositionRequest) -> Accepted:
+    async def set_position(req: PositionRequest) -> Accepted:
         rotator.set_position(req.az_deg, req.el_deg)
         return Accepted()
 
     @app.post("/api/clear-faults", dependencies=[Depends(control_allowed)])
-    def clear_faults() -> Accepted:
+    async def clear_faults() -> Accepted:
         rotator.clear_faults()
         return Accepted()
 
