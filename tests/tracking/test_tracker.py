@@ -116,3 +116,19 @@ def test_planner_flies_most_of_a_pass_wider_than_the_range():
     assert plan.az_deg.min() >= 0.0 and plan.az_deg.max() <= 450.0
     assert np.all(np.abs(np.diff(plan.az_deg)) <= 0.21)
     assert any("beyond the azimuth limits" in n for n in plan.notes)
+
+
+def test_planner_unwinds_once_when_that_loses_less():
+    """On a fast 0..360 rotator a pass across north is flown with one quick unwind, at the
+    moment that costs least, instead of waiting at the limit for half the pass."""
+    from urc.control.geometry import Geometry
+    t = np.arange(0.0, 700.0, 1.0)
+    az = (300.0 + 0.2 * t) % 360.0           # 300 -> 80 through north
+    el = 10.0 + 30.0 * np.sin(np.pi * t / 700.0)
+    plan = plan_pass(t, az, el, Geometry(0.0, 360.0, 0.0, 90.0), AxisLimits(30, 60), AxisLimits(30, 60),
+                     (0.0, 0.0), 0.0)
+    assert plan.az_deg.min() >= 0.0 and plan.az_deg.max() <= 360.0
+    assert any("unwinds once" in n for n in plan.notes), plan.notes
+    swings = (np.abs(np.diff(plan.az_deg)) > 1.0).astype(int)
+    assert np.sum(np.diff(swings) == 1) + swings[0] == 1  # one contiguous swing, nothing else
+    assert swings.sum() <= 40  # 360 deg at up to 27 deg/s, spread around the moment

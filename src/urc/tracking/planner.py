@@ -130,6 +130,54 @@ def _base_trajectories(s_az: np.ndarray, s_el: np.ndarray, can_flip: bool):
         yield True, (unwrap(az), el)
 
 
+#: candidate unwind moments per pass (every n-th sample)
+UNWIND_CANDIDATES = 120
+
+
+def _best_partial(t, s_az, s_el, g: Geometry, az_budget: float, el_budget: float):
+    """No wrap turn holds the whole pass (it spans more azimuth than the range has around
+    it, e.g. a pass across north on a 0..360 rotator). Two ways out, whichever loses
+    less pointing (RMS over the pass): fly the turn that holds most of it and wait at
+    the limit for the rest, or unwind once mid-pass (a 360 degree swing to the other
+    turn) at the moment that costs least."""
+    lo, hi = g.az_min_deg, g.az_max_deg
+    options = []  # (rms, flip, az, el, note)
+
+    def flown(a, e):
+        fa = np.clip(_rate_limit(a, t, az_budget), lo, hi) if _peak_rate(a, t) > az_budget else a
+        fe = np.clip(_rate_limit(e, t, el_budget), g.el_min_deg, g.el_max_deg) if _peak_rate(e, t) > el_budget else e
+        err = _pointing_error_deg(fa, fe, s_az, s_el, g)
+        return float(np.sqrt(np.mean(err ** 2))), a, e
+
+    for flip, (a, e) in _base_trajectories(s_az, s_el, g.flip):
+        a, e = a - g.az_offset_deg, np.clip(e - g.el_offset_deg, g.el_min_deg, g.el_max_deg)
+        if (s_el - g.el_offset_deg).min() < g.el_min_deg - EL_SLACK_DEG and not flip:
+            continue
+        ks = range(int(np.floor((lo - a.max()) / 360.0)), int(np.ceil((hi - a.min()) / 360.0)) + 1)
+        for k in ks:
+            inside = float(np.mean((a + 360.0 * k >= lo) & (a + 360.0 * k <= hi)))
+            if inside > 0:
+                rms, fa, fe = flown(np.clip(a + 360.0 * k, lo, hi), e)
+                options.append((rms, flip, fa, fe, f"no wrap turn holds the whole pass: {100 * (1 - inside):.0f}% "
+                                "of it lies beyond the azimuth limits; the antenna waits at the limit there"))
+        step = max(1, len(a) // UNWIND_CANDIDATES)
+        for i in range(step, len(a) - 1, step):
+            for k1 in ks:
+                first = a[:i] + 360.0 * k1
+                if first.min() < lo or first.max() > hi:
+                    continue
+                for k2 in (k1 - 1, k1 + 1):
+                    second = a[i:] + 360.0 * k2
+                    if second.min() >= lo and second.max() <= hi:
+                        rms, fa, fe = flown(np.concatenate([first, second]), e)
+                        options.append((rms, flip, fa, fe, f"no wrap turn holds the whole pass: the antenna "
+                                        f"unwinds once, {t[i] - t[0]:.0f} s after AOS"))
+    if not options:
+        raise PlanError("the pass does not fit inside the azimuth/elevation limits on any wrap or flip")
+    rms, flip, a, e, note = min(options, key=lambda o: (o[0], o[1]))
+    return flip, a, e, note
+
+
 def plan_pass(t_s: np.ndarray, sky_az_deg: np.ndarray, sky_el_deg: np.ndarray, geometry: Geometry,
               az: AxisLimits, el: AxisLimits, start_pose: tuple[float, float], now_s: float) -> Plan:
     """Choose wrap turn and flip for the pass and return the trajectory to fly."""
@@ -153,25 +201,10 @@ def plan_pass(t_s: np.ndarray, sky_az_deg: np.ndarray, sky_el_deg: np.ndarray, g
             candidates.append((flip, a + 360.0 * k, np.clip(e, g.el_min_deg, g.el_max_deg)))
     notes = []
     if not candidates:
-        # No wrap turn holds the whole pass (it spans more azimuth than the range has
-        # around its start, e.g. a pass across north on a 0..450 rotator): fly the turn
-        # that holds most of it; the antenna waits at the limit for the rest.
-        best_cover = None
-        for flip, (a, e) in _base_trajectories(s_az, s_el, g.flip):
-            a, e = a - g.az_offset_deg, e - g.el_offset_deg
-            if e.min() < g.el_min_deg - EL_SLACK_DEG or e.max() > g.el_max_deg + EL_SLACK_DEG:
-                continue
-            for k in range(int(np.floor((g.az_min_deg - a.max()) / 360.0)),
-                           int(np.ceil((g.az_max_deg - a.min()) / 360.0)) + 1):
-                inside = float(np.mean((a + 360.0 * k >= g.az_min_deg) & (a + 360.0 * k <= g.az_max_deg)))
-                if best_cover is None or inside > best_cover[0]:
-                    best_cover = (inside, flip, a + 360.0 * k, e)
-        if best_cover is None or best_cover[0] == 0.0:
-            raise PlanError("the pass does not fit inside the azimuth/elevation limits on any wrap or flip")
-        inside, flip, a, e = best_cover
-        candidates = [(flip, np.clip(a, g.az_min_deg, g.az_max_deg), np.clip(e, g.el_min_deg, g.el_max_deg))]
-        notes.append(f"no wrap turn holds the whole pass: {100 * (1 - inside):.0f}% of it lies beyond the "
-                     "azimuth limits; the antenna waits at the limit there")
+        flip, a_best, e_best, note = _best_partial(t, s_az, s_el, g, RATE_BUDGET * az.max_rate_deg_per_s,
+                                                   RATE_BUDGET * el.max_rate_deg_per_s)
+        candidates = [(flip, a_best, e_best)]
+        notes.append(note)
 
     az_budget, el_budget = RATE_BUDGET * az.max_rate_deg_per_s, RATE_BUDGET * el.max_rate_deg_per_s
     best = None
