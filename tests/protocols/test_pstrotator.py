@@ -40,6 +40,10 @@ def still(b: Bench) -> bool:
 @pytest.fixture
 def pst(bench):
     b = bench("bigras")
+    # a fresh pulse-counting rotator estimates the middle of its first count above home
+    # (0.25 deg); re-reference so the replies start from round numbers
+    b.rot.set_position(0.0, 0.0)
+    b.run(0.1)
     return b, PstRotatorSession(b.rot)
 
 

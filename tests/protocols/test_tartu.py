@@ -32,6 +32,10 @@ def value(reply: bytes) -> float:
 @pytest.fixture
 def tartu(bench):
     b = bench("tartu-urc")
+    # a fresh encoder rotator estimates the middle of its first count above home
+    # (0.05 deg); re-reference so the replies start from round numbers
+    b.rot.set_position(0.0, 90.0)
+    b.run(0.1)
     return b, TartuSession(b.rot)
 
 

@@ -51,6 +51,9 @@ class _Axis:
         self.flim = settings.fault_limits(name)
         self.limits = settings.limits(name)
         self.modulo = self.caps.sensor.modulo_deg
+        # A counting sensor reads count k anywhere from edge k to edge k+1: its middle is
+        # the unbiased estimate (half a count is the whole error budget at the floor).
+        self.count_centre_deg = 0.0 if self.caps.sensor.absolute else 0.5 * self.caps.sensor.resolution_deg
         self.noisy = self.caps.sensor.noise_deg > 0
         self.meas_deg = 0.0
         self.rate_deg_per_s = 0.0
@@ -78,9 +81,14 @@ class _Axis:
         self._filter_rate = 0.0
 
     # ---- sensing ------------------------------------------------------------------
-    def set_reference(self, mech_deg: float) -> None:
-        """Make the sensor read ``mech_deg`` here (re-reference), in the controller's frame."""
-        self.hw.sensor.set_reference_deg(mech_deg if self.modulo is None else mech_deg % self.modulo)
+    def set_reference(self, mech_deg: float, at_edge: bool = False) -> None:
+        """Re-reference: the position estimate here becomes ``mech_deg``.
+
+        ``at_edge``: the antenna is known to sit on a count edge (a mechanical home is
+        one, like an index mark or a limit switch): ``mech_deg`` is then the lower edge of
+        the current count and the estimate its middle."""
+        ref = mech_deg - (0.0 if at_edge else self.count_centre_deg)
+        self.hw.sensor.set_reference_deg(ref if self.modulo is None else ref % self.modulo)
 
     def unwrap(self, raw_deg: float, near_deg: float) -> float:
         if self.modulo is None:
@@ -97,7 +105,7 @@ class _Axis:
         if not math.isfinite(raw):
             self.sensor_ok, self.sensor_error = False, f"non-finite reading {raw!r}"
             return None
-        mech = self.unwrap(raw, self.meas_deg)
+        mech = self.unwrap(raw + self.count_centre_deg, self.meas_deg)
         if self.noisy and self.sensor_ok and dt_s > 0:
             pred = self.meas_deg + self._filter_rate * dt_s
             resid = mech - pred
@@ -223,7 +231,7 @@ class Rotator:
     def _restore_incremental(self, ax: _Axis, saved: dict | None, damaged: bool, anchor: float) -> None:
         res = ax.caps.sensor.resolution_deg
         if saved is None:
-            ax.set_reference(anchor)
+            ax.set_reference(anchor, at_edge=True)  # resting at its mechanical home
             if damaged:
                 ax.uncertainty_deg = ax.caps.span_deg
             else:
@@ -329,8 +337,11 @@ class Rotator:
         now_pose = (az.meas_deg, el.meas_deg)
         ahead = (az.meas_deg + az.rate_deg_per_s * GUARD_LOOKAHEAD_S,
                  el.meas_deg + el.rate_deg_per_s * GUARD_LOOKAHEAD_S)
-        zone = self.geometry.zone_at(*ahead, margin_deg=0.0)
-        if zone is not None and self.geometry.zone_at(*now_pose, margin_deg=0.0) is None:
+        # a counting sensor can be a count off (pulse miscounts, the half-count estimate):
+        # a pose within a count of a zone is treated as entering it
+        count_deg = max(az.caps.sensor.resolution_deg, el.caps.sensor.resolution_deg)
+        zone = self.geometry.zone_at(*ahead, margin_deg=count_deg)
+        if zone is not None and self.geometry.zone_at(*now_pose, margin_deg=count_deg) is None:
             for ax in (az, el):
                 ax.out, ax.sp = law.OFF, None
             self._route = []
@@ -537,6 +548,10 @@ class Rotator:
 
         def apply() -> None:
             self._parked = False
+            if self._route or self._tracking:
+                # the other axis was flying a route or a track planned for both axes
+                # together; alone it could carry the jog into a zone: stop it too
+                self._stop_axes([n for n in AXES if n != axis])
             self._tracking = False
             self._route = []
             ax.sp = law.Setpoint(end, 0.0, self.clock.now_s(), speed_cap_deg_per_s=cap, seq=self._next_seq())
@@ -551,16 +566,20 @@ class Rotator:
         def apply() -> None:
             self._route = []
             self._tracking = False
-            for name in ([axis] if axis else AXES):
-                ax = self.axes[name]
-                if ax.tuning.drive == "relay" or ax.law.mode != "driving":
-                    ax.sp = None
-                    continue
-                lo, hi = ax.limits
-                rate = ax.law.ref_rate_deg_per_s
-                end = ax.law.ref_deg + math.copysign(stopping_distance_deg(rate, ax.tuning.accel_deg_per_s2), rate)
-                ax.sp = law.Setpoint(min(max(end, lo), hi), 0.0, self.clock.now_s(), seq=self._next_seq())
+            self._stop_axes([axis] if axis else list(AXES))
         self._submit("stop", apply)
+
+    def _stop_axes(self, names: list[str]) -> None:
+        """Decelerate at each axis' limit and hold where it comes to rest (relays: cut)."""
+        for name in names:
+            ax = self.axes[name]
+            if ax.tuning.drive == "relay" or ax.law.mode != "driving":
+                ax.sp = None
+                continue
+            lo, hi = ax.limits
+            rate = ax.law.ref_rate_deg_per_s
+            end = ax.law.ref_deg + math.copysign(stopping_distance_deg(rate, ax.tuning.accel_deg_per_s2), rate)
+            ax.sp = law.Setpoint(min(max(end, lo), hi), 0.0, self.clock.now_s(), seq=self._next_seq())
 
     def set_position(self, az_deg: float | None = None, el_deg: float | None = None) -> None:
         """Re-reference: declare where the antenna points now (Tartu WRAZ/WREL).
