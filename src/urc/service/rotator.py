@@ -51,8 +51,8 @@ class _Axis:
         self.flim = settings.fault_limits(name)
         self.limits = settings.limits(name)
         self.modulo = self.caps.sensor.modulo_deg
-        # A counting sensor reads count k anywhere from edge k to edge k+1 (see
-        # _count_estimate for how the position within the count is estimated).
+        # A counting sensor reads count k anywhere from edge k to edge k+1: its middle is
+        # the unbiased estimate (half a count is the whole error budget at the floor).
         self.count_centre_deg = 0.0 if self.caps.sensor.absolute else 0.5 * self.caps.sensor.resolution_deg
         self.noisy = self.caps.sensor.noise_deg > 0
         self.meas_deg = 0.0
@@ -79,42 +79,16 @@ class _Axis:
             maxlen=max(2, round(window_s * settings.caps.loop_hz) + 1))
         self._t_s = 0.0
         self._filter_rate = 0.0
-        # edge timing for counting sensors: (estimate, time) at the last tick
-        self._edge: tuple[float, float] | None = None
-        self._last_raw: float | None = None
-        self._start_offset_deg = self.count_centre_deg
 
     # ---- sensing ------------------------------------------------------------------
     def set_reference(self, mech_deg: float, at_edge: bool = False) -> None:
         """Re-reference: the position estimate here becomes ``mech_deg``.
 
         ``at_edge``: the antenna is known to sit on a count edge (a mechanical home is
-        one, like an index mark or a limit switch); otherwise it is somewhere in the
-        count and ``mech_deg`` is taken as the count's middle."""
+        one, like an index mark or a limit switch): ``mech_deg`` is then the lower edge of
+        the current count and the estimate its middle."""
         ref = mech_deg - (0.0 if at_edge else self.count_centre_deg)
         self.hw.sensor.set_reference_deg(ref if self.modulo is None else ref % self.modulo)
-        self._edge = None
-        self._start_offset_deg = 0.0 if at_edge else self.count_centre_deg
-
-    def _count_estimate(self, raw: float) -> float:
-        """Position from a counting sensor: the moment the count changes the axis is
-        exactly on the edge between the two counts; between changes it moves on at the
-        measured speed, but never out of the count it reads (edge timing). Far better
-        than the count's lower edge (biased by half a count while tracking) or its
-        middle (off by half a count after a stop, which happens right after an edge)."""
-        q = self.caps.sensor.resolution_deg
-        if self._edge is None or self._last_raw is None:
-            est = raw + self._start_offset_deg
-        elif raw > self._last_raw + 1e-9:
-            est = raw                               # crossed upwards into [raw, raw+q)
-        elif raw < self._last_raw - 1e-9:
-            est = raw + q                           # crossed downwards into [raw, raw+q)
-        else:                                       # still in the count: dead reckoning
-            est = self._edge[0] + self.rate_deg_per_s * (self._t_s - self._edge[1])
-        self._last_raw = raw
-        est = min(max(est, raw), raw + q)
-        self._edge = (est, self._t_s)
-        return est
 
     def unwrap(self, raw_deg: float, near_deg: float) -> float:
         if self.modulo is None:
@@ -131,9 +105,7 @@ class _Axis:
         if not math.isfinite(raw):
             self.sensor_ok, self.sensor_error = False, f"non-finite reading {raw!r}"
             return None
-        if not self.caps.sensor.absolute:
-            raw = self._count_estimate(raw)
-        mech = self.unwrap(raw, self.meas_deg)
+        mech = self.unwrap(raw + self.count_centre_deg, self.meas_deg)
         if self.noisy and self.sensor_ok and dt_s > 0:
             pred = self.meas_deg + self._filter_rate * dt_s
             resid = mech - pred
