@@ -77,3 +77,21 @@ def test_property_planned_routes_avoid_zones(a0, e0, az, el, zaz, zw, zel, zh):
     for a, b in zip(pts, pts[1:]):
         assert g.in_limits(*b)
         assert g.segment_clear(a, b, RATES) is None
+
+
+def test_start_inside_a_zone_leaves_straight_up_before_moving_on():
+    """Switched on inside the roof zone: the route first climbs out of it, it never
+    crosses deeper into the zone (found by the safety property test on g5500)."""
+    roof = KeepOut("roof", 330, 20, 0, 8)
+    g = Geometry(0, 450, 0, 180, zones=(roof,), zone_margin_deg=1.3)
+    route = g.plan((19.8, 0.1), 0.0, 9.0, RATES)
+    assert route is not None and route[0][0] == 19.8 and route[0][1] > 8.0
+    pts = [(19.8, 0.1)] + route
+    for a, b in zip(pts[1:], pts[2:]):
+        assert g.segment_clear(a, b, RATES) is None
+
+
+def test_starting_in_the_margin_band_may_not_enter_the_zone():
+    roof = KeepOut("roof", 330, 20, 0, 8)
+    g = Geometry(0, 450, 0, 90, zones=(roof,), zone_margin_deg=1.3)
+    assert g.segment_clear((21.0, 0.0), (0.0, 9.0), RATES) is not None

@@ -114,6 +114,9 @@ class Geometry:
         total = max(t_az, t_el)
         n = max(1, int(math.ceil(max(abs(a1 - a0), abs(e1 - e0)) / PATH_STEP_DEG)))
         been_outside = self.zone_at(a0, e0) is None
+        # starting in a zone's safety margin (not in the zone itself) only allows leaving
+        # the margin, never going into the zone
+        start_in_core = self.zone_at(a0, e0, margin_deg=0.0) is not None
         for i in range(1, n + 1):
             t = total * i / n
             a = a0 + (a1 - a0) * (min(t, t_az) / t_az if t_az else 1.0)
@@ -123,6 +126,8 @@ class Geometry:
                 been_outside = True
             elif been_outside:
                 return z
+            elif not start_in_core and (core := self.zone_at(a, e, margin_deg=0.0)) is not None:
+                return core
         return None
 
     def plan(self, start: tuple[float, float], az_deg: float, el_deg: float,
@@ -132,6 +137,18 @@ class Geometry:
         Tries every wrap/flip pose, each flown directly, elevation first, azimuth first,
         or over the top of the zones in the way. None if nothing is legal.
         """
+        inside = self.zone_at(*start, margin_deg=0.0)
+        if inside is not None:
+            # Starting inside a zone (switched on there, or pushed in): leave it straight
+            # up, the least exposure, then plan from outside.
+            exit_el = min(inside.el_max_deg - self.el_offset_deg + 2 * self.zone_margin_deg, self.el_max_deg)
+            if exit_el <= start[1]:
+                return None
+            exit_pose = (start[0], exit_el)
+            if self.zone_at(*exit_pose, margin_deg=0.0) is not None:
+                return None
+            rest = self.plan(exit_pose, az_deg, el_deg, rates)
+            return None if rest is None else [exit_pose] + rest
         best: tuple[float, list[tuple[float, float]]] | None = None
         for pose in self.candidates(az_deg, el_deg):
             if self.zone_at(*pose, margin_deg=0.0) is not None:
@@ -164,14 +181,16 @@ class Geometry:
         direction = 1.0 if limit_deg >= pos else -1.0
         n = int(abs(limit_deg - pos) / PATH_STEP_DEG)
         been_outside = self.zone_at(a0, e0) is None
+        start_in_core = self.zone_at(a0, e0, margin_deg=0.0) is not None
         last_ok = pos
         for i in range(1, n + 2):
             p = pos + direction * min(i * PATH_STEP_DEG, abs(limit_deg - pos))
-            z = self.zone_at(p, e0) if axis == "az" else self.zone_at(a0, p)
+            pose = (p, e0) if axis == "az" else (a0, p)
+            z = self.zone_at(*pose)
             if z is None:
                 been_outside = True
                 last_ok = p
-            elif been_outside:
+            elif been_outside or (not start_in_core and self.zone_at(*pose, margin_deg=0.0) is not None):
                 return last_ok
             else:
                 last_ok = p
