@@ -84,7 +84,7 @@ def test_start_inside_a_zone_leaves_straight_up_before_moving_on():
     crosses deeper into the zone (found by the safety property test on g5500)."""
     roof = KeepOut("roof", 330, 20, 0, 8)
     g = Geometry(0, 450, 0, 180, zones=(roof,), zone_margin_deg=1.3)
-    route = g.plan((19.8, 0.1), 0.0, 9.0, RATES)
+    route = g.plan((19.8, 0.1), 0.0, 12.0, RATES)
     assert route is not None and route[0][0] == 19.8 and route[0][1] > 8.0
     pts = [(19.8, 0.1)] + route
     for a, b in zip(pts[1:], pts[2:]):
