@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import asyncio
 import os
-from typing import Any, Literal
+from typing import Any
 
 from fastapi import Depends, FastAPI
 from fastapi.responses import JSONResponse
@@ -23,6 +23,7 @@ from .service import Rotator
 from .service.calibration import CalibrationError
 from .web import WebContext, install
 from .web.live import FRAME_HZ, Hub
+from .web.routes_live import MoveRequest, StopRequest
 from .web.security import SecurityHeaders, control_guard
 from .web.settings_store import SettingsStore
 
@@ -30,16 +31,6 @@ from .web.settings_store import SettingsStore
 class GotoRequest(BaseModel):
     az_deg: float = Field(allow_inf_nan=False)
     el_deg: float = Field(allow_inf_nan=False)
-
-
-class MoveRequest(BaseModel):
-    axis: Literal["az", "el"]
-    direction: Literal[-1, 1]
-    speed: float = Field(1.0, gt=0.0, le=1.0, description="fraction of the axis' top speed")
-
-
-class StopRequest(BaseModel):
-    axis: Literal["az", "el"] | None = None
 
 
 class PositionRequest(BaseModel):

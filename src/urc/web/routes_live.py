@@ -14,13 +14,17 @@ from .context import WebContext
 from .live import JOG_LEASE_S
 
 
-class JogRequest(BaseModel):
+class MoveRequest(BaseModel):
+    """Move (jog) one axis; also the body of the control API's /api/move."""
+
     axis: Literal["az", "el"]
     direction: Literal[-1, 1]
     speed: float = Field(1.0, gt=0.0, le=1.0, description="fraction of the axis' top speed")
 
 
-class JogRelease(BaseModel):
+class StopRequest(BaseModel):
+    """One axis, or both (None); also the body of the control API's /api/stop."""
+
     axis: Literal["az", "el"] | None = None
 
 
@@ -67,14 +71,14 @@ def router(ctx: WebContext) -> APIRouter:
         return ctx.hub.history.select(which, seconds=seconds, since_wall_s=since, max_points=max_points)
 
     @r.post("/api/jog", dependencies=control)
-    async def jog(req: JogRequest) -> dict:
+    async def jog(req: MoveRequest) -> dict:
         """Start or renew a press-and-hold jog. It stops by itself unless renewed within
         ``jog_lease_s`` (the page renews while the button is held)."""
         ctx.hub.jog(req.axis, req.direction, req.speed)
         return {"ok": True, "lease_s": JOG_LEASE_S}
 
     @r.post("/api/jog/release", dependencies=control)
-    async def jog_release(req: JogRelease | None = None) -> dict:
+    async def jog_release(req: StopRequest | None = None) -> dict:
         ctx.hub.release(req.axis if req else None)
         return {"ok": True}
 
