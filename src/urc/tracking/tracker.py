@@ -58,7 +58,6 @@ class Tracker:
         self.follow_satellite = False
         self.last_error = ""
         self._next_update_s = -math.inf
-        self._last_sky: tuple[float, float] | None = None
         self._ground_cache: tuple | None = None
 
     # ------------------------------------------------------------------ commands
@@ -84,7 +83,6 @@ class Tracker:
         self.job = None
         self.follow_satellite = False
         self.last_error = ""
-        self._last_sky = None
 
     # ------------------------------------------------------------------ planning
     def _axis_limits(self) -> tuple[AxisLimits, AxisLimits]:
@@ -169,7 +167,6 @@ class Tracker:
             return
         az_rate, el_rate = self.target.rate(u)
         self.rot.track(az, el, az_rate, el_rate, now_s)
-        self._last_sky = (az, el)
         self.last_error = ""
 
     # ------------------------------------------------------------------ status
