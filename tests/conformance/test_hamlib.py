@@ -132,5 +132,9 @@ def test_out_of_range_is_refused_and_nothing_moves(urc):
     assert res.returncode != 0 or "error" in (res.stdout + res.stderr).lower()
     time.sleep(0.5)
     after = urc.status()
-    assert not after["moving"]
-    assert after["az_deg"] == pytest.approx(before["az_deg"], abs=0.3)
+    # "moving" is no test here: in the wind the berkeley's gear play lets the antenna
+    # drift and the holding controller corrects it. What matters is that the refused
+    # command set no new target and the antenna stays where it was.
+    assert (after["target_az_deg"], after["target_el_deg"]) == (before["target_az_deg"], before["target_el_deg"])
+    assert after["az_deg"] == pytest.approx(before["az_deg"], abs=1.0)
+    assert after["el_deg"] == pytest.approx(before["el_deg"], abs=1.0)
