@@ -95,23 +95,27 @@ def main() -> None:
             for driver in ("urc", "gpredict"):
                 with tempfile.TemporaryDirectory() as tmp:
                     t0 = time.process_time()
-                    rot, plan, st = fly_pass_on_sim(profile, es, station, p, Path(tmp), flip=flip, driver=driver)
+                    rot, plan, st, plan_st = fly_pass_on_sim(profile, es, station, p, Path(tmp), flip=flip,
+                                                             driver=driver)
                     rows.append({"profile": profile, "scenario": name, "driver": driver, "max_el_deg": p.max_el_deg,
                                  "flip": bool(plan.flip) if plan else None, **st.as_dict(),
+                                 "plan_rms_deg": plan_st.rms_deg if plan_st else None,
                                  "floor_deg": floor_deg(profile), "faults": [f.kind for f in rot.status().faults],
                                  "cpu_s": time.process_time() - t0})
         with tempfile.TemporaryDirectory() as tmp:
             st = sun_track(profile, Path(tmp))
             rows.append({"profile": profile, "scenario": "sun 30 min", "driver": "urc", "max_el_deg": None,
-                         "flip": None, **st.as_dict(), "floor_deg": floor_deg(profile), "faults": [], "cpu_s": None})
+                         "flip": None, **st.as_dict(), "plan_rms_deg": None, "floor_deg": floor_deg(profile), "faults": [], "cpu_s": None})
         print(f"{profile}: done", file=sys.stderr, flush=True)
-    print("\nPointing error vs simulator truth (deg); floor = q/sqrt(12); x floor = RMS / floor")
+    print("\nPointing error vs simulator truth (deg); floor = q/sqrt(12); x floor = RMS / floor;"
+          "\nplan RMS = the plan's own error (a perfect rotator flying it): > 0 where the geometry forbids better")
     print(f"{'profile':13s} {'scenario':16s} {'driver':8s} {'RMS':>6s} {'p95':>6s} {'max':>6s} {'<0.1%':>6s} "
-          f"{'<0.5%':>6s} {'AOS err':>7s} {'floor':>6s} {'x floor':>7s} {'flip':>5s}")
+          f"{'<0.5%':>6s} {'AOS err':>7s} {'floor':>6s} {'x floor':>7s} {'planRMS':>7s} {'flip':>5s}")
     for r in rows:
+        plan_rms = "" if r["plan_rms_deg"] is None else f"{r['plan_rms_deg']:.3f}"
         print(f"{r['profile']:13s} {r['scenario']:16s} {r['driver']:8s} {r['rms_deg']:6.3f} {r['p95_deg']:6.3f} "
               f"{r['max_deg']:6.3f} {r['within_0_1_pct']:6.1f} {r['within_0_5_pct']:6.1f} {r['aos_error_deg']:7.3f} "
-              f"{r['floor_deg']:6.3f} {r['rms_deg'] / r['floor_deg']:7.1f} {str(r['flip']):>5s}")
+              f"{r['floor_deg']:6.3f} {r['rms_deg'] / r['floor_deg']:7.1f} {plan_rms:>7s} {str(r['flip']):>5s}")
     write_json(rows, args.json)
 
 

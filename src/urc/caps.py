@@ -54,6 +54,15 @@ class AxisCaps:
     limit_switches: bool = False
     #: on/off drives: stop this far before the target to absorb coasting (Tartu OVRA).
     overshoot_deg: float = 0.0
+    #: a target slower than ``min_rate_deg_per_s`` is followed in bursts, each of which
+    #: overtakes it by this much, so the error swings evenly around zero. About one
+    #: sensor count (the default, None) plus what coast and gear play add; tuned per
+    #: machine like the overshoot.
+    creep_lead_deg: float | None = None
+
+    @property
+    def effective_creep_lead_deg(self) -> float:
+        return self.sensor.resolution_deg if self.creep_lead_deg is None else self.creep_lead_deg
 
     @property
     def span_deg(self) -> float:

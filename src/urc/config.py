@@ -163,6 +163,7 @@ class AxisControl(_Section):
     kp_per_s: float = _num(6.0, ge=0.0)
     ki_per_s2: float = _num(1.0, ge=0.0)
     overshoot_deg: float | None = _num(None, ge=0.0)
+    creep_lead_deg: float | None = _num(None, ge=0.0)
 
 
 class ControlSection(_Section):
@@ -394,6 +395,7 @@ class Config(_Section):
                 "kp_per_s": float(c.kp_per_s),
                 "ki_per_s2": float(c.ki_per_s2),
                 "overshoot_deg": _pick(c.overshoot_deg, axis.overshoot_deg),
+                "creep_lead_deg": _pick(c.creep_lead_deg, axis.effective_creep_lead_deg),
             }
         return out
 

@@ -14,6 +14,8 @@ DEFAULT_PROFILE = "tartu-urc"
 _ENCODER_10PPD = SensorCaps(kind="encoder", resolution_deg=0.1, absolute=False)
 _AS5600 = SensorCaps(kind="as5600", resolution_deg=360.0 / 4096, absolute=True, modulo_deg=360.0)
 
+# creep_lead_deg: found on the simulator with a slow ramp (0.3 deg/s az, 0.05 deg/s el)
+# as the lead that centres the error swing; where absent, one sensor count does.
 PROFILES: dict[str, RotatorCaps] = {
     # Tartu University STM32 controller: 400 deg azimuth, 0-180 elevation, 360 deg/min,
     # 10 pulses/degree incremental encoders, a brake that needs voltage to release.
@@ -22,11 +24,11 @@ PROFILES: dict[str, RotatorCaps] = {
         description="Tartu URC (STM32): encoders 10 p/deg, brake, 400 deg az, 0-180 el",
         az=AxisCaps(name="az", min_deg=0.0, max_deg=400.0, park_deg=0.0,
                     max_rate_deg_per_s=6.0, min_rate_deg_per_s=0.6, accel_deg_per_s2=12.0,
-                    sensor=_ENCODER_10PPD, tolerance_deg=0.1, restart_deg=0.2,
+                    sensor=_ENCODER_10PPD, tolerance_deg=0.1, restart_deg=0.2, creep_lead_deg=0.08,
                     brake=True, brake_release_s=0.15, brake_engage_s=0.1),
         el=AxisCaps(name="el", min_deg=0.0, max_deg=180.0, park_deg=90.0,
                     max_rate_deg_per_s=6.0, min_rate_deg_per_s=0.6, accel_deg_per_s2=12.0,
-                    sensor=_ENCODER_10PPD, tolerance_deg=0.1, restart_deg=0.2,
+                    sensor=_ENCODER_10PPD, tolerance_deg=0.1, restart_deg=0.2, creep_lead_deg=0.08,
                     brake=True, brake_release_s=0.15, brake_engage_s=0.1),
         command_sets=("urc", "rotctld"),
     ),
@@ -39,12 +41,12 @@ PROFILES: dict[str, RotatorCaps] = {
                     max_rate_deg_per_s=3.6, min_rate_deg_per_s=0.4, accel_deg_per_s2=6.0,
                     sensor=SensorCaps(kind="magnetometer", resolution_deg=0.1, absolute=True,
                                       modulo_deg=360.0, noise_deg=0.15),
-                    tolerance_deg=0.3, restart_deg=0.8),
+                    tolerance_deg=0.3, restart_deg=0.8, creep_lead_deg=0.15),
         el=AxisCaps(name="el", min_deg=0.0, max_deg=90.0, park_deg=0.0,
                     max_rate_deg_per_s=3.6, min_rate_deg_per_s=0.4, accel_deg_per_s2=6.0,
                     sensor=SensorCaps(kind="magnetometer", resolution_deg=0.1, absolute=True,
                                       noise_deg=0.1),
-                    tolerance_deg=0.3, restart_deg=0.8),
+                    tolerance_deg=0.3, restart_deg=0.8, creep_lead_deg=0.15),
         command_sets=("sarcnet", "easycomm", "rotctld"),
     ),
     # AlfaSpid BIG-RAS (ESP32): pulse feedback, limit switches, minimum-speed ramps,
@@ -55,11 +57,11 @@ PROFILES: dict[str, RotatorCaps] = {
         az=AxisCaps(name="az", min_deg=0.0, max_deg=450.0, park_deg=0.0,
                     max_rate_deg_per_s=4.0, min_rate_deg_per_s=0.8, accel_deg_per_s2=4.0,
                     sensor=SensorCaps(kind="pulse", resolution_deg=0.5, absolute=False),
-                    tolerance_deg=0.5, restart_deg=1.0, limit_switches=True),
+                    tolerance_deg=0.5, restart_deg=1.0, limit_switches=True, creep_lead_deg=0.6),
         el=AxisCaps(name="el", min_deg=0.0, max_deg=90.0, park_deg=0.0,
                     max_rate_deg_per_s=2.0, min_rate_deg_per_s=0.5, accel_deg_per_s2=3.0,
                     sensor=SensorCaps(kind="pulse", resolution_deg=0.5, absolute=False),
-                    tolerance_deg=0.5, restart_deg=1.0, limit_switches=True),
+                    tolerance_deg=0.5, restart_deg=1.0, limit_switches=True, creep_lead_deg=0.6),
         command_sets=("gs232a", "gs232b", "spid", "rotctld", "pstrotator"),
     ),
     # G4JNT PIC controller: potentiometer read ratiometrically through a 10-bit ADC,
@@ -78,7 +80,7 @@ PROFILES: dict[str, RotatorCaps] = {
                     sensor=SensorCaps(kind="pot", resolution_deg=0.25, absolute=True,
                                       noise_deg=0.06),
                     drive="relay", drive_levels=(0.25, 1.0),
-                    tolerance_deg=0.3, restart_deg=0.6, overshoot_deg=0.15),
+                    tolerance_deg=0.3, restart_deg=0.6, overshoot_deg=0.15, creep_lead_deg=0.45),
         command_sets=("g4jnt", "rotctld"),
     ),
     # Berkeley automatic rotor (ESP32): fast geared DC motors, AS5600 absolute encoders,
@@ -109,7 +111,7 @@ PROFILES: dict[str, RotatorCaps] = {
                     sensor=SensorCaps(kind="pot", resolution_deg=180.0 / 1024, absolute=True,
                                       noise_deg=0.05),
                     drive="relay", drive_levels=(1.0,),
-                    tolerance_deg=0.2, restart_deg=0.5, overshoot_deg=0.15),
+                    tolerance_deg=0.2, restart_deg=0.5, overshoot_deg=0.15, creep_lead_deg=0.4),
         command_sets=("gs232a", "gs232b", "rotctld"),
     ),
 }

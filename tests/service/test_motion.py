@@ -39,6 +39,40 @@ def test_holds_without_chattering(bench, profile):
     assert on_edges == 0
 
 
+@pytest.mark.parametrize("profile,axis,rate_deg_per_s", [
+    ("tartu-urc", "az", -0.3), ("tartu-urc", "el", 0.05),      # PWM, encoder, brake
+    ("bigras", "az", -0.3), ("bigras", "el", 0.05),            # PWM, pulse counter, play
+    ("g5500", "az", -0.3), ("g5500", "el", 0.05),              # relay, pot
+])
+def test_slow_target_error_swings_around_zero(bench, profile, axis, rate_deg_per_s):
+    """A target slower than the motor's slowest speed (a low LEO pass's azimuth, the
+    Sun) is followed in bursts that overtake it, so the true error swings around zero
+    at about a sensor count, instead of always lagging."""
+    b = bench(profile)
+    start = {"az": 100.0, "el": 20.0}
+    b.rot.goto(start["az"], start["el"])
+    b.settle()
+    t0 = b.clock.now_s()
+    errs, next_s = [], [t0]
+
+    def on_tick(s):
+        target = start[axis] + rate_deg_per_s * (s.t_s - t0)
+        if s.t_s >= next_s[0]:  # the tracker's cadence
+            pose = dict(start, **{axis: target})
+            rates = {"az": 0.0, "el": 0.0, axis: rate_deg_per_s}
+            b.rot.track_pose(pose["az"], pose["el"], rates["az"], rates["el"], s.t_s)
+            next_s[0] = s.t_s + 0.2
+        if s.t_s > t0 + 5.0:
+            errs.append(s.sim_truth[axis]["deg"] - target)
+    b.run(60.0, on_tick=on_tick)
+    q = b.rot.caps.axis(axis).sensor.resolution_deg
+    mean = sum(errs) / len(errs)
+    rms = math.sqrt(sum(e * e for e in errs) / len(errs))
+    assert abs(mean) < 0.3 * q, f"biased: mean error {mean:+.3f} deg, count {q:.3f}"
+    assert rms < 0.6 * q, f"rms {rms:.3f} deg, count {q:.3f}"
+    assert not b.rot.status().faults
+
+
 def test_wrap_uses_the_overlap_not_the_long_way(bench):
     b = bench("g5500")  # 0..450 azimuth
     b.rot.goto(350.0, 10.0)

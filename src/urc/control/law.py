@@ -33,6 +33,8 @@ KICK_MAX_DUTY = 0.6
 #: after overshooting, creep back this many times at most, then settle where it is
 #: (within restart_deg): more attempts is the hunting that wears relays out.
 MAX_REVERSALS = 2
+#: ahead of a target slower than the motor, wait up to this long for it to catch up
+CREEP_WAIT_S = 2.0
 #: after this long holding a static target the brake engages even while tracking.
 BRAKE_AFTER_HOLD_S = 2.0
 #: the axis counts as standing still for coast learning after this long without motion.
@@ -57,6 +59,8 @@ class AxisTuning:
     brake_release_s: float = 0.0
     #: initial coast estimate for relay drives (the learnt value lives in the state).
     overshoot_deg: float = 0.0
+    #: how far each burst overtakes a target slower than the motor's slowest speed
+    creep_lead_deg: float = 0.1
 
     @property
     def limits(self) -> ProfileLimits:
@@ -136,11 +140,11 @@ def step(st: AxisState, sp: Setpoint | None, meas_deg: float, now_s: float, dt_s
     target_deg = sp.target_at(now_s)
     tracking = abs(sp.rate_deg_per_s) >= tun.min_rate_deg_per_s
     # A target slower than the motor's slowest steady speed is followed in short bursts.
-    # Each burst overtakes it by half the tolerance (PWM here; the relay law does its
+    # Each burst overtakes it by the axis's creep lead (PWM here; the relay law does its
     # own), so the error swings evenly around zero instead of always lagging.
     creeping = not tracking and sp.rate_deg_per_s != 0.0
     if creeping and tun.drive == "pwm":
-        target_deg += math.copysign(0.5 * tun.tolerance_deg, sp.rate_deg_per_s)
+        target_deg += math.copysign(tun.creep_lead_deg, sp.rate_deg_per_s)
     error_deg = target_deg - meas_deg
 
     if sp.seq != st.seq:
@@ -158,6 +162,11 @@ def step(st: AxisState, sp: Setpoint | None, meas_deg: float, now_s: float, dt_s
         # a relay following a moving target restarts at the tolerance, not the wider
         # settling band: the target keeps walking away, so waiting costs accuracy
         band = tun.tolerance_deg if tracking or creeping else tun.restart_deg
+        if creeping and error_deg * sp.rate_deg_per_s < 0:
+            # ahead of a slow target: it comes to us. Driving back would only start a
+            # back-and-forth (gear play throws the antenna past the aim point); go back
+            # only when it would take the target long to catch up.
+            band = max(tun.restart_deg, CREEP_WAIT_S * abs(sp.rate_deg_per_s)) + tun.creep_lead_deg
         if abs(error_deg) <= band and not (tracking and tun.drive == "pwm"):
             return _hold(st, meas_deg, now_s, tun,
                          brake_released=_keep_brake_off(st, now_s, tun, tracking or creeping))
@@ -204,12 +213,14 @@ def _pwm(st: AxisState, sp: Setpoint, target_deg: float, error_deg: float, meas_
     ref, ref_rate, arrived = advance(st.ref_deg, st.ref_rate_deg_per_s, target_deg, sp.rate_deg_per_s,
                                      tun.limits, dt_s, sp.speed_cap_deg_per_s)
     arrived = arrived or st.arrived
+    if creeping and (abs(error_deg) <= 0.5 * tun.tolerance_deg or _crossed(st, error_deg)):
+        # a creeping target's burst ends as soon as the (overtaking) aim point is
+        # within half the tolerance: one count per burst keeps the error swing small
+        return _hold(st, meas_deg, now_s, tun, brake_released=tun.brake)
     if arrived and not tracking:
         ref, ref_rate = target_deg, 0.0
-        # a creeping target's burst ends on reaching the (overtaking) aim point, not as
-        # soon as the error is inside the band it just left
-        if abs(error_deg) <= (0.25 if creeping else 1.0) * tun.tolerance_deg or (creeping and _crossed(st, error_deg)):
-            return _hold(st, meas_deg, now_s, tun, brake_released=creeping and tun.brake)
+        if abs(error_deg) <= tun.tolerance_deg:
+            return _hold(st, meas_deg, now_s, tun, brake_released=False)
         if _crossed(st, error_deg):
             if st.reversals >= MAX_REVERSALS and abs(error_deg) < tun.restart_deg:
                 return _hold(st, meas_deg, now_s, tun, brake_released=False)
@@ -246,9 +257,9 @@ def _relay(st: AxisState, target_deg: float, target_rate: float, error_deg: floa
     remaining = error_deg * st.approach_sign
     fast, slow = len(levels) - 1, 0
     slow_rate = levels[slow] * tun.max_rate_deg_per_s
-    # A moving target in the direction of travel is overtaken by half the tolerance, so
+    # A moving target in the direction of travel is overtaken by the creep lead, so
     # the error swings evenly around zero between bursts instead of always lagging.
-    lead = 0.5 * tun.tolerance_deg if target_rate * st.approach_sign > 0 else 0.0
+    lead = tun.creep_lead_deg if target_rate * st.approach_sign > 0 else 0.0
     # Go slow once within a couple of fast-coast distances plus a second of slow running,
     # unless the target itself moves faster than the slow speed can follow.
     slow_zone = 2.0 * st.coast_deg[fast] + slow_rate * 1.0 + tun.restart_deg

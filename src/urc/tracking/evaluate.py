@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Callable
+from typing import Callable, NamedTuple
 
 import numpy as np
 
@@ -95,11 +95,22 @@ class GpredictDriver:
                 pass
 
 
+class FlownPass(NamedTuple):
+    rotator: object
+    plan: object | None             # the pass plan (None for the Gpredict-style driver)
+    stats: PointingStats            # the antenna's true pointing error
+    #: the pointing error of the plan itself at the same instants: what a perfect
+    #: rotator flying the plan would achieve (the geometry's share of the error: a pass
+    #: wider than the azimuth range, a keyhole on a rotator that cannot flip)
+    plan_stats: PointingStats | None
+
+
 def fly_pass_on_sim(profile: str, elements, station, p, state_dir, *, flip: bool = False,
-                    driver: str = "urc", lead_s: float = 240.0, config: dict | None = None):
-    """Fly pass ``p`` on a fresh simulated rotator; returns (rotator, plan|None, stats)."""
+                    driver: str = "urc", lead_s: float = 240.0, config: dict | None = None) -> FlownPass:
+    """Fly pass ``p`` on a fresh simulated rotator."""
     from ..app import build_rotator
     from ..config import Config
+    from .planner import pointing_error_deg
     from .propagate import look_angles
     from .targets import SatelliteTarget
     from .tracker import Tracker
@@ -123,4 +134,10 @@ def fly_pass_on_sim(profile: str, elements, station, p, state_dir, *, flip: bool
     t, az, el = fly(rot, clock, step, unix_at, p.los_unix_s)
     up = (t >= p.aos_unix_s) & (t <= p.los_unix_s)
     la = look_angles(elements, station, t[up])
-    return rot, plan, PointingStats.of(great_circle_deg(az[up], el[up], la.az_deg, la.el_deg))
+    stats = PointingStats.of(great_circle_deg(az[up], el[up], la.az_deg, la.el_deg))
+    plan_stats = None
+    if plan is not None:
+        plan_az = np.interp(t[up], plan.t_s, plan.az_deg)
+        plan_el = np.interp(t[up], plan.t_s, plan.el_deg)
+        plan_stats = PointingStats.of(pointing_error_deg(plan_az, plan_el, la.az_deg, la.el_deg, rot.geometry))
+    return FlownPass(rot, plan, stats, plan_stats)

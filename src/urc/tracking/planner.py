@@ -94,7 +94,7 @@ def _rate_limit(x: np.ndarray, t: np.ndarray, max_rate: float) -> np.ndarray:
     return 0.5 * (fwd + bwd)
 
 
-def _pointing_error_deg(az_m, el_m, sky_az, sky_el, g: Geometry) -> np.ndarray:
+def pointing_error_deg(az_m, el_m, sky_az, sky_el, g: Geometry) -> np.ndarray:
     """Great-circle angle between where mechanical poses point and the sky track."""
     from .evaluate import great_circle_deg
     az = az_m + g.az_offset_deg
@@ -146,7 +146,7 @@ def _best_partial(t, s_az, s_el, g: Geometry, az_budget: float, el_budget: float
     def flown(a, e):
         fa = np.clip(_rate_limit(a, t, az_budget), lo, hi) if _peak_rate(a, t) > az_budget else a
         fe = np.clip(_rate_limit(e, t, el_budget), g.el_min_deg, g.el_max_deg) if _peak_rate(e, t) > el_budget else e
-        err = _pointing_error_deg(fa, fe, s_az, s_el, g)
+        err = pointing_error_deg(fa, fe, s_az, s_el, g)
         return float(np.sqrt(np.mean(err ** 2))), a, e
 
     for flip, (a, e) in _base_trajectories(s_az, s_el, g.flip):
@@ -212,7 +212,7 @@ def plan_pass(t_s: np.ndarray, sky_az_deg: np.ndarray, sky_el_deg: np.ndarray, g
         # what the axes can really fly: rate-limited where the sky track is too fast
         fa = np.clip(_rate_limit(a, t, az_budget), g.az_min_deg, g.az_max_deg) if _peak_rate(a, t) > az_budget else a
         fe = np.clip(_rate_limit(e, t, el_budget), g.el_min_deg, g.el_max_deg) if _peak_rate(e, t) > el_budget else e
-        err = _pointing_error_deg(fa, fe, s_az, s_el, g)
+        err = pointing_error_deg(fa, fe, s_az, s_el, g)
         travel_s = max(abs(fa[0] - start_pose[0]) / az.max_rate_deg_per_s,
                        abs(fe[0] - start_pose[1]) / el.max_rate_deg_per_s)
         # the smallest worst-case pointing error wins (to 0.05 deg: below that the
