@@ -64,6 +64,14 @@ def test_clear_until_stops_before_zone():
     assert 78 < end < 80
 
 
+def test_clear_until_from_inside_a_zone_only_leaves_the_shortest_way():
+    g = Geometry(0, 360, 0, 90, zones=(KeepOut("roof", 330, 20, 0, 8),), zone_margin_deg=0.5)
+    assert g.clear_until((0, 7), "el", 0) == 7          # down: no way out, stays put
+    assert g.clear_until((0, 7), "el", 90) == 90        # up: out of it
+    assert 329 < g.clear_until((5, 7), "az", 360) < 330  # out at 20, stops before it again
+    assert g.clear_until((5, 7), "az", 0) == 5          # 35 deg through the roof the other way
+
+
 @settings(max_examples=300, deadline=None)
 @given(st.floats(0, 450), st.floats(0, 90), st.floats(0, 359.9), st.floats(0, 90),
        st.floats(0, 359), st.floats(1, 60), st.floats(0, 60), st.floats(1, 40))

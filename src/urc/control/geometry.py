@@ -182,6 +182,13 @@ class Geometry:
         n = int(abs(limit_deg - pos) / PATH_STEP_DEG)
         been_outside = self.zone_at(a0, e0) is None
         start_in_core = self.zone_at(a0, e0, margin_deg=0.0) is not None
+        if start_in_core:
+            # inside a zone: only the shortest way out, never deeper in
+            lo, hi = (self.az_min_deg, self.az_max_deg) if axis == "az" else (self.el_min_deg, self.el_max_deg)
+            here = self._exit_distance(start, axis, direction, hi if direction > 0 else lo)
+            there = self._exit_distance(start, axis, -direction, lo if direction > 0 else hi)
+            if here is None or (there is not None and there < here):
+                return pos
         last_ok = pos
         for i in range(1, n + 2):
             p = pos + direction * min(i * PATH_STEP_DEG, abs(limit_deg - pos))
@@ -195,6 +202,20 @@ class Geometry:
             else:
                 last_ok = p
         return limit_deg
+
+    def _exit_distance(self, start: tuple[float, float], axis: str, direction: float,
+                       limit_deg: float) -> float | None:
+        """How far one axis must move from inside a zone (core) to leave it, or None if
+        it cannot before ``limit_deg``."""
+        a0, e0 = start
+        pos = a0 if axis == "az" else e0
+        n = int(abs(limit_deg - pos) / PATH_STEP_DEG)
+        for i in range(1, n + 2):
+            d = min(i * PATH_STEP_DEG, abs(limit_deg - pos))
+            p = pos + direction * d
+            if self.zone_at(*((p, e0) if axis == "az" else (a0, p)), margin_deg=0.0) is None:
+                return d
+        return None
 
 
 def _route_time(points: list[tuple[float, float]], rates: tuple[float, float]) -> float:
