@@ -143,8 +143,12 @@ def step(st: AxisState, sp: Setpoint | None, meas_deg: float, now_s: float, dt_s
     # Each burst overtakes it by the axis's creep lead (PWM here; the relay law does its
     # own), so the error swings evenly around zero instead of always lagging.
     creeping = not tracking and sp.rate_deg_per_s != 0.0
-    if creeping and tun.drive == "pwm":
-        target_deg += math.copysign(tun.creep_lead_deg, sp.rate_deg_per_s)
+    lead_deg = math.copysign(tun.creep_lead_deg, sp.rate_deg_per_s) if creeping else 0.0
+    # past the overtaking point of a slow target (a slew that came from the far side,
+    # gear play that threw the antenna on): aim at the target itself, it comes to us
+    ahead = creeping and (meas_deg - target_deg - lead_deg) * sp.rate_deg_per_s > 0.0
+    if creeping and tun.drive == "pwm" and not ahead:
+        target_deg += lead_deg
     error_deg = target_deg - meas_deg
 
     if sp.seq != st.seq:
@@ -162,10 +166,10 @@ def step(st: AxisState, sp: Setpoint | None, meas_deg: float, now_s: float, dt_s
         # a relay following a moving target restarts at the tolerance, not the wider
         # settling band: the target keeps walking away, so waiting costs accuracy
         band = tun.tolerance_deg if tracking or creeping else tun.restart_deg
-        if creeping and error_deg * sp.rate_deg_per_s < 0:
-            # ahead of a slow target: it comes to us. Driving back would only start a
-            # back-and-forth (gear play throws the antenna past the aim point); go back
-            # only when it would take the target long to catch up.
+        if ahead:
+            # wait for it: driving back would start a back-and-forth (each burst leaves
+            # the antenna up to a lead past the target); go back only when it would
+            # take the target long to catch up
             band = max(tun.restart_deg, CREEP_WAIT_S * abs(sp.rate_deg_per_s)) + tun.creep_lead_deg
         if abs(error_deg) <= band and not (tracking and tun.drive == "pwm"):
             return _hold(st, meas_deg, now_s, tun,
