@@ -54,6 +54,9 @@ class AxisCaps:
     limit_switches: bool = False
     #: on/off drives: stop this far before the target to absorb coasting (Tartu OVRA).
     overshoot_deg: float = 0.0
+    #: gear play between the motor and the sensor (a sensor on the antenna side): the
+    #: motor turns this far, reversing, before the sensor sees any motion.
+    backlash_deg: float = 0.0
     #: a target slower than ``min_rate_deg_per_s`` is followed in bursts, each of which
     #: overtakes it by this much, so the error swings evenly around zero. About one
     #: sensor count (the default, None) plus what coast and gear play add; tuned per

@@ -73,6 +73,26 @@ def test_slow_target_error_swings_around_zero(bench, profile, axis, rate_deg_per
     assert not b.rot.status().faults
 
 
+def test_bursts_after_long_holds_do_not_harden_the_kick(bench):
+    """Between the bursts that follow a slow target the axis holds for seconds; that is
+    not a motor refusing to turn, so the learnt breakaway duty must not grow at every
+    burst (on berkeley it ended as ±55 % slams back and forth across the gear play)."""
+    b = bench("berkeley")
+    b.rot.goto(100.0, 20.0)
+    b.settle()
+    t0 = b.clock.now_s()
+    next_s = [t0]
+
+    def on_tick(s):
+        if s.t_s >= next_s[0]:
+            b.rot.track_pose(100.0, 20.0 + 0.03 * (s.t_s - t0), 0.0, 0.03, s.t_s)
+            next_s[0] = s.t_s + 0.2
+    b.run(90.0, on_tick=on_tick)
+    el = b.rot.axes["el"]
+    assert el.law.kick_duty <= 1.25 * el.tuning.min_duty + 1e-9, el.law.kick_duty
+    assert abs(b.truth("el") - (20.0 + 0.03 * (b.clock.now_s() - t0))) < 0.3
+
+
 def test_wrap_uses_the_overlap_not_the_long_way(bench):
     b = bench("g5500")  # 0..450 azimuth
     b.rot.goto(350.0, 10.0)

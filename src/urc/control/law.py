@@ -61,6 +61,8 @@ class AxisTuning:
     overshoot_deg: float = 0.0
     #: how far each burst overtakes a target slower than the motor's slowest speed
     creep_lead_deg: float = 0.1
+    #: gear play the sensor does not see the motor cross (sensor on the antenna side)
+    backlash_deg: float = 0.0
 
     @property
     def limits(self) -> ProfileLimits:
@@ -158,7 +160,8 @@ def step(st: AxisState, sp: Setpoint | None, meas_deg: float, now_s: float, dt_s
                      approach_sign=math.copysign(1.0, error_deg) if error_deg else 0.0,
                      mode="driving" if st.mode == "holding" else st.mode)
         if restart:
-            st = replace(st, ref_deg=meas_deg, ref_rate_deg_per_s=0.0, integral_deg_s=0.0)
+            st = replace(st, ref_deg=meas_deg, ref_rate_deg_per_s=0.0, integral_deg_s=0.0,
+                         kick_anchor_deg=meas_deg, kick_since_s=now_s)
         if st.mode != "releasing" and abs(error_deg) <= tun.tolerance_deg and not tracking:
             return _hold(st, meas_deg, now_s, tun, brake_released=st.mode == "driving")
 
@@ -174,9 +177,11 @@ def step(st: AxisState, sp: Setpoint | None, meas_deg: float, now_s: float, dt_s
         if abs(error_deg) <= band and not (tracking and tun.drive == "pwm"):
             return _hold(st, meas_deg, now_s, tun,
                          brake_released=_keep_brake_off(st, now_s, tun, tracking or creeping))
+        # (the stiction clock starts now: the time spent holding is not time stuck)
         st = replace(st, mode="driving", ref_deg=meas_deg, ref_rate_deg_per_s=0.0,
                      integral_deg_s=0.0, arrived=False,
-                     approach_sign=math.copysign(1.0, error_deg))
+                     approach_sign=math.copysign(1.0, error_deg),
+                     kick_anchor_deg=meas_deg, kick_since_s=now_s)
 
     if tun.brake and st.mode == "driving" and st.phase_until_s == 0.0:
         # The brake needs voltage (and time) to release before the motor may pull.
@@ -246,7 +251,8 @@ def _pwm(st: AxisState, sp: Setpoint, target_deg: float, error_deg: float, meas_
     if duty and abs(duty) < kick and abs(error_deg) > tun.tolerance_deg:
         # Below this the motor hums but does not turn (stiction): push at the minimum,
         # and raise the minimum if even that leaves the axis standing.
-        if now_s - since > KICK_WAIT_S:
+        # (crossing the gear play at the minimum speed is not standing still)
+        if now_s - since > KICK_WAIT_S + tun.backlash_deg / tun.min_rate_deg_per_s:
             kick, since = min(KICK_MAX_DUTY, kick * KICK_GAIN), now_s
         duty = math.copysign(kick, duty)
     duty = max(-1.0, min(1.0, duty))

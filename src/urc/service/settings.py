@@ -16,7 +16,7 @@ def default_tuning(ax: AxisCaps) -> AxisTuning:
         accel_deg_per_s2=ax.accel_deg_per_s2, tolerance_deg=ax.tolerance_deg,
         restart_deg=ax.restart_deg, drive=ax.drive, drive_levels=ax.drive_levels,
         brake=ax.brake, brake_release_s=ax.brake_release_s, overshoot_deg=ax.overshoot_deg,
-        creep_lead_deg=ax.effective_creep_lead_deg)
+        creep_lead_deg=ax.effective_creep_lead_deg, backlash_deg=ax.backlash_deg)
 
 
 def default_fault_limits(ax: AxisCaps, lo: float, hi: float) -> FaultLimits:
