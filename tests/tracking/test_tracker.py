@@ -4,6 +4,8 @@ target positions."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 from skyfield.api import EarthSatellite, wgs84
@@ -54,10 +56,11 @@ def test_full_pass_every_profile(tmp_path, leo_sets, station, profile):
     c = PROFILES[profile]
     band = max(c.az.restart_deg, c.el.restart_deg) + quantum(profile)
     assert stats.aos_error_deg <= band + 0.5, stats
-    # regression guards, not the goal: bench/tracking_bench.py measures against the
-    # quantisation floor (slow targets are followed in bursts; berkeley has 1.5 deg play)
-    assert stats.rms_deg <= 1.0, stats
-    assert stats.p95_deg <= 1.5, stats
+    # regression guards, not the goal (bench/tracking_bench.py measures that): within
+    # 3x the quantisation floor q/sqrt(12), or 0.15 deg where noise or gear play rule
+    bound = max(3 * quantum(profile) / math.sqrt(12), 0.15)
+    assert stats.rms_deg <= bound, stats
+    assert stats.p95_deg <= 2 * bound, stats
 
 
 def test_keyhole_pass_is_flown_over_the_top(tmp_path, leo_sets):
