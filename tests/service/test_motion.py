@@ -174,6 +174,30 @@ def test_keepout_goto_goes_around_and_move_stops_short(bench):
         b.rot.goto(90.0, 10.0)  # inside the mast
 
 
+@pytest.mark.parametrize("profile", ["tartu-urc", "berkeley"])
+def test_track_updates_across_a_zone_stop_at_its_edge(bench, profile):
+    """A tracker that keeps sending poses on the far side of a zone (straight through
+    it) must not inch the antenna in: each new update restarts the drive, and a drive
+    that has only just started shows no speed for the guard to extrapolate."""
+    mast = {"name": "mast", "az_min_deg": 80.0, "az_max_deg": 100.0, "el_min_deg": 0.0, "el_max_deg": 20.0}
+    b = bench(profile, keepout=[mast])
+    b.rot.goto(60.0, 10.0)
+    b.settle()
+    poses, next_s = [], [b.clock.now_s()]
+
+    def on_tick(s):
+        if s.t_s >= next_s[0]:
+            try:
+                b.rot.track_pose(120.0, 10.0, 0.0, 0.0, s.t_s)
+            except CommandRejected:
+                pass
+            next_s[0] = s.t_s + 0.2
+        poses.append((s.sim_truth["az"]["deg"], s.sim_truth["el"]["deg"]))
+    b.run(40.0, on_tick=on_tick)
+    assert max(a for a, _ in poses) < 80.0, "went into the mast"
+    assert max(a for a, _ in poses) > 75.0  # it did go as far as the edge
+
+
 def test_set_offsets_map_pointing(bench):
     b = bench("berkeley", offsets={"az_deg": 5.0})
     b.rot.goto(100.0, 10.0)

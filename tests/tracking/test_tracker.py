@@ -47,7 +47,7 @@ def quantum(profile: str) -> float:
 def test_full_pass_every_profile(tmp_path, leo_sets, station, profile):
     es = iss(leo_sets)
     p = max(find_passes(es, station, T0_UNIX_S, duration_s=86400, min_el_deg=10), key=lambda p: p.max_el_deg)
-    rot, plan, stats, plan_stats = fly_pass(tmp_path, profile, es, station, p)
+    rot, plan, stats, plan_stats, *_ = fly_pass(tmp_path, profile, es, station, p)
     assert not rot.status().faults
     # this pass fits every profile's range and speeds: the plan itself is exact, so all
     # of the error measured is the rotator's
@@ -69,7 +69,7 @@ def test_keyhole_pass_is_flown_over_the_top(tmp_path, leo_sets):
     p = max(find_passes(es, station, T0_UNIX_S + 3000.0, duration_s=1800, min_el_deg=0),
             key=lambda p: p.max_el_deg)
     assert p.max_el_deg > 85.0
-    rot, plan, stats, plan_stats = fly_pass(tmp_path, "tartu-urc", es, station, p, flip=True)
+    rot, plan, stats, plan_stats, *_ = fly_pass(tmp_path, "tartu-urc", es, station, p, flip=True)
     assert plan.flip, plan.summary()
     # over the top, geometry costs only the few seconds around culmination where the
     # azimuth would have to turn faster than the motor can (the pass misses the zenith)
@@ -84,12 +84,36 @@ def test_keyhole_without_flip_is_rate_limited_not_lost(tmp_path, leo_sets):
     station = overhead_station(es, T0_UNIX_S + 3600.0)
     p = max(find_passes(es, station, T0_UNIX_S + 3000.0, duration_s=1800, min_el_deg=0),
             key=lambda p: p.max_el_deg)
-    rot, plan, stats, plan_stats = fly_pass(tmp_path, "bigras", es, station, p)  # el 0..90: cannot flip
+    rot, plan, stats, plan_stats, *_ = fly_pass(tmp_path, "bigras", es, station, p)  # el 0..90: cannot flip
     assert not plan.flip and plan.rate_limited
     assert plan_stats.rms_deg > 1.0, plan_stats  # the keyhole costs, by geometry, before any control error
     assert plan.peak_az_rate_deg_per_s <= 0.9 * PROFILES["bigras"].az.max_rate_deg_per_s + 1e-6
     assert stats.p95_deg < 30.0  # the swing is spread, not lost
     assert not rot.status().faults
+
+
+def test_pass_behind_a_keepout_zone_goes_round_it_and_never_into_it(tmp_path, leo_sets, station):
+    """A tree stands where the pass culminates, reaching above it: the antenna waits at
+    its edge while the satellite is behind it, flies over it to rejoin the track, and is
+    never inside it — pre-positioning included."""
+    from urc.control.geometry import KeepOut
+    from urc.tracking.propagate import look_angles
+    es = iss(leo_sets)
+    p = min(find_passes(es, station, T0_UNIX_S, duration_s=86400, min_el_deg=10), key=lambda p: p.max_el_deg)
+    tca_az = float(look_angles(es, station, np.array([p.tca_unix_s])).az_deg[0])
+    tree = KeepOut("tree", (tca_az - 5.0) % 360.0, (tca_az + 5.0) % 360.0, 0.0, p.max_el_deg + 5.0)
+    zone = {"name": tree.name, "az_min_deg": tree.az_min_deg, "az_max_deg": tree.az_max_deg,
+            "el_min_deg": 0.0, "el_max_deg": tree.el_max_deg}
+    flown = fly_pass_on_sim("tartu-urc", es, station, p, tmp_path / "tree", config={"keepout": [zone]})
+    t, az, el = flown.flight
+    inner = KeepOut("inner", tree.az_min_deg + 1.0, tree.az_max_deg - 1.0, 0.0, tree.el_max_deg - 1.0)
+    assert not any(inner.contains(a, e) for a, e in zip(az, el)), "the antenna went into the tree"
+    assert flown.plan.blocked.any() and not flown.rotator.status().faults
+    assert flown.stats.aos_error_deg < 0.5, flown.stats               # pre-positioned in time
+    behind = (flown.plan.blocked.argmax(), len(flown.plan.blocked) - flown.plan.blocked[::-1].argmax())
+    rejoin_s = flown.plan.t_s[behind[1] - 1] + 60.0                      # a minute after it reappears
+    after = t[(t >= p.aos_unix_s) & (t <= p.los_unix_s)] >= rejoin_s
+    assert np.percentile(flown.error_deg[after], 95) < 0.3               # back on the track
 
 
 def test_planner_uses_the_overlap_for_a_pass_crossing_north():

@@ -45,6 +45,20 @@ class KeepOut:
             return True
         return (wrap360(az_deg) - lo) % 360.0 <= width
 
+    def depth_deg(self, az_deg: float, el_deg: float) -> float:
+        """How far inside the zone a direction is (degrees to its nearest edge, along
+        az or el); negative outside (minus the distance to the zone)."""
+        width = self.az_max_deg - self.az_min_deg
+        if width <= 0.0:
+            width += 360.0
+        rel = (wrap360(az_deg) - self.az_min_deg) % 360.0
+        d_az = min(rel, width - rel) if rel <= width else -min(rel - width, 360.0 - rel)
+        if self.el_min_deg <= el_deg <= self.el_max_deg:
+            d_el = min(el_deg - self.el_min_deg, self.el_max_deg - el_deg)
+        else:
+            d_el = -min(abs(el_deg - self.el_min_deg), abs(el_deg - self.el_max_deg))
+        return min(d_az, d_el)
+
 
 @dataclass(frozen=True)
 class Geometry:
@@ -77,6 +91,17 @@ class Geometry:
         m = self.zone_margin_deg if margin_deg is None else margin_deg
         for z in self.zones:
             if z.contains(az, el, m):
+                return z
+        return None
+
+    def deeper_into_zone(self, now: tuple[float, float], ahead: tuple[float, float],
+                         margin_deg: float) -> KeepOut | None:
+        """The zone that moving from pose ``now`` to pose ``ahead`` goes into: from
+        outside into the zone grown by ``margin_deg``, or deeper into it from within."""
+        sky_now, sky_ahead = self.to_sky(*now), self.to_sky(*ahead)
+        for z in self.zones:
+            d_now, d_ahead = z.depth_deg(*sky_now), z.depth_deg(*sky_ahead)
+            if d_ahead > -margin_deg and d_ahead > d_now + 1e-3:
                 return z
         return None
 
@@ -156,7 +181,7 @@ class Geometry:
             for route in self._routes(start, pose):
                 if any(self.segment_clear(a, b, rates) for a, b in zip([start] + route, route)):
                     continue
-                t = _route_time([start] + route, rates)
+                t = route_time_s([start] + route, rates)
                 if pose[1] > 90.0:
                     t += 1e-3  # prefer the unflipped pose when it is just as fast
                 if best is None or t < best[0] - 1e-9:
@@ -218,6 +243,7 @@ class Geometry:
         return None
 
 
-def _route_time(points: list[tuple[float, float]], rates: tuple[float, float]) -> float:
+def route_time_s(points: list[tuple[float, float]], rates: tuple[float, float]) -> float:
+    """Travel time along a route at full speed, both axes moving together."""
     return sum(max(abs(b[0] - a[0]) / rates[0], abs(b[1] - a[1]) / rates[1])
                for a, b in zip(points, points[1:]))

@@ -335,13 +335,23 @@ class Rotator:
             return
         az, el = self.axes["az"], self.axes["el"]
         now_pose = (az.meas_deg, el.meas_deg)
-        ahead = (az.meas_deg + az.rate_deg_per_s * GUARD_LOOKAHEAD_S,
-                 el.meas_deg + el.rate_deg_per_s * GUARD_LOOKAHEAD_S)
         # a counting sensor can be a count off (pulse miscounts, the half-count estimate):
         # a pose within a count of a zone is treated as entering it
         count_deg = max(az.caps.sensor.resolution_deg, el.caps.sensor.resolution_deg)
-        zone = self.geometry.zone_at(*ahead, margin_deg=count_deg)
-        if zone is not None and self.geometry.zone_at(*now_pose, margin_deg=count_deg) is None:
+
+        def ahead_deg(ax: _Axis) -> float:
+            step = ax.rate_deg_per_s * GUARD_LOOKAHEAD_S
+            # a drive that has only just started shows no speed yet: it still heads
+            # where it pushes (else restarts could inch the antenna into a zone), and
+            # across gear play the sensor cannot see it throws the antenna that far on
+            start_deg = count_deg + ax.tuning.backlash_deg
+            if ax.out.duty and step * ax.out.duty < start_deg:
+                step = math.copysign(start_deg, ax.out.duty)
+            return ax.meas_deg + step
+        ahead = (ahead_deg(az), ahead_deg(el))
+        # (from inside the margin, or a zone, only motion that gets no deeper is let on)
+        zone = self.geometry.deeper_into_zone(now_pose, ahead, margin_deg=count_deg)
+        if zone is not None:
             for ax in (az, el):
                 ax.out, ax.sp = law.OFF, None
             self._route = []
@@ -411,10 +421,7 @@ class Rotator:
         start = self._current_pose()
         pose = self._explicit_pose(az_deg, el_deg)
         if pose is not None:
-            route = g.plan(start, *g.to_sky(*pose), self._rates())
-            route = None if route is None else route[:-1] + [pose]
-            if route is not None and g.segment_clear((route[-2] if len(route) > 1 else start), pose, self._rates()):
-                route = None
+            route = self._route_to_pose(pose)
         else:
             if not (-90.0 <= el_deg <= 90.0):
                 raise CommandRejected(f"elevation {el_deg:g} outside -90..90", "limit")
@@ -429,6 +436,39 @@ class Rotator:
                                   f"path to it lies in a keep-out zone ({zones})", "keepout")
         return route
 
+    def _route_to_pose(self, pose: tuple[float, float]) -> list[tuple[float, float]] | None:
+        """A legal route (round keep-out zones) to one mechanical pose, or None."""
+        g, start = self.geometry, self._current_pose()
+        route = g.plan(start, *g.to_sky(*pose), self._rates())
+        route = None if route is None else route[:-1] + [pose]
+        if route is not None and g.segment_clear((route[-2] if len(route) > 1 else start), pose, self._rates()):
+            route = None
+        return route
+
+    def goto_pose(self, az_m_deg: float, el_m_deg: float) -> list[tuple[float, float]]:
+        """Fly round any keep-out zone to one *mechanical* pose (wrap and flip chosen
+        by the pass planner). Returns the planned waypoints."""
+        self._require_motion_ok(automatic=True)
+        if not (math.isfinite(az_m_deg) and math.isfinite(el_m_deg)):
+            raise CommandRejected(f"pose {az_m_deg!r}, {el_m_deg!r} is not finite", "invalid")
+        g = self.geometry
+        if not g.in_limits(az_m_deg, el_m_deg, slack_deg=1e-6):
+            raise CommandRejected(f"pose az {az_m_deg:g}, el {el_m_deg:g} outside the limits", "limit")
+        route = self._route_to_pose((az_m_deg, el_m_deg))
+        if route is None:
+            raise CommandRejected(f"no legal path to pose az {az_m_deg:g}, el {el_m_deg:g}: it or every "
+                                  "path to it lies in a keep-out zone", "keepout")
+        self._target_sky = g.to_sky(az_m_deg, el_m_deg)
+        self._submit_route("goto_pose", route)
+        return route
+
+    def _submit_route(self, name: str, route: list[tuple[float, float]]) -> None:
+        def apply() -> None:
+            self._parked = False
+            self._tracking = False
+            self._start_route(route)
+        self._submit(name, apply)
+
     def goto(self, az_deg: float, el_deg: float) -> list[tuple[float, float]]:
         """Point at sky (az, el). Returns the planned mechanical waypoints."""
         self._require_motion_ok(automatic=True)
@@ -439,12 +479,7 @@ class Rotator:
         # The target is known from now on (not from the next tick), so that a goto_el
         # right after a goto_az in the same breath keeps the azimuth just asked for.
         self._target_sky = target
-
-        def apply() -> None:
-            self._parked = False
-            self._tracking = False
-            self._start_route(route)
-        self._submit("goto", apply)
+        self._submit_route("goto", route)
         return route
 
     def goto_az(self, az_deg: float) -> list[tuple[float, float]]:

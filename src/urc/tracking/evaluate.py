@@ -103,6 +103,11 @@ class FlownPass(NamedTuple):
     #: rotator flying the plan would achieve (the geometry's share of the error: a pass
     #: wider than the azimuth range, a keyhole on a rotator that cannot flip)
     plan_stats: PointingStats | None
+    #: (utc_s, az_deg, el_deg): where the antenna truly pointed at every tick, from the
+    #: start (pre-positioning included) to LOS
+    flight: tuple[np.ndarray, np.ndarray, np.ndarray]
+    #: the pointing error at every tick between AOS and LOS
+    error_deg: np.ndarray
 
 
 def fly_pass_on_sim(profile: str, elements, station, p, state_dir, *, flip: bool = False,
@@ -116,8 +121,8 @@ def fly_pass_on_sim(profile: str, elements, station, p, state_dir, *, flip: bool
     from .tracker import Tracker
 
     cfg = {"rotator": {"profile": profile, "flip": flip}, "hardware": {"sim": {"wind": False}}}
-    for k, v in (config or {}).items():
-        cfg.setdefault(k, {}).update(v)
+    for k, v in (config or {}).items():  # sections merge; lists (keepout) replace
+        cfg[k] = {**cfg.get(k, {}), **v} if isinstance(v, dict) else v
     clock = VirtualClock(0.0)
     rot = build_rotator(Config.from_dict(cfg), clock, state_dir, fast_virtual=True)
     start_u = p.aos_unix_s - lead_s
@@ -134,10 +139,11 @@ def fly_pass_on_sim(profile: str, elements, station, p, state_dir, *, flip: bool
     t, az, el = fly(rot, clock, step, unix_at, p.los_unix_s)
     up = (t >= p.aos_unix_s) & (t <= p.los_unix_s)
     la = look_angles(elements, station, t[up])
-    stats = PointingStats.of(great_circle_deg(az[up], el[up], la.az_deg, la.el_deg))
+    err = great_circle_deg(az[up], el[up], la.az_deg, la.el_deg)
+    stats = PointingStats.of(err)
     plan_stats = None
     if plan is not None:
         plan_az = np.interp(t[up], plan.t_s, plan.az_deg)
         plan_el = np.interp(t[up], plan.t_s, plan.el_deg)
         plan_stats = PointingStats.of(pointing_error_deg(plan_az, plan_el, la.az_deg, la.el_deg, rot.geometry))
-    return FlownPass(rot, plan, stats, plan_stats)
+    return FlownPass(rot, plan, stats, plan_stats, (t, az, el), err)

@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..control.geometry import Geometry
+from ..control.geometry import Geometry, route_time_s
 from .errors import TrackingError
 
 #: start pre-positioning this long before it is strictly needed
@@ -207,14 +207,19 @@ def plan_pass(t_s: np.ndarray, sky_az_deg: np.ndarray, sky_el_deg: np.ndarray, g
         notes.append(note)
 
     az_budget, el_budget = RATE_BUDGET * az.max_rate_deg_per_s, RATE_BUDGET * el.max_rate_deg_per_s
+    rates = (az.max_rate_deg_per_s, el.max_rate_deg_per_s)
     best = None
     for flip, a, e in candidates:
         # what the axes can really fly: rate-limited where the sky track is too fast
         fa = np.clip(_rate_limit(a, t, az_budget), g.az_min_deg, g.az_max_deg) if _peak_rate(a, t) > az_budget else a
         fe = np.clip(_rate_limit(e, t, el_budget), g.el_min_deg, g.el_max_deg) if _peak_rate(e, t) > el_budget else e
         err = pointing_error_deg(fa, fe, s_az, s_el, g)
-        travel_s = max(abs(fa[0] - start_pose[0]) / az.max_rate_deg_per_s,
-                       abs(fe[0] - start_pose[1]) / el.max_rate_deg_per_s)
+        travel_s = route_time_s([start_pose, (fa[0], fe[0])], rates)
+        if g.zones and g.segment_clear(start_pose, (fa[0], fe[0]), rates) is not None:
+            # the way to the AOS pose goes round a keep-out zone: time that route
+            route = g.plan(start_pose, *g.to_sky(fa[0], fe[0]), rates)
+            if route is not None:
+                travel_s = route_time_s([start_pose] + route, rates)
         # the smallest worst-case pointing error wins (to 0.05 deg: below that the
         # servo decides); then no flip; then the shorter pre-positioning move
         cost = (round(float(err.max()) / 0.05), flip, travel_s)

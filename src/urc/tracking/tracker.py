@@ -19,6 +19,7 @@ from typing import Any, Callable
 
 import numpy as np
 
+from ..control.geometry import route_time_s
 from ..errors import CommandRejected
 from .elements import ElementSet
 from .passes import Pass, find_passes
@@ -32,6 +33,9 @@ log = logging.getLogger(__name__)
 UPDATE_S = 0.2
 #: pass track sample step for planning
 PLAN_STEP_S = 1.0
+#: a route round a keep-out zone may take this much longer than its travel at full speed
+ROUTE_SLACK_S = 3.0
+
 #: how far ahead the next pass of a followed satellite is searched
 SEARCH_HOURS = 24.0
 EARTH_RADIUS_KM = 6371.0
@@ -59,6 +63,7 @@ class Tracker:
         self.last_error = ""
         self._next_update_s = -math.inf
         self._ground_cache: tuple | None = None
+        self._route_until_s = -math.inf  # a routed move round a zone runs until then
 
     # ------------------------------------------------------------------ commands
     def track(self, target: Target, now_s: float) -> None:
@@ -148,7 +153,8 @@ class Tracker:
         if u < plan.t_s[0]:
             if u >= plan.preposition_start_s and job.state == "waiting":
                 az, el = plan.aos_pose
-                self.rot.track_pose(az, el, 0.0, 0.0, now_s)
+                if not self._go_round_zones(az, el, now_s):
+                    self.rot.track_pose(az, el, 0.0, 0.0, now_s)
                 job.state = "prepositioning"
                 log.info("pre-positioning for %s at az %.1f el %.1f", job.target.name, az, el)
             return
@@ -156,8 +162,31 @@ class Tracker:
         i = int(np.clip(np.searchsorted(plan.t_s, u), 0, len(plan.t_s) - 1))
         if plan.blocked[i]:
             return  # inside a keep-out zone: wait at its edge
+        if now_s < self._route_until_s and self.rot.status().moving:
+            return  # flying round a zone to rejoin the track
         az, el, az_rate, el_rate = plan.pose_at(u)
+        if self._go_round_zones(az, el, now_s, plan, u):
+            return
         self.rot.track_pose(az, el, az_rate, el_rate, now_s)
+
+    def _go_round_zones(self, az_m: float, el_m: float, now_s: float, plan: Plan | None = None,
+                        u: float = 0.0) -> bool:
+        """If the straight way from the antenna to a pose crosses a keep-out zone (the
+        track came out from behind one, a pre-positioning move), fly a route round it,
+        to where the track will be on arrival; True if so."""
+        st = self.rot.status()
+        here = (st.az.pos_deg, st.el.pos_deg)
+        g = self.rot.geometry
+        rates = tuple(lim.max_rate_deg_per_s for lim in self._axis_limits())
+        if not g.zones or g.segment_clear(here, (az_m, el_m), rates) is None:
+            return False
+        if plan is not None:  # aim where the track will be once the route is flown
+            route = g.plan(here, *g.to_sky(az_m, el_m), rates) or [(az_m, el_m)]
+            az_m, el_m, _, _ = plan.pose_at(u + route_time_s([here] + route, rates))
+        route = self.rot.goto_pose(az_m, el_m)
+        self._route_until_s = now_s + route_time_s([here] + route, rates) + ROUTE_SLACK_S
+        log.info("going round a keep-out zone to az %.1f el %.1f", az_m, el_m)
+        return True
 
     def _step_continuous(self, now_s: float) -> None:
         u = self.unix_at(now_s)
