@@ -13,6 +13,7 @@ error instead of lagging behind the whole way.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -49,6 +50,8 @@ class Plan:
     blocked: np.ndarray             # samples inside a keep-out zone (the antenna waits there)
     preposition_start_s: float      # leave for the AOS pose at this time
     notes: tuple[str, ...] = field(default_factory=tuple)
+    peak_az_accel_deg_per_s2: float = 0.0
+    peak_el_accel_deg_per_s2: float = 0.0
 
     @property
     def aos_pose(self) -> tuple[float, float]:
@@ -71,8 +74,15 @@ class Plan:
         return {"flip": self.flip, "wrap_turns": self.wrap_turns, "aos_pose": self.aos_pose,
                 "peak_az_rate_deg_per_s": round(self.peak_az_rate_deg_per_s, 3),
                 "peak_el_rate_deg_per_s": round(self.peak_el_rate_deg_per_s, 3),
+                "peak_az_accel_deg_per_s2": round(self.peak_az_accel_deg_per_s2, 3),
+                "peak_el_accel_deg_per_s2": round(self.peak_el_accel_deg_per_s2, 3),
                 "rate_limited": self.rate_limited, "blocked_fraction": float(self.blocked.mean()),
                 "preposition_start_s": self.preposition_start_s, "notes": list(self.notes)}
+
+
+def _budget(limits: AxisLimits) -> AxisLimits:
+    """What the plan may use of an axis: headroom for the servo to correct errors."""
+    return AxisLimits(RATE_BUDGET * limits.max_rate_deg_per_s, RATE_BUDGET * limits.accel_deg_per_s2)
 
 
 class PlanError(TrackingError, ValueError):
@@ -109,6 +119,37 @@ def _peak_rate(x: np.ndarray, t: np.ndarray) -> float:
     return float(np.max(np.abs(np.diff(x) / np.diff(t)))) if len(x) > 1 else 0.0
 
 
+def _peak_accel(x: np.ndarray, t: np.ndarray) -> float:
+    if len(x) < 3:
+        return 0.0
+    rate = np.diff(x) / np.diff(t)
+    return float(np.max(np.abs(np.diff(rate) / np.diff(t)[1:])))
+
+
+def _accel_limit(x: np.ndarray, t: np.ndarray, max_rate: float, max_accel: float) -> np.ndarray:
+    """A moving average over 2 max_rate / max_accel seconds: the corners of a rate-limited
+    track become ramps the axis can follow (a mean of rate-limited samples is itself
+    rate-limited, and stays within the limits the samples are within)."""
+    dt = float(np.median(np.diff(t)))
+    w = int(math.ceil(2.0 * max_rate / max_accel / dt)) | 1  # odd: centred
+    if w < 3:
+        return x
+    padded = np.concatenate([np.full(w // 2, x[0]), x, np.full(w // 2, x[-1])])
+    return np.convolve(padded, np.ones(w) / w, mode="valid")
+
+
+def _flyable(x: np.ndarray, t: np.ndarray, lo: float, hi: float, budget: AxisLimits) -> np.ndarray:
+    """What an axis can really fly of track ``x``: rate-limited where it is too fast,
+    acceleration-limited where it turns too sharply, within lo..hi. The same array when
+    the track needs neither."""
+    out = x
+    if _peak_rate(out, t) > budget.max_rate_deg_per_s:
+        out = np.clip(_rate_limit(out, t, budget.max_rate_deg_per_s), lo, hi)
+    if _peak_accel(out, t) > budget.accel_deg_per_s2:
+        out = np.clip(_accel_limit(out, t, budget.max_rate_deg_per_s, budget.accel_deg_per_s2), lo, hi)
+    return out
+
+
 def _base_trajectories(s_az: np.ndarray, s_el: np.ndarray, can_flip: bool):
     """(flip, (az, el)) before wrap offsets: the plain track, and on rotators whose
     elevation reaches 180, the all-flipped track and the two over-the-top tracks, which switch to the other pose
@@ -134,7 +175,7 @@ def _base_trajectories(s_az: np.ndarray, s_el: np.ndarray, can_flip: bool):
 UNWIND_CANDIDATES = 120
 
 
-def _best_partial(t, s_az, s_el, g: Geometry, az_budget: float, el_budget: float):
+def _best_partial(t, s_az, s_el, g: Geometry, az_budget: AxisLimits, el_budget: AxisLimits):
     """No wrap turn holds the whole pass (it spans more azimuth than the range has around
     it, e.g. a pass across north on a 0..360 rotator). Two ways out, whichever loses
     less pointing (RMS over the pass): fly the turn that holds most of it and wait at
@@ -144,8 +185,8 @@ def _best_partial(t, s_az, s_el, g: Geometry, az_budget: float, el_budget: float
     options = []  # (rms, flip, az, el, note)
 
     def flown(a, e):
-        fa = np.clip(_rate_limit(a, t, az_budget), lo, hi) if _peak_rate(a, t) > az_budget else a
-        fe = np.clip(_rate_limit(e, t, el_budget), g.el_min_deg, g.el_max_deg) if _peak_rate(e, t) > el_budget else e
+        fa = _flyable(a, t, lo, hi, az_budget)
+        fe = _flyable(e, t, g.el_min_deg, g.el_max_deg, el_budget)
         err = pointing_error_deg(fa, fe, s_az, s_el, g)
         return float(np.sqrt(np.mean(err ** 2))), a, e
 
@@ -201,18 +242,16 @@ def plan_pass(t_s: np.ndarray, sky_az_deg: np.ndarray, sky_el_deg: np.ndarray, g
             candidates.append((flip, a + 360.0 * k, np.clip(e, g.el_min_deg, g.el_max_deg)))
     notes = []
     if not candidates:
-        flip, a_best, e_best, note = _best_partial(t, s_az, s_el, g, RATE_BUDGET * az.max_rate_deg_per_s,
-                                                   RATE_BUDGET * el.max_rate_deg_per_s)
+        flip, a_best, e_best, note = _best_partial(t, s_az, s_el, g, _budget(az), _budget(el))
         candidates = [(flip, a_best, e_best)]
         notes.append(note)
 
-    az_budget, el_budget = RATE_BUDGET * az.max_rate_deg_per_s, RATE_BUDGET * el.max_rate_deg_per_s
+    az_budget, el_budget = _budget(az), _budget(el)
     rates = (az.max_rate_deg_per_s, el.max_rate_deg_per_s)
     best = None
     for flip, a, e in candidates:
-        # what the axes can really fly: rate-limited where the sky track is too fast
-        fa = np.clip(_rate_limit(a, t, az_budget), g.az_min_deg, g.az_max_deg) if _peak_rate(a, t) > az_budget else a
-        fe = np.clip(_rate_limit(e, t, el_budget), g.el_min_deg, g.el_max_deg) if _peak_rate(e, t) > el_budget else e
+        fa = _flyable(a, t, g.az_min_deg, g.az_max_deg, az_budget)
+        fe = _flyable(e, t, g.el_min_deg, g.el_max_deg, el_budget)
         err = pointing_error_deg(fa, fe, s_az, s_el, g)
         travel_s = route_time_s([start_pose, (fa[0], fe[0])], rates)
         if g.zones and g.segment_clear(start_pose, (fa[0], fe[0]), rates) is not None:
@@ -229,7 +268,7 @@ def plan_pass(t_s: np.ndarray, sky_az_deg: np.ndarray, sky_el_deg: np.ndarray, g
     rate_limited = not (a_fly is a and e_fly is e)
     if rate_limited:
         notes.append(f"the sky track needs {_peak_rate(a, t):.1f} deg/s in azimuth at the fastest (keyhole); "
-                     f"flown rate-limited, worst pointing error {worst:.2f} deg")
+                     f"flown within the axes' speed and acceleration, worst pointing error {worst:.2f} deg")
     a, e = a_fly, e_fly
     blocked = np.array([g.zone_at(x, y, margin_deg=0.0) is not None for x, y in zip(a, e)], dtype=bool)
     if blocked.any():
@@ -240,5 +279,6 @@ def plan_pass(t_s: np.ndarray, sky_az_deg: np.ndarray, sky_el_deg: np.ndarray, g
     wrap = int(np.floor((a[0] + g.az_offset_deg) / 360.0))
     return Plan(t_s=t, sky_az_deg=s_az, sky_el_deg=s_el, az_deg=a, el_deg=e, flip=flip, wrap_turns=wrap,
                 peak_az_rate_deg_per_s=_peak_rate(a, t), peak_el_rate_deg_per_s=_peak_rate(e, t),
+                peak_az_accel_deg_per_s2=_peak_accel(a, t), peak_el_accel_deg_per_s2=_peak_accel(e, t),
                 rate_limited=rate_limited, blocked=blocked, preposition_start_s=max(start, now_s),
                 notes=tuple(notes))

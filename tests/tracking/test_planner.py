@@ -1,0 +1,76 @@
+"""Pass planner properties, for any pass over any rotator (hypothesis): the planned
+trajectory stays within the limits, within the axes' speed and acceleration, and out of
+keep-out zones (samples behind a zone are marked blocked: the tracker waits at the edge
+and flies a route round the zone to rejoin, see test_tracker.py)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from urc.control.geometry import Geometry, KeepOut
+from urc.tracking.planner import AxisLimits, PlanError, plan_pass
+
+#: (az_min, az_max, el_max): 0-360, overlap to 450, SARCNET-like -90..450, Tartu, G-5500
+RANGES = [(0.0, 360.0, 90.0), (0.0, 450.0, 90.0), (-90.0, 450.0, 90.0), (0.0, 400.0, 180.0),
+          (0.0, 450.0, 180.0)]
+
+
+def great_circle_pass(tca_az_deg: float, max_el_deg: float, rate_deg_per_s: float, sense: int):
+    """A satellite on a great circle, horizon to horizon: ``max_el_deg`` at culmination
+    in direction ``tca_az_deg``, crossing the sky at ``rate_deg_per_s``; 1 s samples."""
+    def unit(az_deg: float, el_deg: float) -> np.ndarray:
+        a, e = math.radians(az_deg), math.radians(el_deg)
+        return np.array([math.cos(e) * math.sin(a), math.cos(e) * math.cos(a), math.sin(e)])  # E, N, U
+    c, d = unit(tca_az_deg, max_el_deg), unit(tca_az_deg + 90.0 * sense, 0.0)
+    t = np.arange(0.0, 180.0 / rate_deg_per_s, 1.0)
+    s = np.radians(rate_deg_per_s * t - 90.0)
+    p = np.cos(s)[:, None] * c + np.sin(s)[:, None] * d
+    az = np.degrees(np.arctan2(p[:, 0], p[:, 1])) % 360.0
+    el = np.degrees(np.arcsin(np.clip(p[:, 2], -1.0, 1.0)))
+    keep = el >= 0.0
+    return t[keep], az[keep], el[keep]
+
+
+zone = st.one_of(st.none(), st.tuples(st.floats(0, 359), st.floats(5, 60), st.floats(5, 40)))
+limits = st.tuples(st.floats(0.5, 30), st.floats(0.5, 60))   # max rate, acceleration
+
+
+@settings(max_examples=60, deadline=None)
+@given(rng=st.sampled_from(RANGES), tca_az=st.floats(0, 360),
+       max_el=st.one_of(st.floats(1, 90), st.floats(80, 89.99)),  # keyholes need the most
+       rate=st.floats(0.2, 1.5), sense=st.sampled_from([-1, 1]), az_lim=limits, el_lim=limits,
+       z=zone, start_az=st.floats(0, 1), start_el=st.floats(0, 1))
+def test_planned_trajectory_is_flyable_and_clear(rng, tca_az, max_el, rate, sense, az_lim, el_lim, z,
+                                                 start_az, start_el):
+    az_min, az_max, el_max = rng
+    zones = () if z is None else (KeepOut("z", z[0], (z[0] + z[1]) % 360.0, 0.0, z[2]),)
+    g = Geometry(az_min, az_max, 0.0, el_max, flip=el_max > 90.0, zones=zones)
+    t, s_az, s_el = great_circle_pass(tca_az, max_el, rate, sense)
+    az_limits, el_limits = AxisLimits(*az_lim), AxisLimits(*el_lim)
+    start = (az_min + start_az * (az_max - az_min), start_el * el_max)
+    try:
+        plan = plan_pass(t, s_az, s_el, g, az_limits, el_limits, start, t[0] - 3600.0)
+    except PlanError:
+        return  # refused outright: nothing is flown
+    a, e = plan.az_deg, plan.el_deg
+    # within the limits
+    assert az_min - 1e-6 <= a.min() and a.max() <= az_max + 1e-6
+    assert -1e-6 <= e.min() and e.max() <= el_max + 1e-6
+    # within the axes' speeds and accelerations
+    assert plan.peak_az_rate_deg_per_s <= az_limits.max_rate_deg_per_s + 1e-6
+    assert plan.peak_el_rate_deg_per_s <= el_limits.max_rate_deg_per_s + 1e-6
+    assert plan.peak_az_accel_deg_per_s2 <= az_limits.accel_deg_per_s2 + 1e-6
+    assert plan.peak_el_accel_deg_per_s2 <= el_limits.accel_deg_per_s2 + 1e-6
+    # out of keep-out zones: every sample flown, and the way between two of them
+    for i in range(len(t) - 1):
+        if plan.blocked[i] or plan.blocked[i + 1]:
+            continue
+        for f in np.linspace(0.0, 1.0, 5):
+            pose = (a[i] + f * (a[i + 1] - a[i]), e[i] + f * (e[i + 1] - e[i]))
+            assert g.zone_at(*pose, margin_deg=0.0) is None, (i, pose)
+    # pre-positioning leaves in time (it was an hour ahead)
+    assert plan.preposition_start_s <= t[0]
