@@ -25,7 +25,7 @@ from .errors import TrackingError
 PREPOSITION_MARGIN_S = 10.0
 #: elevation this far outside the limits is clipped to them rather than ruling a pose out
 EL_SLACK_DEG = 0.5
-#: speed budget the plan may use: headroom for the servo to correct errors
+#: share of the speed and acceleration the plan may use: headroom for the servo to correct errors
 RATE_BUDGET = 0.9
 
 

@@ -35,7 +35,6 @@ UPDATE_S = 0.2
 PLAN_STEP_S = 1.0
 #: a route round a keep-out zone may take this much longer than its travel at full speed
 ROUTE_SLACK_S = 3.0
-
 #: how far ahead the next pass of a followed satellite is searched
 SEARCH_HOURS = 24.0
 EARTH_RADIUS_KM = 6371.0
@@ -174,11 +173,13 @@ class Tracker:
         """If the straight way from the antenna to a pose crosses a keep-out zone (the
         track came out from behind one, a pre-positioning move), fly a route round it,
         to where the track will be on arrival; True if so."""
+        g = self.rot.geometry
+        if not g.zones:
+            return False
         st = self.rot.status()
         here = (st.az.pos_deg, st.el.pos_deg)
-        g = self.rot.geometry
         rates = tuple(lim.max_rate_deg_per_s for lim in self._axis_limits())
-        if not g.zones or g.segment_clear(here, (az_m, el_m), rates) is None:
+        if g.segment_clear(here, (az_m, el_m), rates) is None:
             return False
         if plan is not None:  # aim where the track will be once the route is flown
             route = g.plan(here, *g.to_sky(az_m, el_m), rates) or [(az_m, el_m)]
