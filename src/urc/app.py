@@ -39,7 +39,7 @@ def settings_from_config(cfg: Config) -> RotatorSettings:
                                 restart_deg=c["restart_deg"], max_rate_deg_per_s=c["max_rate_deg_per_s"],
                                 accel_deg_per_s2=c["accel_deg_per_s2"], kp_per_s=c["kp_per_s"],
                                 ki_per_s2=c["ki_per_s2"], overshoot_deg=c["overshoot_deg"],
-                                creep_lead_deg=c["creep_lead_deg"])
+                                creep_lead_deg=c["creep_lead_deg"], backlash_deg=c["backlash_deg"])
         f = cfg.faults
         faults[name] = replace(default_fault_limits(ax, *limits[name]),
                                stall_timeout_s=f.stall_timeout_s, runaway_deg=f.runaway_deg,

@@ -164,6 +164,7 @@ class AxisControl(_Section):
     ki_per_s2: float = _num(1.0, ge=0.0)
     overshoot_deg: float | None = _num(None, ge=0.0)
     creep_lead_deg: float | None = _num(None, ge=0.0)
+    backlash_deg: float | None = _num(None, ge=0.0, le=20.0)
 
 
 class ControlSection(_Section):
@@ -396,6 +397,7 @@ class Config(_Section):
                 "ki_per_s2": float(c.ki_per_s2),
                 "overshoot_deg": _pick(c.overshoot_deg, axis.overshoot_deg),
                 "creep_lead_deg": _pick(c.creep_lead_deg, axis.effective_creep_lead_deg),
+                "backlash_deg": _pick(c.backlash_deg, axis.backlash_deg),
             }
         return out
 
