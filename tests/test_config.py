@@ -97,14 +97,17 @@ def test_helpers_apply_user_values():
         "rotator": {"profile": "bigras"},
         "limits": {"az": {"min_deg": 10, "max_deg": 350}, "el": {"max_deg": 80}},
         "park": {"az_deg": 180, "el_deg": 5},
-        "control": {"az": {"max_rate_deg_per_s": 2.5, "tolerance_deg": 0.6}},
+        "control": {"az": {"max_rate_deg_per_s": 2.5, "tolerance_deg": 0.6, "creep_lead_deg": 0.4,
+                           "backlash_deg": 0.3}},
     })
     caps = get_profile("bigras")
     assert cfg.effective_limits(caps) == {"az": (10.0, 350.0), "el": (0.0, 80.0)}
     assert cfg.park(caps) == (180.0, 5.0)
     ctl = cfg.effective_control(caps)
     assert ctl["az"]["max_rate_deg_per_s"] == 2.5 and ctl["az"]["tolerance_deg"] == 0.6
+    assert ctl["az"]["creep_lead_deg"] == 0.4 and ctl["az"]["backlash_deg"] == 0.3
     assert ctl["el"]["max_rate_deg_per_s"] == 2.0
+    assert ctl["el"]["creep_lead_deg"] == caps.el.creep_lead_deg and ctl["el"]["backlash_deg"] == 0.0
 
 
 def test_ints_accepted_for_floats(tmp_path):
