@@ -43,11 +43,13 @@ def test_holds_without_chattering(bench, profile):
     ("tartu-urc", "az", -0.3), ("tartu-urc", "el", 0.05),      # PWM, encoder, brake
     ("bigras", "az", -0.3), ("bigras", "el", 0.05),            # PWM, pulse counter, play
     ("g5500", "az", -0.3), ("g5500", "el", 0.05),              # relay, pot
+    ("g4jnt", "az", -0.3), ("g4jnt", "el", 0.05),              # relay slow/fast, pot
 ])
 def test_slow_target_error_swings_around_zero(bench, profile, axis, rate_deg_per_s):
     """A target slower than the motor's slowest speed (a low LEO pass's azimuth, the
     Sun) is followed in bursts that overtake it, so the true error swings around zero
-    at about a sensor count, instead of always lagging."""
+    at about a sensor count, instead of always lagging — and never by driving back and
+    forth (a relay flipping direction is the hunting that wears it out)."""
     b = bench(profile)
     start = {"az": 100.0, "el": 20.0}
     b.rot.goto(start["az"], start["el"])
@@ -64,7 +66,15 @@ def test_slow_target_error_swings_around_zero(bench, profile, axis, rate_deg_per
             next_s[0] = s.t_s + 0.2
         if s.t_s > t0 + 5.0:
             errs.append(s.sim_truth[axis]["deg"] - target)
+        duty = getattr(s, axis).duty
+        if duty:
+            direction = 1 if duty > 0 else -1
+            if last[0] and direction != last[0] and s.t_s - last[1] < 1.0:
+                reversals.append(s.t_s)
+            last[:] = [direction, s.t_s]
+    last, reversals = [0, -math.inf], []
     b.run(60.0, on_tick=on_tick)
+    assert not reversals, f"drive reversed within a second at {reversals[:5]}"
     q = b.rot.caps.axis(axis).sensor.resolution_deg
     mean = sum(errs) / len(errs)
     rms = math.sqrt(sum(e * e for e in errs) / len(errs))

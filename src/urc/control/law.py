@@ -142,14 +142,14 @@ def step(st: AxisState, sp: Setpoint | None, meas_deg: float, now_s: float, dt_s
     target_deg = sp.target_at(now_s)
     tracking = abs(sp.rate_deg_per_s) >= tun.min_rate_deg_per_s
     # A target slower than the motor's slowest steady speed is followed in short bursts.
-    # Each burst overtakes it by the axis's creep lead (PWM here; the relay law does its
-    # own), so the error swings evenly around zero instead of always lagging.
+    # Each burst overtakes it by the axis's creep lead, so the error swings evenly
+    # around zero instead of always lagging.
     creeping = not tracking and sp.rate_deg_per_s != 0.0
     lead_deg = math.copysign(tun.creep_lead_deg, sp.rate_deg_per_s) if creeping else 0.0
     # past the overtaking point of a slow target (a slew that came from the far side,
     # gear play that threw the antenna on): aim at the target itself, it comes to us
     ahead = creeping and (meas_deg - target_deg - lead_deg) * sp.rate_deg_per_s > 0.0
-    if creeping and tun.drive == "pwm" and not ahead:
+    if creeping and not ahead:
         target_deg += lead_deg
     error_deg = target_deg - meas_deg
 
@@ -192,7 +192,7 @@ def step(st: AxisState, sp: Setpoint | None, meas_deg: float, now_s: float, dt_s
         st = replace(st, mode="driving", phase_until_s=-1.0)
 
     if tun.drive == "relay":
-        return _relay(st, target_deg, sp.rate_deg_per_s, error_deg, meas_deg, now_s, tun)
+        return _relay(st, target_deg, sp.rate_deg_per_s, error_deg, meas_deg, now_s, tun, creeping)
     return _pwm(st, sp, target_deg, error_deg, meas_deg, meas_rate_deg_per_s, now_s, dt_s, tun, tracking,
                 creeping)
 
@@ -256,33 +256,38 @@ def _pwm(st: AxisState, sp: Setpoint, target_deg: float, error_deg: float, meas_
             kick, since = min(KICK_MAX_DUTY, kick * KICK_GAIN), now_s
         duty = math.copysign(kick, duty)
     duty = max(-1.0, min(1.0, duty))
+    if creeping and duty * st.approach_sign < 0:
+        # a burst after a slow target never drives back (a count flickering ahead of the
+        # reference would otherwise make it hunt, the SPID counter's own direction with it)
+        duty = 0.0
     st = replace(st, mode="driving", ref_deg=ref, ref_rate_deg_per_s=ref_rate, integral_deg_s=integral,
                  arrived=arrived, kick_duty=kick, kick_anchor_deg=anchor, kick_since_s=since)
     return st, AxisOutput(duty, tun.brake, True)
 
 
 def _relay(st: AxisState, target_deg: float, target_rate: float, error_deg: float, meas_deg: float,
-           now_s: float, tun: AxisTuning) -> tuple[AxisState, AxisOutput]:
+           now_s: float, tun: AxisTuning, creeping: bool) -> tuple[AxisState, AxisOutput]:
     levels = tun.drive_levels or (1.0,)
     remaining = error_deg * st.approach_sign
     fast, slow = len(levels) - 1, 0
     slow_rate = levels[slow] * tun.max_rate_deg_per_s
-    # A moving target in the direction of travel is overtaken by the creep lead, so
-    # the error swings evenly around zero between bursts instead of always lagging.
-    lead = tun.creep_lead_deg if target_rate * st.approach_sign > 0 else 0.0
     # Go slow once within a couple of fast-coast distances plus a second of slow running,
     # unless the target itself moves faster than the slow speed can follow.
     slow_zone = 2.0 * st.coast_deg[fast] + slow_rate * 1.0 + tun.restart_deg
     level = slow if remaining < slow_zone and abs(target_rate) < 0.8 * slow_rate else fast
-    if lead:
-        cut = remaining <= st.coast_deg[level] - lead
+    if creeping:
+        # a burst after a slow target ends where coasting brings the axis to the aim
+        # (the target plus the creep lead)
+        cut = remaining <= st.coast_deg[level] or _crossed(st, error_deg)
     else:
         cut = (abs(error_deg) <= tun.tolerance_deg or _crossed(st, error_deg)
                or remaining <= st.coast_deg[level] + 0.5 * tun.tolerance_deg)
     if cut:
         st = replace(st, cut_deg=meas_deg, cut_level=level, still_since_s=now_s, last_meas_deg=meas_deg)
         return _hold(st, meas_deg, now_s, tun, brake_released=False)
-    duty = math.copysign(levels[level], error_deg)
+    # a burst never reverses: the way back, if any, starts from holding, past the
+    # restart band (a relay flipping direction tick by tick is the hunting that wears it)
+    duty = math.copysign(levels[level], st.approach_sign)
     st = replace(st, mode="driving", ref_deg=target_deg, ref_rate_deg_per_s=0.0, cut_deg=None)
     return st, AxisOutput(duty, tun.brake, True)
 
