@@ -140,7 +140,9 @@ def step(st: AxisState, sp: Setpoint | None, meas_deg: float, now_s: float, dt_s
                        integral_deg_s=0.0, arrived=False), OFF
 
     target_deg = sp.target_at(now_s)
-    tracking = abs(sp.rate_deg_per_s) >= tun.min_rate_deg_per_s
+    # an on/off drive follows anything slower than its top speed in bursts as well
+    steady_deg_per_s = 0.9 * tun.max_rate_deg_per_s if tun.drive == "relay" else tun.min_rate_deg_per_s
+    tracking = abs(sp.rate_deg_per_s) >= steady_deg_per_s
     # A target slower than the motor's slowest steady speed is followed in short bursts.
     # Each burst overtakes it by the axis's creep lead, so the error swings evenly
     # around zero instead of always lagging.
@@ -277,8 +279,11 @@ def _relay(st: AxisState, target_deg: float, target_rate: float, error_deg: floa
     level = slow if remaining < slow_zone and abs(target_rate) < 0.8 * slow_rate else fast
     if creeping:
         # a burst after a slow target ends where coasting brings the axis to the aim
-        # (the target plus the creep lead)
-        cut = remaining <= st.coast_deg[level] or _crossed(st, error_deg)
+        # (the target plus the creep lead), counting how far the aim moves meanwhile
+        # (a stop from speed v within a coast c takes 2c/v)
+        coast = st.coast_deg[level]
+        coast_s = 2.0 * coast / (levels[level] * tun.max_rate_deg_per_s)
+        cut = remaining <= coast - target_rate * st.approach_sign * coast_s or _crossed(st, error_deg)
     else:
         cut = (abs(error_deg) <= tun.tolerance_deg or _crossed(st, error_deg)
                or remaining <= st.coast_deg[level] + 0.5 * tun.tolerance_deg)
