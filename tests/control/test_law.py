@@ -2,7 +2,8 @@
 
 import pytest
 
-from urc.control.law import (KICK_WAIT_S, AxisTuning, Setpoint, initial_state, step)
+from urc.control.law import (KICK_WAIT_S, RELAY_REVERSE_PAUSE_S, AxisTuning, Setpoint, initial_state,
+                              step)
 
 PWM = AxisTuning(max_rate_deg_per_s=6.0, min_rate_deg_per_s=0.6, accel_deg_per_s2=12.0,
                  tolerance_deg=0.1, restart_deg=0.25)
@@ -85,6 +86,22 @@ def test_relay_learns_its_coast():
         t += 0.2
     assert st.cut_deg is None
     assert before < st.coast_deg[0] < 0.65
+
+
+def test_relay_reverses_only_after_a_pause():
+    """A command the other way while an AC motor runs: off first, reverse only after
+    RELAY_REVERSE_PAUSE_S (plugging a running motor strains gears and contacts)."""
+    st = initial_state(RELAY, 50.0)
+    st, out = step(st, Setpoint(100.0, seq=1), 50.0, 0.0, DT, RELAY)
+    assert out.duty == 1.0
+    duties, t = [], DT
+    while t < 1.5:
+        st, out = step(st, Setpoint(0.0, seq=2), 50.5, t, DT, RELAY)
+        duties.append((t, out.duty))
+        t += DT
+    first_back = next(tt for tt, d in duties if d < 0)
+    assert all(d == 0.0 for tt, d in duties if tt < first_back)
+    assert first_back - DT >= RELAY_REVERSE_PAUSE_S - 1e-9
 
 
 def test_moving_setpoint_is_followed_not_held():

@@ -39,6 +39,9 @@ CREEP_WAIT_S = 2.0
 BRAKE_AFTER_HOLD_S = 2.0
 #: the axis counts as standing still for coast learning after this long without motion.
 COAST_SETTLE_S = 0.4
+#: an on/off (AC) motor is reversed only after this long switched off: reversing a
+#: running motor ("plugging") strains gears and relay contacts
+RELAY_REVERSE_PAUSE_S = 0.5
 COAST_LEARN_GAIN = 0.4
 
 
@@ -113,6 +116,9 @@ class AxisState:
     kick_since_s: float = 0.0
     #: target crossings allowed to creep back into the tolerance before settling anyway
     reversals: int = 0
+    #: relay drives: the direction last driven (+1/-1, 0 never) and when it stopped
+    relay_dir: int = 0
+    relay_off_s: float = -math.inf
 
 
 @dataclass(frozen=True)
@@ -134,6 +140,14 @@ def initial_state(tuning: AxisTuning, meas_deg: float) -> AxisState:
 def step(st: AxisState, sp: Setpoint | None, meas_deg: float, now_s: float, dt_s: float,
          tun: AxisTuning, meas_rate_deg_per_s: float = 0.0) -> tuple[AxisState, AxisOutput]:
     """Advance one tick. ``sp=None`` means motor off, brake on, forget the target."""
+    st, out = _step(st, sp, meas_deg, now_s, dt_s, tun, meas_rate_deg_per_s)
+    if out.duty == 0.0 and st.relay_off_s == math.inf:
+        st = replace(st, relay_off_s=now_s)  # the relay just opened: the reverse pause starts
+    return st, out
+
+
+def _step(st: AxisState, sp: Setpoint | None, meas_deg: float, now_s: float, dt_s: float,
+          tun: AxisTuning, meas_rate_deg_per_s: float) -> tuple[AxisState, AxisOutput]:
     st = _learn_coast(st, meas_deg, now_s, tun)
     if sp is None:
         return replace(st, mode="idle", ref_deg=meas_deg, ref_rate_deg_per_s=0.0,
@@ -292,8 +306,13 @@ def _relay(st: AxisState, target_deg: float, target_rate: float, error_deg: floa
         return _hold(st, meas_deg, now_s, tun, brake_released=False)
     # a burst never reverses: the way back, if any, starts from holding, past the
     # restart band (a relay flipping direction tick by tick is the hunting that wears it)
-    duty = math.copysign(levels[level], st.approach_sign)
-    st = replace(st, mode="driving", ref_deg=target_deg, ref_rate_deg_per_s=0.0, cut_deg=None)
+    direction = 1 if st.approach_sign > 0 else -1
+    if st.relay_dir == -direction and now_s - st.relay_off_s < RELAY_REVERSE_PAUSE_S:
+        # the other way than it last ran: off first, let it run down, then reverse
+        return replace(st, mode="driving"), AxisOutput(0.0, tun.brake, True)
+    duty = math.copysign(levels[level], direction)
+    st = replace(st, mode="driving", ref_deg=target_deg, ref_rate_deg_per_s=0.0, cut_deg=None,
+                 relay_dir=direction, relay_off_s=math.inf)
     return st, AxisOutput(duty, tun.brake, True)
 
 

@@ -80,6 +80,28 @@ class Plan:
                 "preposition_start_s": self.preposition_start_s, "notes": list(self.notes)}
 
 
+#: how finely the way between two plan samples is checked against keep-out zones
+ZONE_CHECK_STEP_DEG = 0.05
+
+
+def _blocked(a: np.ndarray, e: np.ndarray, g: Geometry) -> np.ndarray:
+    """Samples in a keep-out zone, and both ends of a step whose straight way between
+    them cuts through one (a track passing a zone's corner)."""
+    blocked = np.zeros(len(a), dtype=bool)
+    if not g.zones:
+        return blocked
+    for i in range(len(a)):
+        blocked[i] |= g.zone_at(a[i], e[i], margin_deg=0.0) is not None
+        if i + 1 == len(a) or blocked[i]:
+            continue
+        n = int(math.ceil(max(abs(a[i + 1] - a[i]), abs(e[i + 1] - e[i])) / ZONE_CHECK_STEP_DEG))
+        for f in np.arange(1, n) / n:
+            if g.zone_at(a[i] + f * (a[i + 1] - a[i]), e[i] + f * (e[i + 1] - e[i]), margin_deg=0.0):
+                blocked[i] = blocked[i + 1] = True
+                break
+    return blocked
+
+
 def _budget(limits: AxisLimits) -> AxisLimits:
     """What the plan may use of an axis: headroom for the servo to correct errors."""
     return AxisLimits(RATE_BUDGET * limits.max_rate_deg_per_s, RATE_BUDGET * limits.accel_deg_per_s2)
@@ -270,7 +292,7 @@ def plan_pass(t_s: np.ndarray, sky_az_deg: np.ndarray, sky_el_deg: np.ndarray, g
         notes.append(f"the sky track needs {_peak_rate(a, t):.1f} deg/s in azimuth at the fastest (keyhole); "
                      f"flown within the axes' speed and acceleration, worst pointing error {worst:.2f} deg")
     a, e = a_fly, e_fly
-    blocked = np.array([g.zone_at(x, y, margin_deg=0.0) is not None for x, y in zip(a, e)], dtype=bool)
+    blocked = _blocked(a, e, g)
     if blocked.any():
         notes.append(f"{blocked.mean() * 100:.0f}% of the pass lies in a keep-out zone; "
                      "the antenna waits at its edge")
