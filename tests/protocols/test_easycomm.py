@@ -15,6 +15,7 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 from conftest import Bench
+from session_replay import at, replay_splits
 from urc import __version__
 from urc.protocols import MAX_PENDING_BYTES, Session, make_session
 from urc.protocols.easycomm import Easycomm1Session, Easycomm2Session, Easycomm3Session
@@ -125,11 +126,6 @@ def tartu(bench):
     return bench("tartu-urc")
 
 
-def at(b, az, el):
-    b.rot.set_position(az, el)
-    b.run(1.0)  # a few ticks at rest: the speed estimate settles, `moving` is False
-
-
 @pytest.mark.parametrize("name, cls", [("easycomm1", Easycomm1Session),
                                        ("easycomm2", Easycomm2Session),
                                        ("easycomm3", Easycomm3Session)])
@@ -218,18 +214,7 @@ def test_easycomm1_never_replies_but_moves(sarcnet):
 @pytest.mark.parametrize("cls", SESSIONS)
 def test_byte_at_a_time_equals_whole(bench, cls):
     script = b"AZ100.0 EL20.0\nAZ EL \n;GS\n;AZ\r\nEL\rbogus line\nVE\nAZ"
-    results = []
-    for chunks in ([script], [script[i:i + 1] for i in range(len(script))],
-                   [script[:7], script[7:20], script[20:]]):
-        b = bench("tartu-urc")
-        at(b, 10, 10)
-        s = cls(b.rot)
-        out = []
-        for c in chunks:
-            out += s.receive(c)
-        b.run(0.5)
-        st_ = b.rot.status()
-        results.append((out, st_.target_az_deg, st_.target_el_deg))
+    results = replay_splits(bench, cls, script, (7, 20))
     assert results[0] == results[1] == results[2]
     assert results[0][1:] == (100.0, 20.0)
     n_replies = {Easycomm1Session: 0, Easycomm2Session: 4, Easycomm3Session: 5}[cls]

@@ -14,6 +14,7 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 from conftest import Bench
+from session_replay import at, replay_splits
 from urc.protocols import MAX_PENDING_BYTES, Session, make_session
 from urc.protocols.gs232 import (FoxDeltaSession, Gs232aSession, Gs232bSession,
                                  Gs232GenericSession, controller_pose)
@@ -169,12 +170,6 @@ def tartu(bench):
     return bench("tartu-urc")
 
 
-def at(b, az, el):
-    """Re-reference the (still) antenna so it reads exactly (az, el)."""
-    b.rot.set_position(az, el)
-    b.run(1.0)  # a few ticks at rest: the speed estimate settles, `moving` is False
-
-
 @pytest.mark.parametrize("name, cls", [("gs232a", Gs232aSession), ("gs232b", Gs232bSession),
                                        ("gs232", Gs232GenericSession), ("foxdelta", FoxDeltaSession)])
 def test_registry_names(g5500, name, cls):
@@ -242,18 +237,7 @@ def test_single_axis_reads(tartu, cls):
 def test_byte_at_a_time_equals_whole(bench, cls):
     """Same replies, same motion, whatever the split."""
     script = b"W100 020\rC2\rX2\r\rC\r\nB\rbogus\rS\rc2\r"
-    results = []
-    for chunks in ([script], [script[i:i + 1] for i in range(len(script))],
-                   [script[:5], script[5:13], script[13:]]):
-        b = bench("tartu-urc")
-        at(b, 10, 10)
-        s = cls(b.rot)
-        out = []
-        for c in chunks:
-            out += s.receive(c)
-        b.run(0.5)
-        st_ = b.rot.status()
-        results.append((out, st_.target_az_deg, st_.target_el_deg))
+    results = replay_splits(bench, cls, script, (5, 13))
     assert results[0] == results[1] == results[2]
     out = results[0][0]
     assert out.count(format_error(STYLE[cls])) == 1   # "bogus"
