@@ -39,6 +39,28 @@ def test_holds_without_chattering(bench, profile):
     assert on_edges == 0
 
 
+#: how often the tracker sends a pose
+TRACK_UPDATE_S = 0.2
+
+
+def fly_track(b, pose_at, rates, seconds: float, on_tick=None) -> list[str]:
+    """Send ``pose_at(t)`` (az, el) with ``rates`` at the tracker's cadence for
+    ``seconds``, calling ``on_tick(status)`` every tick; returns the refusals."""
+    next_s, refused = [b.clock.now_s()], []
+
+    def tick(s):
+        if s.t_s >= next_s[0]:
+            try:
+                b.rot.track_pose(*pose_at(s.t_s), *rates, s.t_s)
+            except CommandRejected as exc:
+                refused.append(str(exc))
+            next_s[0] = s.t_s + TRACK_UPDATE_S
+        if on_tick is not None:
+            on_tick(s)
+    b.run(seconds, on_tick=tick)
+    return refused
+
+
 @pytest.mark.parametrize("profile,axis,rate_deg_per_s", [
     ("tartu-urc", "az", -0.3), ("tartu-urc", "el", 0.05),      # PWM, encoder, brake
     ("bigras", "az", -0.3), ("bigras", "el", 0.05),            # PWM, pulse counter, play
@@ -56,25 +78,26 @@ def test_slow_target_error_swings_around_zero(bench, profile, axis, rate_deg_per
     b.rot.goto(start["az"], start["el"])
     b.settle()
     t0 = b.clock.now_s()
-    errs, next_s = [], [t0]
+
+    def target(t: float) -> float:
+        return start[axis] + rate_deg_per_s * (t - t0)
+
+    def pose_at(t: float) -> tuple[float, float]:
+        pose = dict(start, **{axis: target(t)})
+        return pose["az"], pose["el"]
+    rates = (rate_deg_per_s, 0.0) if axis == "az" else (0.0, rate_deg_per_s)
+    errs, last, reversals = [], [0, -math.inf], []
 
     def on_tick(s):
-        target = start[axis] + rate_deg_per_s * (s.t_s - t0)
-        if s.t_s >= next_s[0]:  # the tracker's cadence
-            pose = dict(start, **{axis: target})
-            rates = {"az": 0.0, "el": 0.0, axis: rate_deg_per_s}
-            b.rot.track_pose(pose["az"], pose["el"], rates["az"], rates["el"], s.t_s)
-            next_s[0] = s.t_s + 0.2
         if s.t_s > t0 + 5.0:
-            errs.append(s.sim_truth[axis]["deg"] - target)
+            errs.append(s.sim_truth[axis]["deg"] - target(s.t_s))
         duty = getattr(s, axis).duty
         if duty:
             direction = 1 if duty > 0 else -1
             if last[0] and direction != last[0] and s.t_s - last[1] < 1.0:
                 reversals.append(s.t_s)
             last[:] = [direction, s.t_s]
-    last, reversals = [0, -math.inf], []
-    b.run(60.0, on_tick=on_tick)
+    assert fly_track(b, pose_at, rates, 60.0, on_tick) == []
     assert not reversals, f"drive reversed within a second at {reversals[:5]}"
     q = b.rot.caps.axis(axis).sensor.resolution_deg
     mean = sum(errs) / len(errs)
@@ -92,13 +115,7 @@ def test_bursts_after_long_holds_do_not_harden_the_kick(bench):
     b.rot.goto(100.0, 20.0)
     b.settle()
     t0 = b.clock.now_s()
-    next_s = [t0]
-
-    def on_tick(s):
-        if s.t_s >= next_s[0]:
-            b.rot.track_pose(100.0, 20.0 + 0.03 * (s.t_s - t0), 0.0, 0.03, s.t_s)
-            next_s[0] = s.t_s + 0.2
-    b.run(90.0, on_tick=on_tick)
+    assert fly_track(b, lambda t: (100.0, 20.0 + 0.03 * (t - t0)), (0.0, 0.03), 90.0) == []
     el = b.rot.axes["el"]
     assert el.law.kick_duty <= 1.25 * el.tuning.min_duty + 1e-9, el.law.kick_duty
     assert abs(b.truth("el") - (20.0 + 0.03 * (b.clock.now_s() - t0))) < 0.3
@@ -194,17 +211,9 @@ def test_track_updates_across_a_zone_stop_at_its_edge(bench, profile):
     b = bench(profile, keepout=[mast])
     b.rot.goto(60.0, 10.0)
     b.settle()
-    poses, next_s = [], [b.clock.now_s()]
-
-    def on_tick(s):
-        if s.t_s >= next_s[0]:
-            try:
-                b.rot.track_pose(120.0, 10.0, 0.0, 0.0, s.t_s)
-            except CommandRejected:
-                pass
-            next_s[0] = s.t_s + 0.2
-        poses.append((s.sim_truth["az"]["deg"], s.sim_truth["el"]["deg"]))
-    b.run(40.0, on_tick=on_tick)
+    poses = []
+    fly_track(b, lambda t: (120.0, 10.0), (0.0, 0.0), 40.0,
+              lambda s: poses.append((s.sim_truth["az"]["deg"], s.sim_truth["el"]["deg"])))
     assert max(a for a, _ in poses) < 80.0, "went into the mast"
     assert max(a for a, _ in poses) > 75.0  # it did go as far as the edge
 
