@@ -135,8 +135,8 @@ def test_state_dir_resolution(tmp_path):
 
 
 def test_keepout_wraps_across_north():
-    z = KeepoutZone(name="tree", az_min_deg=350, az_max_deg=10, el_min_deg=0, el_max_deg=20)
-    assert z.az_span_deg == 20
+    z = KeepoutZone(name="tree", az_min_deg=350, az_max_deg=10, el_min_deg=0, el_max_deg=20).keep_out(0)
+    assert z.az_width_deg == 20
     assert z.contains(355, 5) and z.contains(5, 5) and z.contains(365, 5)
     assert not z.contains(20, 5) and not z.contains(355, 30)
 

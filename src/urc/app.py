@@ -11,7 +11,6 @@ from pathlib import Path
 from .clock import Clock, RealClock
 from .config import Config
 from .control.faults import FaultLimits
-from .control.geometry import KeepOut
 from .control.law import AxisTuning
 from .hardware import build_hardware
 from .persistence import StateStore
@@ -45,8 +44,7 @@ def settings_from_config(cfg: Config) -> RotatorSettings:
                                stall_timeout_s=f.stall_timeout_s, runaway_deg=f.runaway_deg,
                                sensor_jump_deg=f.sensor_jump_deg, overcurrent_a=f.overcurrent_a)
     park_az, park_el = cfg.park_position(caps)
-    zones = tuple(KeepOut(z.label(i), z.az_min_deg, z.az_max_deg, z.el_min_deg, z.el_max_deg)
-                  for i, z in enumerate(cfg.keepout))
+    zones = tuple(z.keep_out(i) for i, z in enumerate(cfg.keepout))
     return RotatorSettings(
         caps=caps, az_limits_deg=limits["az"], el_limits_deg=limits["el"],
         park_az_deg=park_az, park_el_deg=park_el,

@@ -36,6 +36,7 @@ import annotated_types
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from .caps import AxisCaps, RotatorCaps
+from .control.geometry import KeepOut
 from .errors import ConfigError
 from .profiles import DEFAULT_PROFILE, PROFILES
 
@@ -135,19 +136,9 @@ class KeepoutZone(_Section):
     el_min_deg: float = _num(...)
     el_max_deg: float = _num(...)
 
-    @property
-    def az_span_deg(self) -> float:
-        span = self.az_max_deg - self.az_min_deg
-        return span if span > 0 else span + 360.0
-
-    def contains_az(self, az_deg: float) -> bool:
-        """True if the compass direction ``az_deg`` (any turn) is inside the sector."""
-        if self.az_span_deg >= 360.0:
-            return True
-        return (az_deg - self.az_min_deg) % 360.0 <= self.az_span_deg
-
-    def contains(self, az_deg: float, el_deg: float) -> bool:
-        return self.el_min_deg <= el_deg <= self.el_max_deg and self.contains_az(az_deg)
+    def keep_out(self, index: int) -> KeepOut:
+        """The zone as the controller's geometry uses it (one containment rule)."""
+        return KeepOut(self.label(index), self.az_min_deg, self.az_max_deg, self.el_min_deg, self.el_max_deg)
 
     def label(self, index: int) -> str:
         return self.name or f"keepout[{index}]"
@@ -534,7 +525,7 @@ def _cross_check(cfg: Config) -> list[_Issue]:
                            f"({_fmt(z.el_min_deg)})", z.el_max_deg, ""))
         if zone_ok and limits_ok:
             paz, pel = cfg.park_position(caps)
-            if z.contains(paz, pel):
+            if z.keep_out(i).contains(paz, pel):
                 user = cfg.park.az_deg is not None or cfg.park.el_deg is not None
                 key = "park.az_deg" if user else pre
                 issues.append((key, f"a park position outside keep-out zone {z.label(i)!r}",

@@ -33,14 +33,16 @@ class KeepOut:
     el_min_deg: float
     el_max_deg: float
 
+    @property
+    def az_width_deg(self) -> float:
+        width = self.az_max_deg - self.az_min_deg
+        return width + 360.0 if width <= 0.0 else width  # a sector across north (350..10)
+
     def contains(self, az_deg: float, el_deg: float, margin_deg: float = 0.0) -> bool:
         if not (self.el_min_deg - margin_deg <= el_deg <= self.el_max_deg + margin_deg):
             return False
         lo = wrap360(self.az_min_deg - margin_deg)
-        width = self.az_max_deg - self.az_min_deg
-        if width <= 0.0:  # a sector across north (350..10)
-            width += 360.0
-        width += 2 * margin_deg
+        width = self.az_width_deg + 2 * margin_deg
         if width >= 360.0:
             return True
         return (wrap360(az_deg) - lo) % 360.0 <= width
@@ -48,9 +50,7 @@ class KeepOut:
     def depth_deg(self, az_deg: float, el_deg: float) -> float:
         """How far inside the zone a direction is (degrees to its nearest edge, along
         az or el); negative outside (minus the distance to the zone)."""
-        width = self.az_max_deg - self.az_min_deg
-        if width <= 0.0:
-            width += 360.0
+        width = self.az_width_deg
         rel = (wrap360(az_deg) - self.az_min_deg) % 360.0
         d_az = min(rel, width - rel) if rel <= width else -min(rel - width, 360.0 - rel)
         if self.el_min_deg <= el_deg <= self.el_max_deg:
