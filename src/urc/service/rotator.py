@@ -129,6 +129,17 @@ class _Axis:
         except Exception:  # a current sense failure must not stop the loop
             self.current_a = 0.0
 
+    def heading_deg(self, count_deg: float) -> float:
+        """Where the drive takes the axis within GUARD_LOOKAHEAD_S. A drive that has
+        only just started shows no speed yet but still heads where it pushes (else
+        restarts could inch the antenna into a zone), and across gear play the sensor
+        cannot see it throws the antenna that far on."""
+        step = self.rate_deg_per_s * GUARD_LOOKAHEAD_S
+        start_deg = count_deg + self.tuning.backlash_deg
+        if self.out.duty and step * self.out.duty < start_deg:
+            step = math.copysign(start_deg, self.out.duty)
+        return self.meas_deg + step
+
     def stop_position_deg(self) -> float:
         """Where the axis would come to rest if told to stop now."""
         if self.tuning.drive == "relay":
@@ -338,17 +349,7 @@ class Rotator:
         # a counting sensor can be a count off (pulse miscounts, the half-count estimate):
         # a pose within a count of a zone is treated as entering it
         count_deg = max(az.caps.sensor.resolution_deg, el.caps.sensor.resolution_deg)
-
-        def ahead_deg(ax: _Axis) -> float:
-            step = ax.rate_deg_per_s * GUARD_LOOKAHEAD_S
-            # a drive that has only just started shows no speed yet: it still heads
-            # where it pushes (else restarts could inch the antenna into a zone), and
-            # across gear play the sensor cannot see it throws the antenna that far on
-            start_deg = count_deg + ax.tuning.backlash_deg
-            if ax.out.duty and step * ax.out.duty < start_deg:
-                step = math.copysign(start_deg, ax.out.duty)
-            return ax.meas_deg + step
-        ahead = (ahead_deg(az), ahead_deg(el))
+        ahead = (az.heading_deg(count_deg), el.heading_deg(count_deg))
         # (from inside the margin, or a zone, only motion that gets no deeper is let on)
         zone = self.geometry.deeper_into_zone(now_pose, ahead, margin_deg=count_deg)
         if zone is not None:
