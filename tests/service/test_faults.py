@@ -132,3 +132,35 @@ def test_clear_faults_restores_control(bench):
     b.rot.goto(50.0, 20.0)
     s = b.settle()
     assert s.az_deg == pytest.approx(50.0, abs=0.3) and not s.faults
+
+
+@pytest.mark.parametrize("profile", ["g4jnt", "g5500", "sarcnet-mini"])
+def test_catch_up_ticks_keep_the_noisy_estimate_physical(bench, profile):
+    """Issue 12.1: a late tick, then catch-up ticks microseconds apart. The estimate of a
+    noisy sensor (pot, compass) stays with the antenna (it reached 1e3..1e6 deg), and
+    nothing is driven from anything else."""
+    b = bench(profile)
+    start_moving(b, az=250.0)
+    for _ in range(3):
+        b.clock.advance(0.3)
+        b.rot.tick()
+        for _ in range(30):
+            b.clock.advance(1e-6)
+            s = b.rot.tick()
+            for axis in ("az", "el"):
+                ax = getattr(s, axis)
+                assert abs(ax.pos_deg - b.truth(axis)) < 3.0, (axis, ax.pos_deg, b.truth(axis))
+                assert abs(ax.rate_deg_per_s) < 2 * b.rot.caps.axis(axis).max_rate_deg_per_s
+        b.run(0.5)
+    assert not b.rot.status().faults
+
+
+def test_an_implausible_estimate_is_a_sensor_fault(bench):
+    """Whatever corrupts the estimate, the law never drives from it: sensor fault, motors off."""
+    b = bench("g4jnt")
+    start_moving(b, az=250.0)
+    b.rot.axes["az"].meas_deg += 40.0  # the estimate far from any reading
+    b.run(0.1)
+    s = assert_latched(b, "sensor_range")
+    assert "estimate" in s.faults[0].reason
+    assert abs(s.az.pos_deg - b.truth("az")) < 3.0  # shows the reading, not the wild estimate

@@ -81,6 +81,8 @@ class MonitorInputs:
     current_a: float = 0.0
     limit_min: bool = False
     limit_max: bool = False
+    #: the position estimate the law will act on (filtered); None = the reading itself
+    estimate_deg: float | None = None
 
 
 def check(st: MonitorState, x: MonitorInputs, lim: FaultLimits) -> tuple[MonitorState, Fault | None]:
@@ -131,6 +133,12 @@ def _check(st: MonitorState, x: MonitorInputs, lim: FaultLimits, ch: dict) -> Fa
         jump = abs(meas - st.prev_deg)
         if jump > lim.max_rate_deg_per_s * dt * 2.0 + lim.sensor_jump_deg:
             return fault("sensor_jump", f"reading jumped {jump:.2f} deg in {dt * 1000:.0f} ms")
+
+    est = x.estimate_deg
+    if est is not None and not (lim.min_deg - RANGE_MARGIN_DEG <= est <= lim.max_deg + RANGE_MARGIN_DEG
+                                and abs(est - meas) <= lim.sensor_jump_deg):
+        # the filter's estimate left what the axis can physically be: no drive may act on it
+        return fault("sensor_range", f"position estimate {est:.2f} deg implausible (reading {meas:.2f} deg)")
 
     driven = abs(x.duty) >= 0.9 * x.min_duty and x.duty != 0.0
     sign = (x.duty > 0) - (x.duty < 0)

@@ -20,6 +20,7 @@ from typing import Any, Callable
 from ..clock import Clock
 from ..control import faults as faultmod
 from ..control import law
+from ..control.estimator import Estimate, FilterLimits, alpha_beta
 from ..control.faults import Fault, MonitorInputs, MonitorState
 from ..control.geometry import Geometry, wrap360
 from ..control.profile import stopping_distance_deg
@@ -34,10 +35,6 @@ log = logging.getLogger(__name__)
 AXES = ("az", "el")
 #: guard look-ahead: how far ahead (seconds of current motion) keep-out zones are checked.
 GUARD_LOOKAHEAD_S = 0.3
-#: alpha-beta filter gains for noisy sensors (pots, compasses): smooths without lag
-#: at constant speed, which a plain moving average would add.
-FILTER_ALPHA = 0.3
-FILTER_BETA = 0.03
 
 
 class _Axis:
@@ -75,10 +72,13 @@ class _Axis:
         #: two counts per second
         self.still_rate_deg_per_s = max(2 * sensor.resolution_deg, 0.5 * self.caps.min_rate_deg_per_s,
                                         3 * 0.84 * sensor.noise_deg / window_s)
-        self.history: collections.deque[tuple[float, float]] = collections.deque(
-            maxlen=max(2, round(window_s * settings.caps.loop_hz) + 1))
+        # the window is kept by time, not by tick count: catch-up ticks microseconds
+        # apart would otherwise shrink it to nothing and turn noise into speed
+        self.window_s = max(1, round(window_s * settings.caps.loop_hz)) / settings.caps.loop_hz
+        self.history: collections.deque[tuple[float, float]] = collections.deque(maxlen=10_000)
         self._t_s = 0.0
         self._filter_rate = 0.0
+        self.filter_limits = FilterLimits(1.0 / settings.caps.loop_hz, self.caps.max_rate_deg_per_s)
 
     # ---- sensing ------------------------------------------------------------------
     def set_reference(self, mech_deg: float, at_edge: bool = False) -> None:
@@ -106,15 +106,15 @@ class _Axis:
             self.sensor_ok, self.sensor_error = False, f"non-finite reading {raw!r}"
             return None
         mech = self.unwrap(raw + self.count_centre_deg, self.meas_deg)
-        if self.noisy and self.sensor_ok and dt_s > 0:
-            pred = self.meas_deg + self._filter_rate * dt_s
-            resid = mech - pred
-            self.meas_deg = pred + FILTER_ALPHA * resid
-            self._filter_rate += FILTER_BETA * resid / dt_s
+        if self.noisy and self.sensor_ok:
+            est = alpha_beta(Estimate(self.meas_deg, self._filter_rate), mech, dt_s, self.filter_limits)
+            self.meas_deg, self._filter_rate = est.pos_deg, est.rate_deg_per_s
         else:
             self.meas_deg = mech
         # the reported speed: slope over the window (the filter's own rate is too noisy)
         self.history.append((self._t_s, self.meas_deg))
+        while len(self.history) > 2 and self.history[1][0] <= self._t_s - self.window_s + 1e-9:
+            self.history.popleft()
         t_old, p_old = self.history[0]
         if self._t_s - t_old > 0:
             self.rate_deg_per_s = (self.meas_deg - p_old) / (self._t_s - t_old)
@@ -286,8 +286,11 @@ class Rotator:
             ax.mon, fault = faultmod.check(ax.mon, MonitorInputs(
                 now_s=now, meas_deg=meas, sensor_error=ax.sensor_error, duty=ax.out.duty,
                 min_duty=ax.tuning.min_duty if ax.tuning.drive == "pwm" else min(ax.tuning.drive_levels or (1.0,)),
-                current_a=ax.current_a, limit_min=ax.limit_min, limit_max=ax.limit_max), ax.flim)
+                current_a=ax.current_a, limit_min=ax.limit_min, limit_max=ax.limit_max,
+                estimate_deg=ax.meas_deg if meas is not None else None), ax.flim)
             if fault is not None:
+                if fault.kind == "sensor_range" and meas is not None:
+                    ax.meas_deg, ax._filter_rate = meas, 0.0  # show the reading, not the wild estimate
                 self._latch(fault)
         while self._commands:
             self._commands.popleft().apply()
