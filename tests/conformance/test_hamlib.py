@@ -74,7 +74,12 @@ def test_net_rotctl_model_2(urc):
     rotctl(2, port, "P", "123.4", "45.6")
     s = settle_at(urc, 123.4, 45.6)
     az, el = read_pos(2, port)
-    assert az == pytest.approx(s["az_deg"], abs=0.05) and el == pytest.approx(s["el_deg"], abs=0.05)
+    # the held antenna may move a sensor count in the wind between two reads (berkeley's
+    # AS5600 count is 0.088 deg): the value read must be what the controller reported
+    # just before or just after it, to rotctld's two decimals
+    after = urc.status()
+    assert any(az == pytest.approx(x["az_deg"], abs=0.006) and el == pytest.approx(x["el_deg"], abs=0.006)
+               for x in (s, after)), (az, el, s["az_deg"], s["el_deg"], after["az_deg"], after["el_deg"])
     truth = s["simulator_truth"]
     assert az == pytest.approx(truth["az"]["deg"], abs=0.5) and el == pytest.approx(truth["el"]["deg"], abs=0.5)
 
