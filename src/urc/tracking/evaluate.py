@@ -45,9 +45,10 @@ class PointingStats:
 
 
 def fly(rot, clock: VirtualClock, step: Callable[[float], None], unix_at: Callable[[float], float],
-        until_unix_s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        until_unix_s: float, reported: list | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Run the loop (calling ``step(now_s)`` after each tick, like ``urc run``) until
-    ``until_unix_s``; return UTC times and the true sky pointing at every tick."""
+    ``until_unix_s``; return UTC times and the true sky pointing at every tick.
+    ``reported`` (a list) also collects (utc_s, az_deg, el_deg) as the controller reports it."""
     t, az, el = [], [], []
     geometry = rot.geometry
 
@@ -58,6 +59,8 @@ def fly(rot, clock: VirtualClock, step: Callable[[float], None], unix_at: Callab
         t.append(unix_at(s.t_s))
         az.append(a)
         el.append(e)
+        if reported is not None:
+            reported.append((t[-1], s.az_deg, s.el_deg))
     run_virtual(rot, clock, max(0.0, until_unix_s - unix_at(clock.now_s())), on_tick=on_tick)
     return np.array(t), np.array(az), np.array(el)
 
@@ -108,6 +111,9 @@ class FlownPass(NamedTuple):
     flight: tuple[np.ndarray, np.ndarray, np.ndarray]
     #: the pointing error at every tick between AOS and LOS
     error_deg: np.ndarray
+    #: (utc_s, az_deg, el_deg): where the controller said it pointed at every tick
+    #: (its sensors' view, blind to gear play)
+    reported: tuple[np.ndarray, np.ndarray, np.ndarray]
 
 
 def fly_pass_on_sim(profile: str, elements, station, p, state_dir, *, flip: bool = False,
@@ -136,7 +142,8 @@ def fly_pass_on_sim(profile: str, elements, station, p, state_dir, *, flip: bool
         step = tracker.step
     else:
         step = GpredictDriver(rot, SatelliteTarget(elements, station), unix_at, p.aos_unix_s, p.los_unix_s).step
-    t, az, el = fly(rot, clock, step, unix_at, p.los_unix_s)
+    reported: list[tuple[float, float, float]] = []
+    t, az, el = fly(rot, clock, step, unix_at, p.los_unix_s, reported)
     up = (t >= p.aos_unix_s) & (t <= p.los_unix_s)
     la = look_angles(elements, station, t[up])
     err = great_circle_deg(az[up], el[up], la.az_deg, la.el_deg)
@@ -146,4 +153,5 @@ def fly_pass_on_sim(profile: str, elements, station, p, state_dir, *, flip: bool
         plan_az = np.interp(t[up], plan.t_s, plan.az_deg)
         plan_el = np.interp(t[up], plan.t_s, plan.el_deg)
         plan_stats = PointingStats.of(pointing_error_deg(plan_az, plan_el, la.az_deg, la.el_deg, rot.geometry))
-    return FlownPass(rot, plan, stats, plan_stats, (t, az, el), err)
+    rep_t, rep_az, rep_el = (np.array(c) for c in zip(*reported))
+    return FlownPass(rot, plan, stats, plan_stats, (t, az, el), err, (rep_t, rep_az, rep_el))
