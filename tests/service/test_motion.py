@@ -224,3 +224,32 @@ def test_set_offsets_map_pointing(bench):
     s = b.settle()
     assert s.az_deg == pytest.approx(100.0, abs=0.3)
     assert s.az.pos_deg == pytest.approx(95.0, abs=0.3)
+
+
+@pytest.mark.parametrize("profile", ALL_PROFILES)
+def test_following_down_to_a_limit_stops_inside_it(bench, profile):
+    """Issue 12.2: a pass flown down to el 0 (the track's last updates still descend,
+    then stop at LOS) ends inside the soft limit like a goto to el 0 does, never in the
+    hard stop; the same for an azimuth track running into its limit."""
+    b = bench(profile)
+    lo_az, hi_az = b.rot.axes["az"].limits
+    lo_el = b.rot.axes["el"].limits[0]
+    b.rot.goto(hi_az - 6.0 if hi_az < 360 else 354.0, lo_el + 4.0)
+    b.settle()
+    az0, t0 = b.rot.status().az.pos_deg, b.clock.now_s()
+    el_rate = -0.5
+    az_rate = 1.0 if hi_az < 360 else 0.0
+    lows, highs = [], []
+
+    def pose_at(t):
+        return (min(az0 + az_rate * (t - t0), hi_az), max(lo_el + 4.0 + el_rate * (t - t0), lo_el))
+    refused = fly_track(b, pose_at, (az_rate, el_rate), 8.0)  # until LOS, at the limit
+    assert refused == []
+    b.run(40.0, on_tick=lambda s: (lows.append(s.sim_truth["el"]["deg"]), highs.append(s.sim_truth["az"]["deg"])))
+    s = b.rot.status()
+    assert not s.faults, s.faults
+    margin = tol(b.rot, "el")
+    assert min(lows) >= lo_el - margin, f"el ran to {min(lows):.2f} below the limit {lo_el}"
+    assert s.el.pos_deg == pytest.approx(lo_el, abs=margin)
+    if az_rate:
+        assert max(highs) <= hi_az + tol(b.rot, "az"), f"az ran to {max(highs):.2f} past {hi_az}"

@@ -86,9 +86,23 @@ class Setpoint:
     t_ref_s: float = 0.0
     speed_cap_deg_per_s: float | None = None
     seq: int = 0
+    #: the soft limits: a moving target stops there (a track extrapolated past its last
+    #: update, a pass flown down to el 0) and is then approached like a goto to the limit
+    min_deg: float = -math.inf
+    max_deg: float = math.inf
 
     def target_at(self, now_s: float) -> float:
-        return self.target_deg + self.rate_deg_per_s * (now_s - self.t_ref_s)
+        return min(max(self.target_deg + self.rate_deg_per_s * (now_s - self.t_ref_s), self.min_deg),
+                   self.max_deg)
+
+    def bounded(self, now_s: float) -> "Setpoint":
+        """This setpoint, as a standing target at the limit once it has moved there."""
+        if self.rate_deg_per_s == 0.0:
+            return self
+        target = self.target_at(now_s)
+        if self.min_deg < target < self.max_deg:
+            return self
+        return replace(self, target_deg=target, rate_deg_per_s=0.0, t_ref_s=now_s)
 
 
 @dataclass(frozen=True)
@@ -152,6 +166,7 @@ def _step(st: AxisState, sp: Setpoint | None, meas_deg: float, now_s: float, dt_
     if sp is None:
         return replace(st, mode="idle", ref_deg=meas_deg, ref_rate_deg_per_s=0.0,
                        integral_deg_s=0.0, arrived=False), OFF
+    sp = sp.bounded(now_s)
 
     target_deg = sp.target_at(now_s)
     # an on/off drive follows anything slower than its top speed in bursts as well
@@ -166,7 +181,8 @@ def _step(st: AxisState, sp: Setpoint | None, meas_deg: float, now_s: float, dt_
     # gear play that threw the antenna on): aim at the target itself, it comes to us
     ahead = creeping and (meas_deg - target_deg - lead_deg) * sp.rate_deg_per_s > 0.0
     if creeping and not ahead:
-        target_deg += lead_deg
+        # (never past a soft limit: a sensor may not even read beyond it, a pot at its end)
+        target_deg = min(max(target_deg + lead_deg, sp.min_deg), sp.max_deg)
     error_deg = target_deg - meas_deg
 
     if sp.seq != st.seq:

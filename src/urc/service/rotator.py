@@ -565,7 +565,8 @@ class Rotator:
             ax = self.axes[name]
             lo, hi = ax.limits
             keep = was_tracking and ax.sp is not None
-            ax.sp = law.Setpoint(min(max(p, lo), hi), r, t_ref, seq=ax.sp.seq if keep else seq)
+            ax.sp = law.Setpoint(min(max(p, lo), hi), r, t_ref, seq=ax.sp.seq if keep else seq,
+                                 min_deg=lo, max_deg=hi)
 
     def move(self, axis: str, direction: int, speed_frac: float = 1.0) -> None:
         """Manual move (jog) of one axis at a fraction of its top speed, until stop.

@@ -143,6 +143,9 @@ class Tracker:
             log.info("pass of %s ended", job.target.name)
             if self.park_after_pass:
                 self.rot.park()
+            else:  # hold the LOS pose: the last update's speed must not carry the antenna on
+                az, el, _, _ = plan.pose_at(job.pass_.los_unix_s)
+                self.rot.track_pose(az, el, 0.0, 0.0, now_s)
             if self.follow_satellite:
                 self._plan_next(job.target, now_s)
             else:
