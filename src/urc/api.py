@@ -12,9 +12,10 @@ import asyncio
 import os
 from typing import Any
 
-from fastapi import Depends, FastAPI
+from fastapi import APIRouter, Depends, FastAPI
 from fastapi.responses import JSONResponse
-from pydantic import BaseModel, Field
+from fastapi_offline import FastAPIOffline
+from pydantic import BaseModel
 
 from . import __version__
 from .config import Config
@@ -24,18 +25,19 @@ from .service.calibration import CalibrationError
 from .web import WebContext, install
 from .web.live import FRAME_HZ, Hub
 from .web.routes_live import MoveRequest, StopRequest
-from .web.security import SecurityHeaders, control_guard
+from .web.schemas import CONTROL_RESPONSES, AzDeg, ElDeg, Ok, Strict
+from .web.security import RequestGate, SecurityHeaders, control_guard
 from .web.settings_store import SettingsStore
 
 
-class GotoRequest(BaseModel):
-    az_deg: float = Field(allow_inf_nan=False)
-    el_deg: float = Field(allow_inf_nan=False)
+class GotoRequest(Strict):
+    az_deg: AzDeg
+    el_deg: ElDeg
 
 
-class PositionRequest(BaseModel):
-    az_deg: float | None = Field(None, allow_inf_nan=False)
-    el_deg: float | None = Field(None, allow_inf_nan=False)
+class PositionRequest(Strict):
+    az_deg: AzDeg | None = None
+    el_deg: ElDeg | None = None
 
 
 class Accepted(BaseModel):
@@ -52,9 +54,11 @@ def create_api(rotator: Rotator, cfg: Config, *, config_path: str | os.PathLike 
     there; without one it saves to ``<state_dir>/urc.toml``). ``tracker``: the tracking
     service (see ``urc.web.routes_tracking``); None = no tracking endpoints.
     """
-    app = FastAPI(title="urc control API", version=__version__,
-                  description="Universal Rotator Controller: status, control, calibration, settings; "
-                              "the dashboard is at /")
+    # FastAPIOffline: /docs and /redoc from assets shipped in the package, not from a CDN
+    # (a station's network may have no internet)
+    app = FastAPIOffline(title="urc control API", version=__version__,
+                         description="Universal Rotator Controller: status, control, calibration, settings; "
+                                     "the dashboard is at /")
     if state_dir is None and getattr(rotator, "store", None) is not None:
         state_dir = rotator.store.path.parent
     hub = Hub(rotator, tracker, frame_hz)
@@ -62,6 +66,7 @@ def create_api(rotator: Rotator, cfg: Config, *, config_path: str | os.PathLike 
     ctx = WebContext(rotator=rotator, cfg=cfg, hub=hub, settings=SettingsStore(cfg, config_path, state_dir),
                      control=control_allowed, tracker=tracker)
     app.state.web = ctx
+    app.add_middleware(RequestGate, cfg=cfg)   # inner: auth and body bounds before any parsing
     app.add_middleware(SecurityHeaders, on_request=hub.ensure_started)
     try:  # inside ``urc run`` the loop runs already: record history from the start
         asyncio.get_running_loop()
@@ -84,20 +89,22 @@ def create_api(rotator: Rotator, cfg: Config, *, config_path: str | os.PathLike 
     # Handlers are coroutines: they run on the event loop thread, like the control loop,
     # so commands reach the rotator service from its own thread (FastAPI would run plain
     # functions in a thread pool).
+    ctl = APIRouter(dependencies=[Depends(control_allowed)], responses=CONTROL_RESPONSES)
+
     @app.get("/api/status")
     async def status() -> dict:
         """The rotator's snapshot, plus ``tracking`` (null when nothing is tracked)."""
         return hub.status_dict()
 
-    @app.post("/api/goto", dependencies=[Depends(control_allowed)])
+    @ctl.post("/api/goto")
     async def goto(req: GotoRequest) -> Accepted:
         return Accepted(route=rotator.goto(req.az_deg, req.el_deg))
 
-    @app.post("/api/park", dependencies=[Depends(control_allowed)])
+    @ctl.post("/api/park")
     async def park() -> Accepted:
         return Accepted(route=rotator.park())
 
-    @app.post("/api/stop", dependencies=[Depends(control_allowed)])
+    @ctl.post("/api/stop")
     async def stop(req: StopRequest | None = None) -> Accepted:
         """Stop. Without an axis: everything — jogs, a calibration, tracking, both axes."""
         axis = req.axis if req else None
@@ -114,20 +121,21 @@ def create_api(rotator: Rotator, cfg: Config, *, config_path: str | os.PathLike 
         rotator.stop(axis)
         return Accepted()
 
-    @app.post("/api/move", dependencies=[Depends(control_allowed)])
-    async def move(req: MoveRequest) -> Accepted:
+    @ctl.post("/api/move")
+    async def move(req: MoveRequest) -> Ok:
         rotator.move(req.axis, req.direction, req.speed)
-        return Accepted()
+        return Ok()
 
-    @app.post("/api/set-position", dependencies=[Depends(control_allowed)])
-    async def set_position(req: PositionRequest) -> Accepted:
+    @ctl.post("/api/set-position")
+    async def set_position(req: PositionRequest) -> Ok:
         rotator.set_position(req.az_deg, req.el_deg)
-        return Accepted()
+        return Ok()
 
-    @app.post("/api/clear-faults", dependencies=[Depends(control_allowed)])
-    async def clear_faults() -> Accepted:
+    @ctl.post("/api/clear-faults")
+    async def clear_faults() -> Ok:
         rotator.clear_faults()
-        return Accepted()
+        return Ok()
 
+    app.include_router(ctl)
     install(app, ctx)
     return app

@@ -6,6 +6,9 @@ import os
 from pathlib import Path
 
 import pytest
+from fastapi.testclient import TestClient
+
+from urc.api import create_api
 
 CHROMIUM = os.environ.get("URC_CHROMIUM", "/usr/bin/chromium")
 CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
@@ -63,3 +66,21 @@ def open_page(browser):
     yield open_
     for ctx, page in pages:
         ctx.close()
+
+
+@pytest.fixture
+def make_client(bench, tmp_path):
+    """The control API app (in process, virtual clock) behind a TestClient."""
+    clients = []
+
+    def make(profile="berkeley", tracker=None, config_path=None, **config):
+        b = bench(profile, **config)
+        app = create_api(b.rot, b.cfg, config_path=config_path, tracker=tracker)
+        c = TestClient(app)
+        c.__enter__()
+        clients.append(c)
+        c.bench = b
+        return c
+    yield make
+    for c in clients:
+        c.__exit__(None, None, None)

@@ -10,32 +10,12 @@ import tomllib
 from pathlib import Path
 
 import pytest
-from fastapi.testclient import TestClient
-
-from urc.api import create_api
 from urc.web import STATIC_DIR
 from urc.web.live import JOG_LEASE_S, Hub
 
 from .fake_tracker import FakeTracker
 
 TOKEN = "s3cret-token"
-
-
-@pytest.fixture
-def make_client(bench, tmp_path):
-    clients = []
-
-    def make(profile="berkeley", tracker=None, config_path=None, **config):
-        b = bench(profile, **config)
-        app = create_api(b.rot, b.cfg, config_path=config_path, tracker=tracker)
-        c = TestClient(app)
-        c.__enter__()
-        clients.append(c)
-        c.bench = b
-        return c
-    yield make
-    for c in clients:
-        c.__exit__(None, None, None)
 
 
 # ----------------------------------------------------------------------- security

@@ -6,43 +6,59 @@ control ticks, so a sensor read and the re-reference that follows are never spli
 
 from __future__ import annotations
 
+import math
 from typing import Literal
 
 from fastapi import APIRouter, Depends
-from pydantic import BaseModel, Field
+from pydantic import Field
 
 from ..service import calibration as cal
 from .context import WebContext
+from .schemas import CONTROL_RESPONSES, AzDeg, Deg, ElDeg, Ok, Strict
 
 
-class ZeroRequest(BaseModel):
-    az_deg: float | None = Field(None, allow_inf_nan=False)
-    el_deg: float | None = Field(None, allow_inf_nan=False)
+class ZeroRequest(Strict):
+    az_deg: AzDeg | None = None
+    el_deg: ElDeg | None = None
 
 
-class AxisRequest(BaseModel):
+class AxisRequest(Strict):
     axis: Literal["az", "el"]
 
 
-class PotPoint(BaseModel):
-    bearing_deg: float = Field(allow_inf_nan=False, ge=-360.0, le=720.0)
-    p: float = Field(allow_inf_nan=False)
+class PotPoint(Strict):
+    bearing_deg: AzDeg
+    p: float = Field(strict=True, allow_inf_nan=False)
 
 
-class PotApplyRequest(BaseModel):
+class PotApplyRequest(Strict):
     axis: Literal["az", "el"]
     points: list[PotPoint] = Field(min_length=2, max_length=2)
 
 
-class HomingRequest(BaseModel):
+class HomingRequest(Strict):
     axis: Literal["az", "el"]
-    speed_frac: float | None = Field(None, gt=0.0, le=1.0)
-    switch_deg: float | None = Field(None, allow_inf_nan=False)
+    speed_frac: float | None = Field(None, strict=True, gt=0.0, le=1.0, allow_inf_nan=False)
+    switch_deg: Deg | None = None
+
+
+class PotReading(Ok):
+    axis: Literal["az", "el"]
+    p: float = Field(description="the pot's linearised reading P (averaged)")
+    reading_deg: float
+
+
+class PotApplied(Ok):
+    result: dict[str, float | None] = Field(description="M, C and the constants loaded")
+
+
+class ProcedureState(Ok):
+    procedure: dict | None = Field(description="kind, axis, state, step, progress (0..1)")
 
 
 def router(ctx: WebContext) -> APIRouter:
     r = APIRouter(prefix="/api/calibration")
-    control = [Depends(ctx.control)]
+    control = dict(dependencies=[Depends(ctx.control)], responses=CONTROL_RESPONSES)
     rot = ctx.rotator
 
     @r.get("")
@@ -50,46 +66,47 @@ def router(ctx: WebContext) -> APIRouter:
         """Per axis: sensor, constants, procedures that apply; the running procedure."""
         return {"axes": cal.describe_sensors(rot), "procedure": ctx.hub.procedure_dict()}
 
-    @r.post("/zero", dependencies=control)
-    async def zero(req: ZeroRequest) -> dict:
+    @r.post("/zero", **control)
+    async def zero(req: ZeroRequest) -> Ok:
         """Declare where the antenna points now (re-reference)."""
         cal.zero(rot, req.az_deg, req.el_deg)
-        return {"ok": True}
+        return Ok()
 
-    @r.post("/pot/read", dependencies=control)
-    async def pot_read(req: AxisRequest) -> dict:
+    @r.post("/pot/read", **control)
+    async def pot_read(req: AxisRequest) -> PotReading:
         """The pot's linearised reading P here (averaged), for a two-point calibration."""
         sensor = rot.hw.axis(req.axis).sensor
         status = rot.status()
         return {"ok": True, "axis": req.axis, "p": cal.pot_units(sensor),
                 "reading_deg": getattr(status, req.axis).pos_deg + status.offsets.get(req.axis, 0.0)}
 
-    @r.post("/pot/apply", dependencies=control)
-    async def pot_apply(req: PotApplyRequest) -> dict:
+    @r.post("/pot/apply", **control)
+    async def pot_apply(req: PotApplyRequest) -> PotApplied:
         """Compute M and C from two (bearing, P) points and load them."""
         result = cal.pot_apply(rot, req.axis, [(p.bearing_deg, p.p) for p in req.points])
-        return {"ok": True, "result": result}
+        # JSON has no NaN (an old constant that was never set): null
+        return PotApplied(result={k: v if math.isfinite(v) else None for k, v in result.items()})
 
-    @r.post("/magnetometer", dependencies=control)
-    async def magnetometer() -> dict:
+    @r.post("/magnetometer", **control)
+    async def magnetometer() -> ProcedureState:
         """Start the 12-direction hard-iron calibration (the antenna turns all the way round)."""
         ctx.hub.start_procedure(cal.MagnetometerCalibration(rot))
-        return {"ok": True, "procedure": ctx.hub.procedure_dict()}
+        return ProcedureState(procedure=ctx.hub.procedure_dict())
 
-    @r.post("/homing", dependencies=control)
-    async def homing(req: HomingRequest) -> dict:
+    @r.post("/homing", **control)
+    async def homing(req: HomingRequest) -> ProcedureState:
         """Start limit-switch homing of one axis (slow jog onto the lower switch)."""
         ctx.hub.start_procedure(cal.LimitSwitchHoming(rot, req.axis, req.speed_frac, req.switch_deg))
-        return {"ok": True, "procedure": ctx.hub.procedure_dict()}
+        return ProcedureState(procedure=ctx.hub.procedure_dict())
 
     @r.get("/procedure")
-    async def procedure() -> dict:
-        return {"procedure": ctx.hub.procedure_dict()}
+    async def procedure() -> ProcedureState:
+        return ProcedureState(procedure=ctx.hub.procedure_dict())
 
-    @r.post("/procedure/cancel", dependencies=control)
-    async def cancel() -> dict:
+    @r.post("/procedure/cancel", **control)
+    async def cancel() -> ProcedureState:
         if ctx.hub.procedure is not None:
             ctx.hub.procedure.cancel()
-        return {"ok": True, "procedure": ctx.hub.procedure_dict()}
+        return ProcedureState(procedure=ctx.hub.procedure_dict())
 
     return r

@@ -2,30 +2,40 @@
 
 from __future__ import annotations
 
+import logging
 from typing import Literal
 
-from fastapi import APIRouter, Depends, Query, WebSocket
-from pydantic import BaseModel, Field
+from fastapi import APIRouter, Depends, HTTPException, Query, WebSocket
+from pydantic import Field
 
 from .. import __version__
 from ..profiles import PROFILES
 from ..protocols.registry import PROTOCOLS
 from .context import WebContext
 from .live import JOG_LEASE_S
+from .schemas import CONTROL_RESPONSES, Ok, Strict
+from .security import check_browser_origin
+
+log = logging.getLogger(__name__)
 
 
-class MoveRequest(BaseModel):
+class MoveRequest(Strict):
     """Move (jog) one axis; also the body of the control API's /api/move."""
 
     axis: Literal["az", "el"]
     direction: Literal[-1, 1]
-    speed: float = Field(1.0, gt=0.0, le=1.0, description="fraction of the axis' top speed")
+    speed: float = Field(1.0, strict=True, gt=0.0, le=1.0, allow_inf_nan=False,
+                         description="fraction of the axis' top speed")
 
 
-class StopRequest(BaseModel):
+class StopRequest(Strict):
     """One axis, or both (None); also the body of the control API's /api/stop."""
 
     axis: Literal["az", "el"] | None = None
+
+
+class JogLease(Ok):
+    lease_s: float = Field(description="the jog stops unless renewed within this time")
 
 
 def router(ctx: WebContext) -> APIRouter:
@@ -34,7 +44,15 @@ def router(ctx: WebContext) -> APIRouter:
 
     @r.websocket("/api/ws")
     async def live(ws: WebSocket) -> None:
-        """Status frames (JSON) about ten times a second; viewing needs no token."""
+        """Status frames (JSON) about ten times a second; viewing needs no token, but a
+        page of another site (or one reached through a rebinding host name) gets no
+        feed, as it gets no control: closed before the handshake (HTTP 403)."""
+        try:
+            check_browser_origin(ctx.cfg, ws)
+        except HTTPException as exc:
+            log.warning("live feed refused: %s", exc.detail)
+            await ws.close(code=1008, reason=str(exc.detail)[:120])
+            return
         await ctx.hub.serve(ws)
 
     @r.get("/api/info")
@@ -70,16 +88,16 @@ def router(ctx: WebContext) -> APIRouter:
         ctx.hub.ensure_started()
         return ctx.hub.history.select(which, seconds=seconds, since_wall_s=since, max_points=max_points)
 
-    @r.post("/api/jog", dependencies=control)
-    async def jog(req: MoveRequest) -> dict:
+    @r.post("/api/jog", dependencies=control, responses=CONTROL_RESPONSES)
+    async def jog(req: MoveRequest) -> JogLease:
         """Start or renew a press-and-hold jog. It stops by itself unless renewed within
         ``jog_lease_s`` (the page renews while the button is held)."""
         ctx.hub.jog(req.axis, req.direction, req.speed)
-        return {"ok": True, "lease_s": JOG_LEASE_S}
+        return JogLease(lease_s=JOG_LEASE_S)
 
-    @r.post("/api/jog/release", dependencies=control)
-    async def jog_release(req: StopRequest | None = None) -> dict:
+    @r.post("/api/jog/release", dependencies=control, responses=CONTROL_RESPONSES)
+    async def jog_release(req: StopRequest | None = None) -> Ok:
         ctx.hub.release(req.axis if req else None)
-        return {"ok": True}
+        return Ok()
 
     return r

@@ -6,8 +6,10 @@ from typing import Any
 
 from fastapi import APIRouter, Body, Depends
 from fastapi.responses import JSONResponse
+from pydantic import BaseModel, Field
 
 from .context import WebContext
+from .schemas import CONTROL_RESPONSES
 from .settings_store import RESTART_SECTIONS
 
 
@@ -25,6 +27,32 @@ def _apply_live(ctx: WebContext, cfg: Any) -> tuple[bool, str]:
     return True, "applied now"
 
 
+class SettingError(BaseModel):
+    key: str = Field(description="the dotted key of the field, e.g. limits.az.max_deg")
+    message: str
+
+
+class SettingsInvalid(BaseModel):
+    ok: bool = False
+    errors: list[SettingError]
+
+
+class Checked(BaseModel):
+    ok: bool = True
+    errors: list[SettingError] = []
+    changed: list[str]
+
+
+class SaveResult(BaseModel):
+    ok: bool = True
+    saved_to: str
+    changed: list[str]
+    restart_needed: list[str] = Field(description="changed sections that take effect at the next start")
+    applied_live: bool
+    started_without_file: bool
+    messages: list[str]
+
+
 def router(ctx: WebContext) -> APIRouter:
     r = APIRouter()
     store = ctx.settings
@@ -34,7 +62,9 @@ def router(ctx: WebContext) -> APIRouter:
         """The configuration document (without the API token) and where it is saved."""
         return store.document()
 
-    @r.post("/api/settings/validate")
+    @r.post("/api/settings/validate", response_model=Checked,
+            responses={422: {"model": SettingsInvalid, "description": "each error names its key"},
+                       413: CONTROL_RESPONSES[413]})
     def validate(data: Any = Body(...)) -> JSONResponse:
         """Check a configuration document with the same rules as the file; nothing changes."""
         cfg, errors = store.validate(data)
@@ -42,7 +72,9 @@ def router(ctx: WebContext) -> APIRouter:
             return JSONResponse({"ok": False, "errors": errors}, status_code=422)
         return JSONResponse({"ok": True, "errors": [], "changed": store.changed_sections(cfg)})
 
-    @r.post("/api/settings", dependencies=[Depends(ctx.control)])
+    @r.post("/api/settings", dependencies=[Depends(ctx.control)], response_model=SaveResult,
+            responses=CONTROL_RESPONSES | {422: {"model": SettingsInvalid, "description": "each error names its key"},
+                                           500: {"model": SettingsInvalid, "description": "could not save"}})
     async def save(data: Any = Body(...)) -> JSONResponse:
         """Validate, save (previous file kept as .bak) and apply what can be applied live."""
         cfg, errors = store.validate(data)

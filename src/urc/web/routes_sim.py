@@ -8,30 +8,31 @@ from __future__ import annotations
 from typing import Literal
 
 from fastapi import APIRouter, Depends, HTTPException
-from pydantic import BaseModel, Field
+from pydantic import Field
 
 from .context import WebContext
+from .schemas import CONTROL_RESPONSES, Deg, Ok, Strict
 
 FaultKind = Literal["sensor_stuck", "sensor_jump", "sensor_dead", "jam", "runaway", "limit_switch",
                     "reverse_wiring"]
 
 
-class SimFault(BaseModel):
+class SimFault(Strict):
     axis: Literal["az", "el"]
     kind: FaultKind
-    deg: float | None = Field(None, allow_inf_nan=False, ge=-360.0, le=360.0,
-                              description="sensor_jump: offset of the reading")
-    duty: float | None = Field(None, allow_inf_nan=False, ge=-1.0, le=1.0, description="runaway: stuck duty")
+    deg: Deg | None = Field(None, description="sensor_jump: offset of the reading")
+    duty: float | None = Field(None, strict=True, allow_inf_nan=False, ge=-1.0, le=1.0,
+                               description="runaway: stuck duty")
     which: Literal["min", "max", "both"] | None = Field(None, description="limit_switch: which one")
 
 
-class SimClear(BaseModel):
+class SimClear(Strict):
     axis: Literal["az", "el"]
     kind: FaultKind | None = None
 
 
 def router(ctx: WebContext) -> APIRouter:
-    r = APIRouter(prefix="/api/sim")
+    r = APIRouter(prefix="/api/sim", dependencies=[Depends(ctx.control)], responses=CONTROL_RESPONSES)
 
     def world():
         w = ctx.rotator.hw.extra.get("world")
@@ -39,8 +40,8 @@ def router(ctx: WebContext) -> APIRouter:
             raise HTTPException(403, "fault injection exists only on the simulator backend")
         return w
 
-    @r.post("/fault", dependencies=[Depends(ctx.control)])
-    async def inject(req: SimFault) -> dict:
+    @r.post("/fault")
+    async def inject(req: SimFault) -> Ok:
         """Simulator only: make the simulated hardware fail (the controller is not told)."""
         w = world()
         kw = {k: v for k, v in (("deg", req.deg), ("duty", req.duty), ("which", req.which)) if v is not None}
@@ -48,12 +49,12 @@ def router(ctx: WebContext) -> APIRouter:
             w.inject(req.axis, req.kind, **kw)
         except ValueError as exc:
             raise HTTPException(409, str(exc)) from None
-        return {"ok": True}
+        return Ok()
 
-    @r.post("/clear", dependencies=[Depends(ctx.control)])
-    async def clear(req: SimClear) -> dict:
+    @r.post("/clear")
+    async def clear(req: SimClear) -> Ok:
         """Simulator only: repair the simulated hardware (latched faults still need clearing)."""
         world().clear(req.axis, req.kind)
-        return {"ok": True}
+        return Ok()
 
     return r

@@ -23,34 +23,33 @@ from __future__ import annotations
 import asyncio
 import inspect
 import logging
-import time
 from datetime import datetime
 from typing import Any, Literal
 
 from fastapi import APIRouter, Depends, HTTPException, Query
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import BaseModel, Field, model_validator
 
 from ..errors import CommandRejected, UrcError
 from .context import WebContext
+from .pass_search import MAX_HOURS, PassSearch
+from .schemas import CONTROL_RESPONSES, AzDeg, ElDeg, Ok, Problem, Strict
 
 log = logging.getLogger(__name__)
 
-#: a pass list is reused this long (seconds) before the search runs again
-PASSES_CACHE_S = 30.0
+NUM = dict(strict=True, allow_inf_nan=False)
 
 
-class TrackRequest(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+class TrackRequest(Strict):
     kind: Literal["sun", "moon", "satellite", "point", "azel", "nmea"]
     name: str | None = Field(None, min_length=1, max_length=100)
     #: an NMEA GGA stream (balloon): a device path or tcp:HOST:PORT
     source: str | None = Field(None, min_length=1, max_length=200, pattern=r"^(tcp:[\w.\-\[\]:]+|/[\w./\-]+)$")
     norad: int | None = Field(None, ge=1, le=999_999_999)
-    lat_deg: float | None = Field(None, ge=-90.0, le=90.0, allow_inf_nan=False)
-    lon_deg: float | None = Field(None, ge=-180.0, le=360.0, allow_inf_nan=False)
-    alt_m: float | None = Field(None, ge=-1000.0, le=1e8, allow_inf_nan=False)
-    az_deg: float | None = Field(None, allow_inf_nan=False)
-    el_deg: float | None = Field(None, ge=-90.0, le=180.0, allow_inf_nan=False)
+    lat_deg: float | None = Field(None, ge=-90.0, le=90.0, **NUM)
+    lon_deg: float | None = Field(None, ge=-180.0, le=360.0, **NUM)
+    alt_m: float | None = Field(None, ge=-1000.0, le=1e8, **NUM)
+    az_deg: AzDeg | None = None
+    el_deg: ElDeg | None = None
 
     @model_validator(mode="after")
     def _needs(self) -> "TrackRequest":
@@ -64,9 +63,20 @@ class TrackRequest(BaseModel):
         return self
 
 
-class PassRequest(BaseModel):
-    norad: int = Field(ge=1, le=999_999_999)
+class PassRequest(Strict):
+    norad: int = Field(ge=1, le=999_999_999, strict=True)
     aos: datetime
+
+
+class PassInfo(BaseModel):
+    norad: int
+    name: str
+    aos: str = Field(description="acquisition of signal (UTC, ISO 8601): rising above min_el")
+    tca: str
+    los: str
+    max_el_deg: float
+    aos_az_deg: float
+    los_az_deg: float
 
 
 async def _call(fn: Any, *args: Any, **kw: Any) -> Any:
@@ -91,42 +101,38 @@ def _sync_call(fn: Any, **kw: Any) -> Any:
 
 def router(ctx: WebContext) -> APIRouter:
     r = APIRouter()
-    control = [Depends(ctx.control)]
+    control = dict(dependencies=[Depends(ctx.control)], responses=CONTROL_RESPONSES)
     trk = ctx.tracker
 
-    cache: dict[tuple[float, float], tuple[float, list[dict]]] = {}
+    search = PassSearch(lambda hours, min_el_deg: _sync_call(trk.passes, hours=hours, min_el_deg=min_el_deg))
 
-    @r.get("/api/passes")
-    async def passes(hours: float = Query(24.0, gt=0.0, le=168.0),
-                     min_el: float = Query(10.0, ge=0.0, le=90.0)) -> list[dict]:
-        """Passes of the catalog's satellites over the station in the next ``hours``."""
-        # A pass search over a catalog takes long: off the control loop's thread, and
-        # shared for a while by every open dashboard.
-        key = (hours, min_el)
-        hit = cache.get(key)
-        if hit is not None and time.monotonic() - hit[0] < PASSES_CACHE_S:
-            return hit[1]
-        result = await asyncio.to_thread(_sync_call, trk.passes, hours=hours, min_el_deg=min_el)
-        cache.clear()
-        cache[key] = (time.monotonic(), result)
-        return result
+    @r.get("/api/passes", response_model=list[PassInfo],
+           responses={503: {"model": Problem, "description": "the pass search is busy or took too long"}})
+    async def passes(hours: float = Query(24.0, gt=0.0, le=MAX_HOURS),
+                     min_el: float | None = Query(None, ge=0.0, le=90.0,
+                                                  description="default: the tracker's tracking.min_el_deg")
+                     ) -> list[dict]:
+        """Passes of the catalog's satellites over the station in the next ``hours``.
+        AOS and LOS are where the pass crosses ``min_el`` (by default the elevation the
+        tracker flies passes from, so this list and a pass's plan agree)."""
+        return await search.get(hours, ctx.cfg.tracking.min_el_deg if min_el is None else min_el)
 
-    @r.post("/api/track", dependencies=control)
-    async def track(req: TrackRequest) -> dict:
+    @r.post("/api/track", **control)
+    async def track(req: TrackRequest) -> Ok:
         await _call(trk.track, req.model_dump(exclude_none=True))
         await ctx.hub.refresh_tracking()
-        return {"ok": True}
+        return Ok()
 
-    @r.post("/api/track/pass", dependencies=control)
-    async def track_pass(req: PassRequest) -> dict:
+    @r.post("/api/track/pass", **control)
+    async def track_pass(req: PassRequest) -> Ok:
         await _call(trk.track_pass, norad=req.norad, aos=req.aos)
         await ctx.hub.refresh_tracking()
-        return {"ok": True}
+        return Ok()
 
-    @r.post("/api/track/stop", dependencies=control)
-    async def track_stop() -> dict:
+    @r.post("/api/track/stop", **control)
+    async def track_stop() -> Ok:
         await _call(trk.stop)
         await ctx.hub.refresh_tracking()
-        return {"ok": True}
+        return Ok()
 
     return r

@@ -10,12 +10,29 @@ from __future__ import annotations
 
 import hmac
 import ipaddress
+import json
+import logging
 from typing import Any, Callable
 from urllib.parse import urlsplit
 
-from fastapi import Header, HTTPException, Request
+from fastapi import Depends, HTTPException
+from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
+from starlette.datastructures import Headers
+from starlette.requests import HTTPConnection
 
 from ..config import Config
+
+log = logging.getLogger(__name__)
+
+#: the largest request body accepted (the settings document is a few KiB): bigger is 413
+#: before any of it is parsed, so no POST can hold the event loop in a JSON parser
+MAX_BODY_BYTES = 64 * 1024
+#: the only POST that needs no control right (it checks a settings document, changes nothing)
+OPEN_POSTS = frozenset({"/api/settings/validate"})
+#: documents the control token in the OpenAPI description; the check itself is check_control
+BEARER = HTTPBearer(auto_error=False, scheme_name="token",
+                    description="the API token (`api.token`), needed for control when the API "
+                                "listens beyond loopback")
 
 CSP = ("default-src 'self'; script-src 'self'; style-src 'self'; img-src 'self' data:; "
        "connect-src 'self'; font-src 'self'; object-src 'none'; base-uri 'none'; "
@@ -40,32 +57,124 @@ def _loopback_name(host: str) -> bool:
         return False
 
 
-def check_browser_origin(cfg: Config, request: Request) -> None:
+def check_browser_origin(cfg: Config, request: HTTPConnection | Headers) -> None:
     """Refuse control sent by a page of another site (CSRF: a loopback API needs no
     token, so any web page could otherwise POST to it) or by a page reached under a
     foreign name that resolves to this machine (DNS rebinding). Browsers always send
     ``Origin`` with a POST; clients without one (the CLI, scripts) are not browsers."""
-    origin = request.headers.get("origin")
+    headers = request if isinstance(request, Headers) else request.headers
+    origin = headers.get("origin")
     if origin is None:
         return
-    host = request.headers.get("host", "")
+    host = headers.get("host", "")
     if urlsplit(origin).netloc.lower() != host.lower():
         raise HTTPException(403, f"control from another site ({origin}) refused")
     if cfg.api.is_loopback and not _loopback_name(host):
         raise HTTPException(403, f"control through the name {host!r} refused: this API listens on loopback only")
 
 
-def control_guard(cfg: Config) -> Callable[..., None]:
-    """A FastAPI dependency: the browser-origin check, then the token when one is required."""
+def check_token(cfg: Config, authorization: str | None) -> None:
+    if not cfg.api.control_requires_token:
+        return
+    supplied = (authorization or "").removeprefix("Bearer ").strip()
+    if not cfg.api.token or not hmac.compare_digest(supplied.encode(), cfg.api.token.encode()):
+        raise HTTPException(401, "control needs the API token (Authorization: Bearer <token>)")
 
-    def control_allowed(request: Request, authorization: str | None = Header(None)) -> None:
-        check_browser_origin(cfg, request)
-        if not cfg.api.control_requires_token:
-            return
-        supplied = (authorization or "").removeprefix("Bearer ").strip()
-        if not cfg.api.token or not hmac.compare_digest(supplied.encode(), cfg.api.token.encode()):
-            raise HTTPException(401, "control needs the API token (Authorization: Bearer <token>)")
+
+def check_control(cfg: Config, headers: Headers) -> None:
+    """The browser-origin check, then the token when one is required."""
+    check_browser_origin(cfg, headers)
+    check_token(cfg, headers.get("authorization"))
+
+
+def control_guard(cfg: Config) -> Callable[..., None]:
+    """A FastAPI dependency for the control routes. :class:`RequestGate` has checked the
+    same before the body was read; this repeats it per route (a route mounted elsewhere
+    stays guarded) and puts the bearer scheme into the OpenAPI description."""
+
+    def control_allowed(conn: HTTPConnection,
+                        _bearer: HTTPAuthorizationCredentials | None = Depends(BEARER)) -> None:
+        check_control(cfg, conn.headers)
     return control_allowed
+
+
+async def _send_json(send: Any, status: int, body: dict) -> None:
+    data = json.dumps(body).encode()
+    await send({"type": "http.response.start", "status": status,
+                "headers": [(b"content-type", b"application/json"), (b"content-length", str(len(data)).encode())]})
+    await send({"type": "http.response.body", "body": data})
+
+
+def _no_constant(name: str) -> float:
+    raise ValueError(f"{name} is not a number JSON allows (angles and values must be finite)")
+
+
+class RequestGate:
+    """Pure ASGI middleware in front of every request that may change something (any
+    method but GET/HEAD/OPTIONS): Origin and token are checked from the headers alone,
+    then the body is read with a size bound (413) and must be strict JSON (no NaN or
+    Infinity: 422) — all before a route parses anything. Without this, FastAPI reads and
+    parses a body before the route's dependencies run: a 40 MB POST from a foreign page
+    was parsed on the event loop before being refused."""
+
+    SAFE = frozenset({"GET", "HEAD", "OPTIONS"})
+
+    def __init__(self, app: Any, cfg: Config, max_body_bytes: int = MAX_BODY_BYTES):
+        self.app = app
+        self.cfg = cfg
+        self.max_body_bytes = max_body_bytes
+
+    async def __call__(self, scope: dict, receive: Any, send: Any) -> None:
+        if scope["type"] != "http" or scope["method"] in self.SAFE:
+            await self.app(scope, receive, send)
+            return
+        headers = Headers(scope=scope)
+        try:
+            if scope.get("path") in OPEN_POSTS:
+                check_browser_origin(self.cfg, headers)
+            else:
+                check_control(self.cfg, headers)
+        except HTTPException as exc:
+            await _send_json(send, exc.status_code, {"detail": exc.detail})
+            return
+        too_big = {"detail": f"request body larger than {self.max_body_bytes} bytes"}
+        try:
+            declared = int(headers.get("content-length") or 0)
+        except ValueError:
+            declared = 0
+        if declared > self.max_body_bytes:
+            await _send_json(send, 413, too_big)
+            return
+        chunks, size = [], 0
+        while True:
+            message = await receive()
+            if message["type"] == "http.disconnect":
+                return
+            chunk = message.get("body", b"")
+            size += len(chunk)
+            if size > self.max_body_bytes:
+                await _send_json(send, 413, too_big)
+                return
+            chunks.append(chunk)
+            if not message.get("more_body", False):
+                break
+        body = b"".join(chunks)
+        if body.strip():
+            try:
+                json.loads(body, parse_constant=_no_constant)
+            except ValueError as exc:
+                await _send_json(send, 422, {"detail": [{"loc": ["body"], "type": "json_invalid",
+                                                         "msg": f"not valid JSON: {exc}"}]})
+                return
+        delivered = False
+
+        async def replay() -> dict:
+            nonlocal delivered
+            if not delivered:
+                delivered = True
+                return {"type": "http.request", "body": body, "more_body": False}
+            return await receive()
+        await self.app(scope, replay, send)
 
 
 class SecurityHeaders:

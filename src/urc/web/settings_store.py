@@ -76,10 +76,37 @@ class SettingsStore:
     def validate(self, data: Any) -> tuple[Config | None, list[dict[str, str]]]:
         if not isinstance(data, dict):
             return None, [{"key": "", "message": "expected a table of settings"}]
+        data = self._merge_token(data)
         try:
-            return Config.from_dict(self._merge_token(data), source=SOURCE), []
+            return Config.from_dict(data, source=SOURCE), []
         except ConfigError as exc:
-            return None, config_errors(exc)
+            errors = config_errors(exc)
+        for problem in self._section_errors(data):
+            if problem not in errors:
+                errors.append(problem)
+        return None, errors
+
+    def _section_errors(self, data: dict[str, Any]) -> list[dict[str, str]]:
+        """The configuration's rules run in stages (types first, then each section against
+        the profile), and a document that fails one stage is not checked further: one
+        wrong field hid the others. So each section is also checked alone, on top of the
+        present settings (and the document's profile), to report every problem at once."""
+        base = self._merge_token(self.cfg.to_dict())
+        if isinstance(data.get("rotator"), dict):
+            try:
+                Config.from_dict({**base, "rotator": data["rotator"]}, source=SOURCE)
+                base["rotator"] = data["rotator"]
+            except ConfigError:
+                pass  # the profile itself is wrong: the others are checked against the present one
+        out: list[dict[str, str]] = []
+        for key, value in data.items():
+            if key not in base or key == "rotator":
+                continue  # unknown sections and the profile are reported by the whole check
+            try:
+                Config.from_dict({**base, key: value}, source=SOURCE)
+            except ConfigError as exc:
+                out += config_errors(exc)
+        return out
 
     def changed_sections(self, new: Config) -> list[str]:
         old_d, new_d = self.cfg.to_dict(), new.to_dict()
