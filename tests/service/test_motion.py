@@ -253,3 +253,21 @@ def test_following_down_to_a_limit_stops_inside_it(bench, profile):
     assert s.el.pos_deg == pytest.approx(lo_el, abs=margin)
     if az_rate:
         assert max(highs) <= hi_az + tol(b.rot, "az"), f"az ran to {max(highs):.2f} past {hi_az}"
+
+
+@pytest.mark.parametrize("profile", ALL_PROFILES)
+def test_a_target_at_a_limit_is_reached_within_the_tolerance(bench, profile):
+    """Issue 13.2: approaching az 0 (park, ``P 0 80``) ended 0.5-0.65 deg short with
+    "guard: az stopped ... before its limit": the guard took the lagging speed estimate
+    of a braking axis for an overrun. A target at a limit is reached, no guard trip."""
+    b = bench(profile)
+    el = min(60.0, b.rot.caps.el.max_deg)
+    for i, start in enumerate([30.0, 60.0, 12.0, 90.0, 150.0, 20.0]):
+        b.rot.goto(start, 30.0 + i)
+        b.settle()
+        b.rot.goto(0.0, el)
+        s = b.settle()
+        err = (s.az.pos_deg + 180.0) % 360.0 - 180.0
+        c = b.rot.caps.az
+        assert abs(err) <= c.tolerance_deg + c.sensor.resolution_deg + 3 * c.sensor.noise_deg, (start, s.az.pos_deg)
+        assert not [e for e in s.events if e.startswith("guard")], (start, s.events)

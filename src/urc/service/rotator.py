@@ -148,6 +148,18 @@ class _Axis:
             dist = stopping_distance_deg(self.rate_deg_per_s, self.tuning.accel_deg_per_s2)
         return self.meas_deg + math.copysign(dist, self.rate_deg_per_s)
 
+    def planned_stop_deg(self) -> float | None:
+        """Where the law's own braking brings the axis to rest, when the axis is seen to
+        follow the law's reference (PWM, driving, within a couple of counts of it); None
+        otherwise. The measured speed is a slope over a window, so it lags a braking
+        axis and overstates its stopping distance (a goto to a limit was cut short)."""
+        if self.tuning.drive != "pwm" or self.law.mode != "driving":
+            return None
+        if abs(self.meas_deg - self.law.ref_deg) > self.tuning.tolerance_deg + 2 * self.caps.sensor.resolution_deg:
+            return None
+        rate = self.law.ref_rate_deg_per_s
+        return self.meas_deg + math.copysign(stopping_distance_deg(rate, self.tuning.accel_deg_per_s2), rate)
+
     def status(self) -> AxisStatus:
         return AxisStatus(
             pos_deg=self.meas_deg, rate_deg_per_s=self.rate_deg_per_s,
@@ -330,7 +342,8 @@ class Rotator:
                 continue
             lo, hi = ax.limits
             slack = ax.tuning.tolerance_deg
-            rest = ax.stop_position_deg()
+            planned = ax.planned_stop_deg()
+            rest = ax.stop_position_deg() if planned is None else planned
             # The law brakes to a stop at a limit on its own; this only catches a gross
             # overrun, so the predicted rest point gets half its own stopping distance of
             # benefit of the doubt (the speed estimate lags and is quantised).
