@@ -271,3 +271,59 @@ def test_a_target_at_a_limit_is_reached_within_the_tolerance(bench, profile):
         c = b.rot.caps.az
         assert abs(err) <= c.tolerance_deg + c.sensor.resolution_deg + 3 * c.sensor.noise_deg, (start, s.az.pos_deg)
         assert not [e for e in s.events if e.startswith("guard")], (start, s.events)
+
+
+def test_parked_only_once_there(bench):
+    """Issue 13.4: ``parked`` said true from the moment a park was accepted, for the whole move."""
+    b = bench("tartu-urc")
+    b.rot.goto(120.0, 30.0)
+    b.settle()
+    b.rot.park()
+    seen = []
+    s = b.run(120.0, on_tick=lambda s: seen.append((s.parked, s.moving)),
+              until=lambda s: s.parked)
+    assert s.parked
+    assert len(seen) > 100 and not any(p for p, _ in seen[:-1]), "parked while still on the way"
+    b.run(2.0)
+    assert b.rot.status().parked
+    b.rot.goto(100.0, 20.0)
+    b.run(0.1)
+    assert not b.rot.status().parked
+    b.settle()
+    b.rot.park()
+    b.run(1.0)
+    b.rot.stop()  # a park cut short is no park
+    b.settle()
+    assert not b.rot.status().parked
+
+
+@pytest.mark.parametrize("profile,sky_az,wound_az", [("g4jnt", 355.0, 355.0), ("bigras", 20.0, 380.0),
+                                                     ("g5500", 10.0, 370.0)])
+def test_park_is_a_mechanical_pose_that_unwinds(bench, profile, sky_az, wound_az):
+    """Issue 12.5: park went to the nearest sky direction (g4jnt 358.8, bigras 360.4 with
+    the cable wound a turn); it is the mechanical park pose, unwound."""
+    b = bench(profile)
+    route = b.rot.goto(wound_az, 10.0)
+    assert route[-1][0] == pytest.approx(wound_az)
+    b.settle()
+    b.rot.park()
+    s = b.run(300.0, until=lambda s: s.parked)
+    assert s.parked
+    assert s.az.pos_deg == pytest.approx(0.0, abs=tol(b.rot, "az")), "not unwound to the park pose"
+    assert s.wrap_turns in (0, -1) and b.truth("az") < 5.0
+
+
+def test_tartu_parks_at_the_zenith_unflipped(bench):
+    """Issue 12.5: tartu-urc with flip parked flipped at az 180; at start-up its status said
+    "az 180.05, flipped" for an antenna standing at the park pose (el 90 + half a count)."""
+    b = bench("tartu-urc", rotator={"flip": True})
+    s = b.rot.status()
+    assert not s.flipped and s.az_deg == pytest.approx(0.0, abs=0.2) and s.el_deg == pytest.approx(90.0, abs=0.2)
+    b.rot.goto(10.0, 120.0)  # flipped: points at az 190, el 60
+    s = b.settle()
+    assert s.flipped and s.az_deg == pytest.approx(190.0, abs=0.3)
+    b.rot.park()
+    s = b.run(200.0, until=lambda s: s.parked)
+    assert s.parked and not s.flipped
+    assert s.az.pos_deg == pytest.approx(0.0, abs=0.3) and s.el.pos_deg == pytest.approx(90.0, abs=0.3)
+    assert s.az_deg == pytest.approx(0.0, abs=0.3) or s.az_deg == pytest.approx(360.0, abs=0.3)

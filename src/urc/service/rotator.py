@@ -192,6 +192,8 @@ class Rotator:
         self._seq = 0
         self._target_sky: tuple[float, float] | None = None
         self._parked = False
+        #: a park accepted and under way: parked once both axes hold at the park pose
+        self._parking = False
         self._last_t_s: float | None = None
         self._last_command_t_s = clock.now_s()
         self._last_save_t_s = -math.inf
@@ -307,6 +309,7 @@ class Rotator:
         while self._commands:
             self._commands.popleft().apply()
         self._advance_route()
+        self._check_parked()
         self._maybe_idle_park(now)
         for name, ax in self.axes.items():
             sp = None if self._faults else ax.sp
@@ -384,6 +387,7 @@ class Rotator:
             self._apply(ax)
         self._route = []
         self._tracking = False
+        self._parking = False
         self._target_sky = None
         log.error("FAULT %s: %s", fault.kind, fault.reason)
         self._event(f"fault {fault.kind}: {fault.reason}")
@@ -462,7 +466,7 @@ class Rotator:
             route = None
         return route
 
-    def goto_pose(self, az_m_deg: float, el_m_deg: float) -> list[tuple[float, float]]:
+    def goto_pose(self, az_m_deg: float, el_m_deg: float, name: str = "goto_pose") -> list[tuple[float, float]]:
         """Fly round any keep-out zone to one *mechanical* pose (wrap and flip chosen
         by the pass planner). Returns the planned waypoints."""
         self._require_motion_ok(automatic=True)
@@ -476,12 +480,12 @@ class Rotator:
             raise CommandRejected(f"no legal path to pose az {az_m_deg:g}, el {el_m_deg:g}: it or every "
                                   "path to it lies in a keep-out zone", "keepout")
         self._target_sky = g.to_sky(az_m_deg, el_m_deg)
-        self._submit_route("goto_pose", route)
+        self._submit_route(name, route)
         return route
 
     def _submit_route(self, name: str, route: list[tuple[float, float]]) -> None:
         def apply() -> None:
-            self._parked = False
+            self._parked = self._parking = False
             self._tracking = False
             self._start_route(route)
         self._submit(name, apply)
@@ -508,10 +512,14 @@ class Rotator:
         return self.goto(self._target_sky[0] if self._target_sky else self.status().az_deg, el_deg)
 
     def park(self) -> list[tuple[float, float]]:
-        route = self.goto(self.settings.park_az_deg, self.settings.park_el_deg)
+        """Go to the park pose: a *mechanical* pose (the axes' own frame, as the limits
+        are), not a sky direction. So parking unwinds the cable to the turn the pose
+        names, and a rotator that can flip parks unflipped at el 90 rather than at the
+        other side's az 180. ``parked`` turns true once both axes hold there."""
+        route = self.goto_pose(self.settings.park_az_deg, self.settings.park_el_deg, "park")
 
         def mark() -> None:
-            self._parked = True
+            self._parking = True
         self._submit("park", mark)
         return route
 
@@ -570,7 +578,7 @@ class Rotator:
         """Set moving setpoints. Successive updates of one track keep their sequence
         number, so the law keeps following instead of re-planning at every update."""
         was_tracking = self._tracking
-        self._parked = False
+        self._parked = self._parking = False
         self._tracking = True
         self._route = []
         seq = self._next_seq()
@@ -600,7 +608,7 @@ class Rotator:
         self._target_sky = None
 
         def apply() -> None:
-            self._parked = False
+            self._parked = self._parking = False
             if self._route or self._tracking:
                 # the other axis was flying a route or a track planned for both axes
                 # together; alone it could carry the jog into a zone: stop it too
@@ -619,6 +627,7 @@ class Rotator:
         def apply() -> None:
             self._route = []
             self._tracking = False
+            self._parking = False  # a park cut short is no park
             self._stop_axes([axis] if axis else list(AXES))
         self._submit("stop", apply)
 
@@ -669,6 +678,7 @@ class Rotator:
                 ax.mon = MonitorState()
                 self._event(f"{name} re-referenced to {v:.2f} deg")
             self._route = []
+            self._parked = self._parking = False
             self._last_save_t_s = self._last_save_wall_s = -math.inf
         self._submit("set_position", apply)
 
@@ -717,6 +727,7 @@ class Rotator:
                 ax.sp = None
             self._route = []
             self._tracking = False
+            self._parked = self._parking = False
             self._target_sky = None
             self._event("new settings applied (limits, keep-out zones, offsets, speeds, park)")
         self._submit("reconfigure", apply)
@@ -750,9 +761,16 @@ class Rotator:
             self._route.pop(0)
             self._set_waypoint(self._route[0])
 
+    def _check_parked(self) -> None:
+        """A park under way is done once its last waypoint is held on both axes."""
+        if self._parking and len(self._route) <= 1 and all(
+                ax.sp is not None and ax.law.seq == ax.sp.seq and ax.law.mode == "holding"
+                for ax in self.axes.values()):
+            self._parking, self._parked = False, True
+
     def _maybe_idle_park(self, now_s: float) -> None:
         idle_s = self.settings.idle_park_s
-        if idle_s <= 0 or self._parked or self._faults or self._tracking or self.position_uncertain():
+        if idle_s <= 0 or self._parked or self._parking or self._faults or self._tracking or self.position_uncertain():
             return
         if now_s - self._last_command_t_s >= idle_s and not self._moving():
             try:
@@ -819,7 +837,13 @@ class Rotator:
 
     def _build_status(self, now_s: float) -> Status:
         az, el = self.axes["az"], self.axes["el"]
-        sky_az, sky_el = self.geometry.to_sky(az.meas_deg, el.meas_deg)
+        g = self.geometry
+        el_ext = el.meas_deg + g.el_offset_deg
+        # within the tolerance past the zenith the antenna stands at its own azimuth, not
+        # "flipped" to the other side (a resting antenna at el 90 reads 90.05: half a count)
+        flipped = el_ext > 90.0 + el.tuning.tolerance_deg
+        sky_az, sky_el = g.to_sky(az.meas_deg, el.meas_deg) if flipped else \
+            (wrap360(az.meas_deg + g.az_offset_deg), min(el_ext, 180.0 - el_ext))
         lat = sorted(self._lateness_ms)
         p99 = lat[min(len(lat) - 1, int(0.99 * len(lat)))] if lat else 0.0
         tgt = self._target_sky
@@ -827,7 +851,7 @@ class Rotator:
             t_s=now_s, profile=self.caps.name, az_deg=round(sky_az, 4) % 360.0, el_deg=sky_el,
             az=az.status(), el=el.status(),
             target_az_deg=None if tgt is None else tgt[0], target_el_deg=None if tgt is None else tgt[1],
-            flipped=el.meas_deg + self.geometry.el_offset_deg > 90.0,
+            flipped=flipped,
             wrap_turns=int(math.floor((az.meas_deg + self.geometry.az_offset_deg) / 360.0)),
             moving=self._moving(), parked=self._parked, position_known=not self.position_uncertain(),
             faults=tuple(self._faults), events=tuple(self._events), tick_late_p99_ms=p99,
