@@ -327,3 +327,18 @@ def test_tartu_parks_at_the_zenith_unflipped(bench):
     assert s.parked and not s.flipped
     assert s.az.pos_deg == pytest.approx(0.0, abs=0.3) and s.el.pos_deg == pytest.approx(90.0, abs=0.3)
     assert s.az_deg == pytest.approx(0.0, abs=0.3) or s.az_deg == pytest.approx(360.0, abs=0.3)
+
+
+def test_a_flipped_target_uses_the_cable_overlap(bench):
+    """Issue 13.3: from P 355 140, P 6.9 137.4 travelled 348 deg back to mechanical 7.0
+    although 366.9 is in range and 12 deg away (unflipped it took 366.9)."""
+    b = bench("tartu-urc", rotator={"flip": True})
+    b.rot.goto(355.0, 140.0)
+    b.settle()
+    route = b.rot.goto(6.9, 137.4)
+    assert route[-1] == pytest.approx((366.9, 137.4))
+    s = b.settle()
+    assert s.az.pos_deg == pytest.approx(366.9, abs=tol(b.rot, "az"))
+    assert s.flipped and s.az_deg == pytest.approx(186.9, abs=0.3)
+    # an azimuth outside 0..360 still names its own turn
+    assert b.rot.goto(367.0, 120.0)[-1][0] == pytest.approx(367.0)

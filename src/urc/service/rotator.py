@@ -22,7 +22,7 @@ from ..control import faults as faultmod
 from ..control import law
 from ..control.estimator import Estimate, FilterLimits, alpha_beta
 from ..control.faults import Fault, MonitorInputs, MonitorState
-from ..control.geometry import Geometry, wrap360
+from ..control.geometry import Geometry, route_time_s, wrap360
 from ..control.profile import stopping_distance_deg
 from ..errors import CommandRejected, SensorError, StateFileError
 from ..hardware.interfaces import AxisHardware, Hardware
@@ -427,6 +427,15 @@ class Rotator:
             return None
         g = self.geometry
         pose = (az_deg - g.az_offset_deg, el_deg - g.el_offset_deg)
+        if 0.0 <= az_deg < 360.0:
+            # a flipped pose with a compass azimuth names the flip, not the wrap turn: the
+            # turn nearest in travel, the overlap included (from 355/140, 6.9/137.4 is
+            # 366.9, 12 deg on, not 7.0, 348 deg back)
+            turns = [(pose[0] + 360.0 * k, pose[1]) for k in range(-2, 3)]
+            legal = [p for p in turns if g.in_limits(*p)]
+            if legal:
+                start = self._current_pose()
+                pose = min(legal, key=lambda p: route_time_s([start, p], self._rates()))
         if not g.in_limits(*pose):
             raise CommandRejected(
                 f"position az {az_deg:g}, el {el_deg:g} outside the limits "
