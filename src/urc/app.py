@@ -27,6 +27,8 @@ def settings_from_config(cfg: Config) -> RotatorSettings:
     caps = get_profile(cfg.rotator.profile)
     if caps.loop_hz != cfg.rotator.loop_hz:
         caps = replace(caps, loop_hz=cfg.rotator.loop_hz)
+    if cfg.hardware.backend == "bridge":
+        caps = bridged_caps(caps, cfg.hardware.bridge.protocol)
     limits = cfg.effective_limits(caps)
     control = cfg.effective_control(caps)
     tunings: dict[str, AxisTuning] = {}
@@ -54,6 +56,16 @@ def settings_from_config(cfg: Config) -> RotatorSettings:
         save_interval_s=cfg.state.save_interval_s, watchdog_s=cfg.faults.watchdog_s).completed()
 
 
+def bridged_caps(caps, protocol: str):
+    """A profile behind an external controller: its mechanics stay, its sensor is the
+    controller's position report (absolute, the protocol's step)."""
+    from .hardware.bridge import make_dialect, report_caps
+
+    dialect = make_dialect(protocol)
+    return replace(caps, az=replace(caps.az, sensor=report_caps(dialect, "az")),
+                   el=replace(caps.el, sensor=report_caps(dialect, "el")))
+
+
 def build_rotator(cfg: Config, clock: Clock, state_dir: Path, durable_state: bool = True,
                   fast_virtual: bool = False) -> Rotator:
     """Everything ``urc run`` builds, minus the servers: for tests and benchmarks too.
@@ -73,6 +85,8 @@ def build_rotator(cfg: Config, clock: Clock, state_dir: Path, durable_state: boo
         options["start_az_deg"] = sim.start_az_deg
     if sim.start_el_deg is not None:
         options["start_el_deg"] = sim.start_el_deg
+    if cfg.hardware.bridge is not None:
+        options["bridge"] = cfg.hardware.bridge
     hardware = build_hardware(cfg.hardware.backend, settings.caps, clock, state_dir, options)
     if cfg.faults.overcurrent_a == 0:
         # 0 = the backend knows its motors best

@@ -13,7 +13,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Literal
 
-SensorKind = Literal["encoder", "pulse", "pot", "as5600", "magnetometer"]
+#: "controller": the position reports of an external controller (the bridge backend)
+SensorKind = Literal["encoder", "pulse", "pot", "as5600", "magnetometer", "controller"]
 DriveKind = Literal["pwm", "relay"]
 
 

@@ -43,12 +43,12 @@ from .profiles import DEFAULT_PROFILE, PROFILES
 __all__ = [
     "EXAMPLE_CONFIG", "ApiSection", "AxisControl", "AxisLimits", "Config", "ControlSection",
     "FaultsSection", "HardwareSection", "KeepoutZone", "LimitsSection", "OffsetsSection",
-    "ParkSection", "RotatorSection", "ScheduleEntry", "ServeEntry", "StationSection", "TrackingSection", "SimSection", "StateSection", "load_config",
+    "ParkSection", "RotatorSection", "BridgeSection", "ScheduleEntry", "ServeEntry", "StationSection", "TrackingSection", "SimSection", "StateSection", "load_config",
     "loads_config", "parse_host_port",
 ]
 
 #: the backends this module knows about when the hardware package cannot be asked.
-_BUILTIN_BACKENDS = ("sim",)
+_BUILTIN_BACKENDS = ("sim", "bridge")
 #: elevation range any keep-out zone must lie in (degrees; > 90 is "over the top").
 _KEEPOUT_EL_RANGE = (-90.0, 180.0)
 
@@ -85,9 +85,33 @@ class SimSection(_Section):
     start_el_deg: float | None = _num(None)
 
 
+class BridgeSection(_Section):
+    """``backend = "bridge"``: drive a controller the station already owns, as a client."""
+
+    #: gs232a, gs232b, easycomm2, easycomm3, rot2prog, rot1prog, md01 or rotctld
+    protocol: str
+    #: a serial device, e.g. "/dev/ttyUSB0" (exactly one of serial and tcp)
+    serial: str | None = Field(None, min_length=1)
+    #: None = the protocol's usual rate (GS-232 9600, Rot2Prog 600, Rot1Prog 1200 ...)
+    baud: int | None = Field(None, ge=50, le=4_000_000)
+    #: "host:port": a rotctld, or an Ethernet/WiFi serial adapter
+    tcp: str | None = Field(None, min_length=1)
+    #: an answer missing this long is a failure; None = the protocol's (Hamlib's) timeout
+    timeout_s: float | None = _num(None, gt=0.0, le=30.0)
+    #: poll the position no faster than this; 0 = as fast as the link allows
+    poll_interval_s: float = _num(0.0, ge=0.0, le=10.0)
+    #: bad or missing answers in a row that count as a lost link
+    max_failures: int = Field(3, ge=1, le=100)
+    #: reconnect attempts (back-off up to 5 s) before giving up until restart
+    reconnect_attempts: int = Field(30, ge=0, le=100_000)
+    #: for controllers that ignore a new target while moving: stop first
+    stop_before_set: bool = False
+
+
 class HardwareSection(_Section):
     backend: str = "sim"
     sim: SimSection = SimSection()
+    bridge: BridgeSection | None = None
 
 
 class AxisLimits(_Section):
@@ -446,6 +470,8 @@ def _cross_check(cfg: Config) -> list[_Issue]:
         issues.append(("hardware.backend", "one of " + ", ".join(backends),
                        cfg.hardware.backend, _suggest(cfg.hardware.backend, backends)))
 
+    issues += _bridge_issues(cfg)
+
     for name in ("az", "el"):
         axis = caps.axis(name)
         start = getattr(cfg.hardware.sim, f"start_{name}_deg")
@@ -576,6 +602,33 @@ def _cross_check(cfg: Config) -> list[_Issue]:
             issues.append((key, f"restart_deg >= tolerance_deg (restart "
                            f"{_fmt(e['restart_deg'])}, tolerance {_fmt(e['tolerance_deg'])})",
                            found, ""))
+    return issues
+
+
+def _bridge_issues(cfg: Config) -> list[_Issue]:
+    """[hardware.bridge]: present for the bridge backend, a known protocol, one link."""
+    from .hardware.bridge.dialects import BRIDGE_PROTOCOLS
+
+    br = cfg.hardware.bridge
+    if br is None:
+        if cfg.hardware.backend == "bridge":
+            return [("hardware.bridge", '[hardware.bridge] with protocol and serial or tcp '
+                     '(backend "bridge")', None, "")]
+        return []
+    issues: list[_Issue] = []
+    if br.protocol not in BRIDGE_PROTOCOLS:
+        issues.append(("hardware.bridge.protocol", "one of " + ", ".join(BRIDGE_PROTOCOLS), br.protocol,
+                       _suggest(br.protocol, list(BRIDGE_PROTOCOLS))))
+    given = [k for k in ("serial", "tcp") if getattr(br, k) is not None]
+    if len(given) != 1:
+        issues.append(("hardware.bridge", "exactly one of serial, tcp", given or "none", ""))
+    elif br.tcp is not None:
+        try:
+            parse_host_port(br.tcp)
+        except ValueError:
+            issues.append(("hardware.bridge.tcp", '"host:port", e.g. "127.0.0.1:4533"', br.tcp, ""))
+    if br.baud is not None and br.tcp is not None:
+        issues.append(("hardware.bridge.baud", "no baud with tcp (only a serial line has one)", br.baud, ""))
     return issues
 
 

@@ -42,3 +42,6 @@ def _load_builtin() -> None:
     if "sim" not in _BACKENDS:
         from .sim import build_sim_hardware
         register_backend("sim", build_sim_hardware)
+    if "bridge" not in _BACKENDS:
+        from .bridge import build_bridge_hardware
+        register_backend("bridge", build_bridge_hardware)

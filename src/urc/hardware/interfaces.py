@@ -61,6 +61,32 @@ class LimitSwitch(Protocol):
     def is_active(self) -> bool: ...
 
 
+@runtime_checkable
+class Positioner(Protocol):
+    """An axis whose inner loop an existing controller closes (the bridge backend).
+
+    urc posts targets instead of a motor duty; the position still comes from the axis'
+    ``sensor`` (the controller's latest report). Both calls only record what is wanted
+    and return at once: the link to the controller is served off the control tick.
+    """
+
+    #: the smallest target change the controller can express (GS-232: 1 deg)
+    resolution_deg: float
+
+    def goto(self, target_deg: float) -> None:
+        """Go to ``target_deg`` (the axis' mechanical frame) at the controller's speed."""
+
+    def stop(self) -> None:
+        """Stop this axis (the controller decelerates and holds)."""
+
+    def latency_s(self) -> float:
+        """Measured time from posting a target to the controller having it: moving
+        targets are sent this far ahead."""
+
+    def sample_interval_s(self) -> float:
+        """How old a position report can be (the link's poll period)."""
+
+
 @dataclass
 class AxisHardware:
     motor: Motor
@@ -68,6 +94,8 @@ class AxisHardware:
     brake: Brake | None = None
     limit_min: LimitSwitch | None = None
     limit_max: LimitSwitch | None = None
+    #: set for an axis an external controller closes: targets go here, ``motor`` is unused
+    positioner: Positioner | None = None
 
 
 @dataclass

@@ -165,3 +165,25 @@ def parse_axis_reply(line: bytes, name: str) -> float:
     if m is None or m.group(1).decode() != name:
         raise EasycommParseError(f"{name}<value>", line)
     return float(m.group(2))
+
+
+def format_position_query() -> bytes:
+    """Hamlib 4.5's combined query, answered with one ``AZx EL y`` line."""
+    return b"AZ EL \n"
+
+
+def format_stop() -> bytes:
+    """Stop both axes (SA, SE)."""
+    return b"SA SE\n"
+
+
+def format_version_query() -> bytes:
+    return b"VE\n"
+
+
+def parse_value_reply(line: bytes, name: str) -> str:
+    """An echo-plus-value reply (``VEk3ng 2024``) -> the value."""
+    text = line.strip(b"\r\n \t")
+    if not text.upper().startswith(name.encode()):
+        raise EasycommParseError(f"{name}<value>", line)
+    return text[len(name):].decode("ascii", "replace").strip()

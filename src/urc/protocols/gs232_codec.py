@@ -122,3 +122,13 @@ def parse_position_reply(style: str, reply: bytes) -> tuple[float, float]:
     if len(reply) < 10 or az is None or el is None:
         raise Gs232ParseError("+0aaa+0eee", reply)
     return float(az.group()), float(el.group())
+
+
+def format_query() -> bytes:
+    """C2: both positions (what a host polls with)."""
+    return b"C2\r"
+
+
+def format_stop() -> bytes:
+    """S: stop both axes."""
+    return b"S\r"

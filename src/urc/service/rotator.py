@@ -20,8 +20,9 @@ from typing import Any, Callable
 from ..clock import Clock
 from ..control import faults as faultmod
 from ..control import law
+from ..control import positioner as positioner_law
 from ..control.estimator import Estimate, FilterLimits, alpha_beta
-from ..control.faults import Fault, MonitorInputs, MonitorState
+from ..control.faults import Fault, FaultLimits, MonitorInputs, MonitorState
 from ..control.geometry import Geometry, route_time_s, wrap360
 from ..control.profile import stopping_distance_deg
 from ..errors import CommandRejected, SensorError, StateFileError
@@ -43,6 +44,10 @@ class _Axis:
     def __init__(self, name: str, hw: AxisHardware, settings: RotatorSettings):
         self.name = name
         self.hw = hw
+        #: set when an external controller closes this axis' loop (bridge backend)
+        self.positioner = hw.positioner
+        #: the target last posted to the positioner (None: stop)
+        self.posted_deg: float | None = None
         self.caps = settings.caps.axis(name)
         self.tuning = settings.tuning(name)
         self.flim = settings.fault_limits(name)
@@ -80,6 +85,39 @@ class _Axis:
         self._filter_rate = 0.0
         self.filter_limits = FilterLimits(1.0 / settings.caps.loop_hz, self.caps.max_rate_deg_per_s)
 
+    @property
+    def flim(self) -> FaultLimits:
+        if self.positioner is None:
+            return self._flim
+        # a controller's reports arrive once per poll: between two, the axis may have
+        # turned a whole poll period at full speed (not a sensor jump)
+        return replace(self._flim, sensor_jump_deg=self._flim.sensor_jump_deg +
+                       2.0 * self._flim.max_rate_deg_per_s * self.positioner.sample_interval_s())
+
+    @flim.setter
+    def flim(self, value: FaultLimits) -> None:
+        self._flim = value
+
+    # ---- control ------------------------------------------------------------------
+    def step(self, sp: law.Setpoint | None, now_s: float, dt_s: float) -> None:
+        """The law's tick; a positioner axis gets a target to post instead of a duty."""
+        if self.positioner is None:
+            self.law, self.out = law.step(self.law, sp, self.meas_deg, now_s, dt_s, self.tuning,
+                                          self.rate_deg_per_s)
+            return
+        self.law, self.out, self.posted_deg = positioner_law.step(
+            self.law, sp, self.meas_deg, self.rate_deg_per_s, now_s, self.tuning,
+            lead_s=self.positioner.latency_s(), still_rate_deg_per_s=self.still_rate_deg_per_s,
+            band_deg=max(self.tuning.tolerance_deg, self.positioner.resolution_deg), limits_deg=self.limits)
+
+    def post(self) -> None:
+        """Positioner axes: post the target, or stop when there is no setpoint (stop,
+        fault, guard, shutdown all clear it)."""
+        if self.sp is None or self.posted_deg is None:
+            self.positioner.stop()
+        else:
+            self.positioner.goto(self.posted_deg)
+
     # ---- sensing ------------------------------------------------------------------
     def set_reference(self, mech_deg: float, at_edge: bool = False) -> None:
         """Re-reference: the position estimate here becomes ``mech_deg``.
@@ -112,6 +150,8 @@ class _Axis:
         else:
             self.meas_deg = mech
         # the reported speed: slope over the window (the filter's own rate is too noisy)
+        if self.positioner is not None:  # reports come once per poll: span one at least
+            self.window_s = max(self.window_s, self.positioner.sample_interval_s())
         self.history.append((self._t_s, self.meas_deg))
         while len(self.history) > 2 and self.history[1][0] <= self._t_s - self.window_s + 1e-9:
             self.history.popleft()
@@ -313,7 +353,7 @@ class Rotator:
         self._maybe_idle_park(now)
         for name, ax in self.axes.items():
             sp = None if self._faults else ax.sp
-            ax.law, ax.out = law.step(ax.law, sp, ax.meas_deg, now, dt, ax.tuning, ax.rate_deg_per_s)
+            ax.step(sp, now, dt)
         self._guard()
         for ax in self.axes.values():
             self._apply(ax)
@@ -329,6 +369,9 @@ class Rotator:
                               self.clock.now_s()))
 
     def _apply(self, ax: _Axis) -> None:
+        if ax.positioner is not None:
+            ax.post()
+            return
         duty = ax.out.duty
         if ax.hw.brake is not None:
             ax.hw.brake.set_released(ax.out.brake_released)
@@ -644,8 +687,8 @@ class Rotator:
         """Decelerate at each axis' limit and hold where it comes to rest (relays: cut)."""
         for name in names:
             ax = self.axes[name]
-            if ax.tuning.drive == "relay" or ax.law.mode != "driving":
-                ax.sp = None
+            if ax.tuning.drive == "relay" or ax.law.mode != "driving" or ax.positioner is not None:
+                ax.sp = None  # (a positioner's controller gets a stop and brakes itself)
                 continue
             lo, hi = ax.limits
             rate = ax.law.ref_rate_deg_per_s

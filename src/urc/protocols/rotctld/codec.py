@@ -186,3 +186,26 @@ def frame_reply(spec: CommandSpec, args: tuple[str, ...], sep: str | None, code:
     header = spec.name + ":" + "".join(" " + a for a in args) + sep
     body = data if code == 0 else ""
     return (header + body + "RPRT %d\n" % code).encode("latin-1", "replace")
+
+
+# ------------------------------------------------- host side (what a client sends)
+def format_set_pos_request(az_deg: float, el_deg: float) -> bytes:
+    """``P``, as Hamlib's NET rotctl backend (model 2) writes it."""
+    return b"P %.2f %.2f\n" % (az_deg, el_deg)
+
+
+def parse_rprt(line: bytes) -> int | None:
+    """``RPRT n`` -> n; None for any other line."""
+    m = re.fullmatch(rb"RPRT (-?[0-9]{1,4})\s*", line)
+    return None if m is None else int(m.group(1))
+
+
+def parse_get_pos_reply(lines: list[bytes]) -> tuple[float, float]:
+    """The two value lines ``p`` answers with -> (az_deg, el_deg); ValueError if they
+    are not two finite numbers (an ``RPRT -n`` line is an error the caller reports)."""
+    if len(lines) != 2:
+        raise ValueError(f"expected two lines az, el; got {lines!r}")
+    values = [parse_float(line.strip().decode("ascii", "replace")) for line in lines]
+    if any(v is None for v in values):
+        raise ValueError(f"expected two numbers az, el; got {lines!r}")
+    return values[0], values[1]

@@ -1,0 +1,306 @@
+"""The bridge's client engine: what to send to the controller next, and what its
+answers mean. Sans-I/O (h11 style): no sockets, no threads, no clock of its own.
+
+The control tick posts per-axis targets (:meth:`BridgeClient.post`) and reads the latest
+report (:meth:`BridgeClient.reading`); the link runner (:mod:`.link`, or a simulated
+link on the virtual clock in benchmarks) asks :meth:`next_exchange`, writes it, and
+feeds the answer back. Both sides only touch state under one lock.
+
+Rules for slow and quirky controllers:
+
+* one exchange at a time; after a set or stop the next exchange is a poll (a GS-232
+  answers C2 only between commands), and polls run as fast as the link allows
+  (``poll_interval_s`` at least), so the report is never older than one round trip;
+* a target is sent only when it changes what the controller would do: quantised to
+  its set resolution (a G-5500's relays must not chatter on sub-degree changes);
+* ``stop_before_set``: for controllers that ignore a new target while moving, a stop
+  goes out first;
+* an answer urc did not fully understand moves nothing: no set goes out until a good
+  position report has come back, and ``max_failures`` bad or missing answers in a row
+  drop the link (reconnect, with the position unknown until the first good report).
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import threading
+from dataclasses import dataclass
+
+from ...errors import SensorError
+from .dialects import Dialect, Exchange, ReplyError
+
+log = logging.getLogger("urc.bridge")
+
+AXES = ("az", "el")
+#: smoothing of the measured round trip (exponential moving average weight)
+LATENCY_GAIN = 0.2
+#: between reports, the position moves on at the last reported speed for at most this
+#: many poll periods (then it waits for the next report)
+EXTRAPOLATE_PERIODS = 1.0
+#: reports further apart than this are not used for a speed
+EXTRAPOLATE_MAX_GAP_S = 3.0
+
+
+@dataclass(frozen=True)
+class ClientOptions:
+    #: no reply within this long is a failure; None = the protocol's default
+    timeout_s: float | None = None
+    #: poll no faster than this (0 = as fast as the link allows)
+    poll_interval_s: float = 0.0
+    #: consecutive bad or missing answers that count as a lost link
+    max_failures: int = 3
+    #: send a stop before a new target while the controller is moving
+    stop_before_set: bool = False
+
+
+class BridgeClient:
+    def __init__(self, dialect: Dialect, options: ClientOptions | None = None):
+        self.dialect = dialect
+        self.options = options or ClientOptions()
+        self.timeout_s = self.options.timeout_s or dialect.timeout_s
+        self._lock = threading.Lock()
+        # what the control tick wants: a target per axis, None = stopped
+        self._wanted: dict[str, float | None] = {"az": None, "el": None}
+        self._stop_wanted = False
+        self._hold: list[float | None] = [None, None]
+        # what the controller was last told
+        self._sent_pose: tuple[float, float] | None = None
+        self._stopped = True
+        self._after_command = False
+        # what it last reported
+        self._pos: tuple[float, float] | None = None
+        self._prev_pos: tuple[float, float] | None = None
+        self._pos_t_s = -math.inf
+        self._prev_t_s = -math.inf
+        self._trusted = False
+        self._failures = 0
+        self._next_poll_s = -math.inf
+        self._link_up = False
+        self._error = "not connected yet"
+        self._rtt_s: float | None = None
+        self._interval_s: float | None = None
+        self.identity: str | None = None
+        self.counts = {"exchanges": 0, "timeouts": 0, "garbage": 0, "sets": 0, "stops": 0, "reconnects": 0}
+
+    # ============================================================ control-tick side
+    def post(self, axis: str, target_deg: float | None) -> None:
+        """The target for one axis (its mechanical frame), or None to stop it."""
+        with self._lock:
+            i = AXES.index(axis)
+            if target_deg is None and self._wanted[axis] is not None and self._pos is not None:
+                # one axis stopped while the other goes on: it holds where it is now
+                self._hold[i] = self._pos[i]
+            if target_deg is not None:
+                self._hold[i] = None
+            self._wanted[axis] = target_deg
+            if all(self._wanted[a] is None for a in AXES):
+                self._stop_wanted = not self._stopped
+
+    def reading(self, axis: str, now_s: float | None = None) -> float:
+        """The axis' latest reported position; SensorError when there is none to trust
+        (link down, nothing reported yet, or the last report older than the link's
+        whole retry budget)."""
+        with self._lock:
+            if not self._link_up or self._pos is None:
+                raise SensorError(f"bridge {self.dialect.name}: {self._error}")
+            i = AXES.index(axis)
+            if now_s is None:
+                return self._pos[i]
+            age_s = now_s - self._pos_t_s
+            if age_s > self.stale_after_s:
+                raise SensorError(f"bridge {self.dialect.name}: no position report for "
+                                  f"{age_s:.1f} s ({self._error or 'no answer'})")
+            pos = self._pos[i]
+            est = pos + self._speed(i) * min(max(age_s, 0.0), EXTRAPOLATE_PERIODS * self._period_s())
+            if self._sent_pose is not None and not self._stopped:
+                # the controller stops at its target: never estimate past it
+                target = self._sent_pose[i]
+                if (est - target) * (pos - target) < 0:
+                    est = target
+            return est
+
+    def _period_s(self) -> float:
+        return max(self._interval_s or 0.0, self.options.poll_interval_s)
+
+    def _speed(self, i: int) -> float:
+        """The axis speed between the last two reports (0 if they are far apart): a
+        slow link's reports come seconds apart, and a reading that stood still and then
+        jumped would look like a stop followed by an impossible speed."""
+        if self._prev_pos is None or self._pos_t_s - self._prev_t_s > EXTRAPOLATE_MAX_GAP_S:
+            return 0.0
+        return (self._pos[i] - self._prev_pos[i]) / max(self._pos_t_s - self._prev_t_s, 1e-3)
+
+    @property
+    def stale_after_s(self) -> float:
+        return (self.options.max_failures + 1) * (self.timeout_s + 0.3) + self.options.poll_interval_s
+
+    def latency_s(self) -> float:
+        """The measured round trip (how late a target reaches the controller)."""
+        with self._lock:
+            return self._rtt_s or 0.0
+
+    def sample_interval_s(self) -> float:
+        with self._lock:
+            return max(self._interval_s or self.timeout_s, self.options.poll_interval_s)
+
+    def error(self) -> str:
+        with self._lock:
+            return "" if self._link_up and self._trusted else self._error
+
+    # ================================================================= link side
+    def link_up(self, now_s: float) -> None:
+        with self._lock:
+            self._link_up, self._trusted, self._failures = True, False, 0
+            self._pos, self._prev_pos = None, None
+            self._error = "no position report yet"
+            self._next_poll_s = -math.inf
+            # the controller may have been told something urc no longer wants
+            self._sent_pose = None
+            self._after_command = False
+
+    def link_down(self, reason: str, now_s: float) -> None:
+        with self._lock:
+            if self._link_up:
+                log.error("bridge %s: link lost: %s", self.dialect.name, reason)
+                self.counts["reconnects"] += 1
+            self._link_up, self._trusted = False, False
+            self._pos = None
+            self._error = f"link lost: {reason}"
+            # tell it to stop as soon as it is back, unless a target is wanted then
+            self._stopped = False
+            self._stop_wanted = True
+
+    def reconnecting(self, attempt: int, attempts: int, reason: str) -> None:
+        """An attempt to reopen the link failed; the loss reason stays in front."""
+        with self._lock:
+            lost = self._error.split("; ")[0] if self._error.startswith("link lost") else "link lost"
+            self._error = f"{lost}; reconnect attempt {attempt} of {attempts} failed ({reason})"
+            if attempt > attempts:
+                self._error = f"{lost}; gave up after {attempts} reconnect attempts (restart urc)"
+
+    def wait_report(self, timeout_s: float) -> bool:
+        """Block (not on the tick: at start-up) until a first position report came."""
+        import time
+        deadline = time.monotonic() + timeout_s
+        while time.monotonic() < deadline:
+            with self._lock:
+                if self._pos is not None:
+                    return True
+            time.sleep(0.01)
+        return False
+
+    def next_exchange(self, now_s: float) -> tuple[Exchange | None, float]:
+        """(the exchange to run now, or None and how long to wait before asking again)."""
+        with self._lock:
+            d = self.dialect
+            if self._stop_wanted or (all(self._wanted[a] is None for a in AXES) and not self._stopped):
+                # a stop always goes out at once, understood or not
+                self._stop_wanted = False
+                self._stopped, self._sent_pose, self._after_command = True, None, True
+                self.counts["stops"] += 1
+                return d.stop(), 0.0
+            pose = self._pose_to_send()
+            if pose is not None and self._trusted and not self._after_command:
+                if self.options.stop_before_set and self._moving() and not self._stopped:
+                    self._stopped, self._after_command = True, True
+                    self.counts["stops"] += 1
+                    return d.stop(), 0.0
+                self._sent_pose, self._stopped, self._after_command = pose, False, True
+                self.counts["sets"] += 1
+                return d.goto(*pose), 0.0
+            if now_s >= self._next_poll_s or self._after_command:
+                self._after_command = False
+                self._next_poll_s = now_s + self.options.poll_interval_s
+                return d.poll(), 0.0
+            return None, max(0.0, self._next_poll_s - now_s)
+
+    def _pose_to_send(self) -> tuple[float, float] | None:
+        """The quantised pose to command, or None when the controller already has it."""
+        wanted = [self._wanted[a] for a in AXES]
+        if all(w is None for w in wanted):
+            return None
+        pose = []
+        for i, w in enumerate(wanted):
+            if w is None:
+                # a stopped axis holds where it was when told to stop, else where it
+                # was sent, else where it is
+                held = self._hold[i] if self._hold[i] is not None else \
+                    self._sent_pose[i] if self._sent_pose is not None else \
+                    (self._pos[i] if self._pos is not None else None)
+                if held is None:
+                    return None
+                w = held
+            pose.append(self.dialect.quantise(w, i))
+        if not self.dialect.has_el:
+            pose[1] = 0.0
+        if self._sent_pose is not None and not self._stopped and \
+                all(abs(p - s) < 1e-9 for p, s in zip(pose, self._sent_pose)):
+            return None
+        return (pose[0], pose[1])
+
+    def _moving(self) -> bool:
+        if self._prev_pos is None or self._pos is None:
+            return False
+        return any(abs(a - b) >= self.dialect.report_resolution_deg for a, b in zip(self._pos, self._prev_pos))
+
+    def answered(self, ex: Exchange, data: bytes, sent_s: float, now_s: float) -> None:
+        """The whole answer to ``ex`` (framed by ``ex.reply``) arrived at ``now_s``."""
+        try:
+            value = ex.parse(data) if ex.parse is not None else None
+        except ReplyError as exc:
+            self._bad(f"{ex.kind}: {exc}", "garbage")
+            return
+        except Exception as exc:  # any parser surprise is garbage too, never motion
+            self._bad(f"{ex.kind}: unreadable answer {data!r} ({exc})", "garbage")
+            return
+        with self._lock:
+            self.counts["exchanges"] += 1
+            self._failures = 0
+            rtt = now_s - sent_s
+            self._rtt_s = rtt if self._rtt_s is None else (1 - LATENCY_GAIN) * self._rtt_s + LATENCY_GAIN * rtt
+            if ex.kind == "identify":
+                self.identity = str(value)
+            elif ex.kind == "set" and isinstance(value, int) and value != 0:
+                # rotctld refused the target (its own limits): nothing moves; say so
+                self._error = f"controller refused the target {ex.pose}: RPRT {value}"
+                log.warning("bridge %s: %s", self.dialect.name, self._error)
+            elif isinstance(value, tuple):
+                # sampled somewhere in the round trip: take its middle
+                self._position(value, now_s - 0.5 * rtt)
+
+    def _position(self, value: tuple[float, float | None], now_s: float) -> None:
+        az, el = value
+        if el is None:
+            el = 0.0
+        if self._pos is not None:
+            self._prev_pos, self._prev_t_s = self._pos, self._pos_t_s
+            self._interval_s = now_s - self._pos_t_s if self._interval_s is None else \
+                0.8 * self._interval_s + 0.2 * (now_s - self._pos_t_s)
+        self._pos, self._pos_t_s = (az, el), now_s
+        self._trusted = True
+        self._error = ""
+
+    def sent(self, ex: Exchange, now_s: float) -> None:
+        """An exchange that has no answer went out."""
+        with self._lock:
+            self.counts["exchanges"] += 1
+
+    def timed_out(self, ex: Exchange, partial: bytes, now_s: float) -> None:
+        self._bad(f"{ex.kind}: no {'complete ' if partial else ''}answer within {self.timeout_s:g} s"
+                  + (f" (got {partial!r})" if partial else ""), "timeouts")
+
+    def _bad(self, reason: str, count: str) -> None:
+        with self._lock:
+            self.counts[count] += 1
+            self._failures += 1
+            # never move on an answer not understood: wait for a good report first
+            self._trusted = False
+            self._after_command = False
+            self._error = reason
+            log.warning("bridge %s: %s", self.dialect.name, reason)
+
+    def link_broken(self) -> bool:
+        """Too many bad answers in a row: the runner drops the link and reconnects."""
+        with self._lock:
+            return self._failures >= self.options.max_failures

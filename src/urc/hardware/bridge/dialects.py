@@ -1,0 +1,312 @@
+"""What the bridge says to each kind of controller, built on the protocols' own codecs.
+
+One codec serves both ends (as pymodbus does with its framers): urc's protocol servers
+use the device side of :mod:`urc.protocols.gs232_codec`, ``easycomm_codec``,
+``spid_codec`` and ``rotctld.codec``; a dialect here uses their host side to drive a
+real controller. A dialect only builds :class:`Exchange` values (bytes to send, how the
+answer is framed, how it is parsed); the client engine (:mod:`.client`) decides when.
+
+Timing follows Hamlib's backends for the same controllers (protocols.md section 6).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, Callable
+
+from ...protocols import easycomm_codec as ec
+from ...protocols import gs232_codec as gs
+from ...protocols import spid_codec as spid
+from ...protocols.rotctld import codec as rc
+
+#: the protocols a bridge can drive (``[hardware.bridge] protocol``)
+BRIDGE_PROTOCOLS = ("gs232a", "gs232b", "easycomm2", "easycomm3", "rot2prog", "rot1prog", "md01", "rotctld")
+
+
+class ReplyError(ValueError):
+    """A reply that is not what the protocol answers: never acted on."""
+
+
+@dataclass(frozen=True)
+class Reply:
+    """How an answer is framed: ``length`` bytes, or ``lines`` lines ending in
+    ``terminator``. ``stop_line`` (rotctld): a line starting with it ends the reply early
+    (``RPRT -n`` instead of values)."""
+
+    length: int = 0
+    terminator: bytes = b"\n"
+    lines: int = 1
+    stop_line: bytes | None = None
+
+    def complete(self, buf: bytes) -> int | None:
+        """How many bytes of ``buf`` make the whole reply, or None while incomplete."""
+        if self.length:
+            return self.length if len(buf) >= self.length else None
+        end = 0
+        for _ in range(self.lines):
+            i = buf.find(self.terminator, end)
+            if i < 0:
+                return None
+            line = buf[end:i]
+            end = i + len(self.terminator)
+            if self.stop_line is not None and line.startswith(self.stop_line):
+                return end
+        return end
+
+
+@dataclass(frozen=True)
+class Exchange:
+    kind: str                                   # poll | set | stop | identify
+    request: bytes
+    reply: Reply | None = None                  # None: the controller answers nothing
+    parse: Callable[[bytes], Any] | None = None
+    #: quiet time after the write before the next one (the controller's post-write delay)
+    settle_s: float = 0.0
+    #: discard unread input first (a late echo or ack must not be read as this answer)
+    flush_before: bool = True
+    #: the pose a set asks for (az, el)
+    pose: tuple[float, float] | None = None
+
+
+class Dialect:
+    name = ""
+    default_baud = 9600
+    #: Hamlib's read timeout for this controller
+    timeout_s = 0.4
+    #: the controller reports azimuth modulo 360 (sky az): continuity picks the wrap turn
+    az_modulo_deg: float | None = None
+    #: it has an elevation axis
+    has_el = True
+
+    def __init__(self) -> None:
+        #: the smallest step a set can express, per axis
+        self.resolution_deg = (1.0, 1.0)
+        #: the step of a position report
+        self.report_resolution_deg = 1.0
+
+    def poll(self) -> Exchange:
+        raise NotImplementedError
+
+    def goto(self, az_deg: float, el_deg: float) -> Exchange:
+        raise NotImplementedError
+
+    def stop(self) -> Exchange:
+        raise NotImplementedError
+
+    def identify(self) -> Exchange | None:
+        return None
+
+    def quantise(self, value_deg: float, axis: int) -> float:
+        """The value the controller will act on (its set resolution)."""
+        step = self.resolution_deg[axis]
+        return round(value_deg / step) * step
+
+
+def _finite(az: float, el: float | None) -> tuple[float, float | None]:
+    if not math.isfinite(az) or (el is not None and not math.isfinite(el)):
+        raise ReplyError(f"non-finite position {az!r}, {el!r}")
+    return az, el
+
+
+# ---------------------------------------------------------------------- GS-232A / B
+class Gs232(Dialect):
+    """Yaesu GS-232A/B: ``C2`` polls, ``Waaa eee`` sets, ``S`` stops; whole degrees.
+
+    The controller answers C2 only between commands: each set is followed by Hamlib's
+    50 ms post-write delay and the next poll flushes whatever the set left behind
+    (the A's CR acknowledgement)."""
+
+    style = gs.STYLE_A
+    timeout_s = 0.4
+
+    def poll(self) -> Exchange:
+        def parse(data: bytes) -> tuple[float, float]:
+            try:
+                return _finite(*gs.parse_position_reply(self.style, data.lstrip(b"\r\n")))
+            except gs.Gs232ParseError as exc:
+                raise ReplyError(str(exc)) from None
+        # A ends with CRLF; B with CR (then LF, flushed before the next command)
+        term = b"\n" if self.style == gs.STYLE_A else b"\r"
+        return Exchange("poll", gs.format_query(), Reply(terminator=term), parse)
+
+    def goto(self, az_deg: float, el_deg: float) -> Exchange:
+        return Exchange("set", gs.format_goto(az_deg, el_deg), settle_s=0.05, pose=(az_deg, el_deg))
+
+    def stop(self) -> Exchange:
+        return Exchange("stop", gs.format_stop(), settle_s=0.05)
+
+
+class Gs232a(Gs232):
+    name = "gs232a"
+    style = gs.STYLE_A
+
+
+class Gs232b(Gs232):
+    name = "gs232b"
+    style = gs.STYLE_B
+
+
+# ---------------------------------------------------------------------- Easycomm II / III
+class Easycomm(Dialect):
+    """Easycomm II/III: ``AZ EL`` polls, ``AZaaa.a ELeee.e`` sets (never answered),
+    ``SA SE`` stops; tenths of a degree."""
+
+    default_baud = 9600
+    timeout_s = 0.5
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.resolution_deg = (0.1, 0.1)
+        self.report_resolution_deg = 0.1
+
+    def poll(self) -> Exchange:
+        def parse(data: bytes) -> tuple[float, float]:
+            try:
+                return _finite(*ec.parse_az_el_reply(data.strip(b"\r\n \t")))
+            except ec.EasycommParseError as exc:
+                raise ReplyError(str(exc)) from None
+        return Exchange("poll", ec.format_position_query(), Reply(terminator=b"\n"), parse)
+
+    def goto(self, az_deg: float, el_deg: float) -> Exchange:
+        return Exchange("set", ec.format_set_position(az_deg, el_deg), pose=(az_deg, el_deg))
+
+    def stop(self) -> Exchange:
+        return Exchange("stop", ec.format_stop())
+
+    def identify(self) -> Exchange:
+        return Exchange("identify", ec.format_version_query(), Reply(terminator=b"\n"),
+                        lambda data: ec.parse_value_reply(data, "VE"))
+
+
+class Easycomm2(Easycomm):
+    name = "easycomm2"
+
+
+class Easycomm3(Easycomm):
+    name = "easycomm3"
+
+
+# ---------------------------------------------------------------------- SPID
+class Spid(Dialect):
+    """SPID Rot2Prog / MD-01/02 / Rot1Prog: 13-byte frames. Status (0x1F) polls and
+    tells the controller's resolution (PH/PV pulses per degree), which every set then
+    uses; stop (0x0F) answers with the position. Hamlib waits 300 ms after each frame."""
+
+    variant = "rot2"
+    default_baud = 600
+    timeout_s = 0.4
+    settle_s = 0.3
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.pulses = (0, 0)       # unknown until the first status reply
+        self.resolution_deg = (1.0, 1.0)
+        self.report_resolution_deg = 0.1 if self.variant != "rot1" else 1.0
+
+    def _parse_position(self, data: bytes) -> tuple[float, float | None]:
+        try:
+            if self.variant == "rot1":
+                return _finite(spid.decode_rot1_position(data), None)
+            az, el, ph, pv = spid.decode_rot2_position(data)
+        except spid.SpidFrameError as exc:
+            raise ReplyError(str(exc)) from None
+        if not (1 <= ph <= 10 and 1 <= pv <= 10) or any(b > 9 for b in data[1:5] + data[6:10]):
+            raise ReplyError(f"expected digits 0..9 and PH/PV 1..10, got {data.hex(' ')}")
+        self.pulses = (ph, pv)
+        self.resolution_deg = (1.0 / ph, 1.0 / pv)
+        return _finite(az, el)
+
+    def _position_reply(self) -> Reply:
+        return Reply(length=spid.ROT1_REPLY_LEN if self.variant == "rot1" else spid.ROT2_REPLY_LEN)
+
+    def poll(self) -> Exchange:
+        return Exchange("poll", spid.encode_query(spid.K_STATUS), self._position_reply(),
+                        self._parse_position, settle_s=self.settle_s)
+
+    def goto(self, az_deg: float, el_deg: float) -> Exchange:
+        if self.variant == "rot1":
+            return Exchange("set", spid.encode_rot1_set(az_deg), settle_s=self.settle_s, pose=(az_deg, el_deg))
+        ph, pv = self.pulses if all(self.pulses) else (1, 1)
+        # the frame truncates H = PH x (360 + az): aim half a step up so it rounds
+        frame = spid.encode_rot2_set(az_deg + 0.5 / ph, el_deg + 0.5 / pv, ph, pv)
+        answered = self.variant == "md01"
+        return Exchange("set", frame, self._position_reply() if answered else None,
+                        self._parse_position if answered else None, settle_s=self.settle_s, pose=(az_deg, el_deg))
+
+    def stop(self) -> Exchange:
+        return Exchange("stop", spid.encode_query(spid.K_STOP), self._position_reply(),
+                        self._parse_position, settle_s=self.settle_s)
+
+
+class Rot2Prog(Spid):
+    name = "rot2prog"
+    variant = "rot2"
+
+
+class Md01(Spid):
+    name = "md01"
+    variant = "md01"
+    default_baud = 115200
+
+
+class Rot1Prog(Spid):
+    name = "rot1prog"
+    variant = "rot1"
+    default_baud = 1200
+    has_el = False
+
+
+# ---------------------------------------------------------------------- rotctld
+class Rotctld(Dialect):
+    """Hamlib's NET rotctl protocol to a ``rotctld`` (anything Hamlib drives): ``p``,
+    ``P az el`` (answered ``RPRT n``), ``S``, ``_`` for identification."""
+
+    name = "rotctld"
+    timeout_s = 2.0
+    az_modulo_deg = 360.0
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.resolution_deg = (0.01, 0.01)
+        self.report_resolution_deg = 0.01
+
+    @staticmethod
+    def _check_rprt(data: bytes) -> int:
+        code = rc.parse_rprt(data.strip(b"\r\n"))
+        if code is None:
+            raise ReplyError(f"expected RPRT n, found {data!r}")
+        return code
+
+    def poll(self) -> Exchange:
+        def parse(data: bytes) -> tuple[float, float]:
+            lines = data.splitlines()
+            if lines and rc.parse_rprt(lines[0]) is not None:
+                raise ReplyError(f"get_pos failed: {lines[0].decode(errors='replace')}")
+            try:
+                return _finite(*rc.parse_get_pos_reply(lines))
+            except ValueError as exc:
+                raise ReplyError(str(exc)) from None
+        return Exchange("poll", b"p\n", Reply(terminator=b"\n", lines=2, stop_line=b"RPRT"), parse)
+
+    def goto(self, az_deg: float, el_deg: float) -> Exchange:
+        return Exchange("set", rc.format_set_pos_request(az_deg, el_deg), Reply(terminator=b"\n"),
+                        self._check_rprt, pose=(az_deg, el_deg))
+
+    def stop(self) -> Exchange:
+        return Exchange("stop", b"S\n", Reply(terminator=b"\n"), self._check_rprt)
+
+    def identify(self) -> Exchange:
+        return Exchange("identify", b"_\n", Reply(terminator=b"\n"),
+                        lambda data: data.strip().decode("ascii", "replace"))
+
+
+DIALECTS: dict[str, type[Dialect]] = {
+    "gs232a": Gs232a, "gs232b": Gs232b, "easycomm2": Easycomm2, "easycomm3": Easycomm3,
+    "rot2prog": Rot2Prog, "rot1prog": Rot1Prog, "md01": Md01, "rotctld": Rotctld,
+}
+assert tuple(DIALECTS) == BRIDGE_PROTOCOLS
+
+
+def make_dialect(name: str) -> Dialect:
+    return DIALECTS[name]()

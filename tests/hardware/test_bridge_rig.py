@@ -1,0 +1,115 @@
+"""The bridge backend on the virtual clock: urc bridged to urc in one process.
+
+The upstream rotator is the simulator serving a protocol through urc's own device
+session (the controller a station owns); the downstream rotator drives it through the
+bridge's client engine over a simulated wire (baud-rate timing, Hamlib's post-write
+delays). Every result is judged by the upstream simulator's truth.
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from urc.hardware.bridge import BRIDGE_PROTOCOLS
+from urc.hardware.bridge.simlink import BridgedRig
+
+AZ_ONLY = {"rot1prog"}
+#: downstream limits for an azimuth-only controller
+AZ_ONLY_CONFIG = {"limits": {"el": {"min_deg": 0.0, "max_deg": 1.0}}}
+
+
+def rig_for(protocol: str, tmp_path, profile: str = "bigras", **kw) -> BridgedRig:
+    if protocol in AZ_ONLY:
+        kw.setdefault("downstream_config", AZ_ONLY_CONFIG)
+    return BridgedRig(protocol, profile, tmp_path, **kw)
+
+
+def settled(s) -> bool:
+    return not s.moving and s.az.mode == "holding" and s.el.mode == "holding"
+
+
+def close_deg(a: float, b: float, tol: float) -> bool:
+    return abs((a - b + 180.0) % 360.0 - 180.0) <= tol
+
+
+@pytest.mark.parametrize("protocol", BRIDGE_PROTOCOLS)
+def test_goto_through_each_protocol(protocol, tmp_path):
+    rig = rig_for(protocol, tmp_path)
+    el = 0.0 if protocol in AZ_ONLY else 30.0
+    rig.downstream.goto(100.0, el)
+    s = rig.run(90.0, until=settled)
+    assert settled(s) and not s.faults, (s.faults, s.events)
+    az_t, el_t = rig.truth()
+    # the controller's set resolution (GS-232 and Rot1Prog: whole degrees) plus its own
+    # settle band and sensor count
+    up = rig.upstream.caps.az
+    tol = max(rig.dialect.resolution_deg) + up.tolerance_deg + up.sensor.resolution_deg
+    assert close_deg(az_t, 100.0, tol) and abs(el_t - el) <= tol, (az_t, el_t)
+    assert close_deg(s.az_deg, az_t, tol) and abs(s.el_deg - el_t) <= tol
+    # one target, sent once: no chatter while the controller drives
+    assert rig.client.counts["sets"] == 1, rig.client.counts
+    assert rig.client.counts["garbage"] == rig.client.counts["timeouts"] == 0
+
+
+def test_small_changes_below_the_resolution_are_not_sent(tmp_path):
+    """GS-232 takes whole degrees: targets 0.3 deg apart change nothing it would do."""
+    rig = rig_for("gs232b", tmp_path)
+    rig.downstream.goto(100.0, 30.0)
+    rig.run(60.0, until=settled)
+    for az in (100.2, 100.4, 99.8, 99.6):
+        rig.downstream.goto(az, 30.0)
+        rig.run(2.0)
+    sets = [req for _t, req in rig.link.sent if req.startswith(b"W")]
+    assert sets == [b"W100 030\r"], sets
+
+
+def test_stop_reaches_the_controller(tmp_path):
+    rig = rig_for("rot2prog", tmp_path)
+    rig.downstream.goto(200.0, 60.0)
+    rig.run(5.0)
+    moving_at = rig.truth()
+    rig.downstream.stop()
+    rig.run(6.0)
+    az_t, el_t = rig.truth()
+    assert 10.0 < az_t < 150.0, (moving_at, az_t)
+    assert rig.link.sent[-1][1][11] in (0x0F, 0x1F)  # stop then polls, no new set
+    assert any(req[11] == 0x0F for _t, req in rig.link.sent)
+    rig.run(3.0)
+    assert rig.truth() == pytest.approx((az_t, el_t), abs=0.2)
+
+
+def test_garbage_moves_nothing_and_faults(tmp_path):
+    rig = rig_for("gs232a", tmp_path)
+    rig.downstream.goto(150.0, 40.0)
+    rig.run(2.0)
+    sets_before = rig.client.counts["sets"]
+    rig.link.garbage = b"\x00\xffAZ=junk\r\n"
+    rig.downstream.goto(10.0, 5.0)      # a new target while the replies are garbage
+    s = rig.run(5.0, until=lambda s: bool(s.faults))
+    assert s.faults, s.events
+    assert any("bridge gs232a" in f.reason for f in s.faults), s.faults
+    assert rig.client.counts["garbage"] >= 1
+    # not one set went out after the first answer urc did not understand
+    assert rig.client.counts["sets"] == sets_before
+    rig.run(3.0)
+    # the fault stopped the controller (a stop is always sent)
+    assert any(req == b"S\r" for _t, req in rig.link.sent)
+    a, e = rig.truth()
+    rig.run(3.0)
+    assert rig.truth() == pytest.approx((a, e), abs=0.2)
+
+
+def test_link_loss_faults_then_stops_on_reconnect(tmp_path):
+    rig = rig_for("easycomm3", tmp_path)
+    rig.downstream.goto(200.0, 50.0)
+    rig.run(3.0)
+    rig.link.cut("cable pulled", rig.clock.now_s())
+    s = rig.run(2.0, until=lambda s: bool(s.faults))
+    assert s.faults and "link lost: cable pulled" in s.faults[0].reason, s.faults
+    status = rig.downstream.status()
+    assert status.faults and not status.position_known or status.faults
+    n = len(rig.link.sent)
+    rig.link.mend(rig.clock.now_s())
+    rig.run(2.0)
+    # the first thing said on the mended link is a stop
+    assert rig.link.sent[n][1] == b"SA SE\n", rig.link.sent[n:n + 3]
