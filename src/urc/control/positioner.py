@@ -43,8 +43,10 @@ def step(st: AxisState, sp: Setpoint | None, meas_deg: float, rate_deg_per_s: fl
     aim = now_target if sp.rate_deg_per_s == 0.0 else sp.target_at(now_s + lead_s)
     aim = min(max(aim, lo), hi)
     error_deg = now_target - meas_deg
-    # within the band the controller's own loop finishes the move (and its overshoot)
-    there = abs(error_deg) <= band_deg
+    # within the band the controller's own loop finishes the move (and its overshoot);
+    # standing still, its own deadband counts too (it stops near its target, not on it)
+    settle_band_deg = max(tun.restart_deg, band_deg + 2.0 * (band_deg - tun.tolerance_deg))
+    there = abs(error_deg) <= (band_deg if turning else max(band_deg, settle_band_deg))
     if st.seq != sp.seq:
         st = replace(st, seq=sp.seq, arrived=False, hold_since_s=now_s)
     if there and sp.rate_deg_per_s == 0.0:

@@ -131,7 +131,16 @@ class _Axis:
     def unwrap(self, raw_deg: float, near_deg: float) -> float:
         if self.modulo is None:
             return raw_deg
-        return raw_deg + self.modulo * round((near_deg - raw_deg) / self.modulo)
+        mech = raw_deg + self.modulo * round((near_deg - raw_deg) / self.modulo)
+        # the turn nearest a guess (the park, at a start without saved state) can lie
+        # outside the axis' range when another turn is inside it: that one it is
+        lo, hi = self.limits
+        margin = faultmod.RANGE_MARGIN_DEG
+        if not lo - margin <= mech <= hi + margin:
+            for alt in (mech - self.modulo, mech + self.modulo):
+                if lo - margin <= alt <= hi + margin:
+                    return alt
+        return mech
 
     def read(self, dt_s: float) -> float | None:
         self._t_s += dt_s

@@ -10,7 +10,8 @@ Rules for slow and quirky controllers:
 
 * one exchange at a time; after a set or stop the next exchange is a poll (a GS-232
   answers C2 only between commands), and polls run as fast as the link allows
-  (``poll_interval_s`` at least), so the report is never older than one round trip;
+  (``poll_interval_s`` at least, and no faster than a control tick), so the report is
+  never older than one round trip;
 * a target is sent only when it changes what the controller would do: quantised to
   its set resolution (a G-5500's relays must not chatter on sub-degree changes);
 * ``stop_before_set``: for controllers that ignore a new target while moving, a stop
@@ -33,6 +34,8 @@ from .dialects import Dialect, Exchange, ReplyError
 log = logging.getLogger("urc.bridge")
 
 AXES = ("az", "el")
+#: a fast link (a pty, a LAN) is polled no faster than a control tick can use it
+MIN_POLL_INTERVAL_S = 0.02
 #: smoothing of the measured round trip (exponential moving average weight)
 LATENCY_GAIN = 0.2
 #: between reports, the position moves on at the last reported speed for at most this
@@ -80,6 +83,7 @@ class BridgeClient:
         self._error = "not connected yet"
         self._rtt_s: float | None = None
         self._interval_s: float | None = None
+        self._last_gap_s = 0.0
         self.identity: str | None = None
         self.counts = {"exchanges": 0, "timeouts": 0, "garbage": 0, "sets": 0, "stops": 0, "reconnects": 0}
 
@@ -141,8 +145,10 @@ class BridgeClient:
             return self._rtt_s or 0.0
 
     def sample_interval_s(self) -> float:
+        """How far apart reports come: the usual spacing, or the last gap if longer (a
+        busy host or a retry: the report after it may have moved that much further)."""
         with self._lock:
-            return max(self._interval_s or self.timeout_s, self.options.poll_interval_s)
+            return max(self._interval_s or self.timeout_s, self._last_gap_s, self.options.poll_interval_s)
 
     def error(self) -> str:
         with self._lock:
@@ -211,7 +217,7 @@ class BridgeClient:
                 return d.goto(*pose), 0.0
             if now_s >= self._next_poll_s or self._after_command:
                 self._after_command = False
-                self._next_poll_s = now_s + self.options.poll_interval_s
+                self._next_poll_s = now_s + max(self.options.poll_interval_s, MIN_POLL_INTERVAL_S)
                 return d.poll(), 0.0
             return None, max(0.0, self._next_poll_s - now_s)
 
@@ -274,6 +280,7 @@ class BridgeClient:
         if el is None:
             el = 0.0
         if self._pos is not None:
+            self._last_gap_s = now_s - self._pos_t_s
             self._prev_pos, self._prev_t_s = self._pos, self._pos_t_s
             self._interval_s = now_s - self._pos_t_s if self._interval_s is None else \
                 0.8 * self._interval_s + 0.2 * (now_s - self._pos_t_s)

@@ -1,0 +1,247 @@
+"""urc bridged to urc, as real processes: one ``urc run`` on the simulator serves each
+protocol on a pseudo-terminal (the controller a station owns), a second ``urc run``
+with the bridge backend drives it through that pty; judged by the first one's
+simulator truth. Also through Hamlib's own ``rotctld`` as the upstream, a link that
+goes away mid-move, and a controller that starts answering garbage."""
+
+from __future__ import annotations
+
+import os
+import re
+import shutil
+import socket
+import subprocess
+import threading
+import time
+import tty
+
+import pytest
+
+from urc_process import UrcProcess, free_port
+
+ROTCTLD = shutil.which("rotctld")
+if ROTCTLD is None:  # CI installs libhamlib-utils: missing is a failure
+    pytest.fail("Hamlib's rotctld not found: install libhamlib-utils (scripts/test.sh does)", pytrace=False)
+
+PROFILE = "berkeley"  # fast axes: every move takes seconds
+PTY_PROTOCOLS = ("gs232a", "easycomm2", "rot2prog", "md01", "gs232b", "easycomm3")
+
+
+def bridge_config(protocol: str, serial: str | None = None, tcp: str | None = None, extra: str = "") -> str:
+    where = f'serial = "{serial}"' if serial else f'tcp = "{tcp}"'
+    return f'[hardware]\nbackend = "bridge"\n[hardware.bridge]\nprotocol = "{protocol}"\n{where}\n{extra}'
+
+
+def downstream(work, name: str, config: str) -> UrcProcess:
+    d = work / name
+    d.mkdir()
+    return UrcProcess(d, profile=PROFILE, serve=[], extra=config).start()
+
+
+def angle_diff(a: float, b: float) -> float:
+    return abs((a - b + 180.0) % 360.0 - 180.0)
+
+
+def settled(s: dict) -> bool:
+    return not s["moving"] and s["az"]["mode"] == "holding" and s["el"]["mode"] == "holding"
+
+
+@pytest.fixture(scope="module")
+def upstream(tmp_path_factory):
+    work = tmp_path_factory.mktemp("bridge-up")
+    serve = [{"protocol": p, "pty": str(work / f"ctl-{p}")} for p in PTY_PROTOCOLS]
+    proc = UrcProcess(work, profile=PROFILE, serve=serve).start()
+    proc.work = work
+    yield proc
+    proc.stop()
+
+
+def fly_and_judge(up: UrcProcess, down: UrcProcess, az: float, el: float, tol_deg: float) -> None:
+    r = down.post("/api/goto", {"az_deg": az, "el_deg": el})
+    assert r.status_code == 200, r.text
+    s = down.wait(lambda s: settled(s) and angle_diff(s["az_deg"], az) < tol_deg, timeout_s=30)
+    assert not s["faults"], s["faults"]
+    truth = up.wait(lambda u: not u["moving"], timeout_s=20)["simulator_truth"]
+    assert angle_diff(truth["az"]["deg"], az) <= tol_deg and abs(truth["el"]["deg"] - el) <= tol_deg, truth
+    # what the bridged urc shows is what the controller's antenna does
+    assert angle_diff(s["az_deg"], truth["az"]["deg"]) <= tol_deg and abs(s["el_deg"] - truth["el"]["deg"]) <= tol_deg
+
+
+@pytest.mark.parametrize("protocol", PTY_PROTOCOLS[:4])
+def test_bridge_over_a_pty(upstream, protocol, tmp_path):
+    down = downstream(tmp_path, protocol, bridge_config(protocol, serial=str(upstream.work / f"ctl-{protocol}")))
+    try:
+        # GS-232 sets whole degrees; SPID here half degrees; the controller's settle band
+        fly_and_judge(upstream, down, 123.0, 34.0, tol_deg=1.3)
+        fly_and_judge(upstream, down, 57.0, 12.0, tol_deg=1.3)
+        # urc stops: so does the controller, mid-move
+        down.post("/api/goto", {"az_deg": 300.0, "el_deg": 70.0})
+        upstream.wait(lambda u: u["moving"] and u["az_deg"] > 70.0, timeout_s=10)
+        out = down.stop()
+        assert "controller told to stop" in out, out
+        u = upstream.wait(lambda u: not u["moving"], timeout_s=10)
+        assert u["target_az_deg"] is None and u["az_deg"] < 290.0, u
+    finally:
+        down.stop()
+
+
+# ------------------------------------------------------------- Hamlib rotctld upstream
+@pytest.fixture
+def rotctld(upstream):
+    procs = []
+
+    def start(model: int, device: str | None = None, baud: int | None = None) -> str:
+        port = free_port()
+        cmd = [ROTCTLD, "-m", str(model), "-t", str(port), "-T", "127.0.0.1"]
+        if device:
+            cmd += ["-r", device]
+        if baud:
+            cmd += ["-s", str(baud)]
+        p = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        procs.append(p)
+        deadline = time.monotonic() + 10
+        while time.monotonic() < deadline:
+            try:
+                socket.create_connection(("127.0.0.1", port), timeout=0.5).close()
+                return f"127.0.0.1:{port}"
+            except OSError:
+                time.sleep(0.1)
+        raise AssertionError(f"rotctld -m {model} did not listen")
+    yield start
+    for p in procs:
+        p.terminate()
+        p.wait(5)
+
+
+@pytest.mark.parametrize("model, protocol, baud", [(202, "easycomm2", 9600), (603, "gs232b", 9600),
+                                                   (901, "rot2prog", 600)])
+def test_bridge_through_hamlib_rotctld(upstream, rotctld, tmp_path, model, protocol, baud):
+    """urc -> Hamlib rotctld (its own backend for that controller) -> urc's emulation."""
+    addr = rotctld(model, str(upstream.work / f"ctl-{protocol}"), baud)
+    down = downstream(tmp_path, f"hamlib-{model}", bridge_config("rotctld", tcp=addr))
+    try:
+        fly_and_judge(upstream, down, 200.0 if model != 901 else 80.0, 45.0, tol_deg=1.3)
+    finally:
+        down.stop()
+
+
+def test_bridge_to_hamlib_dummy(rotctld, tmp_path):
+    """Model 1 (Hamlib's dummy rotator) as the controller: judged by its own p."""
+    addr = rotctld(1)
+    down = downstream(tmp_path, "hamlib-1", bridge_config("rotctld", tcp=addr))
+    try:
+        down.post("/api/goto", {"az_deg": 40.0, "el_deg": 20.0})
+        s = down.wait(lambda s: settled(s) and angle_diff(s["az_deg"], 40.0) < 0.2, timeout_s=40)
+        assert not s["faults"]
+        host, port = addr.split(":")
+        with socket.create_connection((host, int(port)), timeout=3) as c:
+            c.sendall(b"p\n")
+            time.sleep(0.3)
+            az, el = (float(v) for v in c.recv(100).split())
+        assert angle_diff(az, 40.0) < 0.2 and abs(el - 20.0) < 0.2
+    finally:
+        down.stop()
+
+
+# ------------------------------------------------------------- link loss, garbage
+def test_link_loss_mid_move_is_a_fault(tmp_path):
+    """The controller's pty goes away mid-move: a fault shown everywhere, bounded
+    reconnect, and the reconnect says stop first."""
+    up_dir = tmp_path / "up"
+    up_dir.mkdir()
+    pty_path = str(up_dir / "ctl")
+    up = UrcProcess(up_dir, profile=PROFILE, serve=[{"protocol": "gs232b", "pty": pty_path}]).start()
+    down = downstream(tmp_path, "down", bridge_config("gs232b", serial=pty_path))
+    try:
+        down.post("/api/goto", {"az_deg": 300.0, "el_deg": 60.0})
+        up.wait(lambda u: u["moving"], timeout_s=10)
+        up.stop()                       # the pty closes mid-move
+        s = down.wait(lambda s: bool(s["faults"]), timeout_s=10)
+        reason = s["faults"][0]["reason"]
+        assert "bridge gs232b" in reason and "link lost" in reason, reason
+        r = down.post("/api/goto", {"az_deg": 10.0, "el_deg": 10.0})
+        assert r.status_code != 200, r.text   # refused while the fault stands
+    finally:
+        down.stop()
+        up.stop()
+
+
+class GarbageController:
+    """A GS-232B on a pty that answers properly, then (on request) garbage; it records
+    every byte it is sent."""
+
+    def __init__(self, link: str):
+        self.master, self.slave = os.openpty()
+        tty.setraw(self.slave)
+        self.link = link
+        os.symlink(os.ttyname(self.slave), link)
+        self.az = self.el = 0.0
+        self.target = (0.0, 0.0)
+        self.garbage = False
+        self.received = b""
+        self.received_at_switch = -1
+        self._stop = threading.Event()
+        self.thread = threading.Thread(target=self._run, daemon=True)
+        self.thread.start()
+
+    def switch_to_garbage(self) -> None:
+        self.received_at_switch = len(self.received)
+        self.garbage = True
+
+    def _run(self) -> None:
+        buf, last = b"", time.monotonic()
+        os.set_blocking(self.master, False)
+        while not self._stop.is_set():
+            now = time.monotonic()
+            for i, tgt in ((0, self.target[0]), (1, self.target[1])):
+                cur = self.az if i == 0 else self.el
+                step = max(-10 * (now - last), min(10 * (now - last), tgt - cur))
+                if i == 0:
+                    self.az += step
+                else:
+                    self.el += step
+            last = now
+            try:
+                data = os.read(self.master, 256)
+            except (BlockingIOError, OSError):
+                time.sleep(0.005)
+                continue
+            self.received += data
+            buf += data
+            while b"\r" in buf:
+                line, buf = buf.split(b"\r", 1)
+                if self.garbage:
+                    os.write(self.master, b"\x00\x13#?AZ=x\r\n")
+                elif line == b"C2":
+                    os.write(self.master, b"AZ=%03d  EL=%03d\r\n" % (round(self.az), round(self.el)))
+                elif m := re.fullmatch(rb"W(\d{3}) (\d{3})", line):
+                    self.target = (float(m.group(1)), float(m.group(2)))
+                elif line == b"S":
+                    self.target = (self.az, self.el)
+
+    def close(self) -> None:
+        self._stop.set()
+        self.thread.join(2)
+        os.close(self.master)
+        os.close(self.slave)
+        os.unlink(self.link)
+
+
+def test_garbage_moves_nothing(tmp_path):
+    ctl = GarbageController(str(tmp_path / "ctl"))
+    down = downstream(tmp_path, "down", bridge_config("gs232b", serial=ctl.link))
+    try:
+        down.post("/api/goto", {"az_deg": 90.0, "el_deg": 30.0})
+        down.wait(lambda s: s["az_deg"] > 20.0, timeout_s=15)
+        ctl.switch_to_garbage()
+        s = down.wait(lambda s: bool(s["faults"]), timeout_s=10)
+        assert any("bridge gs232b" in f["reason"] for f in s["faults"]), s["faults"]
+        r = down.post("/api/goto", {"az_deg": 200.0, "el_deg": 10.0})
+        assert r.status_code != 200
+        time.sleep(1.0)
+        after = ctl.received[ctl.received_at_switch:]
+        assert b"W" not in after, after          # no target on answers not understood
+        assert b"S\r" in after, after             # the fault told it to stop
+    finally:
+        down.stop()
+        ctl.close()
