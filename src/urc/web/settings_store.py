@@ -108,8 +108,13 @@ class SettingsStore:
                 out += config_errors(exc)
         return out
 
-    def changed_sections(self, new: Config) -> list[str]:
-        old_d, new_d = self.cfg.to_dict(), new.to_dict()
+    def restart_pending(self, running: Config) -> list[str]:
+        """Sections saved but not in effect until ``urc run`` restarts (``running``: the
+        configuration it was started with)."""
+        return [k for k in self.changed_sections(running, against=self.cfg) if k in RESTART_SECTIONS]
+
+    def changed_sections(self, new: Config, against: Config | None = None) -> list[str]:
+        old_d, new_d = (against or self.cfg).to_dict(), new.to_dict()
         keys = sorted(set(old_d) | set(new_d))
         return [k for k in keys if old_d.get(k) != new_d.get(k)]
 
