@@ -100,6 +100,7 @@ def test_run_status_goto_stop_park(controller):
     assert c.post("/api/stop", {}).status_code == 200
     s = c.wait(lambda s: not s["moving"])
     assert abs(s["az_deg"] - 300) > 1  # it stopped on the way
+    assert "stop" in c.cli("stop").stdout.lower()  # the CLI's own stop is accepted
     c.cli("park")
     c.wait(lambda s: s["parked"] and not s["moving"])
     out = c.stop()
