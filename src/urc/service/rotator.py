@@ -90,9 +90,12 @@ class _Axis:
         if self.positioner is None:
             return self._flim
         # a controller's reports arrive once per poll: between two, the axis may have
-        # turned a whole poll period at full speed (not a sensor jump)
+        # turned a whole poll period at full speed (not a sensor jump), and progress
+        # shows a target's round trip plus two reports late (not a stall)
+        every_s = self.positioner.sample_interval_s()
         return replace(self._flim, sensor_jump_deg=self._flim.sensor_jump_deg +
-                       2.0 * self._flim.max_rate_deg_per_s * self.positioner.sample_interval_s())
+                       2.0 * self._flim.max_rate_deg_per_s * every_s,
+                       stall_timeout_s=self._flim.stall_timeout_s + 2.0 * every_s + self.positioner.latency_s())
 
     @flim.setter
     def flim(self, value: FaultLimits) -> None:
@@ -109,6 +112,10 @@ class _Axis:
             self.law, sp, self.meas_deg, self.rate_deg_per_s, now_s, self.tuning,
             lead_s=self.positioner.latency_s(), still_rate_deg_per_s=self.still_rate_deg_per_s,
             band_deg=max(self.tuning.tolerance_deg, self.positioner.resolution_deg), limits_deg=self.limits)
+        if sp is not None and self.out.duty == 0.0:
+            # following its target within the band (a slow track goes in the controller's
+            # steps): it is where it was told to be, so a runaway is judged from here
+            self.mon = replace(self.mon, rest_deg=self.meas_deg)
 
     def post(self) -> None:
         """Positioner axes: post the target, or stop when there is no setpoint (stop,
