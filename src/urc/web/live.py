@@ -34,7 +34,9 @@ JOG_LEASE_S = 0.6
 #: the tracker's status (ground track, plan) is recomputed at most this often
 TRACKING_REFRESH_S = 1.0
 #: seldom-changing parts sent apart from the frames: message type -> (section, keys)
-PARTS = {"plan": ("tracking", ("plan", "ground_track")), "events": (None, ("events",))}
+#: (the plan changes with the pass; the ground track every 10 s as its window moves)
+PARTS = {"plan": ("tracking", ("plan",)), "ground": ("tracking", ("ground_track",)),
+         "events": (None, ("events",))}
 
 
 @dataclass

@@ -59,7 +59,7 @@ export class Live {
   // put the seldom-sent parts back where the page reads them (status.events, tracking.plan...)
   merge(st) {
     Object.assign(st, this.parts.events || {});
-    if (st.tracking) Object.assign(st.tracking, this.parts.plan || {});
+    if (st.tracking) Object.assign(st.tracking, this.parts.plan || {}, this.parts.ground || {});
   }
 
   tick() {
