@@ -149,6 +149,9 @@ def _format_status(s: dict) -> str:
             lines.append(f"          {name} uncertain by ±{s[name]['uncertainty_deg']:.2f} deg")
     for f in s["faults"]:
         lines.append(f"FAULT     {f['kind']}: {f['reason']}")
+    if s.get("state_error"):
+        lines.append(f"STATE     not saved: {s['state_error']} (retrying; motion stops before the "
+                     "saved position stops being true)")
     truth = s.get("simulator_truth")
     if truth:
         lines.append(f"sim truth az {truth['az']['deg']:7.2f}  el {truth['el']['deg']:6.2f}  (simulator only)")
