@@ -36,26 +36,14 @@ sys.path.insert(0, str(ROOT / "tests"))
 sys.path.insert(0, str(ROOT / "bench"))
 from bench_report import write_json  # noqa: E402
 from urc_process import UrcProcess  # noqa: E402
-from web_bench import STATION  # noqa: E402
+from web_bench import STATION, synthetic_tle  # noqa: E402
 
 
 def leo_catalog(n: int, epoch: datetime) -> str:
     """``n`` LEO element sets of today's epoch, spread in plane and phase."""
-    from sgp4.api import WGS72, Satrec
-    from sgp4.exporter import export_tle
-
-    xpdotp = 1440.0 / (2.0 * math.pi)
-    days = (epoch - datetime(1949, 12, 31, tzinfo=timezone.utc)).total_seconds() / 86400.0
-    out = []
-    for i in range(n):
-        sat = Satrec()
-        sat.sgp4init(WGS72, "i", 90000 + i, days, 1.0e-4, 0.0, 0.0, 0.001, math.radians(90.0),
-                     math.radians(50.0 + (i * 7) % 50), math.radians((i * 47) % 360),
-                     (14.2 + (i % 10) * 0.15) / xpdotp, math.radians((i * 61) % 360))
-        sat.intldesg, sat.classification, sat.elnum, sat.revnum, sat.ephtype = "26001A", "U", 999, 1, 0
-        l1, l2 = export_tle(sat)
-        out += [f"SAT-{i:03d}", l1, l2]
-    return "\n".join(out) + "\n"
+    return "".join(synthetic_tle(f"SAT-{i:03d}", 90000 + i, epoch, inc_deg=50.0 + (i * 7) % 50,
+                                 raan_deg=(i * 47) % 360, argp_deg=90.0, ma_deg=(i * 61) % 360,
+                                 rev_per_day=14.2 + (i % 10) * 0.15) for i in range(n))
 
 
 def rss_mb(pid: int) -> float:
