@@ -83,24 +83,38 @@ def test_client_commands_without_a_controller_fail_clearly():
     assert res.returncode != 0 and "cannot reach urc" in res.stderr
 
 
+def test_client_commands_take_port_like_run(tmp_path):
+    port = free_port()
+    res = urc("status", "--port", str(port), check=False)
+    assert res.returncode != 0 and f"127.0.0.1:{port}" in res.stderr and "cannot reach urc" in res.stderr
+    both = urc("status", "--port", str(port), "--url", "http://127.0.0.1:1", check=False)
+    assert both.returncode != 0 and "not both" in both.stderr
+
+
+def test_profiles_show_ranges_and_speeds():
+    out = urc("profiles").stdout
+    assert "az 0..400 deg, 0.6..6 deg/s   el 0..180 deg, 0.6..6 deg/s" in out   # tartu-urc
+    assert "az -90..450 deg" in out                                            # sarcnet-mini
+
+
 def test_run_status_goto_stop_park(controller):
     c = controller(profile="berkeley").start()
     s = c.status()
     assert s["profile"] == "berkeley" and s["simulator_truth"]["az"]["deg"] == pytest.approx(0, abs=0.5)
     assert "pointing" in c.cli("status").stdout
+    # issue 13.8: the client commands take --port like `urc run` does
+    by_port = json.loads(urc("status", "--json", "--port", str(c.port)).stdout)
+    assert by_port["profile"] == "berkeley"
     c.cli("goto", "90", "30")
     s = c.wait(lambda s: abs(s["az_deg"] - 90) < 0.3 and abs(s["el_deg"] - 30) < 0.3 and not s["moving"])
     assert s["simulator_truth"]["az"]["deg"] == pytest.approx(90, abs=0.5)
     refused = c.cli("goto", "10", "95", check=False)
     assert refused.returncode != 0 and "outside" in refused.stderr
-    # through the API, not the CLI: a loaded machine can take the whole 6 s move to start
-    # a CLI process, and the stop below must land while the antenna moves
-    assert c.post("/api/goto", {"az_deg": 300, "el_deg": 80}).status_code == 200
+    c.cli("goto", "300", "80")
     c.wait(lambda s: s["moving"])
-    assert c.post("/api/stop", {}).status_code == 200
+    c.cli("stop")
     s = c.wait(lambda s: not s["moving"])
     assert abs(s["az_deg"] - 300) > 1  # it stopped on the way
-    assert "stop" in c.cli("stop").stdout.lower()  # the CLI's own stop is accepted
     c.cli("park")
     c.wait(lambda s: s["parked"] and not s["moving"])
     out = c.stop()

@@ -94,12 +94,23 @@ def profiles() -> None:
     for name, caps in PROFILES.items():
         mark = " (default)" if name == DEFAULT_PROFILE else ""
         click.echo(f"{name:14s}{caps.description}{mark}")
+        click.echo(" " * 14 + "   ".join(
+            f"{ax.name} {ax.min_deg:g}..{ax.max_deg:g} deg, {ax.min_rate_deg_per_s:g}..{ax.max_rate_deg_per_s:g} deg/s"
+            for ax in (caps.az, caps.el)))
 
 
 # ---------------------------------------------------------------- client commands
+def _remember_port(ctx: click.Context, _param: click.Parameter, value: int | None) -> None:
+    ctx.meta["urc.api_port"] = value
+
+
 def _client_options(f):
     f = click.option("--url", envvar="URC_URL", default=None,
                      help=f"Controller API address (default from --config, else {DEFAULT_URL}).")(f)
+    # `urc run --port N` starts the API on N; the same --port reaches it (issue 13.8)
+    f = click.option("--port", type=click.IntRange(1, 65535), default=None, expose_value=False,
+                     callback=_remember_port,
+                     help="Controller API port on this host (as given to `urc run --port`).")(f)
     f = click.option("--config", "config_path", type=click.Path(dir_okay=False),
                      help="Read the API address and token from this configuration.")(f)
     return f
@@ -109,15 +120,19 @@ def _request(url: str | None, config_path: str | None, method: str, path: str, b
     import httpx
 
     token = os.environ.get("URC_TOKEN", "")
+    ctx = click.get_current_context(silent=True)
+    port = ctx.meta.get("urc.api_port") if ctx is not None else None
+    if url is not None and port is not None:
+        raise click.UsageError("give --url or --port, not both")
     if url is None:
-        url = DEFAULT_URL
+        url = DEFAULT_URL if port is None else f"http://127.0.0.1:{port}"
         if config_path:
             try:
                 cfg = _load(config_path)
             except ConfigError as exc:
                 raise click.ClickException(str(exc)) from None
             host = "127.0.0.1" if cfg.api.host in ("0.0.0.0", "::") else cfg.api.host
-            url = f"http://{host}:{cfg.api.port}"
+            url = f"http://{host}:{cfg.api.port if port is None else port}"
             token = token or cfg.api.token
     headers = {"Authorization": f"Bearer {token}"} if token else {}
     try:
@@ -149,9 +164,6 @@ def _format_status(s: dict) -> str:
             lines.append(f"          {name} uncertain by ±{s[name]['uncertainty_deg']:.2f} deg")
     for f in s["faults"]:
         lines.append(f"FAULT     {f['kind']}: {f['reason']}")
-    if s.get("state_error"):
-        lines.append(f"STATE     not saved: {s['state_error']} (retrying; motion stops before the "
-                     "saved position stops being true)")
     truth = s.get("simulator_truth")
     if truth:
         lines.append(f"sim truth az {truth['az']['deg']:7.2f}  el {truth['el']['deg']:6.2f}  (simulator only)")
@@ -286,31 +298,6 @@ def _register_tracking_commands() -> None:
 
 
 _register_tracking_commands()
-
-
-@main.group()
-def hw() -> None:
-    """Hardware helpers."""
-
-
-@hw.command("check")
-@click.option("--config", "config_path", type=click.Path(dir_okay=False), help="TOML configuration file.")
-def hw_check(config_path: str | None) -> None:
-    """Check the configured hardware without moving anything (bridge: identify the
-    controller, read its position, measure the link latency)."""
-    try:
-        cfg = _load(config_path)
-    except ConfigError as exc:
-        raise click.ClickException(str(exc)) from None
-    if cfg.hardware.backend == "bridge":
-        from .hardware.bridge.check import check_bridge
-
-        result = check_bridge(cfg.hardware.bridge)
-        click.echo("\n".join(result.lines))
-        if not result.ok:
-            raise SystemExit(1)
-        return
-    click.echo(f"hardware backend {cfg.hardware.backend!r}: nothing to check (no hardware attached)")
 
 if __name__ == "__main__":  # pragma: no cover
     sys.exit(main())
