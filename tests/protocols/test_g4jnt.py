@@ -14,9 +14,10 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from conftest import Bench
+from session_replay import raises_nothing
 from urc.protocols import make_session
 from urc.protocols import g4jnt_codec as codec
-from urc.protocols.g4jnt import G4jntSession
+from urc.protocols.g4jnt import PULSE_DEG, G4jntSession
 from urc.protocols.g4jnt_codec import G4jntCommand, G4jntSyntaxError
 
 #: bearing vs truth: the pot's coarsest step (0.9 deg), its noise and the relay's 0.9 deg band
@@ -33,9 +34,8 @@ def stream(b: Bench, s: G4jntSession) -> tuple[float, int]:
     """The next stream line, whenever it is due."""
     for _ in range(100):
         out = s.tick(b.clock.now_s())
-        if out:
-            (line,) = out
-            return codec.parse_stream_line(line)
+        if out:                          # (the first tick brings the banner too)
+            return codec.parse_stream_line(out[-1])
         b.run(0.02)
     raise AssertionError("no stream line within 2 s")
 
@@ -47,13 +47,45 @@ def sim_pot_p(b: Bench) -> float:
 
 
 # ======================================================================== codec
+#: Table 1 of the document: the stream after power-on, as the rotator was turned
+TABLE_1_STREAM = b"""b059.3,p1415
+b058.6,p1422
+b057.8,p1430
+b057.8,p1430
+b056.7,p1441
+b054.3,p1466
+b052.5,p1485
+b052.5,p1485
+b049.9,p1511
+b051.0,p1500
+b052.2,p1488
+b053.9,p1470
+"""
+
+
+def test_table_1_stream_comes_out_of_its_own_constants():
+    """Every bearing of Table 1 from its P and its listed constants, byte for byte."""
+    for want in TABLE_1_STREAM.splitlines():
+        p = int(want.split(b",p")[1])
+        assert codec.stream_line(codec.bearing_tenths(p, codec.TABLE_1), p) == want + b"\r\n"
+
+
+def test_table_1_banner():
+    assert codec.banner(codec.TABLE_1) == (
+        b"G4JNT Rotator Controller\r\nStored Constants -\r\n"
+        b"Z 1807\r\nM -15897\r\nC 3758\r\nK 2048\r\n\r\n"
+        b"Commands # + Z/C/K/M + (-)nnnn(n)\r\n")
+
+
 @pytest.mark.parametrize("line, cmd", [
-    (b"Z12.5", G4jntCommand("const", name="Z", value=12.5)),
-    (b"z", G4jntCommand("const", name="Z")),
-    (b"M0.0879", G4jntCommand("const", name="M", value=0.0879)),
-    (b"C-3.0", G4jntCommand("const", name="C", value=-3.0)),
-    (b" K 5 ", G4jntCommand("const", name="K", value=5.0)),
+    (b"#Z1807", G4jntCommand("const", name="Z", value=1807)),
+    (b"#m-15897", G4jntCommand("const", name="M", value=-15897)),
+    (b" #C 3758 ", G4jntCommand("const", name="C", value=3758)),
+    (b"#K2048", G4jntCommand("const", name="K", value=2048)),
+    (b"#Z-100", G4jntCommand("const", name="Z", value=-100)),
     (b"?", G4jntCommand("all")),
+    (b"L", G4jntCommand("pulse", direction=-1)),
+    (b"r", G4jntCommand("pulse", direction=1)),
     (b"G123.4", G4jntCommand("goto", az_deg=123.4)),
     (b"g 123.4 , 45", G4jntCommand("goto", az_deg=123.4, el_deg=45.0)),
     (b"S", G4jntCommand("stop")),
@@ -63,97 +95,123 @@ def test_parse(line, cmd):
     assert codec.parse_line(line) == cmd
 
 
-@pytest.mark.parametrize("line", [b"M0", b"M-1", b"K-1", b"Gnan", b"G1e3", b"G", b"G1,", b"X", b"Z12.5x",
-                                  b"ZZ", b"SS", b"G" + b"9" * 400, b"\xff"])
+@pytest.mark.parametrize("line", [b"#M0", b"#K100", b"#K99999", b"#Z12.5", b"Z12", b"#Q1", b"#Z", b"#Z1234567",
+                                  b"Gnan", b"G1e3", b"G", b"G1,", b"X", b"LL", b"SS", b"G" + b"9" * 400, b"\xff"])
 def test_parse_errors(line):
-    with pytest.raises(G4jntSyntaxError, match="expected|must be|out of range"):
+    with pytest.raises(G4jntSyntaxError, match="expected|out of range"):
         codec.parse_line(line)
 
 
 def test_ratiometric_formula():
-    # P = 4096 N / (2048 - N)
-    assert codec.linearise(0) == 0 and codec.linearise(512) == pytest.approx(4096 * 512 / 1536)
-    assert codec.linearise(1023) == pytest.approx(4088.0, abs=0.01)
+    # P = 4096 N / (K - N), K = 1024 x the divider gain of 2
+    assert codec.linearise(0) == 0 and codec.linearise(512) == 4096 * 512 // 1536
+    assert codec.linearise(1023) == 4088
     # the loaded pot: N = 2048 x / (1 + x), so P = 4096 x up to the ADC's step
     for x in (0.0, 0.1, 0.25, 0.5, 0.9, 1.0):
-        assert codec.linearise(codec.adc_counts(4096 * x)) == pytest.approx(4096 * x, abs=9)
-    assert codec.adc_counts(-50) == 0 and codec.adc_counts(99999) == 1023
+        assert codec.linearise(codec.adc_counts(x)) == pytest.approx(4096 * x, abs=9)
 
 
-@given(bearing=st.floats(0.0, 360.0))
-def test_bearing_p_round_trip(bearing):
-    m, c, z = 0.1125, -50.4, 0.0            # the simulated g4jnt azimuth pot
-    p = codec.p_for_bearing(bearing, m, c, z)
-    # back within the ADC's coarsest step (0.9 deg at full scale)
-    assert codec.bearing_for_p(p, m, c, z) == pytest.approx(bearing, abs=0.9)
+@given(p=st.integers(0, 4096), z=st.integers(-9999, 99999), m=st.integers(-99999, 99999).filter(bool),
+       c=st.integers(-99999, 99999))
+def test_never_b_minus_000_1(p, z, m, c):
+    line = codec.stream_line(codec.bearing_tenths(p, codec.Constants(z=z, m=m, c=c)), p)
+    bearing, p_back = codec.parse_stream_line(line)
+    assert 0.0 <= bearing <= 359.9 and p_back == p
 
 
-def test_formats():
-    assert codec.stream_line(59.3, 1415) == b"b059.3,p1415\r\n"
-    assert codec.stream_line(-0.04, 3) == b"b000.0,p0003\r\n"
-    assert codec.parse_stream_line(b"b059.3,p1415\r\n") == (59.3, 1415)
-    assert [codec.format_constant(n, v) for n, v in (("M", 0.0879), ("C", -3.0), ("K", 5), ("Z", 12.5))] == \
-        ["M0.0879", "C-3.0", "K5.0", "Z12.5"]
-
-
-@given(tenths=st.integers(0, 3600), p=st.integers(0, 4096))
-def test_stream_round_trip(tenths, p):
-    assert codec.parse_stream_line(codec.stream_line(tenths / 10, p)) == (tenths / 10, p)
+def test_sensor_units_round_trip():
+    assert codec.from_sensor(codec.to_sensor(codec.TABLE_1)) == codec.TABLE_1
 
 
 # ======================================================================= session
-def test_constants_start_from_the_rotators_pot(g4):
+def power_on(b: Bench, s: G4jntSession) -> bytes:
+    out = s.tick(b.clock.now_s())
+    assert len(out) == 2
+    return out[0]
+
+
+def test_power_on_banner_lists_the_rotators_pot_constants(g4):
     b, s = g4
-    cal = b.rot.hw.az.sensor.calibration()
-    assert s.receive(b"?\r") == [f"Z{cal['Z']:.1f} C{cal['C']:.1f} K5.0 M{cal['M']:g}\r\n".encode()]
+    k = codec.from_sensor(b.rot.hw.az.sensor.calibration())
+    assert power_on(b, s) == codec.banner(k)
+    assert k.k == 2048 and k.z == 0 and k.c == -504 and k.m == 18432     # the simulated g4jnt pot
+    assert s.tick(b.clock.now_s() + 0.5)[0].startswith(b"b")            # then the stream only
 
 
-def test_constants_default_without_a_pot(bench):
-    s = G4jntSession(bench("tartu-urc").rot)
-    assert s.receive(b"?\r") == [b"Z0.0 C0.0 K5.0 M0.0878906\r\n"]
-
-
-def test_set_and_echo_constants(g4):
+def test_constants_are_the_rotators_calibration_and_persist(g4, bench):
     b, s = g4
-    assert s.receive(b"Z12.5\rM0.0879\nC-3.0\r\nK3\r") == [b"Z12.5\r\n", b"M0.0879\r\n", b"C-3.0\r\n", b"K3.0\r\n"]
-    assert s.receive(b"Z\rM\r") == [b"Z12.5\r\n", b"M0.0879\r\n"]
-    assert s.receive(b"M0\r")[0].startswith(b"? M (degrees per P unit) must be > 0")
-    assert s.receive(b"M\r") == [b"M0.0879\r\n"]               # unchanged
+    before = b.rot.status().az_deg
+    assert s.receive(b"#Z50\r") == [b"Z 50\r\n"]
+    b.run(0.1)                                  # the rotator applies it at its next tick
+    # Z applied to the bearing the rotator reports (a re-reference: nothing moves)
+    assert b.rot.status().az_deg == pytest.approx(before + 5.0, abs=0.3)
+    assert b.rot.hw.az.sensor.calibration()["Z"] == pytest.approx(5.0, abs=0.1)   # (read with noise)
+    # another connection, then a restart of urc: the same constants
+    assert G4jntSession(b.rot).receive(b"?\r") == [b"Z 50\r\nM 18432\r\nC -504\r\nK 2048\r\n"]
+    b.run(2.0)
+    b2 = b.restart()
+    again = G4jntSession(b2.rot)
+    assert power_on(b2, again).splitlines()[2] == b"Z 50"
+    assert b2.rot.status().az_deg == pytest.approx(before + 5.0, abs=0.3)
+
+
+def test_a_constant_the_rotator_refuses_changes_nothing(g4):
+    b, s = g4
+    reply = s.receive(b"#Z-100\r")            # 10 deg less: below the 0..360 limits
+    assert reply[0].startswith(b"? refused (limit)")
+    assert s.receive(b"?\r")[0].startswith(b"Z 0\r\n")
+
+
+def test_stream_p_is_the_pot_reading_and_b_comes_from_it(g4):
+    b, s = g4
+    for az in (20.0, 180.0, 340.0):
+        s.receive(f"G{az}\r".encode())
+        b.settle()
+        s._next_s = None
+        (line,) = s.tick(b.clock.now_s())[-1:]
+        bearing, p = codec.parse_stream_line(line)
+        pot = b.rot.hw.az.sensor
+        assert p == codec.linearise(pot.last_counts)                      # what the ADC read
+        assert line == codec.stream_line(codec.bearing_tenths(p, s.constants), p)
+        assert bearing == pytest.approx(b.truth("az"), abs=TRUTH_TOL_DEG)
 
 
 def test_stream_timing(g4):
     b, s = g4
     t0 = b.clock.now_s()
-    assert len(s.tick(t0)) == 1                  # at once
+    assert len(s.tick(t0)) == 2                  # banner and a line at once
     assert s.tick(t0 + 0.2) == [] and s.tick(t0 + 0.49) == []
     assert len(s.tick(t0 + 0.5)) == 1
     assert len(s.tick(t0 + 10.0)) == 1           # after a stall: one line, not twenty
     assert s.tick(t0 + 10.1) == [] and len(s.tick(t0 + 10.5)) == 1
     fast = G4jntSession(b.rot, interval_s=0.1)
-    assert sum(len(fast.tick(t0 + k * 0.05)) for k in range(21)) == 11
+    assert sum(len(fast.tick(t0 + k * 0.05)) for k in range(21)) == 12
     with pytest.raises(ValueError):
         G4jntSession(b.rot, interval_s=0)
 
 
-def test_p_matches_the_simulated_pot(g4):
+def test_go_left_and_go_right_pulse(g4):
     b, s = g4
-    for az in (20.0, 180.0, 340.0):
-        s.receive(f"G{az}\r".encode())
-        b.settle()
-        bearing, p = stream(b, s)
-        assert bearing == pytest.approx(b.truth("az"), abs=TRUTH_TOL_DEG)
-        assert p == pytest.approx(sim_pot_p(b), abs=12)        # a count or two of the ADC
-        s._next_s = None
+    s.receive(b"G100\r")
+    b.settle()
+    start = b.truth("az")
+    assert s.receive(b"R\r") == [b"R\r\n"]
+    b.settle()
+    right = b.truth("az")
+    assert 0.5 < right - start < 2 * PULSE_DEG
+    assert s.receive(b"L\rL\r") == [b"L\r\n", b"L\r\n"]
+    b.settle()
+    assert b.truth("az") < right - 0.5
 
 
-def test_changing_m_c_z_changes_p_not_the_bearing(g4):
-    b, s = g4
-    b1, p1 = stream(b, s)
-    s.receive(b"Z10\r")
-    s._next_s = None
-    b2, p2 = stream(b, s)
-    assert b2 == pytest.approx(b1, abs=0.3)
-    assert p2 < p1 - 50                                        # 10 deg / 0.1125 = 89 counts less
+def test_without_a_pot_the_constants_are_the_connections(bench):
+    b = bench("tartu-urc")
+    s = G4jntSession(b.rot)
+    assert s.receive(b"#Z100\r") == [b"Z 100\r\n"]
+    line = s.tick(b.clock.now_s())[-1]
+    bearing, _ = codec.parse_stream_line(line)
+    assert bearing == pytest.approx(b.rot.status().az_deg, abs=0.2)
+    assert G4jntSession(b.rot).receive(b"?\r")[0].startswith(b"Z 0\r\n")
 
 
 def test_goto_then_stream_matches_truth(g4):
@@ -195,15 +253,14 @@ def test_errors_do_not_move(g4):
     assert b.truth("az") == pytest.approx(0.0, abs=0.3)
 
 
-def test_whole_bytewise_chunked_same(g4):
-    b, _ = g4
-    data = b"?\rZ1\nfoo\r\nM\rK2.5\r?\r"
-    whole = b"".join(G4jntSession(b.rot).receive(data))
-    s = G4jntSession(b.rot)
-    assert b"".join(r for byte in data for r in s.receive(bytes([byte]))) == whole
-    s = G4jntSession(b.rot)
-    assert b"".join(r for i in range(0, len(data), 3) for r in s.receive(data[i:i + 3])) == whole
-    assert whole.endswith(b"Z1.0 C-50.4 K2.5 M0.1125\r\n")
+def test_whole_bytewise_chunked_same(bench):
+    data = b"?\r#Z1\nfoo\r\n#K2040\r?\r"
+    outs = []
+    for chunk in (len(data), 1, 3):
+        s = G4jntSession(bench("tartu-urc").rot)
+        outs.append(b"".join(r for i in range(0, len(data), chunk) for r in s.receive(data[i:i + chunk])))
+    assert outs[0] == outs[1] == outs[2]
+    assert outs[0].endswith(b"Z 1\r\nM 14400\r\nC 0\r\nK 2040\r\n")
 
 
 def test_registry_name(g4):
@@ -217,21 +274,23 @@ def quiet(tmp_path_factory):
     return Bench("g4jnt", tmp_path_factory.mktemp("g4jnt-fuzz"))
 
 
-_WORDS = st.sampled_from([b"Z", b"C", b"K", b"M", b"G", b"S", b"?", b"\r", b"\n", b"1", b"-", b".", b",",
-                          b"nan", b" "])
+_WORDS = st.sampled_from([b"#", b"Z", b"C", b"K", b"M", b"G", b"S", b"L", b"R", b"?", b"\r", b"\n", b"1", b"-",
+                          b".", b",", b"nan", b" "])
 _DATA = st.lists(st.one_of(st.binary(max_size=20), _WORDS), max_size=24).map(b"".join)
 
 
 @settings(max_examples=150, deadline=None)
 @given(data=_DATA, split=st.integers(1, 9))
+@raises_nothing
 def test_fuzz_never_raises_or_moves(quiet, data, split):
     data = data.replace(b"\x7f", b"").replace(b"\x08", b"")
-    assume(not re.search(rb"[Gg]\s*[+-]?[\d.]", data))        # a goto could legitimately move
+    # a goto or a pulse could legitimately move; a constant re-references the rotator
+    assume(not re.search(rb"[Gg]\s*[+-]?[\d.]|(^|[\r\n])\s*[LlRr]\s*($|[\r\n])|#\s*[ZCKMzckm]\s*[+-]?\d", data))
     s = G4jntSession(quiet.rot)
     replies = []
     for i in range(0, len(data), split):
         replies += s.receive(data[i:i + split])
-    assert all(r.endswith(b"\r\n") and r.count(b"\n") == 1 for r in replies)
+    assert all(r.endswith(b"\r\n") and (r.count(b"\n") == 1 or r.startswith(b"Z ")) for r in replies)
     assert len(replies) <= data.count(b"\r") + data.count(b"\n") + 1
     quiet.run(1.0)
     st_ = quiet.rot.status()

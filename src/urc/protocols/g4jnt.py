@@ -1,56 +1,50 @@
-"""The G4JNT PIC rotator controller's serial stream and constants, on urc.
+"""The G4JNT PIC rotator controller's serial port (seed 003), on urc.
 
-Every ``interval_s`` (0.5 s) ``tick(now_s)`` emits ``b059.3,p1415`` CR LF: ``b`` the
-bearing (the rotator's azimuth, in its own frame, 0.1 deg) and ``p`` the linearised pot
-reading P the controller would compute at that bearing, P = 4096 N / (2048 - N) from the
-10-bit count N of the loaded pot (see g4jnt_codec; the simulator's pot is the same model).
+At power-on (a connection's first tick; a pty's start) it prints the banner with the
+stored constants (Table 1), then every ``interval_s`` (0.5 s) a stream line
+``b059.3,p1415``: P is the ratiometric pot value the azimuth sensor last read (P = 4096
+N / (K - N) from its 10-bit count N) and b the bearing the controller computes from
+that P and its constants (see g4jnt_codec): the stream always agrees with itself and
+with Table 1's arithmetic.
 
-Constants, settable over serial and answered with the value stored (``Z12.5`` ->
-``Z12.5``; bare ``Z`` reports, ``?`` reports all four):
+The constants Z, M, C, K are the rotator's own pot calibration, kept where urc keeps
+every sensor calibration (the rotator's state file, through
+:func:`urc.service.calibration.apply_sensor_calibration`): ``#Z1807`` changes the
+bearing the rotator itself reports (a re-reference, nothing moves), for every protocol,
+across connections and restarts, like the PIC's non-volatile memory. A set the rotator
+refuses (e.g. a Z that would put the antenna outside its limits) is answered with an
+error and nothing changes.
 
-* ``M`` slope (deg per P unit) and ``C`` intercept (deg) of the two-point calibration,
-  ``Z`` zero offset (deg): bearing = M x P + C + Z. They start from the rotator's own
-  pot calibration when its sensor reports one (the simulated G4JNT pot does), else
-  M = 360/4096, C = 0, Z = 0.
-* ``K`` (deg): the slow/fast threshold: the original drives fast while the error is
-  larger than K and pulses the motor slowly within it. Default 5.
+A g4jnt session on a rotator without a ratiometric pot keeps the constants for the
+connection only (nothing to calibrate) and derives P backwards from the bearing.
 
-On urc the position comes from the rotator service, which owns the sensor calibration
-and picks slow or fast drive itself, so these constants are this connection's: they
-change how P is derived from the bearing (M, C, Z), and are stored and echoed (K); they
-do not re-reference or re-tune the rotator.
-
-Commands: ``G123.4`` go to bearing 123.4 (elevation keeps its target), ``G123.4,45.0``
-go to both -> echoed ``G123.4`` / ``G123.4,45.0``; ``S`` stop -> ``S``. Errors: one line
-``? <what was expected>, got '<what came>'``; nothing moves on an error.
+Commands: ``#`` + Z/C/K/M + signed integer; ``L``/``R`` go-left/go-right pulses (one
+``PULSE_DEG`` step: the relay drive's slow pulse); ``G123.4[,45]`` go to; ``S`` stop;
+``?`` the constants again. Errors: one line ``? <what was expected>, got '<what came>'``.
 """
 
 from __future__ import annotations
 
-from ..errors import CommandRejected
-from .base import MAX_PENDING_BYTES, RotatorPort, protocol_logger
+from ..errors import CommandRejected, UrcError
+from ..service import calibration
+from .base import MAX_PENDING_BYTES, RotatorPort, bad_input_log, internal_error, protocol_logger
 from . import g4jnt_codec as codec
-from .g4jnt_codec import G4jntCommand, G4jntSyntaxError
+from .g4jnt_codec import Constants, G4jntCommand, G4jntSyntaxError
 from .lines import LineSplitter, next_due_s
 from .poses import ExtendedTarget, extended_pose_deg
 
 log = protocol_logger("g4jnt")
+bad_input = bad_input_log("g4jnt")
 
-DEFAULT_K_DEG = 5.0
-
-
-def _rotator_pot_calibration(rotator: RotatorPort) -> dict[str, float]:
-    """M, C, Z of the rotator's azimuth pot when its sensor reports them (read only)."""
-    try:
-        cal = rotator.hw.axis("az").sensor.calibration()  # type: ignore[attr-defined]
-        got = {k: float(cal[k]) for k in ("M", "C", "Z")}
-    except Exception:
-        return {}
-    return got if got["M"] > 0 else {}
+#: one go-left/go-right pulse turns the azimuth this far. The document's slow drive
+#: pulses the motor at 2 Hz; a step is what one such pulse turns on the relay-driven
+#: rotators it was built for, and more than the drive's restart band (1.8 deg on the
+#: g4jnt profile), so that a pulse always moves.
+PULSE_DEG = 2.0
 
 
 class G4jntSession:
-    wants_tick = True  # streams position lines (see base.Session)
+    wants_tick = True  # banner and position stream (see base.Session)
 
     def __init__(self, rotator: RotatorPort, *, interval_s: float = 0.5):
         if not interval_s > 0:
@@ -58,11 +52,19 @@ class G4jntSession:
         self.rotator = rotator
         self.closed = False
         self.interval_s = float(interval_s)
-        self.constants = {"Z": 0.0, "C": 0.0, "K": DEFAULT_K_DEG, "M": 360.0 / 4096.0}
-        self.constants.update(_rotator_pot_calibration(rotator))
-        self._lines = LineSplitter(MAX_PENDING_BYTES, backspace=True, log=log)
+        self._pot = _ratiometric_pot(rotator)
+        #: without a pot: this connection's constants (a 0..360 deg pot over P 0..4096)
+        self._own = Constants(z=0, m=round(3600 * codec.M_SCALE / 4096), c=0, k=2048)
+        self._lines = LineSplitter(MAX_PENDING_BYTES, backspace=True, log=bad_input)
         self._targets = ExtendedTarget(rotator)
         self._next_s: float | None = None
+        self._powered = False
+
+    @property
+    def constants(self) -> Constants:
+        if self._pot is None:
+            return self._own
+        return codec.from_sensor(self._pot.calibration())
 
     # ------------------------------------------------------------------ Session
     def receive(self, data: bytes) -> list[bytes]:
@@ -76,40 +78,76 @@ class G4jntSession:
                 if cmd is not None:
                     out.append(self._execute(cmd))
             except G4jntSyntaxError as exc:
-                log.info("rejected %r: %s", item.text[:80], exc)
+                bad_input.info("rejected %r: %s", item.text[:80], exc)
                 out.append(codec.line(f"? {exc}"))
             except CommandRejected as exc:
-                log.info("rotator refused %r: %s", item.text[:80], exc)
-                out.append(codec.line(f"? refused ({exc.reason}): {exc}"))
-            except Exception as exc:
-                log.exception("line %r failed", item.text[:80])
-                out.append(codec.line(f"? internal error: {exc}"))
+                bad_input.info("rotator refused %r: %s", item.text[:80], exc)
+                out.append(codec.line(f"? refused ({exc.reason}): {exc}"[:120]))
+            except UrcError as exc:     # a hardware or calibration failure
+                log.warning("line %r failed: %s", item.text[:80], exc)
+                out.append(codec.line(f"? failed: {exc}"[:120]))
+            except Exception as exc:    # a bug: the connection survives, the bug is counted
+                internal_error(log, "g4jnt", "line %r failed", item.text[:80])
+                out.append(codec.line(f"? internal error: {exc}"[:120]))
         return out
 
     def tick(self, now_s: float) -> list[bytes]:
+        out = []
+        if not self._powered:
+            self._powered = True
+            out.append(codec.banner(self.constants))
         nxt = next_due_s(self._next_s, now_s, self.interval_s)
-        if nxt is None:
-            return []
-        self._next_s = nxt
-        return [self.stream_line()]
+        if nxt is not None:
+            self._next_s = nxt
+            out.append(self.stream_line())
+        return out
 
     def stream_line(self) -> bytes:
-        bearing = extended_pose_deg(self.rotator.status())[0]
         k = self.constants
-        return codec.stream_line(bearing, codec.p_for_bearing(bearing, k["M"], k["C"], k["Z"]))
+        if self._pot is not None:
+            p = codec.linearise(self._pot.last_counts, k.k)
+        else:
+            p = codec.p_for_bearing(extended_pose_deg(self.rotator.status())[0], k)
+        return codec.stream_line(codec.bearing_tenths(p, k), p)
 
     # ----------------------------------------------------------------- commands
     def _execute(self, cmd: G4jntCommand) -> bytes:
         if cmd.kind == "const":
-            if cmd.value is not None:
-                self.constants[cmd.name] = cmd.value
-            return codec.line(codec.format_constant(cmd.name, self.constants[cmd.name]))
+            assert cmd.value is not None
+            # (the rotator applies a re-reference at its next tick: answer with the
+            # value accepted, not a read-back that may precede it)
+            return codec.constant_line(cmd.name, self._set_constant(cmd.name, cmd.value))
         if cmd.kind == "all":
-            return codec.line(" ".join(codec.format_constant(n, self.constants[n]) for n in codec.CONSTANTS))
+            return b"".join(codec.constant_line(n, self.constants) for n in codec.CONSTANT_ORDER)
         if cmd.kind == "stop":
             self._targets.stop()
             return codec.line("S")
+        if cmd.kind == "pulse":
+            az = extended_pose_deg(self.rotator.status())[0]
+            self._targets.goto(az + cmd.direction * PULSE_DEG, None)
+            return codec.line("L" if cmd.direction < 0 else "R")
         assert cmd.kind == "goto" and cmd.az_deg is not None
         self._targets.goto(cmd.az_deg, cmd.el_deg)
         echo = f"G{cmd.az_deg:g}" + ("" if cmd.el_deg is None else f",{cmd.el_deg:g}")
         return codec.line(echo)
+
+    def _set_constant(self, name: str, value: int) -> Constants:
+        new = self.constants.with_value(name, value)
+        if self._pot is None:
+            self._own = new
+            return new
+        # the rotator re-references to what the new constants say, persists them with
+        # its state, and refuses (CommandRejected) if that would break its limits
+        calibration.apply_sensor_calibration(self.rotator, "az", codec.to_sensor(new))
+        return new
+
+
+def _ratiometric_pot(rotator: RotatorPort):
+    """The azimuth sensor if it is a G4JNT-style ratiometric pot (its constants include
+    K and it reports the ADC count behind each reading), else None."""
+    try:
+        sensor = rotator.hw.axis("az").sensor          # type: ignore[attr-defined]
+        cal = sensor.calibration()
+    except (AttributeError, UrcError):
+        return None
+    return sensor if "K" in cal and "M" in cal and hasattr(sensor, "last_counts") else None

@@ -160,6 +160,9 @@ class PotSensor(SimSensor):
         self.m_deg_per_unit = p.pot_span_deg / full
         self.c_deg = p.pot_start_deg
         self.z_deg = 0.0
+        #: ratiometric: 1024 x the divider's drive gain as the driver assumes it (the
+        #: G4JNT constant K, 2048 for its gain of 2); P = 4096 N / (K - N)
+        self.k_counts = 2048.0
         self.last_counts = 0
 
     def wiper_fraction(self) -> float:
@@ -176,7 +179,7 @@ class PotSensor(SimSensor):
     def linearised(self, n: int) -> float:
         """The driver's P (ratiometric) or N (linear) before M, C, Z."""
         if self._p.pot_law == "ratiometric":
-            return 4096.0 * n / (2048.0 - n)
+            return 4096.0 * n / (self.k_counts - n) if n < self.k_counts else 4096.0 * 1023
         return float(n)
 
     def _read(self, noisy: bool) -> float:
@@ -189,12 +192,21 @@ class PotSensor(SimSensor):
         self.z_deg += float(angle_deg) - self._read(noisy=False)
 
     def calibration(self) -> dict[str, Any]:
-        return {"M": self.m_deg_per_unit, "C": self.c_deg, "Z": self.z_deg}
+        cal = {"M": self.m_deg_per_unit, "C": self.c_deg, "Z": self.z_deg}
+        if self._p.pot_law == "ratiometric":
+            cal["K"] = self.k_counts
+        return cal
 
     def load_calibration(self, values: dict[str, Any]) -> None:
         self.m_deg_per_unit = float(values.get("M", self.m_deg_per_unit))
         self.c_deg = float(values.get("C", self.c_deg))
         self.z_deg = float(values.get("Z", self.z_deg))
+        if self._p.pot_law == "ratiometric":
+            self.k_counts = float(values.get("K", self.k_counts))
+
+    def last_units(self) -> float:
+        """The linearised reading (P) behind the last position read."""
+        return self.linearised(self.last_counts)
 
 
 class As5600Sensor(SimSensor):
