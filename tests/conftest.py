@@ -61,3 +61,16 @@ def bench(tmp_path):
     def make(profile: str = "tartu-urc", exact: bool = False, **config) -> Bench:
         return Bench(profile, tmp_path / f"state-{profile}", exact=exact, **config)
     return make
+
+
+@pytest.fixture(autouse=True)
+def no_session_bugs():
+    """Every test: bad-input logging starts fresh, and no protocol session may hit an
+    unexpected exception (issue 12.21: sessions answer a bug with their protocol's error
+    reply, so a test looking only at replies could not notice one; the counter can)."""
+    from urc.protocols.base import internal_error_count, reset_bad_input_logs
+
+    reset_bad_input_logs()
+    before = internal_error_count()
+    yield
+    assert internal_error_count() == before, "a session caught an unexpected exception (see the log)"

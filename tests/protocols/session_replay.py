@@ -27,3 +27,19 @@ def replay_splits(bench, cls, script: bytes, cuts: tuple[int, int]) -> list[tupl
         st_ = b.rot.status()
         results.append((out, st_.target_az_deg, st_.target_el_deg))
     return results
+
+
+def raises_nothing(test):
+    """For fuzz tests (issue 12.21): a session answers an unexpected exception with its
+    protocol's error reply, so replies alone cannot show one; fail every example in
+    which a session counted one (urc.protocols.base.INTERNAL_ERRORS)."""
+    import functools
+
+    from urc.protocols.base import internal_error_count
+
+    @functools.wraps(test)
+    def checked(*args, **kwargs):
+        before = internal_error_count()
+        test(*args, **kwargs)
+        assert internal_error_count() == before, "a session hit an unexpected exception (see the log)"
+    return checked

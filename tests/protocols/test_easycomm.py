@@ -15,7 +15,7 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 from conftest import Bench
-from session_replay import at, replay_splits
+from session_replay import at, replay_splits, raises_nothing
 from urc import __version__
 from urc.protocols import MAX_PENDING_BYTES, Session, make_session
 from urc.protocols.easycomm import Easycomm1Session, Easycomm2Session, Easycomm3Session
@@ -393,6 +393,7 @@ def fuzz_bench():
 
 @settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(data=GARBAGE, cls=st.sampled_from(SESSIONS), split=st.integers(1, 7))
+@raises_nothing
 def test_fuzz_garbage_never_moves_or_raises(fuzz_bench, data, cls, split):
     assume(not _moves(data))
     b = fuzz_bench

@@ -14,7 +14,7 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 from conftest import Bench
-from session_replay import at, replay_splits
+from session_replay import at, replay_splits, raises_nothing
 from urc.protocols import MAX_PENDING_BYTES, Session, make_session
 from urc.protocols.gs232 import (FoxDeltaSession, Gs232aSession, Gs232bSession,
                                  Gs232GenericSession, controller_pose)
@@ -482,6 +482,7 @@ def fuzz_bench():
 
 @settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(data=GARBAGE, cls=st.sampled_from(SESSIONS), split=st.integers(1, 7))
+@raises_nothing
 def test_fuzz_garbage_never_moves_or_raises(fuzz_bench, data, cls, split):
     assume(not _moves(data))
     b = fuzz_bench
@@ -496,3 +497,24 @@ def test_fuzz_garbage_never_moves_or_raises(fuzz_bench, data, cls, split):
     b.run(0.5)
     st_ = b.rot.status()
     assert not st_.moving and st_.target_az_deg is None and st_.az.target_deg is None
+
+
+def test_fuzz_test_fails_on_an_injected_bug(fuzz_bench, monkeypatch):
+    """Issue 12.21: a TypeError injected into the GS-232 parser used to pass the fuzz
+    test (the session answered it with ``?>``). Now it is counted and the test fails."""
+    import urc.protocols.base as base
+    import urc.protocols.gs232 as gs232
+
+    saved = base.INTERNAL_ERRORS.copy()
+
+    def broken(line):
+        raise TypeError("injected")
+    monkeypatch.setattr(gs232, "parse_command", broken)
+    fuzz = test_fuzz_garbage_never_moves_or_raises.hypothesis.inner_test
+    try:
+        with pytest.raises(AssertionError, match="unexpected exception"):
+            fuzz(fuzz_bench, b"C2\r", Gs232aSession, 1)
+        assert base.internal_error_count() == sum(saved.values()) + 1
+    finally:
+        base.INTERNAL_ERRORS.clear()
+        base.INTERNAL_ERRORS.update(saved)

@@ -14,6 +14,7 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from conftest import Bench
+from session_replay import raises_nothing
 from urc.protocols import MAX_PENDING_BYTES, make_session
 from urc.protocols import pstrotator_codec as codec
 from urc.protocols.pstrotator import PstRotatorSession
@@ -155,7 +156,8 @@ def test_garbage_is_logged_and_ignored(pst, caplog):
                       b"<PST><FOO>1</FOO>BAR?</PST>", b"<PST><AZIMUTH>100", b"\xff" * 10,
                       b"<PST><ELEVATION>500</ELEVATION></PST>", b"<PST>" + b"x" * MAX_PENDING_BYTES + b"</PST>"):
             assert s.receive(dgram) == []
-    assert caplog.text.count("WARNING") >= 10
+    # one line per kind of bad input (repeats of a kind within 5 s are only counted)
+    assert caplog.text.count("WARNING") >= 7
     assert still(b)
 
 
@@ -186,6 +188,7 @@ _DATA = st.lists(st.one_of(st.binary(max_size=20), _WORDS), max_size=20).map(b""
 
 @settings(max_examples=150, deadline=None)
 @given(data=_DATA)
+@raises_nothing
 def test_fuzz_never_raises_or_moves(quiet, data):
     # a well-formed set or park could legitimately move: keep those out
     assume(not re.search(rb"(?i)<(AZIMUTH|ELEVATION)>\s*[+-]?[\d.]|<PARK>\s*1", data))

@@ -14,6 +14,7 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from conftest import Bench
+from session_replay import raises_nothing
 from urc.protocols import make_session
 from urc.protocols import spid_codec as codec
 from urc.protocols.spid import Md01Session, Rot1ProgSession, Rot2ProgSession
@@ -348,6 +349,7 @@ _PIECES = st.one_of(
 @settings(max_examples=150, deadline=None)
 @given(pieces=st.lists(_PIECES, max_size=8), cls=st.sampled_from([Rot2ProgSession, Rot1ProgSession, Md01Session]),
        split=st.integers(1, 13))
+@raises_nothing
 def test_fuzz_never_raises_or_moves(quiet, pieces, cls, split):
     data = b"".join(pieces)
     # no whole set or move frame can be in it (both end K 0x20 with K = 0x2F / 0x14)

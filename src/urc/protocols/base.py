@@ -12,7 +12,9 @@ for every protocol. A command the session did not fully understand never reaches
 from __future__ import annotations
 
 import logging
-from typing import Protocol, runtime_checkable
+import time
+from collections import Counter
+from typing import Callable, Protocol, runtime_checkable
 
 from ..errors import UrcError
 from ..service.snapshot import Status
@@ -62,11 +64,86 @@ class Session(Protocol):
 
 
 class ProtocolError(UrcError, ValueError):
-    """Input a protocol could not parse; says what was expected and what was found."""
+    """Input a protocol could not parse; says what was expected and what was found.
 
-    def __init__(self, expected: str, found: bytes):
+    The root of every protocol's input errors (with ``CommandRejected`` from the rotator
+    and ``HardwareError``, the only exceptions a session answers as bad input; anything
+    else is a bug, see :func:`internal_error`). ``ProtocolError("text")`` carries a
+    ready message; ``ProtocolError(expected, found)`` builds one.
+    """
+
+    def __init__(self, expected: str, found: bytes | None = None):
         self.expected, self.found = expected, found
-        super().__init__(f"expected {expected}, found {found!r}")
+        super().__init__(expected if found is None else f"expected {expected}, found {found!r}")
+
+
+#: what a session answers with its protocol's error reply: bad input (ProtocolError and
+#: each protocol's subclass), a refusal by the rotator (CommandRejected), a hardware
+#: failure. Every one of them is a UrcError; any other exception is a bug in urc.
+EXPECTED_ERRORS: tuple[type[BaseException], ...] = (UrcError,)
+
+#: unexpected exceptions caught in sessions (and the adapters around them), per
+#: protocol: each is a bug. Tests assert this stays unchanged (tests/protocols).
+INTERNAL_ERRORS: Counter[str] = Counter()
+
+
+def internal_error(log: logging.Logger, protocol: str, what: str, *args: object) -> None:
+    """Call from an ``except Exception`` block around one command: the connection
+    survives (the protocol answers its generic error), but the bug is logged with its
+    traceback and counted in :data:`INTERNAL_ERRORS`."""
+    INTERNAL_ERRORS[protocol] += 1
+    log.error("internal error (a bug in urc): " + what, *args, exc_info=True)
+
+
+def internal_error_count() -> int:
+    return sum(INTERNAL_ERRORS.values())
+
+
+class RateLimitedLog:
+    """Log repeated bad input at a bounded rate (issue 13.1: 64 KiB of junk wrote one
+    log line per byte, 7.5 MB, and stalled every client).
+
+    Each message format is a kind: its first occurrence is logged at once; further ones
+    within ``interval_s`` are only counted, and the next one after the interval is
+    logged with how many were left out (``... [and 21844 more like it in 5.0 s]``).
+    So a flood costs a counter increment per bad input and at most one line per kind
+    per interval, whatever its size. One instance per protocol (module level), shared
+    by all its connections, bounds the total however many clients send junk.
+    """
+
+    def __init__(self, log: logging.Logger, interval_s: float = 5.0,
+                 clock: Callable[[], float] = time.monotonic):
+        self.log = log
+        self.interval_s = interval_s
+        self._clock = clock
+        self._kinds: dict[str, list[float]] = {}   # msg -> [last logged s, suppressed count]
+
+    def reset(self) -> None:
+        self._kinds.clear()
+
+    def __call__(self, level: int, msg: str, *args: object, count: int = 1) -> None:
+        """Log ``msg % args`` (``count`` occurrences of it) unless this kind was logged
+        within the interval."""
+        now = self._clock()
+        kind = self._kinds.get(msg)
+        if kind is not None and now - kind[0] < self.interval_s:
+            kind[1] += count
+            return
+        suppressed = 0 if kind is None else int(kind[1])
+        self._kinds[msg] = [now, count - 1]
+        if not self.log.isEnabledFor(level):
+            return
+        if suppressed:
+            self.log.log(level, msg + " [and %d more like it since the last such line]",
+                         *args, suppressed)
+        else:
+            self.log.log(level, msg, *args)
+
+    def info(self, msg: str, *args: object, count: int = 1) -> None:
+        self(logging.INFO, msg, *args, count=count)
+
+    def warning(self, msg: str, *args: object, count: int = 1) -> None:
+        self(logging.WARNING, msg, *args, count=count)
 
 
 def goto_named_axes(rotator: RotatorPort, az_deg: float | None, el_deg: float | None) -> None:
@@ -81,3 +158,19 @@ def goto_named_axes(rotator: RotatorPort, az_deg: float | None, el_deg: float | 
 
 def protocol_logger(name: str) -> logging.Logger:
     return logging.getLogger(f"urc.protocols.{name}")
+
+
+_BAD_INPUT_LOGS: dict[str, "RateLimitedLog"] = {}
+
+
+def reset_bad_input_logs() -> None:
+    """Forget what was logged (tests: each starts with every kind not yet seen)."""
+    for rate_limited in _BAD_INPUT_LOGS.values():
+        rate_limited.reset()
+
+
+def bad_input_log(name: str) -> "RateLimitedLog":
+    """One protocol's shared, rate-limited log of bad input and refusals."""
+    if name not in _BAD_INPUT_LOGS:
+        _BAD_INPUT_LOGS[name] = RateLimitedLog(protocol_logger(name))
+    return _BAD_INPUT_LOGS[name]

@@ -15,9 +15,9 @@ name a wrap or flip pose.
 from __future__ import annotations
 
 from .. import __version__
-from ..errors import CommandRejected
+from ..errors import CommandRejected, UrcError
 from ..service.snapshot import Status
-from .base import RotatorPort, protocol_logger
+from .base import RotatorPort, bad_input_log, internal_error, protocol_logger
 from .easycomm_codec import (COMMANDS_II, COMMANDS_III, Command, EasycommParseError, format_axis,
                              format_az_el, format_value, parse_line)
 from .lines import LineSplitter
@@ -56,7 +56,8 @@ class _EasycommSession:
         self.rotator = rotator
         self.closed = False
         self._log = protocol_logger(self.protocol)
-        self._lines = LineSplitter(log=self._log)   # an overlong line: logged, no reply
+        self._bad = bad_input_log(self.protocol)
+        self._lines = LineSplitter(log=self._bad)   # an overlong line: logged, no reply
 
     # ------------------------------------------------------------------ Session API
     def receive(self, data: bytes) -> list[bytes]:
@@ -66,8 +67,10 @@ class _EasycommSession:
                 continue
             try:
                 out += self._line(item.text)
-            except Exception:  # a bug must not take the connection down
-                self._log.exception("internal error on line %r", item.text)
+            except UrcError as exc:  # a hardware failure: Easycomm has no error reply
+                self._log.warning("line %r failed: %s", item.text[:80], exc)
+            except Exception:  # a bug: the connection survives, the bug is counted
+                internal_error(self._log, self.protocol, "on line %r", item.text[:80])
         return out if self.replies else []
 
     def tick(self, now_s: float) -> list[bytes]:
@@ -80,14 +83,14 @@ class _EasycommSession:
         try:
             steps = self._plan(parse_line(line, self.commands))
         except EasycommParseError as exc:
-            self._log.warning("line %r ignored: %s", line, exc)
+            self._bad.warning("line %r ignored: %s", line[:80], exc)
             return []
         out: list[bytes] = []
         for step in steps:
             try:
                 out += step()
             except CommandRejected as exc:
-                self._log.warning("line %r: refused (%s): %s", line, exc.reason, exc)
+                self._bad.warning("line %r: refused (%s): %s", line[:80], exc.reason, exc)
         return out
 
     def _plan(self, cmds: list[Command]) -> list:
@@ -203,7 +206,7 @@ class _EasycommSession:
             if caps is not None:
                 rate = min(caps.az.max_rate_deg_per_s, caps.el.max_rate_deg_per_s)
                 return [format_value("CR", f"0,{round(rate * 1000)}")]
-        self._log.warning("%s%s not supported here; no reply", c.name,
+        self._bad.warning("%s%s not supported here; no reply", c.name,
                           "" if c.value is None else f" {c.value}")
         return []
 

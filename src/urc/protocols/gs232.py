@@ -19,9 +19,9 @@ the rotator unchanged.
 
 from __future__ import annotations
 
-from ..errors import CommandRejected
+from ..errors import CommandRejected, UrcError
 from ..service.snapshot import Status
-from .base import RotatorPort, protocol_logger
+from .base import RotatorPort, bad_input_log, internal_error, protocol_logger
 from .gs232_codec import (SPEED_LEVELS, STYLE_A, STYLE_B, STYLE_GENERIC, Command, Gs232ParseError,
                           format_error, format_position, parse_command)
 from .lines import LineSplitter
@@ -49,7 +49,8 @@ class _Gs232Session:
         self.rotator = rotator
         self.closed = False
         self._log = protocol_logger(self.protocol)
-        self._lines = LineSplitter(log=self._log)
+        self._bad = bad_input_log(self.protocol)
+        self._lines = LineSplitter(log=self._bad)
         self._speed_frac = SPEED_LEVELS[DEFAULT_SPEED_LEVEL]
 
     # ------------------------------------------------------------------ Session API
@@ -61,8 +62,11 @@ class _Gs232Session:
                 continue
             try:
                 out += self._line(item.text)
-            except Exception:  # a bug must not take the connection down
-                self._log.exception("internal error on %r", item.text)
+            except UrcError as exc:  # a hardware failure: the protocol's error
+                self._log.warning("%r failed: %s", item.text[:80], exc)
+                out.append(format_error(self.style))
+            except Exception:  # a bug: the connection survives, the bug is counted
+                internal_error(self._log, self.protocol, "on %r", item.text[:80])
                 out.append(format_error(self.style))
         return out
 
@@ -78,12 +82,12 @@ class _Gs232Session:
         try:
             cmd = parse_command(line)
         except Gs232ParseError as exc:
-            self._log.warning("%s", exc)
+            self._bad.warning("%s", exc)
             return [format_error(self.style)]
         try:
             reply = self._do(cmd)
         except CommandRejected as exc:
-            self._log.warning("%r refused (%s): %s", line, exc.reason, exc)
+            self._bad.warning("%r refused (%s): %s", line[:80], exc.reason, exc)
             return self._refused()
         return [reply] if reply is not None else self._ack()
 

@@ -22,13 +22,15 @@ Items of one datagram run in order; a bad item does not stop the well-formed one
 
 from __future__ import annotations
 
-from ..errors import CommandRejected
-from .base import MAX_PENDING_BYTES, RotatorPort, goto_named_axes, protocol_logger
+from ..errors import CommandRejected, UrcError
+from .base import (MAX_PENDING_BYTES, RotatorPort, bad_input_log, goto_named_axes, internal_error,
+                   protocol_logger)
 from . import pstrotator_codec as codec
 from .numbers import compass_tenths
 from .pstrotator_codec import PstItem
 
 log = protocol_logger("pstrotator")
+bad_input = bad_input_log("pstrotator")
 
 
 class PstRotatorSession:
@@ -40,12 +42,12 @@ class PstRotatorSession:
 
     def receive(self, data: bytes) -> list[bytes]:
         if len(data) > MAX_PENDING_BYTES:
-            log.warning("datagram of %d bytes dropped (limit %d)", len(data), MAX_PENDING_BYTES)
+            bad_input.warning("datagram of %d bytes dropped (limit %d)", len(data), MAX_PENDING_BYTES)
             return []
         out: list[bytes] = []
         items = codec.parse_datagram(data)
         if not items:
-            log.warning("datagram ignored: expected <PST>...</PST>, got %r", data[:80])
+            bad_input.warning("datagram ignored: expected <PST>...</PST>, got %r", data[:80])
         pending_az: float | None = None
         pending_el: float | None = None
         for item in items + [PstItem("end")]:
@@ -54,7 +56,7 @@ class PstRotatorSession:
                 try:
                     value = codec.parse_number(item.value)
                 except ValueError as exc:
-                    log.warning("<%s> ignored: %s", item.name, exc)
+                    bad_input.warning("<%s> ignored: %s", item.name, exc)
                     continue
                 if item.name == "AZIMUTH":
                     pending_az = value
@@ -67,9 +69,11 @@ class PstRotatorSession:
             try:
                 out.extend(self._execute(item))
             except CommandRejected as exc:
-                log.warning("%s refused (%s): %s", item.name, exc.reason, exc)
-            except Exception:
-                log.exception("item %r failed", item)
+                bad_input.warning("%s refused (%s): %s", item.name, exc.reason, exc)
+            except UrcError as exc:     # a hardware failure: PstRotator has no error reply
+                log.warning("%s failed: %s", item.name, exc)
+            except Exception:           # a bug: logged and counted
+                internal_error(log, "pstrotator", "item %r failed", item)
         return out
 
     def tick(self, now_s: float) -> list[bytes]:
@@ -81,13 +85,13 @@ class PstRotatorSession:
             goto_named_axes(self.rotator, az, el)
         except CommandRejected as exc:
             given = " ".join(f"{n} {v:.2f}" for n, v in (("az", az), ("el", el)) if v is not None)
-            log.warning("goto %s refused (%s): %s", given, exc.reason, exc)
+            bad_input.warning("goto %s refused (%s): %s", given, exc.reason, exc)
 
     def _execute(self, item: PstItem) -> list[bytes]:
         if item.kind == "end":
             return []
         if item.kind == "garbage":
-            log.warning("garbage ignored: %r", item.raw[:80])
+            bad_input.warning("garbage ignored: %r", item.raw[:80])
             return []
         if item.kind == "query":
             return self._query(item.name)
@@ -96,17 +100,17 @@ class PstRotatorSession:
             if value == "1":
                 self.rotator.park()
             elif value != "0":
-                log.warning("<PARK> ignored: expected 1, got %r", value[:40])
+                bad_input.warning("<PARK> ignored: expected 1, got %r", value[:40])
         elif name == "STOP":
             if value == "1":
                 self.rotator.stop()
             elif value != "0":
-                log.warning("<STOP> ignored: expected 1, got %r", value[:40])
+                bad_input.warning("<STOP> ignored: expected 1, got %r", value[:40])
         elif name == "TRACK":
             if value not in ("0", "1"):
-                log.warning("<TRACK> ignored: expected 0 or 1, got %r", value[:40])
+                bad_input.warning("<TRACK> ignored: expected 0 or 1, got %r", value[:40])
         else:
-            log.warning("unknown element <%s> ignored (expected one of %s)", name,
+            bad_input.warning("unknown element <%s> ignored (expected one of %s)", name,
                         ", ".join(codec.SET_ELEMENTS))
         return []
 
@@ -121,6 +125,6 @@ class PstRotatorSession:
                                                               else st.target_az_deg))]
         if name == "TGE":
             return [codec.format_reply("TGE", st.el_deg if st.target_el_deg is None else st.target_el_deg)]
-        log.warning("unknown query %s? ignored (expected one of %s)", name,
+        bad_input.warning("unknown query %s? ignored (expected one of %s)", name,
                     ", ".join(q + "?" for q in codec.QUERIES))
         return []

@@ -42,15 +42,17 @@ Arduino's 100 ms timer); they are emitted from ``tick(now_s)``.
 
 from __future__ import annotations
 
-from ..errors import CommandRejected
+from ..errors import CommandRejected, UrcError
 from ..service.snapshot import Status
-from .base import MAX_PENDING_BYTES, RotatorPort, goto_named_axes, protocol_logger
+from .base import (MAX_PENDING_BYTES, RotatorPort, bad_input_log, goto_named_axes, internal_error,
+                   protocol_logger)
 from . import sarcnet_codec as codec
 from .lines import LineSplitter, next_due_s
 from .poses import extended_pose_deg
 from .sarcnet_codec import SarcnetCommand, SarcnetSyntaxError, signed180
 
 log = protocol_logger("sarcnet")
+bad_input = bad_input_log("sarcnet")
 
 DEMO_RATE_DEG_PER_S = 1.0       # the original: 0.05 deg every 50 ms
 DEMO_GOTO_EVERY_S = 0.5         # refresh the rotator's target no faster than this
@@ -69,7 +71,7 @@ class SarcnetSession:
         self.closed = False
         self.interval_s = float(interval_s)
         self.mode = "tracking"        # tracking | monitoring | debugging | demonstrating | pausing
-        self._lines = LineSplitter(MAX_PENDING_BYTES, backspace=True, log=log)
+        self._lines = LineSplitter(MAX_PENDING_BYTES, backspace=True, log=bad_input)
         self._next_s: float | None = None
         self._last_s: float | None = None
         self._held: tuple[float, float] | None = None      # target given while paused
@@ -90,12 +92,15 @@ class SarcnetSession:
                     continue
                 out.extend(self._execute(cmd))
             except SarcnetSyntaxError as exc:
-                log.info("rejected %r: %s", item.text[:80], exc)
+                bad_input.info("rejected %r: %s", item.text[:80], exc)
                 # Easycomm has no error reply (Hamlib reads none): log only
                 if item.text.strip().lstrip(b";").strip()[:2] not in (b"AZ", b"EL", b"SA", b"SE"):
                     out.append(codec.console(f"Error: {exc}"))
-            except Exception:
-                log.exception("line %r failed", item.text[:80])
+            except UrcError as exc:     # refused by the rotator, or a hardware failure
+                bad_input.info("line %r failed: %s", item.text[:80], exc)
+                out.append(codec.console(f"Error: {exc}"))
+            except Exception:           # a bug: logged with its traceback and counted
+                internal_error(log, "sarcnet", "line %r failed", item.text[:80])
                 out.append(codec.console("Error: internal error"))
         return out
 
@@ -123,7 +128,7 @@ class SarcnetSession:
             try:
                 self._set(cmd.az_deg, cmd.el_deg)
             except CommandRejected as exc:
-                log.info("goto %g %g refused: %s", cmd.az_deg, cmd.el_deg, exc)
+                bad_input.info("goto %g %g refused: %s", cmd.az_deg, cmd.el_deg, exc)
                 return [codec.console(f"Error: {exc}")]
             return []
         if cmd.kind == "ec_query":
@@ -134,7 +139,7 @@ class SarcnetSession:
                 self._set(cmd.az_deg, cmd.el_deg)
             except CommandRejected as exc:
                 given = " ".join(f"{n} {v:g}" for n, v in (("az", cmd.az_deg), ("el", cmd.el_deg)) if v is not None)
-                log.warning("Easycomm set %s refused (%s): %s", given, exc.reason, exc)
+                bad_input.warning("Easycomm set %s refused (%s): %s", given, exc.reason, exc)
             return []
         if cmd.kind == "ec_stop":
             self.rotator.stop(cmd.axes[0] if len(set(cmd.axes)) == 1 else None)

@@ -12,6 +12,7 @@ import math
 import re
 from dataclasses import dataclass
 
+from .base import ProtocolError
 from .lines import crlf_line as console
 from .numbers import DECIMAL, compass_tenths
 
@@ -24,7 +25,7 @@ _DECL = re.compile(rf"\s*({DECIMAL})\s*\Z")
 LETTERS = "rbcdmaesph"
 
 
-class SarcnetSyntaxError(ValueError):
+class SarcnetSyntaxError(ProtocolError):
     pass
 
 
@@ -96,8 +97,8 @@ def parse_line(raw: bytes) -> SarcnetCommand | None:
             return SarcnetCommand("letter", letter="e", text=rest.strip())
     elif letter in LETTERS and len(text) == 1:
         return SarcnetCommand("letter", letter=letter)
-    raise SarcnetSyntaxError(f"unknown command {text[:40]!r}: expected 'az el' (e.g. 120 30) or one of "
-                             f"r b c d m a e s p h (h = help)")
+    # brief (one short line per bad line, issue 13.1): h lists the commands
+    raise SarcnetSyntaxError(f"unknown command {text[:20]!r}: expected 'az el' or a letter (h: help)")
 
 
 # ------------------------------------------------------------------- formatting

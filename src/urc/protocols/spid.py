@@ -23,13 +23,14 @@ malformed input is logged and (like the real controller) left unanswered.
 
 from __future__ import annotations
 
-from ..errors import CommandRejected
-from .base import MAX_PENDING_BYTES, RotatorPort, protocol_logger
+from ..errors import CommandRejected, UrcError
+from .base import MAX_PENDING_BYTES, RotatorPort, bad_input_log, internal_error, protocol_logger
 from . import spid_codec as codec
 from .poses import ExtendedTarget, extended_pose_deg
 from .spid_codec import SpidCommand, SpidFrameError
 
 log = protocol_logger("spid")
+bad_input = bad_input_log("spid")
 
 _MOVES = ((codec.DIR_LEFT, "az", -1), (codec.DIR_RIGHT, "az", +1),
           (codec.DIR_UP, "el", +1), (codec.DIR_DOWN, "el", -1))
@@ -55,17 +56,20 @@ class _SpidSession:
             buf = buf[-codec.COMMAND_LEN:]
         frames, self._buf, dropped = codec.split_frames(buf, lambda f: codec.plausible(f, self.variant))
         if dropped:
-            log.warning("discarded %d byte(s) that were not part of a whole 13-byte frame", dropped)
+            bad_input.warning("discarded %d byte(s) that were not part of a whole 13-byte frame", dropped)
         out: list[bytes] = []
         for frame in frames:
             try:
                 cmd = codec.decode_command(frame, self.variant, (self.pulses, self.pulses))
                 reply = self._execute(cmd)
             except SpidFrameError as exc:   # plausible() let it through: should not happen
-                log.warning("frame %s ignored: %s", frame.hex(" "), exc)
+                bad_input.warning("frame %s ignored: %s", frame.hex(" "), exc)
                 continue
-            except Exception:
-                log.exception("frame %s failed", frame.hex(" "))
+            except UrcError as exc:         # SPID has no error reply: the client times out
+                log.warning("frame %s failed: %s", frame.hex(" "), exc)
+                continue
+            except Exception:               # a bug: logged and counted, no reply
+                internal_error(log, "spid", "frame %s failed", frame.hex(" "))
                 continue
             if reply is not None:
                 out.append(reply)
@@ -93,7 +97,7 @@ class _SpidSession:
         try:
             self._goto(cmd.az_deg, cmd.el_deg)
         except CommandRejected as exc:
-            log.warning("set az %.1f el %s refused (%s): %s", cmd.az_deg,
+            bad_input.warning("set az %.1f el %s refused (%s): %s", cmd.az_deg,
                         "-" if cmd.el_deg is None else f"{cmd.el_deg:.1f}", exc.reason, exc)
 
     def _goto(self, az: float, el: float | None) -> None:
@@ -110,13 +114,13 @@ class _SpidSession:
         wanted = [(axis, sign) for bit, axis, sign in _MOVES if direction & bit]
         axes = [a for a, _ in wanted]
         if direction & ~0x0F or not wanted or len(set(axes)) != len(axes):
-            log.warning("move direction 0x%02X ignored: expected left/right and/or up/down bits", direction)
+            bad_input.warning("move direction 0x%02X ignored: expected left/right and/or up/down bits", direction)
             return
         for axis, sign in wanted:
             try:
                 self._targets.move(axis, sign, 1.0)   # no target: it rests where it stops
             except CommandRejected as exc:
-                log.warning("move %s %+d refused (%s): %s", axis, sign, exc.reason, exc)
+                bad_input.warning("move %s %+d refused (%s): %s", axis, sign, exc.reason, exc)
 
     def _position(self) -> bytes:
         az, el = extended_pose_deg(self.rotator.status())

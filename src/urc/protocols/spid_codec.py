@@ -18,6 +18,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from .base import ProtocolError
+
 START = 0x57            # 'W'
 END = 0x20              # ' '
 COMMAND_LEN = 13
@@ -37,7 +39,7 @@ DIR_LEFT, DIR_RIGHT, DIR_UP, DIR_DOWN = 0x01, 0x02, 0x04, 0x08
 OFFSET_DEG = 360.0
 
 
-class SpidFrameError(ValueError):
+class SpidFrameError(ProtocolError):
     """A 13-byte window that is not a well-formed command."""
 
 

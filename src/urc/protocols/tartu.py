@@ -40,15 +40,16 @@ the limits, 4 keep-out zone, 5 fault, 6 position unknown (re-reference with WRAZ
 from __future__ import annotations
 
 from .. import __version__
-from ..errors import CommandRejected
+from ..errors import CommandRejected, UrcError
 from ..service.snapshot import Status
-from .base import MAX_PENDING_BYTES, RotatorPort, protocol_logger
+from .base import MAX_PENDING_BYTES, RotatorPort, bad_input_log, internal_error, protocol_logger
 from . import tartu_codec as codec
 from .lines import LineSplitter, TerminalEcho
 from .poses import ExtendedTarget, extended_pose_deg, extended_targets_deg
 from .tartu_codec import Command, TartuSyntaxError
 
 log = protocol_logger("tartu")
+bad_input = bad_input_log("tartu")
 
 _MODE_STATE = {"driving": "RUN", "releasing": "REL", "holding": "HLD", "idle": "IDL"}
 
@@ -64,7 +65,7 @@ class TartuSession:
         self.closed = False
         self.echo = bool(echo)
         self.baud = 115200
-        self._lines = LineSplitter(MAX_PENDING_BYTES, backspace=True, log=log)
+        self._lines = LineSplitter(MAX_PENDING_BYTES, backspace=True, log=bad_input)
         self._echo = TerminalEcho()
         self._targets = ExtendedTarget(rotator)
 
@@ -83,13 +84,16 @@ class TartuSession:
             try:
                 reply = self._execute(codec.parse_line(item.text))
             except TartuSyntaxError as exc:
-                log.info("rejected %r: %s", item.text[:80], exc)
+                bad_input.info("rejected %r: %s", item.text[:80], exc)
                 reply = codec.error(exc.code, str(exc))
             except CommandRejected as exc:
-                log.info("rotator refused %r: %s", item.text[:80], exc)
+                bad_input.info("rotator refused %r: %s", item.text[:80], exc)
                 reply = codec.error(codec.REASON_CODES.get(exc.reason, codec.E_REJECTED), str(exc))
-            except Exception as exc:  # never let a bug in one command kill the connection
-                log.exception("command %r failed", item.text[:80])
+            except UrcError as exc:     # a hardware failure
+                log.warning("command %r failed: %s", item.text[:80], exc)
+                reply = codec.error(codec.E_REJECTED, str(exc))
+            except Exception as exc:    # a bug: the connection survives, the bug is counted
+                internal_error(log, "tartu", "command %r failed", item.text[:80])
                 reply = codec.error(codec.E_REJECTED, f"internal error: {exc}")
             out.append(reply)
         if self.echo:

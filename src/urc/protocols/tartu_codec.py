@@ -16,6 +16,7 @@ import re
 from dataclasses import dataclass
 from typing import Callable
 
+from .base import ProtocolError
 from .lines import crlf_line as line
 from .numbers import DECIMAL, format_deg
 
@@ -40,7 +41,7 @@ _NUMBER = re.compile(rf"{DECIMAL}\Z")
 _LINE = re.compile(r"\s*([A-Za-z]{4})(.*)\Z", re.S)
 
 
-class TartuSyntaxError(ValueError):
+class TartuSyntaxError(ProtocolError):
     def __init__(self, code: int, text: str):
         self.code = code
         super().__init__(text)
@@ -104,20 +105,24 @@ COMMANDS: dict[str, tuple[tuple[_Conv, ...], int, str]] = {
 }
 
 
+def _unknown(shown: str) -> TartuSyntaxError:
+    # brief: a flood of bad lines must not be answered with the command list each
+    # (issue 13.1: 64 KiB of junk drew 3.4 MB of replies); HELP lists the commands
+    return TartuSyntaxError(E_UNKNOWN, f"unknown command {shown[:20]!r}: expected a command (HELP lists them)")
+
+
 def parse_line(raw: bytes) -> Command:
     """One line (terminator removed) -> Command; raises TartuSyntaxError."""
     text = raw.decode("latin-1")
     m = _LINE.match(text)
     shown = text.strip()[:40]
     if not m or m.group(1).upper() not in COMMANDS:
-        raise TartuSyntaxError(E_UNKNOWN, f"unknown command {shown!r}: expected one of "
-                                          f"{' '.join(COMMANDS)} (HELP lists them)")
+        raise _unknown(shown)
     name = m.group(1).upper()
     convs, optional, _ = COMMANDS[name]
     rest = m.group(2)
     if rest and not rest[0].isspace() and not convs:
-        raise TartuSyntaxError(E_UNKNOWN, f"unknown command {shown!r}: expected one of "
-                                          f"{' '.join(COMMANDS)} (HELP lists them)")
+        raise _unknown(shown)
     rest = rest.strip()
     parts = [p for p in rest.split(",")] if rest else []
     if len(parts) > len(convs) or len(parts) < len(convs) - optional:

@@ -6,7 +6,7 @@ import asyncio
 import logging
 from typing import Callable
 
-from ..protocols.base import Session
+from ..protocols.base import Session, internal_error
 
 log = logging.getLogger("urc.servers")
 
@@ -21,8 +21,8 @@ def feed(session: Session, data: bytes, where: str) -> list[bytes]:
     """Give bytes to a session; a session bug costs this connection, never the server."""
     try:
         return session.receive(data)
-    except Exception:  # sessions must not raise; if one does, log it loudly and drop input
-        log.exception("%s: session failed on %r", where, data[:64])
+    except Exception:  # sessions must not raise; if one does: logged, counted, input dropped
+        internal_error(log, type(session).__name__, "%s: session failed on %r", where, data[:64])
         return []
 
 
@@ -37,7 +37,7 @@ async def tick_loop(session: Session, write: Callable[[bytes], None], clock_now:
         try:
             replies = session.tick(clock_now())
         except Exception:
-            log.exception("%s: session tick failed", where)
+            internal_error(log, type(session).__name__, "%s: session tick failed", where)
             continue
         for reply in replies:
             write(reply)

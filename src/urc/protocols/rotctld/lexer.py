@@ -29,8 +29,10 @@ from .commands import BY_CHAR, BY_NAME, CommandSpec
 # item kinds
 CMD, CLOSE, UNKNOWN, OVERFLOW = range(4)
 #: one lexer result: (kind, spec, args, sep). ``sep`` is None in default mode, else the
-#: extended-response separator. UNKNOWN carries the dropped token in ``args[0]``;
-#: OVERFLOW carries the spec whose arguments were too long (or None).
+#: extended-response separator. UNKNOWN carries the dropped token in ``args[0]`` and
+#: how many unknown one-character commands it stands for in ``args[1]`` (a run of them
+#: is one item: junk costs a regex match, not a Python step per byte); OVERFLOW carries
+#: the spec whose arguments were too long (or None).
 Item = tuple[int, "CommandSpec | None", tuple[str, ...], "str | None"]
 
 _WS = b" \t\n\r\x0b\x0c"  # C isspace()
@@ -64,6 +66,12 @@ def _classify(b: int) -> int:
 
 
 _CLASS = tuple(_classify(b) for b in range(256))
+
+#: bytes that are unknown one-character commands and nothing else (no prefix, comment,
+#: quit or long-name start): a run of them, with whitespace between, is skipped at once
+_JUNK_BYTES = bytes(b for b in range(256) if _CLASS[b] == _OTHER and BY_CHAR[b] is None)
+_JUNK_RUN = re.compile(b"[" + b"".join(b"\\x%02x" % b for b in _JUNK_BYTES) + rb" \t\n\r\x0b\x0c]*+")
+_WS_BYTES = b" \t\n\r\x0b\x0c"
 
 # lexer modes between feeds
 _NORMAL, _COMMENT, _DISCARD = range(3)
@@ -156,7 +164,10 @@ class Lexer:
                 spec = BY_CHAR[c]
                 i += 1
                 if spec is None:
-                    items.append((UNKNOWN, None, (chr(c),), sep))
+                    end = _JUNK_RUN.match(buf, i).end()
+                    count = 1 + (end - i) - sum(buf.count(w, i, end) for w in _WS_BYTES)
+                    items.append((UNKNOWN, None, (chr(c), count), sep))
+                    i = end
                     continue
             if not spec.n_args:
                 items.append((CMD, spec, (), sep))

@@ -17,7 +17,7 @@ from typing import Callable
 
 from ... import __version__
 from ...errors import CommandRejected, ConfigError, HardwareError
-from ..base import MAX_PENDING_BYTES, RotatorPort, protocol_logger
+from ..base import MAX_PENDING_BYTES, RotatorPort, bad_input_log, internal_error, protocol_logger
 from . import codec
 from .commands import (
     CONF_TOKENS, LEVELS, RIG_EINTERNAL, RIG_EINVAL, RIG_EIO, RIG_ELIMIT, RIG_ENAVAIL, RIG_ERJCTED,
@@ -26,6 +26,8 @@ from .commands import (
 from .lexer import CLOSE, CMD, OVERFLOW, UNKNOWN, Lexer
 
 log = protocol_logger("rotctld")
+#: bad input from clients, logged at a bounded rate (shared by all connections)
+bad_input = bad_input_log("rotctld")
 
 HAMLIB_VERSIONS = ("4.5", "4.6")
 #: Hamlib's rotctld reports the backend's model; urc has none, so it answers as the
@@ -72,8 +74,8 @@ class RotctldSession:
             data = bytes(data)
         try:
             items = self._lexer.feed(data)
-        except Exception:  # never reached; a tokenizer bug must not kill the connection
-            log.exception("rotctld: tokenizer failed; input dropped")
+        except Exception:  # a tokenizer bug must not kill the connection
+            internal_error(log, "rotctld", "tokenizer failed; input dropped")
             self._lexer.reset()
             return []
         out = []
@@ -83,11 +85,15 @@ class RotctldSession:
             elif kind == CLOSE:
                 self.closed = True
                 break
-            elif kind == UNKNOWN:
-                log.info("rotctld: command %r not found, ignored (rotctld sends nothing)", args[0])
+            elif kind == UNKNOWN and len(args) == 1:
+                bad_input.info("rotctld: long command %r not found, ignored (rotctld sends nothing)",
+                               args[0])
+            elif kind == UNKNOWN:   # a run of unknown one-character commands
+                bad_input.info("rotctld: command %r not found, ignored (rotctld sends nothing)",
+                               args[0], count=args[1])
             elif kind == OVERFLOW:
-                log.warning("rotctld: more than %d bytes of one unfinished command (%s); dropped",
-                            MAX_PENDING_BYTES, spec.name if spec else "long name")
+                bad_input.warning("rotctld: more than %d bytes of one unfinished command (%s); dropped",
+                                  MAX_PENDING_BYTES, spec.name if spec else "long name")
                 if spec is not None:  # its client waits for an answer
                     out.append(codec.frame_reply(spec, (), sep, RIG_EINVAL, ""))
         return out
@@ -101,13 +107,13 @@ class RotctldSession:
             code, data = _HANDLERS[spec.code](self, args, sep)
         except CommandRejected as exc:
             code, data = self._rejected_code(exc), ""
-            log.info("rotctld: %s %s refused: %s", spec.name, " ".join(args), exc)
+            bad_input.info("rotctld: %s %s refused: %s", spec.name, " ".join(args), exc)
         except HardwareError as exc:
             code, data = RIG_EIO, ""
             log.warning("rotctld: %s failed: %s", spec.name, exc)
-        except Exception:
+        except Exception:  # a bug: answered as Hamlib's internal error, logged and counted
             code, data = RIG_EINTERNAL, ""
-            log.exception("rotctld: %s %s failed", spec.name, " ".join(args))
+            internal_error(log, "rotctld", "%s %s failed", spec.name, " ".join(args))
         return codec.frame_reply(spec, args, sep, code, data)
 
     def _rejected_code(self, exc: CommandRejected) -> int:
@@ -135,7 +141,7 @@ class RotctldSession:
     def _set_pos(self, args: tuple[str, ...], sep: str | None) -> Result:
         pos = codec.parse_position(*args) if len(args) == 2 else None
         if pos is None:
-            log.info("rotctld: set_pos needs two finite numbers, got %r", args)
+            bad_input.info("rotctld: set_pos needs two finite numbers, got %r", args)
             return RIG_EINVAL, ""
         az, el = pos
         min_az, max_az, min_el, max_el = self.frame_limits()
@@ -147,7 +153,7 @@ class RotctldSession:
             # wrap, or refuses
             az_ok = 0.0 <= az < 360.0
         if not (az_ok and min_el <= el <= max_el):
-            log.info("rotctld: set_pos %s %s outside az %g..%g, el %g..%g",
+            bad_input.info("rotctld: set_pos %s %s outside az %g..%g, el %g..%g",
                      args[0], args[1], min_az, max_az, min_el, max_el)
             return self._limit_code, ""
         self._rot.goto(az, el)
@@ -179,7 +185,7 @@ class RotctldSession:
         if speed == SPEED_NO_CHANGE:
             speed = self.speed
         if moves is None or speed is None or not SPEED_MIN <= speed <= SPEED_MAX:
-            log.info("rotctld: move needs a direction and a speed 1..100 or -1, got %r", args)
+            bad_input.info("rotctld: move needs a direction and a speed 1..100 or -1, got %r", args)
             return RIG_EINVAL, ""
         started: list[str] = []
         try:
@@ -242,7 +248,7 @@ class RotctldSession:
             return 0, ""  # already so
         # Limits and the azimuth frame belong to the rotator (its configuration),
         # enforced once for every protocol; a client may not change them.
-        log.info("rotctld: set_conf %s %s refused: set in the rotator's configuration", token, args[1])
+        bad_input.info("rotctld: set_conf %s %s refused: set in the rotator's configuration", token, args[1])
         return RIG_ENAVAIL, ""
 
     def _get_conf(self, args: tuple[str, ...], sep: str | None) -> Result:
