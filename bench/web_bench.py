@@ -129,19 +129,25 @@ async def _clients(url: str, n: int, window_s: float, pid: int, move_url: str | 
 STATION = "[station]\nlat_deg = 58.378\nlon_deg = 26.729\nalt_m = 70.0\n"
 
 
-def iss_like_tle(epoch: datetime) -> str:
-    """An ISS-like orbit with today's epoch (fixture element sets age into decay)."""
+def synthetic_tle(name: str, norad: int, epoch: datetime, *, inc_deg: float, raan_deg: float,
+                  argp_deg: float, ma_deg: float, rev_per_day: float, ecc: float = 0.001) -> str:
+    """A three-line element set of ``epoch`` (fixture element sets age into decay)."""
     from sgp4.api import WGS72, Satrec
     from sgp4.exporter import export_tle
 
     xpdotp = 1440.0 / (2.0 * math.pi)
     days = (epoch - datetime(1949, 12, 31, tzinfo=timezone.utc)).total_seconds() / 86400.0
     sat = Satrec()
-    sat.sgp4init(WGS72, "i", 25544, days, 1.0e-4, 0.0, 0.0, 0.0006703, math.radians(130.536),
-                 math.radians(51.6416), math.radians(325.0288), 15.50103472 / xpdotp, math.radians(247.4627))
-    sat.intldesg, sat.classification, sat.elnum, sat.revnum, sat.ephtype = "98067A", "U", 999, 43240, 0
+    sat.sgp4init(WGS72, "i", norad, days, 1.0e-4, 0.0, 0.0, ecc, math.radians(argp_deg), math.radians(inc_deg),
+                 math.radians(ma_deg), rev_per_day / xpdotp, math.radians(raan_deg))
+    sat.intldesg, sat.classification, sat.elnum, sat.revnum, sat.ephtype = "98067A", "U", 999, 1, 0
     l1, l2 = export_tle(sat)
-    return f"ISS (ZARYA)\n{l1}\n{l2}\n"
+    return f"{name}\n{l1}\n{l2}\n"
+
+
+def iss_like_tle(epoch: datetime) -> str:
+    return synthetic_tle("ISS (ZARYA)", 25544, epoch, inc_deg=51.6416, raan_deg=247.4627, argp_deg=130.536,
+                         ma_deg=325.0288, rev_per_day=15.50103472, ecc=0.0006703)
 
 
 def tracking_feed(workdir: Path, profile: str, window_s: float) -> dict:

@@ -68,7 +68,7 @@ def test_defaults_without_file():
     assert cfg.control.az.kp_per_s == 6.0 and cfg.control.el.ki_per_s2 == 1.0
     assert cfg.faults.stall_timeout_s == 1.5 and cfg.faults.watchdog_s == 0.5
     assert cfg.api.host == "127.0.0.1" and cfg.api.port == 8080 and cfg.api.token == ""
-    assert cfg.state.dir == "" and cfg.state.save_interval_s == 0.02
+    assert cfg.state.dir == "" and cfg.state.save_interval_s == 1.0
     assert cfg.control_requires_token is False
 
 

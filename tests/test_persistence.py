@@ -47,9 +47,24 @@ def test_foreign_files_rejected(tmp_path, content):
         store.load()
 
 
-def test_quarantine_moves_file_aside(tmp_path):
+def test_quarantine_keeps_a_copy_and_the_file_until_replaced(tmp_path):
+    """The damaged file is copied aside; it stays in place until a new record replaces
+    it, so a crash in between still finds a (damaged, hence distrusted) file."""
     store = StateStore(tmp_path / "state.json")
     store.path.write_bytes(b"junk")
-    moved = store.quarantine()
-    assert moved is not None and moved.read_bytes() == b"junk"
-    assert store.load() is None
+    kept = store.quarantine()
+    assert kept is not None and kept.read_bytes() == b"junk"
+    assert store.path.read_bytes() == b"junk"
+    store.save(PAYLOAD)
+    assert store.load() == PAYLOAD and kept.read_bytes() == b"junk"
+
+
+def test_fresh_only_before_first_use(tmp_path):
+    """A deleted state file in a used directory is not a fresh start (issue 9.3)."""
+    store = StateStore(tmp_path / "state" / "state.json")
+    assert store.fresh()
+    store.save(PAYLOAD)
+    store.mark_initialised()
+    assert not store.fresh()
+    store.path.unlink()
+    assert not store.fresh(), "the marker remembers the directory was used"

@@ -35,9 +35,9 @@ def toml_serve(entries: list[dict]) -> str:
 
 class UrcProcess:
     def __init__(self, workdir: Path, profile: str = "tartu-urc", serve: list[dict] | None = None,
-                 extra: str = ""):
+                 extra: str = "", port: int | None = None):
         self.workdir = workdir
-        self.port = free_port()
+        self.port = port or free_port()
         self.state_dir = workdir / "state"
         self.config = workdir / "urc.toml"
         serve_text = toml_serve(serve or [])

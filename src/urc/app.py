@@ -71,13 +71,12 @@ def build_rotator(cfg: Config, clock: Clock, state_dir: Path, durable_state: boo
     """Everything ``urc run`` builds, minus the servers: for tests and benchmarks too.
 
     ``durable_state=False`` skips fsync (virtual-time tests); ``fast_virtual=True`` also
-    spaces state and simulator-truth writes in wall time (benchmarks: restart exactness
-    on the virtual clock is traded for speed).
+    skips it and spaces simulator-truth writes in wall time (benchmarks: restart exactness
+    of the simulated iron on the virtual clock is traded for speed).
     """
     settings = settings_from_config(cfg)
     if fast_virtual:
         durable_state = False
-        settings = replace(settings, save_wall_spacing_s=settings.save_interval_s)
     state_dir.mkdir(parents=True, exist_ok=True)
     sim = cfg.hardware.sim
     options = {"seed": sim.seed, "wind": sim.wind, "truth_wall_interval_s": 0.02 if fast_virtual else 0.0}

@@ -164,6 +164,9 @@ def _format_status(s: dict) -> str:
             lines.append(f"          {name} uncertain by ±{s[name]['uncertainty_deg']:.2f} deg")
     for f in s["faults"]:
         lines.append(f"FAULT     {f['kind']}: {f['reason']}")
+    if s.get("state_error"):
+        lines.append(f"STATE     not saved: {s['state_error']} (retrying; motion stops before the "
+                     "saved position stops being true)")
     truth = s.get("simulator_truth")
     if truth:
         lines.append(f"sim truth az {truth['az']['deg']:7.2f}  el {truth['el']['deg']:6.2f}  (simulator only)")
@@ -298,6 +301,31 @@ def _register_tracking_commands() -> None:
 
 
 _register_tracking_commands()
+
+
+@main.group()
+def hw() -> None:
+    """Hardware helpers."""
+
+
+@hw.command("check")
+@click.option("--config", "config_path", type=click.Path(dir_okay=False), help="TOML configuration file.")
+def hw_check(config_path: str | None) -> None:
+    """Check the configured hardware without moving anything (bridge: identify the
+    controller, read its position, measure the link latency)."""
+    try:
+        cfg = _load(config_path)
+    except ConfigError as exc:
+        raise click.ClickException(str(exc)) from None
+    if cfg.hardware.backend == "bridge":
+        from .hardware.bridge.check import check_bridge
+
+        result = check_bridge(cfg.hardware.bridge)
+        click.echo("\n".join(result.lines))
+        if not result.ok:
+            raise SystemExit(1)
+        return
+    click.echo(f"hardware backend {cfg.hardware.backend!r}: nothing to check (no hardware attached)")
 
 if __name__ == "__main__":  # pragma: no cover
     sys.exit(main())

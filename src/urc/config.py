@@ -225,7 +225,11 @@ class ApiSection(_Section):
 class StateSection(_Section):
     #: "" = the per-user data directory; the --state-dir option overrides.
     dir: str = ""
-    save_interval_s: float = _num(0.02, gt=0.0)
+    #: the longest an axis moves on one state record: a new one is written before the
+    #: axis can leave what the last one promised (motion, plus the same again at top
+    #: speed). A crash mid-move restarts uncertain by about that much; shorter = more
+    #: writes (SD card wear). Bounded: a record promising minutes ahead is no record.
+    save_interval_s: float = _num(1.0, gt=0.0, le=10.0)
 
     def resolve_dir(self, override: str | os.PathLike[str] | None = None) -> Path:
         """The state directory: ``override`` (--state-dir), else ``dir``, else per-user."""

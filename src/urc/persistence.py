@@ -3,6 +3,10 @@
 One JSON record per rotator, written atomically (temp file, fsync, rename) with a
 CRC-32 of its canonical payload. A truncated, corrupt or foreign file is detected and
 reported, never trusted: the caller then treats incremental positions as unknown.
+
+A *marker* file written at the first start tells a fresh state directory (a new
+installation: the antenna is assumed at its park pose) from a used one whose state
+file has gone missing (the position is then unknown).
 """
 
 from __future__ import annotations
@@ -10,6 +14,7 @@ from __future__ import annotations
 import json
 import logging
 import os
+import shutil
 import time
 import zlib
 from dataclasses import dataclass
@@ -22,6 +27,7 @@ log = logging.getLogger(__name__)
 
 FORMAT = "urc-state"
 VERSION = 1
+MARKER = "urc-initialised"
 
 
 def _canonical(payload: dict[str, Any]) -> bytes:
@@ -69,12 +75,48 @@ class StateStore:
             if self.durable:
                 os.fsync(fh.fileno())
         os.replace(tmp, self.path)
+        if self.durable:
+            _fsync_dir(self.path.parent)  # the rename itself must survive a power cut
+
+    @property
+    def marker(self) -> Path:
+        return self.path.with_name(MARKER)
+
+    def fresh(self) -> bool:
+        """A state directory never used: no state file, no marker, nothing set aside."""
+        return not (self.path.exists() or self.marker.exists()
+                    or any(self.path.parent.glob(f"{self.path.name}.corrupt-*")))
+
+    def mark_initialised(self) -> None:
+        """Record that this directory is in use (after the first state record is written)."""
+        if not self.marker.exists():
+            self.marker.write_text("urc has kept state here; a missing state file means the "
+                                   "position is unknown\n", encoding="utf-8")
+            if self.durable:
+                _fsync_dir(self.path.parent)
 
     def quarantine(self) -> Path | None:
-        """Move a damaged file aside (kept for inspection) so the next save starts clean."""
+        """Keep a copy of a damaged file for inspection. The file itself stays until the
+        next save replaces it, so there is never a moment without a record to read."""
         if not self.path.exists():
             return None
-        dest = self.path.with_name(f"{self.path.name}.corrupt-{int(time.time())}")
-        os.replace(self.path, dest)
-        log.warning("damaged state file moved to %s", dest)
+        dest = self.path.with_name(f"{self.path.name}.corrupt-{time.time_ns()}")
+        try:
+            os.link(self.path, dest)
+        except OSError:
+            shutil.copyfile(self.path, dest)
+        log.warning("damaged state file copied to %s", dest)
         return dest
+
+
+def _fsync_dir(path: Path) -> None:
+    try:
+        fd = os.open(path, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass  # not every filesystem syncs directories
+    finally:
+        os.close(fd)

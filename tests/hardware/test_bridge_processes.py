@@ -17,7 +17,7 @@ import tty
 
 import pytest
 
-from urc_process import UrcProcess, free_port
+from urc_process import URC, UrcProcess, free_port
 
 ROTCTLD = shutil.which("rotctld")
 if ROTCTLD is None:  # CI installs libhamlib-utils: missing is a failure
@@ -245,3 +245,25 @@ def test_garbage_moves_nothing(tmp_path):
     finally:
         down.stop()
         ctl.close()
+
+
+# ------------------------------------------------------------------ urc hw check
+def hw_check(tmp_path, config: str) -> subprocess.CompletedProcess:
+    path = tmp_path / "check.toml"
+    path.write_text("serve = []\n" + config)
+    return subprocess.run(URC + ["hw", "check", "--config", str(path)], capture_output=True, text=True, timeout=60)
+
+
+def test_hw_check_identifies_reads_and_times_the_controller(upstream, tmp_path):
+    res = hw_check(tmp_path, bridge_config("easycomm3", serial=str(upstream.work / "ctl-easycomm3")))
+    assert res.returncode == 0, res.stdout + res.stderr
+    assert "identity: urc-" in res.stdout                       # Easycomm's VE
+    u = upstream.status()
+    m = re.search(r"position: az ([0-9.-]+) deg, el ([0-9.-]+) deg", res.stdout)
+    assert m and angle_diff(float(m.group(1)), u["az_deg"]) < 0.2, res.stdout
+    assert re.search(r"link latency: round trip [0-9.]+ ms median", res.stdout), res.stdout
+
+
+def test_hw_check_reports_a_missing_controller(tmp_path):
+    res = hw_check(tmp_path, bridge_config("gs232b", serial=str(tmp_path / "nothing-here")))
+    assert res.returncode == 1 and "FAIL: cannot open" in res.stdout, res.stdout + res.stderr

@@ -233,3 +233,33 @@ def test_unknown_caps_get_generic_physics(tmp_path):
     hw = build_hardware("sim", caps, VirtualClock(), tmp_path, {"wind": False, "truth_file": None})
     w = hw.extra["world"]
     assert not math.isclose(w.params.az.kt_nm_per_a, physics_for("tartu-urc").az.kt_nm_per_a)
+
+
+# ---------------------------------------------------------------- a frozen controller
+@pytest.mark.parametrize("profile,axis", [("tartu-urc", "az"), ("g5500", "az"), ("bigras", "el")])
+@pytest.mark.parametrize("freeze_s", [2.0, 10.0])
+def test_a_freeze_runs_on_with_the_drive_the_hardware_last_had(tmp_path, profile, axis, freeze_s):
+    """Issue 9.8: while the controller is frozen the iron keeps the last drive; a motor
+    switched off on waking stops only from then on."""
+    clock = VirtualClock()
+    hw = build_hardware("sim", PROFILES[profile], clock, tmp_path, {"wind": False, "start_az_deg": 10.0,
+                                                                    "start_el_deg": 5.0})
+    world = hw.extra["world"]
+    hw.poll(clock.now_s())
+    ax = hw.axis(axis)
+    if ax.brake is not None:
+        ax.brake.set_released(True)
+    ax.motor.set_drive(0.5)
+    for _ in range(100):  # up to speed
+        clock.advance(0.02)
+        hw.poll(clock.now_s())
+    rate = world.truth()[axis]["rate_deg_per_s"]
+    assert rate > 0.1
+    before = world.truth()[axis]["deg"]
+    clock.advance(freeze_s)           # the controller hangs: no poll, no command
+    ax.motor.set_drive(0.0)           # on waking, a fault switches the motor off
+    hw.poll(clock.now_s())
+    moved = world.truth()[axis]["deg"] - before
+    hard_max = physics_for(profile).axis(axis).hard_max_deg
+    expected = min(rate * freeze_s, (hard_max if hard_max is not None else math.inf) - before)
+    assert moved >= 0.8 * expected, (moved, rate * freeze_s)

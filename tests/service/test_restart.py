@@ -108,3 +108,117 @@ def test_calibration_and_learnt_coast_persist(bench):
     learnt = b.rot.axes["az"].law.coast_deg
     b = b.restart(clean=True)
     assert b.rot.axes["az"].law.coast_deg == pytest.approx(learnt)
+
+
+def bounded(s, axis, slack_deg=0.0):
+    """The truth lies where urc says: within its bound if uncertain, else within a count
+    or two (the hold band of a known position)."""
+    ax = getattr(s, axis)
+    err = abs(ax.pos_deg - s.sim_truth[axis]["deg"])
+    return err <= ax.uncertainty_deg if ax.uncertainty_deg else err <= slack_deg
+
+
+# ------------------------------------------------- issue 9.1: homing's search frame
+@pytest.mark.parametrize("clean", [False, True], ids=["kill", "sigterm"])
+def test_interrupted_homing_restarts_uncertain_in_the_true_frame(bench, clean):
+    from urc.service import calibration as cal
+    b = bench("bigras", exact=True, hardware={"sim": {"wind": False, "start_az_deg": 120.0}})
+    b.rot.set_position(az_deg=b.truth("az"))
+    b.run(0.2)
+    proc = cal.LimitSwitchHoming(b.rot, "az")
+    b.run(4.0, on_tick=proc.poll)
+    assert proc.state == "running" and proc._phase == "search"
+    # the search frame (top of the range) is in use right now
+    assert b.rot.status().az.pos_deg - b.truth("az") > 100.0
+    b = b.restart(clean=clean)
+    s = b.rot.status()
+    assert not s.position_known
+    assert bounded(s, "az"), (s.az, s.sim_truth["az"]["deg"])
+    assert abs(s.az.pos_deg - b.truth("az")) < 30.0, "the record keeps the true frame"
+    with pytest.raises(CommandRejected, match="uncertain"):
+        b.rot.goto(10.0, 10.0)
+
+
+# ----------------------------------- issue 9.3: missing / foreign / just-damaged file
+def test_missing_state_file_in_a_used_dir_means_uncertain(bench):
+    """sarcnet-mini at 420 deg (its overlap) must not restart as 60 deg known."""
+    b = bench("sarcnet-mini", exact=True)
+    b.rot.goto(420.0 - 360.0 + 360.0, 10.0)  # an explicit overlap pose: az 420
+    b.settle()
+    assert b.rot.status().az.pos_deg == pytest.approx(420.0, abs=2.0)
+    b.rot.shutdown()
+    (b.state_dir / "state.json").unlink()
+    b = b.restart(clean=False)
+    s = b.rot.status()
+    assert not s.position_known and s.az.uncertainty_deg >= 360.0
+    with pytest.raises(CommandRejected, match="uncertain"):
+        b.rot.goto(150.0, 10.0)
+
+
+def test_missing_state_file_on_an_incremental_axis_means_uncertain(bench):
+    b = bench("tartu-urc", exact=True)
+    b.rot.goto(200.0, 30.0)
+    b.settle()
+    b.rot.shutdown()
+    (b.state_dir / "state.json").unlink()
+    b = b.restart(clean=False)
+    assert not b.rot.status().position_known
+
+
+def test_fresh_state_dir_assumes_park_and_marks_itself_used(bench):
+    b = bench("tartu-urc", exact=True)
+    s = b.rot.status()
+    assert s.position_known
+    assert any("first start" in e for e in s.events)
+    assert (b.state_dir / "urc-initialised").exists()
+
+
+def test_foreign_state_file_means_uncertain(bench, tmp_path):
+    b = bench("tartu-urc", exact=True)
+    b.rot.goto(200.0, 30.0)
+    b.settle()
+    b.rot.shutdown()
+    path = b.state_dir / "state.json"
+    rec = json.loads(path.read_text())
+    from urc.persistence import StateStore
+    payload = rec["payload"]
+    payload["profile"] = "bigras"
+    StateStore(path).save(payload)
+    b = b.restart(clean=False)
+    assert not b.rot.status().position_known
+
+
+def test_damaged_file_is_replaced_by_an_uncertain_record_before_the_first_tick(bench):
+    """A kill right after start-up (before any tick) must not restart 'assuming park'."""
+    b = bench("tartu-urc", exact=True)
+    b.rot.goto(200.0, 30.0)
+    b.settle()
+    b.rot.shutdown()
+    path = b.state_dir / "state.json"
+    path.write_bytes(path.read_bytes()[:20])
+    b = b.restart(clean=False)
+    assert not b.rot.status().position_known
+    b = b.restart(clean=False)  # killed before its first tick
+    s = b.rot.status()
+    assert not s.position_known
+    assert not any("damaged" in e for e in s.events), "the record on disk is the new one"
+
+
+# ------------------------------------- issue 9.9: a kill early in a move, long interval
+@pytest.mark.parametrize("profile", ["tartu-urc", "bigras"])
+@pytest.mark.parametrize("early_s", [0.1, 0.6, 2.5])
+def test_kill_early_in_a_move_is_never_the_old_position_known(bench, profile, early_s):
+    b = bench(profile, exact=True, state={"save_interval_s": 5.0})
+    b.rot.goto(150.0, 40.0)
+    b.run(early_s)
+    b = b.restart(clean=False)
+    s = b.rot.status()
+    for axis in ("az", "el"):
+        assert bounded(s, axis, slack_deg=0.6), (axis, getattr(s, axis), s.sim_truth[axis]["deg"])
+
+
+def test_save_interval_is_bounded():
+    from urc.config import Config
+    from urc.errors import ConfigError
+    with pytest.raises(ConfigError):
+        Config.from_dict({"state": {"save_interval_s": 60.0}})

@@ -51,8 +51,8 @@ class PageProblems(list):
 def open_page(browser):
     pages = []
 
-    def open_(url: str, width: int = 1400, height: int = 1100):
-        ctx = browser.new_context(viewport={"width": width, "height": height})
+    def open_(url: str, width: int = 1400, height: int = 1100, **context):
+        ctx = browser.new_context(viewport={"width": width, "height": height}, **context)
         page = ctx.new_page()
         problems = PageProblems()
         page.on("pageerror", lambda e: problems.append(f"exception: {e}"))

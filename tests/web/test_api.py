@@ -364,7 +364,9 @@ def test_live_frames_carry_only_what_changes(make_client):
         plans = [json.loads(m) for m in messages if m.startswith('{"type":"plan"')]
         plans = [p for p in plans if p["data"]]   # (a frame built before the command may come first)
         assert len(plans) == 1 and len(frames) >= 20
-        assert plans[0]["data"] == {"plan": full["plan"], "ground_track": full["ground_track"]}
+        assert plans[0]["data"] == {"plan": full["plan"]}
+        grounds = [json.loads(m) for m in messages if m.startswith('{"type":"ground"')]
+        assert [g["data"] for g in grounds if g["data"]] == [{"ground_track": full["ground_track"]}]
         assert max(len(f) for f in frames) < 3000, max(len(f) for f in frames)
         last = json.loads(frames[-1])
         assert last["revs"]["plan"] == plans[0]["rev"]
@@ -374,7 +376,29 @@ def test_live_frames_carry_only_what_changes(make_client):
         while True:
             msg = ws.receive_json()
             if msg["type"] == "plan":
-                assert msg["data"] == {"plan": None, "ground_track": None} and msg["rev"] > plans[0]["rev"]
+                assert msg["data"] == {"plan": None} and msg["rev"] > plans[0]["rev"]
                 break
-            assert msg["type"] == "status" and msg["revs"]["plan"] == plans[0]["rev"]
+            assert msg["type"] in ("status", "ground") and msg.get("revs", {}).get("plan", plans[0]["rev"]) == plans[0]["rev"]
         assert next_status(ws)["status"]["tracking"]["target"] == "moon"
+
+
+def test_live_settings_reach_info_and_frames_and_restart_needs_are_kept(make_client, tmp_path):
+    """Issue 12, item 10: a zone applied live is what /api/info lists (the page redraws
+    when the frames' info revision moves); what waits for a restart stays listed."""
+    c = make_client(config_path=tmp_path / "station.toml")
+    with c.websocket_connect("/api/ws") as ws:
+        rev0 = next_status(ws)["revs"]["info"]
+        doc = c.get("/api/settings").json()["config"]
+        doc["keepout"] = [{"name": "tree", "az_min_deg": 170, "az_max_deg": 190, "el_min_deg": 0, "el_max_deg": 20}]
+        doc["api"]["port"] = 8181
+        body = c.post("/api/settings", json=doc).json()
+        assert body["applied_live"] and body["restart_needed"] == ["api"]
+        c.bench.run(0.05)                                   # the control loop takes the new settings
+        assert [z["name"] for z in c.get("/api/info").json()["keepout"]] == ["tree"]
+        while (f := next_status(ws))["revs"]["info"] == rev0:
+            pass
+        assert f["revs"]["info"] > rev0
+    doc["offsets"]["az_deg"] = 2.0                          # a second save: the port still waits
+    body = c.post("/api/settings", json=doc).json()
+    assert body["restart_needed"] == ["api"] and any("restart" in m for m in body["messages"])
+    assert c.get("/api/info").json()["restart_pending"] == ["api"]

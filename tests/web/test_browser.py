@@ -196,6 +196,12 @@ def test_settings_validation_error_next_to_the_field_then_save(urc, open_page, a
     cfg = load_config(save_path)
     assert [z.name for z in cfg.keepout] == ["mast", "tree"] and cfg.limits.az.max_deg is None
     assert cfg.rotator.profile == "berkeley" and cfg.api.port == urc.port
+    # applied live: enforced, listed by /api/info and drawn (issue 12, item 10)
+    assert "applied now" in messages
+    assert [z["name"] for z in httpx.get(urc.url + "/api/info").json()["keepout"]] == ["mast", "tree"]
+    page.click('nav a[data-view="dashboard"]')
+    expect(page.locator("#sky-zones polygon")).to_have_count(2)
+    assert page.locator('#sky-zones polygon[data-zone="tree"]').count() == 1
     page.problems.check()
 
 
@@ -213,6 +219,7 @@ def test_uncertain_position_warning_and_re_reference(tmp_path, open_page, artifa
         page.fill("#zero-az", "0")
         page.fill("#zero-el", "90")
         page.click("#zero-form button[type=submit]")
+        page.click("#zero-yes")
         page.wait_for_selector("#warn-banner", state="hidden", timeout=5000)
         assert u.status()["position_known"]
         page.problems.check()
@@ -315,3 +322,164 @@ def test_limit_switch_homing_from_the_calibration_page(tmp_path, open_page, arti
         page.problems.check()
     finally:
         u.stop()
+
+
+# --------------------------------------------------------------- issue 12: layout, live state, cosmetics
+PHONE = (390, 844)
+TOKEN = "phone-token"
+
+
+def in_viewport(page, selector: str) -> bool:
+    box = page.locator(selector).bounding_box()
+    vw, vh = page.viewport_size["width"], page.viewport_size["height"]
+    return box is not None and box["x"] >= 0 and box["y"] >= 0 and \
+        box["x"] + box["width"] <= vw and box["y"] + box["height"] <= vh
+
+
+@pytest.mark.parametrize("size", [PHONE, (768, 1024), (1400, 1100)], ids=["phone", "tablet", "desktop"])
+def test_stop_and_fault_stay_in_view_at_every_size(tmp_path, open_page, artifacts, size):
+    """Issue 12, item 8: with the token field shown (a remote listener), STOP and the
+    fault state are inside the viewport, before and after scrolling to the bottom."""
+    u = UrcProcess(tmp_path, profile="berkeley", extra=f'host = "0.0.0.0"\ntoken = "{TOKEN}"\n').start()
+    try:
+        page = open_page(u.url + "/", *size)
+        assert page.locator("#token-form").is_visible()
+        assert in_viewport(page, "#stop-btn")
+        assert page.evaluate("() => document.documentElement.scrollWidth") <= size[0]   # no sideways scrolling
+        r = httpx.post(u.url + "/api/sim/fault", json={"axis": "el", "kind": "sensor_dead"},
+                       headers={"Authorization": f"Bearer {TOKEN}"})
+        assert r.status_code == 200
+        page.wait_for_selector("#fault-banner", state="visible", timeout=5000)
+        assert in_viewport(page, "#stop-btn") and in_viewport(page, "#fault-banner")
+        page.screenshot(path=str(artifacts / f"layout-{size[0]}x{size[1]}-top.png"))
+        page.locator("#sim-card").scroll_into_view_if_needed()
+        page.keyboard.press("End")
+        page.wait_for_timeout(200)
+        assert page.evaluate("() => window.scrollY") > 0 or size == (1400, 1100)
+        assert in_viewport(page, "#stop-btn") and in_viewport(page, "#fault-banner")
+        page.screenshot(path=str(artifacts / f"layout-{size[0]}x{size[1]}-scrolled.png"))
+        page.click("#stop-btn")      # still usable where it is
+        page.problems.check()
+    finally:
+        u.stop()
+
+
+def test_calibration_fields_follow_the_antenna_and_re_referencing_asks_first(tmp_path, open_page, artifacts):
+    """Issue 12, item 9."""
+    u = UrcProcess(tmp_path, profile="berkeley").start()
+    try:
+        page = open_page(u.url + "/#calibration")
+        assert u.post("/api/goto", {"az_deg": 120, "el_deg": 40}).status_code == 200
+        s = u.wait(lambda s: standing(s) and abs(s["az"]["pos_deg"] - 120) < 0.5, 30)
+        az_now = s["az"]["pos_deg"] + s["offsets"]["az"]   # (the AS5600 reading jitters by a count or so)
+        expect(page.locator("#zero-az")).to_have_value(re.compile(r"^1[12]\d\.\d\d$"), timeout=3000)
+        assert float(page.locator("#zero-az").input_value()) == pytest.approx(az_now, abs=0.3)  # refreshed live
+        page.fill("#zero-az", "130")                       # edited: no longer follows
+        page.click("#zero-form button[type=submit]")
+        question = page.locator("#zero-question")
+        expect(question).to_be_visible()
+        text = question.text_content()
+        assert float(re.search(r"reads az ([\d.]+)", text).group(1)) == pytest.approx(az_now, abs=0.3)
+        assert "points at az 130.00" in text, text
+        page.screenshot(path=str(artifacts / "calibration-confirm.png"))
+        time.sleep(0.3)
+        assert u.status()["az"]["pos_deg"] == pytest.approx(s["az"]["pos_deg"], abs=0.3)   # not yet
+        page.click("#zero-no")
+        expect(page.locator("#zero-confirm")).to_be_hidden()
+        page.fill("#zero-az", "130")
+        page.click("#zero-form button[type=submit]")
+        page.click("#zero-yes")
+        u.wait(lambda s: abs(s["az"]["pos_deg"] + s["offsets"]["az"] - 130) < 0.5, 5)
+        expect(page.locator("#zero-confirm")).to_be_hidden()
+        page.problems.check()
+    finally:
+        u.stop()
+
+
+def test_offline_is_shown_and_a_restarted_urc_is_re_read(tmp_path, open_page, artifacts):
+    """Issue 12, item 11: the last values are not shown as live; after a restart (here
+    with another profile) the page reads /api/info again."""
+    (tmp_path / "a").mkdir()
+    a = UrcProcess(tmp_path / "a", profile="berkeley").start()
+    b = None
+    try:
+        page = open_page(a.url + "/")
+        expect(page.locator("#profile-name")).to_contain_text("berkeley")
+        assert page.locator("#stale-banner").is_hidden()
+        a.stop()
+        expect(page.locator("#stale-banner")).to_be_visible(timeout=5000)
+        expect(page.locator("#stale-text")).to_contain_text("not live")
+        assert "offline" in page.locator("body").get_attribute("class")
+        page.screenshot(path=str(artifacts / "offline.png"))
+        (tmp_path / "b").mkdir()
+        b = UrcProcess(tmp_path / "b", profile="g4jnt", port=a.port).start()
+        expect(page.locator("#profile-name")).to_contain_text("g4jnt", timeout=15_000)
+        expect(page.locator("#stale-banner")).to_be_hidden()
+        assert "offline" not in (page.locator("body").get_attribute("class") or "")
+    finally:
+        if b is not None:
+            b.stop()
+
+
+STATION = '[station]\nlat_deg = 58.4\nlon_deg = 26.7\n'
+
+
+def pixel(page, selector: str, x: float, y: float) -> list[int]:
+    return page.evaluate("([sel, x, y]) => Array.from(document.querySelector(sel).getContext('2d')"
+                         ".getImageData(Math.round(x), Math.round(y), 1, 1).data)", [selector, x, y])
+
+
+def test_map_sky_and_dial_draw_cleanly(tmp_path, open_page, artifacts):
+    """Issue 12, item 19: no streaks where land crosses the date line, a station marker,
+    the sky plot's W inside the picture, the dial's reading away from its needle."""
+    u = UrcProcess(tmp_path, profile="berkeley", extra=STATION).start()
+    try:
+        page = open_page(u.url + "/")
+        page.wait_for_timeout(800)                           # the land is fetched and drawn
+        canvas = page.locator("#map")
+        w, h = int(canvas.get_attribute("width")), int(canvas.get_attribute("height"))
+
+        def at(lat, lon):
+            return pixel(page, "#map", (lon + 180) / 360 * w, (90 - lat) / 180 * h)
+        ocean = at(-40.0, -25.0)                              # South Atlantic (off the grid lines)
+        # Fiji's ring crosses the antimeridian: drawn naively it fills a band across the
+        # whole map at lat -16.5 (Russia's and Antarctica's streak likewise)
+        for lat, lon in ((-16.45, 70.0), (-16.45, -20.0), (-16.45, -110.0)):
+            assert at(lat, lon) == ocean, (lat, lon)
+        assert at(-87.0, 0.0) != ocean and at(66.0, -175.0) != ocean   # Antarctica, Chukotka are land
+        sx, sy = float(canvas.get_attribute("data-station-x")), float(canvas.get_attribute("data-station-y"))
+        assert pixel(page, "#map", sx, sy)[:3] == [0x4e, 0xff, 0x9a]
+        # the sky plot's compass letters are inside its picture
+        sky = page.locator("#sky").bounding_box()
+        for letter in ("N", "E", "S", "W"):
+            box = page.locator("#sky text", has_text=re.compile(f"^{letter}$")).bounding_box()
+            assert box["x"] >= sky["x"] and box["x"] + box["width"] <= sky["x"] + sky["width"], letter
+            assert box["y"] >= sky["y"] and box["y"] + box["height"] <= sky["y"] + sky["height"], letter
+        # the dial's reading lies beyond the needle's longest reach (it turns round the centre)
+        dial = page.locator("#dial").bounding_box()
+        units = dial["width"] / 220.0
+        cx, cy = dial["x"] + dial["width"] / 2, dial["y"] + dial["height"] / 2
+        for sel in ("#dial-value", "#dial text.corner"):
+            b = page.locator(sel).first.bounding_box()
+            nx = min(max(cx, b["x"]), b["x"] + b["width"])
+            ny = min(max(cy, b["y"]), b["y"] + b["height"])
+            assert math.hypot(nx - cx, ny - cy) / units > 92 * 1.05 + 2, sel
+        page.screenshot(path=str(artifacts / "map-sky-dial.png"), full_page=True)
+        page.problems.check()
+    finally:
+        u.stop()
+
+
+def test_pass_list_uses_the_tracking_min_elevation_and_names_the_time_zone(tmp_path, open_page):
+    """Issue 12, item 19: the pass list asked for passes above 10° while a pass's plan
+    flies from tracking.min_el_deg (0°): their AOS disagreed; times had no zone."""
+    trk = FakeTracker()
+    with InProcessUrc(tmp_path / "state", trk) as srv:
+        page = open_page(srv.url + "/", timezone_id="Europe/Tallinn")
+        page.wait_for_selector("#passes-body tr", timeout=5000)
+        assert [c for c in trk.calls if c[0] == "passes"] == [("passes", 24.0, 0.0)]
+        note = page.locator("#passes-note").text_content()
+        assert "above 0°" in note and "Europe/Tallinn" in note and "UTC+02:00" in note
+        page.locator('#passes-body tr[data-norad="25544"] button.track-pass').click()
+        expect(page.locator("#tracking-line")).to_contain_text("GMT+2")
+        page.problems.check()

@@ -393,21 +393,17 @@ class LimitSwitchHoming(Procedure):
             raise CalibrationError(f"speed {self.speed_frac!r} outside 0 < speed <= 1")
         self.offset_deg = rotator.status().offsets.get(axis, 0.0)
         self._shift_deg = 0.0           # temporary frame = true frame + shift
+        self._searching = False
         self._rounds = 0
         self._edge_deg: float | None = None
         self._backoff_tries = 0
         self._t0_s: float | None = None
 
-    def _set(self, mech_deg: float) -> None:
-        self.rotator.set_position(**{f"{self.axis}_deg": mech_deg + self.offset_deg})
-
     def _undo(self) -> None:
-        if self._shift_deg:
-            pos = getattr(self.rotator.status(), self.axis).pos_deg
-            try:
-                self._set(pos - self._shift_deg)
-            except CommandRejected as exc:
-                self.error = f"the search frame could not be undone ({exc}): re-reference {self.axis}"
+        if self._searching:
+            # back to the true frame (the count is intact) with the uncertainty it had
+            self.rotator.end_search(self.axis, None)
+            self._searching = False
             self._shift_deg = 0.0
 
     def _poll(self, status: Status) -> None:
@@ -478,7 +474,10 @@ class LimitSwitchHoming(Procedure):
         # Shift the frame so (nearly) the whole range lies below: the jog may now reach
         # the switch. Room is kept at the top for backing off and clearing the switch.
         top = self.hi_deg - (self.lo_deg - self.switch_deg) - self.CLEAR_MARGIN_DEG - 2.0
-        self._set(top)
+        # a search frame, never persisted: the rotator keeps the true one in the state
+        # record and calls the axis uncertain until the search ends
+        self.rotator.search_frame(self.axis, top)
+        self._searching = True
         self._shift_deg += top - pos_deg
         self.rotator.move(self.axis, -1, self.speed_frac)
         self.step = f"jogging slowly down to the lower limit switch (round {self._rounds})"
@@ -499,7 +498,8 @@ class LimitSwitchHoming(Procedure):
         true_deg = self.switch_deg + (pos_deg - self._edge_deg)
         before_deg = pos_deg - self._shift_deg
         self._shift_deg = 0.0
-        self._set(true_deg)
+        self.rotator.end_search(self.axis, true_deg)
+        self._searching = False
         self.result = {"switch_deg": self.switch_deg, "position_deg": true_deg + self.offset_deg,
                        "correction_deg": true_deg - before_deg}
         self.progress, self.state = 1.0, "done"

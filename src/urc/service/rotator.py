@@ -13,11 +13,10 @@ from __future__ import annotations
 import collections
 import logging
 import math
-import time
 from dataclasses import dataclass, replace
 from typing import Any, Callable
 
-from ..clock import Clock
+from ..clock import Clock, VirtualClock
 from ..control import faults as faultmod
 from ..control import law
 from ..control import positioner as positioner_law
@@ -28,8 +27,10 @@ from ..control.profile import stopping_distance_deg
 from ..errors import CommandRejected, SensorError, StateFileError
 from ..hardware.interfaces import AxisHardware, Hardware
 from ..persistence import StateStore
+from . import position_record as precord
 from .settings import RotatorSettings
 from .snapshot import AxisStatus, Status
+from .state_writer import StateWriter
 
 log = logging.getLogger(__name__)
 
@@ -90,9 +91,12 @@ class _Axis:
         if self.positioner is None:
             return self._flim
         # a controller's reports arrive once per poll: between two, the axis may have
-        # turned a whole poll period at full speed (not a sensor jump)
+        # turned a whole poll period at full speed (not a sensor jump), and progress
+        # shows a target's round trip plus two reports late (not a stall)
+        every_s = self.positioner.sample_interval_s()
         return replace(self._flim, sensor_jump_deg=self._flim.sensor_jump_deg +
-                       2.0 * self._flim.max_rate_deg_per_s * self.positioner.sample_interval_s())
+                       2.0 * self._flim.max_rate_deg_per_s * every_s,
+                       stall_timeout_s=self._flim.stall_timeout_s + 2.0 * every_s + self.positioner.latency_s())
 
     @flim.setter
     def flim(self, value: FaultLimits) -> None:
@@ -109,6 +113,10 @@ class _Axis:
             self.law, sp, self.meas_deg, self.rate_deg_per_s, now_s, self.tuning,
             lead_s=self.positioner.latency_s(), still_rate_deg_per_s=self.still_rate_deg_per_s,
             band_deg=max(self.tuning.tolerance_deg, self.positioner.resolution_deg), limits_deg=self.limits)
+        if sp is not None and self.out.duty == 0.0:
+            # following its target within the band (a slow track goes in the controller's
+            # steps): it is where it was told to be, so a runaway is judged from here
+            self.mon = replace(self.mon, rest_deg=self.meas_deg)
 
     def post(self) -> None:
         """Positioner axes: post the target, or stop when there is no setpoint (stop,
@@ -245,9 +253,19 @@ class Rotator:
         self._parking = False
         self._last_t_s: float | None = None
         self._last_command_t_s = clock.now_s()
-        self._last_save_t_s = -math.inf
-        self._last_save_wall_s = -math.inf
-        self._saved_pos: dict[str, float] = {}
+        # state records (see position_record): the last one handed to the writer, the
+        # newest known to be on disk with its windows, and why saving fails, if it does
+        self._writer = None if store is None else StateWriter(
+            store, background=not isinstance(clock, VirtualClock), now_s=clock.now_s)
+        self._record: dict[str, Any] | None = None
+        self._recent: collections.deque[tuple[dict[str, Any], dict[str, tuple[float, float]]]] = \
+            collections.deque(maxlen=8)
+        self._durable: dict[str, Any] | None = None
+        self._durable_windows: dict[str, tuple[float, float]] = {}
+        self._record_dirty = False
+        self._save_error = ""
+        #: reference searches in progress (homing): axis -> (uncertainty before, frame shift)
+        self._searches: dict[str, tuple[float, float]] = {}
         self._lateness_ms: collections.deque[float] = collections.deque(maxlen=500)
         self._status: Status | None = None
         self._tracking = False
@@ -256,19 +274,25 @@ class Rotator:
 
     # ======================================================================== startup
     def _restore(self) -> None:
-        """Bring back position, wrap and calibration from the state file."""
+        """Bring back position, wrap and calibration from the state file, and write the
+        record of what was concluded before anything can move (a crash right after
+        start-up must find it, not an older or missing file)."""
         payload: dict[str, Any] | None = None
-        damaged = False
+        # with no store (tests, tools) the antenna is where the simulator starts it
+        fresh = self.store is None or self.store.fresh()
         if self.store is not None:
             try:
                 payload = self.store.load()
             except StateFileError as exc:
-                damaged = True
                 self._event(f"state file damaged, not trusted: {exc}")
                 self.store.quarantine()
             if payload is not None and payload.get("profile") != self.caps.name:
                 self._event(f"state file belongs to profile {payload.get('profile')!r}, ignored")
                 payload = None
+            elif payload is None and not fresh:
+                self._event("no usable state file in a state directory used before")
+        # a used state directory without a usable record: where the antenna is, is unknown
+        lost = payload is None and not fresh
         now = self.clock.now_s()
         self.hw.poll(now)
         saved_axes = (payload or {}).get("axes", {})
@@ -277,6 +301,7 @@ class Rotator:
         home = {"az": self.caps.az.park_deg, "el": self.caps.el.park_deg}
         for name, ax in self.axes.items():
             saved = saved_axes.get(name)
+            saved = saved if isinstance(saved, dict) else None
             if saved and saved.get("calibration"):
                 try:
                     ax.hw.sensor.load_calibration(saved["calibration"])
@@ -286,55 +311,65 @@ class Rotator:
                 coast = tuple(float(c) for c in saved["coast_deg"])
                 if len(coast) == len(ax.law.coast_deg):
                     ax.law = replace(ax.law, coast_deg=coast)
+            win = precord.saved_window(saved) if saved else None
             anchor = float(saved["mech_deg"]) if saved else home[name]
+            if win is not None and not precord.known_window(ax, win):
+                anchor = (win[0] + win[1]) / 2.0
             if not ax.caps.sensor.absolute:
-                self._restore_incremental(ax, saved, damaged, anchor)
+                self._restore_incremental(ax, saved, win, lost, anchor)
             ax.meas_deg = anchor
             if ax.read(0.0) is None:
                 self._event(f"{name}: sensor unreadable at start-up ({ax.sensor_error})")
             elif ax.modulo is not None:
-                self._check_wrap_ambiguity(ax, saved, damaged)
+                self._check_wrap_ambiguity(ax, saved, win, lost)
             if saved and saved.get("uncertainty_deg"):
-                ax.uncertainty_deg = max(ax.uncertainty_deg, float(saved["uncertainty_deg"]))
+                ax.uncertainty_deg += float(saved["uncertainty_deg"])
             ax.law = replace(ax.law, ref_deg=ax.meas_deg, last_meas_deg=ax.meas_deg)
-            self._saved_pos[name] = ax.meas_deg
         if self.position_uncertain():
             self._event("position uncertain: automatic motion refused until re-referenced "
                         "(set position)")
+        if self._writer is not None and self.store is not None:
+            if self._submit_record(now, wait=True):
+                self.store.mark_initialised()
 
-    def _restore_incremental(self, ax: _Axis, saved: dict | None, damaged: bool, anchor: float) -> None:
-        res = ax.caps.sensor.resolution_deg
+    def _restore_incremental(self, ax: _Axis, saved: dict | None, win: tuple[float, float] | None,
+                             lost: bool, anchor: float) -> None:
         if saved is None:
             ax.set_reference(anchor, at_edge=True)  # resting at its mechanical home
-            if damaged:
+            if lost:
                 ax.uncertainty_deg = ax.caps.span_deg
             else:
-                self._event(f"{ax.name}: no saved position; assuming park {anchor:.1f} deg "
-                            "(re-reference if the antenna is elsewhere)")
+                self._event(f"{ax.name}: first start in this state directory; assuming park "
+                            f"{anchor:.1f} deg (set position if the antenna is elsewhere)")
             return
-        rate = float(saved.get("rate_deg_per_s", 0.0))
-        if saved.get("moving"):
-            # The controller died mid-move: the axis kept going until the last save
-            # interval ended and then coasted with the power off. Report the middle of
-            # the possible range and say how wide it is.
-            travel = abs(rate) * 2 * self.settings.save_interval_s + \
-                stopping_distance_deg(rate, ax.tuning.accel_deg_per_s2)
-            if travel > res:
-                anchor += math.copysign(travel / 2, rate)
-                ax.uncertainty_deg = travel / 2 + res
+        if win is None:
+            # a record without a window (an older urc): only a standing one is trusted
+            if saved.get("moving"):
+                ax.uncertainty_deg = ax.caps.span_deg
+        elif not precord.known_window(ax, win):
+            # it died on the move: the axis is somewhere in the window the record promised
+            ax.uncertainty_deg = (win[1] - win[0]) / 2.0 + precord.estimate_slack_deg(ax)
         ax.set_reference(anchor)
 
-    def _check_wrap_ambiguity(self, ax: _Axis, saved: dict | None, damaged: bool) -> None:
+    def _check_wrap_ambiguity(self, ax: _Axis, saved: dict | None, win: tuple[float, float] | None,
+                              lost: bool) -> None:
         lo, hi = ax.limits
         alternatives = [ax.meas_deg + k * ax.modulo for k in (-1, 1)
                         if lo <= ax.meas_deg + k * ax.modulo <= hi]
-        if alternatives and saved is None:
-            if damaged:
+        if not alternatives:
+            return
+        if saved is None:
+            if lost:
                 ax.uncertainty_deg = ax.modulo
             else:
-                self._event(f"{ax.name}: no saved wrap state; assuming {ax.meas_deg:.1f} deg, "
-                            f"nearest park (also possible: "
+                self._event(f"{ax.name}: first start in this state directory; assuming "
+                            f"{ax.meas_deg:.1f} deg, nearest park (also possible: "
                             f"{', '.join(f'{a:.1f}' for a in alternatives)})")
+        elif win is not None and any(win[0] - precord.estimate_slack_deg(ax) <= a
+                                     <= win[1] + precord.estimate_slack_deg(ax) for a in alternatives):
+            ax.uncertainty_deg = ax.modulo  # the record cannot tell which turn
+        elif win is None and saved.get("moving"):
+            ax.uncertainty_deg = ax.modulo
 
     # ====================================================================== the tick
     def tick(self) -> Status:
@@ -364,9 +399,9 @@ class Rotator:
             sp = None if self._faults else ax.sp
             ax.step(sp, now, dt)
         self._guard()
+        self._persist(now)
         for ax in self.axes.values():
             self._apply(ax)
-        self._maybe_save(now)
         self._status = self._build_status(now)
         return self._status
 
@@ -726,22 +761,62 @@ class Rotator:
             for name, v in values.items():
                 if v is None:
                     continue
-                ax = self.axes[name]
                 off = g.az_offset_deg if name == "az" else g.el_offset_deg
-                mech = v - off
-                ax.set_reference(mech)
-                ax.meas_deg = mech
-                ax.rate_deg_per_s = ax._filter_rate = 0.0
-                ax.history.clear()
-                ax.uncertainty_deg = 0.0
-                ax.sp = None
-                ax.law = replace(ax.law, ref_deg=mech, ref_rate_deg_per_s=0.0, mode="idle")
-                ax.mon = MonitorState()
+                self._searches.pop(name, None)  # a person's word ends a search too
+                self._rereference(self.axes[name], v - off)
                 self._event(f"{name} re-referenced to {v:.2f} deg")
-            self._route = []
-            self._parked = self._parking = False
-            self._last_save_t_s = self._last_save_wall_s = -math.inf
         self._submit("set_position", apply)
+
+    def _rereference(self, ax: _Axis, mech_deg: float, uncertainty_deg: float = 0.0) -> None:
+        ax.set_reference(mech_deg)
+        ax.meas_deg = mech_deg
+        ax.rate_deg_per_s = ax._filter_rate = 0.0
+        ax.history.clear()
+        ax.uncertainty_deg = uncertainty_deg
+        ax.sp = None
+        ax.law = replace(ax.law, ref_deg=mech_deg, ref_rate_deg_per_s=0.0, mode="idle")
+        ax.mon = MonitorState()
+        self._route = []
+        self._parked = self._parking = False  # a re-reference ends a park under way
+        self._record_dirty = True
+
+    def search_frame(self, axis: str, mech_deg: float) -> None:
+        """Reference search (homing): re-reference ``axis`` to ``mech_deg`` in a temporary
+        frame in which a jog can reach the switch. Until :meth:`end_search` the axis
+        counts as uncertain over its whole range, and state records keep the true frame:
+        a search interrupted by a crash restarts uncertain, never in the search frame."""
+        self._check_axis(axis)
+        if not math.isfinite(mech_deg):
+            raise CommandRejected(f"{axis} {mech_deg!r} is not a finite number")
+
+        def apply() -> None:
+            ax = self.axes[axis]
+            prior, shift = self._searches.get(axis, (ax.uncertainty_deg, 0.0))
+            self._searches[axis] = (prior, shift + mech_deg - ax.meas_deg)
+            self._rereference(ax, mech_deg, uncertainty_deg=max(prior, ax.caps.span_deg))
+        self._submit("search_frame", apply)
+
+    def end_search(self, axis: str, mech_deg: float | None = None) -> None:
+        """End a reference search: the reference found (``mech_deg``, the true mechanical
+        angle here), or None to go back to the true frame with the uncertainty there was."""
+        self._check_axis(axis)
+
+        def apply() -> None:
+            if axis not in self._searches:
+                return
+            ax = self.axes[axis]
+            prior, shift = self._searches.pop(axis)
+            if mech_deg is None:
+                self._rereference(ax, ax.meas_deg - shift, uncertainty_deg=prior)
+            else:
+                self._rereference(ax, mech_deg)
+                self._event(f"{axis} re-referenced to {mech_deg:.2f} deg (mechanical) by its search")
+        self._submit("end_search", apply)
+
+    @staticmethod
+    def _check_axis(axis: str) -> None:
+        if axis not in AXES:
+            raise CommandRejected(f"axis must be az or el, got {axis!r}")
 
     def set_overshoot(self, axis: str, overshoot_deg: float) -> None:
         """Set the coast estimate of a relay axis (Tartu OVRA/OVRE); it keeps learning."""
@@ -755,7 +830,7 @@ class Rotator:
         def apply() -> None:
             # the coast scales with the speed of each drive level
             ax.law = replace(ax.law, coast_deg=tuple(overshoot_deg * lv / max(levels) for lv in levels))
-            self._last_save_t_s = self._last_save_wall_s = -math.inf
+            self._record_dirty = True
         self._submit("set_overshoot", apply)
 
     def overshoot_deg(self, axis: str) -> float:
@@ -850,46 +925,123 @@ class Rotator:
         return any(ax.law.mode in ("driving", "releasing") or abs(ax.rate_deg_per_s) > ax.still_rate_deg_per_s
                    for ax in self.axes.values())
 
-    def _maybe_save(self, now_s: float) -> None:
-        if (self.store is None or now_s - self._last_save_t_s < self.settings.save_interval_s
-                or time.monotonic() - self._last_save_wall_s < self.settings.save_wall_spacing_s):
+    def _persist(self, now_s: float) -> None:
+        """Keep the state record one step ahead of the axes (see position_record): hand
+        the writer a new record when one is due, and give no drive to an axis that could
+        leave the window of the newest record on disk within this tick."""
+        if self._writer is None:
             return
-        moving = self._moving()
-        # a change worth a write: more than a flickering count or sensor noise
-        changed = any(abs(ax.meas_deg - self._saved_pos.get(n, math.inf)) >=
-                      1.5 * ax.caps.sensor.resolution_deg + 3 * ax.caps.sensor.noise_deg
-                      for n, ax in self.axes.items())
-        if not (moving or changed or self._last_save_t_s == -math.inf):
-            return
-        self.save_now(moving)
-        self._last_save_t_s = now_s
-        self._last_save_wall_s = time.monotonic()
+        self._take_report(now_s)
+        if self._record_due(now_s):
+            self._submit_record(now_s)
+            self._take_report(now_s)
+        held = []
+        dt_s = 1.0 / self.caps.loop_hz
+        for name, ax in self.axes.items():
+            if ax.out.duty == 0.0 or not precord.needs_record(ax):
+                continue
+            p, v = ax.meas_deg, ax.rate_deg_per_s
+            c = precord.coast_deg(ax, abs(v) + ax.tuning.accel_deg_per_s2 * dt_s)
+            step = (min(p, p + v * dt_s) - c, max(p, p + v * dt_s) + c)
+            if not precord.covers(self._durable_windows.get(name), step):
+                ax.out = replace(ax.out, duty=0.0)
+                held.append(name)
+        if held and self._save_error:
+            self._latch(Fault("state", None, f"state not saved ({self._save_error}): motion stopped "
+                              "so the saved position stays true; retrying", now_s))
 
-    def save_now(self, moving: bool | None = None) -> None:
-        if self.store is None:
-            return
-        moving = self._moving() if moving is None else moving
-        axes = {}
+    def _take_report(self, now_s: float) -> None:
+        assert self._writer is not None
+        rep = self._writer.report()
+        if rep.durable is not self._durable:
+            self._durable = rep.durable
+            for payload, windows in self._recent:
+                if payload is rep.durable:
+                    self._durable_windows = windows
+        if rep.error and not self._save_error:
+            self._event(f"state not saved: {rep.error} (retrying)")
+        elif self._save_error and not rep.error:
+            self._event("state saved again")
+            if any(f.kind == "state" for f in self._faults):
+                # the cause is gone and the record on disk is true again
+                self._faults = [f for f in self._faults if f.kind != "state"]
+                self._event("state fault cleared: the position record is written again")
+        self._save_error = rep.error
+
+    def _record_due(self, now_s: float) -> bool:
+        rec = self._record
+        if rec is None or self._record_dirty:
+            return True
+        horizon_s = self.settings.save_interval_s
+        windows = self._recent[-1][1]
+        for name, ax in self.axes.items():
+            saved = rec["axes"][name]
+            if saved["uncertainty_deg"] != ax.uncertainty_deg:
+                return True
+            band = precord.hold_band_deg(ax)
+            shift = self._searches.get(name, (0.0, 0.0))[1]
+            if precord.standing(ax, self._tracking):
+                # at rest: the record should say so (a restart then knows the position)
+                if abs(saved["mech_deg"] + shift - ax.meas_deg) > band or (
+                        precord.needs_record(ax) and not precord.known_window(ax, windows[name])):
+                    return True
+            elif precord.needs_record(ax) and not precord.covers(
+                    windows[name], precord.reach(ax, now_s, horizon_s / 2.0, with_target=True)):
+                return True
+        return False
+
+    def _submit_record(self, now_s: float, wait: bool = False) -> bool:
+        """Hand the writer a record of the present state (``wait``: write it now)."""
+        assert self._writer is not None
+        axes: dict[str, Any] = {}
+        windows: dict[str, tuple[float, float]] = {}
         for name, ax in self.axes.items():
             try:
                 cal = ax.hw.sensor.calibration()
             except Exception:
                 cal = {}
-            axes[name] = {"mech_deg": ax.meas_deg, "rate_deg_per_s": ax.rate_deg_per_s,
-                          "moving": moving, "calibration": cal, "coast_deg": list(ax.law.coast_deg),
+            is_standing = precord.standing(ax, self._tracking)
+            windows[name] = precord.window(ax, now_s, self.settings.save_interval_s, is_standing)
+            # a reference search works in a temporary frame; the record keeps the true one
+            shift = self._searches.get(name, (0.0, 0.0))[1]
+            axes[name] = {"mech_deg": ax.meas_deg - shift, "rate_deg_per_s": ax.rate_deg_per_s,
+                          "moving": not is_standing,
+                          "window_deg": [windows[name][0] - shift, windows[name][1] - shift],
+                          "calibration": cal, "coast_deg": list(ax.law.coast_deg),
                           "uncertainty_deg": ax.uncertainty_deg}
-            self._saved_pos[name] = ax.meas_deg
-        try:
-            self.store.save({"profile": self.caps.name, "axes": axes})
-        except OSError as exc:
-            self._event(f"could not save state: {exc}")
+            if name in self._searches:
+                axes[name]["procedure"] = "reference search"
+        payload = {"profile": self.caps.name, "axes": axes}
+        self._record, self._record_dirty = payload, False
+        self._recent.append((payload, windows))
+        if wait:
+            ok = self._writer.write_now(payload)
+        else:
+            self._writer.submit(payload)
+            ok = True
+        self._take_report(now_s)
+        return ok
 
-    def shutdown(self) -> None:
-        """Orderly stop: motors off, brakes on, state saved as standing still."""
+    def save_now(self, timeout_s: float = 5.0) -> bool:
+        """Write a record of the present state and wait for it; True once it is on disk."""
+        if self._writer is None:
+            return True
+        self._submit_record(self.clock.now_s())
+        ok = self._writer.flush(timeout_s)
+        self._take_report(self.clock.now_s())
+        return ok and self._durable is self._record
+
+    def shutdown(self) -> bool:
+        """Orderly stop: motors off, brakes on, state saved (still on the move, it says
+        so: a restart is then uncertain by how far the axis can coast). True if saved."""
         for ax in self.axes.values():
             ax.sp, ax.out = None, law.OFF
             self._apply(ax)
-        self.save_now(moving=False)
+        if self._writer is None:
+            return True
+        ok = self.save_now()
+        self._writer.close()
+        return ok
 
     # ==================================================================== status
     def status(self) -> Status:
@@ -918,4 +1070,5 @@ class Rotator:
             faults=tuple(self._faults), events=tuple(self._events), tick_late_p99_ms=p99,
             sim_truth=self.hw.sim_truth(),
             limits={"az": az.limits, "el": el.limits},
-            offsets={"az": self.geometry.az_offset_deg, "el": self.geometry.el_offset_deg})
+            offsets={"az": self.geometry.az_offset_deg, "el": self.geometry.el_offset_deg},
+            state_error=self._save_error)

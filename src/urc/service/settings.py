@@ -42,11 +42,8 @@ class RotatorSettings:
     el_tuning: AxisTuning | None = None
     az_faults: FaultLimits | None = None
     el_faults: FaultLimits | None = None
-    save_interval_s: float = 0.02
-    #: also space state writes this far apart in wall time: only for benchmarks on a
-    #: fast virtual clock, where the disk would otherwise be the bottleneck (a restart
-    #: then finds a record that is older in virtual time than the interval promises).
-    save_wall_spacing_s: float = 0.0
+    #: the time horizon of a state record while moving (see position_record)
+    save_interval_s: float = 1.0
     watchdog_s: float = 0.5
 
     @classmethod

@@ -47,6 +47,9 @@ class Status:
     limits: dict[str, tuple[float, float]] = field(default_factory=dict)
     #: mount offsets (pointing = mechanical + offset), degrees
     offsets: dict[str, float] = field(default_factory=dict)
+    #: why the state record cannot be written ("" while saving works); motion goes on
+    #: only as far as the last record on disk allows, then a "state" fault stops it
+    state_error: str = ""
 
     def as_dict(self) -> dict[str, Any]:
         d = asdict(self)

@@ -34,7 +34,9 @@ JOG_LEASE_S = 0.6
 #: the tracker's status (ground track, plan) is recomputed at most this often
 TRACKING_REFRESH_S = 1.0
 #: seldom-changing parts sent apart from the frames: message type -> (section, keys)
-PARTS = {"plan": ("tracking", ("plan", "ground_track")), "events": (None, ("events",))}
+#: (the plan changes with the pass; the ground track every 10 s as its window moves)
+PARTS = {"plan": ("tracking", ("plan",)), "ground": ("tracking", ("ground_track",)),
+         "events": (None, ("events",))}
 
 
 @dataclass
@@ -56,6 +58,8 @@ class Hub:
         self.frame_text = ""
         #: message type -> (revision, value, serialised message); see PARTS
         self.parts: dict[str, tuple[int, Any, str]] = {}
+        self.info_rev = 0
+        self._settings_seen: Any = None
         self.clients = 0
         self._waiters: set[asyncio.Future] = set()
         self._task: asyncio.Task | None = None
@@ -116,9 +120,19 @@ class Hub:
         self.history.add(now, status, error)
         self.seq += 1
         revs = self._split_parts(status)
+        revs["info"] = self._info_rev()
         return json.dumps({"type": "status", "seq": self.seq, "t_wall_s": now, "status": status,
                            "error_deg": error, "procedure": self.procedure_dict(),
                            "jogs": sorted(self.jogs), "revs": revs}, separators=(",", ":"))
+
+    def _info_rev(self) -> int:
+        """Counts changes of the rotator's settings (limits, keep-out zones...: what
+        /api/info describes): the page re-reads /api/info when this number moves."""
+        settings = getattr(self.rotator, "settings", None)
+        if settings is not self._settings_seen:
+            self._settings_seen = settings
+            self.info_rev += 1
+        return self.info_rev
 
     def _split_parts(self, status: dict) -> dict[str, int]:
         """Move the seldom-changing parts out of ``status`` into ``self.parts`` (a new

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 from typing import Literal
 
@@ -67,13 +68,20 @@ def router(ctx: WebContext) -> APIRouter:
                     "max_rate_deg_per_s": a.max_rate_deg_per_s, "min_rate_deg_per_s": a.min_rate_deg_per_s,
                     "sensor": a.sensor.kind, "resolution_deg": a.sensor.resolution_deg,
                     "limit_switches": a.limit_switches}
+        st = ctx.cfg.station
+        station = ({"lat_deg": st.lat_deg, "lon_deg": st.lon_deg, "alt_m": st.alt_m, "name": st.name}
+                   if st.lat_deg is not None and st.lon_deg is not None else None)
         return {"version": __version__, "profile": caps.name, "description": caps.description,
                 "backend": rot.hw.backend, "simulator": "world" in rot.hw.extra,
                 "control_requires_token": ctx.cfg.api.control_requires_token,
                 "token_configured": bool(ctx.cfg.api.token),
                 "can_flip": caps.can_flip, "caps": {"az": axis("az"), "el": axis("el")},
                 "limits": status.limits, "offsets": status.offsets,
-                "keepout": [z.model_dump() | {"name": z.label(i)} for i, z in enumerate(ctx.cfg.keepout)],
+                # what the rotator enforces now (the settings page may have changed it live)
+                "keepout": [dataclasses.asdict(z) for z in rot.settings.zones],
+                "restart_pending": ctx.settings.restart_pending(ctx.cfg),
+                "station": station,
+                "tracking_min_el_deg": ctx.cfg.tracking.min_el_deg,
                 "frame_hz": round(1.0 / ctx.hub.period_s, 3), "jog_lease_s": JOG_LEASE_S,
                 "tracking_available": ctx.tracker is not None,
                 "profiles": {n: c.description for n, c in PROFILES.items()},

@@ -87,7 +87,9 @@ def router(ctx: WebContext) -> APIRouter:
         except OSError as exc:
             return JSONResponse({"ok": False, "errors": [{"key": "", "message": f"could not save: {exc}"}]},
                                 status_code=500)
-        restart = [k for k in changed if k in RESTART_SECTIONS]
+        # what waits for a restart: compared with what urc run started with, not with the
+        # last save (a port changed in one save still waits after the next)
+        restart = store.restart_pending(ctx.cfg)
         live = [k for k in changed if k not in RESTART_SECTIONS]
         applied, note = (_apply_live(ctx, cfg) if live else (True, "nothing to apply"))
         msgs = [f"saved to {path}"]

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import copy
 import os
+import stat
 from pathlib import Path
 from typing import Any
 
@@ -108,26 +109,63 @@ class SettingsStore:
                 out += config_errors(exc)
         return out
 
-    def changed_sections(self, new: Config) -> list[str]:
-        old_d, new_d = self.cfg.to_dict(), new.to_dict()
+    def restart_pending(self, running: Config) -> list[str]:
+        """Sections saved but not in effect until ``urc run`` restarts (``running``: the
+        configuration it was started with)."""
+        return [k for k in self.changed_sections(running, against=self.cfg) if k in RESTART_SECTIONS]
+
+    def changed_sections(self, new: Config, against: Config | None = None) -> list[str]:
+        old_d, new_d = (against or self.cfg).to_dict(), new.to_dict()
         keys = sorted(set(old_d) | set(new_d))
         return [k for k in keys if old_d.get(k) != new_d.get(k)]
 
     def save(self, new: Config) -> Path:
-        """Write atomically; the previous file is kept as ``<name>.bak``."""
+        """Replace the file atomically: a crash leaves the old file or the new one, never
+        none. The new file keeps the old one's permissions (0600 stays 0600: it holds the
+        token); a new file is created 0600. The first save keeps the hand-written
+        original as ``<name>.bak``; later saves leave that copy alone, since the file they
+        replace is only our own earlier output."""
         target = self.target_path
         if target is None:
             raise OSError("no configuration file and no state directory to save to")
         target.parent.mkdir(parents=True, exist_ok=True)
-        tmp = target.with_name(target.name + ".tmp")
-        text = ("# written by the urc web settings page (comments of an earlier file are in "
-                f"{target.name}.bak)\n" + new.to_toml())
-        with open(tmp, "w", encoding="utf-8") as f:
-            f.write(text)
-            f.flush()
-            os.fsync(f.fileno())
-        if target.exists():
-            os.replace(target, target.with_name(target.name + ".bak"))
-        os.replace(tmp, target)
+        try:
+            old_mode = stat.S_IMODE(target.stat().st_mode)
+        except FileNotFoundError:
+            old_mode = None
+        text = (f"{WRITTEN_BY} (comments of an earlier file are in {target.name}.bak)\n" + new.to_toml())
+        if old_mode is not None and not _written_by_us(target):
+            _write_atomic(target.with_name(target.name + ".bak"), target.read_bytes(), old_mode)
+        _write_atomic(target, text.encode("utf-8"), 0o600 if old_mode is None else old_mode)
         self.cfg = new
         return target
+
+
+WRITTEN_BY = "# written by the urc web settings page"
+
+
+def _written_by_us(path: Path) -> bool:
+    with open(path, "rb") as f:
+        return f.read(len(WRITTEN_BY)) == WRITTEN_BY.encode()
+
+
+def _write_atomic(path: Path, data: bytes, mode: int) -> None:
+    """Temp file with ``mode`` from the start (the token is never readable by others),
+    fsync, rename over ``path``, fsync the directory."""
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, mode)
+    try:
+        with os.fdopen(fd, "wb") as f:
+            os.fchmod(f.fileno(), mode)  # the umask may have narrowed O_CREAT's mode
+            f.write(data)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    dfd = os.open(path.parent, os.O_RDONLY)
+    try:
+        os.fsync(dfd)
+    finally:
+        os.close(dfd)

@@ -23,6 +23,7 @@ Rules for slow and quirky controllers:
 
 from __future__ import annotations
 
+import collections
 import logging
 import math
 import threading
@@ -36,13 +37,16 @@ log = logging.getLogger("urc.bridge")
 AXES = ("az", "el")
 #: a fast link (a pty, a LAN) is polled no faster than a control tick can use it
 MIN_POLL_INTERVAL_S = 0.02
+#: targets go out at most this often (a tracker refreshes its setpoint every 0.2 s; a
+#: controller re-plans at every new target)
+MIN_SET_INTERVAL_S = 0.2
 #: smoothing of the measured round trip (exponential moving average weight)
 LATENCY_GAIN = 0.2
 #: between reports, the position moves on at the last reported speed for at most this
 #: many poll periods (then it waits for the next report)
 EXTRAPOLATE_PERIODS = 1.0
-#: reports further apart than this are not used for a speed
-EXTRAPOLATE_MAX_GAP_S = 3.0
+#: the speed to extrapolate with is measured over the reports of this long
+SPEED_WINDOW_S = 1.0
 
 
 @dataclass(frozen=True)
@@ -84,6 +88,8 @@ class BridgeClient:
         self._rtt_s: float | None = None
         self._interval_s: float | None = None
         self._last_gap_s = 0.0
+        self._last_set_s = -math.inf
+        self._recent: collections.deque[tuple[float, tuple[float, float]]] = collections.deque()
         self.identity: str | None = None
         self.counts = {"exchanges": 0, "timeouts": 0, "garbage": 0, "sets": 0, "stops": 0, "reconnects": 0}
 
@@ -128,12 +134,16 @@ class BridgeClient:
         return max(self._interval_s or 0.0, self.options.poll_interval_s)
 
     def _speed(self, i: int) -> float:
-        """The axis speed between the last two reports (0 if they are far apart): a
-        slow link's reports come seconds apart, and a reading that stood still and then
-        jumped would look like a stop followed by an impossible speed."""
-        if self._prev_pos is None or self._pos_t_s - self._prev_t_s > EXTRAPOLATE_MAX_GAP_S:
+        """The axis speed over the recent reports, or 0 unless it moved at least two
+        report steps in them: a report flickering by one step (a whole degree on a
+        GS-232) is no motion to extrapolate."""
+        if len(self._recent) < 2:
             return 0.0
-        return (self._pos[i] - self._prev_pos[i]) / max(self._pos_t_s - self._prev_t_s, 1e-3)
+        (t0, p0), (t1, p1) = self._recent[0], self._recent[-1]
+        moved = p1[i] - p0[i]
+        if t1 - t0 <= 0 or abs(moved) < 2.0 * self.dialect.report_resolution_deg:
+            return 0.0
+        return moved / (t1 - t0)
 
     @property
     def stale_after_s(self) -> float:
@@ -159,6 +169,7 @@ class BridgeClient:
         with self._lock:
             self._link_up, self._trusted, self._failures = True, False, 0
             self._pos, self._prev_pos = None, None
+            self._recent.clear()
             self._error = "no position report yet"
             self._next_poll_s = -math.inf
             # the controller may have been told something urc no longer wants
@@ -207,12 +218,14 @@ class BridgeClient:
                 self.counts["stops"] += 1
                 return d.stop(), 0.0
             pose = self._pose_to_send()
-            if pose is not None and self._trusted and not self._after_command:
+            if pose is not None and self._trusted and not self._after_command and \
+                    now_s >= self._last_set_s + MIN_SET_INTERVAL_S:
                 if self.options.stop_before_set and self._moving() and not self._stopped:
                     self._stopped, self._after_command = True, True
                     self.counts["stops"] += 1
                     return d.stop(), 0.0
                 self._sent_pose, self._stopped, self._after_command = pose, False, True
+                self._last_set_s = now_s
                 self.counts["sets"] += 1
                 return d.goto(*pose), 0.0
             if now_s >= self._next_poll_s or self._after_command:
@@ -285,6 +298,9 @@ class BridgeClient:
             self._interval_s = now_s - self._pos_t_s if self._interval_s is None else \
                 0.8 * self._interval_s + 0.2 * (now_s - self._pos_t_s)
         self._pos, self._pos_t_s = (az, el), now_s
+        self._recent.append((now_s, (az, el)))
+        while len(self._recent) > 2 and now_s - self._recent[0][0] > SPEED_WINDOW_S:
+            self._recent.popleft()
         self._trusted = True
         self._error = ""
 

@@ -147,11 +147,13 @@ class BridgedRig:
     def period_s(self) -> float:
         return 1.0 / self.downstream.caps.loop_hz
 
-    def tick(self):
+    def tick(self, downstream: bool = True):
+        """One period; ``downstream=False``: the link is driven by hand (posting to
+        ``client``), the bridged rotator stays out of it."""
         self.clock.advance(self.period_s)
         self.upstream.tick()
         self.link.step(self.clock.now_s())
-        return self.downstream.tick()
+        return self.downstream.tick() if downstream else self.downstream.status()
 
     def run(self, duration_s: float, until=None):
         status = self.downstream.status()

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Literal
+from typing import TYPE_CHECKING, Callable, Literal
 
 from ...errors import HardwareError
 from .physics import AxisPhysics, quantise_relay
@@ -18,16 +18,23 @@ class SimMotor:
     Relay drives switch to the nearest of ``AxisCaps.drive_levels`` (levels below 1 are
     made by pulsing the relay); the physics does the quantising so faults such as a
     welded relay (runaway) go through the same path.
+
+    A new drive first brings the world up to the present (``catch_up``): if the
+    controller froze, the iron kept turning all that time with the drive it last had,
+    and a command given on waking acts only from then on.
     """
 
-    def __init__(self, axis: AxisPhysics, name: str):
+    def __init__(self, axis: AxisPhysics, name: str, catch_up: Callable[[], None] | None = None):
         self._axis = axis
         self.name = name
+        self._catch_up = catch_up
 
     def set_drive(self, duty: float) -> None:
         duty = float(duty)
         if not math.isfinite(duty):
             raise HardwareError(f"{self.name} motor: drive must be finite, got {duty!r}")
+        if self._catch_up is not None:
+            self._catch_up()
         self._axis.set_command(duty)
 
     def read_current_a(self) -> float:

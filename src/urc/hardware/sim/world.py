@@ -80,7 +80,7 @@ class SimWorld:
                 name, ax_caps.sensor, phys, p.sensor,
                 random.Random(f"urc-sim:{self.seed}:{name}:sensor"),
                 noise=sensor_noise, referenced=saved is None)
-            self.motors[name] = SimMotor(phys, name)
+            self.motors[name] = SimMotor(phys, name, catch_up=self.catch_up)
             self.brakes[name] = SimBrake(self, name) if p.has_brake else None
             lo = hi = None
             if ax_caps.limit_switches and p.switch_min_deg is not None:
@@ -132,6 +132,11 @@ class SimWorld:
                 self._last_written = key
                 self._last_write_s = now_s
                 self._last_write_wall_s = time.monotonic()
+
+    def catch_up(self) -> None:
+        """Integrate up to the clock's present (before a command changes the drive)."""
+        if self._origin_s is not None:
+            self.advance_to(self.clock.now_s())
 
     def command_brake(self, name: str, released: bool) -> None:
         """Brake coil on (release) / off (engage); the brake moves after its delay."""

@@ -34,10 +34,44 @@ export async function loadCalibration() {
   options($("home-axis"), withProc("homing"));
   showProcedure(r.data.procedure);
   const st = await get("/api/status", { quiet: true });
-  if (st.ok) {
-    if ($("zero-az").value === "") $("zero-az").value = (st.data.az.pos_deg + (st.data.offsets.az || 0)).toFixed(2);
-    if ($("zero-el").value === "") $("zero-el").value = (st.data.el.pos_deg + (st.data.offsets.el || 0)).toFixed(2);
+  if (st.ok) followPosition(st.data);
+}
+
+// where the antenna reads now (mechanical + offset: beyond 0..360 names the wrap side)
+function reading(st) {
+  return { az: st.az.pos_deg + (st.offsets.az || 0), el: st.el.pos_deg + (st.offsets.el || 0) };
+}
+
+let pendingZero = null;
+
+function zeroQuestion(now) {
+  const p = pendingZero;
+  const parts = [];
+  if (p.az_deg !== null) parts.push(`az ${fmt(p.az_deg, 2)}°`);
+  if (p.el_deg !== null) parts.push(`el ${fmt(p.el_deg, 2)}°`);
+  setText($("zero-question"), `The antenna reads az ${fmt(now.az, 2)}°, el ${fmt(now.el, 2)}° now. ` +
+    `Declare that it points at ${parts.join(", ")}? Every later move is measured from this.`);
+}
+
+let lastReading = null;
+
+// every live frame while the calibration page is shown: the reading, and the fields
+// follow it until the user edits them (a stale field must not re-reference the antenna)
+export function followPosition(st) {
+  const now = reading(st);
+  lastReading = now;
+  setText($("zero-now"), `az ${fmt(now.az, 2)}°, el ${fmt(now.el, 2)}°`);
+  for (const [id, v] of [["zero-az", now.az], ["zero-el", now.el]]) {
+    const field = $(id);
+    if (!field.dataset.edited && document.activeElement !== field) field.value = v.toFixed(2);
   }
+  if (pendingZero) zeroQuestion(now);
+}
+
+function endZero() {
+  pendingZero = null;
+  $("zero-confirm").hidden = true;
+  for (const id of ["zero-az", "zero-el"]) delete $(id).dataset.edited;
 }
 
 export function showProcedure(proc) {
@@ -60,11 +94,20 @@ async function readPot(which) {
 }
 
 export function setupCalibration() {
-  $("zero-form").addEventListener("submit", async (ev) => {
+  for (const id of ["zero-az", "zero-el"]) $(id).addEventListener("input", () => { $(id).dataset.edited = "1"; });
+  $("zero-form").addEventListener("submit", (ev) => {
     ev.preventDefault();
     const body = { az_deg: num("zero-az"), el_deg: num("zero-el") };
     if (body.az_deg === null && body.el_deg === null) { toast("enter az and/or el", true); return; }
-    if ((await post("/api/calibration/zero", body)).ok) { toast("position set"); loadCalibration(); }
+    pendingZero = body;   // asked first: re-referencing cannot be undone by moving
+    zeroQuestion(lastReading || { az: null, el: null });
+    $("zero-confirm").hidden = false;
+  });
+  $("zero-no").addEventListener("click", endZero);
+  $("zero-yes").addEventListener("click", async () => {
+    const body = pendingZero;
+    if (!body) return;
+    if ((await post("/api/calibration/zero", body)).ok) { toast("position set"); endZero(); loadCalibration(); }
   });
   $("pot-read1").addEventListener("click", () => readPot("p1"));
   $("pot-read2").addEventListener("click", () => readPot("p2"));

@@ -47,8 +47,10 @@ export class AzDial {
     this.needle = s("line", { id: "dial-needle", class: "needle", x1: 0, y1: 0, x2: 0, y2: 0 });
     this.dot = s("circle", { id: "dial-antenna", r: 4, class: "antenna-dot" });
     svg.append(this.targetNeedle, this.needle, s("circle", { r: 3, class: "dial-center" }), this.dot);
-    svg.append(s("text", { x: 0, y: 14, text: "mech az" }));
-    this.label = s("text", { id: "dial-value", x: 0, y: 24, text: "" });
+    // the reading in the top-left corner, outside the rings: the needle (which turns
+    // round the centre) never crosses it
+    svg.append(s("text", { x: -108, y: -102, class: "corner", text: "mech az" }));
+    this.label = s("text", { id: "dial-value", x: -108, y: -91, class: "corner value", text: "" });
     svg.append(this.label);
   }
 

@@ -41,3 +41,31 @@ export function splitAntimeridian(points) {
 }
 
 export const EARTH_RADIUS_KM = 6371.0;
+
+// A land ring ([[lon, lat], ...]) ready for a plate carrée map: longitudes made continuous
+// (Natural Earth's rings cross the antimeridian: drawn as they are, they streak across
+// the whole map), a ring round a pole (Antarctica) closed along the map's edge, and the
+// copies shifted by 360° that still show between -180 and 180.
+export function landRingCopies(ring) {
+  const out = [];
+  let prev = null;
+  for (const [lon, lat] of ring) {
+    let x = lon;
+    if (prev !== null) x += 360 * Math.round((prev - x) / 360);
+    out.push([x, lat]);
+    prev = x;
+  }
+  if (out.length < 2) return [];
+  const turn = out[out.length - 1][0] - out[0][0];
+  if (Math.abs(turn) > 180) {  // goes once round the globe: it encloses a pole
+    const poleLat = out.reduce((a, p) => a + p[1], 0) < 0 ? -90 : 90;
+    out.push([out[out.length - 1][0], poleLat], [out[0][0], poleLat]);
+  }
+  const xs = out.map((p) => p[0]);
+  const lo = Math.min(...xs), hi = Math.max(...xs);
+  const copies = [];
+  for (const shift of [-360, 0, 360]) {
+    if (hi + shift > -180 && lo + shift < 180) copies.push(out.map(([x, y]) => [x + shift, y]));
+  }
+  return copies;
+}

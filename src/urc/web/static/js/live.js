@@ -1,15 +1,26 @@
 // The live feed: one WebSocket, reconnecting with backoff; counts messages per second.
+// Offline (closed, or no frame for STALE_MS) the page says so and dims the last values:
+// nothing old is ever shown as live.
 import { $, setText } from "./dom.js";
 
+const STALE_MS = 2500;
+
+function clock(ms) {
+  return new Date(ms).toLocaleTimeString([], { hour: "2-digit", minute: "2-digit", second: "2-digit" });
+}
+
 export class Live {
-  constructor(onFrame) {
+  constructor(onFrame, onOpen = () => {}) {
     this.onFrame = onFrame;
+    this.onOpen = onOpen;
     this.ws = null;
     this.delayMs = 250;
     this.count = 0;
     this.total = 0;
     this.rate = 0;
     this.firstFrameMs = null;
+    this.lastFrameWallMs = null;
+    this.lastFrameMs = 0;
     // parts the server sends only when they change (plan and ground track, event log)
     this.parts = {};
     setInterval(() => this.tick(), 1000);
@@ -19,7 +30,7 @@ export class Live {
     const proto = location.protocol === "https:" ? "wss:" : "ws:";
     const ws = new WebSocket(`${proto}//${location.host}/api/ws`);
     this.ws = ws;
-    ws.onopen = () => { this.delayMs = 250; };
+    ws.onopen = () => { this.delayMs = 250; this.parts = {}; this.onOpen(); };
     ws.onmessage = (ev) => {
       this.count += 1;
       this.total += 1;
@@ -32,6 +43,8 @@ export class Live {
         this.firstFrameMs = performance.now();
         document.body.dataset.firstFrameMs = String(Math.round(this.firstFrameMs));
       }
+      this.lastFrameMs = performance.now();
+      this.lastFrameWallMs = Date.now();
       this.setState(true);
       this.onFrame(frame);
     };
@@ -46,7 +59,7 @@ export class Live {
   // put the seldom-sent parts back where the page reads them (status.events, tracking.plan...)
   merge(st) {
     Object.assign(st, this.parts.events || {});
-    if (st.tracking) Object.assign(st.tracking, this.parts.plan || {});
+    if (st.tracking) Object.assign(st.tracking, this.parts.plan || {}, this.parts.ground || {});
   }
 
   tick() {
@@ -54,6 +67,7 @@ export class Live {
     this.count = 0;
     const el = $("conn");
     el.dataset.rate = String(this.rate);
+    if (el.classList.contains("live") && performance.now() - this.lastFrameMs > STALE_MS) this.setState(false);
     if (el.classList.contains("live")) setText(el, `live ${this.rate}/s`);
   }
 
@@ -62,7 +76,12 @@ export class Live {
     const was = el.classList.contains("live");
     el.classList.toggle("live", live);
     el.classList.toggle("offline", !live);
-    if (!live) setText(el, "offline");
-    else if (!was) setText(el, "live");
+    document.body.classList.toggle("offline", !live);
+    $("stale-banner").hidden = live;
+    if (!live) {
+      setText(el, "offline");
+      setText($("stale-text"), this.lastFrameWallMs === null ? "waiting for the live feed: nothing shown is live."
+        : `no live data since ${clock(this.lastFrameWallMs)}: the values shown are from then, not live.`);
+    } else if (!was) setText(el, "live");
   }
 }

@@ -7,11 +7,12 @@ import { AzDial } from "./dial.js";
 import { GroundMap } from "./map.js";
 import { Charts } from "./charts.js";
 import { setupControls } from "./controls.js";
-import { startPasses } from "./passes.js";
+import { startPasses, setPassOptions } from "./passes.js";
 import { load as loadSettings, setupSettings } from "./settings.js";
-import { loadCalibration, setupCalibration, showProcedure } from "./calibration.js";
+import { loadCalibration, setupCalibration, showProcedure, followPosition } from "./calibration.js";
 
 let info = null;
+let infoRev = null;
 let sky, dial, map, charts;
 let lastEventsKey = "";
 let lastProcState = "";
@@ -26,7 +27,8 @@ function setpointOf(st) {
 
 function timeOf(iso) {
   const d = new Date(iso);
-  return Number.isNaN(d.getTime()) ? String(iso) : d.toLocaleTimeString([], { hour: "2-digit", minute: "2-digit", second: "2-digit" });
+  return Number.isNaN(d.getTime()) ? String(iso)
+    : d.toLocaleTimeString([], { hour: "2-digit", minute: "2-digit", second: "2-digit", timeZoneName: "short" });
 }
 
 function pill(text, cls = "") {
@@ -42,6 +44,12 @@ function onFrame(frame) {
   dial.setRange(st.limits.az[0], st.limits.az[1], st.offsets.az || 0);
   dial.update(st);
   map.update(st.tracking);
+  if (frame.revs && frame.revs.info !== infoRev) {
+    // the settings changed (limits, keep-out zones...): what /api/info says changed too
+    if (infoRev !== null) loadInfo();
+    infoRev = frame.revs.info;
+  }
+  if (!$("view-calibration").hidden) followPosition(st);
   charts.push(frame);
 
   setText($("ro-az"), fmt(st.az_deg, 2));
@@ -108,6 +116,21 @@ function route() {
   if (known === "calibration") loadCalibration();
 }
 
+// the rotator's description: read at start, after every reconnection (urc may have been
+// restarted with other settings) and when the live frames say the settings changed
+async function loadInfo() {
+  const r = await get("/api/info", { quiet: true });
+  if (!r.ok) return;
+  info = r.data;
+  setText($("profile-name"), `${info.profile} · ${info.backend}${info.simulator ? " (simulator)" : ""}`);
+  $("token-form").hidden = !info.control_requires_token;
+  $("sim-card").hidden = !info.simulator;
+  sky.setZones(info.keepout);
+  map.setStation(info.station);
+  setPassOptions(info);
+  document.body.dataset.infoProfile = info.profile;
+}
+
 async function start() {
   // the plots and the live feed first (the first position is drawn as soon as it comes),
   // then what needs the rotator's description
@@ -115,19 +138,13 @@ async function start() {
   dial = new AzDial($("dial"), $("wrap-text"));
   map = new GroundMap($("map"));
   charts = new Charts({ az: $("chart-az"), el: $("chart-el"), err: $("chart-err") }, $("chart-which"), $("chart-label"));
-  new Live(onFrame).connect();
-  const r = await get("/api/info", { quiet: true });
-  info = r.ok ? r.data : null;
-  if (info) {
-    setText($("profile-name"), `${info.profile} · ${info.backend}${info.simulator ? " (simulator)" : ""}`);
-    $("token-form").hidden = !info.control_requires_token;
-    $("sim-card").hidden = !info.simulator;
-  }
+  let opened = false;
+  new Live(onFrame, () => { if (opened) loadInfo(); opened = true; }).connect();
+  await loadInfo();
   $("token-input").value = token();
   $("token-input").addEventListener("change", (ev) => setToken(ev.target.value.trim()));
   $("token-form").addEventListener("submit", (ev) => ev.preventDefault());
 
-  if (info) sky.setZones(info.keepout);
   charts.load("recent");
   setupControls();
   setupSettings();

@@ -1,6 +1,7 @@
 // The map (canvas, plate carrée): Natural Earth land shipped with urc, the satellite's
-// ground track, where it is now and its footprint (the area that sees it above 0°).
-import { smallCircle, splitAntimeridian, EARTH_RADIUS_KM } from "./geo.js";
+// ground track, where it is now and its footprint (the area that sees it above 0°), and
+// the station (from /api/info, drawn whether or not anything is tracked).
+import { smallCircle, splitAntimeridian, landRingCopies, EARTH_RADIUS_KM } from "./geo.js";
 
 export class GroundMap {
   constructor(canvas) {
@@ -13,7 +14,20 @@ export class GroundMap {
       .then((g) => { this.land = g; this.key = null; this.draw(this.last); })
       .catch(() => {});
     this.last = null;
+    this.station = null;
     this.draw(null);
+  }
+
+  setStation(station) {
+    const same = JSON.stringify(station || null) === JSON.stringify(this.station);
+    if (same) return;
+    this.station = station || null;
+    if (this.station) {
+      const [x, y] = this.px(this.station.lat_deg, this.station.lon_deg);
+      this.canvas.dataset.stationX = x.toFixed(1);
+      this.canvas.dataset.stationY = y.toFixed(1);
+    }
+    this.draw(this.last);
   }
 
   px(lat, lon) {
@@ -48,17 +62,20 @@ export class GroundMap {
         for (const poly of polys) {
           ctx.beginPath();
           for (const ring of poly) {
-            ring.forEach(([lon, lat], i) => {
-              const [x, y] = this.px(lat, lon);
-              if (i === 0) ctx.moveTo(x, y); else ctx.lineTo(x, y);
-            });
-            ctx.closePath();
+            for (const copy of landRingCopies(ring)) {
+              copy.forEach(([lon, lat], i) => {
+                const [x, y] = this.px(lat, lon);
+                if (i === 0) ctx.moveTo(x, y); else ctx.lineTo(x, y);
+              });
+              ctx.closePath();
+            }
           }
           ctx.fill("evenodd");
           ctx.stroke();
         }
       }
     }
+    this.drawStation();
     if (!t) return;
     if (t.footprint_km) {
       // footprint_km: ground radius, sub-satellite point to where the satellite sets
@@ -72,11 +89,7 @@ export class GroundMap {
     ctx.strokeStyle = "#4ea3ff";
     ctx.lineWidth = 1.5;
     for (const part of splitAntimeridian(t.ground_track)) this.line(part);
-    if (t.station) {
-      const [x, y] = this.px(t.station.lat_deg, t.station.lon_deg);
-      ctx.fillStyle = "#4eff9a";
-      ctx.fillRect(x - 3, y - 3, 6, 6);
-    }
+    this.drawStation();
     if (t.sat_lat_deg !== undefined && t.sat_lat_deg !== null) {
       const [x, y] = this.px(t.sat_lat_deg, t.sat_lon_deg);
       ctx.fillStyle = "#ffd24a";
@@ -84,6 +97,17 @@ export class GroundMap {
       ctx.arc(x, y, 5, 0, 2 * Math.PI);
       ctx.fill();
     }
+  }
+
+  // the station: a green square with a dark edge, on top of everything
+  drawStation() {
+    if (!this.station) return;
+    const { ctx } = this;
+    const [x, y] = this.px(this.station.lat_deg, this.station.lon_deg);
+    ctx.fillStyle = "#000";
+    ctx.fillRect(x - 5, y - 5, 10, 10);
+    ctx.fillStyle = "#4eff9a";
+    ctx.fillRect(x - 4, y - 4, 8, 8);
   }
 
   line(points, fill = false) {

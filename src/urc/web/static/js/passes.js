@@ -3,6 +3,25 @@ import { $, h, clear, setText, fmt, toast } from "./dom.js";
 import { get, post } from "./api.js";
 
 const REFRESH_MS = 60_000;
+const HOURS = 24;
+// AOS/LOS are where a pass crosses this elevation: the one the tracker flies passes from
+// (tracking.min_el_deg), so the list and a pass's plan give the same AOS
+let minElDeg = null;
+
+export function setPassOptions(info) {
+  const changed = info.tracking_min_el_deg !== minElDeg;
+  minElDeg = info.tracking_min_el_deg ?? 0;
+  setText($("passes-note"), `(next ${HOURS} h, above ${fmt(minElDeg, 0)}°; times in ${zoneName()})`);
+  if (changed && started) loadPasses();
+}
+
+// the browser's time zone, named and as an offset: "Europe/Tallinn, UTC+02:00"
+export function zoneName() {
+  const zone = Intl.DateTimeFormat().resolvedOptions().timeZone || "local time";
+  const off = -new Date().getTimezoneOffset();
+  const hh = String(Math.floor(Math.abs(off) / 60)).padStart(2, "0"), mm = String(Math.abs(off) % 60).padStart(2, "0");
+  return `${zone}, UTC${off < 0 ? "−" : "+"}${hh}:${mm}`;
+}
 
 function hhmm(iso) {
   const d = new Date(iso);
@@ -20,7 +39,7 @@ export function setTrackingAvailable(available) {
 }
 
 export async function loadPasses() {
-  const r = await get("/api/passes?hours=24&min_el=10", { quiet: true });
+  const r = await get(`/api/passes?hours=${HOURS}` + (minElDeg === null ? "" : `&min_el=${minElDeg}`), { quiet: true });
   if (r.status === 404) {
     setTrackingAvailable(false);
     return false;
@@ -51,6 +70,9 @@ export async function loadPasses() {
   return true;
 }
 
+let started = false;
+
 export function startPasses() {
+  started = true;
   loadPasses().then((available) => { if (available) setInterval(loadPasses, REFRESH_MS); });
 }
