@@ -1,0 +1,169 @@
+"""The bridge's client engine and dialects, sans-I/O: what goes on the wire when, and
+what an answer does (nothing, when it is not fully understood)."""
+
+from __future__ import annotations
+
+import pytest
+
+from urc.errors import SensorError
+from urc.hardware.bridge import BRIDGE_PROTOCOLS, BridgeClient, ClientOptions, make_dialect
+from urc.hardware.bridge.dialects import Reply
+from urc.protocols import spid_codec as spid
+
+
+def connected(protocol: str, pos: bytes, options: ClientOptions | None = None, now_s: float = 0.0):
+    """A client whose link is up and whose first poll was answered with ``pos``."""
+    c = BridgeClient(make_dialect(protocol), options)
+    c.link_up(now_s)
+    ex, _ = c.next_exchange(now_s)
+    assert ex.kind == "poll"
+    c.answered(ex, pos, now_s, now_s + 0.01)
+    return c
+
+
+GS232B_POS = b"AZ=100  EL=020\r"
+
+
+def test_reply_framing_one_byte_at_a_time():
+    """Each framing completes exactly at its last byte, never before."""
+    cases = [(Reply(terminator=b"\r"), GS232B_POS),
+             (Reply(terminator=b"\n", lines=2, stop_line=b"RPRT"), b"10.00\n20.00\n"),
+             (Reply(terminator=b"\n", lines=2, stop_line=b"RPRT"), b"RPRT -1\n"),
+             (Reply(length=12), spid.encode_rot2_position(10.0, 20.0, 2, 2))]
+    for reply, data in cases:
+        for i in range(len(data)):
+            assert reply.complete(data[:i]) is None, (data, i)
+        assert reply.complete(data + b"junk") == len(data)
+
+
+@pytest.mark.parametrize("protocol", BRIDGE_PROTOCOLS)
+def test_every_dialect_round_trips_through_urcs_own_codec(protocol):
+    """What the client sends, urc's device session understands (one codec, two ends)."""
+    from urc.protocols.registry import make_session
+
+    class Rot:
+        def __init__(self):
+            self.calls = []
+
+        def status(self):
+            from types import SimpleNamespace
+            ax = SimpleNamespace(pos_deg=0.0, target_deg=None, mode="idle", rate_deg_per_s=0.0, duty=0.0,
+                                 limit_min=False, limit_max=False)
+            return SimpleNamespace(t_s=0.0, az_deg=0.0, el_deg=0.0, az=ax, el=ax, offsets={"az": 0.0, "el": 0.0},
+                                   limits={"az": (0.0, 450.0), "el": (0.0, 90.0)}, moving=False, faults=(),
+                                   target_az_deg=None, target_el_deg=None, flipped=False, wrap_turns=0,
+                                   position_known=True)
+
+        def goto(self, az, el):
+            self.calls.append(("goto", round(az, 2), None if el is None else round(el, 2)))
+            return []
+
+        def stop(self, axis=None):
+            self.calls.append(("stop", axis))
+
+    rot = Rot()
+    session = make_session(protocol, rot)
+    d = make_dialect(protocol)
+    d.resolution_deg = tuple(min(r, 0.5) for r in d.resolution_deg)
+    session.receive(d.goto(123.0, 45.0).request)
+    session.receive(d.stop().request)
+    assert rot.calls[0][:2] == ("goto", 123.0), rot.calls
+    assert rot.calls[0][2] == 45.0 or not d.has_el, rot.calls   # Rot1Prog: el keeps its own
+    assert rot.calls[-1][0] == "stop", rot.calls
+
+
+def test_targets_are_sent_once_per_controller_step():
+    c = connected("gs232b", GS232B_POS)
+    sent = []
+    for i, az in enumerate((150.2, 150.4, 149.6, 150.0, 151.4)):
+        c.post("az", az)
+        c.post("el", 20.0)
+        ex, _ = c.next_exchange(1.0 + i)
+        if ex.kind == "set":
+            sent.append(ex.request)
+            ex, _ = c.next_exchange(1.0 + i)   # a poll always follows a set
+            assert ex.kind == "poll"
+        c.answered(ex, GS232B_POS, 1.0 + i, 1.01 + i) if ex.kind == "poll" else None
+    assert sent == [b"W150 020\r", b"W151 020\r"], sent
+
+
+def test_a_garbage_answer_blocks_targets_until_a_good_report():
+    c = connected("gs232b", GS232B_POS)
+    c.post("az", 200.0)
+    c.post("el", 30.0)
+    ex, _ = c.next_exchange(1.0)
+    assert ex.kind == "set"
+    ex, _ = c.next_exchange(1.0)
+    c.answered(ex, b"AZ=1x0 ??\r", 1.0, 1.01)           # not understood
+    c.post("az", 250.0)
+    for t in (2.0, 3.0):
+        ex, _ = c.next_exchange(t)
+        assert ex.kind == "poll", ex                    # no set on a reply urc did not understand
+        if t == 2.0:
+            c.timed_out(ex, b"", t + 0.4)
+    assert c.reading("az") == 100.0                      # the last good report, not garbage
+    c.answered(ex, b"AZ=120  EL=025\r", 3.0, 3.01)
+    ex, _ = c.next_exchange(4.0)
+    assert ex.kind == "set" and ex.request == b"W250 030\r"
+
+
+def test_repeated_failures_break_the_link_and_a_stop_goes_first_after_reconnect():
+    c = connected("rotctld", b"10.00\n20.00\n", ClientOptions(max_failures=3))
+    c.post("az", 50.0)
+    c.post("el", 30.0)
+    for t in range(3):
+        ex, _ = c.next_exchange(float(t + 1))
+        c.timed_out(ex, b"", t + 1.5)
+    assert c.link_broken()
+    c.link_down("3 missing answers", 5.0)
+    with pytest.raises(SensorError, match="link lost"):
+        c.reading("az", 5.0)
+    c.link_up(6.0)
+    ex, _ = c.next_exchange(6.0)
+    assert ex.request == b"S\n"
+
+
+def test_stop_before_set_for_controllers_that_ignore_targets_while_moving():
+    c = connected("gs232a", b"+0100+0020\r\n", ClientOptions(stop_before_set=True))
+    c.post("az", 200.0)
+    c.post("el", 20.0)
+    ex, _ = c.next_exchange(1.0)
+    assert ex.request == b"W200 020\r"
+    for t, pos in ((1.1, b"+0110+0020\r\n"), (1.2, b"+0120+0020\r\n")):
+        ex, _ = c.next_exchange(t)
+        c.answered(ex, pos, t, t + 0.01)
+    c.post("az", 100.0)                                    # reversed while it moves
+    ex1, _ = c.next_exchange(1.5)
+    ex2, _ = c.next_exchange(1.5)
+    ex3, _ = c.next_exchange(1.8)
+    c.answered(ex2, b"+0121+0020\r\n", 1.5, 1.51)
+    assert ex1.request == b"S\r" and ex2.kind == "poll" and ex3.request == b"W100 020\r", (ex1, ex2, ex3)
+
+
+def test_spid_learns_the_controllers_resolution():
+    c = connected("rot2prog", spid.encode_rot2_position(10.0, 20.0, 4, 4))
+    assert c.dialect.resolution_deg == (0.25, 0.25)
+    c.post("az", 100.13)
+    c.post("el", 30.0)
+    ex, _ = c.next_exchange(1.0)
+    cmd = spid.decode_command(ex.request, "rot2", (4, 4))
+    assert (cmd.az_deg, cmd.el_deg) == (100.25, 30.0)      # nearest quarter degree
+
+
+def test_reading_extrapolates_but_never_past_the_target():
+    c = BridgeClient(make_dialect("easycomm3"))
+    c.link_up(0.0)
+    t = 0.1
+    for az in (10.0, 11.0, 12.0, 13.0):     # 10 deg/s, a report every 0.1 s
+        ex, _ = c.next_exchange(t)
+        if ex.kind != "poll":
+            ex, _ = c.next_exchange(t)
+        c.answered(ex, b"AZ%.1f EL5.0\n" % az, t, t)
+        if az == 10.0:
+            c.post("az", 14.0)
+            c.post("el", 5.0)
+        t += 0.1
+    assert c.reading("az", 0.45) == pytest.approx(13.5, abs=0.01)
+    assert c.reading("az", 0.9) == 14.0                    # the controller stops at its target
+    with pytest.raises(SensorError, match="no position report"):
+        c.reading("az", 100.0)
