@@ -25,7 +25,7 @@ from .service.calibration import CalibrationError
 from .web import WebContext, install
 from .web.live import FRAME_HZ, Hub
 from .web.routes_live import MoveRequest, StopRequest
-from .web.schemas import CONTROL_RESPONSES, AzDeg, ElDeg, Ok, Strict
+from .web.schemas import CONTROL_RESPONSES, AzDeg, ElDeg, Ok, StatusDoc, Strict, documented
 from .web.security import RequestGate, SecurityHeaders, control_guard
 from .web.settings_store import SettingsStore
 
@@ -91,7 +91,7 @@ def create_api(rotator: Rotator, cfg: Config, *, config_path: str | os.PathLike 
     # functions in a thread pool).
     ctl = APIRouter(dependencies=[Depends(control_allowed)], responses=CONTROL_RESPONSES)
 
-    @app.get("/api/status")
+    @app.get("/api/status", **documented(StatusDoc))
     async def status() -> dict:
         """The rotator's snapshot, plus ``tracking`` (null when nothing is tracked)."""
         return hub.status_dict()

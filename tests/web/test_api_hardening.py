@@ -196,6 +196,12 @@ def test_openapi_declares_the_token_and_the_refusals(make_client):
         ok = op["responses"]["200"]["content"]["application/json"]["schema"]
         assert ok != {} and ok.get("type") != "object" or ok.get("properties"), (path, ok)
     assert "security" not in spec["paths"]["/api/status"]["get"]
+    # the views' answers are described, and the descriptions name every key they have
+    for path, doc in (("/api/status", "StatusDoc"), ("/api/info", "InfoDoc"), ("/api/history", "HistoryDoc")):
+        schema = spec["paths"][path]["get"]["responses"]["200"]["content"]["application/json"]["schema"]
+        assert schema == {"$ref": f"#/components/schemas/{doc}"}, (path, schema)
+        described = set(spec["components"]["schemas"][doc]["properties"])
+        assert set(c.get(path).json()) == described, path
     assert "security" not in spec["paths"]["/api/settings/validate"]["post"]
 
 

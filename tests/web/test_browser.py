@@ -369,6 +369,7 @@ def test_calibration_fields_follow_the_antenna_and_re_referencing_asks_first(tmp
     u = UrcProcess(tmp_path, profile="berkeley").start()
     try:
         page = open_page(u.url + "/#calibration")
+        reset(u)        # (a loaded host may have latched a watchdog fault at start-up)
         assert u.post("/api/goto", {"az_deg": 120, "el_deg": 40}).status_code == 200
         s = u.wait(lambda s: standing(s) and abs(s["az"]["pos_deg"] - 120) < 0.5, 30)
         az_now = s["az"]["pos_deg"] + s["offsets"]["az"]   # (the AS5600 reading jitters by a count or so)

@@ -14,7 +14,7 @@ from ..profiles import PROFILES
 from ..protocols.registry import PROTOCOLS
 from .context import WebContext
 from .live import JOG_LEASE_S
-from .schemas import CONTROL_RESPONSES, Ok, Strict
+from .schemas import CONTROL_RESPONSES, HistoryDoc, InfoDoc, Ok, Strict, documented
 from .security import check_browser_origin
 
 log = logging.getLogger(__name__)
@@ -56,7 +56,7 @@ def router(ctx: WebContext) -> APIRouter:
             return
         await ctx.hub.serve(ws)
 
-    @r.get("/api/info")
+    @r.get("/api/info", **documented(InfoDoc))
     def info() -> dict:
         rot = ctx.rotator
         caps = rot.caps
@@ -87,7 +87,7 @@ def router(ctx: WebContext) -> APIRouter:
                 "profiles": {n: c.description for n, c in PROFILES.items()},
                 "protocols": list(PROTOCOLS)}
 
-    @r.get("/api/history")
+    @r.get("/api/history", **documented(HistoryDoc))
     def history(which: Literal["recent", "current", "last"] = "recent",
                 seconds: float | None = Query(None, gt=0, le=86_400),
                 since: float | None = Query(None, description="only samples after this wall time (s)"),

@@ -63,3 +63,103 @@ CONTROL_RESPONSES: dict[int | str, dict] = {
     413: {"model": Problem, "description": "request body too large"},
     422: {"model": Invalid, "description": "invalid request (each error names its field)"},
 }
+
+
+# ------------------------------------------------------------ documented answers of the views
+# (described for the OpenAPI page, not re-validated on every call: /api/status is polled)
+class AxisState(BaseModel):
+    pos_deg: float = Field(description="mechanical position (add offsets for the pointing frame)")
+    rate_deg_per_s: float
+    target_deg: float | None
+    mode: str
+    duty: float
+    brake_released: bool
+    uncertainty_deg: float = Field(description="0 when the position is known")
+    limit_min: bool
+    limit_max: bool
+    current_a: float
+
+
+class FaultInfo(BaseModel):
+    kind: str
+    reason: str
+
+
+class StatusDoc(BaseModel):
+    """The rotator's snapshot (``urc status``); more keys may be added."""
+
+    t_s: float
+    profile: str
+    az_deg: float = Field(description="pointing azimuth")
+    el_deg: float = Field(description="pointing elevation")
+    az: AxisState
+    el: AxisState
+    target_az_deg: float | None
+    target_el_deg: float | None
+    flipped: bool
+    wrap_turns: int
+    moving: bool
+    parked: bool
+    position_known: bool
+    faults: list[FaultInfo]
+    events: list[str]
+    tick_late_p99_ms: float
+    limits: dict[str, tuple[float, float]]
+    offsets: dict[str, float]
+    state_error: str
+    simulator_truth: dict | None = Field(description="the simulator's true state (None on hardware)")
+    tracking: dict | None = Field(description="the tracker's status (target, az/el, plan, ground track)")
+
+
+class ZoneInfo(BaseModel):
+    name: str
+    az_min_deg: float
+    az_max_deg: float
+    el_min_deg: float
+    el_max_deg: float
+
+
+class InfoDoc(BaseModel):
+    """What the dashboard needs to know about this urc; more keys may be added."""
+
+    version: str
+    profile: str
+    description: str
+    backend: str
+    simulator: bool
+    control_requires_token: bool
+    token_configured: bool
+    can_flip: bool
+    caps: dict[str, dict]
+    limits: dict[str, tuple[float, float]]
+    offsets: dict[str, float]
+    keepout: list[ZoneInfo] = Field(description="the zones the rotator enforces now")
+    restart_pending: list[str] = Field(description="saved sections that take effect at the next start")
+    station: dict | None
+    tracking_min_el_deg: float
+    frame_hz: float
+    jog_lease_s: float
+    tracking_available: bool
+    profiles: dict[str, str]
+    protocols: list[str]
+
+
+class HistoryDoc(BaseModel):
+    """Samples as parallel arrays (one entry per sample)."""
+
+    which: str
+    label: str
+    count: int
+    t_wall_s: list[float]
+    az_deg: list[float | None]
+    el_deg: list[float | None]
+    target_az_deg: list[float | None]
+    target_el_deg: list[float | None]
+    error_deg: list[float | None]
+    az_mech_deg: list[float | None]
+    az_target_mech_deg: list[float | None]
+
+
+def documented(model: type[BaseModel]) -> dict:
+    """Route options that describe the answer with ``model`` without validating it."""
+    return {"response_model": None, "responses": {200: {"model": model}}}
