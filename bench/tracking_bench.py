@@ -90,13 +90,11 @@ def main() -> None:
     rows = []
     cases = scenarios()
     for profile in args.profiles.split(","):
-        flip = PROFILES[profile].can_flip
         for name, es, station, p in cases:
             for driver in ("urc", "gpredict"):
                 with tempfile.TemporaryDirectory() as tmp:
                     t0 = time.process_time()
-                    rot, plan, st, plan_st, *_ = fly_pass_on_sim(profile, es, station, p, Path(tmp), flip=flip,
-                                                                 driver=driver)
+                    rot, plan, st, plan_st, *_ = fly_pass_on_sim(profile, es, station, p, Path(tmp), driver=driver)
                     rows.append({"profile": profile, "scenario": name, "driver": driver, "max_el_deg": p.max_el_deg,
                                  "flip": bool(plan.flip) if plan else None, **st.as_dict(),
                                  "plan_rms_deg": plan_st.rms_deg if plan_st else None,

@@ -57,7 +57,7 @@ def test_defaults_without_file():
     assert cfg == Config()
     assert cfg.rotator.profile == "tartu-urc"
     assert cfg.rotator.loop_hz == 50.0
-    assert cfg.rotator.flip is False
+    assert cfg.rotator.flip == "auto"
     assert cfg.hardware.backend == "sim"
     assert cfg.hardware.sim.seed == 1 and cfg.hardware.sim.wind is True
     assert cfg.hardware.sim.start_az_deg is None
@@ -229,7 +229,7 @@ def test_wrong_type(tmp_path):
 
 
 @pytest.mark.parametrize("text,key,words", [
-    ("[rotator]\nflip = 1\n", "rotator.flip", ["true or false", "1 (int)"]),
+    ("[rotator]\nflip = 1\n", "rotator.flip", ['true, false or "auto"', "1 (int)"]),
     ("[api]\nport = 80.5\n", "api.port", ["an integer", "80.5 (float)"]),
     ("[api]\nport = \"8080\"\n", "api.port", ["an integer", "'8080' (str)"]),
     ("[rotator]\nloop_hz = true\n", "rotator.loop_hz", ["a number (Hz)", "True (bool)"]),

@@ -51,7 +51,7 @@ def settings_from_config(cfg: Config) -> RotatorSettings:
         caps=caps, az_limits_deg=limits["az"], el_limits_deg=limits["el"],
         park_az_deg=park_az, park_el_deg=park_el,
         az_offset_deg=cfg.offsets.az_deg, el_offset_deg=cfg.offsets.el_deg,
-        flip=cfg.rotator.flip, zones=zones, idle_park_s=cfg.park.idle_park_s,
+        flip=cfg.rotator.flip is True, pass_flip=cfg.rotator.flip_enabled(caps), zones=zones, idle_park_s=cfg.park.idle_park_s,
         az_tuning=tunings["az"], el_tuning=tunings["el"], az_faults=faults["az"], el_faults=faults["el"],
         save_interval_s=cfg.state.save_interval_s, watchdog_s=cfg.faults.watchdog_s).completed()
 

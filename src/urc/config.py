@@ -30,7 +30,7 @@ import types
 import typing
 from importlib import resources
 from pathlib import Path
-from typing import Any, Union
+from typing import Any, Literal, Union
 
 import annotated_types
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
@@ -73,8 +73,18 @@ class RotatorSection(_Section):
     #: one of :data:`urc.profiles.PROFILES`
     profile: str = DEFAULT_PROFILE
     loop_hz: float = _num(50.0, ge=1.0, le=1000.0, description="control loop rate")
-    #: fly passes "over the top" (elevation past 90) on rotators whose el reaches 180.
-    flip: bool = False
+    #: flying "over the top" (elevation past 90, azimuth + 180) on rotators whose
+    #: elevation reaches 180: "auto" = the pass planner decides per pass wherever the
+    #: profile can flip (a goto to a sky direction stays unflipped, so protocol clients
+    #: read back what they set); true = that, and gotos take the flipped pose when it
+    #: is faster (an error on a profile that cannot flip); false = never (the user
+    #: forbids it: a feed or cable that must not go over the top). An explicit pose
+    #: (elevation past 90) is flown whatever the setting. See :meth:`flip_enabled`.
+    flip: bool | Literal["auto"] = "auto"
+
+    def flip_enabled(self, caps: RotatorCaps) -> bool:
+        """May the pass planner fly passes over the top on this profile?"""
+        return caps.can_flip if self.flip == "auto" else bool(self.flip)
 
 
 class SimSection(_Section):
@@ -465,9 +475,9 @@ def _cross_check(cfg: Config) -> list[_Issue]:
         hint = _suggest(cfg.rotator.profile, sorted(PROFILES))
         return [("rotator.profile", f"one of {valid}", cfg.rotator.profile, hint)]
 
-    if cfg.rotator.flip and not caps.can_flip:
+    if cfg.rotator.flip is True and not caps.can_flip:
         issues.append(("rotator.flip", f"false (profile {caps.name!r} elevation stops at "
-                       f"{_fmt(caps.el.max_deg)} deg, flip needs 180)", True, ""))
+                       f"{_fmt(caps.el.max_deg)} deg, flip needs 180), or \"auto\"", True, ""))
 
     backends = _backends()
     if cfg.hardware.backend not in backends:
@@ -766,6 +776,10 @@ def _kind(model: type[BaseModel] | None, info: Any, name: str) -> str:
         if typing.get_origin(ann) is tuple:
             return f"an array of tables ([[{name}]])"
         return f"a table ([{name}])"
+    literals = [a for a in typing.get_args(ann) if typing.get_origin(a) is Literal]
+    if bool in args and literals:  # flip = "auto" | true | false
+        words = [f'"{v}"' for lit in literals for v in typing.get_args(lit)]
+        return "true, false or " + " or ".join(words)
     if bool in args:
         return "true or false"
     if float in args:
@@ -780,8 +794,15 @@ def _kind(model: type[BaseModel] | None, info: Any, name: str) -> str:
 
 def _error_from_validation(exc: ValidationError, source: str) -> ConfigError:
     errs = []
+    seen: set[tuple[Any, ...]] = set()
     for e in exc.errors(include_url=False):
         loc = tuple(e.get("loc", ()))
+        if len(loc) >= 2 and e.get("type") != "extra_forbidden" and _resolve(loc)[1] is None \
+                and _resolve(loc[:-1])[1] is not None:
+            loc = loc[:-1]  # a union's member (flip: bool | "auto"): one error for the key
+        if loc in seen:
+            continue
+        seen.add(loc)
         key = _key(loc) or None
         etype = e.get("type", "")
         value = e.get("input")

@@ -166,3 +166,31 @@ def test_planner_unwinds_once_when_that_loses_less():
     swings = (np.abs(np.diff(plan.az_deg)) > 1.0).astype(int)
     assert np.sum(np.diff(swings) == 1) + swings[0] == 1  # one contiguous swing, nothing else
     assert swings.sum() <= 40  # 360 deg at up to 27 deg/s, spread around the moment
+
+
+@pytest.mark.parametrize("profile,flip,expect", [("tartu-urc", None, True), ("g5500", "auto", True),
+                                                 ("bigras", None, False), ("tartu-urc", False, False)])
+def test_flip_is_decided_per_pass_unless_forbidden(profile, flip, expect):
+    """Issue 12.4: tartu-urc shipped flip = false, so a 165 deg pass across north unwound
+    360 deg at culmination (22 deg RMS) where flying over the top costs nothing. The
+    default is now "auto": the planner decides on every rotator that can flip."""
+    from urc.app import settings_from_config
+    from urc.config import Config
+    rotator = {"profile": profile} if flip is None else {"profile": profile, "flip": flip}
+    g = settings_from_config(Config.from_dict({"rotator": rotator})).geometry()
+    assert g.can_fly_passes_flipped is expect and not g.flip
+    if not PROFILES[profile].can_flip:
+        return
+    t = np.arange(0.0, 660.0, 1.0)
+    az = (300.0 + 0.25 * t) % 360.0                  # 300 -> 105 through north: 165 deg
+    el = 5.0 + 75.0 * np.sin(np.pi * t / 660.0)
+    c = PROFILES[profile]
+    plan = plan_pass(t, az, el, g, AxisLimits(c.az.max_rate_deg_per_s, c.az.accel_deg_per_s2),
+                     AxisLimits(c.el.max_rate_deg_per_s, c.el.accel_deg_per_s2), (0.0, 90.0), -1e9)
+    from urc.tracking.planner import pointing_error_deg
+    err = pointing_error_deg(plan.az_deg, plan.el_deg, az, el, g)
+    if expect:
+        assert plan.flip and err.max() < 0.05, (plan.notes, err.max())
+        assert np.all(np.abs(np.diff(plan.az_deg)) < 1.0)  # no unwind
+    else:
+        assert not plan.flip and err.max() > 10.0  # forbidden: the geometry costs

@@ -68,10 +68,17 @@ class Geometry:
     el_max_deg: float
     az_offset_deg: float = 0.0
     el_offset_deg: float = 0.0
+    #: a goto (or a track) of a sky direction may choose the flipped pose
     flip: bool = False
+    #: the pass planner may fly a pass over the top (always when ``flip``)
+    pass_flip: bool = False
     zones: tuple[KeepOut, ...] = field(default_factory=tuple)
     #: zones are grown by this much so sensor error and coasting cannot graze them.
     zone_margin_deg: float = 0.5
+
+    @property
+    def can_fly_passes_flipped(self) -> bool:
+        return self.flip or self.pass_flip
 
     # ---- frames -------------------------------------------------------------------
     def to_sky(self, az_m: float, el_m: float) -> tuple[float, float]:

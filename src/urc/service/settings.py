@@ -35,7 +35,10 @@ class RotatorSettings:
     park_el_deg: float
     az_offset_deg: float = 0.0
     el_offset_deg: float = 0.0
+    #: gotos of sky directions may fly over the top ([rotator] flip = true)
     flip: bool = False
+    #: passes may be flown over the top (flip = true or "auto" on a profile that can)
+    pass_flip: bool = False
     zones: tuple[KeepOut, ...] = field(default_factory=tuple)
     idle_park_s: float = 0.0
     az_tuning: AxisTuning | None = None
@@ -77,4 +80,4 @@ class RotatorSettings:
             2 * max(self.caps.az.sensor.resolution_deg, self.caps.el.sensor.resolution_deg)
         return Geometry(*self.az_limits_deg, *self.el_limits_deg,
                         az_offset_deg=self.az_offset_deg, el_offset_deg=self.el_offset_deg,
-                        flip=self.flip, zones=self.zones, zone_margin_deg=zone_margin)
+                        flip=self.flip, pass_flip=self.pass_flip, zones=self.zones, zone_margin_deg=zone_margin)

@@ -116,9 +116,9 @@ class FlownPass(NamedTuple):
     reported: tuple[np.ndarray, np.ndarray, np.ndarray]
 
 
-def fly_pass_on_sim(profile: str, elements, station, p, state_dir, *, flip: bool = False,
+def fly_pass_on_sim(profile: str, elements, station, p, state_dir, *, flip: bool | str = "auto",
                     driver: str = "urc", lead_s: float = 240.0, config: dict | None = None) -> FlownPass:
-    """Fly pass ``p`` on a fresh simulated rotator."""
+    """Fly pass ``p`` on a fresh simulated rotator (``flip`` as ``[rotator] flip``)."""
     from ..app import build_rotator
     from ..config import Config
     from .planner import pointing_error_deg

@@ -212,7 +212,7 @@ def _best_partial(t, s_az, s_el, g: Geometry, az_budget: AxisLimits, el_budget: 
         err = pointing_error_deg(fa, fe, s_az, s_el, g)
         return float(np.sqrt(np.mean(err ** 2))), a, e
 
-    for flip, (a, e) in _base_trajectories(s_az, s_el, g.flip):
+    for flip, (a, e) in _base_trajectories(s_az, s_el, g.can_fly_passes_flipped):
         a, e = a - g.az_offset_deg, np.clip(e - g.el_offset_deg, g.el_min_deg, g.el_max_deg)
         if (s_el - g.el_offset_deg).min() < g.el_min_deg - EL_SLACK_DEG and not flip:
             continue
@@ -251,7 +251,7 @@ def plan_pass(t_s: np.ndarray, sky_az_deg: np.ndarray, sky_el_deg: np.ndarray, g
         raise PlanError("a pass needs at least two samples")
     g = geometry
     candidates = []
-    for flip, (a, e) in _base_trajectories(s_az, s_el, g.flip):
+    for flip, (a, e) in _base_trajectories(s_az, s_el, g.can_fly_passes_flipped):
         a = a - g.az_offset_deg
         e = e - g.el_offset_deg
         # AOS/LOS sit on the horizon mask to within a millidegree or so: a hair below the

@@ -88,7 +88,7 @@ function build() {
   const profiles = Object.keys(info.profiles);
   form.append(h("fieldset", {}, h("legend", { text: "Rotator (restart needed)" }),
     field("rotator.profile", "profile", get_(c, "rotator.profile"), { options: profiles }),
-    field("rotator.flip", "fly over the top (flip)", get_(c, "rotator.flip"), { type: "checkbox" }),
+    field("rotator.flip", "fly over the top (flip)", String(get_(c, "rotator.flip", "auto")), { options: ["auto", "true", "false"] }),
     field("rotator.loop_hz", "control loop Hz", get_(c, "rotator.loop_hz"))));
   form.append(h("fieldset", {}, h("legend", { text: "Limits (degrees; empty = the profile's)" }),
     field("limits.az.min_deg", "az min", get_(c, "limits.az.min_deg"), { placeholder: capsHint("az", "min_deg") }),
@@ -146,6 +146,7 @@ function valueOf(el) {
   if (el.type === "checkbox") return el.checked;
   const raw = el.value.trim();
   if (raw === "") return undefined;
+  if (el.tagName === "SELECT" && (raw === "true" || raw === "false")) return raw === "true";
   if (el.type === "number") return Number.isFinite(Number(raw)) ? Number(raw) : raw;
   return raw;
 }
