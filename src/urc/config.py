@@ -307,7 +307,8 @@ class ServeEntry(_Section):
     pty: str | None = None
     #: a real serial device, e.g. "/dev/ttyUSB0"
     serial: str | None = None
-    baud: int = Field(9600, ge=50, le=4_000_000)
+    #: serial rate; None = the protocol's own default (Tartu 115200, GS-232 9600 ...)
+    baud: int | None = Field(None, ge=50, le=4_000_000)
     #: "host:port" to listen on for datagrams (PstRotator)
     udp: str | None = None
     #: UDP replies go to the sender's host on this port (PstRotator listens on 12001)

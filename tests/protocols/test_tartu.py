@@ -66,6 +66,7 @@ def still(b: Bench) -> bool:
     (b"OVRE 0.5", Command("OVRE", (0.5,))),
     (b"HLTE", Command("HLTE", ())),
     (b"LCDC", Command("LCDC", ())),
+    (b"lcdc 40", Command("LCDC", (40,))),
 ])
 def test_parse(line, cmd):
     assert codec.parse_line(line) == cmd
@@ -118,10 +119,60 @@ def test_vers_help_baud(tartu):
 
 
 def test_reads_at_start(tartu):
-    """The Tartu rotator parks at az 0, el 90."""
+    """The Tartu rotator parks at az 0, el 90; its encoder counters start at 0."""
     _, s = tartu
     assert s.receive(b"RDAZ\rRDEL\r") == [b"000.0\r\n", b"090.0\r\n"]
-    assert s.receive(b"RDAP\nRDEP\n") == [b"000.0,---.-\r\n", b"090.0,---.-\r\n"]
+    assert s.receive(b"RDAP\nRDEP\n") == [b"0\r\n", b"0\r\n"]
+
+
+def test_rdap_rdep_are_the_pulse_counters(tartu):
+    """The document: RDAP/RDEP print the amount of impulses (10 per degree)."""
+    b, s = tartu
+    s.receive(b"GOAE 12.3,80\r")
+    b.settle()
+    az_pulses, el_pulses = (int(r) for r in s.receive(b"RDAP\rRDEP\r"))
+    assert az_pulses == b.rot.hw.az.sensor.counts() and el_pulses == b.rot.hw.el.sensor.counts()
+    assert az_pulses == pytest.approx(123, abs=2) and el_pulses == pytest.approx(-100, abs=2)
+
+
+def test_lcdc_sets_the_contrast_kept_by_the_controller(tartu):
+    b, s = tartu
+    assert s.receive(b"LCDC\r") == [b"LCDC 32\r\n"]
+    assert s.receive(b"LCDC 40\r") == [b"OK\r\n"]
+    assert TartuSession(b.rot).receive(b"LCDC\r") == [b"LCDC 40\r\n"]     # another connection
+    assert s.receive(b"LCDC 64\r")[0].startswith(b"ERR 2 LCDC: expected a contrast 0..63")
+    assert s.receive(b"LCDC\r") == [b"LCDC 40\r\n"]
+
+
+def test_baud_change_is_requested_after_the_reply(tartu):
+    _, s = tartu
+    assert TartuSession.default_baud == 115200                       # the document's setting
+    assert s.receive(b"BAUD 9600\r") == [b"OK\r\n"] and s.baud_request == 9600
+    s.baud_request = None
+    assert s.receive(b"BAUD\r") == [b"BAUD 9600\r\n"] and s.baud_request is None
+
+
+def test_faults_are_reported_on_the_port_as_they_latch(tartu):
+    b, s = tartu
+    assert s.tick(b.clock.now_s()) == []
+    b.rot.hw.az.sensor.fault_dead = True
+    b.run(0.5)
+    (line,) = s.tick(b.clock.now_s())
+    assert line.startswith(b"ERR 5 az fault: ") and line.endswith(b"\r\n")
+    assert s.tick(b.clock.now_s()) == []                                  # once
+
+
+def test_trc_turntable_knows_only_its_commands(tartu):
+    b, s0 = tartu
+    s = make_session("urc", b.rot, variant="trc")
+    (help_,) = s.receive(b"HELP\r")
+    names = [row.split()[0] for row in help_.decode().splitlines()]
+    assert sorted(names) == sorted(["VERS", "HELP", "BAUD", "ECHO", "GOAZ", "RDAZ", "WRAZ", "RDAP", "HALT", "OVRA"])
+    for cmd in (b"GOEL 10", b"GOAE 1,2", b"RDEL", b"RDEP", b"HLTA", b"LCDC"):
+        assert s.receive(cmd + b"\r")[0].startswith(b"ERR 1 unknown command"), cmd
+    assert s.receive(b"GOAZ 30\rRDAZ\r") == [b"OK\r\n", b"000.0\r\n"]
+    with pytest.raises(ValueError):
+        TartuSession(b.rot, variant="xyz")
 
 
 def test_same_replies_whole_bytewise_and_chunked(tartu):
@@ -131,7 +182,7 @@ def test_same_replies_whole_bytewise_and_chunked(tartu):
     bytewise = b"".join(r for byte in data for r in s.receive(bytes([byte])))
     chunked = b"".join(r for i in range(0, len(data), 5) for r in s.receive(data[i:i + 5]))
     assert whole == bytewise == chunked
-    assert whole.count(b"\r\n") == 9 and whole.count(b"ERR") == 2
+    assert whole.count(b"\r\n") == 8 and whole.count(b"ERR") == 2
 
 
 def test_echo(tartu):
@@ -147,19 +198,16 @@ def test_echo(tartu):
     assert TartuSession(None, echo=True).echo
 
 
-def test_lcdc(tartu):
+def test_lcd_rows(tartu):
     b, s = tartu
-    (lcd,) = s.receive(b"LCDC\r")
-    rows = lcd.split(b"\r\n")
-    assert rows[2:] == [b""] and [len(r) for r in rows[:2]] == [20, 20]
-    assert rows[0].startswith(b"AZ 000.0") and rows[1].startswith(b"EL 090.0")
+    rows = s.lcd_rows()
+    assert [len(r) for r in rows] == [20, 20]
+    assert rows[0].startswith("AZ 000.0") and rows[1].startswith("EL 090.0")
     s.receive(b"GOAE 100,45\r")
     b.run(3.0)
-    (lcd,) = s.receive(b"LCDC\r")
-    assert re.fullmatch(rb"AZ \d{3}\.\d>100\.0 +RUN\r\nEL \d{3}\.\d>045\.0 +RUN\r\n", lcd), lcd
+    assert re.fullmatch(r"AZ \d{3}\.\d>100\.0 +RUN", s.lcd_rows()[0]), s.lcd_rows()
     b.settle()
-    (lcd,) = s.receive(b"LCDC\r")
-    assert re.fullmatch(rb"AZ 100\.0>100\.0   HLD\r\nEL 045\.0>045\.0   HLD\r\n", lcd), lcd
+    assert s.lcd_rows() == ["AZ 100.0>100.0   HLD", "EL 045.0>045.0   HLD"]
 
 
 def test_overshoot_read_and_set(bench):
@@ -217,7 +265,7 @@ def test_goae_then_read_matches_truth(tartu):
     assert az == pytest.approx(b.truth("az"), abs=TRUTH_TOL_DEG)
     assert el == pytest.approx(b.truth("el"), abs=TRUTH_TOL_DEG)
     assert (az, el) == pytest.approx((123.4, 45.0), abs=0.15)
-    assert s.receive(b"RDAP\r") == [f"{codec.format_deg(az)},123.4\r\n".encode()]
+    assert int(s.receive(b"RDAP\r")[0]) == b.rot.hw.az.sensor.counts()
 
 
 def test_goaz_and_goel_in_one_chunk_both_happen(tartu):
@@ -263,9 +311,8 @@ def test_hlte_stops_only_elevation(tartu):
     b.settle()
     assert b.truth("az") == pytest.approx(60.0, abs=TRUTH_TOL_DEG)
     assert b.truth("el") > 40
-    (rdep,) = s.receive(b"RDEP\r")
-    pos, tgt = rdep.strip().split(b",")
-    assert float(pos) == pytest.approx(b.truth("el"), abs=TRUTH_TOL_DEG)
+    (rdel,) = s.receive(b"RDEL\r")
+    assert float(rdel) == pytest.approx(b.truth("el"), abs=TRUTH_TOL_DEG)
 
 
 def test_hlta_mid_move(tartu):

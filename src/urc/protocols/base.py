@@ -52,7 +52,10 @@ class Session(Protocol):
 
     #: set when the client asked to close (rotctld ``q``); the adapter then closes.
     #: (Sessions with unsolicited output — G4JNT stream, SARCNET monitor — also set a
-    #: class attribute ``wants_tick = True``; only those are ticked by the adapters.)
+    #: class attribute ``wants_tick = True``; only those are ticked by the adapters.
+    #: A session that changes its line rate (Tartu ``BAUD``) sets ``baud_request`` to
+    #: the new rate; a serial adapter applies it after writing the replies and clears
+    #: it. ``default_baud`` on the class: its serial rate when the config names none.)
     closed: bool
 
     def receive(self, data: bytes) -> list[bytes]:

@@ -8,8 +8,9 @@ with its cable wrap (0..400 on the Tartu rotator; 380.0 is the overlap), elevati
 =========  ====================================================================
 VERS       ``URC urc-0.1.0 (Tartu URC command set)``
 HELP       one line per command
-BAUD [r]   ``BAUD 115200``: reports the rate; ``BAUD 9600`` accepts a standard rate
-           and answers ``OK`` (no effect on a pty or TCP)
+BAUD [r]   ``BAUD 115200`` (the document's serial default, 8N1): reports the rate;
+           ``BAUD 9600`` answers ``OK`` at the old rate, then a serial port really
+           changes to the new one (a pty or TCP has no rate)
 ECHO [on]  ``ECHO ON|OFF`` reports; ``ECHO ON``/``OFF``/``1``/``0`` sets character echo
            for this connection (typed characters, backspace, CR LF at the end)
 GOAZ a     go to azimuth a, elevation keeps its target → ``OK``
@@ -19,25 +20,34 @@ RDAZ       present azimuth → ``123.4``
 RDEL       present elevation → ``045.0``
 WRAZ a     declare the present azimuth is a (re-reference, no motion) → ``OK``
 WREL e     the same for elevation → ``OK``
-RDAP       azimuth position and the axis' present setpoint → ``123.4,130.0``; the
-           setpoint is ``---.-`` when the axis holds none (idle or stopped)
+RDAP       the azimuth position pulse counter (the document: "amount of impulses"),
+           a signed integer: the encoder's count (10 per degree on the Tartu rotator);
+           on a sensor without a counter, the position in sensor steps
 RDEP       the same for elevation
 OVRA [x]   azimuth overshoot compensation (the on/off drive stops this far before the
            target) → ``000.3``; ``OVRA x`` sets it (0..20 deg; the rotator keeps learning
            from there; read back after its next control tick) → ``OK``
 OVRE [x]   the same for elevation
 HALT       stop both axes → ``OK``;  HLTA azimuth only;  HLTE elevation only
-LCDC       the two 20-character LCD rows, e.g. ``AZ 123.4>130.0   RUN`` and
-           ``EL 045.0         HLD`` (state: RUN driving, REL brake releasing, HLD
-           holding, IDL idle, FLT fault latched, UNK position not known)
+LCDC [c]   LCD contrast: ``LCDC`` → ``LCDC 32``; ``LCDC 40`` sets it (0..63) → ``OK``;
+           the controller's state, shared by every connection to this rotator
 =========  ====================================================================
 
 Errors: ``ERR <code> <text>`` with code 1 unknown command, 2 bad parameter, 3 outside
 the limits, 4 keep-out zone, 5 fault, 6 position unknown (re-reference with WRAZ/WREL),
 7 not supported, 8 line too long, 9 refused otherwise. Nothing moves on an error.
+System errors are reported on the serial port as they happen, as the document asks
+(its LED and serial error reporting): a fault that latches prints one unsolicited line
+``ERR 5 <axis> fault: <reason>`` (the error codes' form; the document gives none).
+
+Variant ``trc`` (option ``variant = "trc"``): the single-axis turntable controller of
+the document's Figure 1, which knows only VERS HELP BAUD ECHO GOAZ RDAZ WRAZ RDAP HALT
+OVRA (anything else is ``ERR 1``, and HELP lists those).
 """
 
 from __future__ import annotations
+
+import weakref
 
 from .. import __version__
 from ..errors import CommandRejected, UrcError
@@ -52,22 +62,38 @@ log = protocol_logger("tartu")
 bad_input = bad_input_log("tartu")
 
 _MODE_STATE = {"driving": "RUN", "releasing": "REL", "holding": "HLD", "idle": "IDL"}
+VARIANTS = ("urc", "trc")
+#: the controller's own state that outlives a connection (the LCD contrast), per rotator
+_PANEL: "weakref.WeakKeyDictionary[object, dict]" = weakref.WeakKeyDictionary()
+#: the document's RS-232 setting: 115200 bit/s, 8N1
+DEFAULT_BAUD = 115200
 
 
 class TartuSession:
     """One connection speaking the Tartu URC command set.
 
-    Options: ``echo`` (bool, default False): start with character echo on.
+    Options: ``echo`` (bool, default False): start with character echo on;
+    ``variant``: ``"urc"`` (default, both axes) or ``"trc"`` (the turntable's subset).
     """
 
-    def __init__(self, rotator: RotatorPort, *, echo: bool = False):
+    wants_tick = True       # reports faults as they latch (see the module notes)
+    default_baud = DEFAULT_BAUD
+
+    def __init__(self, rotator: RotatorPort, *, echo: bool = False, variant: str = "urc"):
+        if variant not in VARIANTS:
+            raise ValueError(f"variant must be one of {', '.join(VARIANTS)}, got {variant!r}")
         self.rotator = rotator
         self.closed = False
         self.echo = bool(echo)
-        self.baud = 115200
+        self.variant = variant
+        self._commands = codec.TRC_COMMANDS if variant == "trc" else None
+        self.baud = DEFAULT_BAUD
+        #: a new line rate for the serial adapter to apply after the reply (BAUD)
+        self.baud_request: int | None = None
         self._lines = LineSplitter(MAX_PENDING_BYTES, backspace=True, log=bad_input)
         self._echo = TerminalEcho()
         self._targets = ExtendedTarget(rotator)
+        self._faults_seen: set | None = None
 
     # ------------------------------------------------------------------ Session
     def receive(self, data: bytes) -> list[bytes]:
@@ -82,7 +108,7 @@ class TartuSession:
             if not item.text.strip():
                 continue
             try:
-                reply = self._execute(codec.parse_line(item.text))
+                reply = self._execute(codec.parse_line(item.text, self._commands))
             except TartuSyntaxError as exc:
                 bad_input.info("rejected %r: %s", item.text[:80], exc)
                 reply = codec.error(exc.code, str(exc))
@@ -103,7 +129,13 @@ class TartuSession:
         return out
 
     def tick(self, now_s: float) -> list[bytes]:
-        return []
+        """One ``ERR 5`` line per fault that latched since the last tick."""
+        faults = {(f.kind, f.axis, f.reason) for f in self.rotator.status().faults}
+        seen, self._faults_seen = self._faults_seen, faults
+        if seen is None:                   # a new connection: report what is latched now
+            seen = set()
+        return [codec.error(codec.E_FAULT, f"{axis or 'rotator'} fault: {kind}: {reason}")
+                for kind, axis, reason in sorted(faults - seen, key=str)]
 
     # ----------------------------------------------------------------- commands
     def _execute(self, cmd: Command) -> bytes:
@@ -114,12 +146,12 @@ class TartuSession:
         return codec.line(f"URC urc-{__version__} (Tartu URC command set)")
 
     def _cmd_help(self) -> bytes:
-        return codec.help_text()
+        return codec.help_text(self._commands)
 
     def _cmd_baud(self, rate: int | None = None) -> bytes:
         if rate is None:
             return codec.line(f"BAUD {self.baud}")
-        self.baud = rate           # nothing to change on a pty or socket
+        self.baud = self.baud_request = rate   # a serial adapter switches after this reply
         return codec.ok()
 
     def _cmd_echo(self, on: bool | None = None) -> bytes:
@@ -157,16 +189,26 @@ class TartuSession:
         self._targets.forget()
         return codec.ok()
 
-    def _pos_target(self, i: int) -> bytes:
-        st = self.rotator.status()
-        pos, tgt = extended_pose_deg(st)[i], extended_targets_deg(st)[i]
-        return codec.line(f"{codec.format_deg(pos)},{codec.format_opt_deg(tgt)}")
+    def _pulses(self, axis: str) -> bytes:
+        """The axis' position pulse counter: the sensor's own count where it keeps one
+        (encoder, pulse feedback), else the position in sensor steps."""
+        sensor = None
+        try:
+            sensor = self.rotator.hw.axis(axis).sensor        # type: ignore[attr-defined]
+        except AttributeError:
+            pass
+        counts = getattr(sensor, "counts", None)
+        if counts is not None:
+            return codec.line(str(int(counts())))
+        pos = extended_pose_deg(self.rotator.status())[0 if axis == "az" else 1]
+        step = getattr(getattr(sensor, "caps", None), "resolution_deg", 0.1) or 0.1
+        return codec.line(str(round(pos / step)))
 
     def _cmd_rdap(self) -> bytes:
-        return self._pos_target(0)
+        return self._pulses("az")
 
     def _cmd_rdep(self) -> bytes:
-        return self._pos_target(1)
+        return self._pulses("el")
 
     def _overshoot(self, axis: str, value: float | None) -> bytes:
         if value is None:
@@ -193,12 +235,19 @@ class TartuSession:
     def _cmd_hlte(self) -> bytes:
         return self._stop("el")
 
-    def _cmd_lcdc(self) -> bytes:
+    def _cmd_lcdc(self, contrast: int | None = None) -> bytes:
+        panel = _PANEL.setdefault(self.rotator, {"lcd_contrast": codec.LCD_CONTRAST_DEFAULT})
+        if contrast is None:
+            return codec.line(f"LCDC {panel['lcd_contrast']}")
+        panel["lcd_contrast"] = contrast
+        return codec.ok()
+
+    def lcd_rows(self) -> list[str]:
+        """The two 20-character rows the controller's LCD shows (for a front panel)."""
         st = self.rotator.status()
         pos, tgt = extended_pose_deg(st), extended_targets_deg(st)
-        rows = [codec.lcd_line(label, pos[i], tgt[i], self._state(st, axis))
+        return [codec.lcd_line(label, pos[i], tgt[i], self._state(st, axis))
                 for i, (label, axis) in enumerate((("AZ", "az"), ("EL", "el")))]
-        return b"".join(codec.line(r) for r in rows)
 
     @staticmethod
     def _state(st: Status, axis: str) -> str:

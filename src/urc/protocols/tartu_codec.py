@@ -70,6 +70,20 @@ def _baud(text: str, what: str) -> int:
     return int(t)
 
 
+#: LCD contrast range: the URC's display (MIDAS MCCOG22005A6W, 20x2 COG on I2C) has a
+#: 6-bit contrast setting in its controller, so LCDC takes 0..63 (the document gives no
+#: range); 32 at power-on, mid-scale.
+LCD_CONTRAST_MAX = 63
+LCD_CONTRAST_DEFAULT = 32
+
+
+def _contrast(text: str, what: str) -> int:
+    t = text.strip()
+    if not t.isdigit() or int(t) > LCD_CONTRAST_MAX:
+        raise TartuSyntaxError(E_SYNTAX, f"{what}: expected a contrast 0..{LCD_CONTRAST_MAX}, got {t[:20]!r}")
+    return int(t)
+
+
 def _onoff(text: str, what: str) -> bool:
     t = text.strip().upper()
     if t in ("1", "ON"):
@@ -85,7 +99,7 @@ _Conv = Callable[[str, str], object]
 COMMANDS: dict[str, tuple[tuple[_Conv, ...], int, str]] = {
     "VERS": ((), 0, "VERS: firmware version"),
     "HELP": ((), 0, "HELP: this list"),
-    "BAUD": ((_baud,), 1, "BAUD [rate]: serial speed (accepted, no effect on pty/TCP)"),
+    "BAUD": ((_baud,), 1, "BAUD [rate]: serial speed (changes after the reply; none on pty/TCP)"),
     "ECHO": ((_onoff,), 1, "ECHO [ON|OFF]: character echo for this connection"),
     "GOAZ": ((parse_number,), 0, "GOAZ az: go to azimuth"),
     "GOEL": ((parse_number,), 0, "GOEL el: go to elevation"),
@@ -94,15 +108,18 @@ COMMANDS: dict[str, tuple[tuple[_Conv, ...], int, str]] = {
     "RDEL": ((), 0, "RDEL: read elevation"),
     "WRAZ": ((parse_number,), 0, "WRAZ az: set the present azimuth (re-reference, no motion)"),
     "WREL": ((parse_number,), 0, "WREL el: set the present elevation (re-reference, no motion)"),
-    "RDAP": ((), 0, "RDAP: read azimuth position,target"),
-    "RDEP": ((), 0, "RDEP: read elevation position,target"),
+    "RDAP": ((), 0, "RDAP: read the azimuth position pulse counter"),
+    "RDEP": ((), 0, "RDEP: read the elevation position pulse counter"),
     "OVRA": ((parse_number,), 1, "OVRA [deg]: azimuth overshoot compensation (read or set)"),
     "OVRE": ((parse_number,), 1, "OVRE [deg]: elevation overshoot compensation (read or set)"),
     "HALT": ((), 0, "HALT: stop both axes"),
     "HLTA": ((), 0, "HLTA: stop azimuth"),
     "HLTE": ((), 0, "HLTE: stop elevation"),
-    "LCDC": ((), 0, "LCDC: LCD contents (2 x 20 characters)"),
+    "LCDC": ((_contrast,), 1, "LCDC [0..63]: LCD contrast (read or set)"),
 }
+
+#: the turntable controller (TRC, the document's Figure 1): one axis, this subset
+TRC_COMMANDS = ("VERS", "HELP", "BAUD", "ECHO", "GOAZ", "RDAZ", "WRAZ", "RDAP", "HALT", "OVRA")
 
 
 def _unknown(shown: str) -> TartuSyntaxError:
@@ -111,12 +128,13 @@ def _unknown(shown: str) -> TartuSyntaxError:
     return TartuSyntaxError(E_UNKNOWN, f"unknown command {shown[:20]!r}: expected a command (HELP lists them)")
 
 
-def parse_line(raw: bytes) -> Command:
-    """One line (terminator removed) -> Command; raises TartuSyntaxError."""
+def parse_line(raw: bytes, commands: tuple[str, ...] | None = None) -> Command:
+    """One line (terminator removed) -> Command; raises TartuSyntaxError.
+    ``commands``: the names this controller knows (default all; TRC_COMMANDS)."""
     text = raw.decode("latin-1")
     m = _LINE.match(text)
     shown = text.strip()[:40]
-    if not m or m.group(1).upper() not in COMMANDS:
+    if not m or m.group(1).upper() not in (COMMANDS if commands is None else commands):
         raise _unknown(shown)
     name = m.group(1).upper()
     convs, optional, _ = COMMANDS[name]
@@ -146,10 +164,12 @@ def error(code: int, text: str) -> bytes:
     return line(f"ERR {code} " + text.replace("\r", " ").replace("\n", " "))
 
 
-def help_text() -> bytes:
+def help_text(commands: tuple[str, ...] | None = None) -> bytes:
     rows = []
-    for usage, _, desc in (h.partition(": ") for _, _, h in COMMANDS.values()):
-        rows.append(line(f"{usage:<14}{desc}"))
+    for name, (_, _, h) in COMMANDS.items():
+        if commands is None or name in commands:
+            usage, _, desc = h.partition(": ")
+            rows.append(line(f"{usage:<14}{desc}"))
     return b"".join(rows)
 
 

@@ -11,6 +11,10 @@ from ..protocols.base import RotatorPort
 from ..protocols.registry import session_class
 
 
+#: serial rate of a protocol whose session class names none (``default_baud``)
+DEFAULT_BAUD = 9600
+
+
 @dataclass
 class Endpoint:
     entry: ServeEntry
@@ -62,8 +66,9 @@ async def _start(entry: ServeEntry, rotator: RotatorPort) -> Endpoint:
             ep.start()
             return Endpoint(entry, f"{entry.protocol} on pty {where} -> {ep.device}", ep.close)
         from .serial import SerialEndpoint
-        sp = SerialEndpoint(factory, where, entry.baud, entry.protocol)
+        baud = entry.baud or getattr(cls, "default_baud", DEFAULT_BAUD)
+        sp = SerialEndpoint(factory, where, baud, entry.protocol)
         sp.start()
-        return Endpoint(entry, f"{entry.protocol} on serial {where} at {entry.baud} baud", sp.close)
+        return Endpoint(entry, f"{entry.protocol} on serial {where} at {baud} baud", sp.close)
     except OSError as exc:
         raise OSError(f"cannot serve {entry.describe()}: {exc}") from exc

@@ -31,6 +31,21 @@ class SerialEndpoint:
             return
         for reply in feed(self.session, data, self.where):
             self._write(reply)
+        self._apply_baud_request()
+
+    def _apply_baud_request(self) -> None:
+        """A session may ask for a new line rate (Tartu ``BAUD 9600``): it takes effect
+        once its reply has gone out at the old rate, as on the controller."""
+        rate = getattr(self.session, "baud_request", None)
+        if rate is None:
+            return
+        self.session.baud_request = None
+        try:
+            self.port.flush()
+            self.port.baudrate = rate
+            log.info("%s: line rate now %d baud", self.where, rate)
+        except (serial.SerialException, ValueError, OSError) as exc:
+            log.warning("%s: cannot change the rate to %d baud: %s", self.where, rate, exc)
 
     def _write(self, reply: bytes) -> None:
         try:
