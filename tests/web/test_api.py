@@ -402,3 +402,4 @@ def test_live_settings_reach_info_and_frames_and_restart_needs_are_kept(make_cli
     body = c.post("/api/settings", json=doc).json()
     assert body["restart_needed"] == ["api"] and any("restart" in m for m in body["messages"])
     assert c.get("/api/info").json()["restart_pending"] == ["api"]
+    assert c.get("/api/settings").json()["restart_pending"] == ["api"]     # the settings page shows it

@@ -79,7 +79,7 @@ def router(ctx: WebContext) -> APIRouter:
                 "limits": status.limits, "offsets": status.offsets,
                 # what the rotator enforces now (the settings page may have changed it live)
                 "keepout": [dataclasses.asdict(z) for z in rot.settings.zones],
-                "restart_pending": ctx.settings.restart_pending(ctx.cfg),
+                "restart_pending": ctx.settings.restart_pending(),
                 "station": station,
                 "tracking_min_el_deg": ctx.cfg.tracking.min_el_deg,
                 "frame_hz": round(1.0 / ctx.hub.period_s, 3), "jog_lease_s": JOG_LEASE_S,

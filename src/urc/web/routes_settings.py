@@ -89,7 +89,7 @@ def router(ctx: WebContext) -> APIRouter:
                                 status_code=500)
         # what waits for a restart: compared with what urc run started with, not with the
         # last save (a port changed in one save still waits after the next)
-        restart = store.restart_pending(ctx.cfg)
+        restart = store.restart_pending()
         live = [k for k in changed if k not in RESTART_SECTIONS]
         applied, note = (_apply_live(ctx, cfg) if live else (True, "nothing to apply"))
         msgs = [f"saved to {path}"]

@@ -44,6 +44,8 @@ class SettingsStore:
     def __init__(self, cfg: Config, config_path: str | os.PathLike | None,
                  state_dir: str | os.PathLike | None):
         self.cfg = cfg
+        #: the configuration urc run started with (what a restart-only section still is)
+        self.running = cfg
         self.config_path = Path(config_path) if config_path else None
         self.state_dir = Path(state_dir) if state_dir else None
 
@@ -65,6 +67,7 @@ class SettingsStore:
             "config_path": str(self.config_path) if self.config_path else None,
             "save_path": str(target) if target else None,
             "restart_sections": list(RESTART_SECTIONS),
+            "restart_pending": self.restart_pending(),
         }
 
     def _merge_token(self, data: dict[str, Any]) -> dict[str, Any]:
@@ -109,10 +112,9 @@ class SettingsStore:
                 out += config_errors(exc)
         return out
 
-    def restart_pending(self, running: Config) -> list[str]:
-        """Sections saved but not in effect until ``urc run`` restarts (``running``: the
-        configuration it was started with)."""
-        return [k for k in self.changed_sections(running, against=self.cfg) if k in RESTART_SECTIONS]
+    def restart_pending(self) -> list[str]:
+        """Sections saved but not in effect until ``urc run`` restarts."""
+        return [k for k in self.changed_sections(self.running) if k in RESTART_SECTIONS]
 
     def changed_sections(self, new: Config, against: Config | None = None) -> list[str]:
         old_d, new_d = (against or self.cfg).to_dict(), new.to_dict()

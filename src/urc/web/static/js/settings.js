@@ -233,6 +233,9 @@ export async function load(infoData) {
   setText($("settings-where"), doc.config_path
     ? `Configuration file: ${doc.config_path}`
     : `urc run was started without a configuration file: settings are saved to ${doc.save_path}.`);
+  const pending = doc.restart_pending || [];
+  $("settings-pending").hidden = pending.length === 0;
+  setText($("settings-pending"), `Saved, waiting for a restart of urc run: ${pending.join(", ")}.`);
   build();
 }
 
