@@ -137,7 +137,8 @@ def main() -> None:
     lat = result["status_latency_ms"]
     rows = [("/api/status latency during the flood", f"p50 {lat['p50']:.0f} ms, p99 {lat['p99']:.0f} ms, "
                                                      f"max {lat['max']:.0f} ms ({lat['n']} polls)"),
-            ("control loop late-tick p99", f"{before['tick_late_p99_ms']} ms before, {after['tick_late_p99_ms']} ms after"),
+            ("control loop late-tick p99", f"{before['tick_late_p99_ms']:.1f} ms before, "
+                                           f"{after['tick_late_p99_ms']:.1f} ms after"),
             ("faults latched", "; ".join(after["faults"]) or "none"),
             ("server memory (RSS)", f"{before['rss_mb']:.0f} MB before, {after['rss_mb']:.0f} MB after"),
             ("pass search answers", ", ".join(f"{k}: {v}" for k, v in sorted(result["pass_answers"].items()))),

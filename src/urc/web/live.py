@@ -4,9 +4,10 @@ Each frame is built and serialised once and handed to every open dashboard (late
 wins: a slow client skips frames instead of queueing them). A frame carries what changes
 every tick; the parts that change seldom (the pass plan and ground track, the event log)
 are sent as their own messages, to each dashboard only when they changed (``PARTS``),
-before the first frame that needs them: 22.5 KiB ten times a second became ~1.5 KiB. The same task records the
-chart history, runs a calibration procedure's steps and expires jog leases, so a
-dashboard that vanishes mid-jog (closed tab, lost network) stops the antenna.
+before the first frame that needs them (while tracking, 18 KiB frames became 1.4 KiB:
+``bench/web_bench.py --tracking-only``). The same task records the chart history, runs
+a calibration procedure's steps and expires jog leases, so a dashboard that vanishes
+mid-jog (closed tab, lost network) stops the antenna.
 """
 
 from __future__ import annotations
