@@ -89,7 +89,7 @@ def test_parse_rejects(line):
 
 
 def test_error_message_names_what_was_expected():
-    with pytest.raises(Gs232ParseError, match="expected one of C C2 B W"):
+    with pytest.raises(Gs232ParseError, match=r"expected a GS-232 command \(H lists them\), found b'Q'"):
         parse_command(b"Q")
 
 
@@ -383,7 +383,10 @@ def test_stop_all_and_single_axis(g5500, cls):
 
 
 @pytest.mark.parametrize("cmd, axis, sign", [(b"R", "az", 1), (b"L", "az", -1),
-                                             (b"U", "el", 1), (b"D", "el", -1)])
+                                             (b"U", "el", 1), (b"D", "el", -1),
+                                             # BIG-RAS's M forms (seed 002)
+                                             (b"MR", "az", 1), (b"ML", "az", -1),
+                                             (b"MU", "el", 1), (b"MD", "el", -1)])
 def test_manual_moves(g5500, cmd, axis, sign):
     s = Gs232aSession(g5500.rot)
     s.receive(b"W200 090\r")
@@ -461,7 +464,8 @@ def _moves(data: bytes) -> bool:
     """Would any complete line of ``data`` be a valid motion command? (the fuzz oracle)"""
     for item in LineSplitter(MAX_PENDING_BYTES).feed(data):
         try:
-            if not item.overflowed and parse_command(item.text).op in ("goto", "goto_az", "move"):
+            if not item.overflowed and parse_command(item.text).op in ("goto", "goto_az", "goto_el", "move",
+                                                                         "nmea"):
                 return True
         except Gs232ParseError:
             pass
@@ -518,3 +522,87 @@ def test_fuzz_test_fails_on_an_injected_bug(fuzz_bench, monkeypatch):
     finally:
         base.INTERNAL_ERRORS.clear()
         base.INTERNAL_ERRORS.update(saved)
+
+
+# ============================================================ BIG-RAS extensions (seed 002)
+@pytest.mark.parametrize("line, cmd", [
+    (b"AZ=100", Command("goto_az", az_deg=100.0)),
+    (b"EL=045", Command("goto_el", el_deg=45.0)),
+    (b"AZ=120 EL=030", Command("goto", az_deg=120.0, el_deg=30.0)),
+    (b"az=120  el=030", Command("goto", az_deg=120.0, el_deg=30.0)),
+    (b"K020", Command("goto_el", el_deg=20.0)),
+    (b"ML", Command("move", "az", direction=-1)), (b"MR", Command("move", "az", direction=1)),
+    (b"MU", Command("move", "el", direction=1)), (b"MD", Command("move", "el", direction=-1)),
+    (b"H", Command("help")), (b"h", Command("help")),
+    (b"$GPGGA,1", Command("nmea", text=b"$GPGGA,1")),
+])
+def test_bigras_extensions_parse(line, cmd):
+    assert parse_command(line) == cmd
+
+
+@pytest.mark.parametrize("line", [b"AZ=", b"AZ", b"EL=1000", b"K", b"MX", b"AZ=1 EL"])
+def test_bigras_extension_errors(line):
+    with pytest.raises(Gs232ParseError):
+        parse_command(line)
+
+
+def test_bigras_command_list_transcript(bench):
+    """The document's command list, in its order, on a BIG-RAS (GS-232B emulation)."""
+    b = bench("bigras")
+    s = Gs232bSession(b.rot)
+    (help_,) = s.receive(b"H\r")
+    firsts = [row.split(" - ")[0] for row in help_.decode().splitlines()]
+    for doc in ("Waaa eee", "A", "AZ=aaa", "AZ=aaa EL=eee", "E", "EL=eee", "S", "Maaa", "Keee",
+                "ML", "MR", "MU", "MD", "L", "R", "U", "D", "C", "C2", "B"):
+        assert doc in firsts, doc
+    assert s.receive(b"AZ=100\r") == []
+    b.settle()
+    assert s.receive(b"C2\r") == [b"AZ=100  EL=000\r\n"]
+    assert s.receive(b"EL=045\r") == []
+    b.settle()
+    assert s.receive(b"C2\r") == [b"AZ=100  EL=045\r\n"]
+    assert s.receive(b"AZ=120 EL=030\r") == []
+    b.settle()
+    assert s.receive(b"C2\r") == [b"AZ=120  EL=030\r\n"]
+    assert s.receive(b"K020\r") == []
+    b.settle()
+    assert s.receive(b"C\rB\r") == [b"AZ=120\r\n", b"EL=020\r\n"]
+    assert s.receive(b"EL=100\r") == [b"?>\r\n"]                    # above its 90: refused
+
+
+def _gga(lat: float, lon: float, alt_m: float) -> bytes:
+    import pynmea2
+
+    def dm(v: float, width: int) -> str:
+        d = int(abs(v))
+        return f"{d:0{width}d}{(abs(v) - d) * 60:07.4f}"
+    msg = pynmea2.GGA("GP", "GGA", ("120000.00", dm(lat, 2), "N" if lat >= 0 else "S", dm(lon, 3),
+                                    "E" if lon >= 0 else "W", "1", "08", "0.9", f"{alt_m:.1f}", "M",
+                                    "0.0", "M", "", ""))
+    return str(msg).encode()
+
+
+def test_bigras_nmea_gga_turns_to_the_reported_point(bench):
+    from urc.tracking.station import Station
+    from urc.tracking.targets import GeoPointTarget
+
+    b = bench("bigras")
+    station = dict(station_lat_deg=47.5, station_lon_deg=19.0, station_alt_m=100.0)
+    s = make_session("gs232b", b.rot, **station)
+    point = GeoPointTarget(Station(47.5, 19.0, 100.0), 47.6, 19.1, 9000.0)
+    assert 0 < point.el_deg < 90
+    assert s.receive(_gga(47.6, 19.1, 9000.0) + b"\r\n") == []
+    b.settle()
+    az, el = (float(v) for v in s.receive(b"C2\r")[0][3:].split(b"EL="))
+    assert (az, el) == pytest.approx((point.az_deg, point.el_deg), abs=1.0)
+
+
+def test_bigras_nmea_without_coordinates_or_checksum_is_refused(bench):
+    b = bench("bigras")
+    sentence = _gga(47.6, 19.1, 9000.0)
+    assert Gs232bSession(b.rot).receive(sentence + b"\r") == [b"?>\r\n"]      # no station set
+    s = Gs232bSession(b.rot, station_lat_deg=47.5, station_lon_deg=19.0)
+    bad = sentence[:-2] + (b"00" if sentence[-2:] != b"00" else b"11")
+    assert s.receive(bad + b"\r") == [b"?>\r\n"]
+    b.run(2.0)
+    assert b.rot.status().target_az_deg is None

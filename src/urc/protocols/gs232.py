@@ -23,7 +23,7 @@ from ..errors import CommandRejected, UrcError
 from ..service.snapshot import Status
 from .base import RotatorPort, bad_input_log, internal_error, protocol_logger
 from .gs232_codec import (SPEED_LEVELS, STYLE_A, STYLE_B, STYLE_GENERIC, Command, Gs232ParseError,
-                          format_error, format_position, parse_command)
+                          format_error, format_help, format_position, parse_command)
 from .lines import LineSplitter
 from .poses import extended_pose_deg, frame_offsets_deg
 
@@ -45,9 +45,16 @@ class _Gs232Session:
     protocol = "gs232"
     style = STYLE_A
 
-    def __init__(self, rotator: RotatorPort) -> None:
+    def __init__(self, rotator: RotatorPort, *, station_lat_deg: float | None = None,
+                 station_lon_deg: float | None = None, station_alt_m: float = 0.0) -> None:
         self.rotator = rotator
         self.closed = False
+        #: the station's own coordinates, for NMEA GGA points (BIG-RAS: "if we have
+        #: previously set our own coordinates")
+        self._station = None
+        if station_lat_deg is not None or station_lon_deg is not None:
+            from ..tracking.station import Station
+            self._station = Station(float(station_lat_deg), float(station_lon_deg), float(station_alt_m))
         self._log = protocol_logger(self.protocol)
         self._bad = bad_input_log(self.protocol)
         self._lines = LineSplitter(log=self._bad)
@@ -86,6 +93,9 @@ class _Gs232Session:
             return [format_error(self.style)]
         try:
             reply = self._do(cmd)
+        except Gs232ParseError as exc:          # an NMEA sentence it cannot use
+            self._bad.warning("%s", exc)
+            return [format_error(self.style)]
         except CommandRejected as exc:
             self._bad.warning("%r refused (%s): %s", line[:80], exc.reason, exc)
             return self._refused()
@@ -109,6 +119,13 @@ class _Gs232Session:
             rot.goto(cmd.az_deg, cmd.el_deg)
         elif cmd.op == "goto_az":
             rot.goto(cmd.az_deg, self._el_to_keep(rot.status()))
+        elif cmd.op == "goto_el":
+            rot.goto_el(cmd.el_deg)
+        elif cmd.op == "help":
+            return format_help()
+        elif cmd.op == "nmea":
+            az, el = self._nmea_point(cmd.text)
+            rot.goto(az, el)
         elif cmd.op == "stop":
             rot.stop(cmd.what)
         elif cmd.op == "move":
@@ -117,6 +134,31 @@ class _Gs232Session:
             # applies to the next L/R/U/D (Hamlib sends X just before the direction)
             self._speed_frac = SPEED_LEVELS[cmd.level]
         return None
+
+    def _nmea_point(self, sentence: bytes) -> tuple[float, float]:
+        """A GGA sentence -> (az, el) of the point it reports, seen from the station.
+        The BIG-RAS turns the antenna to each report as it comes (balloon tracking from
+        SondeMonitor); urc's own ``track --nmea`` target predicts between reports."""
+        import pynmea2
+
+        from ..tracking.targets import GeoPointTarget, TargetError
+
+        if self._station is None:
+            raise Gs232ParseError("station coordinates (options station_lat_deg, station_lon_deg) "
+                                  "before an NMEA point", sentence[:20])
+        try:
+            msg = pynmea2.parse(sentence.decode("ascii", "replace"), check=True)
+        except (pynmea2.ParseError, ValueError) as exc:
+            raise Gs232ParseError(f"a valid NMEA sentence ({exc})"[:80], sentence[:20]) from None
+        if getattr(msg, "sentence_type", "") != "GGA":
+            raise Gs232ParseError("a GGA sentence", sentence[:20])
+        if not int(msg.gps_qual or 0) or not msg.lat:
+            raise Gs232ParseError("a GGA sentence with a fix", sentence[:20])
+        try:
+            point = GeoPointTarget(self._station, msg.latitude, msg.longitude, float(msg.altitude or 0.0))
+        except (TargetError, ValueError) as exc:
+            raise Gs232ParseError(f"a point on Earth ({exc})"[:80], sentence[:20]) from None
+        return point.az_deg, point.el_deg
 
     @staticmethod
     def _el_to_keep(s: Status) -> float:

@@ -28,6 +28,10 @@ _ANGLE = rb"([0-9]{1,3})"
 _W_RE = re.compile(rb"W *" + _ANGLE + rb" +" + _ANGLE)
 _M_RE = re.compile(rb"M *" + _ANGLE)
 _X_RE = re.compile(rb"X *([1-4])")
+# BIG-RAS extensions (seed 002): AZ=aaa, EL=eee, AZ=aaa EL=eee, Keee, ML/MR/MU/MD, H
+_AZEL_RE = re.compile(rb"(?:AZ *= *" + _ANGLE + rb")? *(?:EL *= *" + _ANGLE + rb")?")
+_K_RE = re.compile(rb"K *" + _ANGLE)
+_M_MOVES = {b"ML": b"L", b"MR": b"R", b"MU": b"U", b"MD": b"D"}
 _TIMED_RE = re.compile(rb"[MW] *[0-9]{1,3}( +[0-9]{1,3}){2,}")
 
 
@@ -37,24 +41,40 @@ class Gs232ParseError(ProtocolError):
 
 @dataclass(frozen=True)
 class Command:
-    op: str                        # read | goto | goto_az | stop | move | speed
+    op: str                        # read | goto | goto_az | goto_el | stop | move | speed | help | nmea
     what: str | None = None        # read: az | el | azel; stop/move: axis (None = both)
     az_deg: float | None = None
     el_deg: float | None = None
     direction: int = 0
     level: int = 0
+    text: bytes = b""              # nmea: the sentence
 
 
 def parse_command(line: bytes) -> Command:
-    """One line (terminator removed) -> its command. Surrounding spaces are ignored."""
-    cmd = line.strip(b" \t").upper()
+    """One line (terminator removed) -> its command. Surrounding spaces are ignored.
+    Besides GS-232A/B: the BIG-RAS controller's extensions (``AZ=aaa``, ``EL=eee``,
+    ``AZ=aaa EL=eee``, ``Keee``, ``ML`` ``MR`` ``MU`` ``MD``, ``H`` help) and NMEA
+    sentences (``$GPGGA,...``: a point to turn to)."""
+    raw = line.strip(b" \t")
+    if raw.startswith(b"$"):
+        return Command("nmea", text=raw)
+    cmd = raw.upper()
     if cmd in _READS:
         return Command("read", _READS[cmd])
     if cmd in _STOPS:
         return Command("stop", _STOPS[cmd])
-    if cmd in _MOVES:
-        axis, direction = _MOVES[cmd]
+    if cmd in _MOVES or cmd in _M_MOVES:
+        axis, direction = _MOVES[_M_MOVES.get(cmd, cmd)]
         return Command("move", axis, direction=direction)
+    if cmd == b"H":
+        return Command("help")
+    if cmd.startswith((b"AZ", b"EL")) and (m := _AZEL_RE.fullmatch(cmd)) and (m.group(1) or m.group(2)):
+        az = None if m.group(1) is None else float(m.group(1))
+        el = None if m.group(2) is None else float(m.group(2))
+        return Command("goto" if az is not None and el is not None else "goto_az" if el is None else "goto_el",
+                       az_deg=az, el_deg=el)
+    if m := _K_RE.fullmatch(cmd):
+        return Command("goto_el", el_deg=float(m.group(1)))
     if m := _W_RE.fullmatch(cmd):
         return Command("goto", az_deg=float(m.group(1)), el_deg=float(m.group(2)))
     if m := _M_RE.fullmatch(cmd):
@@ -63,7 +83,24 @@ def parse_command(line: bytes) -> Command:
         return Command("speed", level=int(m.group(1)))
     if _TIMED_RE.fullmatch(cmd):
         raise Gs232ParseError("W/M with one position (timed lists with T are not supported)", line)
-    raise Gs232ParseError("one of C C2 B W<aaa> <eee> M<aaa> S A E L R U D X1..X4", line)
+    raise Gs232ParseError("a GS-232 command (H lists them)", line[:20])
+
+
+#: the H reply: the command set, one line each (BIG-RAS's own list, in this order)
+HELP_LINES = (
+    "Waaa eee - turn to azimuth aaa, elevation eee", "A - stop azimuth turning",
+    "AZ=aaa - turn to azimuth aaa", "AZ=aaa EL=eee - turn to azimuth aaa, elevation eee",
+    "E - stop elevation turning", "EL=eee - turn to elevation eee", "S - stop all turning",
+    "Maaa - turn to azimuth aaa", "Keee - turn to elevation eee",
+    "ML - turn counterclockwise", "MR - turn clockwise", "MU - turn up", "MD - turn down",
+    "L - turn counterclockwise", "R - turn clockwise", "U - turn up", "D - turn down",
+    "C - azimuth", "C2 - azimuth and elevation", "B - elevation", "X1..X4 - speed",
+    "$GPGGA,... - turn to the reported point (station coordinates needed)", "H - this list",
+)
+
+
+def format_help() -> bytes:
+    return "".join(f"{row}\r\n" for row in HELP_LINES).encode()
 
 
 # ---------------------------------------------------------------- device replies
