@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import logging
 import signal
+import socket
 from dataclasses import replace
 from pathlib import Path
 
@@ -97,46 +99,131 @@ def build_rotator(cfg: Config, clock: Clock, state_dir: Path, durable_state: boo
     return Rotator(settings, hardware, clock, StateStore(state_dir / STATE_FILE, durable=durable_state))
 
 
+def bind_api_socket(host: str, port: int) -> socket.socket:
+    """Bind the API port before anything else starts (as uvicorn would bind it)."""
+    family = socket.AF_INET6 if ":" in host else socket.AF_INET
+    sock = socket.socket(family, socket.SOCK_STREAM)
+    try:
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        sock.bind((host, port))
+    except OSError as exc:
+        sock.close()
+        raise OSError(f"cannot serve the API on {host}:{port}: {exc.strerror or exc}") from None
+    sock.set_inheritable(True)
+    return sock
+
+
+def _real_hardware(cfg: Config) -> bool:
+    backend = cfg.hardware.backend
+    return backend != "sim" and not getattr(getattr(cfg.hardware, backend, None), "emulate", False)
+
+
 async def serve(cfg: Config, state_dir: Path, clock: Clock | None = None,
                 config_path: Path | None = None) -> None:
-    """The ``urc run`` process: control loop + HTTP API until SIGINT/SIGTERM."""
+    """The ``urc run`` process: control loop (its own thread) + servers until SIGINT/SIGTERM.
+
+    Start-up takes the instance lock, binds every port and only then starts the control
+    loop, so a refused start writes no state. Every exit path stops the axes, waits for
+    standstill (bounded), leaves every output safe and saves.
+    """
+    from .service.instance import lock_instance
+
+    locks = lock_instance(state_dir, cfg.hardware.backend, _real_hardware(cfg))
+    try:
+        api_socket = bind_api_socket(cfg.api.host, cfg.api.port)
+        try:
+            await _serve(cfg, state_dir, clock or RealClock(), config_path, api_socket)
+        finally:
+            api_socket.close()
+    finally:
+        for lock in locks:
+            lock.release()
+
+
+def _api_server(config):
+    """uvicorn without its own signal handling: ``serve`` owns SIGINT/SIGTERM and stops
+    everything in order, motors first (uvicorn >= 0.29 would capture them, stop serving
+    and re-raise them after its own shutdown)."""
+    import uvicorn
+
+    class ApiServer(uvicorn.Server):
+        @contextlib.contextmanager
+        def capture_signals(self):
+            yield
+    return ApiServer(config)
+
+
+async def _serve(cfg: Config, state_dir: Path, clock: Clock, config_path: Path | None,
+                 api_socket: socket.socket) -> None:
     import uvicorn
 
     from .api import create_api
-    from .service.loop import run_realtime
-
-    clock = clock or RealClock()
-    rotator = build_rotator(cfg, clock, state_dir)
-    stop = asyncio.Event()
-    loop = asyncio.get_running_loop()
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        loop.add_signal_handler(sig, stop.set)
+    from .servers import start_endpoints
+    from .service.loop import ControlThread, WatchdogPing, sd_notifier, settle
     from .tracking.service import TrackingService
 
-    tracking = TrackingService(rotator, cfg)
-    tracking.start()
-    api = create_api(rotator, cfg, config_path=config_path, state_dir=state_dir,
-                     tracker=tracking if tracking.station is not None or tracking.gps is not None else None)
-    server = uvicorn.Server(uvicorn.Config(api, host=cfg.api.host, port=cfg.api.port,
-                                           log_level="warning", lifespan="off"))
-    server.install_signal_handlers = lambda: None  # ours above stop everything in order
-    caps = rotator.caps
-    print(f"urc: profile {caps.name} ({caps.description}) on the {cfg.hardware.backend} backend", flush=True)
-    print(f"urc: state in {state_dir}", flush=True)
-    print(f"urc: dashboard on http://{cfg.api.host}:{cfg.api.port}/ ; control API at /api "
-          f"(OpenAPI at /openapi.json)", flush=True)
-    for event in rotator.status().events:
-        print(f"urc: {event}", flush=True)
-    from .servers import start_endpoints
-
+    rotator = build_rotator(cfg, clock, state_dir)
+    started = False
     try:
+        stop = asyncio.Event()
+        loop = asyncio.get_running_loop()
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            loop.add_signal_handler(sig, stop.set)
+        tracking = TrackingService(rotator, cfg)
+        api = create_api(rotator, cfg, config_path=config_path, state_dir=state_dir,
+                         tracker=tracking if tracking.station is not None or tracking.gps is not None else None)
+        server = _api_server(uvicorn.Config(api, log_level="warning", lifespan="off"))
+        # every protocol port or none (the API port is bound already): a start that
+        # fails here has not ticked, so it has written no state
         endpoints = await start_endpoints(cfg.served, rotator)
-    except BaseException:
-        rotator.shutdown()
+        caps = rotator.caps
+        print(f"urc: profile {caps.name} ({caps.description}) on the {cfg.hardware.backend} backend", flush=True)
+        print(f"urc: state in {state_dir}", flush=True)
+        print(f"urc: dashboard on http://{cfg.api.host}:{cfg.api.port}/ ; control API at /api "
+              f"(OpenAPI at /openapi.json)", flush=True)
+        # (the rotator's start-up events were logged as they happened: not printed again)
+        for ep in endpoints:
+            print(f"urc: serving {ep.description}", flush=True)
+        tracking.start()
+        _announce_tracking(tracking, cfg)
+
+        notify = sd_notifier()
+        control = ControlThread(rotator, clock, watchdog=WatchdogPing(notify),
+                                on_exit=lambda _e: loop.call_soon_threadsafe(stop.set))
+        control.start()
+        started = True
+        web = asyncio.create_task(server.serve(sockets=[api_socket]), name="api")
+        steps = asyncio.create_task(_step_tracker(tracking, clock, stop), name="tracker")
+        notify("READY=1")
+        stopper = asyncio.create_task(stop.wait())
+        await asyncio.wait({web, stopper}, return_when=asyncio.FIRST_COMPLETED)
+        notify("STOPPING=1")
+        print("urc: stopping: axes to rest, then outputs safe and state saved", flush=True)
+        stop.set()
+        for ep in endpoints:
+            ep.close()
+        tracking.close()
+        await asyncio.gather(steps, return_exceptions=True)
+        if control.alive:
+            if not await settle(rotator):
+                print("urc: the axes did not come to rest in time; saved as moving", flush=True)
+        control.stop()
+        server.should_exit = True
+        await asyncio.gather(web, return_exceptions=True)
+        stopper.cancel()
+        if control.error is not None:
+            raise RuntimeError(f"control loop died: {control.error!r}") from control.error
+        if web.done() and not web.cancelled() and web.exception() is not None:
+            raise web.exception()
+    finally:
+        # every path: motors off, brakes on, heartbeat low; state saved only if the
+        # loop ran (a failed start leaves the saved state as it was)
+        rotator.shutdown(save=started)
         rotator.hw.close()
-        raise
-    for ep in endpoints:
-        print(f"urc: serving {ep.description}", flush=True)
+    print("urc: stopped, state saved", flush=True)
+
+
+def _announce_tracking(tracking, cfg: Config) -> None:
     if tracking.station is None and tracking.gps is None:
         print("urc: tracking off: no [station] configured", flush=True)
     elif tracking.station is None:
@@ -148,25 +235,20 @@ async def serve(cfg: Config, state_dir: Path, clock: Clock | None = None,
         except Exception as exc:  # a bad catalog must not keep the controller from running
             print(f"urc: schedule not run: {exc}", flush=True)
 
-    def after_tick(now_s: float) -> None:
+
+#: how often the tracker looks whether a new setpoint is due (it sends one every 0.2 s)
+TRACKER_STEP_S = 0.05
+
+
+async def _step_tracker(tracking, clock: Clock, stop: asyncio.Event) -> None:
+    """The tracker runs on the event loop, not the control thread: its propagation and
+    planning never delay a tick, and it shares a thread with the API's track commands."""
+    while not stop.is_set():
         try:
-            tracking.step(now_s)
-        except Exception:  # the tracker must never take the control loop down
+            tracking.step(clock.now_s())
+        except Exception:  # the tracker must never take the controller down
             log.exception("tracker step failed")
-    control = asyncio.create_task(run_realtime(rotator, clock, stop, after_tick), name="control-loop")
-    web = asyncio.create_task(server.serve(), name="api")
-    stopper = asyncio.create_task(stop.wait())
-    done, _ = await asyncio.wait({control, web, stopper}, return_when=asyncio.FIRST_COMPLETED)
-    stop.set()
-    server.should_exit = True
-    for ep in endpoints:
-        ep.close()
-    tracking.close()
-    await asyncio.gather(control, web, return_exceptions=True)
-    stopper.cancel()
-    rotator.shutdown()
-    rotator.hw.close()
-    for task in done:
-        if task is not stopper and task.exception() is not None:
-            raise task.exception()
-    print("urc: stopped, state saved", flush=True)
+        try:
+            await asyncio.wait_for(stop.wait(), TRACKER_STEP_S)
+        except asyncio.TimeoutError:
+            pass

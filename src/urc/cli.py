@@ -44,6 +44,7 @@ def run(config_path: str | None, profile: str | None, state_dir: str | None, por
         verbose: bool) -> None:
     """Start the controller (the simulator with no arguments)."""
     from .app import serve
+    from .service.instance import InstanceLocked
 
     logging.basicConfig(level=logging.DEBUG if verbose else logging.INFO,
                         format="%(asctime)s %(levelname)s %(name)s: %(message)s")
@@ -58,8 +59,13 @@ def run(config_path: str | None, profile: str | None, state_dir: str | None, por
                           config_path=Path(config_path) if config_path else None))
     except ConfigError as exc:
         raise click.ClickException(str(exc)) from None
-    except OSError as exc:
-        raise click.ClickException(f"cannot start: {exc}") from None
+    except (InstanceLocked, OSError) as exc:
+        # another urc on this state dir or hardware, a port in use: nothing was started
+        raise _Busy(f"cannot start: {exc}") from None
+
+
+class _Busy(click.ClickException):
+    exit_code = 3
 
 
 @main.group()

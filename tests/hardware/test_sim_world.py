@@ -40,7 +40,7 @@ def test_devices_satisfy_the_protocols(tmp_path, profile):
     hw.poll(0.0)
     hw.poll(0.5)
     truth = hw.sim_truth()
-    assert set(truth) == {"az", "el"}
+    assert set(truth) == {"az", "el", "heartbeat"}
     assert {"deg", "rate_deg_per_s", "gear_deg", "current_a", "brake_released"} <= set(truth["az"])
     hw.close()
     assert (tmp_path / "simulator-truth.json").exists()
@@ -223,7 +223,7 @@ def test_fault_injection_option(rig, tmp_path):
     with pytest.raises(ConfigError):
         rig("bigras", fault_injection=[{"axis": "up", "kind": "jam"}])
     assert set(FAULT_KINDS) == {"sensor_stuck", "sensor_jump", "sensor_dead", "jam",
-                                "runaway", "limit_switch", "reverse_wiring"}
+                                "runaway", "limit_switch", "reverse_wiring", "slow_read"}
 
 
 def test_unknown_caps_get_generic_physics(tmp_path):

@@ -8,10 +8,13 @@ only sees these protocols, so a real driver plugs in without touching it.
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass, field
-from typing import Any, Protocol, runtime_checkable
+from typing import Any, Callable, Protocol, runtime_checkable
 
 from ..caps import SensorCaps
+
+log = logging.getLogger(__name__)
 
 
 @runtime_checkable
@@ -87,6 +90,12 @@ class Positioner(Protocol):
         """How old a position report can be (the link's poll period)."""
 
 
+@runtime_checkable
+class DigitalOutput(Protocol):
+    def write(self, value: bool) -> None:
+        """Drive the output high (True) or low (False)."""
+
+
 @dataclass
 class AxisHardware:
     motor: Motor
@@ -111,9 +120,32 @@ class Hardware:
     truth_hook: Any = None
     close_hook: Any = None
     extra: dict[str, Any] = field(default_factory=dict)
+    #: toggled by every control tick (a square wave) for an external watchdog or charge
+    #: pump that removes motor power when urc dies or hangs; None = not wired
+    heartbeat: DigitalOutput | None = None
 
     def axis(self, name: str) -> AxisHardware:
-        return self.az if name == "az" else self.el
+        if name == "az":
+            return self.az
+        if name == "el":
+            return self.el
+        raise ValueError(f"no axis {name!r}: expected 'az' or 'el'")
+
+    def drive_safe(self) -> None:
+        """Every output to its safe state: motors off, brakes engaged, heartbeat low.
+        Each write is tried even when another fails (start-up and every exit path)."""
+        writes: list[tuple[str, Callable[[], Any]]] = []
+        for name, ax in (("az", self.az), ("el", self.el)):
+            writes.append((f"{name} motor off", lambda ax=ax: ax.motor.set_drive(0.0)))
+            if ax.brake is not None:
+                writes.append((f"{name} brake on", lambda ax=ax: ax.brake.set_released(False)))
+        if self.heartbeat is not None:
+            writes.append(("heartbeat low", lambda: self.heartbeat.write(False)))
+        for what, write in writes:
+            try:
+                write()
+            except Exception:
+                log.exception("safe state: %s failed", what)
 
     def poll(self, now_s: float) -> None:
         if self.poll_hook is not None:

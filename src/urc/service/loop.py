@@ -1,34 +1,178 @@
-"""Running the rotator's tick: in real time (asyncio) or on a virtual clock (tests, bench)."""
+"""Running the rotator's tick: in real time (its own thread) or on a virtual clock (tests, bench).
+
+The real-time loop runs on a thread of its own with absolute deadlines, apart from the
+asyncio I/O, so no request, client flood or search on the event loop delays a tick
+(within one process the GIL is shared: ``sys.setswitchinterval`` is shortened so that
+Python code on other threads gives the loop its turn within ``SWITCH_INTERVAL_S``;
+bench/loop_bench.py measures what is left). A late loop never runs catch-up ticks: it
+resumes on the next deadline. Every exit path of the thread leaves the outputs safe.
+"""
 
 from __future__ import annotations
 
 import asyncio
+import logging
+import math
+import os
+import sys
+import threading
+import time
 from typing import Callable
 
 from ..clock import Clock, VirtualClock
 from .rotator import Rotator
 from .snapshot import Status
 
-#: after a stall longer than this many periods, resynchronise instead of catching up.
-RESYNC_PERIODS = 5
+log = logging.getLogger(__name__)
+
+#: how long another thread may run Python code before the loop thread gets the GIL
+#: back (CPython's default is 5 ms: a whole tick's budget at 200 Hz)
+SWITCH_INTERVAL_S = 0.0005
+#: how long an orderly stop waits for the axes to come to rest before saving anyway
+#: (saved as moving then: the restart widens its bound)
+STANDSTILL_TIMEOUT_S = 8.0
+
+
+def next_deadline_s(deadline_s: float, period_s: float, now_s: float) -> float:
+    """The first deadline after ``deadline_s`` that is still ahead of ``now_s``: a late
+    loop skips the periods it missed instead of running them as a burst."""
+    nxt = deadline_s + period_s
+    if nxt <= now_s:
+        nxt += math.floor((now_s - nxt) / period_s + 1.0) * period_s
+    return nxt
+
+
+class WatchdogPing:
+    """systemd's service watchdog (``WatchdogSec`` in the unit, sd_notify ``WATCHDOG=1``):
+    pinged from the control loop only while its ticks are on time, so a hung or stalled
+    loop gets the service killed and restarted (the heartbeat output cuts the motors)."""
+
+    def __init__(self, notify: Callable[[str], None] | None = None, interval_s: float | None = None):
+        if notify is None:
+            notify = sd_notifier()
+        self.notify = notify
+        usec = os.environ.get("WATCHDOG_USEC")
+        self.interval_s = interval_s if interval_s is not None else \
+            (int(usec) / 1e6 / 4 if usec and usec.isdigit() and int(usec) > 0 else 1.0)
+        self._last_s = -math.inf
+
+    def tick(self, on_time: bool) -> None:
+        now = time.monotonic()
+        if on_time and now - self._last_s >= self.interval_s:
+            self._last_s = now
+            self.notify("WATCHDOG=1")
+
+
+def sd_notifier() -> Callable[[str], None]:
+    """sd_notify through $NOTIFY_SOCKET (a no-op when not started by systemd)."""
+    if not os.environ.get("NOTIFY_SOCKET"):
+        return lambda _state: None
+    import sdnotify
+
+    return sdnotify.SystemdNotifier().notify
+
+
+class ControlThread:
+    """The control loop on its own thread: ``tick`` at every absolute deadline until
+    :meth:`stop`. ``on_tick(status)`` runs on the loop thread after each tick (keep it
+    short: the systemd ping); anything slow belongs on the event loop."""
+
+    def __init__(self, rotator: Rotator, clock: Clock, on_tick: Callable[[Status], None] | None = None,
+                 watchdog: WatchdogPing | None = None, on_exit: Callable[[BaseException | None], None] | None = None):
+        self.rot = rotator
+        self.clock = clock
+        self.on_tick = on_tick
+        self.watchdog = watchdog
+        self.on_exit = on_exit
+        self.error: BaseException | None = None
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, name="urc-control", daemon=True)
+
+    def start(self) -> "ControlThread":
+        if sys.getswitchinterval() > SWITCH_INTERVAL_S:
+            sys.setswitchinterval(SWITCH_INTERVAL_S)
+        self._thread.start()
+        return self
+
+    def stop(self, timeout_s: float = 5.0) -> None:
+        self._stop.set()
+        if self._thread.is_alive() and threading.current_thread() is not self._thread:
+            self._thread.join(timeout_s)
+
+    @property
+    def alive(self) -> bool:
+        return self._thread.is_alive()
+
+    def _run(self) -> None:
+        rot, clock = self.rot, self.clock
+        period_s = 1.0 / rot.caps.loop_hz
+        deadline_s = clock.now_s()
+        try:
+            while not self._stop.is_set():
+                wait_s = deadline_s - clock.now_s()
+                if wait_s > 0 and self._stop.wait(wait_s):
+                    break
+                status = rot.tick(deadline_s)
+                if self.watchdog is not None:
+                    self.watchdog.tick(not status.loop.get("held") and not any(
+                        f.kind == "watchdog" for f in status.faults))
+                if self.on_tick is not None:
+                    self.on_tick(status)
+                deadline_s = next_deadline_s(deadline_s, period_s, clock.now_s())
+        except BaseException as exc:
+            self.error = exc
+            log.critical("control loop died: %r", exc, exc_info=True)
+        finally:
+            if self.error is not None:
+                # motors off and brakes on at once, whatever state the rotator is in
+                rot.hw.drive_safe()
+            if self.on_exit is not None:
+                self.on_exit(self.error)
+
+
+async def settle(rotator: Rotator, timeout_s: float = STANDSTILL_TIMEOUT_S, poll_s: float = 0.02) -> bool:
+    """Stop both axes and wait (bounded) until they stand still, while the loop keeps
+    ticking. True if they came to rest."""
+    try:
+        rotator.stop()
+    except Exception:  # the stop command itself may be refused (uncertain position...)
+        log.exception("stop before shutdown failed")
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        await asyncio.sleep(poll_s)
+        s = rotator.status()
+        if not s.moving and s.az.mode in ("idle", "holding") and s.el.mode in ("idle", "holding"):
+            return True
+    return False
 
 
 async def run_realtime(rotator: Rotator, clock: Clock, stop: asyncio.Event,
                        on_tick: Callable[[float], None] | None = None) -> None:
-    """Tick at the profile's loop rate until ``stop`` is set; report lateness.
-    ``on_tick(now_s)`` runs after each tick (the tracker feeding setpoints)."""
-    period_s = 1.0 / rotator.caps.loop_hz
-    next_s = clock.now_s()
-    while not stop.is_set():
-        await clock.sleep_until(next_s)
-        late_s = clock.now_s() - next_s
-        rotator.note_lateness(late_s)
-        status = rotator.tick()
-        if on_tick is not None:
-            on_tick(status.t_s)
-        next_s += period_s
-        if clock.now_s() - next_s > RESYNC_PERIODS * period_s:
-            next_s = clock.now_s()
+    """Run the control thread until ``stop`` is set (for embedding in an event loop).
+    ``on_tick(now_s)`` runs on the event loop after ticks (the tracker feeding setpoints),
+    coalesced: a slow one delays the next call, never a tick."""
+    loop = asyncio.get_running_loop()
+    pending = threading.Event()
+
+    def call_tracker() -> None:
+        pending.clear()
+        try:
+            on_tick(rotator.status().t_s)
+        except Exception:
+            log.exception("after-tick step failed")
+
+    def after_tick(_status: Status) -> None:
+        if on_tick is not None and not pending.is_set():
+            pending.set()
+            loop.call_soon_threadsafe(call_tracker)
+    control = ControlThread(rotator, clock, after_tick, on_exit=lambda _e: loop.call_soon_threadsafe(stop.set))
+    control.start()
+    try:
+        await stop.wait()
+    finally:
+        control.stop()
+    if control.error is not None:
+        raise control.error
 
 
 def run_virtual(rotator: Rotator, clock: VirtualClock, duration_s: float,

@@ -11,8 +11,10 @@ that changes axis state.
 from __future__ import annotations
 
 import collections
+import functools
 import logging
 import math
+import threading
 from dataclasses import dataclass, replace
 from typing import Any, Callable
 
@@ -31,6 +33,7 @@ from . import position_record as precord
 from .settings import RotatorSettings
 from .snapshot import AxisStatus, Status
 from .state_writer import StateWriter
+from .timing import LoopTiming
 
 log = logging.getLogger(__name__)
 
@@ -235,9 +238,14 @@ class _Command:
 class Rotator:
     def __init__(self, settings: RotatorSettings, hardware: Hardware, clock: Clock,
                  store: StateStore | None = None):
+        # every output safe before anything else (a restart may find a motor driving)
+        hardware.drive_safe()
         self.settings = settings.completed()
         self.caps = self.settings.caps
         self.hw = hardware
+        #: held by the tick and by every command method (see the end of this module): the
+        #: loop runs on its own thread, commands come from the asyncio thread
+        self.lock = threading.RLock()
         self.clock = clock
         self.store = store
         self.geometry: Geometry = self.settings.geometry()
@@ -266,7 +274,9 @@ class Rotator:
         self._save_error = ""
         #: reference searches in progress (homing): axis -> (uncertainty before, frame shift)
         self._searches: dict[str, tuple[float, float]] = {}
-        self._lateness_ms: collections.deque[float] = collections.deque(maxlen=500)
+        self.timing = LoopTiming(self.settings.watchdog_s)
+        self._heartbeat = False
+        self._was_held = False
         self._status: Status | None = None
         self._tracking = False
         self._restore()
@@ -372,8 +382,27 @@ class Rotator:
             ax.uncertainty_deg = ax.modulo
 
     # ====================================================================== the tick
-    def tick(self) -> Status:
-        """Advance the whole rotator by one control period. Only this mutates state."""
+    def tick(self, deadline_s: float | None = None) -> Status:
+        """Advance the whole rotator by one control period. Only this mutates state.
+
+        ``deadline_s``: when this tick was due (the real-time loop passes it); the tick
+        measures how late its outputs were written, its own run time included."""
+        with self.lock:
+            start_s = self.clock.now_s()
+            start_late_s = 0.0 if deadline_s is None else start_s - deadline_s
+            self.note_lateness(start_late_s)  # late already: the outputs stay off this tick
+            status = self._tick()
+            if deadline_s is None:
+                return status
+            end_s = self.clock.now_s()
+            self.timing.record(end_s - deadline_s, end_s - start_s)
+            if start_late_s <= self.settings.watchdog_s < end_s - deadline_s:
+                # a stall inside this tick: its outputs have been standing meanwhile
+                self.note_lateness(end_s - deadline_s)
+                status = self._status = self._build_status(end_s)
+            return status
+
+    def _tick(self) -> Status:
         now = self.clock.now_s()
         dt = (1.0 / self.caps.loop_hz) if self._last_t_s is None else max(now - self._last_t_s, 0.0)
         self._last_t_s = now
@@ -395,22 +424,54 @@ class Rotator:
         self._advance_route()
         self._check_parked()
         self._maybe_idle_park(now)
+        held = self.timing.held(now)
+        if self._was_held and not held:
+            self._event("control loop on time again: motion resumed")
+        self._was_held = held
         for name, ax in self.axes.items():
-            sp = None if self._faults else ax.sp
+            sp = None if self._faults or held else ax.sp
             ax.step(sp, now, dt)
         self._guard()
         self._persist(now)
         for ax in self.axes.values():
             self._apply(ax)
+        self._beat()
         self._status = self._build_status(now)
         return self._status
 
     def note_lateness(self, late_s: float) -> None:
-        """The loop runner reports how late each tick started; too late is a fault."""
-        self._lateness_ms.append(late_s * 1000.0)
+        """A stall of ``late_s`` (more than the watchdog time): the motors stop at once
+        and stay off until the loop has been on time for a while; stalls that keep
+        happening latch a watchdog fault."""
         if late_s > self.settings.watchdog_s:
-            self._latch(Fault("watchdog", None, f"control loop deadline missed by {late_s * 1000:.0f} ms",
-                              self.clock.now_s()))
+            now = self.clock.now_s()
+            with self.lock:
+                self._on_stall(self.timing.stall(now, late_s), late_s, now)
+
+    def _on_stall(self, verdict: str, late_s: float, now_s: float) -> None:
+        t = self.timing
+        if verdict == "latch":
+            self._latch(Fault("watchdog", None, f"control loop deadline missed by {late_s * 1000:.0f} ms "
+                              f"({t.recent_stalls(now_s)} stalls within {t.latch_window_s / 60:g} min)", now_s))
+            return
+        for ax in self.axes.values():
+            ax.out = law.OFF
+            self._apply(ax)
+        self._was_held = True
+        self._event(f"control loop late by {late_s * 1000:.0f} ms: motors stopped, resuming when on time "
+                    f"(stall {t.recent_stalls(now_s)} of {t.latch_stalls} that latch a fault within "
+                    f"{t.latch_window_s / 60:g} min)")
+
+    def _beat(self) -> None:
+        """Toggle the heartbeat output: a square wave while ticks run, for an external
+        watchdog (charge pump) that cuts motor power when it stops."""
+        if self.hw.heartbeat is None:
+            return
+        self._heartbeat = not self._heartbeat
+        try:
+            self.hw.heartbeat.write(self._heartbeat)
+        except Exception as exc:  # a failed heartbeat write is the external watchdog's to see
+            log.debug("heartbeat write failed: %s", exc)
 
     def _apply(self, ax: _Axis) -> None:
         if ax.positioner is not None:
@@ -869,14 +930,17 @@ class Rotator:
         self._submit("reconfigure", apply)
 
     def clear_faults(self) -> None:
-        def apply() -> None:
-            if self._faults:
-                self._event("faults cleared: " + "; ".join(f.reason for f in self._faults))
-            self._faults.clear()
-            for ax in self.axes.values():
-                # re-arm the monitor from here; switches still pressed stay known
-                ax.mon = MonitorState(limit_min=ax.limit_min, limit_max=ax.limit_max)
-        self._submit("clear_faults", apply)
+        """Clear latched faults now, before the reply (a goto right after it must be
+        accepted); the monitors re-arm from here."""
+        if self._faults:
+            self._event("faults cleared: " + "; ".join(f.reason for f in self._faults))
+        self._faults.clear()
+        self.timing.acknowledge()
+        for ax in self.axes.values():
+            # re-arm the monitor from here; switches still pressed stay known
+            ax.mon = MonitorState(limit_min=ax.limit_min, limit_max=ax.limit_max)
+        self._last_command_t_s = self.clock.now_s()
+        self._status = self._build_status(self.clock.now_s())
 
     # ================================================================ route / park
     def _start_route(self, route: list[tuple[float, float]]) -> None:
@@ -1026,20 +1090,25 @@ class Rotator:
         """Write a record of the present state and wait for it; True once it is on disk."""
         if self._writer is None:
             return True
-        self._submit_record(self.clock.now_s())
+        with self.lock:  # the record is taken between ticks; the wait is not (see below)
+            self._submit_record(self.clock.now_s())
         ok = self._writer.flush(timeout_s)
-        self._take_report(self.clock.now_s())
-        return ok and self._durable is self._record
+        with self.lock:
+            self._take_report(self.clock.now_s())
+            return ok and self._durable is self._record
 
-    def shutdown(self) -> bool:
-        """Orderly stop: motors off, brakes on, state saved (still on the move, it says
-        so: a restart is then uncertain by how far the axis can coast). True if saved."""
+    def shutdown(self, save: bool = True) -> bool:
+        """Motors off, brakes on, every output safe; then the state saved as it is (still
+        on the move, it says so: a restart is then uncertain by how far the axis can
+        coast). The caller stops first and waits for standstill (``urc.service.loop``);
+        ``save=False`` for a start that failed: the saved state stays as it was. True if saved."""
         for ax in self.axes.values():
             ax.sp, ax.out = None, law.OFF
             self._apply(ax)
+        self.hw.drive_safe()
         if self._writer is None:
             return True
-        ok = self.save_now()
+        ok = self.save_now() if save else True
         self._writer.close()
         return ok
 
@@ -1057,8 +1126,7 @@ class Rotator:
         flipped = el_ext > 90.0 + el.tuning.tolerance_deg
         sky_az, sky_el = g.to_sky(az.meas_deg, el.meas_deg) if flipped else \
             (wrap360(az.meas_deg + g.az_offset_deg), min(el_ext, 180.0 - el_ext))
-        lat = sorted(self._lateness_ms)
-        p99 = lat[min(len(lat) - 1, int(0.99 * len(lat)))] if lat else 0.0
+        loop = self.timing.health(now_s)
         tgt = self._target_sky
         return Status(
             t_s=now_s, profile=self.caps.name, az_deg=round(sky_az, 4) % 360.0, el_deg=sky_el,
@@ -1067,8 +1135,25 @@ class Rotator:
             flipped=flipped,
             wrap_turns=int(math.floor((az.meas_deg + self.geometry.az_offset_deg) / 360.0)),
             moving=self._moving(), parked=self._parked, position_known=not self.position_uncertain(),
-            faults=tuple(self._faults), events=tuple(self._events), tick_late_p99_ms=p99,
+            faults=tuple(self._faults), events=tuple(self._events), tick_late_p99_ms=loop.late_p99_ms,
+            loop=loop.as_dict(),
             sim_truth=self.hw.sim_truth(),
             limits={"az": az.limits, "el": el.limits},
             offsets={"az": self.geometry.az_offset_deg, "el": self.geometry.el_offset_deg},
             state_error=self._save_error)
+
+
+def _holding_lock(method: Callable) -> Callable:
+    @functools.wraps(method)
+    def locked(self: Rotator, *args: Any, **kwargs: Any) -> Any:
+        with self.lock:
+            return method(self, *args, **kwargs)
+    return locked
+
+
+# The control loop runs on its own thread: every command validates against the axes and
+# queues its change under the same lock the tick holds, so it never sees half a tick.
+# (Reading ``status()`` needs no lock: a Status is immutable.)
+for _name in ("goto", "goto_pose", "goto_az", "goto_el", "park", "track", "track_pose", "move", "stop",
+              "set_position", "set_overshoot", "reconfigure", "clear_faults", "shutdown"):
+    setattr(Rotator, _name, _holding_lock(getattr(Rotator, _name)))

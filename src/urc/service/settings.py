@@ -26,6 +26,12 @@ def default_fault_limits(ax: AxisCaps, lo: float, hi: float) -> FaultLimits:
                        resolution_deg=ax.sensor.resolution_deg, noise_deg=ax.sensor.noise_deg)
 
 
+def _axis_name(axis: str) -> str:
+    if axis not in ("az", "el"):
+        raise ValueError(f"no axis {axis!r}: expected 'az' or 'el'")
+    return axis
+
+
 @dataclass(frozen=True)
 class RotatorSettings:
     caps: RotatorCaps
@@ -67,13 +73,13 @@ class RotatorSettings:
             el_faults=self.el_faults or default_fault_limits(c.el, *self.el_limits_deg))
 
     def tuning(self, axis: str) -> AxisTuning:
-        return self.az_tuning if axis == "az" else self.el_tuning  # type: ignore[return-value]
+        return self.az_tuning if _axis_name(axis) == "az" else self.el_tuning  # type: ignore[return-value]
 
     def fault_limits(self, axis: str) -> FaultLimits:
-        return self.az_faults if axis == "az" else self.el_faults  # type: ignore[return-value]
+        return self.az_faults if _axis_name(axis) == "az" else self.el_faults  # type: ignore[return-value]
 
     def limits(self, axis: str) -> tuple[float, float]:
-        return self.az_limits_deg if axis == "az" else self.el_limits_deg
+        return self.az_limits_deg if _axis_name(axis) == "az" else self.el_limits_deg
 
     def geometry(self) -> Geometry:
         zone_margin = max(self.caps.az.tolerance_deg, self.caps.el.tolerance_deg) + \

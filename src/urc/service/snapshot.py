@@ -50,6 +50,9 @@ class Status:
     #: why the state record cannot be written ("" while saving works); motion goes on
     #: only as far as the last record on disk allows, then a "state" fault stops it
     state_error: str = ""
+    #: control-loop timing (``urc.service.timing.LoopHealth.as_dict``): lateness and
+    #: tick-time p99, stalls, whether the motors are held off after a stall
+    loop: dict[str, Any] = field(default_factory=dict)
 
     def as_dict(self) -> dict[str, Any]:
         d = asdict(self)

@@ -14,7 +14,7 @@ from .context import WebContext
 from .schemas import CONTROL_RESPONSES, Deg, Ok, Strict
 
 FaultKind = Literal["sensor_stuck", "sensor_jump", "sensor_dead", "jam", "runaway", "limit_switch",
-                    "reverse_wiring"]
+                    "reverse_wiring", "slow_read"]
 
 
 class SimFault(Strict):
@@ -24,6 +24,9 @@ class SimFault(Strict):
     duty: float | None = Field(None, strict=True, allow_inf_nan=False, ge=-1.0, le=1.0,
                                description="runaway: stuck duty")
     which: Literal["min", "max", "both"] | None = Field(None, description="limit_switch: which one")
+    delay_s: float | None = Field(None, strict=True, allow_inf_nan=False, ge=0.0, le=10.0,
+                                  description="slow_read: how long each slow read blocks")
+    reads: int | None = Field(None, strict=True, ge=0, le=1000, description="slow_read: how many reads")
 
 
 class SimClear(Strict):
@@ -44,7 +47,8 @@ def router(ctx: WebContext) -> APIRouter:
     async def inject(req: SimFault) -> Ok:
         """Simulator only: make the simulated hardware fail (the controller is not told)."""
         w = world()
-        kw = {k: v for k, v in (("deg", req.deg), ("duty", req.duty), ("which", req.which)) if v is not None}
+        kw = {k: v for k, v in (("deg", req.deg), ("duty", req.duty), ("which", req.which),
+                                ("delay_s", req.delay_s), ("reads", req.reads)) if v is not None}
         try:
             w.inject(req.axis, req.kind, **kw)
         except ValueError as exc:

@@ -13,7 +13,9 @@ park), ``fault_injection`` (faults active from the start: a list of
 ``{"axis": "az", "kind": "jam", ...kwargs}`` or a mapping ``{"az": {"jam": {...}}}``),
 ``sensor_noise`` (bool, True), ``truth_interval_s`` (float, 0.02: least clock time
 between truth writes), ``truth_wall_interval_s`` (float, 0.02: least wall time between
-writes, so a fast virtual clock is not slowed by file writes; 0 = exactly repeatable).
+writes, so a fast virtual clock is not slowed by file writes; 0 = exactly repeatable), ``heartbeat_file`` (path, default
+``state_dir/"heartbeat"``; ``None``: no file): the simulated heartbeat output's level and
+toggle count, also in the truth as ``heartbeat``.
 """
 
 from __future__ import annotations
@@ -26,6 +28,7 @@ from ...caps import RotatorCaps
 from ...clock import Clock
 from ...errors import ConfigError
 from ..interfaces import AxisHardware, Hardware
+from .outputs import SimDigitalOutput
 from .params import (PHYSICS, SimAxisParams, SimRotatorParams, SimSensorParams, params_for_caps,
                      physics_for)
 from .world import FAULT_KINDS, SimWorld
@@ -33,7 +36,7 @@ from .world import FAULT_KINDS, SimWorld
 log = logging.getLogger(__name__)
 
 _OPTIONS = {"seed", "wind", "truth_file", "start_az_deg", "start_el_deg", "fault_injection",
-            "sensor_noise", "truth_interval_s", "truth_wall_interval_s"}
+            "sensor_noise", "truth_interval_s", "truth_wall_interval_s", "heartbeat_file"}
 
 
 def build_sim_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
@@ -66,8 +69,14 @@ def build_sim_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
         return AxisHardware(motor=world.motors[name], sensor=world.sensors[name],
                             brake=world.brakes[name], limit_min=lo, limit_max=hi)
 
+    heartbeat_file = options.get("heartbeat_file", Path(state_dir) / "heartbeat")
+    heartbeat = SimDigitalOutput("heartbeat", Path(heartbeat_file) if heartbeat_file else None)
+
+    def truth() -> dict[str, Any]:
+        return {**world.truth(), "heartbeat": heartbeat.truth()}
+
     return Hardware(backend="sim", az=axis_hw("az"), el=axis_hw("el"),
-                    poll_hook=world.advance_to, truth_hook=world.truth,
+                    poll_hook=world.advance_to, truth_hook=truth, heartbeat=heartbeat,
                     close_hook=world.close,
                     # what a motor driver's over-current trip would be set to: well above
                     # running current, below the stall current a jam draws
@@ -102,4 +111,4 @@ def _fault_list(spec: Any) -> list[tuple[str, str, dict[str, Any]]]:
 
 
 __all__ = ["build_sim_hardware", "physics_for", "params_for_caps", "PHYSICS", "SimWorld",
-           "SimAxisParams", "SimRotatorParams", "SimSensorParams", "FAULT_KINDS"]
+           "SimAxisParams", "SimRotatorParams", "SimSensorParams", "SimDigitalOutput", "FAULT_KINDS"]

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 import random
+import time
 from typing import Any
 
 from ...caps import SensorCaps
@@ -33,9 +34,16 @@ class SimSensor:
         self.fault_dead = False
         self.fault_jump_deg = 0.0
         self.fault_stuck_deg: float | None = None
+        #: slow_read: the next ``fault_slow_reads`` reads each block this long (a bus
+        #: timing out, clock stretching): a stall inside the control tick
+        self.fault_slow_s = 0.0
+        self.fault_slow_reads = 0
 
     # -- PositionSensor -----------------------------------------------------
     def read_deg(self) -> float:
+        if self.fault_slow_reads > 0:
+            self.fault_slow_reads -= 1
+            time.sleep(self.fault_slow_s)
         if self.fault_dead:
             raise SensorError(f"{self.name} sensor ({self.caps.kind}): no reading")
         if self.fault_stuck_deg is not None:

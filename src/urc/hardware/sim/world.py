@@ -30,7 +30,7 @@ log = logging.getLogger(__name__)
 AXES = ("az", "el")
 TRUTH_VERSION = 1
 FAULT_KINDS = ("sensor_stuck", "sensor_jump", "sensor_dead", "jam", "runaway",
-               "limit_switch", "reverse_wiring")
+               "limit_switch", "reverse_wiring", "slow_read")
 #: a coast-down after a restart is simulated for at most this long.
 _MAX_COAST_S = 120.0
 
@@ -265,7 +265,9 @@ class SimWorld:
         offset by deg), ``sensor_dead`` (read raises SensorError), ``jam`` (axis cannot
         move; the motor stalls), ``runaway`` (duty=1.0: the motor gets this duty whatever
         is commanded, e.g. a welded relay), ``limit_switch`` (which="max" | "min" |
-        "both": switch forced active), ``reverse_wiring`` (motor turns the wrong way).
+        "both": switch forced active), ``reverse_wiring`` (motor turns the wrong way),
+        ``slow_read`` (delay_s=0.7, reads=1: the next reads each block that long in wall
+        time, a bus timing out: a stall inside the control tick; clears itself).
         """
         phys, sensor = self.axes[axis], self.sensors[axis]
         if kind == "sensor_stuck":
@@ -291,6 +293,9 @@ class SimWorld:
         elif kind == "reverse_wiring":
             phys.reversed = True
             phys._apply_drive()
+        elif kind == "slow_read":
+            sensor.fault_slow_s = max(0.0, min(10.0, float(kw.get("delay_s", 0.7))))
+            sensor.fault_slow_reads = max(0, int(kw.get("reads", 1)))
         else:
             raise ValueError(f"unknown fault {kind!r}; expected one of {', '.join(FAULT_KINDS)}")
         self._faults[axis][kind] = dict(kw)
@@ -307,6 +312,8 @@ class SimWorld:
                 sensor.fault_jump_deg = 0.0
             elif k == "sensor_dead":
                 sensor.fault_dead = False
+            elif k == "slow_read":
+                sensor.fault_slow_reads = 0
             elif k == "jam":
                 phys.jammed = False
             elif k == "runaway":

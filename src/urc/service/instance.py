@@ -1,0 +1,70 @@
+"""One urc per state directory (and per hardware): an exclusive lock held while running.
+
+Two controllers on one state file overwrite each other's position, and on real iron both
+would drive the motors. ``fcntl.flock`` locks go away with the process (even on kill -9),
+so a crash never leaves a stale lock behind. The lock is taken before anything is built
+or written: a refused start leaves the state untouched.
+"""
+
+from __future__ import annotations
+
+import fcntl
+import os
+import tempfile
+from pathlib import Path
+
+from ..errors import UrcError
+
+LOCK_FILE = "urc.lock"
+
+
+class InstanceLocked(UrcError):
+    """Another urc holds the state directory or the hardware."""
+
+
+class InstanceLock:
+    def __init__(self, path: Path, what: str):
+        self.path = Path(path)
+        self.what = what
+        self._fd: int | None = None
+
+    def acquire(self) -> "InstanceLock":
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            holder = os.read(fd, 64).decode(errors="replace").strip() or "unknown"
+            os.close(fd)
+            raise InstanceLocked(f"{self.what} is in use by another urc (pid {holder}, lock {self.path}); "
+                                 "stop that one first, or give this one another --state-dir") from None
+        os.ftruncate(fd, 0)
+        os.write(fd, f"{os.getpid()}\n".encode())
+        self._fd = fd
+        return self
+
+    def release(self) -> None:
+        if self._fd is not None:
+            os.close(self._fd)  # closing drops the flock
+            self._fd = None
+
+
+def hardware_lock_path(backend: str) -> Path:
+    """Where the lock for a machine's real hardware lives (shared by every state dir)."""
+    base = Path("/run/lock")
+    if not (base.is_dir() and os.access(base, os.W_OK)):
+        base = Path(tempfile.gettempdir())
+    return base / f"urc-{backend}.lock"
+
+
+def lock_instance(state_dir: Path, backend: str, real_hardware: bool) -> list[InstanceLock]:
+    """Lock the state directory, and the hardware when it is real (a simulator or an
+    emulation lives in its state dir). Raises :class:`InstanceLocked`."""
+    locks = [InstanceLock(Path(state_dir) / LOCK_FILE, f"state dir {state_dir}").acquire()]
+    if real_hardware:
+        try:
+            locks.append(InstanceLock(hardware_lock_path(backend), f"the {backend} hardware").acquire())
+        except InstanceLocked:
+            locks[0].release()
+            raise
+    return locks
