@@ -218,9 +218,10 @@ async def _serve(cfg: Config, state_dir: Path, clock: Clock, config_path: Path |
     finally:
         # every path: motors off, brakes on, heartbeat low; state saved only if the
         # loop ran (a failed start leaves the saved state as it was)
-        rotator.shutdown(save=started)
+        saved = rotator.shutdown(save=started)
         rotator.hw.close()
-    print("urc: stopped, state saved", flush=True)
+    print("urc: stopped, state saved" if saved else "urc: stopped; the state could NOT be saved "
+          "(the next start treats the position as uncertain)", flush=True)
 
 
 def _announce_tracking(tracking, cfg: Config) -> None:
