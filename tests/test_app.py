@@ -1,0 +1,171 @@
+"""`urc run` as a process on real iron would live: heartbeat, exit paths, one instance per
+state dir, ports checked before serving, stalls, systemd's notify socket."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import socket
+import subprocess
+import time
+
+import pytest
+
+from urc.hardware.sim.outputs import read_output_file
+
+from urc_process import URC, UrcProcess, free_port
+
+
+@pytest.fixture
+def urc(tmp_path):
+    made: list[UrcProcess] = []
+
+    def make(**kw) -> UrcProcess:
+        u = UrcProcess(tmp_path, **kw)
+        made.append(u)
+        return u
+    yield make
+    for u in made:
+        if u.proc is not None and u.proc.poll() is None:
+            u.proc.kill()
+            u.proc.wait()
+
+
+def heartbeat(u: UrcProcess) -> dict:
+    return read_output_file(u.state_dir / "heartbeat")
+
+
+def test_kill_9_stops_the_heartbeat(urc):
+    u = urc().start()
+    first = heartbeat(u)["toggles"]
+    time.sleep(0.6)
+    assert heartbeat(u)["toggles"] > first, "the heartbeat toggles while urc runs"
+    u.proc.send_signal(signal.SIGKILL)
+    u.proc.wait()
+    dead = heartbeat(u)
+    time.sleep(0.6)
+    assert heartbeat(u) == dead, "the square wave stopped with the process"
+
+
+def test_sigterm_during_a_move_stops_waits_for_standstill_and_saves(urc):
+    """Issue 9.5: SIGTERM while the axis still moved saved it as standing; tartu-urc
+    restarted 0.24-0.55 deg off with uncertainty 0."""
+    u = urc(profile="tartu-urc").start()
+    assert u.post("/api/goto", {"az_deg": 200, "el_deg": 30}).status_code == 200
+    u.wait(lambda s: s["moving"] and abs(s["az"]["rate_deg_per_s"]) > 3)
+    u.proc.send_signal(signal.SIGTERM)
+    out, _ = u.proc.communicate(timeout=30)
+    assert u.proc.returncode == 0 and "stopped, state saved" in out, out
+    truth = json.loads((u.state_dir / "simulator-truth.json").read_text())["axes"]
+    for axis in ("az", "el"):
+        assert truth[axis]["load_deg_per_s"] == 0.0 and truth[axis]["gear_deg_per_s"] == 0.0
+        assert truth[axis]["brake_released"] is False
+    assert read_output_file(u.state_dir / "heartbeat")["level"] == 0
+    saved = json.loads((u.state_dir / "state.json").read_text())["payload"]["axes"]
+    assert not saved["az"]["moving"]
+    u.start()  # restart: exact, known, where the truth is
+    s = u.status()
+    assert s["position_known"]
+    for axis in ("az", "el"):
+        assert s[axis]["uncertainty_deg"] == 0
+        assert s[axis]["pos_deg"] == pytest.approx(s["simulator_truth"][axis]["deg"], abs=0.2)
+    u.stop()
+
+
+def test_a_second_instance_on_one_state_dir_is_refused_and_writes_nothing(urc, tmp_path):
+    """Issue 9.6: two `urc run` on one state dir both ran and overwrote each other."""
+    u = urc().start()
+    u.stop()  # a saved state to guard
+    u.start()
+    before = {p.name: p.read_bytes() for p in u.state_dir.iterdir() if p.name.startswith("state")}
+    other = tmp_path / "second.toml"
+    other.write_text(u.config.read_text().replace(f"port = {u.port}", f"port = {free_port()}"))
+    r = subprocess.run(URC + ["run", "--config", str(other), "--state-dir", str(u.state_dir)],
+                       capture_output=True, text=True, timeout=60)
+    assert r.returncode == 3
+    assert "in use by another urc" in r.stderr and f"pid {u.proc.pid}" in r.stderr
+    after = {p.name: p.read_bytes() for p in u.state_dir.iterdir() if p.name.startswith("state")}
+    assert after == before
+    assert u.proc.poll() is None and u.status()["position_known"]
+
+
+def test_a_busy_api_port_stops_the_start_before_any_server_or_state(urc):
+    """Issue 13.8: with the API port busy, urc started the protocol servers and only
+    then exited; a failed start must not write state either."""
+    rotctld_port = free_port()
+    u = urc(serve=[{"protocol": "rotctld", "tcp": f"127.0.0.1:{rotctld_port}"}])
+    with socket.socket() as busy:
+        busy.bind(("127.0.0.1", u.port))
+        busy.listen()
+        r = subprocess.run(URC + ["run", "--config", str(u.config), "--state-dir", str(u.state_dir)],
+                           capture_output=True, text=True, timeout=60)
+    assert r.returncode == 3 and f"{u.port}" in r.stderr, r.stderr
+    assert "serving" not in r.stdout
+    assert not (u.state_dir / "state.json").exists()
+
+
+def test_start_up_warnings_are_printed_once(urc):
+    u = urc().start()
+    out = u.stop()
+    assert out.count("no saved position") <= 1 or out.count("first start") <= 1
+    lines = [ln.split(": ", 1)[-1] for ln in out.splitlines() if "assuming" in ln]
+    assert lines and len(lines) == len(set(lines)), out
+
+
+def test_a_stall_inside_a_tick_is_seen_and_recovered_from(urc):
+    """Issue 9.7: a 700 ms stall inside the tick (here a sensor read that hangs) was
+    invisible to the watchdog and to tick_late_p99_ms."""
+    u = urc(profile="tartu-urc").start()
+    assert u.post("/api/goto", {"az_deg": 100, "el_deg": 30}).status_code == 200
+    u.wait(lambda s: s["moving"])
+    assert u.post("/api/sim/fault", {"axis": "az", "kind": "slow_read", "delay_s": 0.7}).status_code == 200
+    s = u.wait(lambda s: s["loop"]["stalls"] >= 1, timeout_s=20)
+    assert s["loop"]["last_stall_ms"] >= 700
+    s = u.wait(lambda s: s["tick_late_p99_ms"] >= 700, timeout_s=20)
+    assert not s["faults"]
+    s = u.wait(lambda s: not s["moving"] and abs(s["az_deg"] - 100) < 0.3, timeout_s=90)
+    assert not s["faults"] and not s["loop"]["held"]
+    for _ in range(2):  # stalls that keep happening latch
+        assert u.post("/api/sim/fault", {"axis": "az", "kind": "slow_read", "delay_s": 0.7}).status_code == 200
+        time.sleep(1.5)
+    s = u.wait(lambda s: any(f["kind"] == "watchdog" for f in s["faults"]), timeout_s=20)
+    assert u.post("/api/clear-faults").status_code == 200
+    assert u.post("/api/goto", {"az_deg": 110, "el_deg": 30}).status_code == 200  # right after
+    u.stop()
+
+
+def test_systemd_notify_ready_and_watchdog_pings_only_while_on_time(urc, tmp_path):
+    path = str(tmp_path / "notify.sock")
+    with socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM) as sock:
+        sock.bind(path)
+        sock.settimeout(0.2)
+        u = urc()
+        env = dict(os.environ, NOTIFY_SOCKET=path, WATCHDOG_USEC="400000")  # pings every 0.1 s
+        u.proc = subprocess.Popen(URC + ["run", "--config", str(u.config), "--state-dir", str(u.state_dir)],
+                                  stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env)
+
+        def messages(seconds: float) -> list[str]:
+            got, end = [], time.monotonic() + seconds
+            while time.monotonic() < end:
+                try:
+                    got.append(sock.recv(256).decode())
+                except socket.timeout:
+                    pass
+            return got
+        got: list[str] = []
+        deadline = time.monotonic() + 60
+        while "READY=1" not in got and time.monotonic() < deadline:
+            got += messages(0.5)
+        assert "READY=1" in got
+        assert "WATCHDOG=1" in messages(1.0)
+        u.proc.send_signal(signal.SIGSTOP)  # a hung process: no pings
+        try:
+            messages(0.3)  # (drain what was sent before the stop)
+            assert "WATCHDOG=1" not in messages(1.0)
+        finally:
+            u.proc.send_signal(signal.SIGCONT)
+        assert "WATCHDOG=1" in messages(3.0)
+        u.proc.send_signal(signal.SIGTERM)
+        assert "STOPPING=1" in messages(3.0)
+        u.proc.communicate(timeout=30)
