@@ -92,6 +92,39 @@ def config_check(path: str) -> None:
     click.echo(f"{path}: ok (profile {cfg.rotator.profile})")
 
 
+@main.group()
+def service() -> None:
+    """Run urc as a systemd service."""
+
+
+@service.command("install")
+@click.option("--config", "config_path", type=click.Path(dir_okay=False, exists=True),
+              help="Configuration the service runs with.")
+@click.option("--state-dir", type=click.Path(file_okay=False), help="Where the service keeps its state.")
+@click.option("--user", "run_as", help="Run the system service as this user (default: root).")
+@click.option("--user-unit", is_flag=True, help="Install for the current user (systemctl --user).")
+@click.option("--print", "print_only", is_flag=True, help="Print the unit instead of writing it.")
+def service_install(config_path: str | None, state_dir: str | None, run_as: str | None, user_unit: bool,
+                    print_only: bool) -> None:
+    """Write the systemd unit (Type=notify, WatchdogSec) for `urc run`."""
+    from .systemd_unit import unit_path, unit_text
+
+    text = unit_text(Path(config_path) if config_path else None, Path(state_dir) if state_dir else None,
+                     user=run_as, user_unit=user_unit)
+    if print_only:
+        click.echo(text, nl=False)
+        return
+    path = unit_path(user_unit)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(text)
+    except OSError as exc:
+        raise click.ClickException(f"cannot write {path}: {exc} (as root, or use --user-unit or --print)") \
+            from None
+    ctl = "systemctl --user" if user_unit else "sudo systemctl"
+    click.echo(f"wrote {path}\nthen: {ctl} daemon-reload && {ctl} enable --now urc")
+
+
 @main.command()
 def profiles() -> None:
     """List the rotator profiles."""
