@@ -194,6 +194,9 @@ async def _serve(cfg: Config, state_dir: Path, clock: Clock, config_path: Path |
         started = True
         web = asyncio.create_task(server.serve(sockets=[api_socket]), name="api")
         steps = asyncio.create_task(_step_tracker(tracking, clock, stop), name="tracker")
+        from .frontpanel import serve_panel
+
+        panel = asyncio.create_task(serve_panel(cfg, rotator, stop), name="front-panel")
         notify("READY=1")
         stopper = asyncio.create_task(stop.wait())
         await asyncio.wait({web, stopper}, return_when=asyncio.FIRST_COMPLETED)
@@ -203,7 +206,7 @@ async def _serve(cfg: Config, state_dir: Path, clock: Clock, config_path: Path |
         for ep in endpoints:
             ep.close()
         tracking.close()
-        await asyncio.gather(steps, return_exceptions=True)
+        await asyncio.gather(steps, panel, return_exceptions=True)
         if control.alive:
             if not await settle(rotator):
                 print("urc: the axes did not come to rest in time; saved as moving", flush=True)

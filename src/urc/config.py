@@ -43,7 +43,7 @@ from .profiles import DEFAULT_PROFILE, PROFILES
 __all__ = [
     "EXAMPLE_CONFIG", "ApiSection", "AxisControl", "AxisLimits", "Config", "ControlSection",
     "FaultsSection", "HardwareSection", "KeepoutZone", "LimitsSection", "OffsetsSection",
-    "ParkSection", "RotatorSection", "BridgeSection", "ScheduleEntry", "ServeEntry", "StationSection", "TrackingSection", "SimSection", "StateSection", "load_config",
+    "PanelSection", "ParkSection", "RotatorSection", "BridgeSection", "ScheduleEntry", "ServeEntry", "StationSection", "TrackingSection", "SimSection", "StateSection", "load_config",
     "loads_config", "parse_host_port",
 ]
 
@@ -333,6 +333,108 @@ class ServeEntry(_Section):
 DEFAULT_SERVE = (ServeEntry(protocol="rotctld", tcp="127.0.0.1:4533"),)
 
 
+class PanelButtons(_Section):
+    """GPIO (BCM) numbers of the front-panel push-buttons, wired to ground (pull-up);
+    omitted = not fitted."""
+
+    cw: int | None = Field(None, ge=0, le=53)
+    ccw: int | None = Field(None, ge=0, le=53)
+    up: int | None = Field(None, ge=0, le=53)
+    down: int | None = Field(None, ge=0, le=53)
+    stop: int | None = Field(None, ge=0, le=53)
+    park: int | None = Field(None, ge=0, le=53)
+    #: held with a turn button: jog slowly (G4JNT); stores Z in its zero setting
+    slow: int | None = Field(None, ge=0, le=53)
+
+
+class PanelLeds(_Section):
+    """GPIO (BCM) numbers of the status LEDs (Tartu: one per direction, one for errors)."""
+
+    cw: int | None = Field(None, ge=0, le=53)
+    ccw: int | None = Field(None, ge=0, le=53)
+    up: int | None = Field(None, ge=0, le=53)
+    down: int | None = Field(None, ge=0, le=53)
+    #: error LED: blink codes (see urc.frontpanel.indicators)
+    fault: int | None = Field(None, ge=0, le=53)
+
+
+class PanelLcd(_Section):
+    """An HD44780 character LCD on a PCF8574 I2C backpack."""
+
+    bus: int = Field(1, ge=0, le=31)
+    address: int = Field(0x27, ge=0x03, le=0x77)
+    cols: int = Field(20, ge=16, le=20)
+    rows: int = Field(2, ge=2, le=4)
+
+
+class PanelOled(_Section):
+    """An SSD1306 OLED on I2C (Berkeley-style boards)."""
+
+    bus: int = Field(1, ge=0, le=31)
+    address: int = Field(0x3C, ge=0x03, le=0x77)
+    width: int = Field(128, ge=128, le=128)
+    height: int = Field(64, ge=32, le=64)
+    contrast: int = Field(0xCF, ge=0, le=255)
+
+
+class PanelIr(_Section):
+    """An IR receiver (kernel gpio-ir) read through the Linux input subsystem."""
+
+    #: e.g. "/dev/input/by-path/platform-ir-receiver@12-event"
+    device: str = Field(min_length=1)
+    #: evdev key name -> action (cw ccw up down stop park slow); {} = the default map
+    keys: dict[str, str] = Field(default_factory=dict, strict=False)
+
+
+class PanelSection(_Section):
+    """The local front panel: buttons, LEDs, beeper, display, IR remote."""
+
+    enabled: bool = False
+    #: gpiozero's MockFactory instead of real pins (no hardware; tests, a laptop)
+    emulate: bool = False
+    #: jog speed as a fraction of the axis' top speed; ``slow`` held: slow_speed
+    jog_speed: float = _num(1.0, gt=0.0, le=1.0)
+    slow_speed: float = _num(0.2, gt=0.0, le=1.0)
+    #: display refreshes per second (off the control loop)
+    refresh_hz: float = _num(4.0, gt=0.0, le=20.0)
+    #: switch debounce
+    bounce_s: float = _num(0.02, ge=0.0, le=0.5)
+    buttons: PanelButtons = PanelButtons()
+    leds: PanelLeds = PanelLeds()
+    beeper: int | None = Field(None, ge=0, le=53)
+    lcd: PanelLcd | None = None
+    oled: PanelOled | None = None
+    ir: PanelIr | None = None
+
+
+def _panel_issues(cfg: Config) -> list[_Issue]:
+    """[panel]: each GPIO used once, IR keys mapped to known actions, one display."""
+    from .frontpanel.controls import ACTIONS
+
+    p = cfg.panel
+    issues: list[_Issue] = []
+    used: dict[int, str] = {}
+    pins = [(f"panel.buttons.{k}", v) for k, v in p.buttons.model_dump().items()] + \
+        [(f"panel.leds.{k}", v) for k, v in p.leds.model_dump().items()] + [("panel.beeper", p.beeper)]
+    for key, pin in pins:
+        if pin is None:
+            continue
+        if pin in used:
+            issues.append((key, f"a GPIO not already used by {used[pin]}", pin, ""))
+        used.setdefault(pin, key)
+    if p.lcd is not None and p.oled is not None:
+        issues.append(("panel.oled", "one display: [panel.lcd] or [panel.oled], not both", "both", ""))
+    if p.ir is not None:
+        for name, action in p.ir.keys.items():
+            if action not in ACTIONS:
+                issues.append((f"panel.ir.keys.{name}", "one of " + ", ".join(ACTIONS), action,
+                               _suggest(action, list(ACTIONS))))
+            if not (re.fullmatch(r"(KEY|BTN)_[A-Z0-9_]+", name) or re.fullmatch(r"0x[0-9a-fA-F]+|[0-9]+", name)):
+                issues.append((f"panel.ir.keys.{name}", "an evdev key name such as KEY_LEFT, or a key code",
+                               name, ""))
+    return issues
+
+
 def parse_host_port(text: str) -> tuple[str, int]:
     """``"127.0.0.1:4533"`` or ``"[::1]:4533"`` -> (host, port); ValueError if not."""
     host, sep, port = text.rpartition(":")
@@ -357,6 +459,7 @@ class Config(_Section):
     tracking: TrackingSection = TrackingSection()
     #: protocols served and where; None (no [[serve]] at all) = rotctld on 127.0.0.1:4533
     serve: tuple[ServeEntry, ...] | None = Field(None, strict=False)
+    panel: PanelSection = PanelSection()
 
     @property
     def served(self) -> tuple[ServeEntry, ...]:
@@ -486,6 +589,7 @@ def _cross_check(cfg: Config) -> list[_Issue]:
                        cfg.hardware.backend, _suggest(cfg.hardware.backend, backends)))
 
     issues += _bridge_issues(cfg)
+    issues += _panel_issues(cfg)
 
     for name in ("az", "el"):
         axis = caps.axis(name)

@@ -51,7 +51,6 @@ import weakref
 
 from .. import __version__
 from ..errors import CommandRejected, UrcError
-from ..service.snapshot import Status
 from .base import MAX_PENDING_BYTES, RotatorPort, bad_input_log, internal_error, protocol_logger
 from . import tartu_codec as codec
 from .lines import LineSplitter, TerminalEcho
@@ -61,7 +60,6 @@ from .tartu_codec import Command, TartuSyntaxError
 log = protocol_logger("tartu")
 bad_input = bad_input_log("tartu")
 
-_MODE_STATE = {"driving": "RUN", "releasing": "REL", "holding": "HLD", "idle": "IDL"}
 VARIANTS = ("urc", "trc")
 #: the controller's own state that outlives a connection (the LCD contrast), per rotator
 _PANEL: "weakref.WeakKeyDictionary[object, dict]" = weakref.WeakKeyDictionary()
@@ -244,16 +242,4 @@ class TartuSession:
 
     def lcd_rows(self) -> list[str]:
         """The two 20-character rows the controller's LCD shows (for a front panel)."""
-        st = self.rotator.status()
-        pos, tgt = extended_pose_deg(st), extended_targets_deg(st)
-        return [codec.lcd_line(label, pos[i], tgt[i], self._state(st, axis))
-                for i, (label, axis) in enumerate((("AZ", "az"), ("EL", "el")))]
-
-    @staticmethod
-    def _state(st: Status, axis: str) -> str:
-        if any(f.axis in (None, axis) for f in st.faults):
-            return "FLT"
-        ax = st.az if axis == "az" else st.el
-        if ax.uncertainty_deg > 0:
-            return "UNK"
-        return _MODE_STATE.get(ax.mode, ax.mode[:3].upper())
+        return codec.lcd_rows(self.rotator.status())

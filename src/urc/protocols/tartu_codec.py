@@ -19,6 +19,7 @@ from typing import Callable
 from .base import ProtocolError
 from .lines import crlf_line as line
 from .numbers import DECIMAL, format_deg
+from .poses import extended_pose_deg, extended_targets_deg
 
 # error codes (ERR <code> <text>)
 E_UNKNOWN = 1        # no such command
@@ -176,8 +177,30 @@ def help_text(commands: tuple[str, ...] | None = None) -> bytes:
 LCD_WIDTH = 20
 
 
+_MODE_STATE = {"driving": "RUN", "releasing": "REL", "holding": "HLD", "idle": "IDL"}
+
+
+def axis_state(st, axis: str) -> str:
+    """The state word an LCD row shows for one axis of a Status: FLT a fault latched,
+    UNK position not known, else RUN/REL/HLD/IDL from the axis mode."""
+    if any(f.axis in (None, axis) for f in st.faults):
+        return "FLT"
+    ax = st.az if axis == "az" else st.el
+    if ax.uncertainty_deg > 0:
+        return "UNK"
+    return _MODE_STATE.get(ax.mode, ax.mode[:3].upper())
+
+
 def lcd_line(axis_label: str, pos_deg: float, target_deg: float | None, state: str) -> str:
     """One 20-character LCD row: 'AZ 123.4>130.0  RUN'."""
     tgt = ">" + format_deg(target_deg) if target_deg is not None else ""
     body = f"{axis_label} {format_deg(pos_deg)}{tgt}"
     return body[:LCD_WIDTH - 4].ljust(LCD_WIDTH - 4) + " " + state[:3].rjust(3)
+
+
+def lcd_rows(st) -> list[str]:
+    """The controller's two LCD rows for a Status (LCDC, and the front panel's LCD):
+    azimuth and elevation in the extended frame, each axis' setpoint and state."""
+    pos, tgt = extended_pose_deg(st), extended_targets_deg(st)
+    return [lcd_line(label, pos[i], tgt[i], axis_state(st, axis))
+            for i, (label, axis) in enumerate((("AZ", "az"), ("EL", "el")))]

@@ -279,6 +279,8 @@ class Rotator:
         self._was_held = False
         self._status: Status | None = None
         self._tracking = False
+        #: local controls held now (front-panel buttons, IR keys): the local operator wins
+        self._local_holds: set[str] = set()
         self._restore()
         self._status = self._build_status(clock.now_s())
 
@@ -549,7 +551,28 @@ class Rotator:
         self._last_command_t_s = self.clock.now_s()
         self._commands.append(_Command(name, apply))
 
-    def _require_motion_ok(self, automatic: bool) -> None:
+    def hold_local(self, control: str, held: bool) -> None:
+        """A local control (a front-panel button, an IR remote key, the zero-setting
+        procedure) is pressed (``held``) or released. While any is held the local
+        operator wins: motion commands from every other source are refused with reason
+        "local"; a stop is accepted from anyone. Thread-safe (set operations)."""
+        if held:
+            self._local_holds.add(control)
+        else:
+            self._local_holds.discard(control)
+
+    def local_controls(self) -> tuple[str, ...]:
+        """The local controls held now (empty: every source may command motion)."""
+        return tuple(sorted(self._local_holds))
+
+    def _refuse_unless_local(self, local: bool) -> None:
+        holds = self.local_controls()
+        if holds and not local:
+            raise CommandRejected(f"refused: local control active ({', '.join(holds)} held on the "
+                                  "front panel); stop is still accepted", "local")
+
+    def _require_motion_ok(self, automatic: bool, local: bool = False) -> None:
+        self._refuse_unless_local(local)
         if self._faults:
             raise CommandRejected("refused: fault latched (" + "; ".join(f.reason for f in self._faults)
                                   + "); clear faults first", "fault")
@@ -623,10 +646,12 @@ class Rotator:
             route = None
         return route
 
-    def goto_pose(self, az_m_deg: float, el_m_deg: float, name: str = "goto_pose") -> list[tuple[float, float]]:
+    def goto_pose(self, az_m_deg: float, el_m_deg: float, name: str = "goto_pose",
+                  local: bool = False) -> list[tuple[float, float]]:
         """Fly round any keep-out zone to one *mechanical* pose (wrap and flip chosen
-        by the pass planner). Returns the planned waypoints."""
-        self._require_motion_ok(automatic=True)
+        by the pass planner). Returns the planned waypoints. ``local``: from a local
+        control (front panel), allowed while one is held."""
+        self._require_motion_ok(automatic=True, local=local)
         if not (math.isfinite(az_m_deg) and math.isfinite(el_m_deg)):
             raise CommandRejected(f"pose {az_m_deg!r}, {el_m_deg!r} is not finite", "invalid")
         g = self.geometry
@@ -668,12 +693,12 @@ class Rotator:
         """Elevation only: azimuth keeps its target (or where it is, after a stop)."""
         return self.goto(self._target_sky[0] if self._target_sky else self.status().az_deg, el_deg)
 
-    def park(self) -> list[tuple[float, float]]:
+    def park(self, local: bool = False) -> list[tuple[float, float]]:
         """Go to the park pose: a *mechanical* pose (the axes' own frame, as the limits
         are), not a sky direction. So parking unwinds the cable to the turn the pose
         names, and a rotator that can flip parks unflipped at el 90 rather than at the
         other side's az 180. ``parked`` turns true once both axes hold there."""
-        route = self.goto_pose(self.settings.park_az_deg, self.settings.park_el_deg, "park")
+        route = self.goto_pose(self.settings.park_az_deg, self.settings.park_el_deg, "park", local=local)
 
         def mark() -> None:
             self._parking = True
@@ -746,16 +771,17 @@ class Rotator:
             ax.sp = law.Setpoint(min(max(p, lo), hi), r, t_ref, seq=ax.sp.seq if keep else seq,
                                  min_deg=lo, max_deg=hi)
 
-    def move(self, axis: str, direction: int, speed_frac: float = 1.0) -> None:
+    def move(self, axis: str, direction: int, speed_frac: float = 1.0, local: bool = False) -> None:
         """Manual move (jog) of one axis at a fraction of its top speed, until stop.
 
-        Stops by itself at the soft limit or before a keep-out zone.
+        Stops by itself at the soft limit or before a keep-out zone. ``local``: from a
+        local control (front panel), allowed while one is held.
         """
         if axis not in AXES or direction not in (-1, 1):
             raise CommandRejected(f"move needs axis az|el and direction -1|+1, got {axis!r}, {direction!r}")
         if not (math.isfinite(speed_frac) and 0.0 < speed_frac <= 1.0):
             raise CommandRejected(f"move speed {speed_frac!r} outside 0 < speed <= 1")
-        self._require_motion_ok(automatic=False)
+        self._require_motion_ok(automatic=False, local=local)
         ax = self.axes[axis]
         if (direction > 0 and ax.limit_max) or (direction < 0 and ax.limit_min):
             raise CommandRejected(f"{axis}: limit switch active in that direction", "limit")
@@ -800,12 +826,16 @@ class Rotator:
             end = ax.law.ref_deg + math.copysign(stopping_distance_deg(rate, ax.tuning.accel_deg_per_s2), rate)
             ax.sp = law.Setpoint(min(max(end, lo), hi), 0.0, self.clock.now_s(), seq=self._next_seq())
 
-    def set_position(self, az_deg: float | None = None, el_deg: float | None = None) -> None:
+    def set_position(self, az_deg: float | None = None, el_deg: float | None = None,
+                     local: bool = False) -> None:
         """Re-reference: declare where the antenna points now (Tartu WRAZ/WREL).
 
         Values are in the extended azimuth frame (e.g. 400 on a 450 deg rotator names
         the overlap), so the wrap side is explicit. Clears that axis' uncertainty.
+        ``local``: from a local control; refused from elsewhere while one is held (it
+        would cut the operator's jog short).
         """
+        self._refuse_unless_local(local)
         g = self.geometry
         values = {"az": az_deg, "el": el_deg}
         for name, v in values.items():
@@ -1137,6 +1167,7 @@ class Rotator:
             moving=self._moving(), parked=self._parked, position_known=not self.position_uncertain(),
             faults=tuple(self._faults), events=tuple(self._events), tick_late_p99_ms=loop.late_p99_ms,
             loop=loop.as_dict(),
+            local_control=self.local_controls(),
             sim_truth=self.hw.sim_truth(),
             limits={"az": az.limits, "el": el.limits},
             offsets={"az": self.geometry.az_offset_deg, "el": self.geometry.el_offset_deg},

@@ -53,6 +53,8 @@ class Status:
     #: control-loop timing (``urc.service.timing.LoopHealth.as_dict``): lateness and
     #: tick-time p99, stalls, whether the motors are held off after a stall
     loop: dict[str, Any] = field(default_factory=dict)
+    #: local controls held now (front-panel buttons, IR keys): remote motion is refused
+    local_control: tuple[str, ...] = ()
 
     def as_dict(self) -> dict[str, Any]:
         d = asdict(self)

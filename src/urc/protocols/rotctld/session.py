@@ -119,7 +119,7 @@ class RotctldSession:
     def _rejected_code(self, exc: CommandRejected) -> int:
         if exc.reason in ("limit", "keepout"):
             return self._limit_code
-        if exc.reason in ("fault", "uncertain"):
+        if exc.reason in ("fault", "uncertain", "local"):
             return RIG_ERJCTED
         return RIG_EINVAL
 

@@ -1,0 +1,165 @@
+"""The front panel: buttons, IR remote, status LEDs, beeper and display together.
+
+Inputs arrive as gpiozero callbacks (the pin factory's thread on a Pi) and IR events;
+``dispatch`` carries each onto the thread that talks to the rotator (the asyncio loop
+under ``urc run``, like every protocol session; direct calls in tests). :meth:`update`
+runs the LEDs, beeper, IR polling and the zero-setting repeats from the panel's clock;
+:meth:`display_rows` gives the text the display shows now. :func:`run_panel` drives
+both off the control loop: updates at 20 Hz, and display writes (slow I2C) in a worker
+thread at the configured refresh rate, so no tick ever waits for the panel.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+from typing import Any, Callable
+
+from ..errors import UrcError
+from .controls import JOGS, LocalControls
+from .indicators import Beeper, led_states
+from .ir import IrRemote
+from .screen import status_rows, zero_rows
+from .zeroset import ZeroSetting
+
+log = logging.getLogger("urc.frontpanel")
+
+UPDATE_PERIOD_S = 0.05
+LED_NAMES = ("cw", "ccw", "up", "down", "fault")
+
+
+class FrontPanel:
+    def __init__(self, rotator, *, pin_factory: Any = None, buttons: dict[str, int] | None = None,
+                 leds: dict[str, int] | None = None, beeper_pin: int | None = None,
+                 display: Any = None, ir: tuple[Any, dict[int, str]] | None = None,
+                 jog_speed: float = 1.0, slow_speed: float = 0.2, bounce_time_s: float | None = None,
+                 dispatch: Callable[..., None] | None = None, now_s: Callable[[], float] | None = None):
+        from gpiozero import LED, Button, Buzzer
+
+        self.rotator = rotator
+        self.now_s = now_s or rotator.clock.now_s
+        self.dispatch = dispatch or (lambda fn, *args: fn(*args))
+        self._devices: list[Any] = []
+        self.beeper = Beeper(self._device(Buzzer, beeper_pin, pin_factory) if beeper_pin is not None else None)
+        self.controls = LocalControls(rotator, jog_speed=jog_speed, slow_speed=slow_speed,
+                                      on_result=lambda ok, text: self.beeper.beep("click" if ok else "refused"))
+        self.buttons = {name: self._device(Button, pin, pin_factory, pull_up=True, bounce_time=bounce_time_s)
+                        for name, pin in (buttons or {}).items()}
+        self.leds = {name: self._device(LED, pin, pin_factory) for name, pin in (leds or {}).items()}
+        self.display = display
+        self.ir = IrRemote(ir[0], ir[1], self.controls) if ir is not None else None
+        self.zero: ZeroSetting | None = None
+        self._had_fault = False
+
+    def power_on(self) -> None:
+        """Start reacting to the buttons. Both turn buttons held at this moment start
+        the G4JNT zero-setting procedure (the buttons are read before any callback is
+        attached, so holding them does not also jog)."""
+        if self._pressed("cw") and self._pressed("ccw"):
+            self.zero = ZeroSetting(self.rotator)
+            log.warning("front panel: zero setting (%s %.1f): L/R change, SLOW stores", self.zero.label,
+                        self.zero.value_deg)
+        for name, button in self.buttons.items():
+            button.when_pressed = lambda _dev=None, n=name: self.dispatch(self._press, n)
+            button.when_released = lambda _dev=None, n=name: self.dispatch(self._release, n)
+
+    def _device(self, cls, pin, factory, **kwargs):
+        dev = cls(pin, pin_factory=factory, **kwargs)
+        self._devices.append(dev)
+        return dev
+
+    def _pressed(self, name: str) -> bool:
+        return name in self.buttons and self.buttons[name].is_pressed
+
+    # ---------------------------------------------------------------- inputs
+    def _press(self, name: str) -> None:
+        if self.zero is not None and self.zero.active:
+            self._zero_press(name)
+            return
+        self.controls.press(name, "button")
+
+    def _release(self, name: str) -> None:
+        if self.zero is not None and self.zero.active:
+            if name in ("cw", "ccw"):
+                self.zero.release(JOGS[name][1])
+            return
+        self.controls.release(name, "button")
+
+    def _zero_press(self, name: str) -> None:
+        if name in ("cw", "ccw"):
+            self.zero.press(JOGS[name][1], self.now_s())
+        elif name == "slow":
+            try:
+                self.zero.store()
+            except UrcError as exc:
+                log.error("front panel: zero not stored: %s", exc)
+                self.beeper.beep("refused")
+                return
+            log.warning("front panel: %s %.1f stored", self.zero.label, self.zero.value_deg)
+            self.beeper.beep("stored")
+        elif name == "stop":
+            self.zero.cancel()
+            self.rotator.stop()
+
+    # ---------------------------------------------------------------- outputs
+    def update(self, now_s: float | None = None) -> None:
+        """LEDs, beeper, IR keys and zero-setting repeats, at the panel's pace."""
+        now = self.now_s() if now_s is None else now_s
+        if self.ir is not None:
+            self.ir.poll()
+        if self.zero is not None and self.zero.active:
+            self.zero.update(now)
+        st = self.rotator.status()
+        if st.faults and not self._had_fault:
+            self.beeper.beep("fault")
+        self._had_fault = bool(st.faults)
+        states = led_states(st, now)
+        for name, led in self.leds.items():
+            led.value = getattr(states, name)
+        self.beeper.update(now)
+
+    def display_rows(self, now_s: float | None = None) -> list[str]:
+        now = self.now_s() if now_s is None else now_s
+        cols, rows = self.display.cols, self.display.rows
+        if self.zero is not None and self.zero.active:
+            return zero_rows(self.zero.label, self.zero.value_deg, cols, rows)
+        return status_rows(self.rotator.status(), now, cols, rows)
+
+    def refresh_display(self, now_s: float | None = None) -> None:
+        if self.display is not None:
+            self.display.show(self.display_rows(now_s))
+
+    def close(self) -> None:
+        self.controls.release_all()
+        if self.zero is not None and self.zero.active:
+            self.zero.cancel()
+        for dev in self._devices:
+            dev.close()
+        if self.display is not None:
+            self.display.close()
+
+
+async def run_panel(panel: FrontPanel, stop: asyncio.Event, refresh_hz: float) -> None:
+    """Run the panel beside the control loop until ``stop``: updates on this (asyncio)
+    thread, display writes in a worker thread, never more than one at a time."""
+    loop = asyncio.get_running_loop()
+    writing: asyncio.Future | None = None
+    next_refresh_s = 0.0
+    while not stop.is_set():
+        try:
+            panel.update()
+            if panel.display is not None and (writing is None or writing.done()) \
+                    and loop.time() >= next_refresh_s:
+                if writing is not None and writing.exception() is not None:
+                    log.error("front panel display: %s", writing.exception())
+                rows = panel.display_rows()
+                writing = loop.run_in_executor(None, panel.display.show, rows)
+                next_refresh_s = loop.time() + 1.0 / refresh_hz
+        except Exception:  # the panel must never take urc down
+            log.exception("front panel update failed")
+        try:
+            await asyncio.wait_for(stop.wait(), UPDATE_PERIOD_S)
+        except asyncio.TimeoutError:
+            pass
+    if writing is not None:
+        await asyncio.gather(writing, return_exceptions=True)

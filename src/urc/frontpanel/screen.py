@@ -1,0 +1,64 @@
+"""What the front-panel display shows, as text rows (pure: a Status and the time in,
+rows out; the LCD and OLED drivers only put them on glass).
+
+The Tartu controller (seed 000) shows both axes on its 20x2 LCD as ``xxx.x`` degrees;
+urc's rows are the ones its LCDC command prints (:func:`tartu_codec.lcd_rows`):
+``AZ 123.4>130.0   RUN`` / ``EL 045.0         HLD`` — position, setpoint, state.
+
+Where the document is silent, urc's choice: a 4-row display adds the fault (with its
+LED blink code) or the local control held, and a one-line summary (parked, tracking,
+position unknown). A 2-row display alternates its second row every 2 s between the
+elevation and that message while there is one. During the G4JNT zero-setting procedure
+the display shows Z and how to change and store it.
+"""
+
+from __future__ import annotations
+
+from ..protocols.tartu_codec import lcd_rows
+from ..service.snapshot import Status
+from .indicators import fault_code
+
+ALTERNATE_S = 2.0
+
+
+def message(st: Status) -> str:
+    """The most important thing besides the two axes, or ''."""
+    if st.faults:
+        f = st.faults[0]
+        return f"E{fault_code(f.kind)} {f.kind}" + (f" {f.axis}" if f.axis else "")
+    if st.local_control:
+        return "LOCAL " + ", ".join(st.local_control)
+    if not st.position_known:
+        return "POSITION UNKNOWN"
+    return ""
+
+
+def summary(st: Status) -> str:
+    if st.parked:
+        return "PARKED"
+    if st.target_az_deg is not None and st.target_el_deg is not None:
+        return f"TGT {st.target_az_deg:05.1f} {st.target_el_deg:+05.1f}"
+    return "MOVING" if st.moving else "READY"
+
+
+def status_rows(st: Status, t_s: float, cols: int = 20, rows: int = 2) -> list[str]:
+    """The display's rows, each exactly ``cols`` characters."""
+    out = lcd_rows(st)
+    msg = message(st)
+    if rows >= 4:
+        out += [msg, summary(st)]
+    elif msg and int(t_s // ALTERNATE_S) % 2 == 1:
+        out[1] = msg
+    return fit(out[:rows], cols, rows)
+
+
+def zero_rows(label: str, value_deg: float, cols: int = 20, rows: int = 2) -> list[str]:
+    """The G4JNT zero-setting screen: Z (the bearing of the reference end stop), or
+    the azimuth now where the sensor has no Z constant."""
+    out = [f"ZERO SET {label:>3} {value_deg:6.1f}", "L/R change SLOW=save"]
+    return fit(out, cols, rows)
+
+
+def fit(lines: list[str], cols: int, rows: int) -> list[str]:
+    lines = (lines + [""] * rows)[:rows]
+    return [ln[:cols].ljust(cols) for ln in lines]

@@ -1,0 +1,62 @@
+"""A front panel on gpiozero MockFactory pins, beside a simulated rotator on virtual time."""
+
+from __future__ import annotations
+
+import pytest
+from gpiozero.pins.mock import MockFactory
+
+from urc.frontpanel.panel import FrontPanel
+
+BUTTONS = {"cw": 5, "ccw": 6, "up": 13, "down": 19, "stop": 26, "park": 21, "slow": 20}
+LEDS = {"cw": 12, "ccw": 16, "up": 23, "down": 24, "fault": 25}
+BEEPER = 18
+
+
+class PanelRig:
+    def __init__(self, bench, display=None, ir=None, power_on=True, held=()):
+        self.bench = bench
+        self.rot = bench.rot
+        self.factory = MockFactory()
+        self.panel = FrontPanel(self.rot, pin_factory=self.factory, buttons=BUTTONS, leds=LEDS,
+                                beeper_pin=BEEPER, display=display, ir=ir)
+        for name in held:  # buttons already down at power-on
+            self.pin(name).drive_low()
+        if power_on:
+            self.panel.power_on()
+
+    def pin(self, button: str):
+        return self.factory.pin(BUTTONS[button])
+
+    def led(self, name: str) -> bool:
+        return bool(self.factory.pin(LEDS[name]).state)
+
+    def press(self, button: str):
+        self.pin(button).drive_low()
+
+    def release(self, button: str):
+        self.pin(button).drive_high()
+
+    def run(self, seconds: float, until=None, on_tick=None):
+        """Virtual time with the panel updated every tick, as run_panel does on a Pi."""
+        def tick(st):
+            self.panel.update(st.t_s)
+            if on_tick is not None:
+                on_tick(st)
+        return self.bench.run(seconds, until=until, on_tick=tick)
+
+    def settle(self, timeout_s: float = 60.0):
+        return self.run(timeout_s, until=lambda s: s.az.mode in ("holding", "idle")
+                        and s.el.mode in ("holding", "idle") and not s.moving)
+
+
+@pytest.fixture
+def panel_rig(bench):
+    rigs = []
+
+    def make(profile: str = "tartu-urc", config: dict | None = None, **kw) -> PanelRig:
+        rig = PanelRig(bench(profile, **(config or {})), **kw)
+        rigs.append(rig)
+        return rig
+    yield make
+    for rig in rigs:
+        rig.panel.close()
