@@ -28,6 +28,9 @@ log = logging.getLogger(__name__)
 #: how long another thread may run Python code before the loop thread gets the GIL
 #: back (CPython's default is 5 ms: a whole tick's budget at 200 Hz)
 SWITCH_INTERVAL_S = 0.0005
+#: real-time priority (SCHED_FIFO, Linux) asked for the loop thread: low among real-time
+#: tasks, above every normal one, so a busy host does not delay its wake-ups
+RT_PRIORITY = 10
 #: how long an orderly stop waits for the axes to come to rest before saving anyway
 #: (saved as moving then: the restart widens its bound)
 STANDSTILL_TIMEOUT_S = 8.0
@@ -85,6 +88,7 @@ class ControlThread:
         self.watchdog = watchdog
         self.on_exit = on_exit
         self.error: BaseException | None = None
+        self.priority = ""
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name="urc-control", daemon=True)
 
@@ -103,7 +107,24 @@ class ControlThread:
     def alive(self) -> bool:
         return self._thread.is_alive()
 
+    def _raise_priority(self) -> str:
+        """Ask for real-time scheduling for this thread, else a better nice value (needs
+        root or CAP_SYS_NICE: the systemd unit runs as root); returns what was granted."""
+        tid = threading.get_native_id()
+        try:
+            os.sched_setscheduler(tid, os.SCHED_FIFO, os.sched_param(RT_PRIORITY))
+            return f"real-time (SCHED_FIFO {RT_PRIORITY})"
+        except (AttributeError, OSError):
+            pass
+        try:
+            os.setpriority(os.PRIO_PROCESS, tid, -10)
+            return "nice -10"
+        except (AttributeError, OSError):
+            return "normal"
+
     def _run(self) -> None:
+        self.priority = self._raise_priority()
+        log.info("control loop thread: %s priority", self.priority)
         rot, clock = self.rot, self.clock
         period_s = 1.0 / rot.caps.loop_hz
         deadline_s = clock.now_s()

@@ -1,0 +1,152 @@
+"""Control-loop timing of a real ``urc run`` while its API is abused (issue 8, 9.7, 12).
+
+A ``urc run`` process (simulator, a station, a catalog of LEO satellites) goes through
+phases of ``--phase-s`` seconds each: idle; slewing; slewing while curl POSTs 40 MB
+bodies to /api/goto back to back; slewing while 8 curl clients search /api/passes in
+parallel; and both at once. The load comes from curl processes, so the generator is not
+the bottleneck (nor shares urc's GIL). At the end of each phase the loop's own numbers
+are read from /api/status (its window is the last 500 ticks = 10 s at 50 Hz):
+
+* lateness p99: how long after its deadline each tick had written its outputs (start
+  lateness plus the tick's own run time: the whole tick);
+* tick p99: the tick's run time alone;
+* stalls (ticks later than the watchdog time) and faults latched;
+* CPU per tick: the process's user+system time over the ticks run (heartbeat toggles).
+
+Goal: lateness p99 <= 1 ms and no stalls. ``--switch-interval-ms`` runs urc with another
+``sys.setswitchinterval`` (the evidence for the loop thread's setting).
+Prints a table, writes JSON (default bench/results/loop.json). Never gates CI.
+Usage: python bench/loop_bench.py [--phase-s 12] [--profile tartu-urc] [--json PATH]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from datetime import datetime, timezone
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "tests"))
+sys.path.insert(0, str(ROOT / "bench"))
+from bench_report import write_json  # noqa: E402
+from urc_process import UrcProcess  # noqa: E402
+from web_abuse_bench import leo_catalog  # noqa: E402
+from web_bench import STATION  # noqa: E402
+
+CLK_TCK = os.sysconf("SC_CLK_TCK")
+
+
+def cpu_s(pid: int) -> float:
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / CLK_TCK
+
+
+def curl_loop(cmd: str) -> subprocess.Popen:
+    """Run a curl command back to back until killed (a shell loop: no Python in the way)."""
+    return subprocess.Popen(["sh", "-c", f"while true; do {cmd} >/dev/null 2>&1; done"], start_new_session=True)
+
+
+def stop_all(procs: list[subprocess.Popen]) -> None:
+    for p in procs:
+        try:
+            os.killpg(p.pid, 9)
+        except ProcessLookupError:
+            pass
+        p.wait()
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--phase-s", type=float, default=12.0)
+    ap.add_argument("--profile", default="tartu-urc")
+    ap.add_argument("--satellites", type=int, default=60)
+    ap.add_argument("--big-mb", type=int, default=40)
+    ap.add_argument("--searchers", type=int, default=8)
+    ap.add_argument("--switch-interval-ms", type=float, default=None,
+                    help="run urc with this sys.setswitchinterval instead of the loop's own")
+    ap.add_argument("--json", default=str(ROOT / "bench" / "results" / "loop.json"))
+    args = ap.parse_args()
+
+    results: dict = {"profile": args.profile, "phase_s": args.phase_s, "big_mb": args.big_mb,
+                     "searchers": args.searchers, "switch_interval_ms": args.switch_interval_ms,
+                     "cpus": os.cpu_count(), "load_avg_start": os.getloadavg(), "phases": []}
+    with tempfile.TemporaryDirectory() as tmp:
+        work = Path(tmp)
+        tle = work / "leo.tle"
+        tle.write_text(leo_catalog(args.satellites, datetime.now(timezone.utc)))
+        big = work / "big.json"
+        big.write_bytes(b'{"az_deg": 1, "el_deg": 1, "pad": "' + b"x" * (args.big_mb * 2**20) + b'"}')
+        urc = UrcProcess(work, profile=args.profile, extra=STATION + f"[tracking]\ncatalog_dir = '{work / 'cat'}'\n")
+        subprocess.run([sys.executable, "-m", "urc", "tle", "import", str(tle), "--config", str(urc.config)],
+                       check=True, capture_output=True)
+        if args.switch_interval_ms is not None:
+            # the loop thread only ever shortens the interval: patch its setting for this run
+            os.environ["URC_BENCH_SWITCH_S"] = str(args.switch_interval_ms / 1000.0)
+            launcher = work / "launch.py"
+            launcher.write_text("import os, sys\nimport urc.service.loop as loop\n"
+                                "loop.SWITCH_INTERVAL_S = float(os.environ['URC_BENCH_SWITCH_S'])\n"
+                                "sys.setswitchinterval(loop.SWITCH_INTERVAL_S)\n"
+                                "from urc.cli import main\nmain(prog_name='urc')\n")
+            import urc_process
+            urc_process.URC = [sys.executable, str(launcher)]
+        urc.start()
+        big_cmd = (f"curl -s -o /dev/null -H 'Content-Type: application/json' --data-binary @{big} "
+                   f"{urc.url}/api/goto")
+        pass_cmd = f"curl -s -o /dev/null '{urc.url}/api/passes?hours=48&min_el_deg=0'"
+        phases = [("idle", [], False), ("slewing", [], True),
+                  (f"slewing + {args.big_mb} MB POSTs", [big_cmd], True),
+                  (f"slewing + {args.searchers} pass searches", [pass_cmd] * args.searchers, True),
+                  ("slewing + both", [big_cmd] + [pass_cmd] * args.searchers, True)]
+        try:
+            time.sleep(2.0)
+            toward = 0
+            for name, cmds, slew in phases:
+                s0 = urc.status()
+                c0, t0 = cpu_s(urc.proc.pid), time.monotonic()
+                load = [curl_loop(c) for c in cmds]
+                end = time.monotonic() + args.phase_s
+                try:
+                    while time.monotonic() < end:
+                        if slew and not urc.status()["moving"]:
+                            toward ^= 1
+                            urc.post("/api/goto", {"az_deg": 300.0 if toward else 20.0,
+                                                   "el_deg": 70.0 if toward else 10.0})
+                        time.sleep(0.25)
+                finally:
+                    stop_all(load)
+                s1 = urc.status()
+                c1, t1 = cpu_s(urc.proc.pid), time.monotonic()
+                ticks = s1["simulator_truth"]["heartbeat"]["toggles"] - s0["simulator_truth"]["heartbeat"]["toggles"]
+                loop = s1["loop"]
+                results["phases"].append({
+                    "phase": name, "seconds": t1 - t0, "ticks": ticks,
+                    "ticks_per_s": ticks / (t1 - t0),
+                    "late_p99_ms": loop["late_p99_ms"], "tick_p99_ms": loop["tick_p99_ms"],
+                    "stalls": loop["stalls"] - s0["loop"]["stalls"],
+                    "faults": [f"{f['kind']}: {f['reason']}" for f in s1["faults"]],
+                    "cpu_ms_per_tick": 1000.0 * (c1 - c0) / max(ticks, 1),
+                    "cpu_share_of_a_core": (c1 - c0) / (t1 - t0)})
+                if s1["faults"]:
+                    urc.post("/api/clear-faults")
+        finally:
+            urc.stop()
+    results["load_avg_end"] = os.getloadavg()
+    print(f"control loop of urc run ({args.profile}, {results['phases'][0]['ticks_per_s']:.0f} Hz measured), "
+          f"{args.phase_s:g} s per phase, {os.cpu_count()} CPUs, load average "
+          f"{results['load_avg_start'][0]:.1f} at start"
+          + (f", switch interval {args.switch_interval_ms:g} ms" if args.switch_interval_ms is not None else ""))
+    print(f"  {'phase':<34} {'late p99':>9} {'tick p99':>9} {'stalls':>6} {'CPU/tick':>9} {'CPU':>6}  faults")
+    for p in results["phases"]:
+        print(f"  {p['phase']:<34} {p['late_p99_ms']:7.2f}ms {p['tick_p99_ms']:7.2f}ms {p['stalls']:6d} "
+              f"{p['cpu_ms_per_tick']:7.2f}ms {100 * p['cpu_share_of_a_core']:5.0f}%  "
+              f"{'; '.join(p['faults']) or 'none'}")
+    write_json(results, args.json)
+
+
+if __name__ == "__main__":
+    main()
