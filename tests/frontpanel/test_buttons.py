@@ -7,6 +7,7 @@ import pytest
 
 from urc.errors import CommandRejected
 from urc.protocols.tartu import TartuSession
+from urc.protocols.tartu_codec import lcd_rows
 
 
 def test_cw_held_jogs_and_release_stops(panel_rig):
@@ -122,3 +123,66 @@ def test_park_button_parks(panel_rig):
     rig.release("park")
     st = rig.run(120.0, until=lambda s: s.parked)
     assert st.parked
+
+
+def test_rotctld_client_gets_rejected_while_held(panel_rig):
+    from urc.protocols.rotctld.session import RotctldSession
+
+    rig = panel_rig()
+    rig.rot.goto(100.0, 30.0)
+    rig.settle()
+    rotctld = RotctldSession(rig.rot)
+    rig.press("up")
+    assert b"".join(rotctld.receive(b"P 150 20\n")) == b"RPRT -9\n"  # RIG_ERJCTED
+    assert b"".join(rotctld.receive(b"S\n")) == b"RPRT 0\n"          # stop: accepted
+    rig.release("up")
+    assert b"".join(rotctld.receive(b"P 150 20\n")) == b"RPRT 0\n"
+
+
+def test_run_panel_carries_pin_callbacks_onto_the_event_loop(bench):
+    """Under urc run, gpiozero calls back on lgpio's thread; the panel hands each press
+    to the event loop (where protocol sessions talk to the rotator) and refreshes the
+    display from a worker thread."""
+    import asyncio
+    import threading
+
+    from gpiozero.pins.mock import MockFactory
+
+    from urc.frontpanel.lcd import CharLcd, Pcf8574Hd44780
+    from urc.frontpanel.panel import FrontPanel, run_panel
+
+    b = bench()
+    b.rot.goto(100.0, 30.0)
+    b.settle()
+    factory = MockFactory()
+    chip = Pcf8574Hd44780(0x27, 20, 2)
+    threads = []
+    real_move = b.rot.move
+
+    def move(*args, **kw):
+        threads.append(threading.get_ident())
+        return real_move(*args, **kw)
+    b.rot.move = move
+
+    async def main():
+        loop = asyncio.get_running_loop()
+        panel = FrontPanel(b.rot, pin_factory=factory, buttons={"cw": 5}, display=CharLcd(chip, 0x27, 20, 2),
+                           dispatch=lambda fn, *a: loop.call_soon_threadsafe(fn, *a))
+        panel.power_on()
+        stop = asyncio.Event()
+        task = asyncio.create_task(run_panel(panel, stop, refresh_hz=20.0))
+        pin_thread = threading.Thread(target=factory.pin(5).drive_low)
+        pin_thread.start()
+        pin_thread.join()
+        await asyncio.sleep(0.3)
+        stop.set()
+        await task
+        shown.extend(chip.text())
+        panel.close()
+        return threading.get_ident()
+
+    shown: list[str] = []
+    loop_thread = asyncio.run(main())
+    assert threads == [loop_thread], "the press ran on the event loop's thread"
+    assert shown == lcd_rows(b.rot.status())  # (no tick ran: the status is the settled one)
+    assert b.rot.local_controls() == (), "closing the panel released the button's hold"

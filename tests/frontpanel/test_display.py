@@ -68,3 +68,17 @@ def test_oled_shows_the_same_rows():
     glass = chip.image()
     assert glass.tobytes() == render(rows, 128, 64).tobytes()
     assert glass.tobytes() != render(rows[:1], 128, 64).tobytes()
+
+
+def test_tartu_lcdc_sets_the_oled_contrast(panel_rig):
+    pytest.importorskip("luma.oled")
+    from urc.frontpanel.oled import Oled, Ssd1306Bus
+    from urc.protocols.tartu import TartuSession
+
+    chip = Ssd1306Bus(0x3C, 128, 64)
+    rig = panel_rig(display=Oled(chip, 0x3C, 128, 64))
+    rig.panel.refresh_display()
+    assert chip.contrast == 0xCF, "luma's power-on contrast until a client sets one"
+    assert TartuSession(rig.rot).receive(b"LCDC 10\r\n") == [b"OK\r\n"]
+    rig.panel.refresh_display()
+    assert chip.contrast == round(10 * 255 / 63)

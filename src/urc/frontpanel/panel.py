@@ -16,6 +16,8 @@ import logging
 from typing import Any, Callable
 
 from ..errors import UrcError
+from ..protocols.tartu import lcd_contrast
+from ..protocols.tartu_codec import LCD_CONTRAST_MAX
 from .controls import JOGS, LocalControls
 from .indicators import Beeper, led_states
 from .ir import IrRemote
@@ -50,6 +52,7 @@ class FrontPanel:
         self.ir = IrRemote(ir[0], ir[1], self.controls) if ir is not None else None
         self.zero: ZeroSetting | None = None
         self._had_fault = False
+        self._contrast: int | None = None
 
     def power_on(self) -> None:
         """Start reacting to the buttons. Both turn buttons held at this moment start
@@ -128,6 +131,15 @@ class FrontPanel:
     def refresh_display(self, now_s: float | None = None) -> None:
         if self.display is not None:
             self.display.show(self.display_rows(now_s))
+            self.follow_lcdc()
+
+    def follow_lcdc(self) -> None:
+        """A Tartu client's LCDC contrast (0..63) reaches a display that has a contrast
+        control (the OLED; a PCF8574 backpack's contrast is a trimmer)."""
+        level = lcd_contrast(self.rotator)
+        if level is not None and level != self._contrast and hasattr(self.display, "contrast"):
+            self.display.contrast(round(level * 255 / LCD_CONTRAST_MAX))
+            self._contrast = level
 
     def close(self) -> None:
         self.controls.release_all()

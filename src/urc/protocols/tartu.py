@@ -67,6 +67,12 @@ _PANEL: "weakref.WeakKeyDictionary[object, dict]" = weakref.WeakKeyDictionary()
 DEFAULT_BAUD = 115200
 
 
+def lcd_contrast(rotator) -> int | None:
+    """The LCD contrast (0..LCD_CONTRAST_MAX) LCDC last set on this rotator, None if
+    never (the front panel applies it to a display that has a contrast control)."""
+    return _PANEL.get(rotator, {}).get("lcd_contrast")
+
+
 class TartuSession:
     """One connection speaking the Tartu URC command set.
 
