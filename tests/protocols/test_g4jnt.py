@@ -43,7 +43,7 @@ def stream(b: Bench, s: G4jntSession) -> tuple[float, int]:
 def sim_pot_p(b: Bench) -> float:
     """The P the simulated G4JNT's own ADC gives now (no noise)."""
     pot = b.rot.hw.az.sensor
-    return pot.linearised(pot.adc_counts(noisy=False))
+    return pot.linearised(pot.adc.read_counts(noisy=False))
 
 
 # ======================================================================== codec

@@ -97,31 +97,17 @@ def average_reading_deg(sensor: Any, samples: int = 16) -> float:
 def pot_units(sensor: Any, samples: int = 32) -> float:
     """The pot's linearised reading P (G4JNT: 4096 N/(2048-N)), averaged over samples."""
     raw = getattr(sensor, "raw_units", None)
-    if raw is not None:
-        return float(np.mean([raw() for _ in range(samples)]))
-    if hasattr(sensor, "adc_counts") and hasattr(sensor, "linearised"):
-        return float(np.mean([sensor.linearised(sensor.adc_counts()) for _ in range(samples)]))
-    raise CalibrationError(f"the {sensor.caps.kind} sensor gives no raw pot reading (P)")
-
-
-def _sim_compass_field(sensor: Any) -> tuple[float, float]:
-    # Stand-in until the compass driver exposes read_field(): the simulator's raw
-    # body-frame field (same model as CompassSensor._heading, before hard-iron removal).
-    p = sensor._p
-    psi = math.radians(sensor._angle() - p.declination_deg)
-    sigma = math.radians(sensor.caps.noise_deg)
-    return (math.cos(psi) + p.hard_iron_x + sensor._gauss(sigma),
-            -math.sin(psi) + p.hard_iron_y + sensor._gauss(sigma))
+    if raw is None:
+        raise CalibrationError(f"the {sensor.caps.kind} sensor gives no raw pot reading (P)")
+    return float(np.mean([raw() for _ in range(samples)]))
 
 
 def compass_field(sensor: Any, samples: int = 16) -> tuple[float, float]:
-    """Raw horizontal field (bx, by), averaged: what the hard-iron fit needs."""
+    """Raw horizontal field (bx, by), averaged: what the hard-iron fit needs
+    (:meth:`urc.hardware.drivers.CompassSensor.read_field`)."""
     read = getattr(sensor, "read_field", None)
     if read is None:
-        if hasattr(sensor, "hard_iron_x") and hasattr(sensor, "_p"):
-            read = lambda: _sim_compass_field(sensor)  # noqa: E731
-        else:
-            raise CalibrationError(f"the {sensor.caps.kind} sensor gives no raw magnetic field")
+        raise CalibrationError(f"the {sensor.caps.kind} sensor gives no raw magnetic field")
     pts = np.array([read() for _ in range(samples)], dtype=float)
     return float(pts[:, 0].mean()), float(pts[:, 1].mean())
 
@@ -137,9 +123,9 @@ def describe_sensors(rotator: Any) -> dict[str, Any]:
         except Exception:  # a driver without constants still gets the zero page
             constants = {}
         procs = ["zero"]
-        if hasattr(sensor, "raw_units") or (hasattr(sensor, "adc_counts") and hasattr(sensor, "linearised")):
+        if hasattr(sensor, "raw_units"):
             procs.append("pot")
-        if axis == "az" and (hasattr(sensor, "read_field") or hasattr(sensor, "hard_iron_x")):
+        if axis == "az" and hasattr(sensor, "read_field"):
             procs.append("magnetometer")
         if hw.limit_min is not None:
             procs.append("homing")

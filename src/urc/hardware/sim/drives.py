@@ -6,13 +6,14 @@ import math
 from typing import TYPE_CHECKING, Callable, Literal
 
 from ...errors import HardwareError
+from ..drivers.motors import DirectionTracker
 from .physics import AxisPhysics, quantise_relay
 
 if TYPE_CHECKING:
     from .world import SimWorld
 
 
-class SimMotor:
+class SimMotor(DirectionTracker):
     """PWM H-bridge or relay pair. ``set_drive`` takes effect from the next substep.
 
     Relay drives switch to the nearest of ``AxisCaps.drive_levels`` (levels below 1 are
@@ -25,6 +26,7 @@ class SimMotor:
     """
 
     def __init__(self, axis: AxisPhysics, name: str, catch_up: Callable[[], None] | None = None):
+        super().__init__()
         self._axis = axis
         self.name = name
         self._catch_up = catch_up
@@ -36,6 +38,7 @@ class SimMotor:
         if self._catch_up is not None:
             self._catch_up()
         self._axis.set_command(duty)
+        self._track(self._axis.cmd_duty)
 
     def read_current_a(self) -> float:
         return self._axis.current_a()

@@ -100,6 +100,8 @@ class AxisPhysics:
         # --- single-channel pulse counter (direction from the motor command) ---
         self.pulse_res_deg = pulse_res_deg
         self.pulse_count = 0
+        #: every pulse edge, unsigned: what the reed contact really gives a counter
+        self.pulse_edges = 0
         self.pulse_dir = 1
         self._pulse_k = 0
         self.reset_pulse_counter()
@@ -111,6 +113,7 @@ class AxisPhysics:
 
     def reset_pulse_counter(self) -> None:
         self.pulse_count = 0
+        self.pulse_edges = 0
         if self.pulse_res_deg:
             self._pulse_k = math.floor(self.sensor_side_deg() / self.pulse_res_deg)
 
@@ -231,6 +234,7 @@ class AxisPhysics:
         on_load = p.sensor.on_load
         if pres:
             pk, pcount, pdir = self._pulse_k, self.pulse_count, self.pulse_dir
+            pedges = self.pulse_edges
             e_lo, e_hi = pk * pres, (pk + 1) * pres
 
         # Nothing can move: skip the loop entirely (no wind, no relay pulsing).
@@ -311,10 +315,12 @@ class AxisPhysics:
                     pk += 1
                     e_lo, e_hi = e_hi, e_hi + pres
                     pcount += pdir
+                    pedges += 1
                 while xs < e_lo:
                     pk -= 1
                     e_lo, e_hi = e_lo - pres, e_lo
                     pcount += pdir
+                    pedges += 1
 
         self.tick = tick
         self.gear_deg, self.gear_deg_per_s = xg, vg
@@ -323,7 +329,7 @@ class AxisPhysics:
         self._gust_nm = gust
         self.wind_nm = wind
         if pres:
-            self._pulse_k, self.pulse_count = pk, pcount
+            self._pulse_k, self.pulse_count, self.pulse_edges = pk, pcount, pedges
 
     # ------------------------------------------------------------------ helpers
     def at_rest(self) -> bool:

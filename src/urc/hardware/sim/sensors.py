@@ -1,9 +1,15 @@
-"""Simulated position sensors (implement ``urc.hardware.interfaces.PositionSensor``).
+"""Simulated sensor *parts*, and the drivers the simulator builds on them.
 
-Each reads the mechanical state of its :class:`AxisPhysics` (load or gear side, per
-``SimSensorParams.on_load``) and models the real part's quantisation, noise and
-quirks. Noise comes from a seeded ``random.Random``, so a run is exactly repeatable.
-Injected faults (stuck, jump, dead) are applied here, on top of the reading.
+The simulator provides what the real chips deliver (:mod:`urc.hardware.parts`): an x4
+quadrature count, unsigned pulses, ADC counts, the AS5600's raw angle and magnet status,
+magnetometer and accelerometer vectors. The position sensor the controller sees is the
+same driver (:mod:`urc.hardware.drivers.sensors`) real iron uses, so conversion and
+calibration code run identically on both.
+
+Each part reads the mechanical state of its :class:`AxisPhysics` (load or gear side,
+per ``SimSensorParams.on_load``) and models quantisation, noise and quirks. Noise comes
+from a seeded ``random.Random``, so a run is exactly repeatable. Injected faults
+(stuck, jump, dead) are applied on top of the driver's reading by :class:`FaultySensor`.
 """
 
 from __future__ import annotations
@@ -15,22 +21,150 @@ from typing import Any
 
 from ...caps import SensorCaps
 from ...errors import SensorError
+from ..drivers.motors import DirectionTracker
+from ..drivers.sensors import (As5600Sensor, CompassSensor, PotSensor, QuadratureEncoder,
+                               SpidPulseSensor, TiltSensor, wrap)
+from ..parts import MagnetStatus
 from .params import SimSensorParams
 from .physics import AxisPhysics
 
 
-class SimSensor:
-    """Common part: fault handling and modulo wrap around ``_read()``."""
-
-    def __init__(self, caps: SensorCaps, axis: AxisPhysics, params: SimSensorParams,
-                 rng: random.Random, noise: bool, name: str):
-        self.caps = caps
-        self.name = name
+class _SimPart:
+    def __init__(self, axis: AxisPhysics, params: SimSensorParams, rng: random.Random, noise: bool):
         self._axis = axis
         self._p = params
         self._rng = rng
         self._noise = noise
-        # injected faults
+
+    def _angle(self) -> float:
+        return self._axis.sensor_side_deg()
+
+    def _gauss(self, sigma: float) -> float:
+        return self._rng.gauss(0.0, sigma) if (self._noise and sigma > 0.0) else 0.0
+
+
+class SimQuadratureCounter(_SimPart):
+    """x4 count of an encoder with ``counts_per_deg`` counts per degree; 0 at power-on.
+    The index mark (``SimSensorParams.index_deg``) latches the count when passed."""
+
+    def __init__(self, *args: Any, counts_per_deg: int):
+        super().__init__(*args)
+        self.counts_per_deg = counts_per_deg
+        self._c0 = self._raw()
+        idx = self._p.index_deg
+        self._index_side = None if idx is None else (self._angle() >= idx)
+        self._index_count: int | None = None
+
+    def _raw(self) -> int:
+        return math.floor(self._angle() * self.counts_per_deg + 1e-9)
+
+    def count(self) -> int:
+        return self._raw() - self._c0
+
+    def index_count(self) -> int | None:
+        return self._index_count
+
+    def errors(self) -> int:
+        return 0
+
+    def after_advance(self) -> None:
+        if self._index_side is not None:
+            side = self._angle() >= self._p.index_deg  # type: ignore[operator]
+            if side != self._index_side:
+                self._index_side = side
+                self._index_count = self.count()
+
+
+class SimPulseCounter(_SimPart):
+    """The reed contact's pulses as the physics loop saw every edge (no direction)."""
+
+    def count(self) -> int:
+        return self._axis.pulse_edges
+
+
+class SimPotAdc(_SimPart):
+    """A pot on a 10-bit ADC whose reference is the pot supply (full scale 1024).
+
+    ``ratiometric`` (G4JNT loaded pot): N = 2048 x/(1+x); ``linear``: N = 1023 x.
+    """
+
+    full_scale_counts = 1024
+
+    def wiper_fraction(self) -> float:
+        p = self._p
+        x = (self._angle() - p.pot_start_deg) / p.pot_span_deg
+        return 0.0 if x < 0.0 else 1.0 if x > 1.0 else x
+
+    def read_counts(self, noisy: bool = True) -> int:
+        x = self.wiper_fraction()
+        ideal = 2048.0 * x / (1.0 + x) if self._p.pot_law == "ratiometric" else 1023.0 * x
+        n = round(ideal + (self._gauss(self._p.adc_noise_counts) if noisy else 0.0))
+        return 0 if n < 0 else 1023 if n > 1023 else n
+
+    def read_reference_counts(self) -> int:
+        return self.full_scale_counts
+
+
+class SimAs5600(_SimPart):
+    """AS5600 raw angle (12 bits, rare one-count glitches) and a magnet in its window."""
+
+    COUNTS = 4096
+
+    def __init__(self, *args: Any):
+        super().__init__(*args)
+        self.status = MagnetStatus(detected=True)
+
+    def read_raw_angle(self, noisy: bool = True) -> int:
+        c = round(self._angle() / 360.0 * self.COUNTS)
+        if noisy and self._noise and self._p.glitch_prob > 0.0:
+            if self._rng.random() < self._p.glitch_prob:
+                c += 1 if self._rng.random() < 0.5 else -1
+        return c % self.COUNTS
+
+    def magnet_status(self) -> MagnetStatus:
+        return self.status
+
+
+class SimMagnetometer(_SimPart):
+    """Body-frame field for magnetic heading psi (horizontal strength 1, level):
+    (cos psi + hx, -sin psi + hy, 0) with hard iron hx, hy, plus noise."""
+
+    def __init__(self, *args: Any, noise_deg: float):
+        super().__init__(*args)
+        self.noise_deg = noise_deg
+
+    def read_vector(self) -> tuple[float, float, float]:
+        p = self._p
+        psi = math.radians(self._angle() - p.declination_deg)
+        sigma = math.radians(self.noise_deg)
+        return (math.cos(psi) + p.hard_iron_x + self._gauss(sigma),
+                -math.sin(psi) + p.hard_iron_y + self._gauss(sigma), 0.0)
+
+
+class SimAccelerometer(_SimPart):
+    """Gravity on the boom tilted to elevation el: (sin el, 0, cos el) g, plus noise."""
+
+    def __init__(self, *args: Any, noise_deg: float):
+        super().__init__(*args)
+        self.noise_deg = noise_deg
+
+    def read_vector(self) -> tuple[float, float, float]:
+        el = math.radians(self._angle())
+        sigma = math.radians(self.noise_deg)
+        gx = math.sin(el) + self._gauss(sigma)
+        gz = math.cos(el) + self._gauss(sigma)
+        return (gx, 0.0, gz)
+
+
+class FaultySensor:
+    """A driver with the simulator's injected sensor faults on top of its reading.
+
+    Everything but ``read_deg`` is the driver's own (``__getattr__``), so calibration
+    sees the driver's declared interface.
+    """
+
+    def __init__(self, driver: Any):
+        self.driver = driver
         self.fault_dead = False
         self.fault_jump_deg = 0.0
         self.fault_stuck_deg: float | None = None
@@ -39,304 +173,60 @@ class SimSensor:
         self.fault_slow_s = 0.0
         self.fault_slow_reads = 0
 
-    # -- PositionSensor -----------------------------------------------------
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self.__dict__["driver"], name)
+
     def read_deg(self) -> float:
+        d = self.driver
         if self.fault_slow_reads > 0:
             self.fault_slow_reads -= 1
             time.sleep(self.fault_slow_s)
         if self.fault_dead:
-            raise SensorError(f"{self.name} sensor ({self.caps.kind}): no reading")
+            raise SensorError(f"{d.name} sensor ({d.caps.kind}): no reading")
         if self.fault_stuck_deg is not None:
             return self.fault_stuck_deg
-        return self._wrap(self._read(noisy=True) + self.fault_jump_deg)
-
-    def set_reference_deg(self, angle_deg: float) -> None:
-        raise NotImplementedError
-
-    def calibration(self) -> dict[str, Any]:
-        return {}
-
-    def load_calibration(self, values: dict[str, Any]) -> None:
-        pass
-
-    # -- internals ----------------------------------------------------------
-    def _read(self, noisy: bool) -> float:
-        raise NotImplementedError
-
-    def _wrap(self, v: float) -> float:
-        m = self.caps.modulo_deg
-        if m:
-            v %= m
-            if v >= m:        # -1e-17 % 360 == 360.0
-                v = 0.0
-        return v
-
-    def _angle(self) -> float:
-        return self._axis.sensor_side_deg()
-
-    def _gauss(self, sigma: float) -> float:
-        return self._rng.gauss(0.0, sigma) if (self._noise and sigma > 0.0) else 0.0
+        return wrap(d.read_deg() + self.fault_jump_deg, d.caps.modulo_deg)
 
     def freeze(self) -> None:
         """Fault: the reading stops changing at its present value."""
-        try:
-            self.fault_stuck_deg = self._wrap(self._read(noisy=False) + self.fault_jump_deg)
-        except SensorError:
-            self.fault_stuck_deg = self._wrap(self._angle())
+        self.fault_stuck_deg = None
+        self.fault_stuck_deg = self.read_deg()
 
     def after_advance(self) -> None:
         """Called by the world after each physics advance (index marks etc.)."""
-
-
-class _Incremental(SimSensor):
-    """Counts x resolution + reference; counts start at 0 at power-on."""
-
-    reference_deg = 0.0
-
-    def counts(self) -> int:
-        raise NotImplementedError
-
-    def _read(self, noisy: bool) -> float:
-        return self.counts() * self.caps.resolution_deg + self.reference_deg
-
-    def set_reference_deg(self, angle_deg: float) -> None:
-        self.reference_deg = float(angle_deg) - self.counts() * self.caps.resolution_deg
-
-    def calibration(self) -> dict[str, Any]:
-        return {"reference_deg": self.reference_deg}
-
-    def load_calibration(self, values: dict[str, Any]) -> None:
-        if "reference_deg" in values:
-            self.reference_deg = float(values["reference_deg"])
-
-
-class EncoderSensor(_Incremental):
-    """Incremental quadrature encoder: signed counts, 1/resolution counts per degree."""
-
-    def __init__(self, *args: Any, **kw: Any):
-        super().__init__(*args, **kw)
-        self.counts_per_deg = round(1.0 / self.caps.resolution_deg)
-        self._c0 = self._raw_counts()
-        idx = self._p.index_deg
-        self._index_side = None if idx is None else (self._angle() >= idx)
-        self._index_seen = False
-        self.index_counts: int | None = None
-
-    def _raw_counts(self) -> int:
-        return math.floor(self._angle() * self.counts_per_deg + 1e-9)
-
-    def counts(self) -> int:
-        return self._raw_counts() - self._c0
-
-    def index_seen(self) -> bool:
-        """True once the index mark (``SimSensorParams.index_deg``) has passed."""
-        return self._index_seen
-
-    def after_advance(self) -> None:
-        if self._index_side is not None:
-            side = self._angle() >= self._p.index_deg  # type: ignore[operator]
-            if side != self._index_side:
-                self._index_side = side
-                self._index_seen = True
-                self.index_counts = self.counts()
-
-
-class PulseSensor(_Incremental):
-    """SPID/BIG-RAS single-channel pulses: no direction information.
-
-    The counter (kept by the physics loop, which sees every edge) adds or subtracts
-    according to the direction of the motor's last non-zero *commanded* drive, so
-    coasting after a reversal, backlash wobble or a reversed motor make it miscount.
-    """
-
-    def counts(self) -> int:
-        return self._axis.pulse_count
-
-
-class PotSensor(SimSensor):
-    """Potentiometer on a 10-bit ADC.
-
-    ``ratiometric`` (G4JNT): the loaded pot gives N = 2048 x/(1+x); the driver
-    linearises P = 4096 N/(2048-N) (= 4096 x) and bearing = M*P + C + Z.
-    ``linear`` (G-5500): N = 1023 x, bearing = M*N + C + Z.
-    """
-
-    def __init__(self, *args: Any, **kw: Any):
-        super().__init__(*args, **kw)
-        p = self._p
-        full = 4096.0 if p.pot_law == "ratiometric" else 1023.0
-        self.m_deg_per_unit = p.pot_span_deg / full
-        self.c_deg = p.pot_start_deg
-        self.z_deg = 0.0
-        #: ratiometric: 1024 x the divider's drive gain as the driver assumes it (the
-        #: G4JNT constant K, 2048 for its gain of 2); P = 4096 N / (K - N)
-        self.k_counts = 2048.0
-        self.last_counts = 0
-
-    def wiper_fraction(self) -> float:
-        p = self._p
-        x = (self._angle() - p.pot_start_deg) / p.pot_span_deg
-        return 0.0 if x < 0.0 else 1.0 if x > 1.0 else x
-
-    def adc_counts(self, noisy: bool = True) -> int:
-        x = self.wiper_fraction()
-        ideal = 2048.0 * x / (1.0 + x) if self._p.pot_law == "ratiometric" else 1023.0 * x
-        n = round(ideal + (self._gauss(self._p.adc_noise_counts) if noisy else 0.0))
-        return 0 if n < 0 else 1023 if n > 1023 else n
-
-    def linearised(self, n: int) -> float:
-        """The driver's P (ratiometric) or N (linear) before M, C, Z."""
-        if self._p.pot_law == "ratiometric":
-            return 4096.0 * n / (self.k_counts - n) if n < self.k_counts else 4096.0 * 1023
-        return float(n)
-
-    def _read(self, noisy: bool) -> float:
-        n = self.adc_counts(noisy)
-        if noisy:
-            self.last_counts = n
-        return self.m_deg_per_unit * self.linearised(n) + self.c_deg + self.z_deg
-
-    def set_reference_deg(self, angle_deg: float) -> None:
-        self.z_deg += float(angle_deg) - self._read(noisy=False)
-
-    def calibration(self) -> dict[str, Any]:
-        cal = {"M": self.m_deg_per_unit, "C": self.c_deg, "Z": self.z_deg}
-        if self._p.pot_law == "ratiometric":
-            cal["K"] = self.k_counts
-        return cal
-
-    def load_calibration(self, values: dict[str, Any]) -> None:
-        self.m_deg_per_unit = float(values.get("M", self.m_deg_per_unit))
-        self.c_deg = float(values.get("C", self.c_deg))
-        self.z_deg = float(values.get("Z", self.z_deg))
-        if self._p.pot_law == "ratiometric":
-            self.k_counts = float(values.get("K", self.k_counts))
-
-    def last_units(self) -> float:
-        """The linearised reading (P) behind the last position read."""
-        return self.linearised(self.last_counts)
-
-
-class As5600Sensor(SimSensor):
-    """AS5600 12-bit absolute magnetic encoder on the axis (modulo 360)."""
-
-    COUNTS = 4096
-
-    def __init__(self, *args: Any, **kw: Any):
-        super().__init__(*args, **kw)
-        self.zero_deg = 0.0
-
-    def raw_counts(self, noisy: bool = True) -> int:
-        c = round(self._angle() / 360.0 * self.COUNTS)
-        if noisy and self._noise and self._p.glitch_prob > 0.0:
-            if self._rng.random() < self._p.glitch_prob:
-                c += 1 if self._rng.random() < 0.5 else -1
-        return c % self.COUNTS
-
-    def _read(self, noisy: bool) -> float:
-        return self.raw_counts(noisy) * (360.0 / self.COUNTS) - self.zero_deg
-
-    def set_reference_deg(self, angle_deg: float) -> None:
-        self.zero_deg = self.raw_counts(noisy=False) * (360.0 / self.COUNTS) - float(angle_deg)
-
-    def calibration(self) -> dict[str, Any]:
-        return {"zero_deg": self.zero_deg}
-
-    def load_calibration(self, values: dict[str, Any]) -> None:
-        self.zero_deg = float(values.get("zero_deg", self.zero_deg))
-
-
-class CompassSensor(SimSensor):
-    """SARCNET azimuth: heading from a (tilt-compensated) magnetometer.
-
-    Body-frame horizontal field for magnetic heading psi (field strength 1):
-    bx = cos psi + hx, by = -sin psi + hy (hard iron hx, hy) plus noise. The driver
-    subtracts its hard-iron estimate, takes atan2 and adds the declination. Shipped
-    calibrated: the estimate equals the simulated hard iron.
-    """
-
-    def __init__(self, *args: Any, **kw: Any):
-        super().__init__(*args, **kw)
-        p = self._p
-        self.hard_iron_x, self.hard_iron_y = p.hard_iron_x, p.hard_iron_y
-        self.declination_deg = p.declination_deg
-        self.offset_deg = 0.0
-
-    def _heading(self, noisy: bool) -> float:
-        p = self._p
-        psi = math.radians(self._angle() - p.declination_deg)
-        sigma = math.radians(self.caps.noise_deg) if noisy else 0.0
-        bx = math.cos(psi) + p.hard_iron_x + self._gauss(sigma)
-        by = -math.sin(psi) + p.hard_iron_y + self._gauss(sigma)
-        h = math.degrees(math.atan2(-(by - self.hard_iron_y), bx - self.hard_iron_x))
-        return h + self.declination_deg + self.offset_deg
-
-    def _read(self, noisy: bool) -> float:
-        q = self.caps.resolution_deg
-        return round(self._heading(noisy) / q) * q
-
-    def set_reference_deg(self, angle_deg: float) -> None:
-        d = float(angle_deg) - self._heading(noisy=False)
-        self.offset_deg += (d + 180.0) % 360.0 - 180.0
-
-    def calibration(self) -> dict[str, Any]:
-        return {"hard_iron_x": self.hard_iron_x, "hard_iron_y": self.hard_iron_y,
-                "declination_deg": self.declination_deg, "offset_deg": self.offset_deg}
-
-    def load_calibration(self, values: dict[str, Any]) -> None:
-        self.hard_iron_x = float(values.get("hard_iron_x", self.hard_iron_x))
-        self.hard_iron_y = float(values.get("hard_iron_y", self.hard_iron_y))
-        self.declination_deg = float(values.get("declination_deg", self.declination_deg))
-        self.offset_deg = float(values.get("offset_deg", self.offset_deg))
-
-
-class TiltSensor(SimSensor):
-    """SARCNET elevation: accelerometer tilt angle atan2(g sin el, g cos el) + noise."""
-
-    def __init__(self, *args: Any, **kw: Any):
-        super().__init__(*args, **kw)
-        self.offset_deg = 0.0
-
-    def _tilt(self, noisy: bool) -> float:
-        el = math.radians(self._angle())
-        sigma = math.radians(self.caps.noise_deg) if noisy else 0.0
-        gx = math.sin(el) + self._gauss(sigma)
-        gz = math.cos(el) + self._gauss(sigma)
-        return math.degrees(math.atan2(gx, gz)) + self.offset_deg
-
-    def _read(self, noisy: bool) -> float:
-        q = self.caps.resolution_deg
-        return round(self._tilt(noisy) / q) * q
-
-    def set_reference_deg(self, angle_deg: float) -> None:
-        self.offset_deg += float(angle_deg) - self._tilt(noisy=False)
-
-    def calibration(self) -> dict[str, Any]:
-        return {"offset_deg": self.offset_deg}
-
-    def load_calibration(self, values: dict[str, Any]) -> None:
-        self.offset_deg = float(values.get("offset_deg", self.offset_deg))
+        hook = getattr(self.driver, "counter", None)
+        if isinstance(hook, SimQuadratureCounter):
+            hook.after_advance()
 
 
 def make_sensor(axis_name: str, caps: SensorCaps, axis: AxisPhysics, params: SimSensorParams,
-                rng: random.Random, *, noise: bool, referenced: bool) -> SimSensor:
-    """Build the sensor for ``caps.kind``; ``referenced``: incremental sensors start
-    referenced to the true angle (a fresh installation), else they read 0 + counts."""
+                rng: random.Random, *, noise: bool, referenced: bool,
+                drive: DirectionTracker) -> FaultySensor:
+    """The driver for ``caps.kind`` on simulated parts. ``referenced``: incremental
+    sensors start referenced to the true angle (a fresh installation), else they read
+    0 + counts. ``drive``: where a pulse counter takes its direction from."""
     kind = caps.kind
-    cls: type[SimSensor]
+    part = (axis, params, rng, noise)
+    driver: Any
     if kind == "encoder":
-        cls = EncoderSensor
+        driver = QuadratureEncoder(caps, axis_name, SimQuadratureCounter(
+            *part, counts_per_deg=round(1.0 / caps.resolution_deg)))
     elif kind == "pulse":
-        cls = PulseSensor
+        driver = SpidPulseSensor(caps, axis_name, SimPulseCounter(*part), drive)
     elif kind == "pot":
-        cls = PotSensor
+        full = 4096.0 if params.pot_law == "ratiometric" else 1023.0
+        driver = PotSensor(caps, axis_name, SimPotAdc(*part), law=params.pot_law,
+                           m=params.pot_span_deg / full, c=params.pot_start_deg)
     elif kind == "as5600":
-        cls = As5600Sensor
+        driver = As5600Sensor(caps, axis_name, SimAs5600(*part))
+    elif kind == "magnetometer" and axis_name == "az":
+        driver = CompassSensor(caps, axis_name, SimMagnetometer(*part, noise_deg=caps.noise_deg),
+                               hard_iron=(params.hard_iron_x, params.hard_iron_y),
+                               declination_deg=params.declination_deg)
     elif kind == "magnetometer":
-        cls = CompassSensor if axis_name == "az" else TiltSensor
+        driver = TiltSensor(caps, axis_name, SimAccelerometer(*part, noise_deg=caps.noise_deg))
     else:  # pragma: no cover - SensorKind is a closed Literal
         raise ValueError(f"unknown sensor kind {kind!r}")
-    sensor = cls(caps, axis, params, rng, noise, axis_name)
-    if referenced and isinstance(sensor, _Incremental):
-        sensor.set_reference_deg(axis.sensor_side_deg())
-    return sensor
+    if referenced and kind in ("encoder", "pulse"):
+        driver.set_reference_deg(axis.sensor_side_deg())
+    return FaultySensor(driver)

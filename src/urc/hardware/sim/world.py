@@ -23,7 +23,7 @@ from ...clock import Clock
 from .drives import SimBrake, SimLimitSwitch, SimMotor
 from .params import SimRotatorParams
 from .physics import AxisPhysics
-from .sensors import SimSensor, make_sensor
+from .sensors import FaultySensor, make_sensor
 
 log = logging.getLogger(__name__)
 
@@ -70,17 +70,17 @@ class SimWorld:
 
         # Devices. Incremental sensors start counting from 0 now (power-on); on a fresh
         # rotator (no truth file) they start referenced to the true angle.
-        self.sensors: dict[str, SimSensor] = {}
+        self.sensors: dict[str, FaultySensor] = {}
         self.motors: dict[str, SimMotor] = {}
         self.brakes: dict[str, SimBrake | None] = {}
         self.limits: dict[str, tuple[SimLimitSwitch | None, SimLimitSwitch | None]] = {}
         for name in AXES:
             ax_caps, p, phys = caps.axis(name), params.axis(name), self.axes[name]
+            self.motors[name] = SimMotor(phys, name, catch_up=self.catch_up)
             self.sensors[name] = make_sensor(
                 name, ax_caps.sensor, phys, p.sensor,
                 random.Random(f"urc-sim:{self.seed}:{name}:sensor"),
-                noise=sensor_noise, referenced=saved is None)
-            self.motors[name] = SimMotor(phys, name, catch_up=self.catch_up)
+                noise=sensor_noise, referenced=saved is None, drive=self.motors[name])
             self.brakes[name] = SimBrake(self, name) if p.has_brake else None
             lo = hi = None
             if ax_caps.limit_switches and p.switch_min_deg is not None:

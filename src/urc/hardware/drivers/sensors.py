@@ -1,0 +1,383 @@
+"""Position-sensor drivers: parts -> :class:`urc.hardware.interfaces.PositionSensor`.
+
+Each keeps its calibration constants (``calibration()`` / ``load_calibration``) and
+re-references from a fresh reading (``set_reference_deg``: "what you read now is
+``angle_deg``").
+A part error (:class:`urc.hardware.parts.PartError`) passes through as the
+``SensorError`` the rotator turns into a fault.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Literal, Sequence
+
+from ...caps import SensorCaps
+from ..parts import AdcChannel, As5600Part, PartError, PulseCounter, QuadratureCounter, Vector3
+from .motors import DirectionTracker
+
+
+def wrap(v: float, modulo: float | None) -> float:
+    if modulo:
+        v %= modulo
+        if v >= modulo:        # -1e-17 % 360 == 360.0
+            v = 0.0
+    return v
+
+
+def quantise(v: float, q: float) -> float:
+    return round(v / q) * q if q > 0 else v
+
+
+class _Driver:
+    def __init__(self, caps: SensorCaps, name: str):
+        self.caps = caps
+        self.name = name
+
+    def _wrap(self, v: float) -> float:
+        return wrap(v, self.caps.modulo_deg)
+
+
+# ----------------------------------------------------------------- incremental
+class _Incremental(_Driver):
+    """Counts x resolution + reference; the counter starts at 0 at power-on."""
+
+    reference_deg = 0.0
+
+    def counts(self) -> int:
+        raise NotImplementedError
+
+    def read_deg(self) -> float:
+        return self._wrap(self.counts() * self.caps.resolution_deg + self.reference_deg)
+
+    def set_reference_deg(self, angle_deg: float) -> None:
+        self.reference_deg = float(angle_deg) - self.counts() * self.caps.resolution_deg
+
+    def calibration(self) -> dict[str, Any]:
+        return {"reference_deg": self.reference_deg}
+
+    def load_calibration(self, values: dict[str, Any]) -> None:
+        if "reference_deg" in values:
+            self.reference_deg = float(values["reference_deg"])
+
+
+class QuadratureEncoder(_Incremental):
+    """Incremental encoder on an x4 quadrature counter (Tartu: 10 counts per degree).
+
+    ``index_deg``: the axis angle of the index (Z) mark; each new index pulse
+    re-references the count there (drift from missed edges is wiped at every pass).
+    ``motor``/``drift_counts``: with the motor off for ``still_after_s`` the count must
+    not move by more than ``drift_counts`` (noise on A/B counts a motor that stands);
+    past that the driver reports an error until re-referenced.
+    """
+
+    def __init__(self, caps: SensorCaps, name: str, counter: QuadratureCounter, *,
+                 index_deg: float | None = None, motor: Any = None,
+                 drift_counts: int | None = None, still_after_s: float = 2.0, clock: Any = None):
+        super().__init__(caps, name)
+        self.counter = counter
+        self.counts_per_deg = round(1.0 / caps.resolution_deg)
+        self.index_deg = index_deg
+        self._index_count = counter.index_count()
+        self.motor, self.drift_counts, self.still_after_s, self.clock = motor, drift_counts, still_after_s, clock
+        self._off_since: tuple[float, int] | None = None
+        self._drift_error = ""
+
+    def counts(self) -> int:
+        return self.counter.count()
+
+    def read_deg(self) -> float:
+        c = self.counts()
+        if self.index_deg is not None:
+            idx = self.counter.index_count()
+            if idx is not None and idx != self._index_count:
+                self._index_count = idx
+                self.reference_deg = self.index_deg - idx * self.caps.resolution_deg
+        self._check_drift(c)
+        return self._wrap(c * self.caps.resolution_deg + self.reference_deg)
+
+    def _check_drift(self, c: int) -> None:
+        if self.drift_counts is None or self.motor is None or self.clock is None:
+            return
+        if self._drift_error:
+            raise PartError(self._drift_error)
+        now = self.clock.now_s()
+        if getattr(self.motor, "duty", 0.0) != 0.0:
+            self._off_since = None
+            return
+        if self._off_since is None:
+            self._off_since = (now, c)
+            return
+        t0, c0 = self._off_since
+        if now - t0 < self.still_after_s:
+            self._off_since = (t0, c)      # still coasting: follow it
+            return
+        if abs(c - c0) > self.drift_counts:
+            self._drift_error = (f"{self.name} encoder counted {c - c0:+d} with the motor off "
+                                 "(noise on A/B or a loose coupling)")
+            raise PartError(self._drift_error)
+
+    def set_reference_deg(self, angle_deg: float) -> None:
+        super().set_reference_deg(angle_deg)
+        self._drift_error = ""
+        self._off_since = None
+
+    def index_seen(self) -> bool:
+        return self.counter.index_count() is not None
+
+
+class SpidPulseSensor(_Incremental):
+    """SPID/BIG-RAS: one pulse per resolution step and no direction channel.
+
+    Pulses add or subtract by the direction of the drive's last non-zero command
+    (as the BIG-RAS firmware does), folded in whenever that direction flips. Coasting
+    past a reversal, gear wobble or a reversed motor therefore miscount, as on iron.
+    """
+
+    def __init__(self, caps: SensorCaps, name: str, counter: PulseCounter,
+                 drive: DirectionTracker):
+        super().__init__(caps, name)
+        self.counter = counter
+        self.drive = drive
+        self._seen = counter.count()
+        self._signed = 0
+        drive.add_direction_listener(self._fold)
+
+    def _fold(self, direction: int) -> None:
+        c = self.counter.count()
+        self._signed += (c - self._seen) * direction
+        self._seen = c
+
+    def counts(self) -> int:
+        self._fold(self.drive.direction)
+        return self._signed
+
+
+# ----------------------------------------------------------------- pot
+class PotSensor(_Driver):
+    """Potentiometer on an ADC channel, in 10-bit units N = 1024 x counts / reference.
+
+    ``ratiometric`` (G4JNT): the pot loaded by a resistor equal to its track gives
+    N = 2048 x/(1+x); linearised P = 4096 N/(2048-N) (= 4096 x), bearing M*P + C + Z.
+    ``linear`` (G-5500 through an ADC): bearing = M*N + C + Z. Dividing by what the ADC
+    reads on the pot's supply makes it ratiometric on any ADC (ADS1115 with the supply
+    on a second channel); a reference outside ``reference_range`` of full scale
+    (a broken wire, a dead supply) is an error, never a bearing.
+    """
+
+    def __init__(self, caps: SensorCaps, name: str, adc: AdcChannel, *,
+                 law: Literal["ratiometric", "linear"], m: float, c: float, z: float = 0.0,
+                 reference_range: tuple[float, float] = (0.8, 1.05)):
+        super().__init__(caps, name)
+        self.adc = adc
+        self.law = law
+        self.m_deg_per_unit, self.c_deg, self.z_deg = float(m), float(c), float(z)
+        self.reference_range = reference_range
+        #: ratiometric: 1024 x the divider's drive gain as the driver assumes it (the
+        #: G4JNT constant K, 2048 for its gain of 2); P = 4096 N / (K - N)
+        self.k_counts = 2048.0
+        #: the N behind the last position read (the G4JNT stream prints its P)
+        self.last_counts: float = 0
+
+    def read_n(self) -> float:
+        """The pot in 10-bit units (N), checked against the reference."""
+        ref = self.adc.read_reference_counts()
+        full = self.adc.full_scale_counts
+        lo, hi = self.reference_range
+        if not lo * full <= ref <= hi * full:
+            raise PartError(f"{self.name} pot: ADC reference reads {ref} counts, expected "
+                            f"{lo * full:.0f}..{hi * full:.0f} (pot supply or wiring)")
+        return 1024 * self.adc.read_counts() / ref
+
+    def linearised(self, n: float) -> float:
+        """P (ratiometric, 4096 N/(K-N)) or N (linear), before M, C, Z."""
+        if self.law == "ratiometric":
+            k = self.k_counts
+            return 4096.0 * n / (k - n) if n < k else 4096.0 * 1023
+        return float(n)
+
+    def raw_units(self) -> float:
+        """One fresh P (ratiometric) or N (linear): what two-point calibration fits."""
+        return self.linearised(self.read_n())
+
+    def last_units(self) -> float:
+        """The linearised reading (P) behind the last position read."""
+        return self.linearised(self.last_counts)
+
+    def _bearing(self, units: float) -> float:
+        return self.m_deg_per_unit * units + self.c_deg + self.z_deg
+
+    def read_deg(self) -> float:
+        n = self.read_n()
+        self.last_counts = n
+        return self._wrap(self._bearing(self.linearised(n)))
+
+    def set_reference_deg(self, angle_deg: float) -> None:
+        units = self.raw_units()
+        self.z_deg += float(angle_deg) - self._bearing(units)
+
+    def calibration(self) -> dict[str, Any]:
+        cal = {"M": self.m_deg_per_unit, "C": self.c_deg, "Z": self.z_deg}
+        if self.law == "ratiometric":
+            cal["K"] = self.k_counts
+        return cal
+
+    def load_calibration(self, values: dict[str, Any]) -> None:
+        self.m_deg_per_unit = float(values.get("M", self.m_deg_per_unit))
+        self.c_deg = float(values.get("C", self.c_deg))
+        self.z_deg = float(values.get("Z", self.z_deg))
+        if self.law == "ratiometric":
+            self.k_counts = float(values.get("K", self.k_counts))
+
+
+# ----------------------------------------------------------------- AS5600
+class As5600Sensor(_Driver):
+    """AS5600 on the axis (Berkeley): 12-bit angle minus a zero, modulo 360.
+
+    The magnet status is checked on every read: no magnet, too weak or too strong is an
+    error, never an angle. ``turns`` counts crossings of 0/360 (the unwrapped angle is
+    ``unwrapped_deg()``), for a sensor geared to more than one turn per axis travel.
+    """
+
+    COUNTS = 4096
+
+    def __init__(self, caps: SensorCaps, name: str, part: As5600Part, *, zero_deg: float = 0.0):
+        super().__init__(caps, name)
+        self.part = part
+        self.zero_deg = float(zero_deg)
+        self.last_raw: int | None = None
+        self.turns = 0
+
+    def read_raw(self) -> int:
+        st = self.part.magnet_status()
+        if not st.detected or st.too_weak or st.too_strong:
+            what = "too weak" if st.too_weak else "too strong" if st.too_strong else "not detected"
+            raise PartError(f"{self.name} AS5600: magnet {what} (check the magnet gap)")
+        raw = int(self.part.read_raw_angle()) & 0x0FFF
+        if self.last_raw is not None:
+            jump = raw - self.last_raw
+            if jump < -self.COUNTS // 2:
+                self.turns += 1
+            elif jump > self.COUNTS // 2:
+                self.turns -= 1
+        self.last_raw = raw
+        return raw
+
+    def read_deg(self) -> float:
+        return self._wrap(self.read_raw() * (360.0 / self.COUNTS) - self.zero_deg)
+
+    def unwrapped_deg(self) -> float:
+        return self.turns * 360.0 + self.read_raw() * (360.0 / self.COUNTS) - self.zero_deg
+
+    def set_reference_deg(self, angle_deg: float) -> None:
+        raw = self.read_raw()
+        self.zero_deg = raw * (360.0 / self.COUNTS) - float(angle_deg)
+
+    def calibration(self) -> dict[str, Any]:
+        return {"zero_deg": self.zero_deg}
+
+    def load_calibration(self, values: dict[str, Any]) -> None:
+        self.zero_deg = float(values.get("zero_deg", self.zero_deg))
+
+
+# ----------------------------------------------------------------- compass
+def tilt_compensate(m: Sequence[float], a: Sequence[float]) -> tuple[float, float]:
+    """Horizontal field (x forward, y) of body-frame field ``m`` given gravity ``a``.
+
+    Roll about x and pitch about y from the accelerometer, then the field rotated back
+    to the horizontal plane (the usual LSM303 application-note formulas).
+    """
+    ax, ay, az = a
+    mx, my, mz = m
+    roll = math.atan2(ay, az)
+    sr, cr = math.sin(roll), math.cos(roll)
+    pitch = math.atan2(-ax, ay * sr + az * cr)
+    sp, cp = math.sin(pitch), math.cos(pitch)
+    return (mx * cp + my * sr * sp + mz * cr * sp, my * cr - mz * sr)
+
+
+class CompassSensor(_Driver):
+    """SARCNET azimuth: a magnetometer (LSM303D/AGR), tilt-compensated by its
+    accelerometer when one is given, corrected for hard iron (an offset) and soft iron
+    (a 2x2 matrix on the horizontal field), heading + declination + offset, quantised to
+    the sensor's resolution.
+
+    Field convention: heading psi gives (bx, by) = (cos psi, -sin psi).
+    """
+
+    def __init__(self, caps: SensorCaps, name: str, mag: Vector3, accel: Vector3 | None = None, *,
+                 hard_iron: tuple[float, float] = (0.0, 0.0),
+                 soft_iron: tuple[float, float, float, float] = (1.0, 0.0, 0.0, 1.0),
+                 declination_deg: float = 0.0, offset_deg: float = 0.0):
+        super().__init__(caps, name)
+        self.mag, self.accel = mag, accel
+        self.hard_iron_x, self.hard_iron_y = hard_iron
+        self.soft_iron = tuple(float(v) for v in soft_iron)
+        self.declination_deg = float(declination_deg)
+        self.offset_deg = float(offset_deg)
+
+    def read_field(self) -> tuple[float, float]:
+        """The raw horizontal field (bx, by): tilt-compensated, irons not removed."""
+        m = self.mag.read_vector()
+        if self.accel is None:
+            return (m[0], m[1])
+        return tilt_compensate(m, self.accel.read_vector())
+
+    def _heading(self, field: tuple[float, float]) -> float:
+        x, y = field[0] - self.hard_iron_x, field[1] - self.hard_iron_y
+        s = self.soft_iron
+        if s != (1.0, 0.0, 0.0, 1.0):
+            x, y = s[0] * x + s[1] * y, s[2] * x + s[3] * y
+        return math.degrees(math.atan2(-y, x)) + self.declination_deg + self.offset_deg
+
+    def read_deg(self) -> float:
+        field = self.read_field()
+        return self._wrap(quantise(self._heading(field), self.caps.resolution_deg))
+
+    def set_reference_deg(self, angle_deg: float) -> None:
+        field = self.read_field()
+        d = float(angle_deg) - self._heading(field)
+        self.offset_deg += (d + 180.0) % 360.0 - 180.0
+
+    def calibration(self) -> dict[str, Any]:
+        return {"hard_iron_x": self.hard_iron_x, "hard_iron_y": self.hard_iron_y,
+                "soft_iron": list(self.soft_iron),
+                "declination_deg": self.declination_deg, "offset_deg": self.offset_deg}
+
+    def load_calibration(self, values: dict[str, Any]) -> None:
+        self.hard_iron_x = float(values.get("hard_iron_x", self.hard_iron_x))
+        self.hard_iron_y = float(values.get("hard_iron_y", self.hard_iron_y))
+        if "soft_iron" in values:
+            s = tuple(float(v) for v in values["soft_iron"])
+            if len(s) != 4 or not all(math.isfinite(v) for v in s):
+                raise ValueError(f"soft_iron must be 4 finite numbers, got {values['soft_iron']!r}")
+            self.soft_iron = s
+        self.declination_deg = float(values.get("declination_deg", self.declination_deg))
+        self.offset_deg = float(values.get("offset_deg", self.offset_deg))
+
+
+class TiltSensor(_Driver):
+    """SARCNET elevation: the boom's tilt from the accelerometer, atan2(ax, az)."""
+
+    def __init__(self, caps: SensorCaps, name: str, accel: Vector3, *, offset_deg: float = 0.0):
+        super().__init__(caps, name)
+        self.accel = accel
+        self.offset_deg = float(offset_deg)
+
+    def _tilt(self) -> float:
+        ax, _, az = self.accel.read_vector()
+        return math.degrees(math.atan2(ax, az))
+
+    def read_deg(self) -> float:
+        t = self._tilt()
+        return self._wrap(quantise(t + self.offset_deg, self.caps.resolution_deg))
+
+    def set_reference_deg(self, angle_deg: float) -> None:
+        t = self._tilt()
+        self.offset_deg += float(angle_deg) - (t + self.offset_deg)
+
+    def calibration(self) -> dict[str, Any]:
+        return {"offset_deg": self.offset_deg}
+
+    def load_calibration(self, values: dict[str, Any]) -> None:
+        self.offset_deg = float(values.get("offset_deg", self.offset_deg))
