@@ -176,8 +176,9 @@ class PotSensor(_Driver):
         #: ratiometric: 1024 x the divider's drive gain as the driver assumes it (the
         #: G4JNT constant K, 2048 for its gain of 2); P = 4096 N / (K - N)
         self.k_counts = 2048.0
-        #: the N behind the last position read (the G4JNT stream prints its P)
-        self.last_counts: float = 0
+        #: the N behind the last position read, whole counts (the G4JNT stream prints it)
+        self.last_counts = 0
+        self._last_n = 0.0
 
     def read_n(self) -> float:
         """The pot in 10-bit units (N), checked against the reference."""
@@ -202,14 +203,14 @@ class PotSensor(_Driver):
 
     def last_units(self) -> float:
         """The linearised reading (P) behind the last position read."""
-        return self.linearised(self.last_counts)
+        return self.linearised(self._last_n)
 
     def _bearing(self, units: float) -> float:
         return self.m_deg_per_unit * units + self.c_deg + self.z_deg
 
     def read_deg(self) -> float:
         n = self.read_n()
-        self.last_counts = n
+        self._last_n, self.last_counts = n, round(n)
         return self._wrap(self._bearing(self.linearised(n)))
 
     def set_reference_deg(self, angle_deg: float) -> None:
