@@ -316,7 +316,8 @@ def track(target: str | None, norad: int | None, point, azel, nmea_source: str |
 def _format_tracking(t: dict | None) -> str:
     if not t:
         return "not tracking"
-    lines = [f"tracking  {t.get('target')}"]
+    lines = [f"tracking  {t.get('target')}" if not t.get("stopped") else
+             f"NOT tracking {t.get('target')}: {t['stopped']}"]
     if t.get("az_deg") is not None:
         lines.append(f"target    az {t['az_deg']:7.2f}  el {t['el_deg']:6.2f}")
     plan = t.get("plan")

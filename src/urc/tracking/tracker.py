@@ -207,7 +207,8 @@ class Tracker:
         if self.target is None:
             return None
         u = self.unix_at(now_s)
-        out: dict[str, Any] = {"target": self.target.name, "error": self.last_error or None}
+        out: dict[str, Any] = {"target": self.target.name, "error": self.last_error or None,
+                               "stopped": _not_following(self.rot.status())}
         try:
             out["az_deg"], out["el_deg"] = self.target.position(u)
         except Exception as exc:  # a target that cannot be computed now must not break status
@@ -229,6 +230,18 @@ class Tracker:
                 self._ground_cache = (key, _ground_track(self.target, u))
             out.update(self._ground_cache[1])
         return out
+
+
+def _not_following(st) -> str | None:
+    """Why the antenna is not following the target right now (None while it is): a
+    latched fault stops tracking until cleared (updates resume then), a late control
+    loop holds the motors for a moment."""
+    if st.faults:
+        return "stopped: fault latched (" + "; ".join(f.reason for f in st.faults) + \
+            "); clear faults to resume"
+    if st.loop.get("held"):
+        return "paused: the control loop was late; resuming when it is on time"
+    return None
 
 
 def _iso(unix_s: float) -> str:
