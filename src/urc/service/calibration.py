@@ -12,6 +12,7 @@ sees no jump and the state save persists the new constants.
 
 from __future__ import annotations
 
+import contextlib
 import math
 from dataclasses import dataclass
 from typing import Any, Sequence
@@ -142,26 +143,29 @@ def apply_sensor_calibration(rotator: Any, axis: str, values: dict[str, Any], sa
     The sensor is first put back on its old reading (through its own reference), so the
     next control tick sees no jump (no runaway/sensor-jump fault); then ``set_position``
     moves the axis to the new calibrated angle, which the rotator treats as a deliberate
-    re-reference and persists with the constants. Must run between ticks (the event
-    loop thread). Returns the new mechanical angle.
+    re-reference and persists with the constants. Runs between ticks (under the
+    rotator's lock). Returns the new mechanical angle.
     """
     sensor = _sensor(rotator, axis)
-    old = dict(sensor.calibration())
-    modulo = getattr(sensor.caps, "modulo_deg", None)
-    r0 = average_reading_deg(sensor, samples)
-    sensor.load_calibration(values)
-    try:
-        r1 = average_reading_deg(sensor, samples)
-        delta = r1 - r0
-        if modulo:
-            delta = (delta + modulo / 2) % modulo - modulo / 2
-        status = rotator.status()
-        mech_new = getattr(status, axis).pos_deg + delta
-        sensor.set_reference_deg(r0)
-        rotator.set_position(**{f"{axis}_deg": mech_new + status.offsets.get(axis, 0.0)})
-    except Exception:
-        sensor.load_calibration(old)
-        raise
+    # the control loop runs on its own thread: hold its lock so that no tick reads the
+    # sensor between the new constants and the re-reference
+    with getattr(rotator, "lock", contextlib.nullcontext()):
+        old = dict(sensor.calibration())
+        modulo = getattr(sensor.caps, "modulo_deg", None)
+        r0 = average_reading_deg(sensor, samples)
+        sensor.load_calibration(values)
+        try:
+            r1 = average_reading_deg(sensor, samples)
+            delta = r1 - r0
+            if modulo:
+                delta = (delta + modulo / 2) % modulo - modulo / 2
+            status = rotator.status()
+            mech_new = getattr(status, axis).pos_deg + delta
+            sensor.set_reference_deg(r0)
+            rotator.set_position(**{f"{axis}_deg": mech_new + status.offsets.get(axis, 0.0)})
+        except Exception:
+            sensor.load_calibration(old)
+            raise
     return mech_new
 
 
