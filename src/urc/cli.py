@@ -203,6 +203,9 @@ def _format_status(s: dict) -> str:
             lines.append(f"          {name} uncertain by ±{s[name]['uncertainty_deg']:.2f} deg")
     for f in s["faults"]:
         lines.append(f"FAULT     {f['kind']}: {f['reason']}")
+    if s.get("local_control"):
+        lines.append(f"LOCAL     {', '.join(s['local_control'])} held on the front panel: "
+                     "only stop is accepted from here")
     if s.get("state_error"):
         lines.append(f"STATE     not saved: {s['state_error']} (retrying; motion stops before the "
                      "saved position stops being true)")

@@ -186,3 +186,37 @@ def test_run_panel_carries_pin_callbacks_onto_the_event_loop(bench):
     assert threads == [loop_thread], "the press ran on the event loop's thread"
     assert shown == lcd_rows(b.rot.status())  # (no tick ran: the status is the settled one)
     assert b.rot.local_controls() == (), "closing the panel released the button's hold"
+
+
+def test_urc_status_says_which_local_control_is_held(panel_rig):
+    from urc.cli import _format_status
+
+    rig = panel_rig()
+    rig.press("stop")
+    st = rig.run(0.1)
+    assert "LOCAL     STOP button held on the front panel" in _format_status(st.as_dict())
+    rig.release("stop")
+    assert "LOCAL" not in _format_status(rig.run(0.1).as_dict())
+
+
+def test_tracking_gives_way_to_the_panel_and_resumes_on_release(panel_rig, tmp_path):
+    """The tracker is a source like any other: its updates are refused while a button
+    is held (its status says why) and it takes over again once released."""
+    from urc.config import Config
+    from urc.tracking.service import TrackingService
+
+    rig = panel_rig()
+    cfg = Config.from_dict({"station": {"lat_deg": 58.378, "lon_deg": 26.729, "alt_m": 70},
+                            "tracking": {"catalog_dir": str(tmp_path / "cat")}})
+    svc = TrackingService(rig.rot, cfg, unix_at=lambda now_s: 1.7e9 + now_s)
+    svc.track({"kind": "azel", "az_deg": 200.0, "el_deg": 30.0})
+    step = lambda s: svc.step(s.t_s)  # noqa: E731
+    st = rig.run(60.0, on_tick=step, until=lambda s: abs(s.az.pos_deg - 200.0) < 0.5 and not s.moving)
+    assert abs(st.az.pos_deg - 200.0) < 0.5
+    rig.press("ccw")
+    st = rig.run(3.0, on_tick=step)
+    assert st.az.pos_deg < 195.0, "the operator's jog wins over the tracker"
+    assert "local control active" in (svc.tracker.last_error or "")
+    rig.release("ccw")
+    st = rig.run(30.0, on_tick=step, until=lambda s: abs(s.az.pos_deg - 200.0) < 0.5 and not s.moving)
+    assert abs(st.az.pos_deg - 200.0) < 0.5, "released: the tracker took over again"

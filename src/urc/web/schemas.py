@@ -110,6 +110,7 @@ class StatusDoc(BaseModel):
     loop: dict = Field(description="control-loop timing: late_p99_ms (outputs written after the deadline, "
                                    "whole tick), tick_p99_ms, stalls, recent_stalls, held (motors held off "
                                    "after a stall, resuming when on time), last_stall_ms")
+    local_control: list[str] = Field(description="front-panel controls held now: motion from here is refused")
     simulator_truth: dict | None = Field(description="the simulator's true state (None on hardware)")
     tracking: dict | None = Field(description="the tracker's status (target, az/el, plan, ground track)")
 
