@@ -82,3 +82,20 @@ def test_tartu_lcdc_sets_the_oled_contrast(panel_rig):
     assert TartuSession(rig.rot).receive(b"LCDC 10\r\n") == [b"OK\r\n"]
     rig.panel.refresh_display()
     assert chip.contrast == round(10 * 255 / 63)
+
+
+def test_oled_panel_shows_position_target_and_utc_time(panel_rig):
+    """Berkeley's OLED: encoder and target data and the time."""
+    pytest.importorskip("luma.oled")
+    from urc.frontpanel.oled import Oled, Ssd1306Bus, render
+
+    chip = Ssd1306Bus(0x3C, 128, 64)
+    rig = panel_rig("berkeley", display=Oled(chip, 0x3C, 128, 64))
+    rig.panel.wall_s = lambda: 1.7e9
+    rig.rot.goto(123.4, 45.6)
+    rig.settle()
+    rig.panel.refresh_display()
+    rows = rig.panel.display_rows()
+    assert len(rows) == 5 and rows[:2] == [r.ljust(21) for r in lcd_rows(rig.rot.status())]
+    assert rows[3].rstrip() == "TGT 123.4 +45.6" and rows[4].rstrip() == "UTC 22:13:20"
+    assert chip.image().tobytes() == render(rows, 128, 64).tobytes()

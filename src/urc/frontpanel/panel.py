@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import asyncio
 import logging
+import time
 from typing import Any, Callable
 
 from ..errors import UrcError
@@ -35,11 +36,13 @@ class FrontPanel:
                  leds: dict[str, int] | None = None, beeper_pin: int | None = None,
                  display: Any = None, ir: tuple[Any, dict[int, str]] | None = None,
                  jog_speed: float = 1.0, slow_speed: float = 0.2, bounce_time_s: float | None = None,
-                 dispatch: Callable[..., None] | None = None, now_s: Callable[[], float] | None = None):
+                 dispatch: Callable[..., None] | None = None, now_s: Callable[[], float] | None = None,
+                 wall_s: Callable[[], float] = time.time):
         from gpiozero import LED, Button, Buzzer
 
         self.rotator = rotator
         self.now_s = now_s or rotator.clock.now_s
+        self.wall_s = wall_s
         self.dispatch = dispatch or (lambda fn, *args: fn(*args))
         self._devices: list[Any] = []
         self.beeper = Beeper(self._device(Buzzer, beeper_pin, pin_factory) if beeper_pin is not None else None)
@@ -126,7 +129,7 @@ class FrontPanel:
         cols, rows = self.display.cols, self.display.rows
         if self.zero is not None and self.zero.active:
             return zero_rows(self.zero.label, self.zero.value_deg, cols, rows)
-        return status_rows(self.rotator.status(), now, cols, rows)
+        return status_rows(self.rotator.status(), now, cols, rows, self.wall_s())
 
     def refresh_display(self, now_s: float | None = None) -> None:
         if self.display is not None:

@@ -14,6 +14,8 @@ the display shows Z and how to change and store it.
 
 from __future__ import annotations
 
+import time
+
 from ..protocols.tartu_codec import lcd_rows
 from ..service.snapshot import Status
 from .indicators import fault_code
@@ -41,12 +43,16 @@ def summary(st: Status) -> str:
     return "MOVING" if st.moving else "READY"
 
 
-def status_rows(st: Status, t_s: float, cols: int = 20, rows: int = 2) -> list[str]:
-    """The display's rows, each exactly ``cols`` characters."""
+def status_rows(st: Status, t_s: float, cols: int = 20, rows: int = 2,
+                utc_unix_s: float | None = None) -> list[str]:
+    """The display's rows, each exactly ``cols`` characters. A fifth row (the OLED's)
+    shows the UTC time, as the Berkeley rotor's OLED does beside encoder and target."""
     out = lcd_rows(st)
     msg = message(st)
     if rows >= 4:
         out += [msg, summary(st)]
+    if rows >= 5 and utc_unix_s is not None:
+        out.append(time.strftime("UTC %H:%M:%S", time.gmtime(utc_unix_s)))
     elif msg and int(t_s // ALTERNATE_S) % 2 == 1:
         out[1] = msg
     return fit(out[:rows], cols, rows)
