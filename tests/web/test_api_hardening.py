@@ -151,6 +151,7 @@ def test_pass_searches_are_bounded_and_keep_the_api_responsive(make_client):
         return status, status_s, answers
     status, status_s, answers = asyncio.run(scenario())
     codes = [a.status_code for a in answers]
+    assert all(a.headers["retry-after"] == "30" for a in answers if a.status_code == 503)
     assert status.status_code == 200 and status_s < 0.3       # the event loop was not blocked
     assert trk.max_running == 1                                  # one search at a time
     assert set(codes) <= {200, 503} and 503 in codes             # the excess is refused at once

@@ -32,6 +32,8 @@ CACHE_ENTRIES = 4
 MAX_WAITING = 2
 #: a caller gives up (503) after this long; the search itself goes on
 TIMEOUT_S = 60.0
+#: a 503 tells a well-behaved client when to come back
+RETRY = {"Retry-After": str(int(CACHE_S))}
 
 
 class PassSearch:
@@ -58,7 +60,7 @@ class PassSearch:
         fut = self._pending.get(key)
         if fut is None:
             if len(self._pending) > self.max_waiting:
-                raise HTTPException(503, "pass search busy: try again in a minute")
+                raise HTTPException(503, "pass search busy: try again in a minute", headers=RETRY)
             fut = asyncio.get_running_loop().create_task(self._run(key))
             self._pending[key] = fut
         try:
@@ -66,7 +68,7 @@ class PassSearch:
             return await asyncio.wait_for(asyncio.shield(fut), self.timeout_s)
         except asyncio.TimeoutError:
             raise HTTPException(503, f"pass search took longer than {self.timeout_s:g} s: "
-                                     "try again later (the result is being computed)") from None
+                                     "try again later (the result is being computed)", headers=RETRY) from None
 
     async def _run(self, key: tuple[float, float]) -> list[dict]:
         try:
