@@ -16,7 +16,7 @@ from __future__ import annotations
 import logging
 from typing import Callable
 
-from ..errors import CommandRejected, UrcError
+from ..errors import UrcError
 
 log = logging.getLogger("urc.frontpanel")
 
@@ -66,7 +66,7 @@ class LocalControls:
                 # a jog already under way changes speed
                 for jog in [a for _, a in self._held if a in JOGS]:
                     self._jog(jog)
-        except (CommandRejected, UrcError) as exc:
+        except UrcError as exc:  # CommandRejected, or a hardware failure
             self.last_refusal = f"{action}: {exc}"
             log.info("front panel %s refused: %s", action, exc)
             self.on_result(False, self.last_refusal)

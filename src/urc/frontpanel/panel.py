@@ -28,7 +28,6 @@ from .zeroset import ZeroSetting
 log = logging.getLogger("urc.frontpanel")
 
 UPDATE_PERIOD_S = 0.05
-LED_NAMES = ("cw", "ccw", "up", "down", "fault")
 
 
 class FrontPanel:
