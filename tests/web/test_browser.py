@@ -8,7 +8,9 @@ from __future__ import annotations
 
 import asyncio
 import math
+import os
 import re
+import signal
 import threading
 import time
 from pathlib import Path
@@ -407,6 +409,14 @@ def test_offline_is_shown_and_a_restarted_urc_is_re_read(tmp_path, open_page, ar
         page = open_page(a.url + "/")
         expect(page.locator("#profile-name")).to_contain_text("berkeley")
         assert page.locator("#stale-banner").is_hidden()
+        # a stalled server (kill -STOP) keeps the connection open: the page notices the silence
+        os.kill(a.proc.pid, signal.SIGSTOP)
+        try:
+            expect(page.locator("#stale-banner")).to_be_visible(timeout=5000)
+            expect(page.locator("#stale-text")).to_contain_text("not live")
+        finally:
+            os.kill(a.proc.pid, signal.SIGCONT)
+        expect(page.locator("#stale-banner")).to_be_hidden(timeout=5000)
         a.stop()
         expect(page.locator("#stale-banner")).to_be_visible(timeout=5000)
         expect(page.locator("#stale-text")).to_contain_text("not live")
