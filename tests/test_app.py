@@ -169,3 +169,16 @@ def test_systemd_notify_ready_and_watchdog_pings_only_while_on_time(urc, tmp_pat
         u.proc.send_signal(signal.SIGTERM)
         assert "STOPPING=1" in messages(3.0)
         u.proc.communicate(timeout=30)
+
+
+def test_ctrl_c_stops_in_order_like_sigterm(urc):
+    """Issue 12.20: shutdown worked only because uvicorn re-raised the signals it had
+    captured; urc owns SIGINT/SIGTERM and stops the axes, the outputs and saves."""
+    u = urc().start()
+    assert u.post("/api/goto", {"az_deg": 60, "el_deg": 45}).status_code == 200
+    u.wait(lambda s: s["moving"])
+    u.proc.send_signal(signal.SIGINT)
+    out, _ = u.proc.communicate(timeout=30)
+    assert u.proc.returncode == 0, out
+    assert "stopping: axes to rest" in out and "stopped, state saved" in out and "Traceback" not in out
+    assert read_output_file(u.state_dir / "heartbeat")["level"] == 0
