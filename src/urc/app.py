@@ -163,7 +163,7 @@ async def _serve(cfg: Config, state_dir: Path, clock: Clock, config_path: Path |
     from .tracking.service import TrackingService
 
     rotator = build_rotator(cfg, clock, state_dir)
-    started = False
+    control: ControlThread | None = None
     try:
         stop = asyncio.Event()
         loop = asyncio.get_running_loop()
@@ -191,7 +191,6 @@ async def _serve(cfg: Config, state_dir: Path, clock: Clock, config_path: Path |
         control = ControlThread(rotator, clock, watchdog=WatchdogPing(notify),
                                 on_exit=lambda _e: loop.call_soon_threadsafe(stop.set))
         control.start()
-        started = True
         web = asyncio.create_task(server.serve(sockets=[api_socket]), name="api")
         steps = asyncio.create_task(_step_tracker(tracking, clock, stop), name="tracker")
         from .frontpanel import serve_panel
@@ -221,7 +220,13 @@ async def _serve(cfg: Config, state_dir: Path, clock: Clock, config_path: Path |
     finally:
         # every path: motors off, brakes on, heartbeat low; state saved only if the
         # loop ran (a failed start leaves the saved state as it was)
-        saved = rotator.shutdown(save=started)
+        if control is not None:
+            control.stop()
+        if control is not None and control.alive:
+            # a tick hangs (in the hardware) and holds the rotator: outputs safe without it
+            rotator.hw.drive_safe()
+            raise RuntimeError("the control loop hangs in a tick: outputs made safe, state not saved")
+        saved = rotator.shutdown(save=control is not None)
         rotator.hw.close()
     print("urc: stopped, state saved" if saved else "urc: stopped; the state could NOT be saved "
           "(the next start treats the position as uncertain)", flush=True)
