@@ -154,6 +154,7 @@ def tracking_feed(workdir: Path, profile: str, window_s: float) -> dict:
     """Plan the next pass of an ISS-like satellite and record what one dashboard gets."""
     import websockets
 
+    workdir.mkdir(parents=True, exist_ok=True)
     tle = workdir / "iss.tle"
     tle.write_text(iss_like_tle(datetime.now(timezone.utc)))
     urc = UrcProcess(workdir, profile=profile,
