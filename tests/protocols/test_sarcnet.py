@@ -7,6 +7,7 @@ sensor with noise) judged by the simulator's truth.
 
 from __future__ import annotations
 
+import math
 import re
 
 import pytest
@@ -103,11 +104,9 @@ def test_help_and_letters(sarc):
     b, s = sarc
     (help_,) = s.receive(b"h\r")
     assert help_.startswith(b"Commands:\r\n") and b"m -Monitor\r\n" in help_
-    assert s.receive(b"c\r")[0].startswith(b"Error: calibration not available on this rotator")
-    assert s.receive(b"e12.5\r")[0].startswith(b"Error: magnetic declination not settable")
-    assert s.receive(b"s\r")[0].startswith(b"Nothing to save")
+    assert s.receive(b"c\r")[0].startswith(b"Error: 12-direction calibration not available")
+    assert s.receive(b"s\r")[0].startswith(b"Saved")
     assert s.receive(b"xyz\r")[0].startswith(b"Error: unknown command 'xyz': expected 'az el'")
-    assert s.receive(b"r\r") == [b"Reset in progress\r\n", b"Reset complete\r\n"]
     assert held(b)
 
 
@@ -215,7 +214,13 @@ def test_debug_stream(sarc):
     s.receive(b"b\r")
     rows = ticks(b, s, 0.5)
     assert len(rows) == 5
-    assert all(re.fullmatch(rb"(-?\d+\.\d\d,){5}-?\d+\.\d\d\r\n", r) for r in rows)
+    # the raw sensor data, Mx My Mz Gx Gy Gz (the document's b)
+    assert all(re.fullmatch(rb"(-?\d+\.\d{3},){5}-?\d+\.\d{3}\r\n", r) for r in rows)
+    mx, my, mz, gx, gy, gz = (float(v) for v in rows[-1].split(b","))
+    el = b.truth("el")
+    # what the parts deliver (the simulated magnetometer and accelerometer)
+    assert (mx, my, mz) == pytest.approx(b.rot.hw.az.sensor.mag.read_vector(), abs=0.05)
+    assert (gx, gy, gz) == pytest.approx((math.sin(math.radians(el)), 0.0, math.cos(math.radians(el))), abs=0.02)
     s.receive(b"a\r")
     assert ticks(b, s, 0.3) == []
 
@@ -286,10 +291,12 @@ _DATA = st.lists(st.one_of(st.binary(max_size=20), _WORDS), max_size=24).map(b""
 
 
 def _could_move(data: bytes) -> bool:
-    """Lines a SARCNET would act on by moving: a demo, or two numbers / an Easycomm set."""
+    """Lines a SARCNET would act on by moving: a demo, a reset (drives home), a
+    declination (re-references), or two numbers / an Easycomm set."""
     for line in re.split(rb"[\r\n]", data):
         t = line.strip().lstrip(b";").strip()
-        if t.lower() == b"d" or (re.search(rb"\d", t) and re.search(rb"[\s,]|AZ|EL", t)):
+        if t.lower() in (b"d", b"r") or re.match(rb"[eE]\s*[-+.\d]", t) or \
+                (re.search(rb"\d", t) and re.search(rb"[\s,]|AZ|EL", t)):
             return True
     return False
 
@@ -311,3 +318,37 @@ def test_fuzz_never_raises_or_moves(quiet, data, split):
     st_ = quiet.rot.status()
     assert st_.target_az_deg is None and st_.az.target_deg is None and st_.el.target_deg is None
     assert abs(quiet.truth("az")) < 0.1 and abs(quiet.truth("el")) < 0.1
+
+
+def test_console_session_from_the_document(sarc, bench):
+    """The document's set-up session: b (raw data), a, e11.7 then s, r (calibration
+    data, reset home), m (monitor), a, 30 45 (the arm swings to about 30/45)."""
+    b, s = sarc
+    assert s.receive(b"b\r") == [b"Debugging in progress: Press 'a' to abort\r\n"]
+    assert len(ticks(b, s, 0.3)[-1].split(b",")) == 6             # six numbers
+    assert s.receive(b"a\r") == [b"Function aborted\r\n"]
+    az0 = b.rot.status().az_deg
+    assert s.receive(b"e11.7\r") == [b"Magnetic declination: 11.7\r\n"]
+    b.run(0.2)
+    assert b.rot.status().az_deg == pytest.approx((az0 + 11.7 - 12.5) % 360, abs=0.3)   # was 12.5
+    assert s.receive(b"s\r")[0].startswith(b"Saved")
+    assert s.receive(b"e\r") == [b"Magnetic declination: 11.7\r\n"]
+    b.rot.goto(40.0, 20.0)
+    b.settle()
+    reset = s.receive(b"r\r")
+    assert reset[0] == b"Reset in progress\r\n" and reset[-1] == b"Reset complete\r\n"
+    assert b"az declination_deg: 11.7\r\n" in reset
+    b.settle()
+    home = b.rot.status()
+    assert abs((home.az_deg + 180) % 360 - 180) < 1.0 and home.el_deg == pytest.approx(0.0, abs=1.0)
+    assert abs(home.az.pos_deg) < 1.0                                # the unwound 0: windup reset
+    assert s.receive(b"m\r") == [b"Monitoring in progress: Press 'a' to abort\r\n"]
+    assert len(ticks(b, s, 0.3)[-1].split(b",")) == 8
+    s.receive(b"a\r")
+    assert s.receive(b"30 45\r") == []
+    b.settle()
+    assert (b.rot.status().az_deg, b.rot.status().el_deg) == pytest.approx((30.0, 45.0), abs=1.0)
+    # the declination outlives the connection and a restart of urc
+    b.run(2.0)
+    b2 = b.restart()
+    assert SarcnetSession(b2.rot).receive(b"e\r") == [b"Magnetic declination: 11.7\r\n"]

@@ -8,15 +8,15 @@ Lines end CR, LF or CRLF. As on the Arduino, the port carries two kinds of line:
 az el    go to azimuth ``az`` (0..360 or -180..180) and elevation ``el``, e.g.
          ``120 30`` or ``-90 45``; silent on success like the original, ``Error: ..``
          when refused. While paused the target is kept and flown on resume.
-r        reset: leave any mode, stop, clear latched faults (the Arduino reboots its
-         state). Unlike the original, whose reset zeroes the set point and so drives
-         home, urc does not move on ``r``; send ``0 0`` for that.
-b        debug mode: stream ``az_mech,el_mech,az_rate,el_rate,az_duty,el_duty`` every
-         ``interval_s`` (the original streams raw magnetometer/accelerometer vectors,
-         which urc's sensor drivers keep to themselves)
-c        calibrate: not available on this rotator (the original's 12-point hard/soft
-         iron calibration needs the sensor waved by hand; urc keeps the calibration in
-         its sensor driver)
+r        reset, as the original: prints the calibration data, stops, clears latched
+         faults, leaves any mode and drives home (az 0, el 0) with the windup reset
+         (azimuth 0 of the unwound cable, not 360)
+b        debug mode: stream the raw sensor data ``Mx,My,Mz,Gx,Gy,Gz`` every
+         ``interval_s``: the magnetometer part's vector (in its own units: the sim's
+         horizontal field strength is 1) and the accelerometer's in g, three decimals
+         (the document names the six values, not their scale or format)
+c        calibrate: not available yet (the original's 12-direction hand-held
+         calibration); urc's web page runs a magnetometer calibration on the rotator
 d        demo mode: sweep the set point at 1 deg/s, azimuth -180..180 and elevation
          0..90 bouncing at the ends, flying it and printing ``azSet,elSet`` each period
 m        monitor mode: stream ``az,el,azSet,elSet,azWindup,windup,azError,elError``
@@ -24,9 +24,10 @@ m        monitor mode: stream ``az,el,azSet,elSet,azWindup,windup,azError,elErro
          its cable wrap, e.g. 400 or -10; windup = 1 while that lies outside 0..360,
          the overlap urc unwinds when it next can; error = position - set point)
 a        abort the running mode (debug, monitor, demo: demo motion stops)
-e[NN.N]  magnetic declination: not settable on this rotator (it lives in urc's
-         compass driver calibration) -> ``Error: ..``
-s        save calibration: nothing to do, urc saves position and calibration itself
+e[NN.N]  magnetic declination: ``e`` prints it, ``e11.7`` sets it (east positive, as the
+         document says): the compass driver's own setting, kept with the rotator's
+         calibration across restarts; the azimuth the rotator reports shifts with it
+s        save: urc saves the declination and calibration as they change; confirms
 p        pause: stop and hold; ``p`` again resumes (flying a target given meanwhile)
 h        help
 =======  ======================================================================
@@ -43,12 +44,13 @@ Arduino's 100 ms timer); they are emitted from ``tick(now_s)``.
 from __future__ import annotations
 
 from ..errors import CommandRejected, UrcError
+from ..service import calibration
 from ..service.snapshot import Status
 from .base import (MAX_PENDING_BYTES, RotatorPort, bad_input_log, goto_named_axes, internal_error,
                    protocol_logger)
 from . import sarcnet_codec as codec
 from .lines import LineSplitter, next_due_s
-from .poses import extended_pose_deg
+from .poses import ExtendedTarget, extended_pose_deg
 from .sarcnet_codec import SarcnetCommand, SarcnetSyntaxError, signed180
 
 log = protocol_logger("sarcnet")
@@ -117,8 +119,7 @@ class SarcnetSession:
         if self.mode == "monitoring":
             return [self._monitor_row(st)]
         if self.mode == "debugging":
-            return [codec.console(f"{st.az.pos_deg:.2f},{st.el.pos_deg:.2f},{st.az.rate_deg_per_s:.2f},"
-                                  f"{st.el.rate_deg_per_s:.2f},{st.az.duty:.2f},{st.el.duty:.2f}")]
+            return [self._raw_row()]
         return self._demo_step(st, now_s, dt)
 
     # ----------------------------------------------------------------- commands
@@ -169,11 +170,43 @@ class SarcnetSession:
 
     def _letter_r(self, cmd: SarcnetCommand) -> list[bytes]:
         out = [codec.console("Reset in progress")]
+        out += [codec.console(f"{name}: {value}") for name, value in self._calibration_rows()]
         self.mode, self._held = "tracking", None
         self.rotator.stop()
         self.rotator.clear_faults()
+        try:
+            ExtendedTarget(self.rotator).goto(0.0, 0.0)   # home, windup reset
+        except CommandRejected as exc:
+            out.append(codec.console(f"Error: {exc}"))
         out.append(codec.console("Reset complete"))
         return out
+
+    def _calibration_rows(self) -> list[tuple[str, str]]:
+        """(name, value text) of each sensor's calibration constants (numbers with %g,
+        a matrix as its numbers comma separated)."""
+        rows: list[tuple[str, str]] = []
+        for axis in ("az", "el"):
+            sensor = self._sensor(axis)
+            cal = sensor.calibration() if sensor is not None else {}
+            for key, value in sorted(cal.items()):
+                values = value if isinstance(value, (list, tuple)) else [value]
+                rows.append((f"{axis} {key}", ",".join(f"{float(v):g}" for v in values)))
+        return rows
+
+    def _sensor(self, axis: str):
+        try:
+            return self.rotator.hw.axis(axis).sensor           # type: ignore[attr-defined]
+        except AttributeError:
+            return None
+
+    def _raw_row(self) -> bytes:
+        """Mx,My,Mz,Gx,Gy,Gz straight from the parts (the compass driver's magnetometer,
+        the tilt driver's accelerometer), before any calibration."""
+        mag = getattr(self._sensor("az"), "mag", None)
+        acc = getattr(self._sensor("el"), "accel", None) or getattr(self._sensor("az"), "accel", None)
+        if mag is None or acc is None:
+            return codec.console("Error: no raw magnetometer/accelerometer on this rotator")
+        return codec.console(",".join(f"{v:.3f}" for v in (*mag.read_vector(), *acc.read_vector())))
 
     def _letter_b(self, cmd: SarcnetCommand) -> list[bytes]:
         self._enter("debugging")
@@ -184,8 +217,8 @@ class SarcnetSession:
         return [codec.console("Monitoring in progress: Press 'a' to abort")]
 
     def _letter_c(self, cmd: SarcnetCommand) -> list[bytes]:
-        return [codec.console("Error: calibration not available on this rotator "
-                              "(urc keeps the magnetometer calibration in its sensor driver)")]
+        return [codec.console("Error: 12-direction calibration not available here "
+                              "(use the web page's magnetometer calibration)")]
 
     def _letter_d(self, cmd: SarcnetCommand) -> list[bytes]:
         st = self.rotator.status()
@@ -202,11 +235,22 @@ class SarcnetSession:
         return [codec.console("Function aborted")]
 
     def _letter_e(self, cmd: SarcnetCommand) -> list[bytes]:
-        return [codec.console("Error: magnetic declination not settable on this rotator "
-                              "(it is part of urc's compass calibration)")]
+        sensor = self._sensor("az")
+        cal = sensor.calibration() if sensor is not None else {}
+        if "declination_deg" not in cal:
+            return [codec.console("Error: this rotator has no magnetic compass")]
+        if not cmd.text:
+            return [codec.console(f"Magnetic declination: {cal['declination_deg']:.1f}")]
+        value = float(cmd.text)
+        if not -90.0 <= value <= 90.0:
+            return [codec.console(f"Error: declination {cmd.text} outside -90..90")]
+        # the compass driver's setting, persisted with the rotator's calibration; the
+        # rotator re-references by the change (refused if that breaks its limits)
+        calibration.apply_sensor_calibration(self.rotator, "az", {"declination_deg": value})
+        return [codec.console(f"Magnetic declination: {value:.1f}")]
 
     def _letter_s(self, cmd: SarcnetCommand) -> list[bytes]:
-        return [codec.console("Nothing to save: urc saves its position and calibration automatically")]
+        return [codec.console("Saved: urc keeps the declination and calibration as they change")]
 
     def _letter_p(self, cmd: SarcnetCommand) -> list[bytes]:
         if self.mode != "pausing":
