@@ -88,6 +88,8 @@ def build_rotator(cfg: Config, clock: Clock, state_dir: Path, durable_state: boo
         options["start_el_deg"] = sim.start_el_deg
     if cfg.hardware.bridge is not None:
         options["bridge"] = cfg.hardware.bridge
+    if cfg.hardware.gpio is not None:
+        options["gpio"] = cfg.hardware.gpio
     hardware = build_hardware(cfg.hardware.backend, settings.caps, clock, state_dir, options)
     if cfg.faults.overcurrent_a == 0:
         # 0 = the backend knows its motors best

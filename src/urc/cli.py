@@ -39,9 +39,11 @@ def main() -> None:
 @click.option("--profile", help="Simulator/rotator profile (see `urc profiles`).")
 @click.option("--state-dir", type=click.Path(file_okay=False), help="Where persistent state lives.")
 @click.option("--port", type=int, help="HTTP API port (overrides [api] port).")
+@click.option("--emulate", is_flag=True,
+              help="gpio backend: run the real drivers on pins and chips emulated from the simulator.")
 @click.option("-v", "--verbose", is_flag=True, help="Log debug detail.")
 def run(config_path: str | None, profile: str | None, state_dir: str | None, port: int | None,
-        verbose: bool) -> None:
+        emulate: bool, verbose: bool) -> None:
     """Start the controller (the simulator with no arguments)."""
     from .app import serve
     from .service.instance import InstanceLocked
@@ -55,6 +57,8 @@ def run(config_path: str | None, profile: str | None, state_dir: str | None, por
             data = cfg.to_dict()
             data.setdefault("api", {})["port"] = port
             cfg = Config.from_dict(data, source="--port")
+        if emulate:
+            cfg = with_emulation(cfg)
         asyncio.run(serve(cfg, cfg.state.resolve_dir(state_dir),
                           config_path=Path(config_path) if config_path else None))
     except ConfigError as exc:
@@ -62,6 +66,17 @@ def run(config_path: str | None, profile: str | None, state_dir: str | None, por
     except (InstanceLocked, OSError) as exc:
         # another urc on this state dir or hardware, a port in use: nothing was started
         raise _Busy(f"cannot start: {exc}") from None
+
+
+def with_emulation(cfg):
+    """The configuration with ``[hardware.gpio] emulate = true`` (``--emulate``)."""
+    from .config import Config
+    if cfg.hardware.backend != "gpio":
+        raise ConfigError("--emulate needs [hardware] backend = \"gpio\" (see examples/)",
+                          key="hardware.backend", expected="gpio", found=cfg.hardware.backend)
+    data = cfg.to_dict()
+    data["hardware"]["gpio"]["emulate"] = True
+    return Config.from_dict(data, source="--emulate")
 
 
 class _Busy(click.ClickException):

@@ -48,7 +48,7 @@ __all__ = [
 ]
 
 #: the backends this module knows about when the hardware package cannot be asked.
-_BUILTIN_BACKENDS = ("sim", "bridge")
+_BUILTIN_BACKENDS = ("sim", "bridge", "gpio")
 #: elevation range any keep-out zone must lie in (degrees; > 90 is "over the top").
 _KEEPOUT_EL_RANGE = (-90.0, 180.0)
 
@@ -118,10 +118,53 @@ class BridgeSection(_Section):
     stop_before_set: bool = False
 
 
+class GpioAxis(_Section):
+    """One axis' parts on the Pi (``[hardware.gpio.az]``); pins are BCM numbers.
+
+    The sensor comes from the profile (encoder, pulse, pot, as5600, magnetometer); the
+    pins each motor driver needs: vnh5019 ina inb pwm; lmd18200 pwm dir bridge_brake;
+    bts7960 rpwm lpwm; pwm_dir pwm dir; relay cw ccw [fast]. Sensors: encoder enc_a
+    enc_b [enc_z]; pulse pulse. Also brake (the brake relay) and limit_min / limit_max.
+    """
+
+    motor: str
+    pins: dict[str, int] = {}
+    pwm_frequency_hz: float = _num(1000.0, gt=0.0, le=100000.0)
+    #: I2C bus for this axis' chip (None = [hardware.gpio] i2c_bus) and its address
+    i2c_bus: int | None = Field(None, ge=0, le=31)
+    i2c_address: int | None = Field(None, ge=0x03, le=0x77)
+    #: pot through an ADS1115: the pot's input and the input wired to the pot supply
+    adc_channel: int = Field(0, ge=-100, le=100)
+    adc_reference_channel: int = Field(3, ge=-100, le=100)
+    adc_reference_v: float = _num(3.3, gt=0.0, le=4.096)
+    pot_law: str | None = None
+    pot_m: float | None = _num(None)
+    pot_c: float | None = _num(None)
+    zero_deg: float = _num(0.0)
+    declination_deg: float = _num(0.0, ge=-180.0, le=180.0)
+    relay_dead_time_s: float = _num(0.5, ge=0.0, le=10.0)
+    limit_active_low: bool = True
+    #: counts an encoder may move with its motor off before that is a fault; None = no check
+    encoder_drift_counts: int | None = Field(20, ge=1)
+
+
+class GpioSection(_Section):
+    """``backend = "gpio"``: parts on a Raspberry Pi's pins and buses."""
+
+    #: run the real drivers on pins and chips emulated from the simulator
+    emulate: bool = False
+    i2c_bus: int = Field(1, ge=0, le=31)
+    heartbeat_pin: int | None = Field(None, ge=0, le=27)
+    power_fail_pin: int | None = Field(None, ge=0, le=27)
+    az: GpioAxis | None = None
+    el: GpioAxis | None = None
+
+
 class HardwareSection(_Section):
     backend: str = "sim"
     sim: SimSection = SimSection()
     bridge: BridgeSection | None = None
+    gpio: GpioSection | None = None
 
 
 class AxisLimits(_Section):
@@ -589,6 +632,7 @@ def _cross_check(cfg: Config) -> list[_Issue]:
                        cfg.hardware.backend, _suggest(cfg.hardware.backend, backends)))
 
     issues += _bridge_issues(cfg)
+    issues += _gpio_issues(cfg, caps)
     issues += _panel_issues(cfg)
 
     for name in ("az", "el"):
@@ -721,6 +765,84 @@ def _cross_check(cfg: Config) -> list[_Issue]:
             issues.append((key, f"restart_deg >= tolerance_deg (restart "
                            f"{_fmt(e['restart_deg'])}, tolerance {_fmt(e['tolerance_deg'])})",
                            found, ""))
+    return issues
+
+
+#: ADC inputs per converter
+_ADC_CHANNELS = {"ads1115": 4}
+
+
+def _gpio_issues(cfg: Config, caps: RotatorCaps) -> list[_Issue]:
+    """[hardware.gpio]: every pin the profile's parts need, each pin once, one device
+    per I2C address, ADC inputs that exist."""
+    g = cfg.hardware.gpio
+    if g is None:
+        if cfg.hardware.backend == "gpio":
+            return [("hardware.gpio", "[hardware.gpio] with [hardware.gpio.az] and [hardware.gpio.el] "
+                     '(backend "gpio"; see examples/)', None, "")]
+        return []
+    from .hardware.gpio import MOTOR_PINS, OPTIONAL_PINS, SENSOR_PINS
+
+    issues: list[_Issue] = []
+    used: dict[int, str] = {}
+    for key, pin in (("heartbeat_pin", g.heartbeat_pin), ("power_fail_pin", g.power_fail_pin)):
+        if pin is not None:
+            used[pin] = f"hardware.gpio.{key}"
+    i2c: dict[tuple[int, int], tuple[str, str]] = {}
+    for name in ("az", "el"):
+        ax = getattr(g, name)
+        pre = f"hardware.gpio.{name}"
+        if ax is None:
+            issues.append((pre, f"[{pre}] with motor and pins", None, ""))
+            continue
+        axc = caps.axis(name)
+        if ax.motor not in MOTOR_PINS:
+            issues.append((f"{pre}.motor", "one of " + ", ".join(MOTOR_PINS), ax.motor,
+                           _suggest(ax.motor, list(MOTOR_PINS))))
+            continue
+        if (ax.motor == "relay") != (axc.drive == "relay"):
+            issues.append((f"{pre}.motor", f"a {'relay' if axc.drive == 'relay' else 'PWM'} drive "
+                           f"(profile {caps.name!r} {name} is {axc.drive})", ax.motor, ""))
+        kind = axc.sensor.kind
+        need = list(MOTOR_PINS[ax.motor]) + list(SENSOR_PINS.get(kind, ()))
+        if axc.brake:
+            need.append("brake")
+        allowed = set(need) | set(OPTIONAL_PINS.get(ax.motor, ())) | set(OPTIONAL_PINS.get(kind, ())) | \
+            {"brake", "limit_min", "limit_max"}
+        for pin_name in need:
+            if pin_name not in ax.pins:
+                issues.append((f"{pre}.pins.{pin_name}", f"a BCM pin number (needed by {ax.motor} / "
+                               f"{kind})", None, ""))
+        for pin_name, pin in ax.pins.items():
+            if pin_name not in allowed:
+                issues.append((f"{pre}.pins.{pin_name}", "one of " + ", ".join(sorted(allowed)), pin_name,
+                               _suggest(pin_name, sorted(allowed))))
+            elif not 0 <= pin <= 27:
+                issues.append((f"{pre}.pins.{pin_name}", "a BCM pin 0..27", pin, ""))
+            elif pin in used:
+                issues.append((f"{pre}.pins.{pin_name}", f"a pin not already used (GPIO{pin} is "
+                               f"{used[pin]})", pin, ""))
+            else:
+                used[pin] = f"{pre}.pins.{pin_name}"
+        dev = {"as5600": ("as5600", 0x36), "magnetometer": ("lsm303d", 0x1D), "pot": ("ads1115", 0x48)}.get(kind)
+        if dev is not None:
+            bus = g.i2c_bus if ax.i2c_bus is None else ax.i2c_bus
+            addr = ax.i2c_address or dev[1]
+            other = i2c.get((bus, addr))
+            # one LSM303D serves both axes (compass and tilt), one ADS1115 both pots
+            if other is not None and other[1] != dev[0] or other is not None and dev[0] == "as5600":
+                issues.append((f"{pre}.i2c_address", f"an address free on I2C bus {bus} (0x{addr:02x} "
+                               f"is {other[0]}'s; two AS5600 need two buses or a mux)", hex(addr), ""))
+            i2c[(bus, addr)] = (pre, dev[0])
+        if kind == "pot":
+            n = _ADC_CHANNELS["ads1115"]
+            for key in ("adc_channel", "adc_reference_channel"):
+                v = getattr(ax, key)
+                if not 0 <= v < n:
+                    issues.append((f"{pre}.{key}", f"an ADS1115 input 0..{n - 1}", v, ""))
+            if ax.adc_channel == ax.adc_reference_channel:
+                issues.append((f"{pre}.adc_reference_channel", "an input other than adc_channel "
+                               "(the pot supply)", ax.adc_reference_channel, ""))
     return issues
 
 

@@ -45,3 +45,6 @@ def _load_builtin() -> None:
     if "bridge" not in _BACKENDS:
         from .bridge import build_bridge_hardware
         register_backend("bridge", build_bridge_hardware)
+    if "gpio" not in _BACKENDS:
+        from .gpio import build_gpio_hardware
+        register_backend("gpio", build_gpio_hardware)

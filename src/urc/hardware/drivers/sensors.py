@@ -324,20 +324,26 @@ class CompassSensor(_Driver):
             return (m[0], m[1])
         return tilt_compensate(m, self.accel.read_vector())
 
-    def _heading(self, field: tuple[float, float]) -> float:
-        x, y = field[0] - self.hard_iron_x, field[1] - self.hard_iron_y
+    def _corrected(self) -> tuple[float, float]:
+        """Hard iron off (in the sensor's own frame, where it sits), then tilt
+        compensation, then soft iron: the horizontal field the heading comes from."""
+        m = self.mag.read_vector()
+        m = (m[0] - self.hard_iron_x, m[1] - self.hard_iron_y, m[2])
+        x, y = (m[0], m[1]) if self.accel is None else tilt_compensate(m, self.accel.read_vector())
         s = self.soft_iron
         if s != (1.0, 0.0, 0.0, 1.0):
             x, y = s[0] * x + s[1] * y, s[2] * x + s[3] * y
+        return x, y
+
+    def _heading(self) -> float:
+        x, y = self._corrected()
         return math.degrees(math.atan2(-y, x)) + self.declination_deg + self.offset_deg
 
     def read_deg(self) -> float:
-        field = self.read_field()
-        return self._wrap(quantise(self._heading(field), self.caps.resolution_deg))
+        return self._wrap(quantise(self._heading(), self.caps.resolution_deg))
 
     def set_reference_deg(self, angle_deg: float) -> None:
-        field = self.read_field()
-        d = float(angle_deg) - self._heading(field)
+        d = float(angle_deg) - self._heading()
         self.offset_deg += (d + 180.0) % 360.0 - 180.0
 
     def calibration(self) -> dict[str, Any]:

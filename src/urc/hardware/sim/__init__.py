@@ -45,24 +45,7 @@ def build_sim_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
     unknown = set(options) - _OPTIONS
     if unknown:
         log.warning("simulator: ignoring unknown options %s", ", ".join(sorted(unknown)))
-    # A profile's own physics when the caps are that profile's; else derived from caps.
-    params = PHYSICS.get(caps.name)
-    if params is None or params_for_caps(caps) != params:
-        params = params_for_caps(caps)
-    truth_file = options.get("truth_file", Path(state_dir) / "simulator-truth.json")
-    start = {axis: float(options[f"start_{axis}_deg"])
-             for axis in ("az", "el") if options.get(f"start_{axis}_deg") is not None}
-    try:
-        world = SimWorld(caps, params, clock,
-                         truth_path=Path(truth_file) if truth_file else None,
-                         seed=int(options.get("seed", 1)), wind=bool(options.get("wind", True)),
-                         start_deg=start, sensor_noise=bool(options.get("sensor_noise", True)),
-                         truth_interval_s=float(options.get("truth_interval_s", 0.02)),
-                         truth_wall_interval_s=float(options.get("truth_wall_interval_s", 0.02)))
-    except (TypeError, ValueError) as exc:
-        raise ConfigError(f"simulator options: {exc}", key="hardware.options") from exc
-    for axis, kind, kw in _fault_list(options.get("fault_injection")):
-        world.inject(axis, kind, **kw)
+    world, params = make_world(caps, clock, state_dir, options)
 
     def axis_hw(name: str) -> AxisHardware:
         lo, hi = world.limits[name]
@@ -82,6 +65,30 @@ def build_sim_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
                     # running current, below the stall current a jam draws
                     extra={"world": world,
                            "overcurrent_a": {n: 0.8 * params.axis(n).stall_current_a for n in ("az", "el")}})
+
+
+def make_world(caps: RotatorCaps, clock: Clock, state_dir: Path,
+               options: dict[str, Any]) -> tuple[SimWorld, SimRotatorParams]:
+    """The simulated rotator the sim backend and the emulated gpio backend stand on."""
+    # A profile's own physics when the caps are that profile's; else derived from caps.
+    params = PHYSICS.get(caps.name)
+    if params is None or params_for_caps(caps) != params:
+        params = params_for_caps(caps)
+    truth_file = options.get("truth_file", Path(state_dir) / "simulator-truth.json")
+    start = {axis: float(options[f"start_{axis}_deg"])
+             for axis in ("az", "el") if options.get(f"start_{axis}_deg") is not None}
+    try:
+        world = SimWorld(caps, params, clock,
+                         truth_path=Path(truth_file) if truth_file else None,
+                         seed=int(options.get("seed", 1)), wind=bool(options.get("wind", True)),
+                         start_deg=start, sensor_noise=bool(options.get("sensor_noise", True)),
+                         truth_interval_s=float(options.get("truth_interval_s", 0.02)),
+                         truth_wall_interval_s=float(options.get("truth_wall_interval_s", 0.02)))
+    except (TypeError, ValueError) as exc:
+        raise ConfigError(f"simulator options: {exc}", key="hardware.options") from exc
+    for axis, kind, kw in _fault_list(options.get("fault_injection")):
+        world.inject(axis, kind, **kw)
+    return world, params
 
 
 def _fault_list(spec: Any) -> list[tuple[str, str, dict[str, Any]]]:

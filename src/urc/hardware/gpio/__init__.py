@@ -1,0 +1,326 @@
+"""The ``gpio`` backend: the seed machines' real parts on a Raspberry Pi.
+
+Pins through gpiozero's pin factory (lgpio on a Pi: ``pip install urc[pi]``), I2C
+through smbus2. With ``emulate`` the same drivers run on gpiozero MockFactory pins and a
+fake SMBus fed by the physics simulator (:mod:`.emulate`), and status carries
+``simulator_truth``.
+
+Options (from ``[hardware.gpio]``, see :class:`urc.config.GpioSection`): ``gpio`` (the
+section), ``emulate`` (bool) plus the simulator's options when emulated.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from pathlib import Path
+from typing import Any
+
+from ...caps import RotatorCaps
+from ...clock import Clock
+from ...errors import ConfigError
+from ..drivers import (As5600Sensor, Bts7960Motor, CompassSensor, LimitSwitchInput, Lmd18200Motor,
+                       PotSensor, PwmDirMotor, QuadratureEncoder, RelayBrake, RelayMotor,
+                       SpidPulseSensor, TiltSensor, Vnh5019Motor)
+from ..interfaces import AxisHardware, Hardware
+from .i2c import Ads1115Channel, Ads1115Chip, As5600Chip, Lsm303Accel, Lsm303dChip, Lsm303Mag
+from ..sim.params import PHYSICS, physics_for
+from .pins import PinIn, PinOut, PinPulseCounter, PinPwm, PinQuadrature
+
+log = logging.getLogger(__name__)
+
+#: pins each motor driver needs (besides brake / limit_min / limit_max)
+MOTOR_PINS = {"vnh5019": ("ina", "inb", "pwm"), "lmd18200": ("pwm", "dir", "bridge_brake"),
+              "bts7960": ("rpwm", "lpwm"), "pwm_dir": ("pwm", "dir"), "relay": ("cw", "ccw")}
+OPTIONAL_PINS = {"relay": ("fast",), "encoder": ("enc_z",)}
+SENSOR_PINS = {"encoder": ("enc_a", "enc_b"), "pulse": ("pulse",)}
+#: what each profile's sensor kind is on the bus
+I2C_SENSORS = {"as5600": "as5600", "magnetometer": "lsm303d", "pot": "ads1115"}
+
+
+def _emulated_motor_duty(kind: str, motor: Any, levels: tuple[float, ...]) -> float:
+    """What the bridge / relays really put on the motor, read back from the pins."""
+    if kind == "vnh5019":
+        d = int(motor.ina.read_back()) - int(motor.inb.read_back())
+        return d * motor.pwm.read_back()
+    if kind == "lmd18200":
+        if motor.brake_out.read_back():
+            return 0.0
+        return (1.0 if motor.dir_out.read_back() else -1.0) * motor.pwm_out.read_back()
+    if kind == "bts7960":
+        return motor.rpwm.read_back() - motor.lpwm.read_back()
+    if kind == "pwm_dir":
+        return (1.0 if motor.dir_out.read_back() else -1.0) * motor.pwm_out.read_back()
+    # relay: a speed relay selects the slow winding; without one the driver pulses
+    d = int(motor.cw.read_back()) - int(motor.ccw.read_back())
+    slow = motor.fast is not None and not motor.fast.read_back()
+    return d * (min(levels) if slow else 1.0)
+
+
+class _EmulatedMotor:
+    """The driver on mock pins; after each drive the pins are decoded into the
+    simulated motor (after the world has caught up with the present)."""
+
+    def __init__(self, driver: Any, kind: str, world: Any, axis: str, levels: tuple[float, ...]):
+        self.driver, self.kind, self.world, self.axis, self.levels = driver, kind, world, axis, levels
+
+    def set_drive(self, duty: float) -> None:
+        self.world.catch_up()
+        self.driver.set_drive(duty)
+        self.world.axes[self.axis].set_command(_emulated_motor_duty(self.kind, self.driver, self.levels))
+
+    def read_current_a(self) -> float:
+        return self.world.axes[self.axis].current_a()
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self.__dict__["driver"], name)
+
+
+class _EmulatedBrake:
+    def __init__(self, driver: RelayBrake, world: Any, axis: str):
+        self.driver, self.world, self.axis = driver, world, axis
+
+    def set_released(self, released: bool) -> None:
+        self.driver.set_released(released)
+        self.world.command_brake(self.axis, self.driver.coil.read_back())
+
+    def is_released(self) -> bool:
+        return self.driver.is_released()
+
+
+def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
+                        options: dict[str, Any]) -> Hardware:
+    gpio = options.get("gpio")
+    if gpio is None:
+        raise ConfigError("backend \"gpio\" needs a [hardware.gpio] section with the pin map",
+                          key="hardware.gpio", expected="[hardware.gpio.az] and [hardware.gpio.el]",
+                          found=None)
+    emulate = bool(options.get("emulate", gpio.emulate))
+    world = None
+    buses: dict[int, Any] = {}
+    if emulate:
+        from gpiozero.pins.mock import MockFactory, MockPWMPin
+
+        from ..sim import make_world
+        from .emulate import FakeSMBus
+        sim_opts = {k: v for k, v in options.items() if k not in ("gpio", "emulate", "bridge")}
+        world, params = make_world(caps, clock, state_dir, sim_opts)
+        factory = MockFactory(pin_class=MockPWMPin)
+
+        def bus(n: int) -> Any:
+            return buses.setdefault(n, FakeSMBus())
+    else:
+        try:
+            from gpiozero import Device
+            from gpiozero.pins.lgpio import LGPIOFactory
+            factory = Device.pin_factory or LGPIOFactory()
+        except Exception as exc:  # no lgpio / not a Pi
+            raise ConfigError(f"gpio backend: no GPIO here ({exc}); install urc[pi] on a Raspberry "
+                              "Pi, or run with --emulate", key="hardware.gpio.emulate",
+                              expected="true off a Pi", found=False) from exc
+        import smbus2
+
+        def bus(n: int) -> Any:
+            if n not in buses:
+                try:
+                    buses[n] = smbus2.SMBus(n)
+                except OSError as exc:
+                    raise ConfigError(f"I2C bus {n}: {exc} (enable I2C with raspi-config)",
+                                      key="hardware.gpio.i2c_bus", expected="an I2C bus", found=n) from exc
+            return buses[n]
+
+    syncs: list[Any] = []
+    lsm: dict[tuple[int, int], Lsm303dChip] = {}
+    axes: dict[str, AxisHardware] = {}
+    parts_list: list[tuple[str, Any]] = []
+    for name in ("az", "el"):
+        ax_caps = caps.axis(name)
+        cfg = getattr(gpio, name)
+        pins = cfg.pins
+        pwm_hz = cfg.pwm_frequency_hz
+
+        def out(key: str) -> PinOut:
+            return PinOut(factory, pins[key])
+
+        def pwm(key: str) -> PinPwm:
+            return PinPwm(factory, pins[key], frequency_hz=pwm_hz)
+
+        kind = cfg.motor
+        if kind == "vnh5019":
+            motor: Any = Vnh5019Motor(name, out("ina"), out("inb"), pwm("pwm"))
+        elif kind == "lmd18200":
+            motor = Lmd18200Motor(name, pwm("pwm"), out("dir"), out("bridge_brake"))
+        elif kind == "bts7960":
+            motor = Bts7960Motor(name, pwm("rpwm"), pwm("lpwm"))
+        elif kind == "pwm_dir":
+            motor = PwmDirMotor(name, pwm("pwm"), out("dir"))
+        else:
+            motor = RelayMotor(name, out("cw"), out("ccw"), clock,
+                               fast=out("fast") if "fast" in pins else None,
+                               levels=ax_caps.drive_levels or (1.0,),
+                               reverse_dead_time_s=cfg.relay_dead_time_s)
+        sk = ax_caps.sensor.kind
+        bus_n = cfg.i2c_bus if cfg.i2c_bus is not None else gpio.i2c_bus
+        sensor: Any
+        if sk == "encoder":
+            counter = PinQuadrature(factory, pins["enc_a"], pins["enc_b"], pins.get("enc_z"))
+            sensor = QuadratureEncoder(ax_caps.sensor, name, counter, motor=motor,
+                                       drift_counts=cfg.encoder_drift_counts, clock=clock)
+            parts_list.append((f"{name} encoder", counter))
+        elif sk == "pulse":
+            counter = PinPulseCounter(factory, pins["pulse"])
+            sensor = SpidPulseSensor(ax_caps.sensor, name, counter, motor)
+            parts_list.append((f"{name} pulse counter", counter))
+        elif sk == "as5600":
+            chip = As5600Chip(bus(bus_n), cfg.i2c_address or As5600Chip.ADDRESS, f"{name} AS5600")
+            sensor = As5600Sensor(ax_caps.sensor, name, chip, zero_deg=cfg.zero_deg)
+            parts_list.append((f"{name} AS5600 (bus {bus_n})", chip))
+        elif sk == "magnetometer":
+            key = (bus_n, cfg.i2c_address or Lsm303dChip.ADDRESS)
+            chip = lsm.get(key) or lsm.setdefault(key, Lsm303dChip(bus(bus_n), key[1]))
+            if name == "az":
+                sensor = CompassSensor(ax_caps.sensor, name, Lsm303Mag(chip), Lsm303Accel(chip),
+                                       declination_deg=cfg.declination_deg)
+            else:
+                sensor = TiltSensor(ax_caps.sensor, name, Lsm303Accel(chip))
+            parts_list.append((f"{name} LSM303D (bus {bus_n})", chip))
+        else:  # pot through an ADS1115
+            chip = Ads1115Chip(bus(bus_n), cfg.i2c_address or 0x48, f"{name} ADS1115")
+            adc = Ads1115Channel(chip, cfg.adc_channel, cfg.adc_reference_channel,
+                                 reference_v=cfg.adc_reference_v)
+            sp = physics_for(caps.name).axis(name).sensor if caps.name in PHYSICS else None
+            law = sp.pot_law if sp is not None else "linear"
+            full = 4096.0 if law == "ratiometric" else 1023.0
+            m = cfg.pot_m if cfg.pot_m is not None else (sp.pot_span_deg / full if sp else ax_caps.span_deg / full)
+            c = cfg.pot_c if cfg.pot_c is not None else (sp.pot_start_deg if sp else ax_caps.min_deg)
+            sensor = PotSensor(ax_caps.sensor, name, adc, law=cfg.pot_law or law, m=m, c=c)
+            parts_list.append((f"{name} ADS1115 ch{cfg.adc_channel} (bus {bus_n})", chip))
+        brake = RelayBrake(name, out("brake"), clock, release_s=ax_caps.brake_release_s) \
+            if "brake" in pins else None
+        lims = [LimitSwitchInput(f"{name} {side}", PinIn(factory, pins[f"limit_{side}"]),
+                                 active_low=cfg.limit_active_low) if f"limit_{side}" in pins else None
+                for side in ("min", "max")]
+        if world is not None:
+            from .emulate import PulseDriver, QuadDriver
+            phys = world.axes[name]
+            motor_hw: Any = _EmulatedMotor(motor, kind, world, name, ax_caps.drive_levels or (1.0,))
+            brake_hw: Any = _EmulatedBrake(brake, world, name) if brake is not None else None
+            _feed_sensor(name, sk, world, sensor, buses.get(bus_n), cfg, syncs, factory, pins, QuadDriver, PulseDriver)
+            for side, sw in zip(("min", "max"), lims):
+                sim_sw = world.limits[name][0 if side == "min" else 1]
+                if sw is not None and sim_sw is not None:
+                    syncs.append(_limit_sync(sw, sim_sw))
+            del phys
+        else:
+            motor_hw, brake_hw = motor, brake
+        axes[name] = AxisHardware(motor=motor_hw, sensor=sensor, brake=brake_hw,
+                                  limit_min=lims[0], limit_max=lims[1])
+
+    heartbeat = PinOut(factory, gpio.heartbeat_pin) if gpio.heartbeat_pin is not None else None
+    extra: dict[str, Any] = {"parts": parts_list, "buses": buses, "pin_factory": factory,
+                             "emulated": emulate}
+    if world is not None:
+        extra["world"] = world
+        extra["overcurrent_a"] = {n: 0.8 * params.axis(n).stall_current_a for n in ("az", "el")}
+
+        def poll(now_s: float) -> None:
+            world.advance_to(now_s)
+            for s in syncs:
+                s()
+
+        def close() -> None:
+            world.close()
+            factory.close()
+
+        # inputs follow the start position before the first read
+        for s in syncs:
+            s()
+        return Hardware(backend="gpio", az=axes["az"], el=axes["el"], poll_hook=poll,
+                        truth_hook=world.truth, close_hook=close, heartbeat=heartbeat, extra=extra)
+
+    def close_real() -> None:
+        for ax in axes.values():
+            try:
+                ax.motor.set_drive(0.0)
+                if ax.brake is not None:
+                    ax.brake.set_released(False)
+            except Exception:  # pragma: no cover - closing must go on
+                log.exception("gpio: could not make %s safe", ax)
+        for b in buses.values():
+            b.close()
+        factory.close()
+
+    return Hardware(backend="gpio", az=axes["az"], el=axes["el"], close_hook=close_real,
+                    heartbeat=heartbeat, extra=extra)
+
+
+def _limit_sync(sw: LimitSwitchInput, sim_sw: Any) -> Any:
+    pin = sw.pin.pin
+
+    def sync() -> None:
+        level = sim_sw.is_active() != sw.active_low
+        if level != bool(pin.state):
+            (pin.drive_high if level else pin.drive_low)()
+            pin.clear_states()
+    return sync
+
+
+def _feed_sensor(name: str, kind: str, world: Any, sensor: Any, bus: Any, cfg: Any, syncs: list,
+                 factory: Any, pins: dict, QuadDriver: Any, PulseDriver: Any) -> None:
+    """Emulation: connect the simulator to the pins / chip registers the sensor reads."""
+    import random
+
+    from ..sim.sensors import SimAccelerometer, SimAs5600, SimMagnetometer, SimPotAdc, SimQuadratureCounter
+    from .emulate import FakeAds1115, FakeAs5600, FakeLsm303d, tilted
+
+    phys = world.axes[name]
+    p = world.params.axis(name).sensor
+    caps = world.caps.axis(name).sensor
+    rng = random.Random(f"urc-emu:{world.seed}:{name}")
+    part = (phys, p, rng, True)
+    if kind == "encoder":
+        sim = SimQuadratureCounter(*part, counts_per_deg=round(1.0 / caps.resolution_deg))
+        counter = sensor.counter
+        d = QuadDriver(counter.a, counter.b, sim.count)
+        syncs.append(d.sync)
+        # the encoder starts referenced to the true angle, as on a fresh sim rotator
+        sensor.set_reference_deg(phys.sensor_side_deg())
+    elif kind == "pulse":
+        d = PulseDriver(sensor.counter.pin, lambda: phys.pulse_edges)
+        syncs.append(d.sync)
+        sensor.set_reference_deg(phys.sensor_side_deg())
+    elif kind == "as5600":
+        chip = sensor.part
+        bus.devices[chip.address] = FakeAs5600(SimAs5600(*part).read_raw_angle)
+    elif kind == "magnetometer":
+        chip = sensor.accel.chip if hasattr(sensor, "accel") and sensor.accel is not None else sensor.mag.chip
+        if chip.address in bus.devices:
+            return
+        el_phys = world.axes["el"]
+        az_p = world.params.axis("az").sensor
+        mag = SimMagnetometer(world.axes["az"], az_p, random.Random(f"urc-emu:{world.seed}:mag"), True,
+                              noise_deg=world.caps.az.sensor.noise_deg)
+        acc = SimAccelerometer(el_phys, world.params.axis("el").sensor,
+                               random.Random(f"urc-emu:{world.seed}:acc"), True,
+                               noise_deg=world.caps.el.sensor.noise_deg)
+        dip = math.radians(65.0)
+        h_gauss, z_gauss = 0.2, 0.2 * math.tan(dip)
+
+        def field() -> tuple[float, float, float]:
+            bx, by, _ = mag.read_vector()
+            # hard iron sits in the sensor: put it on after tilting the earth's field
+            level = ((bx - az_p.hard_iron_x) * h_gauss, (by - az_p.hard_iron_y) * h_gauss, z_gauss)
+            v = tilted(level, el_phys.sensor_side_deg())
+            return (v[0] + az_p.hard_iron_x * h_gauss, v[1] + az_p.hard_iron_y * h_gauss, v[2])
+
+        bus.devices[chip.address] = FakeLsm303d(field, acc.read_vector)
+        if name == "az":   # the shipped calibration, in this field's units (gauss)
+            sensor.hard_iron_x, sensor.hard_iron_y = az_p.hard_iron_x * h_gauss, az_p.hard_iron_y * h_gauss
+            sensor.declination_deg = az_p.declination_deg
+    else:  # pot on an ADS1115
+        adc = SimPotAdc(*part)
+        ref_v = cfg.adc_reference_v
+        dev = bus.devices.get(sensor.adc.chip.address) or FakeAds1115({})
+        dev.inputs[cfg.adc_channel] = lambda: ref_v * adc.read_counts() / 1024.0
+        dev.inputs[cfg.adc_reference_channel] = lambda: ref_v
+        bus.devices[sensor.adc.chip.address] = dev

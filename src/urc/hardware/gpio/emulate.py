@@ -1,0 +1,179 @@
+"""Emulated iron: the simulator's physics behind gpiozero MockFactory pins and a fake
+SMBus with the chips' register maps, so the real gpio drivers run on a laptop.
+
+* outputs (PWM, INA/INB, DIR, relays, brake coil) are read back from the mock pins and
+  decoded into the simulated motor's drive, as the bridge chip or relay would;
+* encoder A/B edges and SPID pulses are driven on the mock input pins from the
+  simulated shaft, edge by edge (the x4 decoder sees every transition);
+* the fake bus answers at the chips' addresses with their registers filled from the
+  simulator (AS5600 raw angle and status, LSM303D field and gravity, ADS1115
+  conversions); an address with no chip NACKs (OSError 121), like the real bus.
+"""
+
+from __future__ import annotations
+
+import math
+import struct
+from typing import Any, Callable
+
+from ..parts import MagnetStatus
+from .pins import _FWD
+
+
+class FakeSMBus:
+    """smbus2.SMBus's calls used by :mod:`.i2c`, over emulated chips; logs every
+    transaction as (op, address, register, bytes)."""
+
+    def __init__(self) -> None:
+        self.devices: dict[int, Any] = {}
+        self.log: list[tuple[str, int, int, tuple[int, ...]]] = []
+        self.keep_log = False
+
+    def _dev(self, addr: int) -> Any:
+        dev = self.devices.get(addr)
+        if dev is None or getattr(dev, "nack", False):
+            raise OSError(121, "Remote I/O error")
+        return dev
+
+    def _rec(self, op: str, addr: int, reg: int, data: Any) -> None:
+        if self.keep_log:
+            self.log.append((op, addr, reg, tuple(data)))
+
+    def read_byte_data(self, addr: int, reg: int) -> int:
+        v = self._dev(addr).read(reg, 1)[0]
+        self._rec("r", addr, reg, [v])
+        return v
+
+    def read_i2c_block_data(self, addr: int, reg: int, n: int) -> list[int]:
+        data = list(self._dev(addr).read(reg, n))
+        self._rec("r", addr, reg, data)
+        return data
+
+    def write_byte_data(self, addr: int, reg: int, value: int) -> None:
+        self._rec("w", addr, reg, [value])
+        self._dev(addr).write(reg, [value])
+
+    def write_i2c_block_data(self, addr: int, reg: int, data: list[int]) -> None:
+        self._rec("w", addr, reg, data)
+        self._dev(addr).write(reg, list(data))
+
+    def close(self) -> None:
+        pass
+
+
+class FakeAs5600:
+    def __init__(self, raw: Callable[[], int]):
+        self.raw = raw
+        self.status = MagnetStatus(detected=True)
+        self.nack = False
+
+    def read(self, reg: int, n: int) -> list[int]:
+        if reg == 0x0B:
+            return [self.status.to_register()]
+        if reg == 0x0C:
+            r = self.raw() & 0x0FFF
+            return [r >> 8, r & 0xFF][:n]
+        return [0] * n
+
+    def write(self, reg: int, data: list[int]) -> None:
+        pass
+
+
+class FakeLsm303d:
+    """Registers: WHO_AM_I, CTRLx (kept), OUT_M / OUT_A from vector sources (gauss, g)."""
+
+    def __init__(self, mag: Callable[[], tuple[float, float, float]],
+                 accel: Callable[[], tuple[float, float, float]]):
+        self.mag, self.accel = mag, accel
+        self.regs = {0x0F: 0x49}
+        self.nack = False
+
+    @staticmethod
+    def _pack(v: tuple[float, float, float], scale: float) -> list[int]:
+        return list(struct.pack("<hhh", *(max(-32768, min(32767, round(c / scale))) for c in v)))
+
+    def read(self, reg: int, n: int) -> list[int]:
+        base = reg & 0x7F
+        if base == 0x08:
+            return self._pack(self.mag(), 0.080e-3)[:n]
+        if base == 0x28:
+            return self._pack(self.accel(), 0.061e-3)[:n]
+        return [self.regs.get(base + i, 0) for i in range(n)]
+
+    def write(self, reg: int, data: list[int]) -> None:
+        for i, v in enumerate(data):
+            self.regs[(reg & 0x7F) + i] = v
+
+
+class FakeAds1115:
+    """Single-shot conversions; ``inputs[ch]()`` gives the input in volts."""
+
+    def __init__(self, inputs: dict[int, Callable[[], float]]):
+        self.inputs = inputs
+        self.config = 0x8583
+        self.conv = 0
+        self.nack = False
+
+    def write(self, reg: int, data: list[int]) -> None:
+        if reg == 0x01 and len(data) == 2:
+            self.config = data[0] << 8 | data[1]
+            if self.config & 0x8000:
+                ch = (self.config >> 12 & 7) - 4
+                v = self.inputs.get(ch, lambda: 0.0)() if ch >= 0 else 0.0
+                self.conv = max(-32768, min(32767, round(v / 4.096 * 32768)))
+                self.config |= 0x8000        # conversion done at once
+
+    def read(self, reg: int, n: int) -> list[int]:
+        word = self.conv & 0xFFFF if reg == 0x00 else self.config
+        return [word >> 8, word & 0xFF][:n]
+
+
+class QuadDriver:
+    """Drives mock A/B pins through the Gray sequence to follow a count."""
+
+    def __init__(self, a: Any, b: Any, count: Callable[[], int]):
+        self.a, self.b, self.count = a, b, count
+        self.pos = count()
+        self.state = 0b00
+        self._apply()
+
+    def _apply(self) -> None:
+        for pin, bit in ((self.a, 2), (self.b, 1)):
+            if bool(self.state & bit) != bool(pin.state):
+                (pin.drive_high if self.state & bit else pin.drive_low)()
+
+    def sync(self) -> None:
+        target = self.count()
+        back = {v: k for k, v in _FWD.items()}
+        while self.pos != target:
+            if target > self.pos:
+                self.state, self.pos = _FWD[self.state], self.pos + 1
+            else:
+                self.state, self.pos = back[self.state], self.pos - 1
+            self._apply()
+        for pin in (self.a, self.b):
+            pin.clear_states()          # MockPin keeps a history: bound it
+
+
+class PulseDriver:
+    """One low-high pulse on a mock pin per new edge of the simulated reed contact."""
+
+    def __init__(self, pin: Any, edges: Callable[[], int]):
+        self.pin, self.edges = pin, edges
+        self.seen = edges()
+        pin.drive_high()
+
+    def sync(self) -> None:
+        target = self.edges()
+        while self.seen < target:
+            self.pin.drive_low()
+            self.pin.drive_high()
+            self.seen += 1
+        self.pin.clear_states()
+
+
+def tilted(v: tuple[float, float, float], el_deg: float) -> tuple[float, float, float]:
+    """A level-frame vector seen by a sensor on a boom raised by ``el_deg`` (pitch)."""
+    p = math.radians(-el_deg)
+    x, y, z = v
+    return (x * math.cos(p) - z * math.sin(p), y, x * math.sin(p) + z * math.cos(p))

@@ -1,0 +1,160 @@
+"""I2C chip parts over an smbus2-style bus: AS5600, LSM303D, ADS1115.
+
+Each transaction is retried a bounded number of times; a NACK or timeout that
+persists becomes :class:`urc.hardware.parts.PartError` (a sensor fault, never a
+reading).
+"""
+
+from __future__ import annotations
+
+import struct
+from typing import Any, Callable, TypeVar
+
+from ..parts import MagnetStatus, PartError
+
+T = TypeVar("T")
+#: attempts per transaction (the first plus retries)
+ATTEMPTS = 3
+
+
+def with_retries(what: str, fn: Callable[[], T]) -> T:
+    last: Exception | None = None
+    for _ in range(ATTEMPTS):
+        try:
+            return fn()
+        except OSError as exc:    # smbus2: errno 121 NACK, 110 timeout
+            last = exc
+    raise PartError(f"{what}: I2C failed {ATTEMPTS} times ({last})")
+
+
+class As5600Chip:
+    """AS5600 at 0x36: STATUS 0x0B (MD 0x20, ML 0x10, MH 0x08), RAW ANGLE 0x0C..0x0D."""
+
+    ADDRESS = 0x36
+    REG_STATUS, REG_RAW_ANGLE = 0x0B, 0x0C
+
+    def __init__(self, bus: Any, address: int = ADDRESS, name: str = "AS5600"):
+        self.bus, self.address, self.name = bus, address, name
+
+    def magnet_status(self) -> MagnetStatus:
+        return MagnetStatus.from_register(with_retries(
+            self.name, lambda: self.bus.read_byte_data(self.address, self.REG_STATUS)))
+
+    def read_raw_angle(self) -> int:
+        hi, lo = with_retries(self.name, lambda: self.bus.read_i2c_block_data(
+            self.address, self.REG_RAW_ANGLE, 2))
+        return (hi & 0x0F) << 8 | lo
+
+    def identify(self) -> str:
+        st = self.magnet_status()
+        return f"AS5600 at 0x{self.address:02x}: magnet {'ok' if st.detected and not (st.too_weak or st.too_strong) else st}"
+
+
+class Lsm303dChip:
+    """LSM303D at 0x1D: WHO_AM_I 0x0F = 0x49; magnetometer OUT_X_L_M 0x08, accelerometer
+    OUT_X_L_A 0x28, six bytes each, little-endian int16, address auto-increment (0x80).
+    Set up for accelerometer 50 Hz +-2 g and magnetometer continuous, high resolution,
+    +-2 gauss."""
+
+    ADDRESS = 0x1D
+    WHO_AM_I, ID = 0x0F, 0x49
+    OUT_M, OUT_A = 0x08, 0x28
+    MAG_GAUSS_PER_LSB = 0.080e-3
+    ACC_G_PER_LSB = 0.061e-3
+    SETUP = ((0x20, 0x57), (0x24, 0x64), (0x25, 0x00), (0x26, 0x00))  # CTRL1, 5, 6, 7
+
+    def __init__(self, bus: Any, address: int = ADDRESS, name: str = "LSM303D"):
+        self.bus, self.address, self.name = bus, address, name
+        self._ready = False
+
+    def _setup(self) -> None:
+        if self._ready:
+            return
+        who = with_retries(self.name, lambda: self.bus.read_byte_data(self.address, self.WHO_AM_I))
+        if who != self.ID:
+            raise PartError(f"{self.name} at 0x{self.address:02x}: WHO_AM_I 0x{who:02x}, expected 0x{self.ID:02x}")
+        for reg, val in self.SETUP:
+            with_retries(self.name, lambda: self.bus.write_byte_data(self.address, reg, val))
+        self._ready = True
+
+    def _vector(self, reg: int, scale: float) -> tuple[float, float, float]:
+        self._setup()
+        data = with_retries(self.name, lambda: self.bus.read_i2c_block_data(self.address, reg | 0x80, 6))
+        x, y, z = struct.unpack("<hhh", bytes(data))
+        return (x * scale, y * scale, z * scale)
+
+    def magnetic(self) -> tuple[float, float, float]:
+        return self._vector(self.OUT_M, self.MAG_GAUSS_PER_LSB)
+
+    def acceleration(self) -> tuple[float, float, float]:
+        return self._vector(self.OUT_A, self.ACC_G_PER_LSB)
+
+    def identify(self) -> str:
+        who = with_retries(self.name, lambda: self.bus.read_byte_data(self.address, self.WHO_AM_I))
+        return f"LSM303D at 0x{self.address:02x}: WHO_AM_I 0x{who:02x} ({'ok' if who == self.ID else 'WRONG'})"
+
+
+class Lsm303Mag:
+    def __init__(self, chip: Lsm303dChip):
+        self.chip = chip
+
+    def read_vector(self) -> tuple[float, float, float]:
+        return self.chip.magnetic()
+
+
+class Lsm303Accel:
+    def __init__(self, chip: Lsm303dChip):
+        self.chip = chip
+
+    def read_vector(self) -> tuple[float, float, float]:
+        return self.chip.acceleration()
+
+
+class Ads1115Chip:
+    """ADS1115 at 0x48..0x4B: single-shot conversions of one input against ground.
+
+    Config 0x01 (big-endian): OS=1 start, MUX 100+ch (AINch vs GND), PGA 001
+    (+-4.096 V), MODE 1 single shot, DR 111 (860 SPS), comparator off; then poll OS
+    and read conversion 0x00 (big-endian int16).
+    """
+
+    REG_CONV, REG_CONFIG = 0x00, 0x01
+    FS_V = 4.096
+    MAX_POLLS = 20
+
+    def __init__(self, bus: Any, address: int = 0x48, name: str = "ADS1115"):
+        self.bus, self.address, self.name = bus, address, name
+
+    @staticmethod
+    def config_word(channel: int) -> int:
+        return 0x8000 | (4 + channel) << 12 | 1 << 9 | 1 << 8 | 7 << 5 | 3
+
+    def convert(self, channel: int) -> int:
+        cfg = self.config_word(channel)
+        with_retries(self.name, lambda: self.bus.write_i2c_block_data(
+            self.address, self.REG_CONFIG, [cfg >> 8, cfg & 0xFF]))
+        for _ in range(self.MAX_POLLS):
+            hi, _lo = with_retries(self.name, lambda: self.bus.read_i2c_block_data(
+                self.address, self.REG_CONFIG, 2))
+            if hi & 0x80:
+                break
+        else:
+            raise PartError(f"{self.name}: conversion did not finish")
+        hi, lo = with_retries(self.name, lambda: self.bus.read_i2c_block_data(
+            self.address, self.REG_CONV, 2))
+        return struct.unpack(">h", bytes((hi, lo)))[0]
+
+
+class Ads1115Channel:
+    """A pot on one ADS1115 input, its supply on another (ratiometric; see PotSensor)."""
+
+    def __init__(self, chip: Ads1115Chip, channel: int, reference_channel: int, *,
+                 reference_v: float = 3.3):
+        self.chip, self.channel, self.reference_channel = chip, channel, reference_channel
+        self.full_scale_counts = round(reference_v / Ads1115Chip.FS_V * 32768)
+
+    def read_counts(self) -> int:
+        return self.chip.convert(self.channel)
+
+    def read_reference_counts(self) -> int:
+        return self.chip.convert(self.reference_channel)
