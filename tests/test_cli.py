@@ -23,8 +23,8 @@ def urc(*args, check=True, **kw):
 class Controller(UrcProcess):
     """A real ``urc run`` process on the simulator, driven through the ``urc`` CLI."""
 
-    def __init__(self, tmp_path, profile="tartu-urc"):
-        super().__init__(tmp_path, profile=profile)
+    def __init__(self, tmp_path, profile="tartu-urc", extra=""):
+        super().__init__(tmp_path, profile=profile, extra=extra)
 
     def cli(self, *args, check=True):
         return urc(*args, "--url", self.url, check=check)
@@ -165,3 +165,15 @@ def test_kill_9_when_standing_still_restarts_exactly(controller):
     for axis in ("az", "el"):
         assert s[axis]["pos_deg"] == pytest.approx(before[axis]["pos_deg"], abs=1e-6)
         assert s[axis]["pos_deg"] == pytest.approx(s["simulator_truth"][axis]["deg"], abs=2 * 0.5 + 0.3)
+
+
+def test_track_prints_the_target_and_its_warnings(controller, tmp_path):
+    """Issue 12.7: `urc track` always printed `tracking  None` (the plan and its warnings
+    never reached the user)."""
+    c = controller(extra="[station]\nlat_deg = 58.378\nlon_deg = 26.729\n").start()
+    out = c.cli("track", "sun").stdout
+    assert "tracking  Sun" in out and "None" not in out, out
+    assert "target    az" in out
+    out = c.cli("track", "--azel", "120", "-5").stdout  # below the horizon: said so
+    assert "warning" in out and "below" in out, out
+    c.cli("track", "--stop")

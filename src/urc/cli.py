@@ -325,10 +325,13 @@ def track(target: str | None, norad: int | None, point, azel, nmea_source: str |
     if pass_aos:
         if body["kind"] != "satellite" or norad is None:
             raise click.UsageError("--pass-aos needs --norad")
-        data = _request(url, config_path, "POST", "/api/track/pass", {"norad": norad, "aos": pass_aos})
+        _request(url, config_path, "POST", "/api/track/pass", {"norad": norad, "aos": pass_aos})
     else:
-        data = _request(url, config_path, "POST", "/api/track", body)
-    click.echo(_format_tracking(data))
+        _request(url, config_path, "POST", "/api/track", body)
+    # the command answers ok; what is being tracked, the plan and its warnings are the
+    # tracker's status (it printed "tracking  None" from the bare ok)
+    status = _request(url, config_path, "GET", "/api/status")
+    click.echo(_format_tracking(status.get("tracking")))
 
 
 def _format_tracking(t: dict | None) -> str:
@@ -346,8 +349,8 @@ def _format_tracking(t: dict | None) -> str:
                      f"peak az rate {plan['peak_az_rate_deg_per_s']:.2f} deg/s; state {t.get('state')}")
         for note in plan.get("notes", []):
             lines.append(f"note      {note}")
-    if t.get("error"):
-        lines.append(f"warning   {t['error']}")
+    for text in ([t["error"]] if t.get("error") else []) + list(t.get("warnings") or []):
+        lines.append(f"warning   {text}")
     return "\n".join(lines)
 
 

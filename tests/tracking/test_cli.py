@@ -122,3 +122,43 @@ def test_station_and_catalog_from_the_config(tmp_path):
     over = json.loads(run("passes", "iss", "--json", "--min-el", "20", "--config", conf,
                           *START).stdout)
     assert over["min_el_deg"] == 20.0
+
+
+def decayed_tle() -> str:
+    """An element set sgp4 flags as decayed at its own epoch (perigee below the ground)."""
+    import math
+
+    from sgp4 import exporter
+    from sgp4.api import WGS72, Satrec
+    s = Satrec()
+    s.sgp4init(WGS72, "i", 99999, 27028.0, 0.0, 0.0, 0.0, 0.1, math.radians(250), math.radians(51.6), 0.0,
+               16.5 * 2 * math.pi / 1440, math.radians(10))  # epoch 2023-12-31
+    return "DECAYED SAT\n" + "\n".join(exporter.export_tle(s)) + "\n"
+
+
+def test_decayed_elements_are_refused_and_give_no_passes(tmp_path):
+    """Issue 12.7: `urc passes` listed passes for sets sgp4 flags as decayed at epoch,
+    and `tle import` accepted them silently."""
+    f = tmp_path / "decayed.tle"
+    f.write_text(decayed_tle())
+    out = CliRunner().invoke(cli, ["tle", "import", str(f), "--catalog-dir", str(tmp_path / "cat")])
+    assert out.exit_code == 0 and "not imported" in out.output and "decayed" in out.output
+    assert "0 satellites" in out.output
+    res = run("passes", "--tle", f, *STATION_ARGS, *START)
+    assert res.output.startswith("0 passes"), res.output
+    assert "decayed" in res.output
+
+
+def test_stale_elements_are_flagged_when_tracked(leo_sets, tmp_path):
+    """Issue 12.7: elements weeks old got no warning when tracked."""
+    from conftest import Bench
+    from urc.tracking.targets import SatelliteTarget
+    from urc.tracking.tracker import Tracker
+
+    iss = next(s for s in leo_sets if s.norad_id == 25544)
+    tr = Tracker(Bench("tartu-urc", tmp_path).rot, TARTU, lambda now_s: now_s)
+    tr.target = SatelliteTarget(iss, TARTU)
+    fresh = tr.status(iss.epoch_unix_s + 86400.0)
+    old = tr.status(iss.epoch_unix_s + 30 * 86400.0)
+    assert not fresh.get("warnings")
+    assert "30 days old" in old["warnings"][0]

@@ -194,3 +194,32 @@ def test_flip_is_decided_per_pass_unless_forbidden(profile, flip, expect):
         assert np.all(np.abs(np.diff(plan.az_deg)) < 1.0)  # no unwind
     else:
         assert not plan.flip and err.max() > 10.0  # forbidden: the geometry costs
+
+
+def test_status_tracking_is_brought_up_to_date_between_refreshes(tmp_path, leo_sets, station, monkeypatch):
+    """Issue 12.7: status.tracking az/el was refreshed at ~1 Hz, so the dashboard and the
+    API showed where the target had been up to a second before (a degree near culmination)."""
+    from conftest import Bench
+    from urc.tracking.propagate import look_angles
+    from urc.tracking.tracker import Tracker
+    from urc.web import live
+
+    es = iss(leo_sets)
+    p = max(find_passes(es, station, T0_UNIX_S, duration_s=86400, min_el_deg=10), key=lambda p: p.max_el_deg)
+    u0 = p.tca_unix_s
+    b = Bench("tartu-urc", tmp_path / "state")
+    tracker = Tracker(b.rot, station, lambda now_s: u0)
+    tracker.track_pass(es, p, 0.0)
+    now = {"wall": u0, "mono": 100.0}
+    monkeypatch.setattr(live.time, "time", lambda: now["wall"])
+    monkeypatch.setattr(live.time, "monotonic", lambda: now["mono"])
+    from types import SimpleNamespace
+    hub = live.Hub(b.rot, SimpleNamespace(status=lambda: tracker.status(0.0)))  # as TrackingService
+    first = hub.status_dict()["tracking"]
+    now["wall"], now["mono"] = u0 + 0.9, 100.5  # within the refresh period: the cached status
+    later = hub.status_dict()["tracking"]
+    truth = look_angles(es, station, np.array([u0 + 0.9]))
+    moved = abs((truth.az_deg[0] - first["az_deg"] + 180) % 360 - 180) + abs(truth.el_deg[0] - first["el_deg"])
+    assert moved > 0.1  # the target really moved meanwhile
+    assert later["az_deg"] == pytest.approx(truth.az_deg[0], abs=0.02)
+    assert later["el_deg"] == pytest.approx(truth.el_deg[0], abs=0.02)

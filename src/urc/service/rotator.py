@@ -509,7 +509,10 @@ class Rotator:
             if (d > 0 and (to_max or ax.meas_deg > hi + slack or rest > hi + margin)) or \
                (d < 0 and (to_min or ax.meas_deg < lo - slack or rest < lo - margin)):
                 ax.out = replace(ax.out, duty=0.0)
-                ax.sp = None
+                # hold here, or come back inside if it overran: a standing target within
+                # the limits (a park or goto to the limit then still ends at the limit)
+                ax.sp = law.Setpoint(min(max(ax.meas_deg, lo), hi), 0.0, self.clock.now_s(),
+                                     seq=self._next_seq())
                 self._event(f"guard: {ax.name} stopped at {ax.meas_deg:.2f} deg before its limit")
         if not self.geometry.zones:
             return
@@ -993,9 +996,11 @@ class Rotator:
 
     def _check_parked(self) -> None:
         """A park under way is done once its last waypoint is held on both axes."""
+        park = {"az": self.settings.park_az_deg, "el": self.settings.park_el_deg}
         if self._parking and len(self._route) <= 1 and all(
                 ax.sp is not None and ax.law.seq == ax.sp.seq and ax.law.mode == "holding"
-                for ax in self.axes.values()):
+                and abs(ax.meas_deg - park[n]) <= ax.tuning.restart_deg + ax.caps.sensor.resolution_deg
+                for n, ax in self.axes.items()):
             self._parking, self._parked = False, True
 
     def _maybe_idle_park(self, now_s: float) -> None:

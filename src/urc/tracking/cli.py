@@ -217,7 +217,11 @@ def tle_import(files: tuple[str, ...], no_checksum: bool, catalog_dir: str | Non
         cat = Catalog.load(where)
         for f in files:
             sets = load_elements(f, checksum=not no_checksum)
-            r = cat.merge(sets)
+            for es in sets:
+                if es.sgp4_error:  # kept out: the catalog's older set, if any, stays usable
+                    click.echo(f"warning: {es.label} (NORAD {es.norad_id}) not imported: "
+                               f"{es.sgp4_error} at its epoch {es.epoch:%Y-%m-%d}", err=True)
+            r = cat.merge(es for es in sets if not es.sgp4_error)
             click.echo(f"{f}: {len(sets)} element sets: {len(r.added)} new, "
                        f"{len(r.updated)} newer, {len(r.kept)} not newer (kept the catalog's)")
         cat.save(where)

@@ -447,6 +447,11 @@ def search_passes(sats: ElementSet | Iterable[ElementSet], station: Station, sta
     t0 = float(sky.unix_s(start))
     result = PassSearch([], sky.utc_datetime(t0), sky.utc_datetime(t0 + duration_s),
                         float(min_el_deg))
+    # sets sgp4 cannot propagate even at their epoch (decayed) give no passes, only the reason
+    for es in sats:
+        if es.sgp4_error:
+            result.errors[es.norad_id] = f"{es.sgp4_error} at its epoch {es.epoch:%Y-%m-%d}: no passes"
+    sats = [es for es in sats if not es.sgp4_error]
     stats = {"satellites": len(sats), "evaluations": 0, "bisected": 0, "roots": 0}
     # Near-Earth and deep-space orbits in separate chunks: each gets its own step.
     near = [es for es in sats if es.period_s < DEEP_SPACE_PERIOD_S]

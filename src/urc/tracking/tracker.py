@@ -37,6 +37,9 @@ PLAN_STEP_S = 1.0
 ROUTE_SLACK_S = 3.0
 #: how far ahead the next pass of a followed satellite is searched
 SEARCH_HOURS = 24.0
+#: elements older than this (days from their epoch) are flagged when tracked: a LEO set
+#: drifts by kilometres a day, so the pass times and pointing slip
+STALE_ELEMENTS_DAYS = 14.0
 EARTH_RADIUS_KM = 6371.0
 
 
@@ -106,6 +109,11 @@ class Tracker:
 
     def _plan_next(self, target: SatelliteTarget, now_s: float) -> None:
         now_u = self.unix_at(now_s)
+        if target.elements.sgp4_error:
+            self.job = None
+            self.last_error = f"{target.name}: {target.elements.sgp4_error} at the elements' epoch: " \
+                "import newer elements"
+            return
         passes = [p for p in find_passes(target.elements, self.station, now_u,
                                          duration_s=SEARCH_HOURS * 3600, min_el_deg=self.min_el_deg)
                   if p.los_unix_s > now_u + 1.0]
@@ -208,12 +216,20 @@ class Tracker:
             return None
         u = self.unix_at(now_s)
         out: dict[str, Any] = {"target": self.target.name, "error": self.last_error or None,
-                               "stopped": _not_following(self.rot.status())}
+                               "stopped": _not_following(self.rot.status()), "t_unix_s": u}
         try:
             out["az_deg"], out["el_deg"] = self.target.position(u)
+            # with the rates, a status computed a second ago is brought up to date cheaply
+            # (tracking_now) instead of showing where the target was then
+            out["az_rate_deg_per_s"], out["el_rate_deg_per_s"] = self.target.rate(u)
         except Exception as exc:  # a target that cannot be computed now must not break status
             out["az_deg"] = out["el_deg"] = None
             out["error"] = str(exc)
+        else:
+            if not isinstance(self.target, SatelliteTarget) and out["el_deg"] < self.min_el_deg \
+                    and not out["error"]:
+                # said at once, not only from the next update on
+                out["error"] = f"{self.target.name} is below {self.min_el_deg:g} deg elevation"
         if self.job is not None:
             plan, p = self.job.plan, self.job.pass_
             step = max(1, len(plan.t_s) // 200)
@@ -224,6 +240,11 @@ class Tracker:
                            "track": [[_iso(t), float(a), float(e)] for t, a, e in
                                      zip(plan.t_s[::step], plan.sky_az_deg[::step], plan.sky_el_deg[::step])]}
         if isinstance(self.target, SatelliteTarget):
+            age_days = (u - self.target.elements.epoch_unix_s) / 86400.0
+            if age_days > STALE_ELEMENTS_DAYS:
+                out["warnings"] = [f"the elements of {self.target.name} are {age_days:.0f} days old "
+                                   f"(epoch {self.target.elements.epoch:%Y-%m-%d}): pass times and "
+                                   "pointing drift; update them (urc tle update)"]
             # the ground track costs ~15 ms of skyfield: recomputed every 10 s
             key = (self.target.elements.norad_id, int(u // 10))
             if self._ground_cache is None or self._ground_cache[0] != key:
@@ -242,6 +263,23 @@ def _not_following(st) -> str | None:
     if st.loop.get("held"):
         return "paused: the control loop was late; resuming when it is on time"
     return None
+
+
+#: a tracking status older than this is not extrapolated (its rates no longer hold)
+EXTRAPOLATE_MAX_S = 5.0
+
+
+def tracking_now(t: dict[str, Any] | None, unix_s: float) -> dict[str, Any] | None:
+    """A tracking status (``Tracker.status``) with the target's az/el moved on to
+    ``unix_s`` by its rates: the status costs tens of ms and is refreshed about once a
+    second, while a satellite near culmination moves a degree a second."""
+    if not t or t.get("az_rate_deg_per_s") is None or t.get("az_deg") is None or t.get("t_unix_s") is None:
+        return t
+    dt = unix_s - t["t_unix_s"]
+    if not 0.0 < dt <= EXTRAPOLATE_MAX_S:
+        return t
+    return {**t, "t_unix_s": unix_s, "az_deg": (t["az_deg"] + t["az_rate_deg_per_s"] * dt) % 360.0,
+            "el_deg": t["el_deg"] + t["el_rate_deg_per_s"] * dt}
 
 
 def _iso(unix_s: float) -> str:

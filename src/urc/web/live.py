@@ -24,6 +24,7 @@ from typing import Any
 from starlette.websockets import WebSocket, WebSocketDisconnect, WebSocketState
 
 from ..errors import CommandRejected
+from ..tracking.tracker import tracking_now
 from .history import History, pointing_error_deg
 
 log = logging.getLogger(__name__)
@@ -111,7 +112,7 @@ class Hub:
 
     def status_dict(self) -> dict[str, Any]:
         d = self.rotator.status().as_dict()
-        d.setdefault("tracking", self.tracking())
+        d.setdefault("tracking", tracking_now(self.tracking(), time.time()))
         return d
 
     def build_frame(self) -> str:
