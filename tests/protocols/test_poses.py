@@ -71,3 +71,57 @@ def test_same_breath_then_stop_then_someone_else(tartu):
     t.goto(None, 10.0)
     tartu.settle()
     assert (tartu.truth("az"), tartu.truth("el")) == pytest.approx((30.0, 10.0), abs=TOL_DEG)
+
+
+@pytest.mark.parametrize("profile,mech_az", [("bigras", 350.0), ("g5500", 350.0), ("sarcnet-mini", -10.0)])
+def test_negative_azimuth_is_one_rule_on_every_protocol(bench, profile, mech_az):
+    """Issue 13.7: PstRotator <AZIMUTH>-10 was refused as a limit while rotctld P -10 5
+    meant 350. One rule (README): inside the rotator's range -10 names that wrap pose
+    (sarcnet-mini: -90..450); beyond it, it is the compass bearing 350."""
+    from urc.protocols import make_session
+    commands = {"pstrotator": b"<PST><AZIMUTH>-10</AZIMUTH><ELEVATION>5</ELEVATION></PST>",
+                "rotctld": b"P -10 5\n"}  # (GS-232 and SPID cannot even write a negative)
+    for protocol, line in commands.items():
+        b = bench(profile)
+        s = make_session(protocol, b.rot)
+        replies = s.receive(line)
+        assert not any(b"RPRT -" in r or b"?>" in r for r in replies), (protocol, replies)
+        st_ = b.settle()
+        assert st_.az.pos_deg == pytest.approx(mech_az, abs=1.5), (protocol, st_.az.pos_deg)
+        assert st_.az_deg == pytest.approx(350.0, abs=1.5)
+    b = bench(profile)
+    with pytest.raises(Exception):
+        b.rot.goto(-200.0, 5.0)  # beyond -180: refused, nothing moves
+
+
+def test_gpredict_with_flip_reads_back_what_it_set(bench):
+    """Issue 13.6: Gpredict with flip sends the flipped pose (P 10.00 120.00 for the sky
+    direction az 190, el 60) and re-sends P whenever p differs from it by more than its
+    threshold; p reported the sky direction, 180 deg away, so P went out every cycle.
+    The Gpredict loop (protocols.md 1.7): p, compare, P only past the 5 deg threshold."""
+    from urc.protocols.rotctld.session import RotctldSession
+    b = bench("tartu-urc", rotator={"flip": True})
+    s = RotctldSession(b.rot)
+
+    def get() -> tuple[float, float]:
+        (reply,) = s.receive(b"p\n")
+        az, el = reply.decode().split("\n")[:2]
+        return float(az), float(el)
+    sent = 0
+    for i in range(90):  # a pass near culmination, flipped: az 190 -> 250, el 60 -> 70
+        sky_az, sky_el = 190.0 + 0.6 * i, 60.0 + 0.1 * i
+        az, el = (sky_az + 180.0) % 360.0, 180.0 - sky_el  # what gpredict sends with flip
+        pos = get()
+        if abs((az - pos[0] + 180.0) % 360.0 - 180.0) > 5.0 or abs(el - pos[1]) > 5.0:
+            assert s.receive(b"P %.2f %.2f\n" % (az, el)) == [b"RPRT 0\n"]
+            sent += 1
+        b.run(0.8)
+    st_ = b.rot.status()
+    assert st_.flipped
+    # after the first move, a command each time the target moved ~5 deg: ~10, not 90
+    assert sent <= 15, sent
+    assert get() == pytest.approx(((st_.az_deg + 180.0) % 360.0, 180.0 - st_.el_deg), abs=0.01)
+    # unflipped, p is the sky direction as before
+    s.receive(b"P 100.00 30.00\n")
+    b.settle()
+    assert get() == pytest.approx((100.0, 30.0), abs=0.3)

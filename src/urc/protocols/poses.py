@@ -48,6 +48,20 @@ def extended_pose_deg(st: Status) -> tuple[float, float]:
     return st.az.pos_deg + az_off, st.el.pos_deg + el_off
 
 
+def readback_pose_deg(st: Status) -> tuple[float, float]:
+    """The position a compass-frame client (rotctld ``p``) reads back: the sky direction,
+    except while the antenna is flipped over the top. Then it is the pose as such a client
+    commands it (``P 10 120`` for the sky direction az 190, el 60) and as a controller
+    with 0..180 deg elevation shows it: the azimuth axis' heading 0..360 and the
+    elevation past 90. Hamlib's own dummy rotator reads back what was set, and Gpredict
+    with flip compares ``p`` with what it sent: the sky direction, 180 deg away, made it
+    re-send ``P`` every cycle."""
+    if not st.flipped:
+        return st.az_deg, st.el_deg
+    az, el = extended_pose_deg(st)
+    return az % 360.0, el
+
+
 def extended_targets_deg(st: Status) -> tuple[float | None, float | None]:
     """The axes' present setpoints (where each axis is heading now) in the extended
     frame; None for an axis that holds no setpoint (idle, stopped)."""

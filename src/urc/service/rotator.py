@@ -596,11 +596,21 @@ class Rotator:
         return (self.axes["az"].meas_deg, self.axes["el"].meas_deg)
 
     def _explicit_pose(self, az_deg: float, el_deg: float) -> tuple[float, float] | None:
-        """An azimuth outside 0..360 or an elevation past 90 names one mechanical pose."""
+        """An azimuth outside 0..360 or an elevation past 90 names one mechanical pose.
+
+        The one rule for azimuths outside 0..360, for every protocol (README): within the
+        rotator's extended range (limits + offset) they name that wrap turn (-10 on a
+        -90..450 rotator, 400 on 0..450); a negative azimuth down to -180 beyond the range
+        is a compass bearing, -10 = 350 (clients in -180..180 mode send west negative);
+        anything else outside the range is refused."""
         if 0.0 <= az_deg < 360.0 and el_deg <= 90.0:
             return None
         g = self.geometry
         pose = (az_deg - g.az_offset_deg, el_deg - g.el_offset_deg)
+        if -180.0 <= az_deg < 0.0 and not g.az_min_deg <= pose[0] <= g.az_max_deg:
+            if el_deg <= 90.0:
+                return None  # a compass bearing: the planner picks the turn
+            return self._explicit_pose(az_deg + 360.0, el_deg)
         if 0.0 <= az_deg < 360.0:
             # a flipped pose with a compass azimuth names the flip, not the wrap turn: the
             # turn nearest in travel, the overlap included (from 355/140, 6.9/137.4 is

@@ -18,6 +18,7 @@ from typing import Callable
 from ... import __version__
 from ...errors import CommandRejected, ConfigError, HardwareError
 from ..base import MAX_PENDING_BYTES, RotatorPort, bad_input_log, internal_error, protocol_logger
+from ..poses import readback_pose_deg
 from . import codec
 from .commands import (
     CONF_TOKENS, LEVELS, RIG_EINTERNAL, RIG_EINVAL, RIG_EIO, RIG_ELIMIT, RIG_ENAVAIL, RIG_ERJCTED,
@@ -160,8 +161,8 @@ class RotctldSession:
         return 0, ""
 
     def _get_pos(self, args: tuple[str, ...], sep: str | None) -> Result:
-        st = self._rot.status()
-        return 0, codec.format_position(st.az_deg, st.el_deg, sep)
+        # flipped: the pose as a client commands it (poses.readback_pose_deg, README)
+        return 0, codec.format_position(*readback_pose_deg(self._rot.status()), sep)
 
     def _park(self, args: tuple[str, ...], sep: str | None) -> Result:
         self._rot.park()
