@@ -1,7 +1,7 @@
 """Pointing-error benchmark (DESIGN.md definition) on the simulated profiles.
 
 Standard passes from the shipped fixture TLEs: a low pass, a pass crossing north (cable
-wrap), a pass through ~89 deg elevation (keyhole), and a 30-minute Sun track. For each
+wrap), passes through ~89 and ~88 deg elevation (keyholes), and a 30-minute Sun track. For each
 profile: RMS, p95, max pointing error, time within 0.1 and 0.5 deg, error at AOS
 (acquired?), against the sensor quantisation floor q/sqrt(12). In the same run, the same
 passes driven the way Gpredict drives a rotator (5 deg threshold, a command per 0.8 s).
@@ -55,11 +55,13 @@ def scenarios():
     ts = sky.timescale()
     sp = wgs84.subpoint_of(EarthSatellite.from_satrec(iss.satrec, ts).at(
         ts.from_datetime(sky.utc_datetime(T0_UNIX_S + 3600.0))))
-    overhead = Station(float(sp.latitude.degrees) + 0.05, float(sp.longitude.degrees), 0.0, "overhead")
-    key = max(find_passes(iss, overhead, T0_UNIX_S + 3000.0, duration_s=1800, min_el_deg=0),
-              key=lambda p: p.max_el_deg)
-    return [("low pass", iss, TARTU, low), ("north crossing", noaa, TARTU, north),
-            (f"keyhole {key.max_el_deg:.0f} deg", iss, overhead, key)]
+    keyholes = []
+    for dlat_deg in (0.05, 0.135):  # ~89 and ~88 deg: 0.7 and 2.0 deg from the zenith
+        overhead = Station(float(sp.latitude.degrees) + dlat_deg, float(sp.longitude.degrees), 0.0, "overhead")
+        key = max(find_passes(iss, overhead, T0_UNIX_S + 3000.0, duration_s=1800, min_el_deg=0),
+                  key=lambda p: p.max_el_deg)
+        keyholes.append((f"keyhole {key.max_el_deg:.1f} deg", iss, overhead, key))
+    return [("low pass", iss, TARTU, low), ("north crossing", noaa, TARTU, north), *keyholes]
 
 
 def sun_track(profile: str, tmp: Path, minutes: float = 30.0) -> PointingStats:
@@ -98,22 +100,34 @@ def main() -> None:
                     rows.append({"profile": profile, "scenario": name, "driver": driver, "max_el_deg": p.max_el_deg,
                                  "flip": bool(plan.flip) if plan else None, **st.as_dict(),
                                  "plan_rms_deg": plan_st.rms_deg if plan_st else None,
+                                 "plan_max_deg": plan_st.max_deg if plan_st else None,
+                                 # holding the azimuth and sweeping the elevation over the top
+                                 # misses by the pass's distance from the zenith, at worst
+                                 "hold_bound_deg": 90.0 - p.max_el_deg if name.startswith("keyhole")
+                                 and PROFILES[profile].can_flip else None,
                                  "floor_deg": floor_deg(profile), "faults": [f.kind for f in rot.status().faults],
                                  "cpu_s": time.process_time() - t0})
         with tempfile.TemporaryDirectory() as tmp:
             st = sun_track(profile, Path(tmp))
             rows.append({"profile": profile, "scenario": "sun 30 min", "driver": "urc", "max_el_deg": None,
-                         "flip": None, **st.as_dict(), "plan_rms_deg": None, "floor_deg": floor_deg(profile), "faults": [], "cpu_s": None})
+                         "flip": None, **st.as_dict(), "plan_rms_deg": None, "plan_max_deg": None,
+                         "hold_bound_deg": None, "floor_deg": floor_deg(profile), "faults": [], "cpu_s": None})
         print(f"{profile}: done", file=sys.stderr, flush=True)
     print("\nPointing error vs simulator truth (deg); floor = q/sqrt(12); x floor = RMS / floor;"
-          "\nplan RMS = the plan's own error (a perfect rotator flying it): > 0 where the geometry forbids better")
+          "\nplan RMS/max = the plan's own error (a perfect rotator flying it): > 0 where the geometry forbids better;"
+          "\nbound = a keyhole's distance from the zenith (the worst error of holding the azimuth and sweeping"
+          "\nthe elevation over the top), next to the plan's max")
     print(f"{'profile':13s} {'scenario':16s} {'driver':8s} {'RMS':>6s} {'p95':>6s} {'max':>6s} {'<0.1%':>6s} "
-          f"{'<0.5%':>6s} {'AOS err':>7s} {'floor':>6s} {'x floor':>7s} {'planRMS':>7s} {'flip':>5s}")
+          f"{'<0.5%':>6s} {'AOS err':>7s} {'floor':>6s} {'x floor':>7s} {'planRMS':>7s} {'planMax':>7s} {'bound':>6s} "
+          f"{'flip':>5s}")
     for r in rows:
         plan_rms = "" if r["plan_rms_deg"] is None else f"{r['plan_rms_deg']:.3f}"
+        plan_max = "" if r["plan_max_deg"] is None else f"{r['plan_max_deg']:.3f}"
+        bound = "" if r["hold_bound_deg"] is None else f"{r['hold_bound_deg']:.3f}"
         print(f"{r['profile']:13s} {r['scenario']:16s} {r['driver']:8s} {r['rms_deg']:6.3f} {r['p95_deg']:6.3f} "
               f"{r['max_deg']:6.3f} {r['within_0_1_pct']:6.1f} {r['within_0_5_pct']:6.1f} {r['aos_error_deg']:7.3f} "
-              f"{r['floor_deg']:6.3f} {r['rms_deg'] / r['floor_deg']:7.1f} {plan_rms:>7s} {str(r['flip']):>5s}")
+              f"{r['floor_deg']:6.3f} {r['rms_deg'] / r['floor_deg']:7.1f} {plan_rms:>7s} {plan_max:>7s} {bound:>6s} "
+              f"{str(r['flip']):>5s}")
     write_json(rows, args.json)
 
 

@@ -172,6 +172,20 @@ def _flyable(x: np.ndarray, t: np.ndarray, lo: float, hi: float, budget: AxisLim
     return out
 
 
+def _el_given_az(az_m: np.ndarray, s_az: np.ndarray, s_el: np.ndarray, g: Geometry) -> np.ndarray:
+    """The mechanical elevation that points closest to the sky track (s_az, s_el) when the
+    azimuth axis stands at ``az_m``: the sky direction projected onto the vertical circle
+    through that azimuth, elevation 0..180 along it (past 90 is over the top), within the
+    limits. Where the azimuth cannot keep up (the keyhole), sweeping the elevation over
+    the top under a lagging azimuth bounds the error by the pass's distance from the
+    zenith, instead of the elevation following its own track while the azimuth lags."""
+    alpha = np.radians(az_m + g.az_offset_deg)
+    a, e = np.radians(s_az), np.radians(s_el)
+    theta = np.degrees(np.arctan2(np.sin(e), np.cos(e) * np.cos(a - alpha)))
+    top = g.el_max_deg if g.can_fly_passes_flipped else min(g.el_max_deg, 90.0 - g.el_offset_deg)
+    return np.clip(theta - g.el_offset_deg, g.el_min_deg, top)
+
+
 def _base_trajectories(s_az: np.ndarray, s_el: np.ndarray, can_flip: bool):
     """(flip, (az, el)) before wrap offsets: the plain track, and on rotators whose
     elevation reaches 180, the all-flipped track and the two over-the-top tracks, which switch to the other pose
@@ -273,6 +287,10 @@ def plan_pass(t_s: np.ndarray, sky_az_deg: np.ndarray, sky_el_deg: np.ndarray, g
     best = None
     for flip, a, e in candidates:
         fa = _flyable(a, t, g.az_min_deg, g.az_max_deg, az_budget)
+        if fa is not a:
+            # the azimuth lags its track somewhere: the elevation makes up for it there
+            lag = np.abs(fa - a) > 1e-6
+            e = np.where(lag, _el_given_az(fa, s_az, s_el, g), e)
         fe = _flyable(e, t, g.el_min_deg, g.el_max_deg, el_budget)
         err = pointing_error_deg(fa, fe, s_az, s_el, g)
         travel_s = route_time_s([start_pose, (fa[0], fe[0])], rates)
@@ -285,9 +303,8 @@ def plan_pass(t_s: np.ndarray, sky_az_deg: np.ndarray, sky_el_deg: np.ndarray, g
         # servo decides); then no flip; then the shorter pre-positioning move
         cost = (round(float(err.max()) / 0.05), flip, travel_s)
         if best is None or cost < best[0]:
-            best = (cost, flip, fa, fe, travel_s, a, e, float(err.max()))
-    _, flip, a_fly, e_fly, travel_s, a, e, worst = best
-    rate_limited = not (a_fly is a and e_fly is e)
+            best = (cost, flip, fa, fe, travel_s, a, e, float(err.max()), not (fa is a and fe is e))
+    _, flip, a_fly, e_fly, travel_s, a, e, worst, rate_limited = best
     if rate_limited:
         notes.append(f"the sky track needs {_peak_rate(a, t):.1f} deg/s in azimuth at the fastest (keyhole); "
                      f"flown within the axes' speed and acceleration, worst pointing error {worst:.2f} deg")
