@@ -1,0 +1,168 @@
+"""gpio parts at the pin and register level: x4 decoding edge by edge (glitches, missed
+edges), byte-exact I2C transactions, bounded retries."""
+
+from __future__ import annotations
+
+import pytest
+from gpiozero.pins.mock import MockFactory, MockPWMPin
+
+from urc.errors import SensorError
+from urc.hardware.gpio.emulate import FakeAds1115, FakeAs5600, FakeLsm303d, FakeSMBus
+from urc.hardware.gpio.i2c import ATTEMPTS, Ads1115Channel, Ads1115Chip, As5600Chip, Lsm303dChip
+from urc.hardware.gpio.pins import PinPulseCounter, PinPwm, PinQuadrature, quad_decode
+from urc.hardware.parts import MagnetStatus
+
+SEQ = [0b00, 0b01, 0b11, 0b10]   # forward Gray order (A<<1 | B)
+
+
+@pytest.fixture
+def factory():
+    f = MockFactory(pin_class=MockPWMPin)
+    yield f
+    f.close()
+
+
+def drive(q: PinQuadrature, state: int) -> None:
+    for pin, bit in ((q.a, 2), (q.b, 1)):
+        if bool(state & bit) != bool(pin.state):
+            (pin.drive_high if state & bit else pin.drive_low)()
+
+
+def at_zero(q: PinQuadrature) -> int:
+    """Walk the (pulled-up, 11) inputs to state 00; the count there."""
+    drive(q, SEQ[0])
+    return q.count()
+
+
+def test_decode_table():
+    for i, s in enumerate(SEQ):
+        assert quad_decode(s, SEQ[(i + 1) % 4]) == 1
+        assert quad_decode(SEQ[(i + 1) % 4], s) == -1
+        assert quad_decode(s, s) == 0
+        assert quad_decode(s, SEQ[(i + 2) % 4]) is None      # both changed: missed edge
+
+
+def test_x4_counts_every_edge_both_ways(factory):
+    q = PinQuadrature(factory, 17, 27)
+    c0 = at_zero(q)
+    for k in range(1, 41):                # ten full cycles forward = 40 counts
+        drive(q, SEQ[k % 4])
+    assert q.count() - c0 == 40
+    for k in range(39, 14, -1):           # 25 back
+        drive(q, SEQ[k % 4])
+    assert q.count() - c0 == 15 and q.errors() == 0
+
+
+def test_glitch_on_one_channel_cancels(factory):
+    q = PinQuadrature(factory, 17, 27)
+    c0 = at_zero(q)
+    drive(q, SEQ[1])
+    for _ in range(5):                    # contact bounce on A: up, down, up, down ...
+        drive(q, SEQ[2])
+        drive(q, SEQ[1])
+    assert q.count() - c0 == 1 and q.errors() == 0
+
+
+def test_missed_edge_is_counted_as_an_error_not_guessed(factory):
+    q = PinQuadrature(factory, 17, 27)
+    c0 = at_zero(q)
+    drive(q, SEQ[1])
+    q.a.drive_high()                      # 01 -> 11 (+1), then 11 -> 10 (+1)
+    q.b.drive_low()
+    assert q.count() - c0 == 3
+    # A and B both changed before the callback looked (10 -> 01): an error, not a guess
+    q.a._state, q.b._state = False, True
+    q._edge()
+    assert q.errors() == 1 and q.count() - c0 == 3
+
+
+def test_index_latches_the_count(factory):
+    q = PinQuadrature(factory, 17, 27, z=22)
+    c0 = at_zero(q)
+    for k in range(1, 8):
+        drive(q, SEQ[k % 4])
+    q.z.drive_low()
+    q.z.drive_high()
+    assert q.index_count() - c0 == 7
+
+
+def test_pulse_counter_counts_falling_edges(factory):
+    c = PinPulseCounter(factory, 17)
+    c.pin.drive_high()
+    for _ in range(12):
+        c.pin.drive_low()
+        c.pin.drive_high()
+    assert c.count() == 12
+
+
+def test_pwm_pin(factory):
+    p = PinPwm(factory, 12, frequency_hz=20000)
+    p.write_duty(0.37)
+    assert p.pin.frequency == 20000 and p.read_back() == pytest.approx(0.37)
+    p.write_duty(3.0)
+    assert p.read_back() == 1.0
+
+
+def test_as5600_transactions_byte_exact():
+    bus = FakeSMBus()
+    bus.keep_log = True
+    dev = FakeAs5600(lambda: 0x0ABC)
+    bus.devices[0x36] = dev
+    chip = As5600Chip(bus)
+    assert chip.magnet_status() == MagnetStatus(True)
+    assert chip.read_raw_angle() == 0x0ABC
+    assert bus.log == [("r", 0x36, 0x0B, (0x20,)), ("r", 0x36, 0x0C, (0x0A, 0xBC))]
+    dev.status = MagnetStatus(True, too_strong=True)
+    assert chip.magnet_status().too_strong
+
+
+def test_lsm303d_setup_and_vectors_byte_exact():
+    bus = FakeSMBus()
+    bus.keep_log = True
+    bus.devices[0x1D] = FakeLsm303d(lambda: (0.1, -0.2, 0.3), lambda: (0.0, 0.5, 1.0))
+    chip = Lsm303dChip(bus)
+    m = chip.magnetic()
+    assert bus.log[:5] == [("r", 0x1D, 0x0F, (0x49,)), ("w", 0x1D, 0x20, (0x57,)), ("w", 0x1D, 0x24, (0x64,)),
+                           ("w", 0x1D, 0x25, (0x00,)), ("w", 0x1D, 0x26, (0x00,))]
+    # 0.1 gauss / 0.080 mgauss = 1250 = 0x04E2, little-endian; auto-increment bit set
+    assert bus.log[5] == ("r", 0x1D, 0x88, (0xE2, 0x04, 0x3C, 0xF6, 0xA6, 0x0E))
+    assert m == pytest.approx((0.1, -0.2, 0.3), abs=1e-4)
+    a = chip.acceleration()
+    assert bus.log[-1][2] == 0xA8 and a == pytest.approx((0.0, 0.5, 1.0), abs=1e-4)
+
+
+def test_lsm303d_wrong_id_is_an_error():
+    bus = FakeSMBus()
+    dev = FakeLsm303d(lambda: (0, 0, 0), lambda: (0, 0, 1))
+    dev.regs[0x0F] = 0x33                 # an LSM303DLHC answering at this address
+    bus.devices[0x1D] = dev
+    with pytest.raises(SensorError, match="WHO_AM_I 0x33"):
+        Lsm303dChip(bus).magnetic()
+
+
+def test_ads1115_single_shot_byte_exact():
+    bus = FakeSMBus()
+    bus.keep_log = True
+    bus.devices[0x48] = FakeAds1115({0: lambda: 1.0, 3: lambda: 3.3})
+    adc = Ads1115Channel(Ads1115Chip(bus), 0, 3)
+    assert adc.read_counts() == round(1.0 / 4.096 * 32768)
+    # config: OS | MUX=100 (AIN0) | PGA 001 | single shot | 860 SPS | comparator off
+    assert bus.log[0] == ("w", 0x48, 0x01, (0xC3, 0xE3))
+    assert bus.log[1][:3] == ("r", 0x48, 0x01)
+    assert bus.log[2] == ("r", 0x48, 0x00, (0x1F, 0x40))
+    assert adc.read_reference_counts() == 26400 == adc.full_scale_counts
+    assert bus.log[3] == ("w", 0x48, 0x01, (0xF3, 0xE3))       # MUX=111: AIN3
+
+
+def test_nack_retries_are_bounded_then_an_error():
+    bus = FakeSMBus()
+    calls = []
+    orig = bus.read_byte_data
+
+    def counting(addr, reg):
+        calls.append(reg)
+        return orig(addr, reg)
+    bus.read_byte_data = counting         # nothing at 0x36: every attempt NACKs
+    with pytest.raises(SensorError, match="I2C failed"):
+        As5600Chip(bus).magnet_status()
+    assert len(calls) == ATTEMPTS
