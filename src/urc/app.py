@@ -68,6 +68,21 @@ def bridged_caps(caps, protocol: str):
                    el=replace(caps.el, sensor=report_caps(dialect, "el")))
 
 
+def hardware_options(cfg: Config, fast_virtual: bool = False) -> dict:
+    """The backend options a configuration gives (``build_hardware``)."""
+    sim = cfg.hardware.sim
+    options = {"seed": sim.seed, "wind": sim.wind, "truth_wall_interval_s": 0.02 if fast_virtual else 0.0}
+    if sim.start_az_deg is not None:
+        options["start_az_deg"] = sim.start_az_deg
+    if sim.start_el_deg is not None:
+        options["start_el_deg"] = sim.start_el_deg
+    if cfg.hardware.bridge is not None:
+        options["bridge"] = cfg.hardware.bridge
+    if cfg.hardware.gpio is not None:
+        options["gpio"] = cfg.hardware.gpio
+    return options
+
+
 def build_rotator(cfg: Config, clock: Clock, state_dir: Path, durable_state: bool = True,
                   fast_virtual: bool = False) -> Rotator:
     """Everything ``urc run`` builds, minus the servers: for tests and benchmarks too.
@@ -80,16 +95,7 @@ def build_rotator(cfg: Config, clock: Clock, state_dir: Path, durable_state: boo
     if fast_virtual:
         durable_state = False
     state_dir.mkdir(parents=True, exist_ok=True)
-    sim = cfg.hardware.sim
-    options = {"seed": sim.seed, "wind": sim.wind, "truth_wall_interval_s": 0.02 if fast_virtual else 0.0}
-    if sim.start_az_deg is not None:
-        options["start_az_deg"] = sim.start_az_deg
-    if sim.start_el_deg is not None:
-        options["start_el_deg"] = sim.start_el_deg
-    if cfg.hardware.bridge is not None:
-        options["bridge"] = cfg.hardware.bridge
-    if cfg.hardware.gpio is not None:
-        options["gpio"] = cfg.hardware.gpio
+    options = hardware_options(cfg, fast_virtual)
     hardware = build_hardware(cfg.hardware.backend, settings.caps, clock, state_dir, options)
     if cfg.faults.overcurrent_a == 0:
         # 0 = the backend knows its motors best

@@ -79,6 +79,56 @@ def with_emulation(cfg):
     return Config.from_dict(data, source="--emulate")
 
 
+@main.group()
+def hw() -> None:
+    """Commission the rotator's hardware (parts, sensors, wiring)."""
+
+
+@hw.command("check")
+@click.option("--config", "config_path", type=click.Path(dir_okay=False), help="TOML configuration file.")
+@click.option("--profile", help="Rotator profile (overrides the config's).")
+@click.option("--state-dir", type=click.Path(file_okay=False), help="Where persistent state lives.")
+@click.option("--emulate", is_flag=True, help="gpio backend on emulated pins and chips.")
+@click.option("--move", is_flag=True, help="Jog each axis briefly up and check the sensor counts up.")
+def hw_check(config_path: str | None, profile: str | None, state_dir: str | None, emulate: bool,
+             move: bool) -> None:
+    """List the parts, read every sensor, check I2C ids, magnets and limit switches
+    (bridge: identify the controller, read its position, measure the link latency)."""
+    from .app import hardware_options, settings_from_config
+    from .clock import RealClock, VirtualClock
+    from .hardware import build_hardware
+    from .hardware.check import check
+
+    try:
+        cfg = _load(config_path, profile)
+        if emulate:
+            cfg = with_emulation(cfg)
+        if cfg.hardware.backend == "bridge":
+            from .hardware.bridge.check import check_bridge
+
+            result = check_bridge(cfg.hardware.bridge)
+            click.echo("\n".join(result.lines))
+            if not result.ok:
+                raise SystemExit(1)
+            return
+        caps = settings_from_config(cfg).caps
+        virtual = cfg.hardware.backend == "sim" or (cfg.hardware.gpio is not None and cfg.hardware.gpio.emulate)
+        clock = VirtualClock(1000.0) if virtual else RealClock()
+        d = cfg.state.resolve_dir(state_dir)
+        d.mkdir(parents=True, exist_ok=True)
+        hardware = build_hardware(cfg.hardware.backend, caps, clock, d, hardware_options(cfg))
+    except ConfigError as exc:
+        raise click.ClickException(str(exc)) from None
+    try:
+        hardware.poll(clock.now_s())
+        kw = {"sleep": clock.advance, "now": clock.now_s} if virtual else {}
+        problems = check(hardware, caps, gpio=cfg.hardware.gpio, move=move, out=click.echo, **kw)
+    finally:
+        hardware.close()
+    if problems:
+        sys.exit(1)
+
+
 class _Busy(click.ClickException):
     exit_code = 3
 
@@ -363,30 +413,6 @@ def _register_tracking_commands() -> None:
 
 _register_tracking_commands()
 
-
-@main.group()
-def hw() -> None:
-    """Hardware helpers."""
-
-
-@hw.command("check")
-@click.option("--config", "config_path", type=click.Path(dir_okay=False), help="TOML configuration file.")
-def hw_check(config_path: str | None) -> None:
-    """Check the configured hardware without moving anything (bridge: identify the
-    controller, read its position, measure the link latency)."""
-    try:
-        cfg = _load(config_path)
-    except ConfigError as exc:
-        raise click.ClickException(str(exc)) from None
-    if cfg.hardware.backend == "bridge":
-        from .hardware.bridge.check import check_bridge
-
-        result = check_bridge(cfg.hardware.bridge)
-        click.echo("\n".join(result.lines))
-        if not result.ok:
-            raise SystemExit(1)
-        return
-    click.echo(f"hardware backend {cfg.hardware.backend!r}: nothing to check (no hardware attached)")
 
 if __name__ == "__main__":  # pragma: no cover
     sys.exit(main())

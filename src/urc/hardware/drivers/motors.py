@@ -32,6 +32,9 @@ class DirectionTracker:
 
     def __init__(self) -> None:
         self.direction = 1
+        #: how many non-zero drives were given (a sensor can tell the motor ran
+        #: between two of its reads even if it is off at both)
+        self.drives = 0
         self._listeners: list[Callable[[int], None]] = []
 
     def add_direction_listener(self, fn: Callable[[int], None]) -> None:
@@ -40,6 +43,7 @@ class DirectionTracker:
     def _track(self, duty: float) -> None:
         if duty == 0.0:
             return
+        self.drives += 1
         new = 1 if duty > 0 else -1
         if new != self.direction:
             for fn in self._listeners:

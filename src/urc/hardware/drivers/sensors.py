@@ -81,6 +81,7 @@ class QuadratureEncoder(_Incremental):
         self._index_count = counter.index_count()
         self.motor, self.drift_counts, self.still_after_s, self.clock = motor, drift_counts, still_after_s, clock
         self._off_since: tuple[float, int] | None = None
+        self._drives_seen = 0
         self._drift_error = ""
 
     def counts(self) -> int:
@@ -102,7 +103,9 @@ class QuadratureEncoder(_Incremental):
         if self._drift_error:
             raise PartError(self._drift_error)
         now = self.clock.now_s()
-        if getattr(self.motor, "duty", 0.0) != 0.0:
+        drives = getattr(self.motor, "drives", 0)
+        if getattr(self.motor, "duty", 0.0) != 0.0 or drives != self._drives_seen:
+            self._drives_seen = drives
             self._off_since = None
             return
         if self._off_since is None:

@@ -1,0 +1,125 @@
+"""``urc hw check``: commissioning a rotator's parts before the controller runs them.
+
+Lists the configured parts, reads every sensor (an I2C device's id and an AS5600's
+magnet status included), shows limit switches and brakes. With ``move`` each axis is
+jogged briefly up and the sensor must count up: a motor turning against its sensor
+(reversed wiring) is reported with the pin swap that fixes it in the config.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from typing import Any, Callable
+
+from ..errors import UrcError
+
+#: what to swap in [hardware.gpio.<axis>] pins when the motor turns against the sensor
+REVERSE_FIX = {"vnh5019": "swap ina and inb", "bts7960": "swap rpwm and lpwm",
+               "relay": "swap cw and ccw", "lmd18200": "swap the motor's two wires at the LMD18200",
+               "pwm_dir": "swap the motor's two wires at the driver board"}
+
+
+def _read(sensor: Any) -> tuple[float | None, str]:
+    try:
+        return float(sensor.read_deg()), ""
+    except UrcError as exc:
+        return None, str(exc)
+
+
+def check(hw: Any, caps: Any, *, gpio: Any = None, move: bool = False, jog_duty: float = 0.5,
+          jog_s: float = 1.0, sleep: Callable[[float], None] = time.sleep,
+          now: Callable[[], float] = time.monotonic, out: Callable[[str], None] = print) -> int:
+    """Run the checks; returns the number of problems found."""
+    problems = 0
+    out(f"backend {hw.backend}, profile {caps.name}")
+    for label, part in hw.extra.get("parts", []):
+        ident = getattr(part, "identify", None)
+        if ident is None:
+            out(f"  {label}: {type(part).__name__}")
+            continue
+        try:
+            out(f"  {label}: {ident()}")
+        except UrcError as exc:
+            problems += 1
+            out(f"  {label}: PROBLEM {exc}")
+    for name in ("az", "el"):
+        ax = hw.axis(name)
+        ax_caps = caps.axis(name)
+        v, err = _read(ax.sensor)
+        motor = getattr(ax.motor, "driver", ax.motor)
+        out(f"{name}: motor {type(motor).__name__}, sensor {ax_caps.sensor.kind} "
+            f"({type(getattr(ax.sensor, 'driver', ax.sensor)).__name__})")
+        if v is None:
+            problems += 1
+            out(f"  sensor: PROBLEM {err}")
+        else:
+            out(f"  sensor reads {v:.2f} deg")
+        for side, sw in (("min", ax.limit_min), ("max", ax.limit_max)):
+            if sw is not None:
+                out(f"  limit switch {side}: {'ACTIVE' if sw.is_active() else 'open'}")
+        if ax.brake is not None:
+            out(f"  brake: {'released' if ax.brake.is_released() else 'engaged'}")
+        if move:
+            problems += _jog(hw, name, ax, ax_caps, gpio, jog_duty, jog_s, sleep, now, out)
+    out("no problems found" if not problems else f"{problems} problem(s) found")
+    return problems
+
+
+def _jog(hw: Any, name: str, ax: Any, ax_caps: Any, gpio: Any, duty: float, jog_s: float,
+         sleep: Callable[[float], None], now: Callable[[], float], out: Callable[[str], None]) -> int:
+    if ax.limit_max is not None and ax.limit_max.is_active():
+        out(f"  jog: skipped, the max limit switch is active")
+        return 0
+    r0, err = _read(ax.sensor)
+    if r0 is None:
+        out(f"  jog: skipped, no sensor reading ({err})")
+        return 1
+    if ax.brake is not None:
+        ax.brake.set_released(True)
+        t_end = now() + ax_caps.brake_release_s + 0.1
+        while now() < t_end:
+            hw.poll(now())
+            sleep(0.02)
+    t_end = now() + jog_s
+    try:
+        while now() < t_end:
+            ax.motor.set_drive(duty)
+            hw.poll(now())
+            sleep(0.02)
+    finally:
+        ax.motor.set_drive(0.0)
+    t_end = now() + 1.0          # let it coast to a stop before the second reading
+    while now() < t_end:
+        hw.poll(now())
+        sleep(0.02)
+    if ax.brake is not None:
+        ax.brake.set_released(False)
+    r1, err = _read(ax.sensor)
+    if r1 is None:
+        out(f"  jog: PROBLEM no sensor reading after the jog ({err})")
+        return 1
+    delta = r1 - r0
+    m = ax_caps.sensor.modulo_deg
+    if m:
+        delta = (delta + m / 2) % m - m / 2
+    res = ax_caps.sensor.resolution_deg + 3 * ax_caps.sensor.noise_deg
+    if abs(delta) <= 2 * res:
+        out(f"  jog up {duty:.0%} for {jog_s:g} s: the sensor did not move ({delta:+.2f} deg): "
+            "check motor power, the brake and the wiring")
+        return 1
+    if delta < 0:
+        kind = getattr(getattr(gpio, name, None), "motor", None) if gpio is not None else None
+        fix = REVERSE_FIX.get(kind or "", "swap the motor's two wires")
+        out(f"  jog up: the sensor counted DOWN ({delta:+.2f} deg): reversed wiring. Fix: in "
+            f"[hardware.gpio.{name}] {fix}" + (" (or the encoder's enc_a and enc_b)"
+                                                if ax_caps.sensor.kind == "encoder" else ""))
+        return 1
+    note = ""
+    if ax_caps.sensor.kind == "pulse":
+        note = " (a pulse counter takes its direction from the drive: confirm the direction by eye)"
+    out(f"  jog up: the sensor counted up {delta:+.2f} deg: motor and sensor agree{note}")
+    return 0
+
+
+__all__ = ["check", "REVERSE_FIX"]

@@ -1,0 +1,71 @@
+"""urc hw check on emulated iron: parts, readings, magnet and I2C problems, and the jog
+that finds a motor wired against its sensor."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from click.testing import CliRunner
+
+from urc.app import hardware_options, settings_from_config
+from urc.cli import main, with_emulation
+from urc.clock import VirtualClock
+from urc.config import load_config
+from urc.hardware import build_hardware
+from urc.hardware.check import check
+from urc.hardware.parts import MagnetStatus
+
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
+
+
+def emulated_hw(name: str, tmp_path: Path, **sim):
+    cfg = with_emulation(load_config(EXAMPLES / f"{name}.toml"))
+    if sim:
+        data = cfg.to_dict()
+        data["hardware"]["sim"] = sim
+        cfg = type(cfg).from_dict(data)
+    caps = settings_from_config(cfg).caps
+    clock = VirtualClock(1000.0)
+    hw = build_hardware("gpio", caps, clock, tmp_path, hardware_options(cfg))
+    hw.poll(clock.now_s())
+    return cfg, caps, clock, hw
+
+
+def run_check(cfg, caps, clock, hw, move):
+    lines: list[str] = []
+    n = check(hw, caps, gpio=cfg.hardware.gpio, move=move, sleep=clock.advance, now=clock.now_s,
+              out=lines.append)
+    return n, "\n".join(lines)
+
+
+def test_reversed_motor_is_found_and_the_fix_printed(tmp_path):
+    cfg, caps, clock, hw = emulated_hw("tartu-urc", tmp_path)
+    hw.extra["world"].inject("az", "reverse_wiring")
+    n, text = run_check(cfg, caps, clock, hw, move=True)
+    assert n == 1, text
+    assert "az" in text and "counted DOWN" in text and "[hardware.gpio.az] swap ina and inb" in text
+    assert "el: motor" in text and "motor and sensor agree" in text
+
+
+def test_relay_machine_reversed_fix_names_its_pins(tmp_path):
+    cfg, caps, clock, hw = emulated_hw("g5500", tmp_path, start_el_deg=45.0)
+    hw.extra["world"].inject("el", "reverse_wiring")
+    n, text = run_check(cfg, caps, clock, hw, move=True)
+    assert "[hardware.gpio.el] swap cw and ccw" in text, text
+
+
+def test_magnet_and_i2c_problems_are_reported(tmp_path):
+    cfg, caps, clock, hw = emulated_hw("berkeley", tmp_path)
+    hw.extra["buses"][1].devices[0x36].status = MagnetStatus(True, too_strong=True)
+    hw.extra["buses"][3].devices[0x36].nack = True
+    n, text = run_check(cfg, caps, clock, hw, move=False)
+    assert n >= 2
+    assert "too strong" in text and "I2C failed" in text
+
+
+def test_cli_lists_parts_and_limit_switches(tmp_path):
+    r = CliRunner().invoke(main, ["hw", "check", "--config", str(EXAMPLES / "bigras.toml"), "--emulate",
+                                  "--state-dir", str(tmp_path)])
+    assert r.exit_code == 0, r.output
+    assert "az pulse counter" in r.output and "limit switch min: open" in r.output
+    assert "no problems found" in r.output
