@@ -582,3 +582,29 @@ def test_fuzz_round_trip(data):
         return  # e.g. a keep-out zone over the park position
     text = cfg.to_toml()
     assert loads_config(text, source="rt.toml") == cfg
+
+
+# --------------------------------------------------------------------------- bridge
+
+
+def test_bridge_section_is_validated():
+    ok = loads_config('[hardware]\nbackend = "bridge"\n[hardware.bridge]\nprotocol = "rot2prog"\n'
+                      'serial = "/dev/ttyUSB0"\nbaud = 600\n')
+    assert ok.hardware.bridge.protocol == "rot2prog" and ok.hardware.bridge.baud == 600
+    bad = {
+        '[hardware]\nbackend = "bridge"\n': "hardware.bridge",
+        '[hardware.bridge]\nprotocol = "gs232c"\nserial = "/x"\n': "did you mean 'gs232b'",
+        '[hardware.bridge]\nprotocol = "gs232b"\n': "exactly one of serial, tcp",
+        '[hardware.bridge]\nprotocol = "gs232b"\nserial = "/x"\ntcp = "h:1"\n': "exactly one of serial, tcp",
+        '[hardware.bridge]\nprotocol = "rotctld"\ntcp = "nohost"\n': "host:port",
+        '[hardware.bridge]\nprotocol = "rotctld"\ntcp = "h:4533"\nbaud = 9600\n': "no baud with tcp",
+        '[hardware.bridge]\nprotocol = "gs232b"\nserial = "/x"\nbaud = 10\n': "hardware.bridge.baud",
+        '[hardware.bridge]\nprotocol = "gs232b"\nserial = "/x"\nmax_failures = 0\n': "max_failures",
+        '[hardware]\nbackend = "bridge"\n[hardware.bridge]\nprotocol = "rot1prog"\nserial = "/x"\n':
+            "limits.el.max_deg",
+    }
+    for text, expected in bad.items():
+        with pytest.raises(ConfigError, match=re.escape(expected)):
+            loads_config(text)
+    loads_config('[hardware]\nbackend = "bridge"\n[hardware.bridge]\nprotocol = "rot1prog"\nserial = "/x"\n'
+                 '[limits.el]\nmax_deg = 1.0\n[park]\nel_deg = 0.0\n')

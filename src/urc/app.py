@@ -126,6 +126,19 @@ def _real_hardware(cfg: Config) -> bool:
     return backend != "sim" and not getattr(getattr(cfg.hardware, backend, None), "emulate", False)
 
 
+def _hardware_key(cfg: Config) -> str:
+    """What the hardware lock is named after: a bridge locks its controller's port (two
+    bridges to two controllers run side by side; two to one controller do not)."""
+    br = cfg.hardware.bridge
+    if cfg.hardware.backend != "bridge" or br is None:
+        return cfg.hardware.backend
+    import os
+    import re
+
+    where = os.path.realpath(br.serial) if br.serial else br.tcp
+    return "bridge-" + re.sub(r"[^A-Za-z0-9_.-]+", "_", where).strip("_")
+
+
 async def serve(cfg: Config, state_dir: Path, clock: Clock | None = None,
                 config_path: Path | None = None) -> None:
     """The ``urc run`` process: control loop (its own thread) + servers until SIGINT/SIGTERM.
@@ -136,7 +149,7 @@ async def serve(cfg: Config, state_dir: Path, clock: Clock | None = None,
     """
     from .service.instance import lock_instance
 
-    locks = lock_instance(state_dir, cfg.hardware.backend, _real_hardware(cfg))
+    locks = lock_instance(state_dir, _hardware_key(cfg), _real_hardware(cfg))
     try:
         api_socket = bind_api_socket(cfg.api.host, cfg.api.port)
         try:

@@ -870,6 +870,10 @@ def _bridge_issues(cfg: Config) -> list[_Issue]:
             issues.append(("hardware.bridge.tcp", '"host:port", e.g. "127.0.0.1:4533"', br.tcp, ""))
     if br.baud is not None and br.tcp is not None:
         issues.append(("hardware.bridge.baud", "no baud with tcp (only a serial line has one)", br.baud, ""))
+    if br.protocol == "rot1prog" and cfg.hardware.backend == "bridge" and \
+            cfg.effective_limits(cfg.caps)["el"][1] > 1.0:
+        issues.append(("limits.el.max_deg", "at most 1 (a Rot1Prog turns azimuth only)",
+                       cfg.limits.el.max_deg, "set [limits.el] max_deg = 1"))
     return issues
 
 

@@ -94,11 +94,13 @@ class _Axis:
         if self.positioner is None:
             return self._flim
         # a controller's reports arrive once per poll: between two, the axis may have
-        # turned a whole poll period at full speed (not a sensor jump), and progress
-        # shows a target's round trip plus two reports late (not a stall)
+        # turned a whole poll period at full speed (not a sensor jump, nor a runaway
+        # when it decelerated at its target), and progress shows a target's round trip
+        # plus two reports late (not a stall)
         every_s = self.positioner.sample_interval_s()
-        return replace(self._flim, sensor_jump_deg=self._flim.sensor_jump_deg +
-                       2.0 * self._flim.max_rate_deg_per_s * every_s,
+        travel_deg = self._flim.max_rate_deg_per_s * every_s
+        return replace(self._flim, sensor_jump_deg=self._flim.sensor_jump_deg + 2.0 * travel_deg,
+                       runaway_deg=self._flim.runaway_deg + travel_deg,
                        stall_timeout_s=self._flim.stall_timeout_s + 2.0 * every_s + self.positioner.latency_s())
 
     @flim.setter

@@ -126,7 +126,7 @@ class BridgeClient:
             if self._sent_pose is not None and not self._stopped:
                 # the controller stops at its target: never estimate past it
                 target = self._sent_pose[i]
-                if (est - target) * (pos - target) < 0:
+                if (est - target) * (pos - target) <= 0:   # (reached, or would pass it)
                     est = target
             return est
 
