@@ -503,6 +503,7 @@ def test_fuzz_garbage_never_moves_or_raises(fuzz_bench, data, cls, split):
     assert not st_.moving and st_.target_az_deg is None and st_.az.target_deg is None
 
 
+@pytest.mark.filterwarnings("ignore:Using `assume` outside")   # the fuzz body, called directly
 def test_fuzz_test_fails_on_an_injected_bug(fuzz_bench, monkeypatch):
     """Issue 12.21: a TypeError injected into the GS-232 parser used to pass the fuzz
     test (the session answered it with ``?>``). Now it is counted and the test fails."""
