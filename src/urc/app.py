@@ -104,7 +104,12 @@ def build_rotator(cfg: Config, clock: Clock, state_dir: Path, durable_state: boo
                 settings = replace(settings,
                                az_faults=replace(settings.az_faults, overcurrent_a=default_a.get("az", 0.0)),
                                el_faults=replace(settings.el_faults, overcurrent_a=default_a.get("el", 0.0)))
-    return Rotator(settings, hardware, clock, StateStore(state_dir / STATE_FILE, durable=durable_state))
+    rotator = Rotator(settings, hardware, clock, StateStore(state_dir / STATE_FILE, durable=durable_state))
+    power_fail = hardware.extra.get("power_fail")
+    if power_fail is not None:
+        # BIG-RAS saves its position on a power-fail interrupt: so does urc, at once
+        power_fail.on_fail = rotator.save_now
+    return rotator
 
 
 def bind_api_socket(host: str, port: int) -> socket.socket:

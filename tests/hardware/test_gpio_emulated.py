@@ -114,3 +114,21 @@ def test_magnet_too_weak_is_a_fault(tmp_path):
     rot.hw.extra["buses"][3].devices[0x36].status = MagnetStatus(True, too_weak=True)
     s = run_virtual(rot, clock, 1.0)
     assert any("too weak" in f.reason for f in s.faults), s.faults
+
+
+def test_power_fail_edge_saves_the_state_at_once(tmp_path):
+    from urc.persistence import StateStore
+    data = with_emulation(load_config(next(p for p in EXAMPLES if p.stem == "bigras"))).to_dict()
+    data["hardware"]["sim"] = {"wind": False}
+    data.setdefault("state", {})["save_interval_s"] = 10.0
+    clock = VirtualClock(1000.0)
+    rot = build_rotator(Config.from_dict(data), clock, tmp_path, durable_state=False)
+    rot.goto(60.0, 20.0)
+    run_virtual(rot, clock, 6.0)              # moving; the last periodic record is older
+    store = StateStore(tmp_path / "state.json")
+    before = store.load()["axes"]["az"]["mech_deg"]
+    pos = rot.status().az.pos_deg
+    assert abs(before - pos) > 1.0
+    rot.hw.extra["power_fail"].emulate_power_fail()
+    after = store.load()["axes"]["az"]["mech_deg"]
+    assert after == pytest.approx(pos, abs=0.6) and rot.hw.extra["power_fail"].events == 1

@@ -219,6 +219,10 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
     heartbeat = PinOut(factory, gpio.heartbeat_pin) if gpio.heartbeat_pin is not None else None
     extra: dict[str, Any] = {"parts": parts_list, "buses": buses, "pin_factory": factory,
                              "emulated": emulate}
+    if gpio.power_fail_pin is not None:
+        pf = PowerFailInput(factory, gpio.power_fail_pin)
+        extra["power_fail"] = pf
+        parts_list.append(("power-fail input", pf))
     if world is not None:
         extra["world"] = world
         extra["overcurrent_a"] = {n: 0.8 * params.axis(n).stall_current_a for n in ("az", "el")}
@@ -252,6 +256,36 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
 
     return Hardware(backend="gpio", az=axes["az"], el=axes["el"], close_hook=close_real,
                     heartbeat=heartbeat, extra=extra)
+
+
+class PowerFailInput:
+    """BIG-RAS style power-fail line: a supply monitor pulls the pin low when the mains
+    goes (the Pi runs on on its hold-up capacitor for a moment). On that falling edge
+    ``on_fail`` runs at once, from the pin's callback thread: the app saves the state
+    there, not at the next periodic save."""
+
+    def __init__(self, factory: Any, pin: int):
+        self.on_fail: Any = None
+        self.events = 0
+        self.input = PinIn(factory, pin, on_edge=self._edge)
+
+    def _edge(self, level: bool) -> None:
+        if level:
+            return
+        self.events += 1
+        log.warning("power-fail input went low: saving the state now")
+        if self.on_fail is not None:
+            try:
+                self.on_fail()
+            except Exception:  # the callback thread must survive
+                log.exception("power-fail save failed")
+
+    def identify(self) -> str:
+        return f"{self.input.pin}: {'supply ok' if self.input.read() else 'POWER FAIL (low)'}"
+
+    def emulate_power_fail(self) -> None:
+        """Emulation: the supply monitor's output drops."""
+        self.input.pin.drive_low()
 
 
 def _limit_sync(sw: LimitSwitchInput, sim_sw: Any) -> Any:
