@@ -132,11 +132,14 @@ class Hardware:
         raise ValueError(f"no axis {name!r}: expected 'az' or 'el'")
 
     def drive_safe(self) -> None:
-        """Every output to its safe state: motors off, brakes engaged, heartbeat low.
-        Each write is tried even when another fails (start-up and every exit path)."""
+        """Every output to its safe state: motors off (positioners stopped), brakes
+        engaged, heartbeat low. Each write is tried even when another fails (start-up
+        and every exit path)."""
         writes: list[tuple[str, Callable[[], Any]]] = []
         for name, ax in (("az", self.az), ("el", self.el)):
             writes.append((f"{name} motor off", lambda ax=ax: ax.motor.set_drive(0.0)))
+            if ax.positioner is not None:  # an external controller's axis: told to stop
+                writes.append((f"{name} positioner stop", lambda ax=ax: ax.positioner.stop()))
             if ax.brake is not None:
                 writes.append((f"{name} brake on", lambda ax=ax: ax.brake.set_released(False)))
         if self.heartbeat is not None:
