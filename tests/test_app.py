@@ -36,11 +36,21 @@ def heartbeat(u: UrcProcess) -> dict:
     return read_output_file(u.state_dir / "heartbeat")
 
 
-def test_kill_9_stops_the_heartbeat(urc):
+def test_kill_stop_and_kill_9_stop_the_heartbeat(urc):
     u = urc().start()
     first = heartbeat(u)["toggles"]
     time.sleep(0.6)
     assert heartbeat(u)["toggles"] > first, "the heartbeat toggles while urc runs"
+    u.proc.send_signal(signal.SIGSTOP)  # hung: the square wave stops too
+    try:
+        time.sleep(0.2)
+        hung = heartbeat(u)
+        time.sleep(0.5)
+        assert heartbeat(u) == hung
+    finally:
+        u.proc.send_signal(signal.SIGCONT)
+    time.sleep(0.5)
+    assert heartbeat(u)["toggles"] > hung["toggles"], "and starts again when the process runs"
     u.proc.send_signal(signal.SIGKILL)
     u.proc.wait()
     dead = heartbeat(u)
