@@ -104,7 +104,9 @@ def build_rotator(cfg: Config, clock: Clock, state_dir: Path, durable_state: boo
                 settings = replace(settings,
                                az_faults=replace(settings.az_faults, overcurrent_a=default_a.get("az", 0.0)),
                                el_faults=replace(settings.el_faults, overcurrent_a=default_a.get("el", 0.0)))
-    rotator = Rotator(settings, hardware, clock, StateStore(state_dir / STATE_FILE, durable=durable_state))
+    # a backend may keep the state itself (the gpio backend's FRAM)
+    store = hardware.extra.get("state_store") or StateStore(state_dir / STATE_FILE, durable=durable_state)
+    rotator = Rotator(settings, hardware, clock, store)
     power_fail = hardware.extra.get("power_fail")
     if power_fail is not None:
         # BIG-RAS saves its position on a power-fail interrupt: so does urc, at once

@@ -156,6 +156,8 @@ class GpioSection(_Section):
     i2c_bus: int = Field(1, ge=0, le=31)
     heartbeat_pin: int | None = Field(None, ge=0, le=27)
     power_fail_pin: int | None = Field(None, ge=0, le=27)
+    #: keep the state in an I2C FRAM (MB85RC256V class, on i2c_bus) instead of a file
+    fram_address: int | None = Field(None, ge=0x03, le=0x77)
     az: GpioAxis | None = None
     el: GpioAxis | None = None
 
@@ -789,6 +791,8 @@ def _gpio_issues(cfg: Config, caps: RotatorCaps) -> list[_Issue]:
         if pin is not None:
             used[pin] = f"hardware.gpio.{key}"
     i2c: dict[tuple[int, int], tuple[str, str]] = {}
+    if g.fram_address is not None:
+        i2c[(g.i2c_bus, g.fram_address)] = ("hardware.gpio.fram_address", "fram")
     for name in ("az", "el"):
         ax = getattr(g, name)
         pre = f"hardware.gpio.{name}"

@@ -219,6 +219,14 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
     heartbeat = PinOut(factory, gpio.heartbeat_pin) if gpio.heartbeat_pin is not None else None
     extra: dict[str, Any] = {"parts": parts_list, "buses": buses, "pin_factory": factory,
                              "emulated": emulate}
+    if gpio.fram_address is not None:
+        from ..fram import FramStore
+        fram_bus = bus(gpio.i2c_bus)
+        if emulate:
+            from .emulate import FakeFram
+            fram_bus.devices[gpio.fram_address] = FakeFram(path=Path(state_dir) / "fram-emulated.bin")
+        extra["state_store"] = FramStore(fram_bus, gpio.fram_address, state_dir=Path(state_dir))
+        parts_list.append((f"FRAM 0x{gpio.fram_address:02x} (bus {gpio.i2c_bus})", extra["state_store"]))
     if gpio.power_fail_pin is not None:
         pf = PowerFailInput(factory, gpio.power_fail_pin)
         extra["power_fail"] = pf

@@ -177,3 +177,57 @@ def tilted(v: tuple[float, float, float], el_deg: float) -> tuple[float, float, 
     p = math.radians(-el_deg)
     x, y, z = v
     return (x * math.cos(p) - z * math.sin(p), y, x * math.sin(p) + z * math.cos(p))
+
+
+class FakeFram:
+    """MB85RC256V-class FRAM: 2-byte memory address, then data; reads continue from the
+    address written last (the i2c_rdwr write+read pair)."""
+
+    def __init__(self, size_bytes: int = 32768, path: Any = None):
+        self.mem = bytearray(size_bytes)
+        self.path = path             # emulation: the chip's contents outlive the process
+        if path is not None and path.exists() and path.stat().st_size == size_bytes:
+            self.mem[:] = path.read_bytes()
+        self.ptr = 0
+        self.nack = False
+        self.fail_after_bytes: int | None = None   # power cut mid-write (tests)
+
+    def write(self, reg: int, data: list[int]) -> None:
+        # write_i2c_block_data(addr, hi, [lo, *bytes])
+        self.raw_write([reg, *data])
+
+    def raw_write(self, data: list[int]) -> None:
+        a = (data[0] << 8 | data[1]) % len(self.mem)
+        for b in data[2:]:
+            if self.fail_after_bytes is not None:
+                if self.fail_after_bytes <= 0:
+                    raise OSError(121, "Remote I/O error")
+                self.fail_after_bytes -= 1
+            self.mem[a] = b
+            a = (a + 1) % len(self.mem)
+        self.ptr = a
+        if self.path is not None and len(data) > 2:
+            self.path.write_bytes(self.mem)
+
+    def read(self, reg: int, n: int) -> list[int]:
+        out = [self.mem[(self.ptr + i) % len(self.mem)] for i in range(n)]
+        self.ptr = (self.ptr + n) % len(self.mem)
+        return out
+
+
+def _rdwr(self: FakeSMBus, *msgs: Any) -> None:
+    """smbus2.SMBus.i2c_rdwr over the emulated devices (write then read messages)."""
+    import ctypes
+    for m in msgs:
+        dev = self._dev(m.addr)
+        if m.flags & 0x0001:        # I2C_M_RD
+            data = bytes(dev.read(None, m.len))
+            ctypes.memmove(m.buf, data, m.len)
+            self._rec("rd", m.addr, -1, data)
+        else:
+            data = list(bytes(m))
+            self._rec("wr", m.addr, -1, data)
+            dev.raw_write(data)
+
+
+FakeSMBus.i2c_rdwr = _rdwr  # type: ignore[attr-defined]
