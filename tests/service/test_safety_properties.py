@@ -39,9 +39,28 @@ def slack(rot, axis: str) -> float:
 @settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(steps=st.lists(step, min_size=1, max_size=5))
 def test_no_command_sequence_leaves_limits_or_enters_a_zone(profile, steps):
+    check_sequence(profile, steps)
+
+
+EXAMPLES = {p.stem: p for p in (Path(__file__).resolve().parents[2] / "examples").glob("*.toml")}
+
+
+@pytest.mark.parametrize("example", sorted(EXAMPLES))
+@settings(max_examples=4, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(steps=st.lists(step, min_size=1, max_size=4))
+def test_no_command_sequence_leaves_limits_or_enters_a_zone_on_emulated_gpio(example, steps):
+    """The same property through the gpio backend's real drivers on emulated parts."""
+    from urc.config import load_config
+    cfg = load_config(EXAMPLES[example])
+    hardware = cfg.to_dict()["hardware"]
+    hardware["gpio"]["emulate"] = True
+    check_sequence(cfg.rotator.profile, steps, hardware=hardware)
+
+
+def check_sequence(profile, steps, **config):
     with tempfile.TemporaryDirectory() as tmp:
         b = Bench(profile, Path(tmp), keepout=[MAST, NORTH_ROOF],
-                  park={"az_deg": 180.0, "el_deg": 45.0})
+                  park={"az_deg": 180.0, "el_deg": 45.0}, **config)
         rot = b.rot
         geometry = rot.geometry
         # zones shrunk by the allowed slack: the truth may graze, never enter
