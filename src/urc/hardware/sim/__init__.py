@@ -60,7 +60,7 @@ def build_sim_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
 
     return Hardware(backend="sim", az=axis_hw("az"), el=axis_hw("el"),
                     poll_hook=world.advance_to, truth_hook=truth, heartbeat=heartbeat,
-                    close_hook=world.close,
+                    close_hook=lambda: (heartbeat.close(), world.close()),
                     # what a motor driver's over-current trip would be set to: well above
                     # running current, below the stall current a jam draws
                     extra={"world": world,
