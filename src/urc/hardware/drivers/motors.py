@@ -26,6 +26,15 @@ def clamp_duty(duty: float, name: str) -> float:
     return -1.0 if duty < -1.0 else 1.0 if duty > 1.0 else duty
 
 
+def quantise_relay(duty: float, levels: tuple[float, ...]) -> float:
+    """|duty| -> nearest relay level (0 below half the smallest level), sign kept."""
+    mag = abs(duty)
+    if not levels or mag < min(levels) / 2.0:
+        return 0.0
+    best = min(levels, key=lambda lv: (abs(lv - mag), -lv))
+    return math.copysign(best, duty)
+
+
 class DirectionTracker:
     """The sign of the last non-zero drive, and listeners told just before it flips
     (a pulse counter folds the pulses counted so far into the old direction)."""
@@ -199,11 +208,7 @@ class RelayMotor(DirectionTracker):
             fast.write(False)
 
     def quantise(self, duty: float) -> float:
-        mag = abs(duty)
-        if mag < min(self.levels) / 2.0:
-            return 0.0
-        best = min(self.levels, key=lambda lv: (abs(lv - mag), -lv))
-        return math.copysign(best, duty)
+        return quantise_relay(duty, self.levels)
 
     def set_drive(self, duty: float) -> None:
         duty = clamp_duty(duty, self.name)

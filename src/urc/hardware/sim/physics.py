@@ -19,6 +19,7 @@ from __future__ import annotations
 import math
 import random
 
+from ..drivers.motors import quantise_relay
 from .params import SimAxisParams
 
 DEG2RAD = math.pi / 180.0
@@ -47,15 +48,6 @@ def _stick_slip(v: float, t_drive: float, b_damp: float, t_static: float, t_kine
         return vn if vn > 0.0 else 0.0
     vn = (v + k_dt * (t_drive + t_kinetic)) / (1.0 + k_dt * b_damp)
     return vn if vn < 0.0 else 0.0
-
-
-def quantise_relay(duty: float, levels: tuple[float, ...]) -> float:
-    """|duty| -> nearest relay level (0 below half the smallest level), sign kept."""
-    mag = abs(duty)
-    if not levels or mag < min(levels) / 2.0:
-        return 0.0
-    best = min(levels, key=lambda lv: (abs(lv - mag), -lv))
-    return math.copysign(best, duty)
 
 
 class AxisPhysics:
