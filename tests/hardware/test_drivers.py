@@ -327,3 +327,25 @@ def test_tilt_sensor():
     assert t.read_deg() == pytest.approx(33.3)
     t.set_reference_deg(30.0)
     assert t.read_deg() == pytest.approx(30.0)
+
+
+def test_soft_iron_fit_makes_the_compass_true():
+    from urc.service.calibration import fit_hard_iron, fit_soft_iron
+    caps = SensorCaps(kind="magnetometer", resolution_deg=0.1, absolute=True, modulo_deg=360.0)
+
+    def raw(psi_deg):                      # x stretched 1.25, sheared, hard iron (0.3, -0.1)
+        p = math.radians(psi_deg)
+        x, y = math.cos(p), -math.sin(p)
+        return (1.25 * x + 0.1 * y + 0.3, 0.1 * x + 0.9 * y - 0.1, 0.0)
+    samples = [raw(30 * i)[:2] for i in range(12)]
+    fit = fit_soft_iron(samples)
+    assert (fit.x, fit.y) == pytest.approx((0.3, -0.1), abs=1e-9)
+    assert fit.axis_ratio > 1.2 and fit.rms_rel < 1e-9
+    assert fit_hard_iron(samples).rms_rel > 0.05      # a circle fit would be refused
+    errs = []
+    for psi in range(0, 360, 7):
+        c = CompassSensor(caps, "az", Vec(raw(psi)), hard_iron=(fit.x, fit.y), soft_iron=fit.matrix)
+        errs.append((c.read_deg() - psi + 180) % 360 - 180)
+    # a symmetric correction leaves at most a constant rotation (taken out by the offset)
+    mean = sum(errs) / len(errs)
+    assert max(abs(e - mean) for e in errs) < 0.15

@@ -76,6 +76,49 @@ def fit_hard_iron(samples: Sequence[tuple[float, float]]) -> HardIronFit:
     return HardIronFit(a, b, radius, rms_rel, float(gaps.max()))
 
 
+@dataclass(frozen=True)
+class SoftIronFit:
+    x: float
+    y: float
+    #: row-major 2x2 matrix that turns the centred ellipse into a circle (same area)
+    matrix: tuple[float, float, float, float]
+    #: long axis / short axis of the ellipse (1 = no soft iron)
+    axis_ratio: float
+    #: RMS distance of the corrected samples from their circle, in units of its radius
+    rms_rel: float
+
+
+def fit_soft_iron(samples: Sequence[tuple[float, float]]) -> SoftIronFit:
+    """Hard and soft iron together: the ellipse the horizontal field draws.
+
+    Least squares on A x^2 + B xy + C y^2 + D x + E y = 1; the centre is the hard iron,
+    and the symmetric square root of the normalised shape matrix (scaled to keep the
+    area) maps the ellipse onto a circle: that is the soft-iron correction.
+    """
+    pts = np.asarray(samples, dtype=float)
+    if pts.ndim != 2 or pts.shape[1] != 2 or len(pts) < 5:
+        raise CalibrationError("the soft-iron fit needs at least 5 field samples (bx, by)")
+    x, y = pts[:, 0], pts[:, 1]
+    design = np.column_stack([x * x, x * y, y * y, x, y])
+    (a, b, c, d, e), *_ = np.linalg.lstsq(design, np.ones_like(x), rcond=None)
+    q = np.array([[a, b / 2], [b / 2, c]])
+    try:
+        centre = np.linalg.solve(2 * q, -np.array([d, e]))
+    except np.linalg.LinAlgError:
+        raise CalibrationError("field samples do not lie on an ellipse") from None
+    k = 1.0 + centre @ q @ centre
+    qn = q / k
+    w, v = np.linalg.eigh(qn)
+    if not (w > 0).all():
+        raise CalibrationError("field samples do not lie on an ellipse (all in one direction?)")
+    sq = v @ np.diag(np.sqrt(w)) @ v.T
+    m = sq / math.sqrt(math.sqrt(float(np.prod(w))))
+    corr = (pts - centre) @ m.T
+    r = np.hypot(corr[:, 0], corr[:, 1])
+    return SoftIronFit(float(centre[0]), float(centre[1]), tuple(float(t) for t in m.ravel()),
+                       float(math.sqrt(w.max() / w.min())), float(np.std(r) / np.mean(r)))
+
+
 def circular_mean_deg(values: Sequence[float]) -> float:
     rad = np.radians(np.asarray(values, dtype=float))
     return float(np.degrees(np.arctan2(np.sin(rad).mean(), np.cos(rad).mean())) % 360.0)
@@ -328,8 +371,21 @@ class MagnetometerCalibration(Procedure):
         self.rotator.goto(az, self._el_deg)
         self._goto_phase("moving", status)
 
+    #: an ellipse longer than this (long/short axis) is corrected for soft iron too
+    SOFT_IRON_RATIO = 1.02
+
     def _finish(self) -> None:
         fit = fit_hard_iron(self.samples)
+        soft = None
+        try:
+            soft = fit_soft_iron(self.samples)
+        except CalibrationError:
+            pass
+        if soft is not None and soft.axis_ratio > self.SOFT_IRON_RATIO and soft.rms_rel <= self.MAX_RMS_REL:
+            # an ellipse: its centre is the hard iron, its shape the soft iron
+            fit = HardIronFit(soft.x, soft.y, fit.radius, soft.rms_rel, fit.max_gap_deg)
+        else:
+            soft = None
         if fit.rms_rel > self.MAX_RMS_REL:
             raise CalibrationError(f"field samples scatter {fit.rms_rel * 100:.1f}% off the circle "
                                    "(soft iron or a magnet nearby?); calibration not applied")
@@ -338,11 +394,14 @@ class MagnetometerCalibration(Procedure):
                                    "the antenna did not turn all the way round")
         sensor = _sensor(self.rotator, self.axis)
         old = dict(sensor.calibration())
-        mech = apply_sensor_calibration(self.rotator, self.axis,
-                                        {"hard_iron_x": fit.x, "hard_iron_y": fit.y})
+        constants: dict[str, Any] = {"hard_iron_x": fit.x, "hard_iron_y": fit.y}
+        if "soft_iron" in old:
+            constants["soft_iron"] = list(soft.matrix) if soft is not None else [1.0, 0.0, 0.0, 1.0]
+        mech = apply_sensor_calibration(self.rotator, self.axis, constants)
         self.result = {"hard_iron_x": fit.x, "hard_iron_y": fit.y, "field_radius": fit.radius,
                        "rms_rel": fit.rms_rel, "max_gap_deg": fit.max_gap_deg,
                        "old_hard_iron_x": old.get("hard_iron_x"), "old_hard_iron_y": old.get("hard_iron_y"),
+                       "soft_iron": list(soft.matrix) if soft is not None else None,
                        "samples": [list(s) for s in self.samples], "position_deg": mech}
         self.progress, self.state = 1.0, "done"
         self.step = f"done: hard iron ({fit.x:+.4f}, {fit.y:+.4f}), scatter {fit.rms_rel * 100:.2f}%"
