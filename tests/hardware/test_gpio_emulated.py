@@ -132,3 +132,22 @@ def test_power_fail_edge_saves_the_state_at_once(tmp_path):
     rot.hw.extra["power_fail"].emulate_power_fail()
     after = store.load()["axes"]["az"]["mech_deg"]
     assert after == pytest.approx(pos, abs=0.6) and rot.hw.extra["power_fail"].events == 1
+
+
+def test_encoder_counting_with_motor_off_is_a_fault_that_moves_nothing(tmp_path):
+    rot, clock = emulated(next(p for p in EXAMPLES if p.stem == "tartu-urc"), tmp_path)
+    run_virtual(rot, clock, 3.0)                  # standing, motor off
+    counter = rot.hw.az.sensor.counter
+    seq = [0b00, 0b01, 0b11, 0b10]
+    state = (1 if counter.a.state else 0) << 1 | (1 if counter.b.state else 0)
+    i = seq.index(state)
+    for _ in range(30):                           # noise on A/B: 30 counts, shaft still
+        i = (i + 1) % 4
+        for pin, bit in ((counter.a, 2), (counter.b, 1)):
+            if bool(seq[i] & bit) != bool(pin.state):
+                (pin.drive_high if seq[i] & bit else pin.drive_low)()
+    s = run_virtual(rot, clock, 0.5)
+    assert any("motor off" in f.reason for f in s.faults), s.faults
+    t0 = s.sim_truth["az"]["deg"]
+    s = run_virtual(rot, clock, 3.0)
+    assert s.sim_truth["az"]["deg"] == pytest.approx(t0, abs=0.05) and s.az.duty == 0.0
