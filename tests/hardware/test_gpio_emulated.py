@@ -4,7 +4,6 @@ the pin map is validated."""
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
 import pytest

@@ -8,7 +8,6 @@ jogged briefly up and the sensor must count up: a motor turning against its sens
 
 from __future__ import annotations
 
-import math
 import time
 from typing import Any, Callable
 

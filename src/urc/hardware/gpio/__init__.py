@@ -201,16 +201,13 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
                                  active_low=cfg.limit_active_low) if f"limit_{side}" in pins else None
                 for side in ("min", "max")]
         if world is not None:
-            from .emulate import PulseDriver, QuadDriver
-            phys = world.axes[name]
             motor_hw: Any = _EmulatedMotor(motor, kind, world, name, ax_caps.drive_levels or (1.0,))
             brake_hw: Any = _EmulatedBrake(brake, world, name) if brake is not None else None
-            _feed_sensor(name, sk, world, sensor, buses.get(bus_n), cfg, syncs, factory, pins, QuadDriver, PulseDriver)
+            _feed_sensor(name, sk, world, sensor, buses.get(bus_n), cfg, syncs)
             for side, sw in zip(("min", "max"), lims):
                 sim_sw = world.limits[name][0 if side == "min" else 1]
                 if sw is not None and sim_sw is not None:
                     syncs.append(_limit_sync(sw, sim_sw))
-            del phys
         else:
             motor_hw, brake_hw = motor, brake
         axes[name] = AxisHardware(motor=motor_hw, sensor=sensor, brake=brake_hw,
@@ -307,13 +304,12 @@ def _limit_sync(sw: LimitSwitchInput, sim_sw: Any) -> Any:
     return sync
 
 
-def _feed_sensor(name: str, kind: str, world: Any, sensor: Any, bus: Any, cfg: Any, syncs: list,
-                 factory: Any, pins: dict, QuadDriver: Any, PulseDriver: Any) -> None:
+def _feed_sensor(name: str, kind: str, world: Any, sensor: Any, bus: Any, cfg: Any, syncs: list) -> None:
     """Emulation: connect the simulator to the pins / chip registers the sensor reads."""
     import random
 
     from ..sim.sensors import SimAccelerometer, SimAs5600, SimMagnetometer, SimPotAdc, SimQuadratureCounter
-    from .emulate import FakeAds1115, FakeAs5600, FakeLsm303d, tilted
+    from .emulate import FakeAds1115, FakeAs5600, FakeLsm303d, PulseDriver, QuadDriver, tilted
 
     phys = world.axes[name]
     p = world.params.axis(name).sensor
@@ -323,7 +319,7 @@ def _feed_sensor(name: str, kind: str, world: Any, sensor: Any, bus: Any, cfg: A
     if kind == "encoder":
         sim = SimQuadratureCounter(*part, counts_per_deg=round(1.0 / caps.resolution_deg))
         counter = sensor.counter
-        d = QuadDriver(counter.a, counter.b, sim.count)
+        d: Any = QuadDriver(counter.a, counter.b, sim.count)
         syncs.append(d.sync)
         # the encoder starts referenced to the true angle, as on a fresh sim rotator
         sensor.set_reference_deg(phys.sensor_side_deg())
