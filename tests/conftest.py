@@ -56,6 +56,14 @@ class Bench:
         return nxt
 
 
+def bounded(s, axis: str, slack_deg: float = 0.0) -> bool:
+    """The truth lies where urc says: within its bound if uncertain, else within
+    ``slack_deg`` (a count or two: the hold band of a known position)."""
+    ax = getattr(s, axis)
+    err = abs(ax.pos_deg - s.sim_truth[axis]["deg"])
+    return err <= ax.uncertainty_deg if ax.uncertainty_deg else err <= slack_deg
+
+
 @pytest.fixture
 def bench(tmp_path):
     def make(profile: str = "tartu-urc", exact: bool = False, **config) -> Bench:

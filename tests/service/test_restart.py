@@ -4,7 +4,7 @@ import json
 
 import pytest
 
-from conftest import ALL_PROFILES
+from conftest import ALL_PROFILES, bounded
 from urc.errors import CommandRejected
 
 
@@ -108,14 +108,6 @@ def test_calibration_and_learnt_coast_persist(bench):
     learnt = b.rot.axes["az"].law.coast_deg
     b = b.restart(clean=True)
     assert b.rot.axes["az"].law.coast_deg == pytest.approx(learnt)
-
-
-def bounded(s, axis, slack_deg=0.0):
-    """The truth lies where urc says: within its bound if uncertain, else within a count
-    or two (the hold band of a known position)."""
-    ax = getattr(s, axis)
-    err = abs(ax.pos_deg - s.sim_truth[axis]["deg"])
-    return err <= ax.uncertainty_deg if ax.uncertainty_deg else err <= slack_deg
 
 
 # ------------------------------------------------- issue 9.1: homing's search frame

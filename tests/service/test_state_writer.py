@@ -6,6 +6,7 @@ import threading
 
 import pytest
 
+from conftest import bounded
 from urc.app import build_rotator
 from urc.clock import RealClock
 from urc.config import Config
@@ -150,6 +151,4 @@ def test_failing_disk_while_moving_never_restarts_known_far_away(bench):
     store.full = True
     b.run(60.0)
     b = b.restart(clean=False)
-    s = b.rot.status()
-    err = abs(s.az.pos_deg - s.sim_truth["az"]["deg"])
-    assert (err <= s.az.uncertainty_deg) if s.az.uncertainty_deg else err < 0.5
+    assert bounded(b.rot.status(), "az", slack_deg=0.5)

@@ -414,7 +414,8 @@ class LimitSwitchHoming(Procedure):
     ``switch_deg`` is the mechanical angle at which the switch trips (BIG-RAS mounts them
     2 deg outside the working range, the default). To let the jog reach the switch even
     when the count says the axis is already at its soft limit, the search runs in a
-    temporary frame shifted to the top of the range (undone on cancel or failure).
+    temporary frame shifted to the top of the range (``Rotator.search_frame``: never
+    persisted, the axis uncertain meanwhile; undone on cancel or failure).
     """
 
     kind = "homing"
