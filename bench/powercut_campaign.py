@@ -17,11 +17,13 @@ bounds) and writes JSON (default bench/results/powercut.json).
 
 Usage: python bench/powercut_campaign.py [--cycles-per-profile 20] [--profiles a,b]
        [--seed 1] [--json PATH]
+       python bench/powercut_campaign.py --merge run1.json run2.json ... [--json PATH]
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import random
 import signal
 import sys
@@ -69,8 +71,11 @@ class Station:
 
     def start(self) -> dict | None:
         try:
-            self.proc.start(timeout_s=60.0)
+            self.proc.start(timeout_s=240.0)  # a loaded machine starts slowly
         except AssertionError as exc:
+            if self.proc.proc is not None and self.proc.proc.poll() is None:
+                self.proc.proc.kill()
+                self.proc.proc.wait()
             return {"start_failed": str(exc)[-300:]}
         return self.proc.status()
 
@@ -87,9 +92,16 @@ class Station:
         if s["faults"]:
             self.post("/api/clear-faults")
         if not s["position_known"]:
-            t = s["simulator_truth"]
-            self.post("/api/set-position", {"az_deg": t["az"]["deg"] + s["offsets"]["az"],
-                                            "el_deg": t["el"]["deg"] + s["offsets"]["el"]})
+            # re-reference the uncertain axes to the truth (a parked axis may rest a
+            # hair outside its soft limit: set-position takes values inside them)
+            body = {}
+            for axis in ("az", "el"):
+                if s[axis]["uncertainty_deg"]:
+                    lo, hi = s["limits"][axis]
+                    body[f"{axis}_deg"] = min(max(s["simulator_truth"][axis]["deg"], lo), hi) + s["offsets"][axis]
+            r = self.post("/api/set-position", body)
+            if r.status_code != 200:
+                raise AssertionError(f"set-position refused: {r.text}")
         self.proc.wait(lambda s: s["position_known"] and not s["faults"], timeout_s=10.0)
 
     def begin(self, what: str, rng: random.Random) -> str:
@@ -214,7 +226,14 @@ def main() -> None:
     ap.add_argument("--profiles", default=",".join(sorted(PROFILES)))
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--json", default="bench/results/powercut.json")
+    ap.add_argument("--merge", nargs="*", metavar="JSON",
+                    help="only tabulate the cycles of earlier runs (e.g. one per profile, run in parallel)")
     args = ap.parse_args()
+    if args.merge:
+        runs = [json.loads(Path(f).read_text()) for f in args.merge]
+        rows = [r for run in runs for r in run["cycles"]]
+        write_json({"summary": table(rows), "cycles": rows, "seeds": [run["seed"] for run in runs]}, args.json)
+        return
     rng = random.Random(args.seed)
     rows: list[dict] = []
     with tempfile.TemporaryDirectory(prefix="urc-powercut-") as d:
