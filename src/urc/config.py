@@ -141,6 +141,8 @@ class GpioAxis(_Section):
     pot_m: float | None = _num(None)
     pot_c: float | None = _num(None)
     zero_deg: float = _num(0.0)
+    #: the compass chip of a magnetometer profile: lsm303d (0x1D) or lsm303agr (0x19 + 0x1E)
+    compass: str = "lsm303d"
     declination_deg: float = _num(0.0, ge=-180.0, le=180.0)
     relay_dead_time_s: float = _num(0.5, ge=0.0, le=10.0)
     limit_active_low: bool = True
@@ -828,12 +830,16 @@ def _gpio_issues(cfg: Config, caps: RotatorCaps) -> list[_Issue]:
                                f"{used[pin]})", pin, ""))
             else:
                 used[pin] = f"{pre}.pins.{pin_name}"
-        dev = {"as5600": ("as5600", 0x36), "magnetometer": ("lsm303d", 0x1D), "pot": ("ads1115", 0x48)}.get(kind)
-        if dev is not None:
-            bus = g.i2c_bus if ax.i2c_bus is None else ax.i2c_bus
-            addr = ax.i2c_address or dev[1]
+        if kind == "magnetometer" and ax.compass not in ("lsm303d", "lsm303agr"):
+            issues.append((f"{pre}.compass", "lsm303d or lsm303agr", ax.compass, ""))
+        chips = {"as5600": [("as5600", 0x36)], "pot": [("ads1115", 0x48)],
+                 "magnetometer": [("lsm303agr", 0x19), ("lsm303agr", 0x1E)] if ax.compass == "lsm303agr"
+                 else [("lsm303d", 0x1D)]}.get(kind, [])
+        bus = g.i2c_bus if ax.i2c_bus is None else ax.i2c_bus
+        for dev in chips:
+            addr = (ax.i2c_address or dev[1]) if len(chips) == 1 else dev[1]
             other = i2c.get((bus, addr))
-            # one LSM303D serves both axes (compass and tilt), one ADS1115 both pots
+            # one LSM303 serves both axes (compass and tilt), one ADS1115 both pots
             if other is not None and other[1] != dev[0] or other is not None and dev[0] == "as5600":
                 issues.append((f"{pre}.i2c_address", f"an address free on I2C bus {bus} (0x{addr:02x} "
                                f"is {other[0]}'s; two AS5600 need two buses or a mux)", hex(addr), ""))

@@ -150,3 +150,18 @@ def test_encoder_counting_with_motor_off_is_a_fault_that_moves_nothing(tmp_path)
     t0 = s.sim_truth["az"]["deg"]
     s = run_virtual(rot, clock, 3.0)
     assert s.sim_truth["az"]["deg"] == pytest.approx(t0, abs=0.05) and s.az.duty == 0.0
+
+
+def test_sarcnet_on_an_lsm303agr(tmp_path):
+    data = with_emulation(load_config(next(p for p in EXAMPLES if p.stem == "sarcnet-mini"))).to_dict()
+    for a in ("az", "el"):
+        data["hardware"]["gpio"][a]["compass"] = "lsm303agr"
+    data["hardware"]["sim"] = {"wind": False}
+    clock = VirtualClock(1000.0)
+    rot = build_rotator(Config.from_dict(data), clock, tmp_path, durable_state=False, fast_virtual=True)
+    assert set(rot.hw.extra["buses"][1].devices) == {0x19, 0x1E}
+    rot.goto(120.0, 40.0)
+    s = run_virtual(rot, clock, 120.0, until=lambda s: not s.moving and abs(s.az_deg - 120) < 0.5
+                    and abs(s.el_deg - 40) < 0.5)
+    assert not s.faults
+    assert abs(s.sim_truth["az"]["deg"] - 120.0) < 1.0 and abs(s.sim_truth["el"]["deg"] - 40.0) < 1.0

@@ -166,3 +166,22 @@ def test_nack_retries_are_bounded_then_an_error():
     with pytest.raises(SensorError, match="I2C failed"):
         As5600Chip(bus).magnet_status()
     assert len(calls) == ATTEMPTS
+
+
+def test_lsm303agr_two_devices_byte_exact():
+    from urc.hardware.gpio.emulate import FakeLsm303agr
+    from urc.hardware.gpio.i2c import Lsm303agrChip
+    bus = FakeSMBus()
+    bus.keep_log = True
+    agr = FakeLsm303agr(lambda: (0.15, 0.0, -0.3), lambda: (0.0, 0.0, 1.0))
+    bus.devices[0x19], bus.devices[0x1E] = agr.accel, agr.mag
+    chip = Lsm303agrChip(bus)
+    m = chip.magnetic()
+    assert bus.log[:6] == [("r", 0x19, 0x0F, (0x33,)), ("r", 0x1E, 0x4F, (0x40,)),
+                           ("w", 0x19, 0x20, (0x57,)), ("w", 0x19, 0x23, (0x88,)),
+                           ("w", 0x1E, 0x60, (0x8C,)), ("w", 0x1E, 0x62, (0x10,))]
+    # 0.15 gauss / 1.5 mgauss = 100 = 0x0064; -0.3 -> -200 = 0xFF38
+    assert bus.log[6] == ("r", 0x1E, 0x68, (0x64, 0x00, 0x00, 0x00, 0x38, 0xFF))
+    assert m == pytest.approx((0.15, 0.0, -0.3))
+    assert chip.acceleration() == pytest.approx((0.0, 0.0, 1.0), abs=1e-3)
+    assert bus.log[-1][1:3] == (0x19, 0xA8)

@@ -23,7 +23,8 @@ from ..drivers import (As5600Sensor, Bts7960Motor, CompassSensor, LimitSwitchInp
                        PotSensor, PwmDirMotor, QuadratureEncoder, RelayBrake, RelayMotor,
                        SpidPulseSensor, TiltSensor, Vnh5019Motor)
 from ..interfaces import AxisHardware, Hardware
-from .i2c import Ads1115Channel, Ads1115Chip, As5600Chip, Lsm303Accel, Lsm303dChip, Lsm303Mag
+from .i2c import (Ads1115Channel, Ads1115Chip, As5600Chip, Lsm303Accel, Lsm303agrChip, Lsm303dChip,
+                  Lsm303Mag)
 from ..sim.params import PHYSICS, physics_for
 from .pins import PinIn, PinOut, PinPulseCounter, PinPwm, PinQuadrature
 
@@ -176,14 +177,18 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
             sensor = As5600Sensor(ax_caps.sensor, name, chip, zero_deg=cfg.zero_deg)
             parts_list.append((f"{name} AS5600 (bus {bus_n})", chip))
         elif sk == "magnetometer":
-            key = (bus_n, cfg.i2c_address or Lsm303dChip.ADDRESS)
-            chip = lsm.get(key) or lsm.setdefault(key, Lsm303dChip(bus(bus_n), key[1]))
+            if cfg.compass == "lsm303agr":
+                key = (bus_n, Lsm303agrChip.MAG)
+                chip = lsm.get(key) or lsm.setdefault(key, Lsm303agrChip(bus(bus_n)))
+            else:
+                key = (bus_n, cfg.i2c_address or Lsm303dChip.ADDRESS)
+                chip = lsm.get(key) or lsm.setdefault(key, Lsm303dChip(bus(bus_n), key[1]))
             if name == "az":
                 sensor = CompassSensor(ax_caps.sensor, name, Lsm303Mag(chip), Lsm303Accel(chip),
                                        declination_deg=cfg.declination_deg)
             else:
                 sensor = TiltSensor(ax_caps.sensor, name, Lsm303Accel(chip))
-            parts_list.append((f"{name} LSM303D (bus {bus_n})", chip))
+            parts_list.append((f"{name} {cfg.compass.upper()} (bus {bus_n})", chip))
         else:  # pot through an ADS1115
             chip = Ads1115Chip(bus(bus_n), cfg.i2c_address or 0x48, f"{name} ADS1115")
             adc = Ads1115Channel(chip, cfg.adc_channel, cfg.adc_reference_channel,
@@ -309,7 +314,7 @@ def _feed_sensor(name: str, kind: str, world: Any, sensor: Any, bus: Any, cfg: A
     import random
 
     from ..sim.sensors import SimAccelerometer, SimAs5600, SimMagnetometer, SimPotAdc, SimQuadratureCounter
-    from .emulate import FakeAds1115, FakeAs5600, FakeLsm303d, PulseDriver, QuadDriver, tilted
+    from .emulate import FakeAds1115, FakeAs5600, FakeLsm303agr, FakeLsm303d, PulseDriver, QuadDriver, tilted
 
     phys = world.axes[name]
     p = world.params.axis(name).sensor
@@ -351,7 +356,11 @@ def _feed_sensor(name: str, kind: str, world: Any, sensor: Any, bus: Any, cfg: A
             v = tilted(level, el_phys.sensor_side_deg())
             return (v[0] + az_p.hard_iron_x * h_gauss, v[1] + az_p.hard_iron_y * h_gauss, v[2])
 
-        bus.devices[chip.address] = FakeLsm303d(field, acc.read_vector)
+        if isinstance(chip, Lsm303agrChip):
+            agr = FakeLsm303agr(field, acc.read_vector)
+            bus.devices[Lsm303agrChip.ACCEL], bus.devices[Lsm303agrChip.MAG] = agr.accel, agr.mag
+        else:
+            bus.devices[chip.address] = FakeLsm303d(field, acc.read_vector)
         if name == "az":   # the shipped calibration, in this field's units (gauss)
             sensor.hard_iron_x, sensor.hard_iron_y = az_p.hard_iron_x * h_gauss, az_p.hard_iron_y * h_gauss
             sensor.declination_deg = az_p.declination_deg

@@ -231,3 +231,29 @@ def _rdwr(self: FakeSMBus, *msgs: Any) -> None:
 
 
 FakeSMBus.i2c_rdwr = _rdwr  # type: ignore[attr-defined]
+
+
+class FakeLsm303agr:
+    """The LSM303AGR's two I2C devices: ``accel`` at 0x19, ``mag`` at 0x1E."""
+
+    class _Dev:
+        def __init__(self, who_reg: int, who: int, out_reg: int, source: Callable[[], tuple[float, float, float]],
+                     scale: float):
+            self.regs = {who_reg: who}
+            self.out_reg, self.source, self.scale = out_reg, source, scale
+            self.nack = False
+
+        def read(self, reg: int, n: int) -> list[int]:
+            base = reg & 0x7F
+            if base == self.out_reg:
+                return FakeLsm303d._pack(self.source(), self.scale)[:n]
+            return [self.regs.get(base + i, 0) for i in range(n)]
+
+        def write(self, reg: int, data: list[int]) -> None:
+            for i, v in enumerate(data):
+                self.regs[(reg & 0x7F) + i] = v
+
+    def __init__(self, mag: Callable[[], tuple[float, float, float]],
+                 accel: Callable[[], tuple[float, float, float]]):
+        self.accel = self._Dev(0x0F, 0x33, 0x28, accel, 0.98e-3 / 16)
+        self.mag = self._Dev(0x4F, 0x40, 0x68, mag, 1.5e-3)

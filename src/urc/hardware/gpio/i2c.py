@@ -158,3 +158,51 @@ class Ads1115Channel:
 
     def read_reference_counts(self) -> int:
         return self.chip.convert(self.reference_channel)
+
+
+class Lsm303agrChip:
+    """LSM303AGR: accelerometer at 0x19 (WHO_AM_I_A 0x0F = 0x33; CTRL_REG1_A 0x20 = 0x57
+    100 Hz xyz, CTRL_REG4_A 0x23 = 0x88 block update + high resolution; OUT_X_L_A 0x28
+    with the auto-increment bit, 12 bits left-justified, ~1 mg per count) and
+    magnetometer at 0x1E (WHO_AM_I_M 0x4F = 0x40; CFG_REG_A_M 0x60 = 0x8C temperature
+    compensated, 100 Hz, continuous; CFG_REG_C_M 0x62 = 0x10 block update; OUTX_L_REG_M
+    0x68, 1.5 mgauss per count). Same vectors as :class:`Lsm303dChip`."""
+
+    ACCEL, MAG = 0x19, 0x1E
+    ACC_G_PER_LSB = 0.98e-3 / 16
+    MAG_GAUSS_PER_LSB = 1.5e-3
+    SETUP = ((0x19, 0x20, 0x57), (0x19, 0x23, 0x88), (0x1E, 0x60, 0x8C), (0x1E, 0x62, 0x10))
+    IDS = ((0x19, 0x0F, 0x33), (0x1E, 0x4F, 0x40))
+
+    def __init__(self, bus: Any, name: str = "LSM303AGR"):
+        self.bus, self.name = bus, name
+        self.address = self.MAG
+        self._ready = False
+
+    def _setup(self) -> None:
+        if self._ready:
+            return
+        for addr, reg, want in self.IDS:
+            who = with_retries(self.name, lambda: self.bus.read_byte_data(addr, reg))
+            if who != want:
+                raise PartError(f"{self.name} at 0x{addr:02x}: WHO_AM_I 0x{who:02x}, expected 0x{want:02x}")
+        for addr, reg, val in self.SETUP:
+            with_retries(self.name, lambda: self.bus.write_byte_data(addr, reg, val))
+        self._ready = True
+
+    def _vector(self, addr: int, reg: int, scale: float) -> tuple[float, float, float]:
+        self._setup()
+        data = with_retries(self.name, lambda: self.bus.read_i2c_block_data(addr, reg, 6))
+        x, y, z = struct.unpack("<hhh", bytes(data))
+        return (x * scale, y * scale, z * scale)
+
+    def magnetic(self) -> tuple[float, float, float]:
+        return self._vector(self.MAG, 0x68, self.MAG_GAUSS_PER_LSB)
+
+    def acceleration(self) -> tuple[float, float, float]:
+        return self._vector(self.ACCEL, 0x28 | 0x80, self.ACC_G_PER_LSB)
+
+    def identify(self) -> str:
+        self._ready = False
+        self._setup()
+        return "LSM303AGR at 0x19/0x1e: WHO_AM_I 0x33/0x40 (ok)"
