@@ -165,3 +165,36 @@ def test_sarcnet_on_an_lsm303agr(tmp_path):
                     and abs(s.el_deg - 40) < 0.5)
     assert not s.faults
     assert abs(s.sim_truth["az"]["deg"] - 120.0) < 1.0 and abs(s.sim_truth["el"]["deg"] - 40.0) < 1.0
+
+
+@pytest.mark.parametrize("path", EXAMPLES, ids=lambda p: p.stem)
+def test_urc_run_emulate_process(path, tmp_path):
+    """`urc run --config examples/<machine>.toml --emulate` on a laptop: it starts,
+    serves its API on the gpio backend with simulator truth, and stops on SIGTERM."""
+    import subprocess
+    import sys
+    import time
+
+    import httpx
+
+    from urc_process import free_port
+    port = free_port()
+    proc = subprocess.Popen([sys.executable, "-m", "urc", "run", "--config", str(path), "--emulate",
+                             "--state-dir", str(tmp_path / "state"), "--port", str(port)],
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    try:
+        deadline = time.monotonic() + 60
+        status = None
+        while time.monotonic() < deadline and status is None:
+            assert proc.poll() is None, proc.stdout.read()
+            try:
+                status = httpx.get(f"http://127.0.0.1:{port}/api/status", timeout=1.0).json()
+            except httpx.HTTPError:
+                time.sleep(0.2)
+        assert status is not None and status["simulator_truth"] is not None and not status["faults"]
+        info = httpx.get(f"http://127.0.0.1:{port}/api/info", timeout=2.0).json()
+        assert info["backend"] == "gpio" and info["simulator"]
+    finally:
+        proc.terminate()
+        proc.wait(timeout=30)
+    assert proc.returncode == 0
