@@ -14,12 +14,13 @@ import logging
 import math
 import os
 import random
+import threading
 import time
 from pathlib import Path
 from typing import Any
 
 from ...caps import RotatorCaps
-from ...clock import Clock
+from ...clock import Clock, VirtualClock
 from .drives import SimBrake, SimLimitSwitch, SimMotor
 from .params import SimRotatorParams
 from .physics import AxisPhysics
@@ -93,6 +94,11 @@ class SimWorld:
         self._brake_events: dict[str, tuple[float, bool]] = {}
         self._faults: dict[str, dict[str, dict[str, Any]]] = {n: {} for n in AXES}
         self._last_written: tuple | None = self._state_key() if saved is not None else None
+        # in real time the truth file is written by a thread of its own (a write can wait
+        # long for a busy disk, and the control tick advances the world); on a virtual
+        # clock it is written at once, exactly repeatable
+        self._truth_writer = _LatestWriter(self._write_truth) \
+            if self.truth_path is not None and not isinstance(clock, VirtualClock) else None
         self._last_write_s = -math.inf
         self._last_write_wall_s = -math.inf
         self._closed = False
@@ -128,7 +134,10 @@ class SimWorld:
                 and time.monotonic() - self._last_write_wall_s >= self.truth_wall_interval_s):
             key = self._state_key()
             if key != self._last_written:
-                self._write_truth()
+                if self._truth_writer is not None:
+                    self._truth_writer.submit(self._truth_record())
+                else:
+                    self._write_truth()
                 self._last_written = key
                 self._last_write_s = now_s
                 self._last_write_wall_s = time.monotonic()
@@ -177,13 +186,16 @@ class SimWorld:
         return tuple((a.gear_deg, a.gear_deg_per_s, a.load_deg, a.load_deg_per_s,
                       a.brake_engaged) for a in self.axes.values())
 
-    def _write_truth(self) -> None:
-        assert self.truth_path is not None
-        data = {"version": TRUTH_VERSION, "profile": self.caps.name, "axes": {
+    def _truth_record(self) -> dict[str, Any]:
+        return {"version": TRUTH_VERSION, "profile": self.caps.name, "axes": {
             name: {"gear_deg": a.gear_deg, "gear_deg_per_s": a.gear_deg_per_s,
                    "load_deg": a.load_deg, "load_deg_per_s": a.load_deg_per_s,
                    "brake_released": not a.brake_engaged}
             for name, a in self.axes.items()}}
+
+    def _write_truth(self, data: dict[str, Any] | None = None) -> None:
+        assert self.truth_path is not None
+        data = self._truth_record() if data is None else data
         try:
             self.truth_path.parent.mkdir(parents=True, exist_ok=True)
             tmp = self.truth_path.with_name(self.truth_path.name + ".tmp")
@@ -253,6 +265,8 @@ class SimWorld:
 
     def close(self) -> None:
         """Power down: save the truth (always) and stop driving."""
+        if self._truth_writer is not None:
+            self._truth_writer.close()
         if self.truth_path is not None:
             self._write_truth()
         self._closed = True
@@ -336,3 +350,40 @@ class SimWorld:
         """Switch the wind load on/off and optionally set its mean and gust (1-sigma)."""
         for name in ([axis] if axis else AXES):
             self.axes[name].set_wind(enabled, mean_nm, gust_nm)
+
+
+class _LatestWriter:
+    """Writes the newest of the records handed to it on a thread of its own (older ones
+    still waiting are dropped: only the latest truth matters)."""
+
+    def __init__(self, write: Any):
+        self._write = write
+        self._cv = threading.Condition()
+        self._pending: dict[str, Any] | None = None
+        self._closing = False
+        self._thread = threading.Thread(target=self._run, name="sim-truth-writer", daemon=True)
+        self._thread.start()
+
+    def submit(self, record: dict[str, Any]) -> None:
+        with self._cv:
+            self._pending = record
+            self._cv.notify()
+
+    def close(self) -> None:
+        """Stop after the record waiting, if any, is written."""
+        with self._cv:
+            self._closing = True
+            self._cv.notify()
+        self._thread.join(timeout=5.0)
+
+    def _run(self) -> None:
+        while True:
+            with self._cv:
+                while self._pending is None and not self._closing:
+                    self._cv.wait()
+                record, self._pending = self._pending, None
+                closing = self._closing
+            if record is not None:
+                self._write(record)
+            if closing:
+                return
