@@ -64,8 +64,12 @@ def bridged_caps(caps, protocol: str):
     from .hardware.bridge import make_dialect, report_caps
 
     dialect = make_dialect(protocol)
-    return replace(caps, az=replace(caps.az, sensor=report_caps(dialect, "az")),
-                   el=replace(caps.el, sensor=report_caps(dialect, "el")))
+    el = replace(caps.el, sensor=report_caps(dialect, "el"))
+    if dialect.az_modulo_deg is not None and el.max_deg > 90.0:
+        # it reports sky az/el (Easycomm, rotctld): a flipped pose would read back as
+        # its mirror image, so urc must not fly one through it (no flip, el to 90)
+        el = replace(el, max_deg=90.0, park_deg=min(el.park_deg, 90.0))
+    return replace(caps, az=replace(caps.az, sensor=report_caps(dialect, "az")), el=el)
 
 
 def hardware_options(cfg: Config, fast_virtual: bool = False) -> dict:

@@ -154,6 +154,8 @@ class Easycomm(Dialect):
 
     default_baud = 9600
     timeout_s = 0.5
+    #: Easycomm reports compass azimuth (0..360, as Hamlib reads it): keep the turn by continuity
+    az_modulo_deg = 360.0
 
     def __init__(self) -> None:
         super().__init__()
