@@ -167,3 +167,16 @@ def test_reading_extrapolates_but_never_past_the_target():
     assert c.reading("az", 0.9) == 14.0                    # the controller stops at its target
     with pytest.raises(SensorError, match="no position report"):
         c.reading("az", 100.0)
+
+
+def test_compass_azimuth_flicker_across_north_is_no_motion():
+    """rotctld and Easycomm report 0..360: 359.9 then 0.1 must not extrapolate a
+    -359.8 deg move (a 50 deg 'jump' latched a fault at start-up)."""
+    c = BridgeClient(make_dialect("easycomm3"))
+    c.link_up(0.0)
+    t = 0.1
+    for az in (359.9, 0.1, 359.9, 0.1):
+        ex, _ = c.next_exchange(t)
+        c.answered(ex, b"AZ%.1f EL5.0\n" % az, t, t)
+        t += 0.1
+    assert c.reading("az", t) == pytest.approx(0.1, abs=0.1)

@@ -141,6 +141,9 @@ class BridgeClient:
             return 0.0
         (t0, p0), (t1, p1) = self._recent[0], self._recent[-1]
         moved = p1[i] - p0[i]
+        modulo = self.dialect.az_modulo_deg if i == 0 else None
+        if modulo:  # compass azimuth: 359.9 -> 0.1 is 0.2 deg, not -359.8
+            moved = (moved + modulo / 2.0) % modulo - modulo / 2.0
         if t1 - t0 <= 0 or abs(moved) < 2.0 * self.dialect.report_resolution_deg:
             return 0.0
         return moved / (t1 - t0)
