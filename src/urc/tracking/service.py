@@ -11,6 +11,8 @@ from typing import Any, Callable
 from ..config import Config
 from .elements import Catalog
 from .errors import TrackingError
+from .pass_process import find_passes_isolated
+from .pass_process import shutdown as stop_pass_process
 from .passes import Pass, find_passes
 from .schedule import Request, build_schedule
 from ..servers.nmea_source import read_nmea
@@ -63,6 +65,7 @@ class TrackingService:
                 read_nmea(self.cfg.station.gps, self._gps_feed, self.cfg.station.gps_baud), name="gps"))
 
     def close(self) -> None:
+        stop_pass_process()
         for task in self._tasks + ([self._target_reader] if self._target_reader else []):
             task.cancel()
 
@@ -101,14 +104,18 @@ class TrackingService:
         return [{"norad": p.norad_id, "name": p.name, "aos": p.aos.isoformat(), "tca": p.tca.isoformat(),
                  "los": p.los.isoformat(), "max_el_deg": round(p.max_el_deg, 2),
                  "aos_az_deg": round(p.aos_az_deg, 2), "los_az_deg": round(p.los_az_deg, 2)}
-                for p in self.find_passes(hours, min_el_deg, sats)]
+                for p in self.find_passes(hours, min_el_deg, sats, isolated=True)]
 
-    def find_passes(self, hours: float, min_el_deg: float, sats: list[str] | None = None) -> list[Pass]:
+    def find_passes(self, hours: float, min_el_deg: float, sats: list[str] | None = None, *,
+                    isolated: bool = False) -> list[Pass]:
+        """``isolated``: search in the worker process (a search asked for over the network
+        while the control loop runs must not hold its interpreter)."""
         station = self._require_station()
         cat = self.catalog()
         chosen = [cat.get(s) for s in sats] if sats else [cat.get(e.sat) for e in self.cfg.tracking.schedule] \
             or list(cat)
-        return find_passes(chosen, station, self.now_unix(), duration_s=hours * 3600.0, min_el_deg=min_el_deg)
+        search = find_passes_isolated if isolated else find_passes
+        return search(chosen, station, self.now_unix(), duration_s=hours * 3600.0, min_el_deg=min_el_deg)
 
     # ---------------------------------------------------------------- commands
     def make_target(self, spec: dict[str, Any]) -> Target:

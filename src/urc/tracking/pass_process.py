@@ -1,0 +1,83 @@
+"""Pass searches in a separate process, so they never hold the control loop's interpreter.
+
+A search over a whole catalog is seconds of numpy and sgp4 work, much of it in C code
+that keeps Python's global lock: in the ``urc run`` process, one search delayed control
+ticks by ~150 ms (bench/loop_bench.py). A worker process has its own interpreter and lock.
+
+The worker is started once, on first use, with the ``spawn`` method (forking a process
+that runs threads can copy a held lock into the child), and is reused. sgp4's ``Satrec``
+cannot be pickled, so element sets travel as the text they were read from and are parsed
+again in the worker.
+"""
+
+from __future__ import annotations
+
+import json
+import multiprocessing
+import threading
+from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
+from typing import Any, Iterable
+
+from .elements import ElementSet, parse_omm_json, parse_tle
+from .passes import Pass, find_passes
+from .station import Station
+
+_pool: ProcessPoolExecutor | None = None
+_pool_lock = threading.Lock()
+
+
+def _portable(es: ElementSet) -> tuple[str, str, Any]:
+    """What a worker needs to rebuild ``es``: its name, source and original text."""
+    if es.tle is not None:
+        return es.name, es.source, es.tle
+    if es.omm is not None:
+        return es.name, es.source, dict(es.omm)
+    raise ValueError(f"{es.label}: no TLE or OMM text to send to the pass-search process")
+
+
+def _rebuild(item: tuple[str, str, Any]) -> ElementSet:
+    name, source, text = item
+    if isinstance(text, tuple):
+        # already checked when imported; a name line makes it a 3LE
+        return parse_tle("\n".join(([name] if name else []) + list(text)), source, checksum=False)[0]
+    return parse_omm_json(json.dumps(text), source)[0]
+
+
+def _search(items: list[tuple[str, str, Any]], station: Station, start_unix_s: float,
+            duration_s: float, min_el_deg: float) -> list[Pass]:
+    return find_passes([_rebuild(i) for i in items], station, start_unix_s,
+                       duration_s=duration_s, min_el_deg=min_el_deg)
+
+
+def _executor() -> ProcessPoolExecutor:
+    global _pool
+    with _pool_lock:
+        if _pool is None:
+            _pool = ProcessPoolExecutor(max_workers=1, mp_context=multiprocessing.get_context("spawn"))
+        return _pool
+
+
+def find_passes_isolated(sats: Iterable[ElementSet], station: Station, start_unix_s: float, *,
+                         duration_s: float, min_el_deg: float) -> list[Pass]:
+    """:func:`~urc.tracking.passes.find_passes` run in the worker process (blocking: call
+    it from a worker thread). A worker that died is replaced once."""
+    items = [_portable(es) for es in sats]
+    args = (_search, items, station, start_unix_s, duration_s, min_el_deg)
+    try:
+        return _executor().submit(*args).result()
+    except BrokenProcessPool:
+        shutdown()  # the worker died (killed, out of memory): start a new one, once
+        return _executor().submit(*args).result()
+
+
+def shutdown() -> None:
+    """Stop the worker (at exit; a broken one before it is replaced)."""
+    global _pool
+    with _pool_lock:
+        pool, _pool = _pool, None
+    if pool is not None:
+        pool.shutdown(wait=False, cancel_futures=True)
+
+
+__all__ = ["find_passes_isolated", "shutdown"]
