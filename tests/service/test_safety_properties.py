@@ -8,7 +8,7 @@ import tempfile
 from pathlib import Path
 
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 from conftest import ALL_PROFILES, Bench
@@ -38,6 +38,10 @@ def slack(rot, axis: str) -> float:
 @pytest.mark.parametrize("profile", ALL_PROFILES)
 @settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(steps=st.lists(step, min_size=1, max_size=5))
+# found by this property on tartu-urc: stopping the elevation of a track left the azimuth
+# following it, and a jog down then ran into the mast under the moving azimuth
+@example(steps=[(("goto", 0.0, math.nan), 3.29), (("track", 138.01, 59.87, -0.899, 0.0), 2.59),
+                (("stop", "el"), 6.91), (("move", "el", -1, 0.59), 4.55)])
 def test_no_command_sequence_leaves_limits_or_enters_a_zone(profile, steps):
     check_sequence(profile, steps)
 

@@ -807,10 +807,13 @@ class Rotator:
 
         def apply() -> None:
             self._parked = self._parking = False
-            if self._route or self._tracking:
+            others = [n for n in AXES if n != axis]
+            if self._route or self._tracking or any(
+                    self.axes[n].sp is not None and self.axes[n].sp.rate_deg_per_s for n in others):
                 # the other axis was flying a route or a track planned for both axes
-                # together; alone it could carry the jog into a zone: stop it too
-                self._stop_axes([n for n in AXES if n != axis])
+                # together (or is still following a track whose other axis was stopped);
+                # alone it could carry the jog into a zone: stop it too
+                self._stop_axes(others)
             self._tracking = False
             self._route = []
             ax.sp = law.Setpoint(end, 0.0, self.clock.now_s(), speed_cap_deg_per_s=cap, seq=self._next_seq())
