@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import json
 import multiprocessing
+import os
 import threading
 from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
@@ -50,11 +51,23 @@ def _search(items: list[tuple[str, str, Any]], station: Station, start_unix_s: f
                        duration_s=duration_s, min_el_deg=min_el_deg)
 
 
+def _lowest_priority() -> None:
+    """In the worker: run only when nothing else wants the CPU. On two cores a search at
+    normal priority takes CPU time from the controller's event-loop thread, and while
+    that thread waits for a core holding Python's global lock, the control thread waits
+    for the lock (a priority inversion of tens of ms)."""
+    try:
+        os.sched_setscheduler(0, os.SCHED_IDLE, os.sched_param(0))
+    except (AttributeError, OSError):
+        os.nice(19)
+
+
 def _executor() -> ProcessPoolExecutor:
     global _pool
     with _pool_lock:
         if _pool is None:
-            _pool = ProcessPoolExecutor(max_workers=1, mp_context=multiprocessing.get_context("spawn"))
+            _pool = ProcessPoolExecutor(max_workers=1, mp_context=multiprocessing.get_context("spawn"),
+                                        initializer=_lowest_priority)
         return _pool
 
 

@@ -18,7 +18,7 @@ import asyncio
 import math
 import time
 from collections import OrderedDict
-from typing import Callable
+from typing import Any, Callable
 
 from fastapi import HTTPException
 
@@ -37,13 +37,13 @@ RETRY = {"Retry-After": str(int(CACHE_S))}
 
 
 class PassSearch:
-    def __init__(self, search: Callable[[float, float], list[dict]], *, timeout_s: float = TIMEOUT_S,
+    def __init__(self, search: Callable[[float, float], Any], *, timeout_s: float = TIMEOUT_S,
                  max_waiting: int = MAX_WAITING, cache_s: float = CACHE_S):
         self.search = search
         self.timeout_s = timeout_s
         self.max_waiting = max_waiting
         self.cache_s = cache_s
-        self._cache: OrderedDict[tuple[float, float], tuple[float, list[dict]]] = OrderedDict()
+        self._cache: OrderedDict[tuple[float, float], tuple[float, Any]] = OrderedDict()
         self._pending: dict[tuple[float, float], asyncio.Future] = {}
         self._one_at_a_time = asyncio.Semaphore(1)
         self.searches = 0  # how many ran (for tests and the log)
@@ -52,7 +52,7 @@ class PassSearch:
     def key(hours: float, min_el_deg: float) -> tuple[float, float]:
         return float(min(math.ceil(hours), MAX_HOURS)), float(round(min_el_deg))
 
-    async def get(self, hours: float, min_el_deg: float) -> list[dict]:
+    async def get(self, hours: float, min_el_deg: float) -> Any:
         key = self.key(hours, min_el_deg)
         hit = self._cache.get(key)
         if hit is not None and time.monotonic() - hit[0] < self.cache_s:
@@ -70,7 +70,7 @@ class PassSearch:
             raise HTTPException(503, f"pass search took longer than {self.timeout_s:g} s: "
                                      "try again later (the result is being computed)", headers=RETRY) from None
 
-    async def _run(self, key: tuple[float, float]) -> list[dict]:
+    async def _run(self, key: tuple[float, float]) -> Any:
         try:
             async with self._one_at_a_time:
                 self.searches += 1

@@ -22,11 +22,12 @@ from __future__ import annotations
 
 import asyncio
 import inspect
+import json
 import logging
 from datetime import datetime
 from typing import Any, Literal
 
-from fastapi import APIRouter, Depends, HTTPException, Query
+from fastapi import APIRouter, Depends, HTTPException, Query, Response
 from pydantic import BaseModel, Field, model_validator
 
 from ..errors import CommandRejected, UrcError
@@ -104,18 +105,23 @@ def router(ctx: WebContext) -> APIRouter:
     control = dict(dependencies=[Depends(ctx.control)], responses=CONTROL_RESPONSES)
     trk = ctx.tracker
 
-    search = PassSearch(lambda hours, min_el_deg: _sync_call(trk.passes, hours=hours, min_el_deg=min_el_deg))
+    # encoded once per search in the worker thread and served as bytes: every open
+    # dashboard asks for the same list, and validating and encoding a few hundred passes
+    # per request kept the event loop busy and the control thread waiting for the GIL
+    search = PassSearch(lambda hours, min_el_deg: json.dumps(
+        _sync_call(trk.passes, hours=hours, min_el_deg=min_el_deg)).encode())
 
     @r.get("/api/passes", response_model=list[PassInfo],
            responses={503: {"model": Problem, "description": "the pass search is busy or took too long"}})
     async def passes(hours: float = Query(24.0, gt=0.0, le=MAX_HOURS),
                      min_el: float | None = Query(None, ge=0.0, le=90.0,
                                                   description="default: the tracker's tracking.min_el_deg")
-                     ) -> list[dict]:
+                     ) -> Response:
         """Passes of the catalog's satellites over the station in the next ``hours``.
         AOS and LOS are where the pass crosses ``min_el`` (by default the elevation the
         tracker flies passes from, so this list and a pass's plan agree)."""
-        return await search.get(hours, ctx.cfg.tracking.min_el_deg if min_el is None else min_el)
+        return Response(await search.get(hours, ctx.cfg.tracking.min_el_deg if min_el is None else min_el),
+                        media_type="application/json")
 
     @r.post("/api/track", **control)
     async def track(req: TrackRequest) -> Ok:
