@@ -7,7 +7,9 @@ cd "$(dirname "$0")/.."
 # Debian packages the tests drive for real: Hamlib's own rotctl/rotctld clients, and
 # Chromium for the dashboard's browser tests (Playwright drives /usr/bin/chromium; it
 # never downloads a browser of its own).
-DEB_PACKAGES=(libhamlib-utils chromium)
+# gcc, the kernel and Python headers: pip builds evdev's C extension (IR remote tests)
+# from source where no wheel fits; systemd's own systemd-analyze checks urc's unit file.
+DEB_PACKAGES=(libhamlib-utils chromium gcc linux-libc-dev python3-dev systemd)
 missing=()
 for pkg in "${DEB_PACKAGES[@]}"; do
   dpkg -s "$pkg" >/dev/null 2>&1 || missing+=("$pkg")
