@@ -345,7 +345,8 @@ def test_stop_and_fault_stay_in_view_at_every_size(tmp_path, open_page, artifact
     u = UrcProcess(tmp_path, profile="berkeley", extra=f'host = "0.0.0.0"\ntoken = "{TOKEN}"\n').start()
     try:
         page = open_page(u.url + "/", *size)
-        assert page.locator("#token-form").is_visible()
+        # shown once the page has read /api/info (a remote listener): wait for it
+        expect(page.locator("#token-form")).to_be_visible(timeout=5000)
         assert in_viewport(page, "#stop-btn")
         assert page.evaluate("() => document.documentElement.scrollWidth") <= size[0]   # no sideways scrolling
         r = httpx.post(u.url + "/api/sim/fault", json={"axis": "el", "kind": "sensor_dead"},
