@@ -115,22 +115,65 @@ def test_magnet_too_weak_is_a_fault(tmp_path):
     assert any("too weak" in f.reason for f in s.faults), s.faults
 
 
-def test_power_fail_edge_saves_the_state_at_once(tmp_path):
-    from urc.persistence import StateStore
-    data = with_emulation(load_config(next(p for p in EXAMPLES if p.stem == "bigras"))).to_dict()
+def _power_fail_rig(tmp_path, machine: str):
+    data = with_emulation(load_config(next(p for p in EXAMPLES if p.stem == machine))).to_dict()
     data["hardware"]["sim"] = {"wind": False}
+    data["hardware"]["gpio"].setdefault("power_fail_pin", 25)
     data.setdefault("state", {})["save_interval_s"] = 10.0
     clock = VirtualClock(1000.0)
-    rot = build_rotator(Config.from_dict(data), clock, tmp_path, durable_state=False)
-    rot.goto(60.0, 20.0)
+    return build_rotator(Config.from_dict(data), clock, tmp_path, durable_state=False), clock
+
+
+def _pin_drives(ax) -> list[float]:
+    """What the motor driver's output pins put on the bridge now (read back from the pins)."""
+    m = ax.motor.driver
+    pins = [getattr(m, n) for n in ("pwm", "rpwm", "lpwm", "pwm_out") if hasattr(m, n)]
+    return [p.read_back() for p in pins]
+
+
+@pytest.mark.parametrize("machine", ["bigras", "tartu-urc"])
+def test_power_fail_edge_stops_the_motors_brakes_saves_and_shows_a_fault(tmp_path, machine):
+    from urc.persistence import StateStore
+    rot, clock = _power_fail_rig(tmp_path, machine)
+    rot.goto(120.0, 40.0)
     run_virtual(rot, clock, 6.0)              # moving; the last periodic record is older
+    assert any(d > 0 for d in _pin_drives(rot.hw.az)), "the az motor should be driving"
+    if rot.hw.az.brake is not None:
+        assert rot.hw.az.brake.driver.coil.read_back()
     store = StateStore(tmp_path / "state.json")
     before = store.load()["axes"]["az"]["mech_deg"]
     pos = rot.status().az.pos_deg
     assert abs(before - pos) > 1.0
     rot.hw.extra["power_fail"].emulate_power_fail()
+    # at once, before any further tick: every motor pin off, brake coils released (engaged)
+    for ax in (rot.hw.az, rot.hw.el):
+        assert _pin_drives(ax) == [0.0] * len(_pin_drives(ax))
+        if ax.brake is not None:
+            assert not ax.brake.driver.coil.read_back()
     after = store.load()["axes"]["az"]["mech_deg"]
     assert after == pytest.approx(pos, abs=0.6) and rot.hw.extra["power_fail"].events == 1
+    s = rot.status()
+    assert [f.kind for f in s.faults] == ["power_fail"] and "motors stopped" in s.faults[0].reason
+    # the loop does not drive again, and motion is refused until the fault is cleared
+    t0 = run_virtual(rot, clock, 3.0).sim_truth["az"]["deg"]
+    s = run_virtual(rot, clock, 3.0)
+    assert s.sim_truth["az"]["deg"] == pytest.approx(t0, abs=0.05) and s.az.duty == 0.0
+    with pytest.raises(Exception, match="fault"):
+        rot.goto(10.0, 10.0)
+    rot.hw.extra["power_fail"].emulate_power_back()
+    rot.clear_faults()
+    rot.goto(100.0, 30.0)
+    s = run_virtual(rot, clock, 2.0)
+    assert not s.faults and any(d > 0 for d in _pin_drives(rot.hw.az))
+
+
+def test_power_fail_input_low_at_start_is_a_fault(tmp_path, monkeypatch):
+    from urc.hardware.gpio import PowerFailInput
+    monkeypatch.setattr(PowerFailInput, "supply_ok", lambda self: False)   # no edge will come
+    rot, clock = _power_fail_rig(tmp_path, "bigras")
+    assert [f.kind for f in rot.status().faults] == ["power_fail"]
+    with pytest.raises(Exception, match="fault"):
+        rot.goto(60.0, 20.0)
 
 
 def test_encoder_counting_with_motor_off_is_a_fault_that_moves_nothing(tmp_path):

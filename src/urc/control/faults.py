@@ -20,7 +20,7 @@ RANGE_MARGIN_DEG = 10.0
 @dataclass(frozen=True)
 class Fault:
     kind: str  # stall, runaway, sensor_stuck, sensor_jump, sensor_range, sensor_dead,
-    #            limit_switch, overcurrent, watchdog, state
+    #            limit_switch, overcurrent, watchdog, state, power_fail
     axis: str | None
     reason: str
     t_s: float

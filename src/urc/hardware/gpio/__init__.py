@@ -271,31 +271,39 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
 class PowerFailInput:
     """BIG-RAS style power-fail line: a supply monitor pulls the pin low when the mains
     goes (the Pi runs on on its hold-up capacitor for a moment). On that falling edge
-    ``on_fail`` runs at once, from the pin's callback thread: the app saves the state
-    there, not at the next periodic save."""
+    ``on_fail`` runs at once, from the pin's callback thread: the app stops the motors,
+    engages the brakes, latches a ``power_fail`` fault and saves the state there
+    (:meth:`urc.service.rotator.Rotator.power_fail`), not at the next tick or save."""
 
     def __init__(self, factory: Any, pin: int):
         self.on_fail: Any = None
         self.events = 0
         self.input = PinIn(factory, pin, on_edge=self._edge)
 
+    def supply_ok(self) -> bool:
+        return self.input.read()
+
     def _edge(self, level: bool) -> None:
         if level:
+            log.warning("power-fail input high again: supply back (the fault stays until cleared)")
             return
         self.events += 1
-        log.warning("power-fail input went low: saving the state now")
+        log.warning("power-fail input went low: stopping the motors and saving the state now")
         if self.on_fail is not None:
             try:
                 self.on_fail()
             except Exception:  # the callback thread must survive
-                log.exception("power-fail save failed")
+                log.exception("power-fail handling failed")
 
     def identify(self) -> str:
-        return f"{self.input.pin}: {'supply ok' if self.input.read() else 'POWER FAIL (low)'}"
+        return f"{self.input.pin}: {'supply ok' if self.supply_ok() else 'POWER FAIL (low)'}"
 
     def emulate_power_fail(self) -> None:
         """Emulation: the supply monitor's output drops."""
         self.input.pin.drive_low()
+
+    def emulate_power_back(self) -> None:
+        self.input.pin.drive_high()
 
 
 def _limit_sync(sw: LimitSwitchInput, sim_sw: Any) -> Any:
