@@ -133,6 +133,8 @@ class GpioAxis(_Section):
     #: I2C bus for this axis' chip (None = [hardware.gpio] i2c_bus) and its address
     i2c_bus: int | None = Field(None, ge=0, le=31)
     i2c_address: int | None = Field(None, ge=0x03, le=0x77)
+    #: the chip sits on this channel of the bus's TCA9548A mux (None = on the bus itself)
+    i2c_mux_channel: int | None = Field(None, ge=0, le=7)
     #: pot through an ADS1115: the pot's input and the input wired to the pot supply
     adc_channel: int = Field(0, ge=-100, le=100)
     adc_reference_channel: int = Field(3, ge=-100, le=100)
@@ -156,6 +158,8 @@ class GpioSection(_Section):
     #: run the real drivers on pins and chips emulated from the simulator
     emulate: bool = False
     i2c_bus: int = Field(1, ge=0, le=31)
+    #: the TCA9548A's address (A2..A0 straps) on any bus an axis uses i2c_mux_channel on
+    i2c_mux_address: int = Field(0x70, ge=0x70, le=0x77)
     heartbeat_pin: int | None = Field(None, ge=0, le=27)
     power_fail_pin: int | None = Field(None, ge=0, le=27)
     #: keep the state in an I2C FRAM (MB85RC256V class, on i2c_bus) instead of a file
@@ -792,9 +796,11 @@ def _gpio_issues(cfg: Config, caps: RotatorCaps) -> list[_Issue]:
     for key, pin in (("heartbeat_pin", g.heartbeat_pin), ("power_fail_pin", g.power_fail_pin)):
         if pin is not None:
             used[pin] = f"hardware.gpio.{key}"
-    i2c: dict[tuple[int, int], tuple[str, str]] = {}
+    #: (bus, mux channel or None, address) -> (key, chip)
+    i2c: dict[tuple[int, int | None, int], tuple[str, str]] = {}
     if g.fram_address is not None:
-        i2c[(g.i2c_bus, g.fram_address)] = ("hardware.gpio.fram_address", "fram")
+        i2c[(g.i2c_bus, None, g.fram_address)] = ("hardware.gpio.fram_address", "fram")
+    muxed_buses: set[int] = set()
     for name in ("az", "el"):
         ax = getattr(g, name)
         pre = f"hardware.gpio.{name}"
@@ -836,14 +842,26 @@ def _gpio_issues(cfg: Config, caps: RotatorCaps) -> list[_Issue]:
                  "magnetometer": [("lsm303agr", 0x19), ("lsm303agr", 0x1E)] if ax.compass == "lsm303agr"
                  else [("lsm303d", 0x1D)]}.get(kind, [])
         bus = g.i2c_bus if ax.i2c_bus is None else ax.i2c_bus
+        ch = ax.i2c_mux_channel
+        if ch is not None:
+            muxed_buses.add(bus)
+            if not chips:
+                issues.append((f"{pre}.i2c_mux_channel", f"no mux channel (the {kind} sensor has no "
+                               "I2C chip)", ch, ""))
+        where = f"I2C bus {bus}" + ("" if ch is None else f" mux channel {ch}")
         for dev in chips:
             addr = (ax.i2c_address or dev[1]) if len(chips) == 1 else dev[1]
-            other = i2c.get((bus, addr))
-            # one LSM303 serves both axes (compass and tilt), one ADS1115 both pots
-            if other is not None and other[1] != dev[0] or other is not None and dev[0] == "as5600":
-                issues.append((f"{pre}.i2c_address", f"an address free on I2C bus {bus} (0x{addr:02x} "
-                               f"is {other[0]}'s; two AS5600 need two buses or a mux)", hex(addr), ""))
-            i2c[(bus, addr)] = (pre, dev[0])
+            # a chip on the bus itself meets every mux channel's chips at its address
+            for (b, c, a), other in i2c.items():
+                if b != bus or a != addr or (c is not None and ch is not None and c != ch):
+                    continue
+                # one LSM303 serves both axes (compass and tilt), one ADS1115 both pots
+                if c != ch or other[1] != dev[0] or dev[0] == "as5600":
+                    issues.append((f"{pre}.i2c_address", f"an address free on {where} (0x{addr:02x} is "
+                                   f"{other[0]}'s; two AS5600 need two buses or two channels of a "
+                                   "TCA9548A mux: i2c_mux_channel)", hex(addr), ""))
+                    break
+            i2c[(bus, ch, addr)] = (pre, dev[0])
         if kind == "pot":
             n = _ADC_CHANNELS["ads1115"]
             for key in ("adc_channel", "adc_reference_channel"):
@@ -853,6 +871,11 @@ def _gpio_issues(cfg: Config, caps: RotatorCaps) -> list[_Issue]:
             if ax.adc_channel == ax.adc_reference_channel:
                 issues.append((f"{pre}.adc_reference_channel", "an input other than adc_channel "
                                "(the pot supply)", ax.adc_reference_channel, ""))
+    for bus in sorted(muxed_buses):
+        for (b, _c, a), other in i2c.items():
+            if b == bus and a == g.i2c_mux_address:
+                issues.append(("hardware.gpio.i2c_mux_address", f"an address free on I2C bus {bus} for "
+                               f"the TCA9548A (0x{a:02x} is {other[0]}'s)", hex(a), ""))
     return issues
 
 

@@ -83,6 +83,24 @@ def test_two_as5600_on_one_bus_and_adc_channel_range():
         Config.from_dict(d)
     d["hardware"]["gpio"]["el"]["i2c_bus"] = 3
     Config.from_dict(d)
+    del d["hardware"]["gpio"]["el"]["i2c_bus"]
+    # one bus through a TCA9548A: two channels are fine, one channel is not
+    d["hardware"]["gpio"]["az"]["i2c_mux_channel"] = 0
+    d["hardware"]["gpio"]["el"]["i2c_mux_channel"] = 0
+    with pytest.raises(ConfigError, match=r"el.i2c_address.*bus 1 mux channel 0.*0x36"):
+        Config.from_dict(d)
+    d["hardware"]["gpio"]["el"]["i2c_mux_channel"] = 8
+    with pytest.raises(ConfigError, match=r"i2c_mux_channel"):
+        Config.from_dict(d)
+    d["hardware"]["gpio"]["el"]["i2c_mux_channel"] = 1
+    Config.from_dict(d)
+    del d["hardware"]["gpio"]["az"]["i2c_mux_channel"]     # one on the bus itself meets every channel
+    with pytest.raises(ConfigError, match=r"el.i2c_address.*0x36"):
+        Config.from_dict(d)
+    d["hardware"]["gpio"]["az"]["i2c_mux_channel"] = 0
+    d["hardware"]["gpio"]["fram_address"] = 0x70             # a chip where the mux answers
+    with pytest.raises(ConfigError, match=r"i2c_mux_address.*TCA9548A"):
+        Config.from_dict(d)
     g = {"rotator": {"profile": "g5500"}, "hardware": {"backend": "gpio", "gpio": {
         "az": {"motor": "relay", "pins": {"cw": 5, "ccw": 6}, "adc_channel": 4},
         "el": {"motor": "relay", "pins": {"cw": 20, "ccw": 21}, "adc_channel": 1}}}}
@@ -94,7 +112,7 @@ def test_i2c_nack_is_a_sensor_fault_that_never_moves(tmp_path):
     rot, clock = emulated(next(p for p in EXAMPLES if p.stem == "berkeley"), tmp_path)
     run_virtual(rot, clock, 0.5)
     bus = rot.hw.extra["buses"][1]
-    bus.devices[0x36].nack = True
+    bus.mux_channel(0x70, 0)[0x36].nack = True
     s = run_virtual(rot, clock, 1.0)
     assert any("I2C" in f.reason for f in s.faults), s.faults
     t0 = s.sim_truth["az"]["deg"]
@@ -110,7 +128,7 @@ def test_magnet_too_weak_is_a_fault(tmp_path):
     from urc.hardware.parts import MagnetStatus
     rot, clock = emulated(next(p for p in EXAMPLES if p.stem == "berkeley"), tmp_path)
     run_virtual(rot, clock, 0.5)
-    rot.hw.extra["buses"][3].devices[0x36].status = MagnetStatus(True, too_weak=True)
+    rot.hw.extra["buses"][1].mux_channel(0x70, 1)[0x36].status = MagnetStatus(True, too_weak=True)
     s = run_virtual(rot, clock, 1.0)
     assert any("too weak" in f.reason for f in s.faults), s.faults
 

@@ -185,3 +185,41 @@ def test_lsm303agr_two_devices_byte_exact():
     assert m == pytest.approx((0.15, 0.0, -0.3))
     assert chip.acceleration() == pytest.approx((0.0, 0.0, 1.0), abs=1e-3)
     assert bus.log[-1][1:3] == (0x19, 0xA8)
+
+
+def test_two_as5600_at_0x36_through_a_tca9548a_byte_exact():
+    from urc.hardware.gpio.i2c import Tca9548aMux
+    bus = FakeSMBus()
+    bus.keep_log = True
+    bus.mux_channel(0x70, 0)[0x36] = FakeAs5600(lambda: 0x0123)
+    bus.mux_channel(0x70, 1)[0x36] = FakeAs5600(lambda: 0x0ABC)
+    with pytest.raises(OSError):            # power-up: no channel selected, nobody at 0x36
+        bus.read_byte_data(0x36, 0x0B)
+    bus.log.clear()
+    mux = Tca9548aMux(bus, 0x70)
+    az, el = As5600Chip(mux.channel(0)), As5600Chip(mux.channel(1))
+    assert az.read_raw_angle() == 0x0123 and az.read_raw_angle() == 0x0123
+    assert el.read_raw_angle() == 0x0ABC and az.read_raw_angle() == 0x0123
+    # the control byte (bit n = channel n) is written only when the channel changes
+    assert bus.log == [("wb", 0x70, -1, (0x01,)), ("r", 0x36, 0x0C, (0x01, 0x23)),
+                       ("r", 0x36, 0x0C, (0x01, 0x23)),
+                       ("wb", 0x70, -1, (0x02,)), ("r", 0x36, 0x0C, (0x0A, 0xBC)),
+                       ("wb", 0x70, -1, (0x01,)), ("r", 0x36, 0x0C, (0x01, 0x23))]
+    assert "channel 0 selected" in mux.identify()
+    # both channels at once: the two chips answer together (wired-AND on SDA)
+    bus.write_byte(0x70, 0x03)
+    assert bus.read_i2c_block_data(0x36, 0x0C, 2) == [0x01 & 0x0A, 0x23 & 0xBC]
+    # a mux reset (glitch) behind the driver's back: the retry selects the channel again
+    bus.devices[0x70].control = 0
+    mux._selected = 1
+    assert el.read_raw_angle() == 0x0ABC
+    assert bus.devices[0x70].control == 0x02
+
+
+def test_mux_nack_is_retried_then_a_sensor_error():
+    from urc.hardware.gpio.i2c import Tca9548aMux
+    bus = FakeSMBus()
+    bus.mux_channel(0x70, 2)[0x36] = FakeAs5600(lambda: 7)
+    bus.devices[0x70].nack = True          # the mux itself does not answer
+    with pytest.raises(SensorError, match="I2C failed"):
+        As5600Chip(Tca9548aMux(bus, 0x70).channel(2)).read_raw_angle()

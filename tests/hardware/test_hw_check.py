@@ -56,8 +56,8 @@ def test_relay_machine_reversed_fix_names_its_pins(tmp_path):
 
 def test_magnet_and_i2c_problems_are_reported(tmp_path):
     cfg, caps, clock, hw = emulated_hw("berkeley", tmp_path)
-    hw.extra["buses"][1].devices[0x36].status = MagnetStatus(True, too_strong=True)
-    hw.extra["buses"][3].devices[0x36].nack = True
+    hw.extra["buses"][1].mux_channel(0x70, 0)[0x36].status = MagnetStatus(True, too_strong=True)
+    hw.extra["buses"][1].mux_channel(0x70, 1)[0x36].nack = True
     n, text = run_check(cfg, caps, clock, hw, move=False)
     assert n >= 2
     assert "too strong" in text and "I2C failed" in text

@@ -24,7 +24,7 @@ from ..drivers import (As5600Sensor, Bts7960Motor, CompassSensor, LimitSwitchInp
                        SpidPulseSensor, TiltSensor, Vnh5019Motor)
 from ..interfaces import AxisHardware, Hardware
 from .i2c import (Ads1115Channel, Ads1115Chip, As5600Chip, Lsm303Accel, Lsm303agrChip, Lsm303dChip,
-                  Lsm303Mag)
+                  Lsm303Mag, Tca9548aMux)
 from ..sim.params import PHYSICS, physics_for
 from .pins import PinIn, PinOut, PinPulseCounter, PinPwm, PinQuadrature
 
@@ -130,8 +130,19 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
                                       key="hardware.gpio.i2c_bus", expected="an I2C bus", found=n) from exc
             return buses[n]
 
+    muxes: dict[int, Tca9548aMux] = {}
+
+    def chip_bus(n: int, channel: int | None) -> Any:
+        """The bus a chip talks on: the bus itself, or one channel of its TCA9548A."""
+        if channel is None:
+            return bus(n)
+        if n not in muxes:
+            muxes[n] = Tca9548aMux(bus(n), gpio.i2c_mux_address)
+            parts_list.append((f"TCA9548A 0x{gpio.i2c_mux_address:02x} (bus {n})", muxes[n]))
+        return muxes[n].channel(channel)
+
     syncs: list[Any] = []
-    lsm: dict[tuple[int, int], Lsm303dChip] = {}
+    lsm: dict[tuple[int, int | None, int], Lsm303dChip] = {}
     axes: dict[str, AxisHardware] = {}
     parts_list: list[tuple[str, Any]] = []
     for name in ("az", "el"):
@@ -162,6 +173,8 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
                                reverse_dead_time_s=cfg.relay_dead_time_s)
         sk = ax_caps.sensor.kind
         bus_n = cfg.i2c_bus if cfg.i2c_bus is not None else gpio.i2c_bus
+        mux_ch = cfg.i2c_mux_channel
+        on_bus = f"bus {bus_n}" + ("" if mux_ch is None else f" mux ch{mux_ch}")
         sensor: Any
         if sk == "encoder":
             counter = PinQuadrature(factory, pins["enc_a"], pins["enc_b"], pins.get("enc_z"))
@@ -173,24 +186,24 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
             sensor = SpidPulseSensor(ax_caps.sensor, name, counter, motor)
             parts_list.append((f"{name} pulse counter", counter))
         elif sk == "as5600":
-            chip = As5600Chip(bus(bus_n), cfg.i2c_address or As5600Chip.ADDRESS, f"{name} AS5600")
+            chip = As5600Chip(chip_bus(bus_n, mux_ch), cfg.i2c_address or As5600Chip.ADDRESS, f"{name} AS5600")
             sensor = As5600Sensor(ax_caps.sensor, name, chip, zero_deg=cfg.zero_deg)
-            parts_list.append((f"{name} AS5600 (bus {bus_n})", chip))
+            parts_list.append((f"{name} AS5600 ({on_bus})", chip))
         elif sk == "magnetometer":
             if cfg.compass == "lsm303agr":
-                key = (bus_n, Lsm303agrChip.MAG)
-                chip = lsm.get(key) or lsm.setdefault(key, Lsm303agrChip(bus(bus_n)))
+                key = (bus_n, mux_ch, Lsm303agrChip.MAG)
+                chip = lsm.get(key) or lsm.setdefault(key, Lsm303agrChip(chip_bus(bus_n, mux_ch)))
             else:
-                key = (bus_n, cfg.i2c_address or Lsm303dChip.ADDRESS)
-                chip = lsm.get(key) or lsm.setdefault(key, Lsm303dChip(bus(bus_n), key[1]))
+                key = (bus_n, mux_ch, cfg.i2c_address or Lsm303dChip.ADDRESS)
+                chip = lsm.get(key) or lsm.setdefault(key, Lsm303dChip(chip_bus(bus_n, mux_ch), key[2]))
             if name == "az":
                 sensor = CompassSensor(ax_caps.sensor, name, Lsm303Mag(chip), Lsm303Accel(chip),
                                        declination_deg=cfg.declination_deg)
             else:
                 sensor = TiltSensor(ax_caps.sensor, name, Lsm303Accel(chip))
-            parts_list.append((f"{name} {cfg.compass.upper()} (bus {bus_n})", chip))
+            parts_list.append((f"{name} {cfg.compass.upper()} ({on_bus})", chip))
         else:  # pot through an ADS1115
-            chip = Ads1115Chip(bus(bus_n), cfg.i2c_address or 0x48, f"{name} ADS1115")
+            chip = Ads1115Chip(chip_bus(bus_n, mux_ch), cfg.i2c_address or 0x48, f"{name} ADS1115")
             adc = Ads1115Channel(chip, cfg.adc_channel, cfg.adc_reference_channel,
                                  reference_v=cfg.adc_reference_v)
             sp = physics_for(caps.name).axis(name).sensor if caps.name in PHYSICS else None
@@ -199,7 +212,7 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
             m = cfg.pot_m if cfg.pot_m is not None else (sp.pot_span_deg / full if sp else ax_caps.span_deg / full)
             c = cfg.pot_c if cfg.pot_c is not None else (sp.pot_start_deg if sp else ax_caps.min_deg)
             sensor = PotSensor(ax_caps.sensor, name, adc, law=cfg.pot_law or law, m=m, c=c)
-            parts_list.append((f"{name} ADS1115 ch{cfg.adc_channel} (bus {bus_n})", chip))
+            parts_list.append((f"{name} ADS1115 ch{cfg.adc_channel} ({on_bus})", chip))
         brake = RelayBrake(name, out("brake"), clock, release_s=ax_caps.brake_release_s) \
             if "brake" in pins else None
         lims = [LimitSwitchInput(f"{name} {side}", PinIn(factory, pins[f"limit_{side}"]),
@@ -208,7 +221,10 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
         if world is not None:
             motor_hw: Any = _EmulatedMotor(motor, kind, world, name, ax_caps.drive_levels or (1.0,))
             brake_hw: Any = _EmulatedBrake(brake, world, name) if brake is not None else None
-            _feed_sensor(name, sk, world, sensor, buses.get(bus_n), cfg, syncs)
+            fake_bus = buses.get(bus_n)
+            devices = (fake_bus.devices if mux_ch is None else
+                       fake_bus.mux_channel(gpio.i2c_mux_address, mux_ch)) if fake_bus is not None else {}
+            _feed_sensor(name, sk, world, sensor, devices, cfg, syncs)
             for side, sw in zip(("min", "max"), lims):
                 sim_sw = world.limits[name][0 if side == "min" else 1]
                 if sw is not None and sim_sw is not None:
@@ -317,8 +333,10 @@ def _limit_sync(sw: LimitSwitchInput, sim_sw: Any) -> Any:
     return sync
 
 
-def _feed_sensor(name: str, kind: str, world: Any, sensor: Any, bus: Any, cfg: Any, syncs: list) -> None:
-    """Emulation: connect the simulator to the pins / chip registers the sensor reads."""
+def _feed_sensor(name: str, kind: str, world: Any, sensor: Any, devices: dict[int, Any], cfg: Any,
+                 syncs: list) -> None:
+    """Emulation: connect the simulator to the pins / chip registers the sensor reads
+    (``devices``: the fake chips answering where the sensor's chip sits, by address)."""
     import random
 
     from ..sim.sensors import SimAccelerometer, SimAs5600, SimMagnetometer, SimPotAdc, SimQuadratureCounter
@@ -342,10 +360,10 @@ def _feed_sensor(name: str, kind: str, world: Any, sensor: Any, bus: Any, cfg: A
         sensor.set_reference_deg(phys.sensor_side_deg())
     elif kind == "as5600":
         chip = sensor.part
-        bus.devices[chip.address] = FakeAs5600(SimAs5600(*part).read_raw_angle)
+        devices[chip.address] = FakeAs5600(SimAs5600(*part).read_raw_angle)
     elif kind == "magnetometer":
         chip = sensor.accel.chip if hasattr(sensor, "accel") and sensor.accel is not None else sensor.mag.chip
-        if chip.address in bus.devices:
+        if chip.address in devices:
             return
         el_phys = world.axes["el"]
         az_p = world.params.axis("az").sensor
@@ -366,16 +384,16 @@ def _feed_sensor(name: str, kind: str, world: Any, sensor: Any, bus: Any, cfg: A
 
         if isinstance(chip, Lsm303agrChip):
             agr = FakeLsm303agr(field, acc.read_vector)
-            bus.devices[Lsm303agrChip.ACCEL], bus.devices[Lsm303agrChip.MAG] = agr.accel, agr.mag
+            devices[Lsm303agrChip.ACCEL], devices[Lsm303agrChip.MAG] = agr.accel, agr.mag
         else:
-            bus.devices[chip.address] = FakeLsm303d(field, acc.read_vector)
+            devices[chip.address] = FakeLsm303d(field, acc.read_vector)
         if name == "az":   # the shipped calibration, in this field's units (gauss)
             sensor.hard_iron_x, sensor.hard_iron_y = az_p.hard_iron_x * h_gauss, az_p.hard_iron_y * h_gauss
             sensor.declination_deg = az_p.declination_deg
     else:  # pot on an ADS1115
         adc = SimPotAdc(*part)
         ref_v = cfg.adc_reference_v
-        dev = bus.devices.get(sensor.adc.chip.address) or FakeAds1115({})
+        dev = devices.get(sensor.adc.chip.address) or FakeAds1115({})
         dev.inputs[cfg.adc_channel] = lambda: ref_v * adc.read_counts() / 1024.0
         dev.inputs[cfg.adc_reference_channel] = lambda: ref_v
-        bus.devices[sensor.adc.chip.address] = dev
+        devices[sensor.adc.chip.address] = dev

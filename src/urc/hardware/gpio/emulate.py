@@ -7,7 +7,8 @@ SMBus with the chips' register maps, so the real gpio drivers run on a laptop.
   simulated shaft, edge by edge (the x4 decoder sees every transition);
 * the fake bus answers at the chips' addresses with their registers filled from the
   simulator (AS5600 raw angle and status, LSM303D field and gravity, ADS1115
-  conversions); an address with no chip NACKs (OSError 121), like the real bus.
+  conversions); an address with no chip NACKs (OSError 121), like the real bus; chips
+  behind a TCA9548A answer only while the mux's control byte selects their channel.
 """
 
 from __future__ import annotations
@@ -22,18 +23,28 @@ from .pins import _FWD
 
 class FakeSMBus:
     """smbus2.SMBus's calls used by :mod:`.i2c`, over emulated chips; logs every
-    transaction as (op, address, register, bytes)."""
+    transaction as (op, address, register, bytes). Chips behind a TCA9548A mux
+    (:meth:`mux_channel`) answer only while their channel is selected."""
 
     def __init__(self) -> None:
         self.devices: dict[int, Any] = {}
         self.log: list[tuple[str, int, int, tuple[int, ...]]] = []
         self.keep_log = False
 
+    def mux_channel(self, mux_address: int, channel: int) -> dict[int, Any]:
+        """The devices on one channel of the mux at ``mux_address`` (made on first use)."""
+        mux = self.devices.setdefault(mux_address, FakeTca9548a())
+        return mux.channels[channel]
+
     def _dev(self, addr: int) -> Any:
-        dev = self.devices.get(addr)
-        if dev is None or getattr(dev, "nack", False):
+        found = [self.devices[addr]] if addr in self.devices else []
+        for mux in self.devices.values():
+            if isinstance(mux, FakeTca9548a):
+                found += mux.selected(addr)
+        found = [d for d in found if not getattr(d, "nack", False)]
+        if not found:
             raise OSError(121, "Remote I/O error")
-        return dev
+        return found[0] if len(found) == 1 else _WiredAnd(found)
 
     def _rec(self, op: str, addr: int, reg: int, data: Any) -> None:
         if self.keep_log:
@@ -57,8 +68,62 @@ class FakeSMBus:
         self._rec("w", addr, reg, data)
         self._dev(addr).write(reg, list(data))
 
+    def write_byte(self, addr: int, value: int) -> None:
+        """A bare data byte, no register (the TCA9548A's control byte)."""
+        self._rec("wb", addr, -1, [value])
+        self._dev(addr).raw_write([value])
+
+    def read_byte(self, addr: int) -> int:
+        v = self._dev(addr).read(None, 1)[0]
+        self._rec("rb", addr, -1, [v])
+        return v
+
     def close(self) -> None:
         pass
+
+
+class FakeTca9548a:
+    """TCA9548A I2C switch: one control register, written and read as a bare byte; bit n
+    connects downstream channel n (SDn/SCn) to the bus. 0 at power-up: no channel."""
+
+    def __init__(self) -> None:
+        self.control = 0
+        self.channels: dict[int, dict[int, Any]] = {ch: {} for ch in range(8)}
+        self.nack = False
+
+    def raw_write(self, data: list[int]) -> None:
+        self.control = data[-1] & 0xFF
+
+    def write(self, reg: int, data: list[int]) -> None:   # a register write is just bytes to it
+        self.raw_write([reg, *data])
+
+    def read(self, reg: Any, n: int) -> list[int]:
+        return [self.control] * n
+
+    def selected(self, addr: int) -> list[Any]:
+        return [devs[addr] for ch, devs in self.channels.items() if self.control >> ch & 1 and addr in devs]
+
+
+class _WiredAnd:
+    """Two chips answering at one address (two mux channels selected at once): both
+    take every write; a read sees the AND of their bytes (open-drain SDA)."""
+
+    def __init__(self, devs: list[Any]):
+        self.devs = devs
+
+    def read(self, reg: Any, n: int) -> list[int]:
+        out = [0xFF] * n
+        for d in self.devs:
+            out = [a & b for a, b in zip(out, d.read(reg, n))]
+        return out
+
+    def write(self, reg: int, data: list[int]) -> None:
+        for d in self.devs:
+            d.write(reg, data)
+
+    def raw_write(self, data: list[int]) -> None:
+        for d in self.devs:
+            d.raw_write(data)
 
 
 class FakeAs5600:

@@ -1,4 +1,4 @@
-"""I2C chip parts over an smbus2-style bus: AS5600, LSM303D, ADS1115.
+"""I2C chip parts over an smbus2-style bus: AS5600, LSM303D, ADS1115, the TCA9548A mux.
 
 Each transaction is retried a bounded number of times; a NACK or timeout that
 persists becomes :class:`urc.hardware.parts.PartError` (a sensor fault, never a
@@ -8,6 +8,7 @@ reading).
 from __future__ import annotations
 
 import struct
+import threading
 from typing import Any, Callable, TypeVar
 
 from ..parts import MagnetStatus, PartError
@@ -206,3 +207,68 @@ class Lsm303agrChip:
         self._ready = False
         self._setup()
         return "LSM303AGR at 0x19/0x1e: WHO_AM_I 0x33/0x40 (ok)"
+
+
+class Tca9548aMux:
+    """TCA9548A I2C switch (0x70..0x77): a single control byte, bit n connects channel n
+    to the bus. Two chips with one fixed address (the Berkeley rotor's two AS5600 at
+    0x36) sit on two channels; the channel is selected before each of their transactions
+    (written only when it changes). No library covers the mux with smbus2, and it is one
+    byte."""
+
+    def __init__(self, bus: Any, address: int = 0x70, name: str = "TCA9548A"):
+        self.bus, self.address, self.name = bus, address, name
+        self.lock = threading.RLock()
+        self._selected: int | None = None
+
+    def select(self, channel: int) -> None:
+        if self._selected != channel:
+            self._selected = None
+            self.bus.write_byte(self.address, 1 << channel)
+            self._selected = channel
+
+    def forget(self) -> None:
+        """A transaction failed: the mux may have been reset; select again next time."""
+        self._selected = None
+
+    def channel(self, channel: int) -> "MuxChannelBus":
+        return MuxChannelBus(self, channel)
+
+    def identify(self) -> str:
+        with self.lock:
+            ctrl = with_retries(self.name, lambda: self.bus.read_byte(self.address))
+        chans = [str(c) for c in range(8) if ctrl >> c & 1]
+        sel = f"channel {', '.join(chans)} selected" if chans else "no channel selected yet"
+        return f"TCA9548A at 0x{self.address:02x}: {sel}"
+
+
+class MuxChannelBus:
+    """The bus as a chip on one mux channel sees it: the smbus2 calls the chip parts use,
+    each preceded by the channel select, under the mux's lock (one channel at a time)."""
+
+    def __init__(self, mux: Tca9548aMux, channel: int):
+        self.mux, self.channel = mux, channel
+
+    def _on(self, op: str, *args: Any) -> Any:
+        with self.mux.lock:
+            try:
+                self.mux.select(self.channel)
+                return getattr(self.mux.bus, op)(*args)
+            except OSError:
+                self.mux.forget()
+                raise
+
+    def read_byte_data(self, addr: int, reg: int) -> int:
+        return self._on("read_byte_data", addr, reg)
+
+    def read_i2c_block_data(self, addr: int, reg: int, n: int) -> list[int]:
+        return self._on("read_i2c_block_data", addr, reg, n)
+
+    def write_byte_data(self, addr: int, reg: int, value: int) -> None:
+        self._on("write_byte_data", addr, reg, value)
+
+    def write_i2c_block_data(self, addr: int, reg: int, data: list[int]) -> None:
+        self._on("write_i2c_block_data", addr, reg, data)
+
+    def close(self) -> None:
+        pass
