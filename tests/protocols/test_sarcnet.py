@@ -104,7 +104,8 @@ def test_help_and_letters(sarc):
     b, s = sarc
     (help_,) = s.receive(b"h\r")
     assert help_.startswith(b"Commands:\r\n") and b"m -Monitor\r\n" in help_
-    assert s.receive(b"c\r")[0].startswith(b"Error: 12-direction calibration not available")
+    assert s.receive(b"c\r")[0] == b"Calibration in progress: Press 'a' to abort\r\n"
+    assert s.receive(b"a\r") == [b"Calibration aborted: nothing changed\r\n"]
     assert s.receive(b"s\r")[0].startswith(b"Saved")
     assert s.receive(b"xyz\r")[0].startswith(b"Error: unknown command 'xyz': expected 'az el'")
     assert held(b)

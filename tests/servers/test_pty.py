@@ -119,3 +119,30 @@ def test_a_stale_pty_link_is_replaced_and_only_urcs_link_is_removed(bench, tmp_p
     device = asyncio.run(scenario())
     assert device.startswith("/dev/pts/") and device != "/dev/pts/987654"
     assert not link.exists() and not link.is_symlink()
+
+
+def test_closing_the_port_abandons_a_sarcnet_calibration(bench, tmp_path):
+    """Seed 001: the USB cable pulled mid-calibration: nothing saved, the hold released."""
+    b = bench("sarcnet-mini")
+    link = tmp_path / "urc-sarcnet"
+    before = b.rot.hw.axis("az").sensor.calibration()
+
+    async def scenario() -> tuple[tuple, tuple, bytes]:
+        ep = PtyEndpoint(lambda: make_session("sarcnet", b.rot), str(link), "sarcnet")
+        ep.start()
+        try:
+            fd = _open(link)
+            await _settle()
+            os.write(fd, b"c\r")
+            await _settle()
+            during = b.rot.local_controls()
+            said = _read_all(fd)
+            os.close(fd)
+            await _settle()
+            return during, b.rot.local_controls(), said
+        finally:
+            ep.close()
+
+    during, after, said = asyncio.run(scenario())
+    assert said.startswith(b"Calibration in progress") and during == ("SARCNET calibration",)
+    assert after == () and b.rot.hw.axis("az").sensor.calibration() == before

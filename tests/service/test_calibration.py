@@ -63,6 +63,33 @@ def test_fit_hard_iron_needs_three_points():
         cal.fit_hard_iron([(1.0, 0.0), (0.0, 1.0)])
 
 
+def test_fit_ellipsoid_recovers_3d_hard_and_soft_iron():
+    """The one ellipse fit, in 3-D: centre, half ranges and a sphere map that undoes the
+    distortion (a rotated, stretched sphere), from 12 directions plus a little wiggle."""
+    rng = np.random.default_rng(3)
+    dirs = np.array([d for axis in np.eye(3) for d in (axis, -axis)] +
+                    [[0.42, 0.0, 0.91], [-0.42, 0.0, -0.91], [0.0, 0.42, 0.91],
+                     [0.0, -0.42, -0.91], [0.91, 0.42, 0.0], [-0.91, -0.42, 0.0]])
+    dirs = np.concatenate([dirs + rng.normal(0, 0.05, dirs.shape) for _ in range(3)])
+    dirs /= np.linalg.norm(dirs, axis=1)[:, None]
+    soft = np.array([[1.2, 0.1, 0.0], [0.1, 0.8, -0.05], [0.0, -0.05, 1.0]])
+    centre = np.array([0.3, -0.2, 0.5])
+    fit = cal.fit_ellipsoid(dirs @ soft.T + centre)
+    assert fit.centre == pytest.approx(tuple(centre), abs=1e-9)
+    prod = np.asarray(fit.to_sphere).reshape(3, 3) @ soft
+    assert prod @ prod.T == pytest.approx(np.eye(3), abs=1e-9)     # a pure rotation
+    assert fit.half_extent == pytest.approx(tuple(np.sqrt(np.diag(soft @ soft.T))), abs=1e-9)
+    assert fit.rms_rel < 1e-9 and fit.axis_ratio > 1.4
+
+
+def test_fit_ellipsoid_refuses_too_few_directions():
+    with pytest.raises(CalibrationError, match="at least 9"):
+        cal.fit_ellipsoid([[1, 0, 0], [0, 1, 0], [0, 0, 1]] * 2)
+    flat = [[math.cos(a), math.sin(a), 0.0] for a in np.linspace(0, 6, 20)]   # one plane only
+    with pytest.raises(CalibrationError):
+        cal.fit_ellipsoid(flat)
+
+
 def test_circular_mean_across_north():
     assert ang_diff(cal.circular_mean_deg([359.0, 1.0, 0.5, 359.5]), 0.0) == pytest.approx(0.0, abs=1e-9)
 

@@ -15,8 +15,14 @@ b        debug mode: stream the raw sensor data ``Mx,My,Mz,Gx,Gy,Gz`` every
          ``interval_s``: the magnetometer part's vector (in its own units: the sim's
          horizontal field strength is 1) and the accelerometer's in g, three decimals
          (the document names the six values, not their scale or format)
-c        calibrate: not available yet (the original's 12-direction hand-held
-         calibration); urc's web page runs a magnetometer calibration on the rotator
+c        the 12-direction hand-held calibration (motor supply off, board off the boom):
+         prompts each direction (each face down, then along the magnetic field),
+         says when each is done, shows the magnetometer (M) and accelerometer (G)
+         offsets and scales when they change; ``s`` saves them (all 12 done and the
+         ellipsoid fits good, else nothing changes and it says why), ``a``/ESC/ctrl-C
+         or a disconnect abandon it unchanged. Motion is refused meanwhile (a local
+         control hold). Then ``r`` (board back on the boom) clears the faults the
+         wandering readings raised and drives home
 d        demo mode: sweep the set point at 1 deg/s, azimuth -180..180 and elevation
          0..90 bouncing at the ends, flying it and printing ``azSet,elSet`` each period
 m        monitor mode: stream ``az,el,azSet,elSet,azWindup,windup,azError,elError``
@@ -56,6 +62,8 @@ from .sarcnet_codec import SarcnetCommand, SarcnetSyntaxError, signed180
 log = protocol_logger("sarcnet")
 bad_input = bad_input_log("sarcnet")
 
+#: the local control the console calibration holds while the board is off the boom
+CALIBRATION_HOLD = "SARCNET calibration"
 DEMO_RATE_DEG_PER_S = 1.0       # the original: 0.05 deg every 50 ms
 DEMO_GOTO_EVERY_S = 0.5         # refresh the rotator's target no faster than this
 
@@ -72,7 +80,10 @@ class SarcnetSession:
         self.rotator = rotator
         self.closed = False
         self.interval_s = float(interval_s)
-        self.mode = "tracking"        # tracking | monitoring | debugging | demonstrating | pausing
+        # tracking | monitoring | debugging | demonstrating | pausing | calibrating
+        self.mode = "tracking"
+        self._cal = calibration.TwelveDirectionCalibration()
+        self._cal_shown: list[str] | None = None
         self._lines = LineSplitter(MAX_PENDING_BYTES, backspace=True, log=bad_input)
         self._next_s: float | None = None
         self._last_s: float | None = None
@@ -84,6 +95,11 @@ class SarcnetSession:
     # ------------------------------------------------------------------ Session
     def receive(self, data: bytes) -> list[bytes]:
         out: list[bytes] = []
+        if self.mode == "calibrating" and (b"\x1b" in data or b"\x03" in data):
+            # ESC or ctrl-C: as 'a' (a terminal user's reflex); the rest of the chunk and
+            # the line typed so far are dropped with it
+            self._lines = LineSplitter(MAX_PENDING_BYTES, backspace=True, log=bad_input)
+            return self._end_calibration("Calibration aborted: nothing changed")
         for item in self._lines.feed(data):
             if item.overflowed:
                 out.append(codec.console(f"Error: line too long (over {MAX_PENDING_BYTES} characters)"))
@@ -107,7 +123,7 @@ class SarcnetSession:
         return out
 
     def tick(self, now_s: float) -> list[bytes]:
-        if self.mode not in ("monitoring", "debugging", "demonstrating"):
+        if self.mode not in ("monitoring", "debugging", "demonstrating", "calibrating"):
             self._next_s = self._last_s = None
             return []
         nxt = next_due_s(self._next_s, now_s, self.interval_s)
@@ -120,10 +136,16 @@ class SarcnetSession:
             return [self._monitor_row(st)]
         if self.mode == "debugging":
             return [self._raw_row()]
+        if self.mode == "calibrating":
+            return self._calibration_step()
         return self._demo_step(st, now_s, dt)
 
     # ----------------------------------------------------------------- commands
     def _execute(self, cmd: SarcnetCommand) -> list[bytes]:
+        if self.mode == "calibrating" and cmd.kind != "ec_query" and \
+                not (cmd.kind == "letter" and cmd.letter in "ash"):
+            # the board is in the operator's hand: no motion, no other mode
+            return [codec.console("Error: calibrating: s to save, a to abort")]
         if cmd.kind == "goto":
             assert cmd.az_deg is not None and cmd.el_deg is not None
             try:
@@ -199,11 +221,16 @@ class SarcnetSession:
         except AttributeError:
             return None
 
-    def _raw_row(self) -> bytes:
-        """Mx,My,Mz,Gx,Gy,Gz straight from the parts (the compass driver's magnetometer,
-        the tilt driver's accelerometer), before any calibration."""
+    def _raw_parts(self):
+        """(magnetometer, accelerometer) parts: the compass driver's and the tilt
+        driver's (or the compass's own), None where there is none."""
         mag = getattr(self._sensor("az"), "mag", None)
         acc = getattr(self._sensor("el"), "accel", None) or getattr(self._sensor("az"), "accel", None)
+        return mag, acc
+
+    def _raw_row(self) -> bytes:
+        """Mx,My,Mz,Gx,Gy,Gz straight from the parts, before any calibration."""
+        mag, acc = self._raw_parts()
         if mag is None or acc is None:
             return codec.console("Error: no raw magnetometer/accelerometer on this rotator")
         return codec.console(",".join(f"{v:.3f}" for v in (*mag.read_vector(), *acc.read_vector())))
@@ -216,9 +243,89 @@ class SarcnetSession:
         self._enter("monitoring")
         return [codec.console("Monitoring in progress: Press 'a' to abort")]
 
+    # ------------------------------------------------------ 12-direction calibration
     def _letter_c(self, cmd: SarcnetCommand) -> list[bytes]:
-        return [codec.console("Error: 12-direction calibration not available here "
-                              "(use the web page's magnetometer calibration)")]
+        mag, acc = self._raw_parts()
+        if mag is None or acc is None:
+            return [codec.console("Error: no raw magnetometer/accelerometer on this rotator")]
+        # the board is off the boom: nothing may drive on its readings meanwhile (the
+        # document has the motor supply disconnected); the hold says why everywhere
+        self.rotator.stop()
+        hold = getattr(self.rotator, "hold_local", None)
+        if hold is not None:
+            hold(CALIBRATION_HOLD, True)
+        self._enter("calibrating")
+        self._cal = calibration.TwelveDirectionCalibration()
+        self._cal_shown = None
+        return [codec.console(row) for row in codec.CALIBRATION_INTRO] + [self._next_prompt()]
+
+    def _next_prompt(self) -> bytes:
+        left = self._cal.remaining
+        if not left:
+            return codec.console("All 12 directions done: keep moving gently to refine, "
+                                 "s to save, a to abort")
+        face, along = left[0]
+        return codec.console(f"Next: {codec.direction_text(face, along)} "
+                             f"({len(self._cal.done)} of 12 done)")
+
+    def _calibration_step(self) -> list[bytes]:
+        mag, acc = self._raw_parts()
+        out: list[bytes] = []
+        try:
+            got = self._cal.feed(mag.read_vector(), acc.read_vector())   # type: ignore[union-attr]
+        except UrcError as exc:            # the sensor stopped answering
+            return self._end_calibration(f"Calibration aborted: {exc}; nothing changed")
+        if got is None:
+            return out
+        out.append(codec.console(f"Point {len(self._cal.done)} of 12 done: "
+                                 f"{codec.direction_text(*got)}"))
+        try:
+            fits = self._cal.fits()
+        except calibration.CalibrationError:
+            fits = None                    # not enough directions for the ellipsoids yet
+        if fits is not None:
+            shown = codec.calibration_rows(*fits)
+            if shown != self._cal_shown:   # as the original: only when the data changes
+                self._cal_shown = shown
+                out += [codec.console(row) for row in shown]
+        out.append(self._next_prompt())
+        return out
+
+    def _save_calibration(self) -> list[bytes]:
+        try:
+            result = self._cal.result()
+            self._release_hold()
+            on_disk = calibration.apply_twelve_direction(self.rotator, result)
+        except (calibration.CalibrationError, UrcError, ValueError) as exc:
+            hold = getattr(self.rotator, "hold_local", None)
+            if hold is not None:
+                hold(CALIBRATION_HOLD, True)
+            bad_input.info("calibration not saved: %s", exc)
+            return [codec.console(f"Error: calibration not saved: {exc}; nothing changed")]
+        self.mode = "tracking"
+        rows = codec.calibration_rows(*self._cal.fits())
+        if not on_disk:
+            rows.append("Warning: the state file could not be written; the calibration "
+                        "is in use but not yet kept across a restart")
+        return [codec.console(row) for row in rows] + [codec.console(
+            "Calibration saved: put the sensor back on the boom, then r to reset")]
+
+    def _end_calibration(self, text: str) -> list[bytes]:
+        self._release_hold()
+        self.mode = "tracking"
+        return [codec.console(text)]
+
+    def _release_hold(self) -> None:
+        hold = getattr(self.rotator, "hold_local", None)
+        if hold is not None:
+            hold(CALIBRATION_HOLD, False)
+
+    def disconnected(self) -> None:
+        """The client went away (TCP closed, serial port hung up): a calibration under
+        way ends unsaved and its hold is released."""
+        if self.mode == "calibrating":
+            self._end_calibration("")
+            log.info("calibration abandoned by a disconnect: nothing changed")
 
     def _letter_d(self, cmd: SarcnetCommand) -> list[bytes]:
         st = self.rotator.status()
@@ -229,6 +336,8 @@ class SarcnetSession:
         return [codec.console("Demo in progress: Press 'a' to abort")]
 
     def _letter_a(self, cmd: SarcnetCommand) -> list[bytes]:
+        if self.mode == "calibrating":
+            return self._end_calibration("Calibration aborted: nothing changed")
         if self.mode == "demonstrating":
             self.rotator.stop()
         self.mode, self._held = "tracking", None
@@ -250,6 +359,8 @@ class SarcnetSession:
         return [codec.console(f"Magnetic declination: {value:.1f}")]
 
     def _letter_s(self, cmd: SarcnetCommand) -> list[bytes]:
+        if self.mode == "calibrating":
+            return self._save_calibration()
         return [codec.console("Saved: urc keeps the declination and calibration as they change")]
 
     def _letter_p(self, cmd: SarcnetCommand) -> list[bytes]:

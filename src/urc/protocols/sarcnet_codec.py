@@ -131,6 +131,37 @@ def signed180(az_deg: float) -> float:
     return (az_deg + 180.0) % 360.0 - 180.0
 
 
+#: what ``c`` prints first. The document gives no prompt text (its screenshot is lost):
+#: it says to disconnect the motor supply, to point each of the board's six faces along
+#: the magnetic field and along gravity (12 directions), to move gently, and that the
+#: screen tells when each point is done; urc asks for them in a fixed order but takes
+#: them in any order.
+CALIBRATION_INTRO = (
+    "Calibration in progress: Press 'a' to abort",
+    "Motor supply off; take the sensor off the boom and hold it gently",
+    "Point each face (+X -X +Y -Y +Z -Z) down (gravity) and along the magnetic field",
+    "(north, dipping into the ground), 12 directions; hold each still until done",
+)
+
+
+def direction_text(face: str, along: str) -> str:
+    """``+X face down`` / ``+X face along the magnetic field``."""
+    return f"{face} face " + ("down" if along == "gravity" else "along the magnetic field")
+
+
+def _triple(v) -> str:
+    return ",".join(f"{c:.3f}" for c in v)
+
+
+def calibration_rows(mag, acc) -> list[str]:
+    """The calibration data the console shows as it changes (the document's "3D
+    magnetometer (M) and accelerometer (G) errors and scaling factors"): offsets and
+    half ranges per axis, and how far from a sphere the magnetometer's ellipsoid is."""
+    return [f"M offset {_triple(mag.centre)} scale {_triple(mag.half_extent)} "
+            f"soft iron {mag.axis_ratio:.3f}",
+            f"G offset {_triple(acc.centre)} scale {_triple(acc.half_extent)}"]
+
+
 HELP = ("Commands:", "az el -(0..360 or -180..180, 0..90)", "r -Reset", "eNN.N -MagDecl",
         "c -Calibrate", "s -Save", "a -Abort", "d -Demo", "b -Debug", "m -Monitor", "p -Pause",
         "h -Help")

@@ -26,6 +26,18 @@ def feed(session: Session, data: bytes, where: str) -> list[bytes]:
         return []
 
 
+def hang_up(session: Session, where: str) -> None:
+    """The client went away: a session that keeps something under way for it (SARCNET
+    calibration) gets ``disconnected()`` to end it cleanly."""
+    gone = getattr(session, "disconnected", None)
+    if gone is None:
+        return
+    try:
+        gone()
+    except Exception:
+        internal_error(log, type(session).__name__, "%s: session failed on disconnect", where)
+
+
 def needs_tick(session: Session) -> bool:
     return bool(getattr(session, "wants_tick", False))
 

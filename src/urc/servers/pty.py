@@ -28,7 +28,7 @@ import time
 import tty
 from pathlib import Path
 
-from .common import READ_CHUNK, SessionFactory, feed, log, needs_tick, tick_loop
+from .common import READ_CHUNK, SessionFactory, feed, hang_up, log, needs_tick, tick_loop
 
 PRESENCE_POLL_S = 0.05
 _PTS_DIR = "/dev/pts/"
@@ -104,6 +104,7 @@ class PtyEndpoint:
         else:
             loop.remove_reader(self.master_fd)
             self._discard_unread()
+            hang_up(self.session, self.where)
             log.debug("%s: client closed the port (%d writes dropped so far)", self.where, self.dropped_writes)
         self.client_present = present
 

@@ -7,7 +7,7 @@ import time
 
 import serial
 
-from .common import READ_CHUNK, SessionFactory, feed, log, needs_tick, tick_loop
+from .common import READ_CHUNK, SessionFactory, feed, hang_up, log, needs_tick, tick_loop
 
 
 class SerialEndpoint:
@@ -60,4 +60,5 @@ class SerialEndpoint:
             pass
         if self._ticker is not None:
             self._ticker.cancel()
+        hang_up(self.session, self.where)
         self.port.close()

@@ -11,7 +11,7 @@ import asyncio
 import socket
 import time
 
-from .common import SessionFactory, feed, log, needs_tick, tick_loop
+from .common import SessionFactory, feed, hang_up, log, needs_tick, tick_loop
 
 #: Hamlib's rotctld listens with a backlog of 4; a burst of 64 clients (a logger, SDR
 #: software and a tracker all reconnecting) must all get in.
@@ -51,6 +51,7 @@ class _Connection(asyncio.Protocol):
     def connection_lost(self, exc: Exception | None) -> None:
         if self.ticker is not None:
             self.ticker.cancel()
+        hang_up(self.session, self.where)
         log.debug("%s: closed", self.where)
 
 

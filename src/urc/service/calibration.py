@@ -88,35 +88,76 @@ class SoftIronFit:
     rms_rel: float
 
 
-def fit_soft_iron(samples: Sequence[tuple[float, float]]) -> SoftIronFit:
-    """Hard and soft iron together: the ellipse the horizontal field draws.
+@dataclass(frozen=True)
+class EllipsoidFit:
+    """An ellipse (2-D) or ellipsoid (3-D) fitted to field samples."""
+    centre: tuple[float, ...]
+    #: symmetric matrix (row-major) that maps the centred ellipsoid onto the unit sphere
+    to_sphere: tuple[float, ...]
+    #: half extent along each sensor axis ((max - min)/2 of that component on the surface)
+    half_extent: tuple[float, ...]
+    #: longest / shortest axis (1 = a sphere: no soft iron)
+    axis_ratio: float
+    #: RMS distance of the corrected samples from their sphere, in units of its radius
+    rms_rel: float
 
-    Least squares on A x^2 + B xy + C y^2 + D x + E y = 1; the centre is the hard iron,
-    and the symmetric square root of the normalised shape matrix (scaled to keep the
-    area) maps the ellipse onto a circle: that is the soft-iron correction.
+    @property
+    def dim(self) -> int:
+        return len(self.centre)
+
+
+def fit_ellipsoid(samples: Sequence[Sequence[float]]) -> EllipsoidFit:
+    """Hard and soft iron together: the ellipse (x, y) or ellipsoid (x, y, z) the field
+    draws as the sensor turns.
+
+    Least squares on the general quadric sum(Q_ij x_i x_j) + sum(d_i x_i) = 1; its centre is
+    the hard iron, and the symmetric square root of the shape matrix normalised at the
+    centre maps the ellipsoid onto the unit sphere: that is the soft-iron correction.
     """
     pts = np.asarray(samples, dtype=float)
-    if pts.ndim != 2 or pts.shape[1] != 2 or len(pts) < 5:
-        raise CalibrationError("the soft-iron fit needs at least 5 field samples (bx, by)")
-    x, y = pts[:, 0], pts[:, 1]
-    design = np.column_stack([x * x, x * y, y * y, x, y])
-    (a, b, c, d, e), *_ = np.linalg.lstsq(design, np.ones_like(x), rcond=None)
-    q = np.array([[a, b / 2], [b / 2, c]])
+    if pts.ndim != 2 or pts.shape[1] not in (2, 3):
+        raise CalibrationError("field samples must be (x, y) or (x, y, z) vectors")
+    n = pts.shape[1]
+    pairs = [(i, j) for i in range(n) for j in range(i, n)]
+    if len(pts) < len(pairs) + n:
+        raise CalibrationError(f"the {'ellipse' if n == 2 else 'ellipsoid'} fit needs at least "
+                               f"{len(pairs) + n} field samples, got {len(pts)}")
+    if not np.all(np.isfinite(pts)):
+        raise CalibrationError("field samples must be finite")
+    design = np.column_stack([pts[:, i] * pts[:, j] for i, j in pairs] + [pts[:, i] for i in range(n)])
+    sol, _, rank, _ = np.linalg.lstsq(design, np.ones(len(pts)), rcond=None)
+    if rank < design.shape[1]:
+        raise CalibrationError("field samples do not span an ellipsoid (too few distinct directions)")
+    q = np.zeros((n, n))
+    for (i, j), v in zip(pairs, sol[:len(pairs)]):
+        q[i, j] = q[j, i] = v if i == j else v / 2
     try:
-        centre = np.linalg.solve(2 * q, -np.array([d, e]))
+        centre = np.linalg.solve(2 * q, -sol[len(pairs):])
     except np.linalg.LinAlgError:
-        raise CalibrationError("field samples do not lie on an ellipse") from None
+        raise CalibrationError("field samples do not lie on an ellipsoid") from None
     k = 1.0 + centre @ q @ centre
     qn = q / k
     w, v = np.linalg.eigh(qn)
     if not (w > 0).all():
-        raise CalibrationError("field samples do not lie on an ellipse (all in one direction?)")
+        raise CalibrationError("field samples do not lie on an ellipsoid (all in one direction?)")
     sq = v @ np.diag(np.sqrt(w)) @ v.T
-    m = sq / math.sqrt(math.sqrt(float(np.prod(w))))
-    corr = (pts - centre) @ m.T
-    r = np.hypot(corr[:, 0], corr[:, 1])
-    return SoftIronFit(float(centre[0]), float(centre[1]), tuple(float(t) for t in m.ravel()),
-                       float(math.sqrt(w.max() / w.min())), float(np.std(r) / np.mean(r)))
+    r = np.linalg.norm((pts - centre) @ sq.T, axis=1)
+    return EllipsoidFit(tuple(float(c) for c in centre), tuple(float(t) for t in sq.ravel()),
+                        tuple(float(math.sqrt(d)) for d in np.diag(np.linalg.inv(qn))),
+                        float(math.sqrt(w.max() / w.min())), float(np.std(r) / np.mean(r)))
+
+
+def fit_soft_iron(samples: Sequence[tuple[float, float]]) -> SoftIronFit:
+    """The horizontal field's ellipse (:func:`fit_ellipsoid` in 2-D), its correction
+    scaled to keep the area (the compass driver's 2x2 ``soft_iron``)."""
+    pts = np.asarray(samples, dtype=float)
+    if pts.ndim != 2 or pts.shape[1] != 2 or len(pts) < 5:
+        raise CalibrationError("the soft-iron fit needs at least 5 field samples (bx, by)")
+    fit = fit_ellipsoid(pts)
+    sq = np.asarray(fit.to_sphere).reshape(2, 2)
+    m = sq / math.sqrt(abs(np.linalg.det(sq)))
+    return SoftIronFit(fit.centre[0], fit.centre[1], tuple(float(t) for t in m.ravel()),
+                       fit.axis_ratio, fit.rms_rel)
 
 
 def circular_mean_deg(values: Sequence[float]) -> float:
@@ -397,6 +438,8 @@ class MagnetometerCalibration(Procedure):
         constants: dict[str, Any] = {"hard_iron_x": fit.x, "hard_iron_y": fit.y}
         if "soft_iron" in old:
             constants["soft_iron"] = list(soft.matrix) if soft is not None else [1.0, 0.0, 0.0, 1.0]
+        if "mag_matrix" in old:   # fitted on the raw field: replaces the hand-held 3-D one
+            constants["mag_matrix"] = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]
         mech = apply_sensor_calibration(self.rotator, self.axis, constants)
         self.result = {"hard_iron_x": fit.x, "hard_iron_y": fit.y, "field_radius": fit.radius,
                        "rms_rel": fit.rms_rel, "max_gap_deg": fit.max_gap_deg,
@@ -555,3 +598,138 @@ class LimitSwitchHoming(Procedure):
         self.progress, self.state = 1.0, "done"
         self.step = (f"done: re-referenced to {true_deg + self.offset_deg:.2f} deg "
                      f"(the count was off by {before_deg - true_deg:+.2f} deg)")
+
+
+class TwelveDirectionCalibration:
+    """SARCNET hand-held calibration (seed 001): the sensor board, off the boom, is
+    pointed with each of its six faces along the earth's magnetic field and along gravity,
+    12 directions; the magnetometer's and accelerometer's offsets and scales (and the
+    magnetometer's soft iron) come from ellipsoids fitted to the readings.
+
+    Pure state: :meth:`feed` takes one raw reading pair at a time. A direction counts as
+    done once the board has been held within ``TOLERANCE_DEG`` of it, still, for
+    ``HOLD_SAMPLES`` readings in a row; only still readings enter the fits (the original
+    warns that a bump upsets the accelerometer calibration).
+    """
+
+    FACES = ("+X", "-X", "+Y", "-Y", "+Z", "-Z")
+    #: the order the console asks for them: gravity first (lay the board on each face),
+    #: then the field (each face to the north and down the dip)
+    DIRECTIONS = tuple((face, "gravity") for face in FACES) + tuple((face, "field") for face in FACES)
+    TOLERANCE_DEG = 15.0
+    HOLD_SAMPLES = 5
+    #: readings that differ by more than this share of the vector's length are "moving"
+    STILL_FRACTION = 0.03
+    MAX_SAMPLES = 1200
+    #: a fit whose corrected samples scatter more than this off their sphere is refused
+    MAX_RMS_REL = 0.05
+
+    def __init__(self) -> None:
+        self.done: list[tuple[str, str]] = []
+        self.mag: list[tuple[float, float, float]] = []
+        self.acc: list[tuple[float, float, float]] = []
+        self._prev: tuple[np.ndarray, np.ndarray] | None = None
+        self._streak: tuple[tuple[str, str] | None, int] = (None, 0)
+
+    @property
+    def remaining(self) -> list[tuple[str, str]]:
+        return [d for d in self.DIRECTIONS if d not in self.done]
+
+    @classmethod
+    def _facing(cls, v: np.ndarray) -> str | None:
+        """The face (+X..-Z) a vector points out of, within the tolerance."""
+        n = float(np.linalg.norm(v))
+        if not n > 0:
+            return None
+        i = int(np.argmax(np.abs(v)))
+        if abs(v[i]) / n < math.cos(math.radians(cls.TOLERANCE_DEG)):
+            return None
+        return ("+" if v[i] > 0 else "-") + "XYZ"[i]
+
+    def feed(self, mag: Sequence[float], acc: Sequence[float]) -> tuple[str, str] | None:
+        """One raw reading pair. Returns the direction it completed, if any."""
+        m, a = np.asarray(mag, dtype=float), np.asarray(acc, dtype=float)
+        if m.shape != (3,) or a.shape != (3,) or not (np.all(np.isfinite(m)) and np.all(np.isfinite(a))):
+            self._prev, self._streak = None, (None, 0)
+            return None
+        prev, self._prev = self._prev, (m, a)
+        still = prev is not None and all(
+            np.linalg.norm(v - p) <= self.STILL_FRACTION * max(np.linalg.norm(v), 1e-12)
+            for v, p in zip((m, a), prev))
+        if not still:
+            self._streak = (None, 0)
+            return None
+        if len(self.mag) >= self.MAX_SAMPLES:      # keep every other: the spread stays
+            self.mag, self.acc = self.mag[::2], self.acc[::2]
+        self.mag.append(tuple(float(c) for c in m))   # type: ignore[arg-type]
+        self.acc.append(tuple(float(c) for c in a))   # type: ignore[arg-type]
+        here = next((d for d in ((self._facing(a), "gravity"), (self._facing(m), "field"))
+                     if d[0] is not None and d not in self.done), None)
+        count = self._streak[1] + 1 if here is not None and here == self._streak[0] else 1
+        self._streak = (here, count)
+        if here is not None and count >= self.HOLD_SAMPLES:
+            self.done.append(here)     # type: ignore[arg-type]
+            self._streak = (None, 0)
+            return here                # type: ignore[return-value]
+        return None
+
+    def fits(self) -> tuple[EllipsoidFit, EllipsoidFit]:
+        """(magnetometer, accelerometer) ellipsoids; CalibrationError when the readings
+        do not span enough directions yet."""
+        return fit_ellipsoid(self.mag), fit_ellipsoid(self.acc)
+
+    def result(self) -> dict[str, Any]:
+        """The constants to save: only once all 12 directions are done and both fits are
+        good. Raises CalibrationError saying what is missing."""
+        if self.remaining:
+            missing = ", ".join(f"{f} along {w}" for f, w in self.remaining)
+            raise CalibrationError(f"{len(self.done)} of {len(self.DIRECTIONS)} directions done "
+                                   f"(missing: {missing})")
+        mag, acc = self.fits()
+        for name, fit in (("magnetometer", mag), ("accelerometer", acc)):
+            if fit.rms_rel > self.MAX_RMS_REL:
+                raise CalibrationError(f"{name} readings scatter {fit.rms_rel * 100:.1f}% off their "
+                                       "sphere (bumped, or a magnet nearby?)")
+        # the magnetometer: centre = hard iron, the sphere map (scaled to keep the mean
+        # radius 1 in the sensor's units' ratio) = soft iron; heading needs directions only
+        sq = np.asarray(mag.to_sphere).reshape(3, 3)
+        sq = sq / np.linalg.det(sq) ** (1.0 / 3.0)
+        return {"mag_offset": list(mag.centre), "mag_scale": list(mag.half_extent),
+                "mag_matrix": [float(v) for v in sq.ravel()], "mag_axis_ratio": mag.axis_ratio,
+                "mag_rms_rel": mag.rms_rel, "accel_offset": list(acc.centre),
+                "accel_scale": list(acc.half_extent), "accel_rms_rel": acc.rms_rel}
+
+
+def apply_twelve_direction(rotator: Any, result: dict[str, Any]) -> bool:
+    """Load a :class:`TwelveDirectionCalibration` result into the compass (azimuth) and
+    the tilt sensor (elevation) and write the state record at once (the constants live
+    in it). All or nothing: a sensor that refuses puts both back.
+
+    No re-reference, unlike :func:`apply_sensor_calibration`: the board is in the
+    operator's hand, so its readings say nothing about where the antenna points; the
+    compass and tilt sensor are absolute and read the antenna again, with the new
+    constants, once the board is back on the boom. The 3-D soft iron replaces the
+    horizontal one of the turn-round procedure. Returns whether the record reached disk.
+    """
+    accel = {"accel_offset": result["accel_offset"], "accel_scale": result["accel_scale"]}
+    hx, hy, hz = result["mag_offset"]
+    steps: list[tuple[Any, dict[str, Any]]] = [
+        (_sensor(rotator, "az"), {"hard_iron_x": hx, "hard_iron_y": hy, "hard_iron_z": hz,
+                                  "mag_matrix": result["mag_matrix"], "soft_iron": [1.0, 0.0, 0.0, 1.0],
+                                  **accel})]
+    el_sensor = _sensor(rotator, "el")
+    if "accel_offset" in el_sensor.calibration():
+        steps.append((el_sensor, accel))
+    with getattr(rotator, "lock", contextlib.nullcontext()):
+        done: list[tuple[Any, dict[str, Any]]] = []
+        try:
+            for sensor, values in steps:
+                old = dict(sensor.calibration())
+                sensor.load_calibration(values)
+                done.append((sensor, old))
+        except Exception:
+            for sensor, old in reversed(done):
+                sensor.load_calibration(old)
+            raise
+    save = getattr(rotator, "save_now", None)
+    return bool(save()) if save is not None else False

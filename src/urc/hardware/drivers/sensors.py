@@ -285,6 +285,39 @@ class As5600Sensor(_Driver):
 
 
 # ----------------------------------------------------------------- compass
+IDENTITY3 = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
+
+
+def _numbers(values: Any, n: int, what: str) -> tuple[float, ...]:
+    t = tuple(float(v) for v in values)
+    if len(t) != n or not all(math.isfinite(v) for v in t):
+        raise ValueError(f"{what} must be {n} finite numbers, got {values!r}")
+    return t
+
+
+class AccelCalibration:
+    """Accelerometer offsets and scales (SARCNET 12-direction calibration): gravity read
+    as ``(raw - offset) / scale`` per axis; shared by the compass and the tilt driver."""
+
+    def __init__(self) -> None:
+        self.accel_offset: tuple[float, ...] = (0.0, 0.0, 0.0)
+        self.accel_scale: tuple[float, ...] = (1.0, 1.0, 1.0)
+
+    def corrected_accel(self, a: Sequence[float]) -> tuple[float, float, float]:
+        o, k = self.accel_offset, self.accel_scale
+        return ((a[0] - o[0]) / k[0], (a[1] - o[1]) / k[1], (a[2] - o[2]) / k[2])
+
+    def accel_calibration(self) -> dict[str, Any]:
+        return {"accel_offset": list(self.accel_offset), "accel_scale": list(self.accel_scale)}
+
+    def load_accel_calibration(self, values: dict[str, Any]) -> None:
+        offset = _numbers(values.get("accel_offset", self.accel_offset), 3, "accel_offset")
+        scale = _numbers(values.get("accel_scale", self.accel_scale), 3, "accel_scale")
+        if not all(v > 0 for v in scale):
+            raise ValueError(f"accel_scale must be positive, got {values['accel_scale']!r}")
+        self.accel_offset, self.accel_scale = offset, scale
+
+
 def tilt_compensate(m: Sequence[float], a: Sequence[float]) -> tuple[float, float]:
     """Horizontal field (x forward, y) of body-frame field ``m`` given gravity ``a``.
 
@@ -300,22 +333,27 @@ def tilt_compensate(m: Sequence[float], a: Sequence[float]) -> tuple[float, floa
     return (mx * cp + my * sr * sp + mz * cr * sp, my * cr - mz * sr)
 
 
-class CompassSensor(_Driver):
+class CompassSensor(_Driver, AccelCalibration):
     """SARCNET azimuth: a magnetometer (LSM303D/AGR), tilt-compensated by its
-    accelerometer when one is given, corrected for hard iron (an offset) and soft iron
-    (a 2x2 matrix on the horizontal field), heading + declination + offset, quantised to
-    the sensor's resolution.
+    accelerometer when one is given, corrected for hard iron (an offset) and soft iron,
+    heading + declination + offset, quantised to the sensor's resolution.
 
-    Field convention: heading psi gives (bx, by) = (cos psi, -sin psi).
+    Two soft-iron corrections, each set by its own procedure (which resets the other):
+    ``mag_matrix`` (3x3, in the sensor's frame, from the hand-held 12-direction
+    calibration) and ``soft_iron`` (2x2 on the horizontal field, from turning the antenna
+    round on its mount). Field convention: heading psi gives (bx, by) = (cos psi, -sin psi).
     """
 
     def __init__(self, caps: SensorCaps, name: str, mag: Vector3, accel: Vector3 | None = None, *,
                  hard_iron: tuple[float, float] = (0.0, 0.0),
                  soft_iron: tuple[float, float, float, float] = (1.0, 0.0, 0.0, 1.0),
                  declination_deg: float = 0.0, offset_deg: float = 0.0):
-        super().__init__(caps, name)
+        _Driver.__init__(self, caps, name)
+        AccelCalibration.__init__(self)
         self.mag, self.accel = mag, accel
         self.hard_iron_x, self.hard_iron_y = hard_iron
+        self.hard_iron_z = 0.0
+        self.mag_matrix: tuple[float, ...] = IDENTITY3
         self.soft_iron = tuple(float(v) for v in soft_iron)
         self.declination_deg = float(declination_deg)
         self.offset_deg = float(offset_deg)
@@ -325,14 +363,20 @@ class CompassSensor(_Driver):
         m = self.mag.read_vector()
         if self.accel is None:
             return (m[0], m[1])
-        return tilt_compensate(m, self.accel.read_vector())
+        return tilt_compensate(m, self.corrected_accel(self.accel.read_vector()))
 
     def _corrected(self) -> tuple[float, float]:
-        """Hard iron off (in the sensor's own frame, where it sits), then tilt
-        compensation, then soft iron: the horizontal field the heading comes from."""
+        """Hard iron off (in the sensor's own frame, where it sits) and the sensor-frame
+        soft iron, then tilt compensation, then the horizontal soft iron: the
+        horizontal field the heading comes from."""
         m = self.mag.read_vector()
-        m = (m[0] - self.hard_iron_x, m[1] - self.hard_iron_y, m[2])
-        x, y = (m[0], m[1]) if self.accel is None else tilt_compensate(m, self.accel.read_vector())
+        m = (m[0] - self.hard_iron_x, m[1] - self.hard_iron_y, m[2] - self.hard_iron_z)
+        k = self.mag_matrix
+        if k != IDENTITY3:
+            m = (k[0] * m[0] + k[1] * m[1] + k[2] * m[2], k[3] * m[0] + k[4] * m[1] + k[5] * m[2],
+                 k[6] * m[0] + k[7] * m[1] + k[8] * m[2])
+        x, y = (m[0], m[1]) if self.accel is None else \
+            tilt_compensate(m, self.corrected_accel(self.accel.read_vector()))
         s = self.soft_iron
         if s != (1.0, 0.0, 0.0, 1.0):
             x, y = s[0] * x + s[1] * y, s[2] * x + s[3] * y
@@ -351,31 +395,34 @@ class CompassSensor(_Driver):
 
     def calibration(self) -> dict[str, Any]:
         return {"hard_iron_x": self.hard_iron_x, "hard_iron_y": self.hard_iron_y,
-                "soft_iron": list(self.soft_iron),
+                "hard_iron_z": self.hard_iron_z, "mag_matrix": list(self.mag_matrix),
+                "soft_iron": list(self.soft_iron), **self.accel_calibration(),
                 "declination_deg": self.declination_deg, "offset_deg": self.offset_deg}
 
     def load_calibration(self, values: dict[str, Any]) -> None:
+        soft = _numbers(values.get("soft_iron", self.soft_iron), 4, "soft_iron")
+        matrix = _numbers(values.get("mag_matrix", self.mag_matrix), 9, "mag_matrix")
+        self.load_accel_calibration(values)
+        self.soft_iron, self.mag_matrix = soft, matrix
         self.hard_iron_x = float(values.get("hard_iron_x", self.hard_iron_x))
         self.hard_iron_y = float(values.get("hard_iron_y", self.hard_iron_y))
-        if "soft_iron" in values:
-            s = tuple(float(v) for v in values["soft_iron"])
-            if len(s) != 4 or not all(math.isfinite(v) for v in s):
-                raise ValueError(f"soft_iron must be 4 finite numbers, got {values['soft_iron']!r}")
-            self.soft_iron = s
+        self.hard_iron_z = float(values.get("hard_iron_z", self.hard_iron_z))
         self.declination_deg = float(values.get("declination_deg", self.declination_deg))
         self.offset_deg = float(values.get("offset_deg", self.offset_deg))
 
 
-class TiltSensor(_Driver):
-    """SARCNET elevation: the boom's tilt from the accelerometer, atan2(ax, az)."""
+class TiltSensor(_Driver, AccelCalibration):
+    """SARCNET elevation: the boom's tilt from the accelerometer, atan2(ax, az), after
+    the accelerometer's offsets and scales."""
 
     def __init__(self, caps: SensorCaps, name: str, accel: Vector3, *, offset_deg: float = 0.0):
-        super().__init__(caps, name)
+        _Driver.__init__(self, caps, name)
+        AccelCalibration.__init__(self)
         self.accel = accel
         self.offset_deg = float(offset_deg)
 
     def _tilt(self) -> float:
-        ax, _, az = self.accel.read_vector()
+        ax, _, az = self.corrected_accel(self.accel.read_vector())
         return math.degrees(math.atan2(ax, az))
 
     def read_deg(self) -> float:
@@ -387,7 +434,8 @@ class TiltSensor(_Driver):
         self.offset_deg += float(angle_deg) - (t + self.offset_deg)
 
     def calibration(self) -> dict[str, Any]:
-        return {"offset_deg": self.offset_deg}
+        return {"offset_deg": self.offset_deg, **self.accel_calibration()}
 
     def load_calibration(self, values: dict[str, Any]) -> None:
+        self.load_accel_calibration(values)
         self.offset_deg = float(values.get("offset_deg", self.offset_deg))

@@ -368,14 +368,16 @@ def _feed_sensor(name: str, kind: str, world: Any, sensor: Any, devices: dict[in
         el_phys = world.axes["el"]
         az_p = world.params.axis("az").sensor
         mag = SimMagnetometer(world.axes["az"], az_p, random.Random(f"urc-emu:{world.seed}:mag"), True,
-                              noise_deg=world.caps.az.sensor.noise_deg)
+                              noise_deg=world.caps.az.sensor.noise_deg, board=world.board)
         acc = SimAccelerometer(el_phys, world.params.axis("el").sensor,
                                random.Random(f"urc-emu:{world.seed}:acc"), True,
-                               noise_deg=world.caps.el.sensor.noise_deg)
-        dip = math.radians(65.0)
+                               noise_deg=world.caps.el.sensor.noise_deg, board=world.board)
+        dip = math.radians(az_p.dip_deg)
         h_gauss, z_gauss = 0.2, 0.2 * math.tan(dip)
 
         def field() -> tuple[float, float, float]:
+            if world.board.held:      # off the boom: the board's own 3-D reading
+                return tuple(c * h_gauss for c in mag.read_vector())  # type: ignore[return-value]
             bx, by, _ = mag.read_vector()
             # hard iron sits in the sensor: put it on after tilting the earth's field
             level = ((bx - az_p.hard_iron_x) * h_gauss, (by - az_p.hard_iron_y) * h_gauss, z_gauss)

@@ -51,6 +51,15 @@ class SimSensorParams:
     hard_iron_x: float = 0.0
     hard_iron_y: float = 0.0
     declination_deg: float = 0.0
+    #: magnetometer in 3-D (the board held by hand, SARCNET calibration): hard iron
+    #: along the board's z, soft iron (row-major 3x3, applied to the earth's field in
+    #: the board's frame) and the field's dip below the horizon (65 deg: mid latitudes)
+    hard_iron_z: float = 0.0
+    soft_iron: tuple[float, ...] = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
+    dip_deg: float = 65.0
+    #: accelerometer: per-axis bias (g) and scale (reads scale x g + bias)
+    accel_bias_g: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    accel_scale: tuple[float, float, float] = (1.0, 1.0, 1.0)
     #: AS5600: probability that a read is off by one count.
     glitch_prob: float = 0.0
 

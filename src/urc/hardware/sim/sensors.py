@@ -17,7 +17,7 @@ from __future__ import annotations
 import math
 import random
 import time
-from typing import Any
+from typing import Any, Sequence
 
 from ...caps import SensorCaps
 from ...errors import SensorError
@@ -125,35 +125,134 @@ class SimAs5600(_SimPart):
         return self.status
 
 
+def rotation_taking(u: Sequence[float], v: Sequence[float], twist_deg: float = 0.0) -> tuple[float, ...]:
+    """Row-major 3x3 rotation that turns direction ``u`` onto direction ``v``, then
+    turns ``twist_deg`` about ``v`` (Rodrigues' formula)."""
+    def unit(w: Sequence[float]) -> list[float]:
+        n = math.sqrt(sum(c * c for c in w))
+        return [c / n for c in w]
+
+    def rodrigues(axis: Sequence[float], angle: float) -> list[list[float]]:
+        x, y, z = axis
+        c, s, t = math.cos(angle), math.sin(angle), 1.0 - math.cos(angle)
+        return [[c + x * x * t, x * y * t - z * s, x * z * t + y * s],
+                [y * x * t + z * s, c + y * y * t, y * z * t - x * s],
+                [z * x * t - y * s, z * y * t + x * s, c + z * z * t]]
+
+    a, b = unit(u), unit(v)
+    cross = [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+    dot = max(-1.0, min(1.0, sum(p * q for p, q in zip(a, b))))
+    n = math.sqrt(sum(c * c for c in cross))
+    if n < 1e-12:   # parallel or opposite: any axis at right angles to u
+        perp = [0.0, -a[2], a[1]] if abs(a[0]) < 0.9 else [-a[2], 0.0, a[0]]
+        first = rodrigues(unit(perp), 0.0 if dot > 0 else math.pi)
+    else:
+        first = rodrigues([c / n for c in cross], math.atan2(n, dot))
+    second = rodrigues(b, math.radians(twist_deg))
+    return tuple(sum(second[i][k] * first[k][j] for k in range(3)) for i in range(3) for j in range(3))
+
+
+def _apply(m: Sequence[float], v: Sequence[float]) -> tuple[float, float, float]:
+    return (m[0] * v[0] + m[1] * v[1] + m[2] * v[2], m[3] * v[0] + m[4] * v[1] + m[5] * v[2],
+            m[6] * v[0] + m[7] * v[1] + m[8] * v[2])
+
+
+class SensorBoard:
+    """The SARCNET sensor board (one LSM303: magnetometer + accelerometer) as a hand can
+    hold it for the 12-direction calibration.
+
+    Mounted (the default) its parts read the boom's mechanics. :meth:`hold` takes it off
+    the boom: both parts then read the earth's field and gravity as seen by the board in
+    that orientation, with the board's own hard/soft iron and accelerometer errors
+    (:class:`SimSensorParams`). The level frame: x magnetic north, z down (where level
+    gravity reads (0, 0, 1) g); the field there is (1, 0, tan dip) horizontal units.
+    """
+
+    FACES = {"+x": (1, 0, 0), "-x": (-1, 0, 0), "+y": (0, 1, 0), "-y": (0, -1, 0),
+             "+z": (0, 0, 1), "-z": (0, 0, -1)}
+
+    def __init__(self, params: SimSensorParams):
+        self.params = params
+        #: level frame -> board frame, row-major 3x3; None: mounted on the boom
+        self.rotation: tuple[float, ...] | None = None
+
+    @property
+    def held(self) -> bool:
+        return self.rotation is not None
+
+    def field_level(self) -> tuple[float, float, float]:
+        return (1.0, 0.0, math.tan(math.radians(self.params.dip_deg)))
+
+    def hold(self, rotation: Sequence[float]) -> None:
+        """Hold the board so that level-frame vectors v read as ``rotation @ v``."""
+        r = tuple(float(v) for v in rotation)
+        if len(r) != 9 or not all(math.isfinite(v) for v in r):
+            raise ValueError(f"rotation must be 9 finite numbers, got {rotation!r}")
+        self.rotation = r
+
+    def point(self, face: str, along: str, twist_deg: float = 0.0) -> None:
+        """Hold the board with ``face`` (+x, -x, +y, -y, +z, -z) along the earth's
+        magnetic field (``along="field"``) or gravity (``"gravity"``), turned
+        ``twist_deg`` about that direction."""
+        target = self.field_level() if along == "field" else (0.0, 0.0, 1.0)
+        if along not in ("field", "gravity") or face not in self.FACES:
+            raise ValueError(f"face +x..-z along field|gravity, got {face!r} along {along!r}")
+        # the board frame's face direction must read as the target: R @ target = face
+        self.hold(rotation_taking(target, self.FACES[face], twist_deg))
+
+    def release(self) -> None:
+        """Back on the boom."""
+        self.rotation = None
+
+    def magnetic(self, mounted: tuple[float, float, float]) -> tuple[float, float, float]:
+        """The magnetometer's reading before noise: soft then hard iron on the field."""
+        p = self.params
+        v = mounted if self.rotation is None else _apply(self.rotation, self.field_level())
+        if p.soft_iron != (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0):
+            v = _apply(p.soft_iron, v)
+        return (v[0] + p.hard_iron_x, v[1] + p.hard_iron_y, v[2] + p.hard_iron_z)
+
+    def gravity(self, mounted: tuple[float, float, float]) -> tuple[float, float, float]:
+        """The accelerometer's reading before noise: scale and bias on gravity."""
+        p = self.params
+        v = mounted if self.rotation is None else _apply(self.rotation, (0.0, 0.0, 1.0))
+        k, b = p.accel_scale, p.accel_bias_g
+        return (k[0] * v[0] + b[0], k[1] * v[1] + b[1], k[2] * v[2] + b[2])
+
+
 class SimMagnetometer(_SimPart):
     """Body-frame field for magnetic heading psi (horizontal strength 1, level):
-    (cos psi + hx, -sin psi + hy, 0) with hard iron hx, hy, plus noise."""
+    (cos psi + hx, -sin psi + hy, 0) with hard iron hx, hy, plus noise; off the boom,
+    what its :class:`SensorBoard` is held to see."""
 
-    def __init__(self, *args: Any, noise_deg: float):
+    def __init__(self, *args: Any, noise_deg: float, board: SensorBoard | None = None):
         super().__init__(*args)
         self.noise_deg = noise_deg
+        self.board = board or SensorBoard(self._p)
 
     def read_vector(self) -> tuple[float, float, float]:
-        p = self._p
-        psi = math.radians(self._angle() - p.declination_deg)
+        psi = math.radians(self._angle() - self._p.declination_deg)
         sigma = math.radians(self.noise_deg)
-        return (math.cos(psi) + p.hard_iron_x + self._gauss(sigma),
-                -math.sin(psi) + p.hard_iron_y + self._gauss(sigma), 0.0)
+        x, y, z = self.board.magnetic((math.cos(psi), -math.sin(psi), 0.0))
+        return (x + self._gauss(sigma), y + self._gauss(sigma),
+                z + self._gauss(sigma) if self.board.held else z)
 
 
 class SimAccelerometer(_SimPart):
-    """Gravity on the boom tilted to elevation el: (sin el, 0, cos el) g, plus noise."""
+    """Gravity on the boom tilted to elevation el: (sin el, 0, cos el) g, plus noise;
+    off the boom, what its :class:`SensorBoard` is held to see."""
 
-    def __init__(self, *args: Any, noise_deg: float):
+    def __init__(self, *args: Any, noise_deg: float, board: SensorBoard | None = None):
         super().__init__(*args)
         self.noise_deg = noise_deg
+        self.board = board or SensorBoard(self._p)
 
     def read_vector(self) -> tuple[float, float, float]:
         el = math.radians(self._angle())
         sigma = math.radians(self.noise_deg)
-        gx = math.sin(el) + self._gauss(sigma)
-        gz = math.cos(el) + self._gauss(sigma)
-        return (gx, 0.0, gz)
+        gx, gy, gz = self.board.gravity((math.sin(el), 0.0, math.cos(el)))
+        return (gx + self._gauss(sigma), gy + self._gauss(sigma) if self.board.held else gy,
+                gz + self._gauss(sigma))
 
 
 class FaultySensor:
@@ -201,7 +300,7 @@ class FaultySensor:
 
 def make_sensor(axis_name: str, caps: SensorCaps, axis: AxisPhysics, params: SimSensorParams,
                 rng: random.Random, *, noise: bool, referenced: bool,
-                drive: DirectionTracker) -> FaultySensor:
+                drive: DirectionTracker, board: SensorBoard | None = None) -> FaultySensor:
     """The driver for ``caps.kind`` on simulated parts. ``referenced``: incremental
     sensors start referenced to the true angle (a fresh installation), else they read
     0 + counts. ``drive``: where a pulse counter takes its direction from."""
@@ -220,11 +319,11 @@ def make_sensor(axis_name: str, caps: SensorCaps, axis: AxisPhysics, params: Sim
     elif kind == "as5600":
         driver = As5600Sensor(caps, axis_name, SimAs5600(*part))
     elif kind == "magnetometer" and axis_name == "az":
-        driver = CompassSensor(caps, axis_name, SimMagnetometer(*part, noise_deg=caps.noise_deg),
+        driver = CompassSensor(caps, axis_name, SimMagnetometer(*part, noise_deg=caps.noise_deg, board=board),
                                hard_iron=(params.hard_iron_x, params.hard_iron_y),
                                declination_deg=params.declination_deg)
     elif kind == "magnetometer":
-        driver = TiltSensor(caps, axis_name, SimAccelerometer(*part, noise_deg=caps.noise_deg))
+        driver = TiltSensor(caps, axis_name, SimAccelerometer(*part, noise_deg=caps.noise_deg, board=board))
     else:  # pragma: no cover - SensorKind is a closed Literal
         raise ValueError(f"unknown sensor kind {kind!r}")
     if referenced and kind in ("encoder", "pulse"):

@@ -24,7 +24,7 @@ from ...clock import Clock, VirtualClock
 from .drives import SimBrake, SimLimitSwitch, SimMotor
 from .params import SimRotatorParams
 from .physics import AxisPhysics
-from .sensors import FaultySensor, make_sensor
+from .sensors import FaultySensor, SensorBoard, make_sensor
 
 log = logging.getLogger(__name__)
 
@@ -72,6 +72,9 @@ class SimWorld:
         # Devices. Incremental sensors start counting from 0 now (power-on); on a fresh
         # rotator (no truth file) they start referenced to the true angle.
         self.sensors: dict[str, FaultySensor] = {}
+        #: the compass board (magnetometer + accelerometer), which a hand can take off the
+        #: boom (SARCNET calibration): ``world.board.point("+x", "field")``
+        self.board = SensorBoard(params.axis("az").sensor)
         self.motors: dict[str, SimMotor] = {}
         self.brakes: dict[str, SimBrake | None] = {}
         self.limits: dict[str, tuple[SimLimitSwitch | None, SimLimitSwitch | None]] = {}
@@ -81,7 +84,7 @@ class SimWorld:
             self.sensors[name] = make_sensor(
                 name, ax_caps.sensor, phys, p.sensor,
                 random.Random(f"urc-sim:{self.seed}:{name}:sensor"),
-                noise=sensor_noise, referenced=saved is None, drive=self.motors[name])
+                noise=sensor_noise, referenced=saved is None, drive=self.motors[name], board=self.board)
             self.brakes[name] = SimBrake(self, name) if p.has_brake else None
             lo = hi = None
             if ax_caps.limit_switches and p.switch_min_deg is not None:
