@@ -26,12 +26,13 @@ def iss(leo_sets):
     return next(s for s in leo_sets if s.norad_id == 25544)
 
 
-def overhead_station(es, t_unix_s: float) -> Station:
-    """A station right under the satellite at t: its pass there reaches ~90 deg (keyhole)."""
+def overhead_station(es, t_unix_s: float, dlat_deg: float = 0.05) -> Station:
+    """A station near the satellite's sub-point at t: its pass there reaches ~90 deg
+    (keyhole; 89.3 deg at the default offset, 88.0 at 0.135, as bench/tracking_bench.py)."""
     ts = sky.timescale()
     sat = EarthSatellite.from_satrec(es.satrec, ts)
     sp = wgs84.subpoint_of(sat.at(ts.from_datetime(sky.utc_datetime(t_unix_s))))
-    return Station(float(sp.latitude.degrees) + 0.05, float(sp.longitude.degrees), 0.0, "overhead")
+    return Station(float(sp.latitude.degrees) + dlat_deg, float(sp.longitude.degrees), 0.0, "overhead")
 
 
 def fly_pass(tmp_path, profile: str, es, station: Station, p, flip: bool = False):
@@ -63,20 +64,30 @@ def test_full_pass_every_profile(tmp_path, leo_sets, station, profile):
     assert stats.p95_deg <= 2 * bound, stats
 
 
-def test_keyhole_pass_is_flown_over_the_top(tmp_path, leo_sets):
+@pytest.mark.parametrize("dlat_deg", [0.05, 0.135])  # 89.3 and 88.0 deg, the bench's keyholes
+def test_keyhole_pass_is_flown_over_the_top(tmp_path, leo_sets, dlat_deg):
+    """Issue 12.6, judged by the simulator: at every control tick, the plan's pose
+    against the target's true direction. Holding the azimuth and sweeping the elevation
+    over the top misses by the pass's distance from the zenith at worst (1.998 deg at
+    88.0, 0.740 at 89.3); the plan missed by 2.114 and 0.820 (its azimuth swung into the
+    keyhole and back) and now reaches that bound, which no plan over the top can beat."""
     es = iss(leo_sets)
-    station = overhead_station(es, T0_UNIX_S + 3600.0)
+    station = overhead_station(es, T0_UNIX_S + 3600.0, dlat_deg)
     p = max(find_passes(es, station, T0_UNIX_S + 3000.0, duration_s=1800, min_el_deg=0),
             key=lambda p: p.max_el_deg)
     assert p.max_el_deg > 85.0
-    rot, plan, stats, plan_stats, *_ = fly_pass(tmp_path, "tartu-urc", es, station, p, flip=True)
+    bound_deg = 90.0 - p.max_el_deg
+    rot, plan, stats, plan_stats, *_ = fly_pass_on_sim("tartu-urc", es, station, p, tmp_path, lead_s=90.0)
     assert plan.flip, plan.summary()
-    # over the top, geometry costs only the few seconds around culmination where the
-    # azimuth would have to turn faster than the motor can (the pass misses the zenith)
-    assert plan_stats.p95_deg < 0.01 and plan_stats.max_deg < 2.0, plan_stats
+    # over the top, geometry costs only the seconds around culmination where the azimuth
+    # would have to turn faster than the motor can (the pass misses the zenith)
+    assert plan_stats.p95_deg < 0.01, plan_stats
+    assert plan_stats.max_deg <= bound_deg + 0.002, (plan_stats, bound_deg)
+    assert any(n.startswith("keyhole") for n in plan.notes), plan.notes  # said to the user
     assert plan.peak_az_rate_deg_per_s < 6.0
     assert not rot.status().faults
     assert stats.rms_deg <= 0.3, stats
+    assert stats.max_deg <= bound_deg + 0.05, (stats, bound_deg)  # the antenna really flew it
 
 
 def test_keyhole_without_flip_is_rate_limited_not_lost(tmp_path, leo_sets):
@@ -225,12 +236,13 @@ def test_status_tracking_is_brought_up_to_date_between_refreshes(tmp_path, leo_s
     assert later["el_deg"] == pytest.approx(truth.el_deg[0], abs=0.02)
 
 
-@pytest.mark.parametrize("dlat_deg", [0.05, 0.1, 0.2])
+@pytest.mark.parametrize("dlat_deg", [0.05, 0.1, 0.135, 0.2])  # 89.3, 88.7, 88.0, 87.0 deg
 def test_keyhole_plan_is_near_the_hold_azimuth_bound(leo_sets, dlat_deg):
     """Issue 12.6: the 88 deg keyhole on tartu-urc with flip peaked at 2.7 deg of plan
-    error, while holding the azimuth and sweeping elevation over the top is bounded by
-    the pass's distance from the zenith (2.0). Where the azimuth cannot keep up, the
-    plan now sweeps the elevation along the vertical circle the azimuth stands on."""
+    error (then 2.11; 0.82 at 89.3 deg), while holding the azimuth and sweeping elevation
+    over the top is bounded by the pass's distance from the zenith (2.0; 0.74). That
+    bound is the minimax of every plan over the top, and the plan now reaches it, judged
+    between its samples too (the tracker interpolates them)."""
     from urc.app import settings_from_config
     from urc.config import Config
     from urc.tracking.planner import pointing_error_deg
@@ -252,4 +264,4 @@ def test_keyhole_plan_is_near_the_hold_azimuth_bound(leo_sets, dlat_deg):
     err = pointing_error_deg(np.interp(tf, plan.t_s, plan.az_deg), np.interp(tf, plan.t_s, plan.el_deg),
                              laf.az_deg, laf.el_deg, g)
     assert plan.flip
-    assert err.max() <= bound_deg + 0.12, (err.max(), bound_deg)
+    assert err.max() <= bound_deg + 0.002, (err.max(), bound_deg)

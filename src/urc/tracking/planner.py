@@ -128,13 +128,39 @@ def _rate_limit(x: np.ndarray, t: np.ndarray, max_rate: float) -> np.ndarray:
 
 def pointing_error_deg(az_m, el_m, sky_az, sky_el, g: Geometry) -> np.ndarray:
     """Great-circle angle between where mechanical poses point and the sky track."""
+    return _sky_pose_error_deg(az_m + g.az_offset_deg, el_m + g.el_offset_deg, sky_az, sky_el)
+
+
+def _sky_pose_error_deg(az, el, sky_az, sky_el) -> np.ndarray:
+    """The same for poses in the sky frame (elevation past 90 is over the top)."""
     from .evaluate import great_circle_deg
-    az = az_m + g.az_offset_deg
-    el = el_m + g.el_offset_deg
     over = el > 90.0
     az = np.where(over, az + 180.0, az)
     el = np.where(over, 180.0 - el, el)
     return great_circle_deg(az, el, sky_az, sky_el)
+
+
+#: plan steps are judged at this many points each (the keyhole's peak error falls between
+#: 1 s samples: a satellite near the zenith crosses a degree of sky a second)
+ERROR_SUBSTEPS = 8
+
+
+def _error_between_samples_deg(az_m: np.ndarray, el_m: np.ndarray, s_az: np.ndarray, s_el: np.ndarray,
+                               g: Geometry) -> np.ndarray:
+    """Pointing error at the samples and between them, poses interpolated linearly as
+    the tracker flies them (Plan.pose_at), the sky track along the great circle between
+    its samples (interpolating its azimuth would cut corners round the zenith)."""
+    f = np.arange(ERROR_SUBSTEPS) / ERROR_SUBSTEPS
+    a, e = np.radians(s_az), np.radians(s_el)
+    v = np.stack([np.cos(e) * np.sin(a), np.cos(e) * np.cos(a), np.sin(e)], axis=-1)
+    vf = v[:-1, None, :] * (1 - f)[None, :, None] + v[1:, None, :] * f[None, :, None]
+    vf = np.concatenate([vf.reshape(-1, 3), v[-1:]])
+    sky_az = np.degrees(np.arctan2(vf[:, 0], vf[:, 1])) % 360.0
+    sky_el = np.degrees(np.arcsin(np.clip(vf[:, 2] / np.linalg.norm(vf, axis=1), -1.0, 1.0)))
+
+    def between(x: np.ndarray) -> np.ndarray:
+        return np.concatenate([(x[:-1, None] * (1 - f) + x[1:, None] * f).ravel(), x[-1:]])
+    return pointing_error_deg(between(az_m), between(el_m), sky_az, sky_el, g)
 
 
 def _peak_rate(x: np.ndarray, t: np.ndarray) -> float:
@@ -207,6 +233,88 @@ def _base_trajectories(s_az: np.ndarray, s_el: np.ndarray, can_flip: bool):
         yield True, (unwrap(az), el)
 
 
+#: hold windows tried around the culmination of a keyhole pass (seconds either side of
+#: it) and the ramps from the held azimuth back onto the track (seconds)
+HOLD_HALF_WIDTHS_S = (0.0, 1.0, 2.0, 3.0, 5.0, 8.0, 12.0, 18.0, 25.0, 35.0, 50.0, 70.0, 100.0, 150.0)
+HOLD_RAMPS_S = (2.0, 4.0, 7.0, 10.0, 15.0, 22.0, 32.0, 45.0, 65.0, 90.0)
+
+
+def _wrap180(x):
+    return (np.asarray(x) + 180.0) % 360.0 - 180.0
+
+
+def _keyhole_holds(t: np.ndarray, s_az: np.ndarray, s_el: np.ndarray, az_budget: AxisLimits,
+                   el_budget: AxisLimits):
+    """The minimax plans of a keyhole pass on a rotator that can flip: (az, el, note) in
+    the sky frame (azimuth continuous, elevation past 90 over the top).
+
+    Why this is the minimax: with the elevation free, the error of a pose is the sky
+    point's distance from the vertical circle the azimuth axis stands on. A pass flown
+    over the top turns that circle by no net half turn while the target's azimuth turns
+    half a turn, so the target crosses the perpendicular of the circle once, where the
+    error is its whole zenith distance: at least the pass's distance from the zenith
+    (90 - max el), reached only when the crossing is at culmination. Holding the azimuth
+    on the direction of flight at culmination and sweeping the elevation over the top
+    reaches exactly that bound and never exceeds it (a straight flight seen from the
+    ground stays within its closest zenith distance of that circle). The alternative,
+    turning the azimuth the half turn with the target (the plain candidates, rate
+    limited), beats the bound only on rotators fast enough for the pass; the planner
+    compares both.
+
+    Within the bound, the rest of the pass is flown as close to the track as the axes
+    allow: the azimuth leaves the track for the held value only for a window around
+    culmination, blended in and out (a weight between the two never adds error at any
+    instant, as the pose always stands between the track and the hold). The narrowest
+    window within the axes' speed and acceleration budget that loses the least (RMS)
+    is chosen. Two variants: over the top after culmination, or before it."""
+    n = len(t)
+    tca = int(np.argmax(s_el))
+    if n < 3 or not 0 < tca < n - 1:
+        return
+    # the direction of flight at culmination: seen through a gnomonic projection of the
+    # sky (a straight flight stays straight), the chord across the culmination sample
+    a, e = np.radians(s_az[tca - 1:tca + 2:2]), np.radians(np.clip(s_el[tca - 1:tca + 2:2], 1.0, 90.0))
+    x, y = np.sin(a) / np.tan(e), np.cos(a) / np.tan(e)
+    heading_deg = math.degrees(math.atan2(x[1] - x[0], y[1] - y[0]))
+    d_s = np.abs(t - t[tca])
+    before = np.arange(n) <= tca
+    for hold_az, over_top in ((heading_deg + 180.0, ~before), (heading_deg, before)):
+        pose_az = np.where(over_top, s_az + 180.0, s_az)
+        rel = _wrap180(pose_az - hold_az)  # within +-90 of the hold: the blend's way
+
+        def blended(w: np.ndarray):
+            az = hold_az + w * rel
+            # the elevation along the vertical circle at az that points closest to the
+            # target (past 90 on the far side of the zenith)
+            sa, se = np.radians(s_az), np.radians(np.clip(s_el, 0.0, 90.0))  # a hair below: on the horizon
+            el = np.degrees(np.arctan2(np.sin(se), np.cos(se) * np.cos(sa - np.radians(az))))
+            return az, el
+
+        options = [(np.inf, np.inf, np.inf)]  # the azimuth held all the way: always an option
+        for half_s in HOLD_HALF_WIDTHS_S:
+            for ramp_s in HOLD_RAMPS_S:
+                w = np.clip((d_s - half_s) / ramp_s, 0.0, 1.0)
+                w = 0.5 - 0.5 * np.cos(np.pi * w)
+                az, el = blended(w)
+                if (_peak_rate(az, t) > az_budget.max_rate_deg_per_s
+                        or _peak_accel(az, t) > az_budget.accel_deg_per_s2
+                        or _peak_rate(el, t) > el_budget.max_rate_deg_per_s
+                        or _peak_accel(el, t) > el_budget.accel_deg_per_s2):
+                    continue
+                err = _sky_pose_error_deg(az, el, s_az, s_el)
+                options.append((float(np.sqrt(np.mean(err ** 2))), half_s, ramp_s))
+                break  # a longer ramp for the same window only stays longer off the track
+        _, half_s, ramp_s = min(options)
+        w = np.zeros(n) if not math.isfinite(half_s) else \
+            0.5 - 0.5 * np.cos(np.pi * np.clip((d_s - half_s) / ramp_s, 0.0, 1.0))
+        az, el = blended(w)
+        off_s = float(np.ptp(t[w < 1.0])) if (w < 1.0).any() else 0.0
+        note = (f"keyhole: the sky track needs {_peak_rate(np.degrees(np.unwrap(np.radians(s_az))), t):.1f} "
+                f"deg/s in azimuth at culmination; the azimuth holds {hold_az % 360.0:.1f} deg there, "
+                f"off the track for {off_s:.0f} s, while the elevation sweeps over the top")
+        yield az, el, note
+
+
 #: candidate unwind moments per pass (every n-th sample)
 UNWIND_CANDIDATES = 120
 
@@ -264,8 +372,12 @@ def plan_pass(t_s: np.ndarray, sky_az_deg: np.ndarray, sky_el_deg: np.ndarray, g
     if len(t) < 2:
         raise PlanError("a pass needs at least two samples")
     g = geometry
+    az_budget, el_budget = _budget(az), _budget(el)
+    base = [(flip, a, e, None) for flip, (a, e) in _base_trajectories(s_az, s_el, g.can_fly_passes_flipped)]
+    if g.can_fly_passes_flipped and _peak_rate(base[0][1], t) > az_budget.max_rate_deg_per_s:
+        base += [(True, a, e, note) for a, e, note in _keyhole_holds(t, s_az, s_el, az_budget, el_budget)]
     candidates = []
-    for flip, (a, e) in _base_trajectories(s_az, s_el, g.can_fly_passes_flipped):
+    for flip, a, e, keyhole in base:
         a = a - g.az_offset_deg
         e = e - g.el_offset_deg
         # AOS/LOS sit on the horizon mask to within a millidegree or so: a hair below the
@@ -275,24 +387,22 @@ def plan_pass(t_s: np.ndarray, sky_az_deg: np.ndarray, sky_el_deg: np.ndarray, g
         k_lo = int(np.ceil((g.az_min_deg - a.min()) / 360.0 - 1e-9))
         k_hi = int(np.floor((g.az_max_deg - a.max()) / 360.0 + 1e-9))
         for k in range(k_lo, k_hi + 1):
-            candidates.append((flip, a + 360.0 * k, np.clip(e, g.el_min_deg, g.el_max_deg)))
+            candidates.append((flip, a + 360.0 * k, np.clip(e, g.el_min_deg, g.el_max_deg), keyhole))
     notes = []
     if not candidates:
-        flip, a_best, e_best, note = _best_partial(t, s_az, s_el, g, _budget(az), _budget(el))
-        candidates = [(flip, a_best, e_best)]
+        flip, a_best, e_best, note = _best_partial(t, s_az, s_el, g, az_budget, el_budget)
+        candidates = [(flip, a_best, e_best, None)]
         notes.append(note)
 
-    az_budget, el_budget = _budget(az), _budget(el)
     rates = (az.max_rate_deg_per_s, el.max_rate_deg_per_s)
     best = None
-    for flip, a, e in candidates:
+    for flip, a, e, keyhole in candidates:
         fa = _flyable(a, t, g.az_min_deg, g.az_max_deg, az_budget)
         if fa is not a:
             # the azimuth lags its track somewhere: the elevation makes up for it there
             lag = np.abs(fa - a) > 1e-6
             e = np.where(lag, _el_given_az(fa, s_az, s_el, g), e)
         fe = _flyable(e, t, g.el_min_deg, g.el_max_deg, el_budget)
-        err = pointing_error_deg(fa, fe, s_az, s_el, g)
         travel_s = route_time_s([start_pose, (fa[0], fe[0])], rates)
         if g.zones and g.segment_clear(start_pose, (fa[0], fe[0]), rates) is not None:
             # the way to the AOS pose goes round a keep-out zone: time that route
@@ -300,12 +410,18 @@ def plan_pass(t_s: np.ndarray, sky_az_deg: np.ndarray, sky_el_deg: np.ndarray, g
             if route is not None:
                 travel_s = route_time_s([start_pose] + route, rates)
         # the smallest worst-case pointing error wins (to 0.05 deg: below that the
-        # servo decides); then no flip; then the shorter pre-positioning move
-        cost = (round(float(err.max()) / 0.05), flip, travel_s)
+        # servo decides); then no flip; then the smaller worst case, to a millidegree
+        # (a keyhole's minimax against a near miss); then the shorter pre-positioning move
+        worst = float(_error_between_samples_deg(fa, fe, s_az, s_el, g).max())
+        cost = (round(worst / 0.05), flip, round(worst / 0.001), travel_s)
         if best is None or cost < best[0]:
-            best = (cost, flip, fa, fe, travel_s, a, e, float(err.max()), not (fa is a and fe is e))
-    _, flip, a_fly, e_fly, travel_s, a, e, worst, rate_limited = best
-    if rate_limited:
+            best = (cost, flip, fa, fe, travel_s, a, e, worst, not (fa is a and fe is e), keyhole)
+    _, flip, a_fly, e_fly, travel_s, a, e, worst, rate_limited, keyhole = best
+    if keyhole and not rate_limited:
+        rate_limited = True  # the sky track was faster than the axes: the hold is the smoothing
+        notes.append(f"{keyhole}: worst pointing error {worst:.2f} deg (over the top, no plan misses "
+                     "the pass by less than its distance from the zenith)")
+    elif rate_limited:
         notes.append(f"the sky track needs {_peak_rate(a, t):.1f} deg/s in azimuth at the fastest (keyhole); "
                      f"flown within the axes' speed and acceleration, worst pointing error {worst:.2f} deg")
     a, e = a_fly, e_fly
