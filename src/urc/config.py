@@ -135,9 +135,14 @@ class GpioAxis(_Section):
     i2c_address: int | None = Field(None, ge=0x03, le=0x77)
     #: the chip sits on this channel of the bus's TCA9548A mux (None = on the bus itself)
     i2c_mux_channel: int | None = Field(None, ge=0, le=7)
-    #: pot through an ADS1115: the pot's input and the input wired to the pot supply
+    #: the pot's ADC: ads1115 (I2C, i2c_address or 0x48) or mcp3008 (SPI0, chip select
+    #: CE<spi_device>: GPIO8 or GPIO7; SCLK 11, MOSI 10, MISO 9)
+    adc: str = "ads1115"
+    spi_device: int = Field(0, ge=0, le=1)
+    #: the pot's input and the input wired to the pot supply (None: ADS1115 input 3; on
+    #: an MCP3008 its VREF is the pot supply, so N is read as the G4JNT PIC reads it)
     adc_channel: int = Field(0, ge=-100, le=100)
-    adc_reference_channel: int = Field(3, ge=-100, le=100)
+    adc_reference_channel: int | None = Field(None, ge=-100, le=100)
     adc_reference_v: float = _num(3.3, gt=0.0, le=4.096)
     pot_law: str | None = None
     pot_m: float | None = _num(None)
@@ -777,7 +782,7 @@ def _cross_check(cfg: Config) -> list[_Issue]:
 
 
 #: ADC inputs per converter
-_ADC_CHANNELS = {"ads1115": 4}
+_ADC_CHANNELS = {"ads1115": 4, "mcp3008": 8}
 
 
 def _gpio_issues(cfg: Config, caps: RotatorCaps) -> list[_Issue]:
@@ -801,6 +806,7 @@ def _gpio_issues(cfg: Config, caps: RotatorCaps) -> list[_Issue]:
     if g.fram_address is not None:
         i2c[(g.i2c_bus, None, g.fram_address)] = ("hardware.gpio.fram_address", "fram")
     muxed_buses: set[int] = set()
+    spi_vref: dict[int, tuple[str, float]] = {}
     for name in ("az", "el"):
         ax = getattr(g, name)
         pre = f"hardware.gpio.{name}"
@@ -838,7 +844,13 @@ def _gpio_issues(cfg: Config, caps: RotatorCaps) -> list[_Issue]:
                 used[pin] = f"{pre}.pins.{pin_name}"
         if kind == "magnetometer" and ax.compass not in ("lsm303d", "lsm303agr"):
             issues.append((f"{pre}.compass", "lsm303d or lsm303agr", ax.compass, ""))
-        chips = {"as5600": [("as5600", 0x36)], "pot": [("ads1115", 0x48)],
+        if ax.adc not in _ADC_CHANNELS:
+            issues.append((f"{pre}.adc", "one of " + ", ".join(_ADC_CHANNELS), ax.adc,
+                           _suggest(ax.adc, list(_ADC_CHANNELS))))
+            continue
+        if kind == "pot" and ax.adc == "mcp3008":
+            issues += _spi_issues(pre, ax.spi_device, used)
+        chips = {"as5600": [("as5600", 0x36)], "pot": [("ads1115", 0x48)] if ax.adc == "ads1115" else [],
                  "magnetometer": [("lsm303agr", 0x19), ("lsm303agr", 0x1E)] if ax.compass == "lsm303agr"
                  else [("lsm303d", 0x1D)]}.get(kind, [])
         bus = g.i2c_bus if ax.i2c_bus is None else ax.i2c_bus
@@ -863,19 +875,42 @@ def _gpio_issues(cfg: Config, caps: RotatorCaps) -> list[_Issue]:
                     break
             i2c[(bus, ch, addr)] = (pre, dev[0])
         if kind == "pot":
-            n = _ADC_CHANNELS["ads1115"]
+            n = _ADC_CHANNELS[ax.adc]
             for key in ("adc_channel", "adc_reference_channel"):
                 v = getattr(ax, key)
-                if not 0 <= v < n:
-                    issues.append((f"{pre}.{key}", f"an ADS1115 input 0..{n - 1}", v, ""))
-            if ax.adc_channel == ax.adc_reference_channel:
+                if v is not None and not 0 <= v < n:
+                    issues.append((f"{pre}.{key}", f"an {ax.adc.upper()} input 0..{n - 1}", v, ""))
+            ref = 3 if ax.adc_reference_channel is None and ax.adc == "ads1115" else ax.adc_reference_channel
+            if ax.adc_channel == ref:
                 issues.append((f"{pre}.adc_reference_channel", "an input other than adc_channel "
-                               "(the pot supply)", ax.adc_reference_channel, ""))
+                               "(the pot supply)", ref, ""))
+            if ax.adc == "mcp3008":
+                # one chip, one VREF: the pot supply (no reference input) or the 3.3 V rail
+                vref = ax.adc_reference_v if ax.adc_reference_channel is None else 3.3
+                other_vref = spi_vref.setdefault(ax.spi_device, (pre, vref))
+                if other_vref[1] != vref:
+                    issues.append((f"{pre}.adc_reference_channel", f"the same VREF as {other_vref[0]} on "
+                                   f"this MCP3008 ({other_vref[1]:g} V)", ax.adc_reference_channel, ""))
     for bus in sorted(muxed_buses):
         for (b, _c, a), other in i2c.items():
             if b == bus and a == g.i2c_mux_address:
                 issues.append(("hardware.gpio.i2c_mux_address", f"an address free on I2C bus {bus} for "
                                f"the TCA9548A (0x{a:02x} is {other[0]}'s)", hex(a), ""))
+    return issues
+
+
+def _spi_issues(pre: str, device: int, used: dict[int, str]) -> list[_Issue]:
+    """SPI0's pins for a chip on chip select ``device``: taken by SPI0 (shared by its
+    chips), by nothing else."""
+    from .hardware.gpio.spi import SPI0_CE, SPI0_PINS
+
+    issues: list[_Issue] = []
+    for what, pin in [*SPI0_PINS.items(), (f"ce{device}", SPI0_CE[device])]:
+        owner = f"SPI0 {what.upper()}"
+        if pin in used and used[pin] != owner:
+            issues.append((f"{pre}.spi_device", f"SPI0's GPIO{pin} ({owner}) free for the MCP3008 "
+                           f"(it is {used[pin]})", device, ""))
+        used.setdefault(pin, owner)
     return issues
 
 

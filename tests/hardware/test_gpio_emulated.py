@@ -106,6 +106,25 @@ def test_two_as5600_on_one_bus_and_adc_channel_range():
         "el": {"motor": "relay", "pins": {"cw": 20, "ccw": 21}, "adc_channel": 1}}}}
     with pytest.raises(ConfigError, match=r"adc_channel.*0..3"):
         Config.from_dict(g)
+    # an MCP3008 on SPI0 has 8 inputs; SPI0's pins are its own; CE0 or CE1 only
+    for a in ("az", "el"):
+        g["hardware"]["gpio"][a]["adc"] = "mcp3008"
+    Config.from_dict(g)
+    g["hardware"]["gpio"]["az"]["adc_channel"] = 8
+    with pytest.raises(ConfigError, match=r"az.adc_channel.*MCP3008 input 0..7"):
+        Config.from_dict(g)
+    g["hardware"]["gpio"]["az"]["adc_channel"] = 7
+    g["hardware"]["gpio"]["el"]["pins"]["ccw"] = 10
+    with pytest.raises(ConfigError, match=r"el.pins.ccw.*GPIO10 is SPI0 MOSI"):
+        Config.from_dict(g)
+    g["hardware"]["gpio"]["el"]["pins"]["ccw"] = 21
+    g["hardware"]["gpio"]["el"]["spi_device"] = 2
+    with pytest.raises(ConfigError, match=r"spi_device"):
+        Config.from_dict(g)
+    g["hardware"]["gpio"]["el"]["spi_device"] = 0
+    g["hardware"]["gpio"]["el"]["adc"] = "mcp3009"
+    with pytest.raises(ConfigError, match=r"el.adc.*mcp3008"):
+        Config.from_dict(g)
 
 
 def test_i2c_nack_is_a_sensor_fault_that_never_moves(tmp_path):

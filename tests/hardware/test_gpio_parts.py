@@ -223,3 +223,42 @@ def test_mux_nack_is_retried_then_a_sensor_error():
     bus.devices[0x70].nack = True          # the mux itself does not answer
     with pytest.raises(SensorError, match="I2C failed"):
         As5600Chip(Tca9548aMux(bus, 0x70).channel(2)).read_raw_angle()
+
+
+def test_mcp3008_spi_frame_bit_exact():
+    """The three-byte frame: 7 leading zeros, the start bit, SGL=1, D2..D0; the emulated
+    chip answers clock by clock: the sample clock, the null bit, B9..B0."""
+    from urc.hardware.gpio.emulate import FakeMcp3008
+    from urc.hardware.gpio.spi import Mcp3008Channel, Mcp3008Chip
+    fake = FakeMcp3008({5: lambda: 2.0, 3: lambda: 3.3})
+    fake.keep_frames = True
+    adc = Mcp3008Channel(Mcp3008Chip(fake, 0), 5, 3)
+    code = int(1024 * 2.0 / 3.3)                                 # 620 = 0b10_0110_1100
+    assert adc.read_counts() == code
+    (mosi, miso), = fake.frames
+    assert mosi == (0b0000_0001, 0b1101_0000, 0x00)               # start | single, channel 5
+    assert miso == (0x00, 0b0000_0010, 0b0110_1100)               # ..x 0 B9 B8 | B7..B0
+    assert fake.transactions[-1] == (True, 5, code)
+    assert adc.read_reference_counts() == 1023 and adc.full_scale_counts == 1024
+    # the chip does not care how many leading zeros come before the start bit
+    assert fake.xfer2([0x00, 0x00, 0x01, 0x80, 0x00, 0x00])[-2:] == [0x00, 0x00]
+    assert fake.transactions[-1] == (True, 0, 0)
+
+
+def test_mcp3008_differential_vref_reference_and_failures():
+    from urc.hardware.gpio.emulate import FakeMcp3008
+    from urc.hardware.gpio.spi import Mcp3008Channel, Mcp3008Chip
+    fake = FakeMcp3008({2: lambda: 1.5, 3: lambda: 0.5, 6: lambda: 3.0})
+    chip = Mcp3008Chip(fake, 1)
+    assert chip.convert(2, single=False) == int(1024 * 1.0 / 3.3)      # CH2 - CH3
+    assert chip.convert(3, single=False) == 0                          # CH3 - CH2 < 0: clamped
+    # no reference input: VREF is the pot supply, the counts are N as they come
+    pot = Mcp3008Channel(chip, 6, None)
+    assert pot.read_reference_counts() == pot.full_scale_counts == 1024
+    assert pot.read_counts() == int(1024 * 3.0 / 3.3)
+    fake.dead = True                       # MISO floating high: the null bit is 1
+    with pytest.raises(SensorError, match="no valid answer"):
+        pot.read_counts()
+    fake.dead, fake.fail = False, OSError(5, "Input/output error")
+    with pytest.raises(SensorError, match=f"failed {ATTEMPTS} times"):
+        pot.read_counts()

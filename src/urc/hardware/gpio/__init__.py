@@ -27,6 +27,7 @@ from .i2c import (Ads1115Channel, Ads1115Chip, As5600Chip, Lsm303Accel, Lsm303ag
                   Lsm303Mag, Tca9548aMux)
 from ..sim.params import PHYSICS, physics_for
 from .pins import PinIn, PinOut, PinPulseCounter, PinPwm, PinQuadrature
+from .spi import Mcp3008Channel, Mcp3008Chip, open_spidev
 
 log = logging.getLogger(__name__)
 
@@ -99,6 +100,7 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
     emulate = bool(options.get("emulate", gpio.emulate))
     world = None
     buses: dict[int, Any] = {}
+    fake_spi: dict[int, Any] = {}
     if emulate:
         from gpiozero.pins.mock import MockFactory, MockPWMPin
 
@@ -110,6 +112,10 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
 
         def bus(n: int) -> Any:
             return buses.setdefault(n, FakeSMBus())
+
+        def spi_dev(device: int) -> Any:
+            from .emulate import FakeMcp3008
+            return fake_spi.setdefault(device, FakeMcp3008({}))
     else:
         try:
             from gpiozero import Device
@@ -130,6 +136,13 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
                                       key="hardware.gpio.i2c_bus", expected="an I2C bus", found=n) from exc
             return buses[n]
 
+        def spi_dev(device: int) -> Any:
+            try:
+                return open_spidev(device)
+            except (ImportError, OSError) as exc:
+                raise ConfigError(f"SPI0 CE{device}: {exc} (install urc[pi]; enable SPI with raspi-config)",
+                                  key="hardware.gpio.spi_device", expected="an SPI device", found=device) from exc
+
     muxes: dict[int, Tca9548aMux] = {}
 
     def chip_bus(n: int, channel: int | None) -> Any:
@@ -141,6 +154,7 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
             parts_list.append((f"TCA9548A 0x{gpio.i2c_mux_address:02x} (bus {n})", muxes[n]))
         return muxes[n].channel(channel)
 
+    spi_chips: dict[int, Mcp3008Chip] = {}
     syncs: list[Any] = []
     lsm: dict[tuple[int, int | None, int], Lsm303dChip] = {}
     axes: dict[str, AxisHardware] = {}
@@ -202,16 +216,20 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
             else:
                 sensor = TiltSensor(ax_caps.sensor, name, Lsm303Accel(chip))
             parts_list.append((f"{name} {cfg.compass.upper()} ({on_bus})", chip))
+        elif cfg.adc == "mcp3008":  # pot through an MCP3008 on SPI0
+            # VREF: the pot supply when no input reads it, else the 3.3 V rail
+            spi_chip = spi_chips.get(cfg.spi_device) or spi_chips.setdefault(cfg.spi_device, Mcp3008Chip(
+                spi_dev(cfg.spi_device), cfg.spi_device,
+                vref_v=cfg.adc_reference_v if cfg.adc_reference_channel is None else 3.3))
+            adc = Mcp3008Channel(spi_chip, cfg.adc_channel, cfg.adc_reference_channel,
+                                 reference_v=cfg.adc_reference_v)
+            sensor = _pot_sensor(caps, name, ax_caps, cfg, adc)
+            parts_list.append((f"{name} MCP3008 ch{cfg.adc_channel} (SPI0 CE{cfg.spi_device})", spi_chip))
         else:  # pot through an ADS1115
             chip = Ads1115Chip(chip_bus(bus_n, mux_ch), cfg.i2c_address or 0x48, f"{name} ADS1115")
-            adc = Ads1115Channel(chip, cfg.adc_channel, cfg.adc_reference_channel,
+            adc = Ads1115Channel(chip, cfg.adc_channel, _ads_reference(cfg),
                                  reference_v=cfg.adc_reference_v)
-            sp = physics_for(caps.name).axis(name).sensor if caps.name in PHYSICS else None
-            law = sp.pot_law if sp is not None else "linear"
-            full = 4096.0 if law == "ratiometric" else 1023.0
-            m = cfg.pot_m if cfg.pot_m is not None else (sp.pot_span_deg / full if sp else ax_caps.span_deg / full)
-            c = cfg.pot_c if cfg.pot_c is not None else (sp.pot_start_deg if sp else ax_caps.min_deg)
-            sensor = PotSensor(ax_caps.sensor, name, adc, law=cfg.pot_law or law, m=m, c=c)
+            sensor = _pot_sensor(caps, name, ax_caps, cfg, adc)
             parts_list.append((f"{name} ADS1115 ch{cfg.adc_channel} ({on_bus})", chip))
         brake = RelayBrake(name, out("brake"), clock, release_s=ax_caps.brake_release_s) \
             if "brake" in pins else None
@@ -224,7 +242,7 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
             fake_bus = buses.get(bus_n)
             devices = (fake_bus.devices if mux_ch is None else
                        fake_bus.mux_channel(gpio.i2c_mux_address, mux_ch)) if fake_bus is not None else {}
-            _feed_sensor(name, sk, world, sensor, devices, cfg, syncs)
+            _feed_sensor(name, sk, world, sensor, devices, cfg, syncs, fake_spi)
             for side, sw in zip(("min", "max"), lims):
                 sim_sw = world.limits[name][0 if side == "min" else 1]
                 if sw is not None and sim_sw is not None:
@@ -236,7 +254,7 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
 
     heartbeat = PinOut(factory, gpio.heartbeat_pin) if gpio.heartbeat_pin is not None else None
     extra: dict[str, Any] = {"parts": parts_list, "buses": buses, "pin_factory": factory,
-                             "emulated": emulate}
+                             "emulated": emulate, "spi_chips": spi_chips}
     if gpio.fram_address is not None:
         from ..fram import FramStore
         fram_bus = bus(gpio.i2c_bus)
@@ -250,7 +268,7 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
         extra["power_fail"] = pf
         parts_list.append(("power-fail input", pf))
     if world is not None:
-        extra["world"] = world
+        extra["world"], extra["fake_spi"] = world, fake_spi
         extra["overcurrent_a"] = {n: 0.8 * params.axis(n).stall_current_a for n in ("az", "el")}
 
         def poll(now_s: float) -> None:
@@ -259,6 +277,8 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
                 s()
 
         def close() -> None:
+            for c in spi_chips.values():
+                c.close()
             world.close()
             factory.close()
 
@@ -278,10 +298,28 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
                 log.exception("gpio: could not make %s safe", ax)
         for b in buses.values():
             b.close()
+        for c in spi_chips.values():
+            c.close()
         factory.close()
 
     return Hardware(backend="gpio", az=axes["az"], el=axes["el"], close_hook=close_real,
                     heartbeat=heartbeat, extra=extra)
+
+
+def _pot_sensor(caps: RotatorCaps, name: str, ax_caps: Any, cfg: Any, adc: Any) -> PotSensor:
+    """The pot driver on an ADC channel; M and C from the config, else from the
+    profile's simulated pot (its span over the law's full scale, its start)."""
+    sp = physics_for(caps.name).axis(name).sensor if caps.name in PHYSICS else None
+    law = sp.pot_law if sp is not None else "linear"
+    full = 4096.0 if law == "ratiometric" else 1023.0
+    m = cfg.pot_m if cfg.pot_m is not None else (sp.pot_span_deg / full if sp else ax_caps.span_deg / full)
+    c = cfg.pot_c if cfg.pot_c is not None else (sp.pot_start_deg if sp else ax_caps.min_deg)
+    return PotSensor(ax_caps.sensor, name, adc, law=cfg.pot_law or law, m=m, c=c)
+
+
+def _ads_reference(cfg: Any) -> int:
+    """The ADS1115 input reading the pot supply (input 3 unless configured)."""
+    return 3 if cfg.adc_reference_channel is None else cfg.adc_reference_channel
 
 
 class PowerFailInput:
@@ -334,9 +372,10 @@ def _limit_sync(sw: LimitSwitchInput, sim_sw: Any) -> Any:
 
 
 def _feed_sensor(name: str, kind: str, world: Any, sensor: Any, devices: dict[int, Any], cfg: Any,
-                 syncs: list) -> None:
+                 syncs: list, fake_spi: dict[int, Any]) -> None:
     """Emulation: connect the simulator to the pins / chip registers the sensor reads
-    (``devices``: the fake chips answering where the sensor's chip sits, by address)."""
+    (``devices``: the fake I2C chips answering where the sensor's chip sits, by address;
+    ``fake_spi``: the fake SPI chips by chip select)."""
     import random
 
     from ..sim.sensors import SimAccelerometer, SimAs5600, SimMagnetometer, SimPotAdc, SimQuadratureCounter
@@ -392,10 +431,17 @@ def _feed_sensor(name: str, kind: str, world: Any, sensor: Any, devices: dict[in
         if name == "az":   # the shipped calibration, in this field's units (gauss)
             sensor.hard_iron_x, sensor.hard_iron_y = az_p.hard_iron_x * h_gauss, az_p.hard_iron_y * h_gauss
             sensor.declination_deg = az_p.declination_deg
-    else:  # pot on an ADS1115
+    else:  # pot on an ADS1115 or an MCP3008
         adc = SimPotAdc(*part)
         ref_v = cfg.adc_reference_v
-        dev = devices.get(sensor.adc.chip.address) or FakeAds1115({})
+        ref_ch = _ads_reference(cfg)
+        if cfg.adc == "mcp3008":
+            dev = fake_spi[cfg.spi_device]
+            dev.vref_v = sensor.adc.chip.vref_v
+            ref_ch = cfg.adc_reference_channel
+        else:
+            dev = devices.get(sensor.adc.chip.address) or FakeAds1115({})
+            devices[sensor.adc.chip.address] = dev
         dev.inputs[cfg.adc_channel] = lambda: ref_v * adc.read_counts() / 1024.0
-        dev.inputs[cfg.adc_reference_channel] = lambda: ref_v
-        devices[sensor.adc.chip.address] = dev
+        if ref_ch is not None:
+            dev.inputs[ref_ch] = lambda: ref_v

@@ -13,6 +13,7 @@ SMBus with the chips' register maps, so the real gpio drivers run on a laptop.
 
 from __future__ import annotations
 
+import collections
 import math
 import struct
 from typing import Any, Callable
@@ -322,3 +323,57 @@ class FakeLsm303agr:
                  accel: Callable[[], tuple[float, float, float]]):
         self.accel = self._Dev(0x0F, 0x33, 0x28, accel, 0.98e-3 / 16)
         self.mag = self._Dev(0x4F, 0x40, 0x68, mag, 1.5e-3)
+
+
+class FakeMcp3008:
+    """MCP3008 behind an SPI device's ``xfer2``, clock by clock as the chip works: after
+    CS falls, leading zeros, a start bit, SGL/DIFF, D2 D1 D0; then one sample clock, a
+    null bit and the 10-bit result MSB first on MISO (MISO low before). ``inputs[ch]()``
+    gives CHch in volts; differential pairs as the datasheet: code 0 = CH0-CH1, 1 =
+    CH1-CH0, ... (clamped at 0). ``dead``: no chip, MISO floats high."""
+
+    def __init__(self, inputs: dict[int, Callable[[], float]], vref_v: float = 3.3):
+        self.inputs, self.vref_v = inputs, vref_v
+        self.dead = False
+        self.fail: OSError | None = None          # tests: the transfer fails (ioctl error)
+        #: the last conversions as (single-ended, channel, code)
+        self.transactions: collections.deque[tuple[bool, int, int]] = collections.deque(maxlen=64)
+        #: with ``keep_frames``: each frame's (MOSI, MISO) bytes
+        self.keep_frames = False
+        self.frames: list[tuple[tuple[int, ...], tuple[int, ...]]] = []
+
+    def _volts(self, ch: int) -> float:
+        src = self.inputs.get(ch)
+        return float(src()) if src is not None else 0.0
+
+    def code(self, single: bool, ch: int) -> int:
+        if single:
+            v = self._volts(ch)
+        else:
+            plus, minus = (ch & 6) | (ch & 1), (ch & 6) | (1 - (ch & 1))
+            v = self._volts(plus) - self._volts(minus)
+        return max(0, min(1023, int(1024 * v / self.vref_v)))
+
+    def xfer2(self, data: list[int]) -> list[int]:
+        if self.fail is not None:
+            raise self.fail
+        mosi = [b >> (7 - i) & 1 for b in data for i in range(8)]
+        miso = [1] * len(mosi) if self.dead else [0] * len(mosi)
+        if not self.dead and 1 in mosi:
+            start = mosi.index(1)
+            cmd = mosi[start + 1:start + 5]
+            if len(cmd) == 4:
+                single, ch = bool(cmd[0]), cmd[1] << 2 | cmd[2] << 1 | cmd[3]
+                code = self.code(single, ch)
+                self.transactions.append((single, ch, code))
+                out = start + 7                   # after D0: the sample clock, the null bit
+                for k in range(10):
+                    if out + k < len(miso):
+                        miso[out + k] = code >> (9 - k) & 1
+        rx = [sum(bit << (7 - i) for i, bit in enumerate(miso[j:j + 8])) for j in range(0, len(miso), 8)]
+        if self.keep_frames:
+            self.frames.append((tuple(data), tuple(rx)))
+        return rx
+
+    def close(self) -> None:
+        pass
