@@ -5,6 +5,11 @@ from __future__ import annotations
 from datetime import datetime, timedelta, timezone
 
 
+#: a plan note as the planner words one (the page shows the plan's notes while tracking)
+KEYHOLE_NOTE = ("keyhole: the sky track needs 26.8 deg/s in azimuth at culmination; the azimuth holds "
+                "72.0 deg there, off the track for 14 s, while the elevation sweeps over the top")
+
+
 class FakeTracker:
     def __init__(self):
         self.calls: list[tuple] = []
@@ -40,7 +45,8 @@ class FakeTracker:
         ground = [[-40.0 + 1.4 * i, -60.0 + 3.0 * i] for i in range(61)]
         self.active = {"target": "ISS (ZARYA)", "az_deg": 221.0, "el_deg": 0.0,
                        "plan": {"aos": aos.isoformat(), "los": (aos + timedelta(minutes=10)).isoformat(),
-                                "flip": False, "wrap_turns": 0, "track": track},
+                                "flip": False, "wrap_turns": 0, "track": track,
+                                "notes": [KEYHOLE_NOTE]},
                        "ground_track": ground, "footprint_km": 2200.0,
                        "sat_lat_deg": 12.0, "sat_lon_deg": 20.0, "station": {"lat_deg": 59.4, "lon_deg": 24.7}}
 

@@ -22,7 +22,7 @@ from playwright.sync_api import expect
 from urc.config import load_config
 from urc_process import UrcProcess, free_port
 
-from .fake_tracker import FakeTracker
+from .fake_tracker import KEYHOLE_NOTE, FakeTracker
 
 #: marker vs truth with the antenna standing: AS5600 count (0.09) + a glitch count + rounding
 STANDING_TOL_DEG = 0.3
@@ -296,10 +296,12 @@ def test_pass_list_and_tracking_view_with_a_tracker(tmp_path, open_page, artifac
         assert any(c[0] == "track_pass" and c[1] == 25544 for c in trk.calls)
         page.wait_for_selector("#map-note", state="hidden")
         assert "ISS" in page.locator("#tracking-line").text_content()
+        expect(page.locator("#track-banner")).to_contain_text(KEYHOLE_NOTE)  # the plan's notes
         page.wait_for_timeout(600)
         page.screenshot(path=str(artifacts / "tracking.png"), full_page=True)
         page.click("#track-moon")
         expect(page.locator("#tracking-line")).to_contain_text("moon")
+        expect(page.locator("#track-banner")).to_be_hidden()  # the Moon's plan has no notes
         page.click("#track-stop")
         expect(page.locator("#tracking-line")).to_have_text("")
         page.problems.check()
@@ -495,3 +497,47 @@ def test_pass_list_uses_the_tracking_min_elevation_and_names_the_time_zone(tmp_p
         page.locator('#passes-body tr[data-norad="25544"] button.track-pass').click()
         expect(page.locator("#tracking-line")).to_contain_text("GMT+2")
         page.problems.check()
+
+
+def test_tracker_warnings_are_shown_while_tracking(tmp_path, open_page, artifacts):
+    """Issue 12 (7, on the page): the tracker's warnings reached only ``urc track``. A real
+    ``urc run`` tracks NOAA 19 from the test fixtures' element sets, years old by now: the
+    dashboard shows the warning in a banner at the top (at phone size too) while
+    tracking, and drops it when tracking stops."""
+    from click.testing import CliRunner
+
+    from urc.cli import main as cli
+
+    fixtures = Path(__file__).resolve().parents[1] / "tracking" / "fixtures"
+    cat = tmp_path / "cat"
+    res = CliRunner().invoke(cli, ["tle", "import", str(fixtures / "leo.tle"), "--catalog-dir", str(cat)])
+    assert res.exit_code == 0, res.output
+    u = UrcProcess(tmp_path, profile="tartu-urc",
+                   extra=f"[station]\nlat_deg = 58.378\nlon_deg = 26.729\nalt_m = 70.0\n"
+                         f"[tracking]\ncatalog_dir = '{cat}'\n").start()
+    try:
+        page = open_page(u.url + "/")
+        page.wait_for_selector("#conn.live", timeout=10000)
+        expect(page.locator("#track-banner")).to_be_hidden()
+        assert u.post("/api/track", {"kind": "satellite", "norad": 33591}).status_code == 200
+        said = u.wait(lambda s: s.get("tracking") and s["tracking"].get("warnings"), 30)["tracking"]["warnings"]
+        assert "days old" in said[0]
+        banner = page.locator("#track-banner")
+        expect(banner).to_be_visible(timeout=10000)
+        expect(banner).to_contain_text("NOAA 19")
+        expect(banner).to_contain_text(said[0])
+        page.screenshot(path=str(artifacts / "tracking-warnings.png"))
+        page.set_viewport_size({"width": 390, "height": 844})  # a phone: still on screen, one line
+        page.mouse.wheel(0, 2000)
+        page.wait_for_timeout(300)
+        assert in_viewport(page, "#track-warnings li"), "the warning scrolled out of view"
+        one_line = page.locator("#track-warnings li").first.bounding_box()["height"]
+        page.click("#track-banner")  # a tap shows the warnings whole
+        page.wait_for_timeout(100)
+        assert page.locator("#track-warnings li").first.bounding_box()["height"] > 1.5 * one_line
+        page.screenshot(path=str(artifacts / "tracking-warnings-phone.png"))
+        assert u.post("/api/track/stop").status_code == 200
+        expect(banner).to_be_hidden(timeout=10000)
+        page.problems.check()
+    finally:
+        u.stop()

@@ -16,6 +16,7 @@ let infoRev = null;
 let sky, dial, map, charts;
 let lastEventsKey = "";
 let lastProcState = "";
+let lastTrackWarnings = "";
 
 // the setpoint is the rotator's target, updated every control tick (also while
 // tracking); the tracked object itself is drawn apart (it may be below the horizon,
@@ -33,6 +34,27 @@ function timeOf(iso) {
 
 function pill(text, cls = "") {
   return h("span", { class: `pill ${cls}`, text });
+}
+
+// everything the tracker says the operator should know, most urgent first: why it is
+// not following, its error, its warnings (old elements...), then the plan's notes (a
+// keyhole's worst error, a pass wider than the azimuth range, a keep-out zone)
+function trackingWarnings(trk) {
+  if (!trk) return [];
+  return [trk.stopped, trk.error, ...(trk.warnings || []), ...((trk.plan && trk.plan.notes) || [])]
+    .filter((w) => w);
+}
+
+function showTrackingWarnings(trk) {
+  const items = trackingWarnings(trk);
+  const key = `${trk ? trk.target : ""}\n${items.join("\n")}`;
+  if (key === lastTrackWarnings) return;  // frames come 10 times a second: redraw on change only
+  lastTrackWarnings = key;
+  $("track-banner").hidden = items.length === 0;
+  setText($("track-banner-title"), trk && trk.stopped ? `NOT tracking ${trk.target}` : `Tracking ${trk ? trk.target : ""}`);
+  const ul = $("track-warnings");
+  clear(ul);
+  for (const text of items) ul.append(h("li", { text, title: text }));
 }
 
 function onFrame(frame) {
@@ -72,6 +94,7 @@ function onFrame(frame) {
   const trk = st.tracking;
   setText($("tracking-line"), trk ? `tracking ${trk.target}` + (trk.plan ? ` · AOS ${timeOf(trk.plan.aos)} · LOS ${timeOf(trk.plan.los)}` +
     `${trk.plan.flip ? " · over the top" : ""}${trk.plan.wrap_turns ? ` · wrap lap ${trk.plan.wrap_turns}` : ""}` : "") : "");
+  showTrackingWarnings(trk);
   setText($("map-title"), trk && trk.ground_track ? `(${trk.target})` : "");
   $("map-note").hidden = !!(trk && trk.ground_track);
 
@@ -144,6 +167,8 @@ async function start() {
   $("token-input").value = token();
   $("token-input").addEventListener("change", (ev) => setToken(ev.target.value.trim()));
   $("token-form").addEventListener("submit", (ev) => ev.preventDefault());
+  // on a phone each warning is one line: a tap shows them whole
+  $("track-banner").addEventListener("click", () => $("track-banner").classList.toggle("open"));
 
   charts.load("recent");
   setupControls();
