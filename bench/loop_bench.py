@@ -13,6 +13,12 @@ are read from /api/status (its window is the last 500 ticks = 10 s at 50 Hz):
 * stalls (ticks later than the watchdog time) and faults latched;
 * CPU per tick: the process's user+system time over the ticks run (heartbeat toggles).
 
+Reference, same run: ``rt_probe`` (bench/rt_probe.c, compiled with the system's cc) wakes
+a C thread at the loop's period and priority during every phase. It needs no Python
+lock, so it shows what the host itself (kernel, VM, the curl load) adds; the rest of
+urc's lateness is CPython's: the loop thread waiting for the GIL while the event-loop
+thread answers requests.
+
 Goal: lateness p99 <= 1 ms and no stalls. ``--switch-interval-ms`` runs urc with another
 ``sys.setswitchinterval`` (the evidence for the loop thread's setting).
 Prints a table, writes JSON (default bench/results/loop.json). Never gates CI.
@@ -22,7 +28,9 @@ Usage: python bench/loop_bench.py [--phase-s 12] [--profile tartu-urc] [--json P
 from __future__ import annotations
 
 import argparse
+import json
 import os
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -37,6 +45,8 @@ from bench_report import write_json  # noqa: E402
 from urc_process import UrcProcess  # noqa: E402
 from web_abuse_bench import leo_catalog  # noqa: E402
 from web_bench import STATION  # noqa: E402
+
+from urc.profiles import get_profile  # noqa: E402
 
 CLK_TCK = os.sysconf("SC_CLK_TCK")
 
@@ -58,6 +68,29 @@ def stop_all(procs: list[subprocess.Popen]) -> None:
         except ProcessLookupError:
             pass
         p.wait()
+
+
+def build_probe(work: Path) -> Path | None:
+    """Compile the C reference (None, and the table says so, without a C compiler)."""
+    cc = shutil.which("cc") or shutil.which("gcc")
+    if cc is None:
+        return None
+    exe = work / "rt_probe"
+    subprocess.run([cc, "-O2", "-o", str(exe), str(ROOT / "bench" / "rt_probe.c")], check=True)
+    return exe
+
+
+def start_probe(exe: Path | None, period_ms: float, seconds: float) -> subprocess.Popen | None:
+    if exe is None:
+        return None
+    return subprocess.Popen([str(exe), f"{period_ms:g}", f"{seconds:g}"], stdout=subprocess.PIPE, text=True)
+
+
+def probe_result(proc: subprocess.Popen | None) -> dict | None:
+    if proc is None:
+        return None
+    out, _ = proc.communicate(timeout=30)
+    return json.loads(out) if proc.returncode == 0 else None
 
 
 def main() -> None:
@@ -94,6 +127,8 @@ def main() -> None:
                                 "from urc.cli import main\nmain(prog_name='urc')\n")
             import urc_process
             urc_process.URC = [sys.executable, str(launcher)]
+        probe = build_probe(work)
+        period_ms = 1000.0 / get_profile(args.profile).loop_hz
         urc.start()
         big_cmd = (f"curl -s -o /dev/null -H 'Content-Type: application/json' --data-binary @{big} "
                    f"{urc.url}/api/goto")
@@ -110,6 +145,7 @@ def main() -> None:
                 c0, t0 = cpu_s(urc.proc.pid), time.monotonic()
                 load = [curl_loop(c) for c in cmds]
                 end = time.monotonic() + args.phase_s
+                ref = start_probe(probe, period_ms, args.phase_s - 1.0)
                 try:
                     while time.monotonic() < end:
                         if slew and not urc.status()["moving"]:
@@ -119,6 +155,7 @@ def main() -> None:
                         time.sleep(0.25)
                 finally:
                     stop_all(load)
+                reference = probe_result(ref)
                 s1 = urc.status()
                 c1, t1 = cpu_s(urc.proc.pid), time.monotonic()
                 ticks = s1["simulator_truth"]["heartbeat"]["toggles"] - s0["simulator_truth"]["heartbeat"]["toggles"]
@@ -130,7 +167,8 @@ def main() -> None:
                     "stalls": loop["stalls"] - s0["loop"]["stalls"],
                     "faults": [f"{f['kind']}: {f['reason']}" for f in s1["faults"]],
                     "cpu_ms_per_tick": 1000.0 * (c1 - c0) / max(ticks, 1),
-                    "cpu_share_of_a_core": (c1 - c0) / (t1 - t0)})
+                    "cpu_share_of_a_core": (c1 - c0) / (t1 - t0),
+                    "c_probe": reference})
                 if s1["faults"]:
                     urc.post("/api/clear-faults")
         finally:
@@ -140,11 +178,16 @@ def main() -> None:
           f"{args.phase_s:g} s per phase, {os.cpu_count()} CPUs, load average "
           f"{results['load_avg_start'][0]:.1f} at start"
           + (f", switch interval {args.switch_interval_ms:g} ms" if args.switch_interval_ms is not None else ""))
-    print(f"  {'phase':<34} {'late p99':>9} {'tick p99':>9} {'stalls':>6} {'CPU/tick':>9} {'CPU':>6}  faults")
+    print(f"  {'phase':<34} {'late p99':>9} {'C probe':>9} {'tick p99':>9} {'stalls':>6} {'CPU/tick':>9} "
+          f"{'CPU':>6}  faults")
     for p in results["phases"]:
-        print(f"  {p['phase']:<34} {p['late_p99_ms']:7.2f}ms {p['tick_p99_ms']:7.2f}ms {p['stalls']:6d} "
+        ref = p["c_probe"]
+        ref_txt = "    n/a  " if ref is None else f"{ref['late_p99_ms']:7.2f}ms"
+        print(f"  {p['phase']:<34} {p['late_p99_ms']:7.2f}ms {ref_txt} {p['tick_p99_ms']:7.2f}ms {p['stalls']:6d} "
               f"{p['cpu_ms_per_tick']:7.2f}ms {100 * p['cpu_share_of_a_core']:5.0f}%  "
               f"{'; '.join(p['faults']) or 'none'}")
+    print("  late p99: urc's loop thread (deadline to outputs written); C probe: a C thread woken at the "
+          "same period and priority in the same run (what the host adds without Python's lock)")
     write_json(results, args.json)
 
 
