@@ -33,7 +33,9 @@ PROFILES: dict[str, RotatorCaps] = {
         command_sets=("urc", "rotctld"),
     ),
     # SARCNET mini rotator (Arduino): 0.6 rpm motors, tilt-compensated magnetometer +
-    # accelerometer, no end-stop switches, azimuth windup tracked in software.
+    # accelerometer, no end-stop switches, azimuth windup tracked in software. Elevation
+    # 0-180: the document's demo mode flies over the top (0/180); below 0 only as a
+    # reading (its set-up points the loose sensor 45 deg down and reads about -45).
     "sarcnet-mini": RotatorCaps(
         name="sarcnet-mini",
         description="SARCNET mini (Arduino): 0.6 rpm, magnetometer/accelerometer sensor",
@@ -42,7 +44,7 @@ PROFILES: dict[str, RotatorCaps] = {
                     sensor=SensorCaps(kind="magnetometer", resolution_deg=0.1, absolute=True,
                                       modulo_deg=360.0, noise_deg=0.15),
                     tolerance_deg=0.3, restart_deg=0.8, creep_lead_deg=0.15, backlash_deg=0.5),
-        el=AxisCaps(name="el", min_deg=0.0, max_deg=90.0, park_deg=0.0,
+        el=AxisCaps(name="el", min_deg=0.0, max_deg=180.0, park_deg=0.0,
                     max_rate_deg_per_s=3.6, min_rate_deg_per_s=0.4, accel_deg_per_s2=6.0,
                     sensor=SensorCaps(kind="magnetometer", resolution_deg=0.1, absolute=True,
                                       noise_deg=0.1),

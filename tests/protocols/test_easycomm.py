@@ -330,9 +330,9 @@ def test_park(sarcnet):
 
 
 def test_refused_set_is_silent_and_still(sarcnet):
-    """Beyond the limits (sarcnet-mini elevation 0..90): no reply, nothing moves."""
+    """Beyond the limits (sarcnet-mini elevation 0..180): no reply, nothing moves."""
     s = Easycomm3Session(sarcnet.rot)
-    assert s.receive(b"AZ100.0 EL120.0\nAZ500.0 EL10.0\n") == []
+    assert s.receive(b"AZ100.0 EL190.0\nAZ500.0 EL10.0\n") == []
     sarcnet.run(1.0)
     assert not sarcnet.rot.status().moving and sarcnet.rot.status().target_az_deg is None
 

@@ -163,10 +163,10 @@ def test_easycomm_set_then_get_46(sarc):
 
 def test_errors_do_not_move(sarc):
     b, s = sarc
-    replies = s.receive(b"500 10\r10 95\rnan 1\r")
+    replies = s.receive(b"500 10\r10 185\rnan 1\r")
     assert [r[:6] for r in replies] == [b"Error:"] * 3
     assert b"0..360" in replies[0] and b"limits" in replies[1]
-    assert s.receive(b"AZfoo\nAZ500 EL10\nEL95\nAZ-200\n") == []     # Easycomm: logged, no reply
+    assert s.receive(b"AZfoo\nAZ500 EL10\nEL185\nAZ-200\n") == []     # Easycomm: logged, no reply
     assert held(b)
     assert b.rot.status().target_az_deg is None
 
@@ -353,3 +353,58 @@ def test_console_session_from_the_document(sarc, bench):
     b.run(2.0)
     b2 = b.restart()
     assert SarcnetSession(b2.rot).receive(b"e\r") == [b"Magnetic declination: 11.7\r\n"]
+
+
+# ===================================================== elevation range of the document
+class _DemoRotator:
+    """Records the demo's targets (a protocol-level fake: the set-point path only)."""
+
+    def __init__(self):
+        self.targets = []
+
+    def status(self):
+        from types import SimpleNamespace
+        return SimpleNamespace(az_deg=0.0, el_deg=0.0)
+
+    def goto(self, az_deg, el_deg):
+        self.targets.append((az_deg, el_deg))
+        return []
+
+
+def test_demo_runs_the_documents_cycle_over_the_top():
+    """d: 0/0, 90/90, 0/180, 90/90, 0/0, -90/90, -180/0, -90/90 and round again, straight
+    lines at 1 deg/s per axis (8 legs of 90 s)."""
+    rot = _DemoRotator()
+    s = SarcnetSession(rot)
+    s.receive(b"d\r")
+    rows = [s.tick(1000.0 + 0.1 * k) for k in range(1, 7300)]
+    sets = [tuple(map(int, r[0].split(b","))) for r in rows]
+    corners = [sets[round(90 * 10 * i) - 1] for i in range(1, 9)]
+    assert corners == [(90, 90), (0, 180), (90, 90), (0, 0), (-90, 90), (-180, 0), (-90, 90), (0, 0)]
+    assert sets[450 - 1] == (45, 45) and sets[900 + 450 - 1] == (45, 135)
+    assert (0.0, 180.0) in rot.targets or max(el for _, el in rot.targets) >= 179.0
+
+
+def test_elevation_0_to_180_and_a_reading_below_zero(sarc):
+    """The document's demo flies over the top (0/180): the profile allows it. Its set-up
+    points the loose sensor 45 deg down and expects a reading between 0 and -90: urc
+    reports it as read, and, the reading being outside the limits, stops the motors
+    with a fault rather than driving on it."""
+    from urc.hardware.sim.sensors import rotation_taking
+    b, s = sarc
+    assert b.rot.status().limits["el"] == (0.0, 180.0)
+    assert s.receive(b"0 180\r") == []
+    b.settle()
+    assert b.truth("el") == pytest.approx(180.0, abs=TRUTH_TOL_DEG)
+    assert s.receive(b"0 0\r") == []
+    b.settle()
+    assert s.receive(b"m\r")[0].startswith(b"Monitoring")
+    for deg in range(0, 46):                      # tilt the sensor down slowly
+        a = math.radians(deg)
+        b.world.board.hold(rotation_taking((0, 0, 1), (-math.sin(a), 0, math.cos(a))))
+        rows = ticks(b, s, 0.2, step_s=0.1)
+    assert int(rows[-1].split(b",")[1]) == -45
+    st = b.rot.status()
+    assert any(f.kind == "sensor_range" and f.axis == "el" for f in st.faults)
+    assert b.truth("el") == pytest.approx(0.0, abs=1.0)       # nothing drove on it
+    assert s.receive(b"45 200\r")[0].startswith(b"Error: ")  # past the top: refused

@@ -23,8 +23,10 @@ c        the 12-direction hand-held calibration (motor supply off, board off the
          or a disconnect abandon it unchanged. Motion is refused meanwhile (a local
          control hold). Then ``r`` (board back on the boom) clears the faults the
          wandering readings raised and drives home
-d        demo mode: sweep the set point at 1 deg/s, azimuth -180..180 and elevation
-         0..90 bouncing at the ends, flying it and printing ``azSet,elSet`` each period
+d        demo mode: the document's cycle 0/0, 90/90, 0/180, 90/90, 0/0, -90/90, -180/0,
+         -90/90 (az/el; el past 90 is over the top), the set point moving straight
+         between them at 1 deg/s per axis from where the antenna is, flying it and
+         printing ``azSet,elSet`` each period
 m        monitor mode: stream ``az,el,azSet,elSet,azWindup,windup,azError,elError``
          every ``interval_s`` (whole degrees; az in -180..180; azWindup = azimuth with
          its cable wrap, e.g. 400 or -10; windup = 1 while that lies outside 0..360,
@@ -66,6 +68,9 @@ bad_input = bad_input_log("sarcnet")
 CALIBRATION_HOLD = "SARCNET calibration"
 DEMO_RATE_DEG_PER_S = 1.0       # the original: 0.05 deg every 50 ms
 DEMO_GOTO_EVERY_S = 0.5         # refresh the rotator's target no faster than this
+#: the document's demo cycle, az/el (az in -180..180)
+DEMO_POINTS = ((0.0, 0.0), (90.0, 90.0), (0.0, 180.0), (90.0, 90.0), (0.0, 0.0), (-90.0, 90.0),
+               (-180.0, 0.0), (-90.0, 90.0))
 
 
 class SarcnetSession:
@@ -89,7 +94,7 @@ class SarcnetSession:
         self._last_s: float | None = None
         self._held: tuple[float, float] | None = None      # target given while paused
         self._demo = [0.0, 0.0]                             # set point: az (-180..180), el
-        self._demo_inc = [DEMO_RATE_DEG_PER_S, DEMO_RATE_DEG_PER_S]
+        self._demo_next = 0                                 # index of the point it heads for
         self._demo_goto_s = -1e300
 
     # ------------------------------------------------------------------ Session
@@ -186,7 +191,7 @@ class SarcnetSession:
             self._held = (held[0] if az is None else az, held[1] if el is None else el)
             return
         if self.mode == "demonstrating":
-            # as on the Arduino, the sweep carries on from the new set point
+            # as on the Arduino, the cycle carries on from the new set point
             self._demo = [self._demo[0] if az is None else signed180(az), self._demo[1] if el is None else el]
         goto_named_axes(self.rotator, az, el)
 
@@ -330,7 +335,7 @@ class SarcnetSession:
     def _letter_d(self, cmd: SarcnetCommand) -> list[bytes]:
         st = self.rotator.status()
         self._demo = [signed180(st.az_deg), st.el_deg]
-        self._demo_inc = [DEMO_RATE_DEG_PER_S, DEMO_RATE_DEG_PER_S]
+        self._demo_next = 0
         self._demo_goto_s = -1e300
         self._enter("demonstrating")
         return [codec.console("Demo in progress: Press 'a' to abort")]
@@ -394,12 +399,15 @@ class SarcnetSession:
                                   signed180(az - az_set), el - el_set)
 
     def _demo_step(self, st: Status, now_s: float, dt: float) -> list[bytes]:
-        for i, (lo, hi) in enumerate(((-180.0, 180.0), (0.0, 90.0))):
-            v = self._demo[i] + self._demo_inc[i] * dt
-            if v > hi or v < lo:                 # bounce at the ends
-                self._demo_inc[i] = -self._demo_inc[i]
-                v = min(max(v, lo), hi)
-            self._demo[i] = v
+        budget = DEMO_RATE_DEG_PER_S * dt
+        for _ in range(len(DEMO_POINTS)):           # several points within one period
+            target = DEMO_POINTS[self._demo_next]
+            left = max(abs(t - v) for t, v in zip(target, self._demo))
+            if left > budget:
+                self._demo = [v + max(-budget, min(budget, t - v)) for t, v in zip(target, self._demo)]
+                break
+            self._demo, budget = list(target), budget - left
+            self._demo_next = (self._demo_next + 1) % len(DEMO_POINTS)
         out = [codec.demo_line(*self._demo)]
         if now_s - self._demo_goto_s >= DEMO_GOTO_EVERY_S:
             self._demo_goto_s = now_s

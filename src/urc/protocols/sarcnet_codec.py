@@ -162,6 +162,6 @@ def calibration_rows(mag, acc) -> list[str]:
             f"G offset {_triple(acc.centre)} scale {_triple(acc.half_extent)}"]
 
 
-HELP = ("Commands:", "az el -(0..360 or -180..180, 0..90)", "r -Reset", "eNN.N -MagDecl",
+HELP = ("Commands:", "az el -(0..360 or -180..180, 0..180)", "r -Reset", "eNN.N -MagDecl",
         "c -Calibrate", "s -Save", "a -Abort", "d -Demo", "b -Debug", "m -Monitor", "p -Pause",
         "h -Help")

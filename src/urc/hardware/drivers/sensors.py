@@ -422,8 +422,11 @@ class TiltSensor(_Driver, AccelCalibration):
         self.offset_deg = float(offset_deg)
 
     def _tilt(self) -> float:
+        """Tilt in -90..270: straight down to over the top and on (the SARCNET
+        reads -90..180; atan2's -180..180 would call 180 -180)."""
         ax, _, az = self.corrected_accel(self.accel.read_vector())
-        return math.degrees(math.atan2(ax, az))
+        t = math.degrees(math.atan2(ax, az))
+        return t + 360.0 if t < -90.0 else t
 
     def read_deg(self) -> float:
         t = self._tilt()

@@ -246,7 +246,7 @@ def _build(caps: RotatorCaps) -> tuple[SimAxisParams, SimAxisParams]:
         kw = dict(gear_ratio=5000, supply_v=12.0, r_ohm=8.0, motor_j_kgm2=1.0e-6,
                   load_j_kgm2=0.5, backlash_deg=0.5, sensor=mag)
         return (_dc_axis(az, hard=None, **kw),  # type: ignore[arg-type]
-                _dc_axis(el, hard=(-5.0, 95.0), **kw))  # type: ignore[arg-type]
+                _dc_axis(el, hard=(-5.0, 185.0), **kw))  # type: ignore[arg-type]
     if name == "bigras":
         # SPID BIG-RAS: 24 V DC motors, reed-pulse sensor on the gear train, limit switches
         # 2 deg outside the soft limits, hard stops 5 deg outside.
