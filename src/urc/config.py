@@ -139,6 +139,11 @@ class GpioAxis(_Section):
     #: CE<spi_device>: GPIO8 or GPIO7; SCLK 11, MOSI 10, MISO 9)
     adc: str = "ads1115"
     spi_device: int = Field(0, ge=0, le=1)
+    #: the motor bridge's current-sense output (VNH5019 CS, BTS7960 IS, LMD18200 sense
+    #: resistor) on this input of the axis' ADC (``adc``): the overcurrent fault and the
+    #: stall / stuck-sensor verdict then see the motor current; None = not wired
+    current_sense_channel: int | None = Field(None, ge=-100, le=100)
+    current_sense_v_per_a: float = _num(0.14, gt=0.0, le=10.0)
     #: the pot's input and the input wired to the pot supply (None: ADS1115 input 3; on
     #: an MCP3008 its VREF is the pot supply, so N is read as the G4JNT PIC reads it)
     adc_channel: int = Field(0, ge=-100, le=100)
@@ -807,6 +812,7 @@ def _gpio_issues(cfg: Config, caps: RotatorCaps) -> list[_Issue]:
         i2c[(g.i2c_bus, None, g.fram_address)] = ("hardware.gpio.fram_address", "fram")
     muxed_buses: set[int] = set()
     spi_vref: dict[int, tuple[str, float]] = {}
+    adc_inputs: dict[tuple, str] = {}
     for name in ("az", "el"):
         ax = getattr(g, name)
         pre = f"hardware.gpio.{name}"
@@ -848,11 +854,15 @@ def _gpio_issues(cfg: Config, caps: RotatorCaps) -> list[_Issue]:
             issues.append((f"{pre}.adc", "one of " + ", ".join(_ADC_CHANNELS), ax.adc,
                            _suggest(ax.adc, list(_ADC_CHANNELS))))
             continue
-        if kind == "pot" and ax.adc == "mcp3008":
-            issues += _spi_issues(pre, ax.spi_device, used)
-        chips = {"as5600": [("as5600", 0x36)], "pot": [("ads1115", 0x48)] if ax.adc == "ads1115" else [],
+        uses_adc = kind == "pot" or ax.current_sense_channel is not None
+        if uses_adc:
+            issues += _adc_issues(pre, ax, kind, used, spi_vref, adc_inputs,
+                                  g.i2c_bus if ax.i2c_bus is None else ax.i2c_bus)
+        chips = {"as5600": [("as5600", 0x36)],
                  "magnetometer": [("lsm303agr", 0x19), ("lsm303agr", 0x1E)] if ax.compass == "lsm303agr"
                  else [("lsm303d", 0x1D)]}.get(kind, [])
+        if uses_adc and ax.adc == "ads1115":
+            chips = chips + [("ads1115", 0x48)]
         bus = g.i2c_bus if ax.i2c_bus is None else ax.i2c_bus
         ch = ax.i2c_mux_channel
         if ch is not None:
@@ -874,28 +884,59 @@ def _gpio_issues(cfg: Config, caps: RotatorCaps) -> list[_Issue]:
                                    "TCA9548A mux: i2c_mux_channel)", hex(addr), ""))
                     break
             i2c[(bus, ch, addr)] = (pre, dev[0])
-        if kind == "pot":
-            n = _ADC_CHANNELS[ax.adc]
-            for key in ("adc_channel", "adc_reference_channel"):
-                v = getattr(ax, key)
-                if v is not None and not 0 <= v < n:
-                    issues.append((f"{pre}.{key}", f"an {ax.adc.upper()} input 0..{n - 1}", v, ""))
-            ref = 3 if ax.adc_reference_channel is None and ax.adc == "ads1115" else ax.adc_reference_channel
-            if ax.adc_channel == ref:
-                issues.append((f"{pre}.adc_reference_channel", "an input other than adc_channel "
-                               "(the pot supply)", ref, ""))
-            if ax.adc == "mcp3008":
-                # one chip, one VREF: the pot supply (no reference input) or the 3.3 V rail
-                vref = ax.adc_reference_v if ax.adc_reference_channel is None else 3.3
-                other_vref = spi_vref.setdefault(ax.spi_device, (pre, vref))
-                if other_vref[1] != vref:
-                    issues.append((f"{pre}.adc_reference_channel", f"the same VREF as {other_vref[0]} on "
-                                   f"this MCP3008 ({other_vref[1]:g} V)", ax.adc_reference_channel, ""))
     for bus in sorted(muxed_buses):
         for (b, _c, a), other in i2c.items():
             if b == bus and a == g.i2c_mux_address:
                 issues.append(("hardware.gpio.i2c_mux_address", f"an address free on I2C bus {bus} for "
                                f"the TCA9548A (0x{a:02x} is {other[0]}'s)", hex(a), ""))
+    return issues
+
+
+#: motor drivers with a current-sense output
+_CURRENT_SENSE_MOTORS = ("vnh5019", "bts7960", "lmd18200")
+
+
+def _adc_issues(pre: str, ax: Any, kind: str, used: dict[int, str], spi_vref: dict[int, tuple[str, float]],
+                adc_inputs: dict[tuple, str], bus: int) -> list[_Issue]:
+    """An axis' ADC (its pot and/or its bridge's current sense): inputs that exist, each
+    used once per chip (the pots' shared supply input aside), SPI0's pins, one VREF per
+    MCP3008."""
+    issues: list[_Issue] = []
+    n = _ADC_CHANNELS[ax.adc]
+    if ax.adc == "mcp3008":
+        issues += _spi_issues(pre, ax.spi_device, used)
+        chip: tuple = ("MCP3008", ax.spi_device)
+    else:
+        chip = ("ADS1115", ax.i2c_address or 0x48, bus, ax.i2c_mux_channel)
+    inputs = []
+    if kind == "pot":
+        inputs.append(("adc_channel", ax.adc_channel))
+        ref = 3 if ax.adc_reference_channel is None and ax.adc == "ads1115" else ax.adc_reference_channel
+        if ref is not None and not 0 <= ref < n:
+            issues.append((f"{pre}.adc_reference_channel", f"an {ax.adc.upper()} input 0..{n - 1}", ref, ""))
+        elif ax.adc_channel == ref:
+            issues.append((f"{pre}.adc_reference_channel", "an input other than adc_channel "
+                           "(the pot supply)", ref, ""))
+    if ax.current_sense_channel is not None:
+        inputs.append(("current_sense_channel", ax.current_sense_channel))
+        if ax.motor not in _CURRENT_SENSE_MOTORS:
+            issues.append((f"{pre}.current_sense_channel", "a bridge with a current-sense output ("
+                           + ", ".join(_CURRENT_SENSE_MOTORS) + ")", ax.motor, ""))
+    for key, v in inputs:
+        if not 0 <= v < n:
+            issues.append((f"{pre}.{key}", f"an {ax.adc.upper()} input 0..{n - 1}", v, ""))
+        elif (chip, v) in adc_inputs:
+            issues.append((f"{pre}.{key}", f"an input not already used ({ax.adc.upper()} input {v} is "
+                           f"{adc_inputs[(chip, v)]})", v, ""))
+        else:
+            adc_inputs[(chip, v)] = f"{pre}.{key}"
+    if ax.adc == "mcp3008":
+        # one chip, one VREF: the pot supply (a pot with no reference input) or the 3.3 V rail
+        vref = ax.adc_reference_v if kind == "pot" and ax.adc_reference_channel is None else 3.3
+        other_vref = spi_vref.setdefault(ax.spi_device, (pre, vref))
+        if other_vref[1] != vref:
+            issues.append((f"{pre}.adc_reference_channel", f"the same VREF as {other_vref[0]} on "
+                           f"this MCP3008 ({other_vref[1]:g} V)", ax.adc_reference_channel, ""))
     return issues
 
 

@@ -122,9 +122,27 @@ def test_two_as5600_on_one_bus_and_adc_channel_range():
     with pytest.raises(ConfigError, match=r"spi_device"):
         Config.from_dict(g)
     g["hardware"]["gpio"]["el"]["spi_device"] = 0
+    g["hardware"]["gpio"]["el"]["adc_channel"] = 7              # the az pot's input on the same chip
+    with pytest.raises(ConfigError, match=r"el.adc_channel.*MCP3008 input 7 is hardware.gpio.az.adc_channel"):
+        Config.from_dict(g)
+    g["hardware"]["gpio"]["el"]["adc_channel"] = 1
+    g["hardware"]["gpio"]["el"]["current_sense_channel"] = 2    # relays have no current-sense output
+    with pytest.raises(ConfigError, match=r"el.current_sense_channel.*current-sense output"):
+        Config.from_dict(g)
+    del g["hardware"]["gpio"]["el"]["current_sense_channel"]
     g["hardware"]["gpio"]["el"]["adc"] = "mcp3009"
     with pytest.raises(ConfigError, match=r"el.adc.*mcp3008"):
         Config.from_dict(g)
+    t = _cfg()
+    t["hardware"]["gpio"]["az"].update(adc="ads1115", current_sense_channel=4)   # ADS1115: 0..3
+    with pytest.raises(ConfigError, match=r"az.current_sense_channel.*ADS1115 input 0..3"):
+        Config.from_dict(t)
+    t["hardware"]["gpio"]["az"]["current_sense_channel"] = 0
+    t["hardware"]["gpio"]["el"].update(adc="ads1115", current_sense_channel=0)
+    with pytest.raises(ConfigError, match=r"el.current_sense_channel.*input 0 is hardware.gpio.az"):
+        Config.from_dict(t)
+    t["hardware"]["gpio"]["el"]["current_sense_channel"] = 1
+    Config.from_dict(t)
 
 
 def test_i2c_nack_is_a_sensor_fault_that_never_moves(tmp_path):
@@ -278,3 +296,33 @@ def test_urc_run_emulate_process(path, tmp_path):
         proc.terminate()
         proc.wait(timeout=30)
     assert proc.returncode == 0
+
+
+def test_current_sense_through_the_adc_trips_overcurrent(tmp_path):
+    """tartu-urc: the VNH5019 CS outputs on an MCP3008. The motor current the rotator
+    sees comes through the ADC (cut the CS wire and it reads 0 while the motor runs);
+    a jam trips the overcurrent fault before the stall detector would."""
+    rot, clock = emulated(next(p for p in EXAMPLES if p.stem == "tartu-urc"), tmp_path)
+    fake = rot.hw.extra["fake_spi"][0]
+    rot.goto(150.0, 60.0)
+    s = run_virtual(rot, clock, 3.0)
+    truth_a = abs(s.sim_truth["az"]["current_a"])
+    assert truth_a > 0.3 and s.az.current_a == pytest.approx(truth_a, abs=0.05)
+    lsb_a = 3.3 / 1024 / 0.14
+    assert {t[1] for t in fake.transactions} == {0, 1}
+    assert s.az.current_a / lsb_a == pytest.approx(round(s.az.current_a / lsb_a), abs=1e-6)  # ADC counts
+    cs = fake.inputs.pop(0)                       # the az CS wire cut: 0 V on CH0
+    s = run_virtual(rot, clock, 0.1)
+    assert s.az.current_a == 0.0 and abs(s.sim_truth["az"]["current_a"]) > 0.3
+    fake.inputs[0] = cs
+    rot.hw.extra["world"].inject("az", "jam")
+    s = run_virtual(rot, clock, 0.6)               # overcurrent holds 0.25 s; a stall takes > 1.5 s
+    assert [(f.kind, f.axis) for f in s.faults] == [("overcurrent", "az")], s.faults
+    assert s.az.duty == 0.0 and s.el.duty == 0.0
+
+
+def test_no_current_sense_reads_zero_as_on_iron(tmp_path):
+    rot, clock = emulated(next(p for p in EXAMPLES if p.stem == "berkeley"), tmp_path)
+    rot.goto(100.0, 30.0)
+    s = run_virtual(rot, clock, 2.0)
+    assert abs(s.sim_truth["az"]["current_a"]) > 0.1 and s.az.current_a == 0.0

@@ -122,6 +122,13 @@ class Vector3(Protocol):
 
 
 @runtime_checkable
+class VoltageIn(Protocol):
+    """One ADC input read as volts (a current-sense output, a divided supply)."""
+
+    def read_volts(self) -> float: ...
+
+
+@runtime_checkable
 class CurrentSense(Protocol):
     """Motor current (VNH5019 CS pin through an ADC, BTS7960 IS)."""
 
@@ -130,4 +137,4 @@ class CurrentSense(Protocol):
 
 __all__ = ["AdcChannel", "As5600Part", "CurrentSense", "DigitalIn", "DigitalOut",
            "MagnetStatus", "PartError", "PulseCounter", "PwmOut", "QuadratureCounter",
-           "Vector3"]
+           "Vector3", "VoltageIn"]

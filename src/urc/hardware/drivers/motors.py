@@ -16,7 +16,7 @@ from typing import Callable, Sequence
 
 from ...clock import Clock
 from ...errors import HardwareError
-from ..parts import CurrentSense, DigitalOut, PwmOut
+from ..parts import CurrentSense, DigitalOut, PwmOut, VoltageIn
 
 
 def clamp_duty(duty: float, name: str) -> float:
@@ -33,6 +33,17 @@ def quantise_relay(duty: float, levels: tuple[float, ...]) -> float:
         return 0.0
     best = min(levels, key=lambda lv: (abs(lv - mag), -lv))
     return math.copysign(best, duty)
+
+
+class SenseCurrent:
+    """A bridge's current-sense output on an ADC input: amperes = volts / ``v_per_a``
+    (VNH5019 carrier: about 0.14 V/A; the output gives the magnitude, not the sign)."""
+
+    def __init__(self, volts: VoltageIn, v_per_a: float):
+        self.volts, self.v_per_a = volts, float(v_per_a)
+
+    def read_current_a(self) -> float:
+        return self.volts.read_volts() / self.v_per_a
 
 
 class DirectionTracker:

@@ -21,9 +21,9 @@ from ...clock import Clock
 from ...errors import ConfigError
 from ..drivers import (As5600Sensor, Bts7960Motor, CompassSensor, LimitSwitchInput, Lmd18200Motor,
                        PotSensor, PwmDirMotor, QuadratureEncoder, RelayBrake, RelayMotor,
-                       SpidPulseSensor, TiltSensor, Vnh5019Motor)
+                       SenseCurrent, SpidPulseSensor, TiltSensor, Vnh5019Motor)
 from ..interfaces import AxisHardware, Hardware
-from .i2c import (Ads1115Channel, Ads1115Chip, As5600Chip, Lsm303Accel, Lsm303agrChip, Lsm303dChip,
+from .i2c import (AdcInput, Ads1115Channel, Ads1115Chip, As5600Chip, Lsm303Accel, Lsm303agrChip, Lsm303dChip,
                   Lsm303Mag, Tca9548aMux)
 from ..sim.params import PHYSICS, physics_for
 from .pins import PinIn, PinOut, PinPulseCounter, PinPwm, PinQuadrature
@@ -72,7 +72,8 @@ class _EmulatedMotor:
         self.world.axes[self.axis].set_command(_emulated_motor_duty(self.kind, self.driver, self.levels))
 
     def read_current_a(self) -> float:
-        return self.world.axes[self.axis].current_a()
+        # through the current-sense part when one is wired (0 without, as on iron)
+        return self.driver.read_current_a()
 
     def __getattr__(self, name: str) -> Any:
         return getattr(self.__dict__["driver"], name)
@@ -171,13 +172,37 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
         def pwm(key: str) -> PinPwm:
             return PinPwm(factory, pins[key], frequency_hz=pwm_hz)
 
+        bus_n = cfg.i2c_bus if cfg.i2c_bus is not None else gpio.i2c_bus
+        mux_ch = cfg.i2c_mux_channel
+        on_bus = f"bus {bus_n}" + ("" if mux_ch is None else f" mux ch{mux_ch}")
+
+        def adc_chip() -> Any:
+            """The axis' ADC (pot and/or current sense): one MCP3008 per chip select,
+            or the ADS1115 at its address."""
+            if cfg.adc == "mcp3008":
+                if cfg.spi_device not in spi_chips:
+                    # VREF: the pot supply when no input reads it, else the 3.3 V rail
+                    pot_vref = sk == "pot" and cfg.adc_reference_channel is None
+                    spi_chips[cfg.spi_device] = Mcp3008Chip(
+                        spi_dev(cfg.spi_device), cfg.spi_device, vref_v=cfg.adc_reference_v if pot_vref else 3.3)
+                return spi_chips[cfg.spi_device]
+            return Ads1115Chip(chip_bus(bus_n, mux_ch), cfg.i2c_address or 0x48, f"{name} ADS1115")
+
+        sk = ax_caps.sensor.kind
+        cs = None
+        if cfg.current_sense_channel is not None:
+            cs_chip = adc_chip()
+            cs = SenseCurrent(AdcInput(cs_chip, cfg.current_sense_channel), cfg.current_sense_v_per_a)
+            where = f"SPI0 CE{cfg.spi_device}" if cfg.adc == "mcp3008" else on_bus
+            parts_list.append((f"{name} current sense {cfg.adc.upper()} ch{cfg.current_sense_channel} "
+                               f"({where})", cs_chip))
         kind = cfg.motor
         if kind == "vnh5019":
-            motor: Any = Vnh5019Motor(name, out("ina"), out("inb"), pwm("pwm"))
+            motor: Any = Vnh5019Motor(name, out("ina"), out("inb"), pwm("pwm"), current=cs)
         elif kind == "lmd18200":
-            motor = Lmd18200Motor(name, pwm("pwm"), out("dir"), out("bridge_brake"))
+            motor = Lmd18200Motor(name, pwm("pwm"), out("dir"), out("bridge_brake"), current=cs)
         elif kind == "bts7960":
-            motor = Bts7960Motor(name, pwm("rpwm"), pwm("lpwm"))
+            motor = Bts7960Motor(name, pwm("rpwm"), pwm("lpwm"), current=cs)
         elif kind == "pwm_dir":
             motor = PwmDirMotor(name, pwm("pwm"), out("dir"))
         else:
@@ -185,10 +210,6 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
                                fast=out("fast") if "fast" in pins else None,
                                levels=ax_caps.drive_levels or (1.0,),
                                reverse_dead_time_s=cfg.relay_dead_time_s)
-        sk = ax_caps.sensor.kind
-        bus_n = cfg.i2c_bus if cfg.i2c_bus is not None else gpio.i2c_bus
-        mux_ch = cfg.i2c_mux_channel
-        on_bus = f"bus {bus_n}" + ("" if mux_ch is None else f" mux ch{mux_ch}")
         sensor: Any
         if sk == "encoder":
             counter = PinQuadrature(factory, pins["enc_a"], pins["enc_b"], pins.get("enc_z"))
@@ -217,16 +238,13 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
                 sensor = TiltSensor(ax_caps.sensor, name, Lsm303Accel(chip))
             parts_list.append((f"{name} {cfg.compass.upper()} ({on_bus})", chip))
         elif cfg.adc == "mcp3008":  # pot through an MCP3008 on SPI0
-            # VREF: the pot supply when no input reads it, else the 3.3 V rail
-            spi_chip = spi_chips.get(cfg.spi_device) or spi_chips.setdefault(cfg.spi_device, Mcp3008Chip(
-                spi_dev(cfg.spi_device), cfg.spi_device,
-                vref_v=cfg.adc_reference_v if cfg.adc_reference_channel is None else 3.3))
+            spi_chip = adc_chip()
             adc = Mcp3008Channel(spi_chip, cfg.adc_channel, cfg.adc_reference_channel,
                                  reference_v=cfg.adc_reference_v)
             sensor = _pot_sensor(caps, name, ax_caps, cfg, adc)
             parts_list.append((f"{name} MCP3008 ch{cfg.adc_channel} (SPI0 CE{cfg.spi_device})", spi_chip))
         else:  # pot through an ADS1115
-            chip = Ads1115Chip(chip_bus(bus_n, mux_ch), cfg.i2c_address or 0x48, f"{name} ADS1115")
+            chip = adc_chip()
             adc = Ads1115Channel(chip, cfg.adc_channel, _ads_reference(cfg),
                                  reference_v=cfg.adc_reference_v)
             sensor = _pot_sensor(caps, name, ax_caps, cfg, adc)
@@ -243,6 +261,8 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
             devices = (fake_bus.devices if mux_ch is None else
                        fake_bus.mux_channel(gpio.i2c_mux_address, mux_ch)) if fake_bus is not None else {}
             _feed_sensor(name, sk, world, sensor, devices, cfg, syncs, fake_spi)
+            if cs is not None:
+                _feed_current_sense(world.axes[name], cfg, devices, fake_spi)
             for side, sw in zip(("min", "max"), lims):
                 sim_sw = world.limits[name][0 if side == "min" else 1]
                 if sw is not None and sim_sw is not None:
@@ -315,6 +335,18 @@ def _pot_sensor(caps: RotatorCaps, name: str, ax_caps: Any, cfg: Any, adc: Any) 
     m = cfg.pot_m if cfg.pot_m is not None else (sp.pot_span_deg / full if sp else ax_caps.span_deg / full)
     c = cfg.pot_c if cfg.pot_c is not None else (sp.pot_start_deg if sp else ax_caps.min_deg)
     return PotSensor(ax_caps.sensor, name, adc, law=cfg.pot_law or law, m=m, c=c)
+
+
+def _feed_current_sense(phys: Any, cfg: Any, devices: dict[int, Any], fake_spi: dict[int, Any]) -> None:
+    """Emulation: the bridge's current-sense output (magnitude only, clipped at the
+    ADC's range) from the simulated motor current, on the configured ADC input."""
+    from .emulate import FakeAds1115
+    if cfg.adc == "mcp3008":
+        dev = fake_spi[cfg.spi_device]
+    else:
+        addr = cfg.i2c_address or 0x48
+        dev = devices.get(addr) or devices.setdefault(addr, FakeAds1115({}))
+    dev.inputs[cfg.current_sense_channel] = lambda: abs(phys.current_a()) * cfg.current_sense_v_per_a
 
 
 def _ads_reference(cfg: Any) -> int:

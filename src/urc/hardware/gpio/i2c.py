@@ -145,6 +145,9 @@ class Ads1115Chip:
             self.address, self.REG_CONV, 2))
         return struct.unpack(">h", bytes((hi, lo)))[0]
 
+    def volts(self, channel: int) -> float:
+        return self.convert(channel) * self.FS_V / 32768
+
 
 class Ads1115Channel:
     """A pot on one ADS1115 input, its supply on another (ratiometric; see PotSensor)."""
@@ -272,3 +275,14 @@ class MuxChannelBus:
 
     def close(self) -> None:
         pass
+
+
+class AdcInput:
+    """One input of an ADC chip (ADS1115 here, MCP3008 in :mod:`.spi`) as a
+    :class:`urc.hardware.parts.VoltageIn`."""
+
+    def __init__(self, chip: Any, channel: int):
+        self.chip, self.channel = chip, channel
+
+    def read_volts(self) -> float:
+        return self.chip.volts(self.channel)

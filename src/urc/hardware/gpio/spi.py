@@ -56,6 +56,9 @@ class Mcp3008Chip:
                             "(chip missing, MISO floating or wiring)")
         return (rx[1] & 0x03) << 8 | rx[2]
 
+    def volts(self, channel: int) -> float:
+        return self.convert(channel) * self.vref_v / self.COUNTS
+
     def identify(self) -> str:
         counts = " ".join(f"ch{c}={self.convert(c)}" for c in range(MCP3008_CHANNELS))
         return f"MCP3008 on SPI0 CE{self.device}: {counts}"
