@@ -60,16 +60,13 @@ def settings_from_config(cfg: Config) -> RotatorSettings:
 
 def bridged_caps(caps, protocol: str):
     """A profile behind an external controller: its mechanics stay, its sensor is the
-    controller's position report (absolute, the protocol's step)."""
+    controller's position report (absolute, the protocol's step; compass azimuth through
+    Easycomm and rotctld, whose reports the bridge unfolds over the top)."""
     from .hardware.bridge import make_dialect, report_caps
 
     dialect = make_dialect(protocol)
-    el = replace(caps.el, sensor=report_caps(dialect, "el"))
-    if dialect.az_modulo_deg is not None and el.max_deg > 90.0:
-        # it reports sky az/el (Easycomm, rotctld): a flipped pose would read back as
-        # its mirror image, so urc must not fly one through it (no flip, el to 90)
-        el = replace(el, max_deg=90.0, park_deg=min(el.park_deg, 90.0))
-    return replace(caps, az=replace(caps.az, sensor=report_caps(dialect, "az")), el=el)
+    return replace(caps, az=replace(caps.az, sensor=report_caps(dialect, "az")),
+                   el=replace(caps.el, sensor=report_caps(dialect, "el")))
 
 
 def hardware_options(cfg: Config, fast_virtual: bool = False) -> dict:

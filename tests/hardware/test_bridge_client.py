@@ -180,3 +180,55 @@ def test_compass_azimuth_flicker_across_north_is_no_motion():
         c.answered(ex, b"AZ%.1f EL5.0\n" % az, t, t)
         t += 0.1
     assert c.reading("az", t) == pytest.approx(0.1, abs=0.1)
+
+
+def _report(c: BridgeClient, t: float, az: float, el: float) -> None:
+    ex, _ = c.next_exchange(t)
+    while ex is None or ex.kind != "poll":
+        t += 0.05
+        ex, _ = c.next_exchange(t)
+    c.answered(ex, b"AZ%.1f EL%.1f\n" % (az, el), t, t)
+
+
+def test_sky_frame_reports_are_unfolded_over_the_top():
+    """urc's Easycomm reports a flipped antenna (mechanical az 308, el 110) as the sky
+    direction it points to (128, 70): the bridge keeps the side of the zenith by
+    continuity, also right at the top where the two poses lie 180 deg apart."""
+    c = BridgeClient(make_dialect("easycomm3"), ClientOptions(over_top=True))
+    c.link_up(0.0)
+    t = 0.1
+    for mech_el in (80.0, 88.0, 89.9, 90.1, 95.0, 110.0):   # rising over the top at az 308
+        sky = (308.0, mech_el) if mech_el <= 90.0 else (128.0, 180.0 - mech_el)
+        _report(c, t, *sky)
+        assert (c.reading("az"), c.reading("el")) == pytest.approx((308.0, mech_el), abs=0.06), mech_el
+        t += 0.2
+    assert c.over_top()
+    # a controller reporting its mechanical frame (Hamlib behind a GS-232) stays as it is
+    m = BridgeClient(make_dialect("rotctld"), ClientOptions(over_top=True))
+    m.link_up(0.0)
+    ex, _ = m.next_exchange(0.0)
+    m.answered(ex, b"308.00\n110.00\n", 0.0, 0.01)
+    assert (m.reading("az"), m.reading("el")) == (308.0, 110.0)
+    # a rotator that cannot flip: reports are never unfolded
+    n = BridgeClient(make_dialect("easycomm3"))
+    n.link_up(0.0)
+    _report(n, 0.1, 128.0, 70.0)
+    assert (n.reading("az"), n.reading("el")) == (128.0, 70.0)
+
+
+def test_the_saved_side_of_the_zenith_turns_the_first_report_over():
+    """After a restart a sky-frame report cannot tell the side: the state record keeps it
+    (the el axis' calibration dict), and the reports already in are turned over."""
+    from urc.clock import VirtualClock
+    from urc.hardware.bridge import bridge_axes
+
+    c = BridgeClient(make_dialect("easycomm3"), ClientOptions(over_top=True))
+    az, el = bridge_axes(c, VirtualClock(0.0))
+    c.link_up(0.0)
+    _report(c, 0.1, 128.0, 70.0)
+    assert el.sensor.calibration() == {}
+    el.sensor.load_calibration({"over_top": True})
+    assert (az.sensor.read_deg(), el.sensor.read_deg()) == pytest.approx((308.0, 110.0))
+    assert el.sensor.calibration() == {"over_top": True}
+    _report(c, 0.5, 127.0, 71.0)         # and continuity carries it on
+    assert (c.reading("az"), c.reading("el")) == pytest.approx((307.0, 109.0))

@@ -59,10 +59,17 @@ class BridgeAxis:
         self.offset_deg = angle_deg - self.client.reading(self.name)
 
     def calibration(self) -> dict[str, Any]:
-        return {"offset_deg": self.offset_deg} if self.offset_deg else {}
+        values: dict[str, Any] = {"offset_deg": self.offset_deg} if self.offset_deg else {}
+        if self.name == "el" and self.client.over_top():
+            # not a constant but saved with them in every state record: a sky-frame report
+            # cannot tell which side of the zenith the antenna is on after a restart
+            values["over_top"] = True
+        return values
 
     def load_calibration(self, values: dict[str, Any]) -> None:
         self.offset_deg = float(values.get("offset_deg", 0.0))
+        if self.name == "el":
+            self.client.assume_over_top(bool(values.get("over_top", False)))
 
     # ---- Positioner
     @property
@@ -109,7 +116,8 @@ def build_bridge_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path, opti
     dialect = make_dialect(cfg.protocol)
     client = BridgeClient(dialect, ClientOptions(timeout_s=cfg.timeout_s, poll_interval_s=cfg.poll_interval_s,
                                                  max_failures=cfg.max_failures,
-                                                 stop_before_set=cfg.stop_before_set))
+                                                 stop_before_set=cfg.stop_before_set,
+                                                 over_top=caps.el.max_deg > 90.0))
     runner = LinkRunner(client, port_url(cfg.serial, cfg.tcp), cfg.baud or dialect.default_baud,
                         reconnect_attempts=cfg.reconnect_attempts, name=f"bridge-{cfg.protocol}")
     az, el = bridge_axes(client, clock, runner.wake)

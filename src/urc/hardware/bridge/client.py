@@ -59,6 +59,9 @@ class ClientOptions:
     max_failures: int = 3
     #: send a stop before a new target while the controller is moving
     stop_before_set: bool = False
+    #: the rotator's elevation reaches past 90 (it can fly over the top): a sky-frame
+    #: report (Easycomm, rotctld) is then unfolded by continuity (see _unfold)
+    over_top: bool = False
 
 
 class BridgeClient:
@@ -81,6 +84,9 @@ class BridgeClient:
         self._pos_t_s = -math.inf
         self._prev_t_s = -math.inf
         self._trusted = False
+        #: the last unfolded report (kept across a lost link): which side of the zenith
+        #: the antenna is on; (None, el) = only the side is known (a saved state)
+        self._fold_ref: tuple[float | None, float] | None = None
         self._failures = 0
         self._next_poll_s = -math.inf
         self._link_up = False
@@ -99,8 +105,9 @@ class BridgeClient:
         with self._lock:
             i = AXES.index(axis)
             if target_deg is None and self._wanted[axis] is not None and self._pos is not None:
-                # one axis stopped while the other goes on: it holds where it is now
-                self._hold[i] = self._pos[i]
+                # one axis stopped while the other goes on: it holds where it is now (on
+                # the turn it was sent to: a compass report names no turn)
+                self._hold[i] = self._near(i, self._pos[i], self._wanted[axis])
             if target_deg is not None:
                 self._hold[i] = None
             self._wanted[axis] = target_deg
@@ -125,10 +132,64 @@ class BridgeClient:
             est = pos + self._speed(i) * min(max(age_s, 0.0), EXTRAPOLATE_PERIODS * self._period_s())
             if self._sent_pose is not None and not self._stopped:
                 # the controller stops at its target: never estimate past it
-                target = self._sent_pose[i]
+                target = self._near(i, self._sent_pose[i], pos)
                 if (est - target) * (pos - target) <= 0:   # (reached, or would pass it)
                     est = target
             return est
+
+    def _near(self, i: int, value_deg: float, ref_deg: float) -> float:
+        """``value_deg`` on the turn nearest ``ref_deg`` (compass azimuth names no turn)."""
+        m = self.dialect.az_modulo_deg if i == 0 else None
+        return value_deg if not m else ref_deg + (value_deg - ref_deg + m / 2.0) % m - m / 2.0
+
+    def _unfold(self, az: float, el: float) -> tuple[float, float]:
+        """A sky-frame report (Easycomm, rotctld: compass az, el 0..90 from urc's own
+        emulation; mechanical az/el from Hamlib behind a GS-232) names one of two poses:
+        (az, el), or the antenna over the top at (az + 180, 180 - el). The one nearer the
+        last report it is; the two lie 180 deg of azimuth apart near the zenith, so
+        continuity decides even there. With no report yet: the saved side, else as
+        reported (urc's own emulation never reports past 90; a controller that does
+        reports its mechanical frame)."""
+        m = self.dialect.az_modulo_deg
+        az = az % m
+        over = ((az + 180.0) % m, 180.0 - el)
+        ref = self._fold_ref
+        if ref is None:
+            pose = (az, el)
+        elif ref[0] is None:
+            pose = (az, el) if (el > 90.0) == (ref[1] > 90.0) else over
+        else:
+            def dist(p: tuple[float, float]) -> float:
+                return abs(self._near(0, p[0], ref[0]) - ref[0]) + abs(p[1] - ref[1])
+            pose = min(((az, el), over), key=dist)
+        self._fold_ref = pose
+        return pose
+
+    def assume_over_top(self, over_top: bool) -> None:
+        """The side of the zenith a saved state names (start-up, before any motion):
+        reports already unfolded to the other side are turned over."""
+        if not (self.options.over_top and self.dialect.az_modulo_deg):
+            return
+        with self._lock:
+            ref_el = 135.0 if over_top else 45.0
+            if self._fold_ref is not None and (self._fold_ref[1] > 90.0) == over_top:
+                return
+            self._fold_ref = (None, ref_el)
+            m = self.dialect.az_modulo_deg
+
+            def turn(p: tuple[float, float]) -> tuple[float, float]:
+                return ((p[0] + 180.0) % m, 180.0 - p[1])
+            if self._pos is not None:
+                self._pos = turn(self._pos)
+                self._fold_ref = self._pos
+            if self._prev_pos is not None:
+                self._prev_pos = turn(self._prev_pos)
+            self._recent = collections.deque((t, turn(p)) for t, p in self._recent)
+
+    def over_top(self) -> bool:
+        """The antenna is over the top (its last report unfolded past el 90)."""
+        with self._lock:
+            return self._fold_ref is not None and self._fold_ref[1] > 90.0
 
     def _period_s(self) -> float:
         return max(self._interval_s or 0.0, self.options.poll_interval_s)
@@ -295,6 +356,8 @@ class BridgeClient:
         az, el = value
         if el is None:
             el = 0.0
+        if self.options.over_top and self.dialect.az_modulo_deg:
+            az, el = self._unfold(az, el)
         if self._pos is not None:
             self._last_gap_s = now_s - self._pos_t_s
             self._prev_pos, self._prev_t_s = self._pos, self._pos_t_s

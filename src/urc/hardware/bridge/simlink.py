@@ -122,15 +122,17 @@ class BridgedRig:
         self.clock = VirtualClock(start_s)
         up = {"rotator": {"profile": profile}, "hardware": {"sim": {"wind": False}}, **(upstream_config or {})}
         self.upstream = build_rotator(Config.from_dict(up), self.clock, state_dir / "up", fast_virtual=True)
-        self.dialect = make_dialect(protocol)
-        self.client = BridgeClient(self.dialect, client_options or ClientOptions())
-        self.session = make_session(protocol, self.upstream)
-        link_baud = None if protocol == "rotctld" else (baud or self.dialect.default_baud)
-        self.link = SimLink(self.client, self.session, link_baud)
         down = {"rotator": {"profile": profile},
                 "hardware": {"backend": "bridge", "bridge": {"protocol": protocol, "serial": "/dev/null"}},
                 **(downstream_config or {})}
         cfg = Config.from_dict(down)
+        settings = settings_from_config(cfg)
+        self.dialect = make_dialect(protocol)
+        self.client = BridgeClient(self.dialect, client_options or
+                                   ClientOptions(over_top=settings.caps.el.max_deg > 90.0))
+        self.session = make_session(protocol, self.upstream)
+        link_baud = None if protocol == "rotctld" else (baud or self.dialect.default_baud)
+        self.link = SimLink(self.client, self.session, link_baud)
         az, el = bridge_axes(self.client, self.clock)
         # a first report before the downstream rotator restores (as build_bridge_hardware waits)
         for _ in range(200):
@@ -140,7 +142,7 @@ class BridgedRig:
                 break
             self.clock.advance(1.0 / self.upstream.caps.loop_hz)
         (state_dir / "down").mkdir(parents=True, exist_ok=True)
-        self.downstream = Rotator(settings_from_config(cfg), Hardware("bridge", az, el), self.clock,
+        self.downstream = Rotator(settings, Hardware("bridge", az, el), self.clock,
                                   StateStore(state_dir / "down" / "state.json", durable=False))
 
     @property
