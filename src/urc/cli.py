@@ -269,7 +269,7 @@ def _format_status(s: dict) -> str:
     for f in s["faults"]:
         lines.append(f"FAULT     {f['kind']}: {f['reason']}")
     if s.get("local_control"):
-        lines.append(f"LOCAL     {', '.join(s['local_control'])} held on the front panel: "
+        lines.append(f"LOCAL     {', '.join(s['local_control'])} held at the rotator: "
                      "only stop is accepted from here")
     if s.get("state_error"):
         lines.append(f"STATE     not saved: {s['state_error']} (retrying; motion stops before the "

@@ -194,7 +194,7 @@ def test_urc_status_says_which_local_control_is_held(panel_rig):
     rig = panel_rig()
     rig.press("stop")
     st = rig.run(0.1)
-    assert "LOCAL     STOP button held on the front panel" in _format_status(st.as_dict())
+    assert "LOCAL     STOP button held at the rotator" in _format_status(st.as_dict())
     rig.release("stop")
     assert "LOCAL" not in _format_status(rig.run(0.1).as_dict())
 

@@ -541,3 +541,34 @@ def test_tracker_warnings_are_shown_while_tracking(tmp_path, open_page, artifact
         page.problems.check()
     finally:
         u.stop()
+
+
+def test_a_held_front_panel_button_is_shown_and_refuses_moves_from_the_page(tmp_path, open_page, artifacts):
+    """Issue 11: a front-panel button (emulated pins) held while the page is open: the
+    dashboard says so in a banner, a move from the page is refused with that reason,
+    and the banner goes when the button is released."""
+    from gpiozero.pins.mock import MockFactory
+
+    from urc.frontpanel.panel import FrontPanel
+
+    with InProcessUrc(tmp_path / "state", None) as srv:
+        factory = MockFactory()
+        panel = FrontPanel(srv.rot, pin_factory=factory, buttons={"ccw": 6, "stop": 26})
+        panel.power_on()
+        try:
+            page = open_page(srv.url + "/")
+            assert page.locator("#local-banner").is_hidden()
+            factory.pin(6).drive_low()                       # CCW pressed and held
+            expect(page.locator("#local-banner")).to_be_visible(timeout=5000)
+            expect(page.locator("#local-text")).to_contain_text("CCW button held at the rotator")
+            assert httpx.get(srv.url + "/api/status").json()["local_control"] == ["CCW button"]
+            page.fill("#goto-az", "200")
+            page.fill("#goto-el", "20")
+            page.locator("#goto-form button[type=submit]").click()
+            expect(page.locator("#toast")).to_contain_text("local control active (CCW button held at the rotator)")
+            page.screenshot(path=str(artifacts / "local-control.png"))
+            factory.pin(6).drive_high()                      # released
+            expect(page.locator("#local-banner")).to_be_hidden(timeout=5000)
+            page.problems.check()
+        finally:
+            panel.close()

@@ -573,8 +573,8 @@ class Rotator:
     def _refuse_unless_local(self, local: bool) -> None:
         holds = self.local_controls()
         if holds and not local:
-            raise CommandRejected(f"refused: local control active ({', '.join(holds)} held on the "
-                                  "front panel); stop is still accepted", "local")
+            raise CommandRejected(f"refused: local control active ({', '.join(holds)} held at the "
+                                  "rotator); stop is still accepted", "local")
 
     def _require_motion_ok(self, automatic: bool, local: bool = False) -> None:
         self._refuse_unless_local(local)

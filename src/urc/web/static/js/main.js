@@ -102,6 +102,12 @@ function onFrame(frame) {
   const faults = st.faults || [];
   $("fault-banner").hidden = faults.length === 0;
   setText($("fault-text"), faults.map((f) => `${f.kind}: ${f.reason}`).join(" · "));
+  // a front-panel button (or a console procedure) held at the rotator: the local
+  // operator wins, so moves from here are refused until it is released
+  const local = st.local_control || [];
+  $("local-banner").hidden = local.length === 0;
+  setText($("local-text"), local.length ? `${local.join(", ")} held at the rotator: moves from here ` +
+    "are refused until it is released (STOP still works)." : "");
   const uncertain = !st.position_known;
   $("warn-banner").hidden = !uncertain;
   if (uncertain) {
