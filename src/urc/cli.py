@@ -155,6 +155,10 @@ def config_check(path: str) -> None:
     except ConfigError as exc:
         raise click.ClickException(str(exc)) from None
     click.echo(f"{path}: ok (profile {cfg.rotator.profile})")
+    from .hardware.gpio.pwm import pwm_advice
+
+    for note in pwm_advice(cfg.hardware.gpio):
+        click.echo(f"warning: {note}")
 
 
 @main.group()

@@ -168,6 +168,9 @@ class GpioSection(_Section):
     #: run the real drivers on pins and chips emulated from the simulator
     emulate: bool = False
     i2c_bus: int = Field(1, ge=0, le=31)
+    #: motor PWM on the PWM peripheral where a pin has it: "2chan" (Pi 3/4/Zero 2 W: PWM0 on
+    #: GPIO12 or 18, PWM1 on 13 or 19), "4chan" (Pi 5: 12, 13, 18, 19), "off" (all software)
+    hardware_pwm: str = "2chan"
     #: the TCA9548A's address (A2..A0 straps) on any bus an axis uses i2c_mux_channel on
     i2c_mux_address: int = Field(0x70, ge=0x70, le=0x77)
     heartbeat_pin: int | None = Field(None, ge=0, le=27)
@@ -800,8 +803,12 @@ def _gpio_issues(cfg: Config, caps: RotatorCaps) -> list[_Issue]:
                      '(backend "gpio"; see examples/)', None, "")]
         return []
     from .hardware.gpio import MOTOR_PINS, OPTIONAL_PINS, SENSOR_PINS
+    from .hardware.gpio.pwm import HARDWARE_PWM
 
     issues: list[_Issue] = []
+    if g.hardware_pwm not in HARDWARE_PWM:
+        issues.append(("hardware.gpio.hardware_pwm", "one of " + ", ".join(HARDWARE_PWM), g.hardware_pwm,
+                       _suggest(g.hardware_pwm, list(HARDWARE_PWM))))
     used: dict[int, str] = {}
     for key, pin in (("heartbeat_pin", g.heartbeat_pin), ("power_fail_pin", g.power_fail_pin)):
         if pin is not None:

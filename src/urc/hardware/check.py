@@ -32,6 +32,10 @@ def check(hw: Any, caps: Any, *, gpio: Any = None, move: bool = False, jog_duty:
     """Run the checks; returns the number of problems found."""
     problems = 0
     out(f"backend {hw.backend}, profile {caps.name}")
+    if gpio is not None:
+        from .gpio.pwm import pwm_plan
+        for where, (pin, ch) in pwm_plan(gpio).items():
+            out(f"  {where} GPIO{pin}: " + (f"hardware PWM{ch}" if ch is not None else "software PWM"))
     for label, part in hw.extra.get("parts", []):
         ident = getattr(part, "identify", None)
         if ident is None:

@@ -26,7 +26,8 @@ from ..interfaces import AxisHardware, Hardware
 from .i2c import (AdcInput, Ads1115Channel, Ads1115Chip, As5600Chip, Lsm303Accel, Lsm303agrChip, Lsm303dChip,
                   Lsm303Mag, Tca9548aMux)
 from ..sim.params import PHYSICS, physics_for
-from .pins import PinIn, PinOut, PinPulseCounter, PinPwm, PinQuadrature
+from .pins import PinIn, PinOut, PinPulseCounter, PinQuadrature
+from .pwm import HardwarePwm, make_pwm, pwm_advice, pwm_plan
 from .spi import Mcp3008Channel, Mcp3008Chip, open_spidev
 
 log = logging.getLogger(__name__)
@@ -120,8 +121,10 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
     else:
         try:
             from gpiozero import Device
-            from gpiozero.pins.lgpio import LGPIOFactory
-            factory = Device.pin_factory or LGPIOFactory()
+            factory = Device.pin_factory   # set by the user (GPIOZERO_PIN_FACTORY) or a test
+            if factory is None:
+                from gpiozero.pins.lgpio import LGPIOFactory
+                factory = LGPIOFactory()
         except Exception as exc:  # no lgpio / not a Pi
             raise ConfigError(f"gpio backend: no GPIO here ({exc}); install urc[pi] on a Raspberry "
                               "Pi, or run with --emulate", key="hardware.gpio.emulate",
@@ -156,6 +159,10 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
         return muxes[n].channel(channel)
 
     spi_chips: dict[int, Mcp3008Chip] = {}
+    plan = pwm_plan(gpio)
+    pwm_parts: list[HardwarePwm] = []
+    for note in pwm_advice(gpio):
+        log.warning("%s", note)
     syncs: list[Any] = []
     lsm: dict[tuple[int, int | None, int], Lsm303dChip] = {}
     axes: dict[str, AxisHardware] = {}
@@ -169,8 +176,12 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
         def out(key: str) -> PinOut:
             return PinOut(factory, pins[key])
 
-        def pwm(key: str) -> PinPwm:
-            return PinPwm(factory, pins[key], frequency_hz=pwm_hz)
+        def pwm(key: str) -> Any:
+            part = make_pwm(factory, pins[key], plan[f"{name}.{key}"][1], pwm_hz, emulated=emulate)
+            if isinstance(part, HardwarePwm):
+                pwm_parts.append(part)
+                parts_list.append((f"{name} {key}", part))
+            return part
 
         bus_n = cfg.i2c_bus if cfg.i2c_bus is not None else gpio.i2c_bus
         mux_ch = cfg.i2c_mux_channel
@@ -318,7 +329,7 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
                 log.exception("gpio: could not make %s safe", ax)
         for b in buses.values():
             b.close()
-        for c in spi_chips.values():
+        for c in [*spi_chips.values(), *pwm_parts]:
             c.close()
         factory.close()
 

@@ -1,0 +1,115 @@
+"""Which motor PWM outputs get the Pi's hardware PWM, and the hardware PWM part.
+
+lgpio (gpiozero's pin factory on a Pi) makes PWM in software on any pin: its edges
+jitter when the CPU is busy. The PWM peripheral is steady whatever the load, but only
+on GPIO12/13/18/19 and only as many outputs as it has channels: two on a Pi 3/4/Zero 2 W
+(PWM0 on GPIO12 or 18, PWM1 on GPIO13 or 19: two pins of one channel carry the same
+duty, so one pin per channel), four on a Pi 5 (GPIO12, 13, 18, 19 each their own). The
+kernel exposes it through /sys/class/pwm once the overlay is loaded
+(``dtoverlay=pwm-2chan,pin=12,func=4,pin2=13,func2=4`` in config.txt); rpi-hardware-pwm
+(``pip install urc[pi]``) drives that.
+"""
+
+from __future__ import annotations
+
+import logging
+from typing import Any
+
+log = logging.getLogger(__name__)
+
+#: ``[hardware.gpio] hardware_pwm`` -> {BCM pin: PWM channel}
+HARDWARE_PWM = {"2chan": {12: 0, 18: 0, 13: 1, 19: 1},
+                "4chan": {12: 0, 13: 1, 18: 2, 19: 3},
+                "off": {}}
+#: the pins each motor driver runs PWM on
+PWM_PINS = {"vnh5019": ("pwm",), "lmd18200": ("pwm",), "bts7960": ("rpwm", "lpwm"),
+            "pwm_dir": ("pwm",), "relay": ()}
+
+
+def pwm_plan(gpio: Any) -> dict[str, tuple[int, int | None]]:
+    """``"az.pwm" -> (pin, hardware channel or None)`` for every motor PWM output, az
+    first: a pin gets its channel if no earlier output took it."""
+    table = HARDWARE_PWM.get(gpio.hardware_pwm, {})
+    taken: set[int] = set()
+    plan: dict[str, tuple[int, int | None]] = {}
+    for name in ("az", "el"):
+        ax = getattr(gpio, name)
+        if ax is None:
+            continue
+        for key in PWM_PINS.get(ax.motor, ()):
+            pin = ax.pins.get(key)
+            if pin is None:
+                continue
+            ch = table.get(pin)
+            if ch is not None and ch in taken:
+                ch = None
+            if ch is not None:
+                taken.add(ch)
+            plan[f"{name}.{key}"] = (pin, ch)
+    return plan
+
+
+def pwm_advice(gpio: Any) -> list[str]:
+    """Warnings about motor PWM in software (config check, hw check, the start log)."""
+    if gpio is None or gpio.hardware_pwm == "off":
+        return []
+    table = HARDWARE_PWM[gpio.hardware_pwm]
+    pins = ", ".join(f"GPIO{p}" for p in sorted(table))
+    notes = []
+    plan = pwm_plan(gpio)
+    for where, (pin, ch) in plan.items():
+        if ch is not None:
+            continue
+        axis, key = where.split(".")
+        at = f"hardware.gpio.{axis}.pins.{key}"
+        if pin in table:
+            other = next(w for w, (p, c) in plan.items() if c == table[pin])
+            notes.append(f"{at}: GPIO{pin} shares PWM{table[pin]} with {other} (GPIO{plan[other][0]}), so it "
+                         "runs software PWM (one pin per channel on a Pi 3/4; hardware_pwm = \"4chan\" on a Pi 5)")
+        else:
+            notes.append(f"{at}: GPIO{pin} has no hardware PWM; software PWM jitters under CPU load "
+                         f"(hardware PWM pins: {pins})")
+    return notes
+
+
+class HardwarePwm:
+    """A motor PWM output on the PWM peripheral (rpi-hardware-pwm over sysfs); duty in
+    [0, 1] like :class:`.pins.PinPwm`."""
+
+    def __init__(self, pin: int, channel: int, *, frequency_hz: float, pwm_class: Any = None):
+        if pwm_class is None:
+            from rpi_hardware_pwm import HardwarePWM as pwm_class
+        self.pin, self.channel, self.frequency_hz = pin, channel, frequency_hz
+        self.pwm = pwm_class(pwm_channel=channel, hz=frequency_hz, chip=0)
+        self.duty = 0.0
+        self.pwm.start(0)
+
+    def write_duty(self, duty: float) -> None:
+        self.duty = min(1.0, max(0.0, float(duty)))
+        self.pwm.change_duty_cycle(self.duty * 100.0)
+
+    def read_back(self) -> float:
+        return self.duty
+
+    def identify(self) -> str:
+        return f"GPIO{self.pin}: hardware PWM{self.channel} at {self.frequency_hz:g} Hz"
+
+    def close(self) -> None:
+        self.pwm.stop()
+
+
+def make_pwm(factory: Any, pin: int, channel: int | None, frequency_hz: float, *, emulated: bool,
+             pwm_class: Any = None) -> Any:
+    """The PWM part for a motor output: hardware PWM where the plan gives the pin a
+    channel (on iron; emulated, every PWM is a mock pin), else lgpio's software PWM. A
+    hardware PWM that cannot be opened (overlay not loaded, no rights) falls back to
+    software PWM with a warning."""
+    from .pins import PinPwm
+
+    if channel is not None and not emulated:
+        try:
+            return HardwarePwm(pin, channel, frequency_hz=frequency_hz, pwm_class=pwm_class)
+        except Exception as exc:  # rpi-hardware-pwm raises its own exception, or OSError
+            log.warning("GPIO%d: hardware PWM%d unavailable (%s): software PWM instead; add "
+                        "dtoverlay=pwm-2chan to config.txt", pin, channel, exc)
+    return PinPwm(factory, pin, frequency_hz=frequency_hz)

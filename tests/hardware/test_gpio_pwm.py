@@ -1,0 +1,132 @@
+"""Hardware PWM pin selection: which motor PWM outputs get the Pi's PWM peripheral
+(config level), and the gpio backend on iron picking the hardware PWM part for them
+(mock pins for the rest, a fake rpi-hardware-pwm for the peripheral)."""
+
+from __future__ import annotations
+
+import logging
+import sys
+import types
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner
+from gpiozero import Device
+from gpiozero.pins.mock import MockFactory, MockPWMPin
+
+from urc.app import hardware_options, settings_from_config
+from urc.cli import main
+from urc.clock import VirtualClock
+from urc.config import Config, load_config
+from urc.errors import ConfigError
+from urc.hardware import build_hardware
+from urc.hardware.gpio.pins import PinPwm
+from urc.hardware.gpio.pwm import HardwarePwm, pwm_advice, pwm_plan
+
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
+
+
+def gpio_of(name: str, **section):
+    data = load_config(EXAMPLES / f"{name}.toml").to_dict()
+    data["hardware"]["gpio"].update(section)
+    return Config.from_dict(data)
+
+
+def test_plan_gives_each_channel_to_one_pin():
+    assert pwm_plan(gpio_of("tartu-urc").hardware.gpio) == {"az.pwm": (12, 0), "el.pwm": (13, 1)}
+    # the IBT-2's four PWM inputs: a Pi 3/4 has two channels (12 and 18 are both PWM0)
+    assert pwm_plan(gpio_of("bigras").hardware.gpio) == {
+        "az.rpwm": (12, 0), "az.lpwm": (13, 1), "el.rpwm": (18, None), "el.lpwm": (19, None)}
+    assert pwm_plan(gpio_of("bigras", hardware_pwm="4chan").hardware.gpio) == {
+        "az.rpwm": (12, 0), "az.lpwm": (13, 1), "el.rpwm": (18, 2), "el.lpwm": (19, 3)}
+    assert all(ch is None for _, ch in pwm_plan(gpio_of("tartu-urc", hardware_pwm="off").hardware.gpio).values())
+    assert pwm_plan(gpio_of("g5500").hardware.gpio) == {}              # relays: no PWM
+
+
+def test_advice_warns_about_software_pwm_and_config_check_shows_it(tmp_path):
+    assert pwm_advice(gpio_of("tartu-urc").hardware.gpio) == []
+    notes = pwm_advice(gpio_of("bigras").hardware.gpio)
+    assert len(notes) == 2 and notes[0].startswith("hardware.gpio.el.pins.rpwm: GPIO18 shares PWM0 with az.rpwm")
+    data = load_config(EXAMPLES / "tartu-urc.toml").to_dict()
+    data["hardware"]["gpio"]["az"]["pins"]["pwm"] = 24
+    notes = pwm_advice(Config.from_dict(data).hardware.gpio)
+    assert notes == ["hardware.gpio.az.pins.pwm: GPIO24 has no hardware PWM; software PWM jitters under CPU "
+                     "load (hardware PWM pins: GPIO12, GPIO13, GPIO18, GPIO19)"]
+    path = tmp_path / "c.toml"
+    path.write_text((EXAMPLES / "tartu-urc.toml").read_text().replace("pwm = 12", "pwm = 24"))
+    r = CliRunner().invoke(main, ["config", "check", str(path)])
+    assert r.exit_code == 0 and "warning: hardware.gpio.az.pins.pwm: GPIO24 has no hardware PWM" in r.output
+    with pytest.raises(ConfigError, match=r"hardware.gpio.hardware_pwm.*2chan"):
+        gpio_of("tartu-urc", hardware_pwm="3chan")
+
+
+class FakeHardwarePWM:
+    """rpi_hardware_pwm.HardwarePWM's calls, recorded (no sysfs here)."""
+    made: list["FakeHardwarePWM"] = []
+    missing: set[int] = set()
+
+    def __init__(self, pwm_channel: int, hz: float, chip: int = 0):
+        if pwm_channel in self.missing:
+            raise OSError(2, f"No such file or directory: '/sys/class/pwm/pwmchip{chip}'")
+        self.channel, self.hz, self.chip = pwm_channel, hz, chip
+        self.calls: list[tuple] = []
+        self.made.append(self)
+
+    def start(self, duty: float) -> None:
+        self.calls.append(("start", duty))
+
+    def change_duty_cycle(self, duty: float) -> None:
+        self.calls.append(("duty", duty))
+
+    def stop(self) -> None:
+        self.calls.append(("stop",))
+
+
+@pytest.fixture
+def iron(monkeypatch):
+    """The gpio backend's non-emulated path on mock pins and a fake PWM peripheral."""
+    factory = MockFactory(pin_class=MockPWMPin)
+    monkeypatch.setattr(Device, "pin_factory", factory)
+    FakeHardwarePWM.made, FakeHardwarePWM.missing = [], set()
+    monkeypatch.setitem(sys.modules, "rpi_hardware_pwm", types.SimpleNamespace(HardwarePWM=FakeHardwarePWM))
+
+    def build(name: str, tmp_path: Path, **section):
+        cfg = gpio_of(name, **section)
+        caps = settings_from_config(cfg).caps
+        return build_hardware("gpio", caps, VirtualClock(1000.0), tmp_path, hardware_options(cfg))
+    yield build
+    factory.close()
+
+
+def test_iron_uses_hardware_pwm_where_the_pin_has_a_channel(iron, tmp_path):
+    hw = iron("bigras", tmp_path)
+    az, el = hw.az.motor, hw.el.motor
+    assert isinstance(az.rpwm, HardwarePwm) and isinstance(az.lpwm, HardwarePwm)
+    assert [(f.channel, f.hz, f.chip) for f in FakeHardwarePWM.made] == [(0, 1000.0, 0), (1, 1000.0, 0)]
+    assert isinstance(el.rpwm, PinPwm) and el.rpwm.pin.frequency == 1000.0
+    az.set_drive(-0.4)
+    el.set_drive(0.7)
+    assert FakeHardwarePWM.made[1].calls[-1] == ("duty", pytest.approx(40.0))   # LPWM: reverse
+    assert FakeHardwarePWM.made[0].calls[-1] == ("duty", 0.0)
+    assert el.rpwm.pin.state == pytest.approx(0.7) and el.lpwm.pin.state == 0.0
+    labels = [label for label, _ in hw.extra["parts"]]
+    assert "az rpwm" in labels and "el rpwm" not in labels
+    hw.close()
+    assert all(f.calls[-1] == ("stop",) for f in FakeHardwarePWM.made)
+
+
+@pytest.mark.usefixtures("iron")
+def test_hardware_pwm_that_cannot_open_falls_back_to_software(tmp_path, caplog):
+    FakeHardwarePWM.missing = {1}                    # el's channel not routed by the overlay
+    data = load_config(EXAMPLES / "tartu-urc.toml").to_dict()
+    for a in ("az", "el"):                           # no MCP3008 here: no SPI device on this machine
+        del data["hardware"]["gpio"][a]["adc"], data["hardware"]["gpio"][a]["current_sense_channel"]
+    cfg = Config.from_dict(data)
+    with caplog.at_level(logging.WARNING):
+        hw = build_hardware("gpio", settings_from_config(cfg).caps, VirtualClock(1000.0), tmp_path,
+                            hardware_options(cfg))
+    assert isinstance(hw.az.motor.pwm, HardwarePwm) and isinstance(hw.el.motor.pwm, PinPwm)
+    assert "GPIO13: hardware PWM1 unavailable" in caplog.text
+    hw.el.motor.set_drive(0.5)
+    assert hw.el.motor.pwm.pin.state == pytest.approx(0.5)
+    hw.close()
