@@ -91,6 +91,10 @@ class BridgeClient:
         self._next_poll_s = -math.inf
         self._link_up = False
         self._error = "not connected yet"
+        #: what went wrong since the last good report (the reason a fault shows): "link
+        #: lost: ..." (the port closed or failed), "no reply from the controller (...)"
+        #: (silence), "answer not understood (...)" (garbage); "" = nothing
+        self._cause = ""
         self._rtt_s: float | None = None
         self._interval_s: float | None = None
         self._last_gap_s = 0.0
@@ -126,8 +130,9 @@ class BridgeClient:
                 return self._pos[i]
             age_s = now_s - self._pos_t_s
             if age_s > self.stale_after_s:
-                raise SensorError(f"bridge {self.dialect.name}: no position report for "
-                                  f"{age_s:.1f} s ({self._error or 'no answer'})")
+                raise SensorError(f"bridge {self.dialect.name}: "
+                                  + (f"{self._cause} (no position report for {age_s:.1f} s)" if self._cause
+                                     else f"no position report for {age_s:.1f} s"))
             pos = self._pos[i]
             est = pos + self._speed(i) * min(max(age_s, 0.0), EXTRAPOLATE_PERIODS * self._period_s())
             if self._sent_pose is not None and not self._stopped:
@@ -234,20 +239,27 @@ class BridgeClient:
             self._link_up, self._trusted, self._failures = True, False, 0
             self._pos, self._prev_pos = None, None
             self._recent.clear()
-            self._error = "no position report yet"
+            # until a good report comes, what broke the link stays the reason
+            self._error = self._cause or "no position report yet"
             self._next_poll_s = -math.inf
             # the controller may have been told something urc no longer wants
             self._sent_pose = None
             self._after_command = False
 
-    def link_down(self, reason: str, now_s: float) -> None:
+    def link_down(self, reason: str, now_s: float, failures: bool = False) -> None:
+        """The link went away (``reason``: the port's error), or is being reopened
+        after ``max_failures`` bad or missing answers (``failures``: their cause stays
+        the reason: silence is no reply, garbage not understood, not a lost link)."""
         with self._lock:
+            if not failures:
+                self._cause = f"link lost: {reason}"
             if self._link_up:
-                log.error("bridge %s: link lost: %s", self.dialect.name, reason)
+                log.error("bridge %s: %s", self.dialect.name, self._cause if not failures else
+                          f"{reason}: reopening the link")
                 self.counts["reconnects"] += 1
             self._link_up, self._trusted = False, False
             self._pos = None
-            self._error = f"link lost: {reason}"
+            self._error = self._cause or f"link lost: {reason}"
             # tell it to stop as soon as it is back, unless a target is wanted then
             self._stopped = False
             self._stop_wanted = True
@@ -255,7 +267,7 @@ class BridgeClient:
     def reconnecting(self, attempt: int, attempts: int, reason: str) -> None:
         """An attempt to reopen the link failed; the loss reason stays in front."""
         with self._lock:
-            lost = self._error.split("; ")[0] if self._error.startswith("link lost") else "link lost"
+            lost = self._cause or "link lost"
             self._error = f"{lost}; reconnect attempt {attempt} of {attempts} failed ({reason})"
             if attempt > attempts:
                 self._error = f"{lost}; gave up after {attempts} reconnect attempts (restart urc)"
@@ -332,10 +344,10 @@ class BridgeClient:
         try:
             value = ex.parse(data) if ex.parse is not None else None
         except ReplyError as exc:
-            self._bad(f"{ex.kind}: {exc}", "garbage")
+            self._bad(f"answer not understood ({ex.kind}: {exc})", "garbage")
             return
         except Exception as exc:  # any parser surprise is garbage too, never motion
-            self._bad(f"{ex.kind}: unreadable answer {data!r} ({exc})", "garbage")
+            self._bad(f"answer not understood ({ex.kind}: {data!r}: {exc})", "garbage")
             return
         with self._lock:
             self.counts["exchanges"] += 1
@@ -368,7 +380,7 @@ class BridgeClient:
         while len(self._recent) > 2 and now_s - self._recent[0][0] > SPEED_WINDOW_S:
             self._recent.popleft()
         self._trusted = True
-        self._error = ""
+        self._error = self._cause = ""
 
     def sent(self, ex: Exchange, now_s: float) -> None:
         """An exchange that has no answer went out."""
@@ -376,8 +388,8 @@ class BridgeClient:
             self.counts["exchanges"] += 1
 
     def timed_out(self, ex: Exchange, partial: bytes, now_s: float) -> None:
-        self._bad(f"{ex.kind}: no {'complete ' if partial else ''}answer within {self.timeout_s:g} s"
-                  + (f" (got {partial!r})" if partial else ""), "timeouts")
+        self._bad(f"no reply from the controller ({ex.kind}: no {'complete ' if partial else ''}answer "
+                  f"within {self.timeout_s:g} s" + (f", got {partial!r}" if partial else "") + ")", "timeouts")
 
     def _bad(self, reason: str, count: str) -> None:
         with self._lock:
@@ -386,7 +398,7 @@ class BridgeClient:
             # never move on an answer not understood: wait for a good report first
             self._trusted = False
             self._after_command = False
-            self._error = reason
+            self._error = self._cause = reason
             log.warning("bridge %s: %s", self.dialect.name, reason)
 
     def link_broken(self) -> bool:

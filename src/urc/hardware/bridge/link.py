@@ -7,6 +7,7 @@ link goes away."""
 from __future__ import annotations
 
 import logging
+import termios
 import threading
 import time
 
@@ -69,6 +70,11 @@ class SyncLink:
             raise LinkError(f"write timed out: {exc}") from None
         except (serial.SerialException, OSError) as exc:
             raise LinkError(str(exc) or type(exc).__name__) from None
+        except termios.error as exc:
+            # pyserial flushes a tty with termios, whose error is no OSError: a pty whose
+            # other end closed fails here first (it used to end the I/O thread, and the
+            # fault then read "no position report" instead of "link lost")
+            raise LinkError(f"port failed: {exc.args[-1] if exc.args else exc}") from None
 
     def close(self) -> None:
         try:
@@ -130,8 +136,7 @@ class LinkRunner:
                 continue
             self._run_exchange(ex)
             if self._link is not None and self.client.link_broken():
-                self._drop(f"{self.client.options.max_failures} bad or missing answers in a row "
-                           f"({self.client.error()})")
+                self._drop(f"{self.client.options.max_failures} bad or missing answers in a row", failures=True)
         self._final_stop()
 
     def _run_exchange(self, ex: Exchange) -> None:
@@ -144,6 +149,10 @@ class LinkRunner:
         except LinkError as exc:
             self._drop(str(exc))
             return
+        except Exception as exc:  # the I/O thread must never die: a surprise is a lost link
+            log.exception("bridge %s: unexpected error on the link", self.client.dialect.name)
+            self._drop(f"unexpected {type(exc).__name__}: {exc}")
+            return
         if data is None:
             self.client.sent(ex, time.monotonic())
         else:
@@ -151,8 +160,8 @@ class LinkRunner:
         if ex.settle_s:
             self._stopping.wait(ex.settle_s)
 
-    def _drop(self, reason: str) -> None:
-        self.client.link_down(reason, time.monotonic())
+    def _drop(self, reason: str, failures: bool = False) -> None:
+        self.client.link_down(reason, time.monotonic(), failures)
         if self._link is not None:
             self._link.close()
             self._link = None

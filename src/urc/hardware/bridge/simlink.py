@@ -59,8 +59,8 @@ class SimLink:
             return
         if self.client.link_broken():
             # as the I/O thread does: drop the link, reconnect at the next step
-            self.client.link_down(f"{self.client.options.max_failures} bad or missing answers in a row "
-                                  f"({self.client.error()})", now_s)
+            self.client.link_down(f"{self.client.options.max_failures} bad or missing answers in a row", now_s,
+                                  failures=True)
             self.client.link_up(now_s)
             self._busy = None
         if self._busy is None and self._t_s < now_s:
