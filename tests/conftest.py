@@ -38,8 +38,8 @@ class Bench:
 
     def settle(self, timeout_s: float = 200.0):
         """Run until both axes hold still (or time out)."""
-        return self.run(timeout_s, until=lambda s: s.az.mode in ("holding", "idle")
-                        and s.el.mode in ("holding", "idle") and not s.moving)
+        return self.run(timeout_s, until=lambda s: not s.moving and all(
+            a is None or a.mode in ("holding", "idle") for a in (s.az, s.el)))
 
     def truth(self, axis: str) -> float:
         return self.rot.status().sim_truth[axis]["deg"]

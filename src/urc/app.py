@@ -26,7 +26,7 @@ STATE_FILE = "state.json"
 
 
 def settings_from_config(cfg: Config) -> RotatorSettings:
-    caps = get_profile(cfg.rotator.profile)
+    caps = cfg.rotator.variant(get_profile(cfg.rotator.profile))
     if caps.loop_hz != cfg.rotator.loop_hz:
         caps = replace(caps, loop_hz=cfg.rotator.loop_hz)
     if cfg.hardware.backend == "bridge":

@@ -10,7 +10,7 @@ caps: the controller must work without knowing it. It lives in ``urc.hardware.si
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Literal
 
 #: "controller": the position reports of an external controller (the bridge backend)
@@ -82,11 +82,23 @@ class RotatorCaps:
     loop_hz: float = 50.0
     #: named sets of commands the original controller supports, for protocol servers.
     command_sets: tuple[str, ...] = field(default_factory=tuple)
+    #: the axes this rotator has: ("az",) for a single-axis one (a turntable, an HF beam,
+    #: BIG-RAS with "Elevation: OFF"). ``el`` then only describes what an elevation axis
+    #: would be; nothing drives, senses or reports it (README "Single-axis rotators").
+    axes: tuple[str, ...] = ("az", "el")
+
+    @property
+    def has_el(self) -> bool:
+        return "el" in self.axes
 
     @property
     def can_flip(self) -> bool:
         """Elevation reaches past the zenith, so a pass can be flown 'over the top'."""
-        return self.el.max_deg >= 180.0 - 1e-9
+        return self.has_el and self.el.max_deg >= 180.0 - 1e-9
+
+    def single_axis(self) -> "RotatorCaps":
+        """This rotator without its elevation axis (a variant: a new caps value)."""
+        return replace(self, axes=("az",), description=self.description + " (azimuth only)")
 
     def axis(self, name: str) -> AxisCaps:
         if name == "az":

@@ -258,16 +258,23 @@ def _request(url: str | None, config_path: str | None, method: str, path: str, b
 
 
 def _format_status(s: dict) -> str:
-    lines = [f"profile   {s['profile']}",
-             f"pointing  az {s['az_deg']:7.2f}  el {s['el_deg']:6.2f}"
-             + ("   (flipped)" if s["flipped"] else ""),
-             f"axes      az {s['az']['pos_deg']:7.2f} ({s['az']['mode']})  el {s['el']['pos_deg']:6.2f} "
-             f"({s['el']['mode']})  wrap turn {s['wrap_turns']}"]
-    if s["target_az_deg"] is not None:
-        lines.append(f"target    az {s['target_az_deg']:7.2f}  el {s['target_el_deg']:6.2f}")
+    if s.get("el") is None:  # a single-axis rotator: azimuth only, no elevation shown
+        lines = [f"profile   {s['profile']} (azimuth only)",
+                 f"pointing  az {s['az_deg']:7.2f}",
+                 f"axes      az {s['az']['pos_deg']:7.2f} ({s['az']['mode']})  wrap turn {s['wrap_turns']}"]
+        if s["target_az_deg"] is not None:
+            lines.append(f"target    az {s['target_az_deg']:7.2f}")
+    else:
+        lines = [f"profile   {s['profile']}",
+                 f"pointing  az {s['az_deg']:7.2f}  el {s['el_deg']:6.2f}"
+                 + ("   (flipped)" if s["flipped"] else ""),
+                 f"axes      az {s['az']['pos_deg']:7.2f} ({s['az']['mode']})  el {s['el']['pos_deg']:6.2f} "
+                 f"({s['el']['mode']})  wrap turn {s['wrap_turns']}"]
+        if s["target_az_deg"] is not None:
+            lines.append(f"target    az {s['target_az_deg']:7.2f}  el {s['target_el_deg']:6.2f}")
     state = "moving" if s["moving"] else ("parked" if s["parked"] else "stopped")
     lines.append(f"state     {state}; position {'known' if s['position_known'] else 'UNCERTAIN'}")
-    for name in ("az", "el"):
+    for name in s.get("axes", ("az", "el")):
         if s[name]["uncertainty_deg"]:
             lines.append(f"          {name} uncertain by ±{s[name]['uncertainty_deg']:.2f} deg")
     for f in s["faults"]:
@@ -280,7 +287,8 @@ def _format_status(s: dict) -> str:
                      "saved position stops being true)")
     truth = s.get("simulator_truth")
     if truth:
-        lines.append(f"sim truth az {truth['az']['deg']:7.2f}  el {truth['el']['deg']:6.2f}  (simulator only)")
+        el = f"  el {truth['el']['deg']:6.2f}" if s.get("el") is not None else ""
+        lines.append(f"sim truth az {truth['az']['deg']:7.2f}{el}  (simulator only)")
     for e in s["events"][-3:]:
         lines.append(f"event     {e}")
     if s.get("tracking"):

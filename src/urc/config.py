@@ -81,10 +81,18 @@ class RotatorSection(_Section):
     #: forbids it: a feed or cable that must not go over the top). An explicit pose
     #: (elevation past 90) is flown whatever the setting. See :meth:`flip_enabled`.
     flip: bool | Literal["auto"] = "auto"
+    #: false = a single-axis rotator, azimuth only (the Tartu TRC turntable, BIG-RAS
+    #: with "Elevation: OFF", an HF beam): no elevation parts, limits, park or offset;
+    #: protocols answer elevation queries as the original az-only units do.
+    elevation: bool = True
 
     def flip_enabled(self, caps: RotatorCaps) -> bool:
         """May the pass planner fly passes over the top on this profile?"""
         return caps.can_flip if self.flip == "auto" else bool(self.flip)
+
+    def variant(self, caps: RotatorCaps) -> RotatorCaps:
+        """The profile's caps as this section narrows them (single-axis)."""
+        return caps if self.elevation else caps.single_axis()
 
 
 class SimSection(_Section):
@@ -559,8 +567,9 @@ class Config(_Section):
 
     @property
     def caps(self) -> RotatorCaps:
-        """The frozen capabilities of ``rotator.profile``."""
-        return PROFILES[self.rotator.profile]
+        """The frozen capabilities of ``rotator.profile`` (single-axis when
+        ``rotator.elevation`` is false)."""
+        return self.rotator.variant(PROFILES[self.rotator.profile])
 
     def effective_limits(self, caps: RotatorCaps | None = None) -> dict[str, tuple[float, float]]:
         """``{'az': (min_deg, max_deg), 'el': (...)}`` after applying the user limits."""
@@ -643,7 +652,9 @@ def _cross_check(cfg: Config) -> list[_Issue]:
         hint = _suggest(cfg.rotator.profile, sorted(PROFILES))
         return [("rotator.profile", f"one of {valid}", cfg.rotator.profile, hint)]
 
-    if cfg.rotator.flip is True and not caps.can_flip:
+    caps = cfg.rotator.variant(caps)
+    issues += _single_axis_issues(cfg, caps)
+    if cfg.rotator.flip is True and not caps.can_flip and caps.has_el:
         issues.append(("rotator.flip", f"false (profile {caps.name!r} elevation stops at "
                        f"{_fmt(caps.el.max_deg)} deg, flip needs 180), or \"auto\"", True, ""))
 
@@ -690,7 +701,7 @@ def _cross_check(cfg: Config) -> list[_Issue]:
     if limits_ok:
         eff = cfg.effective_limits(caps)
         park = cfg.park_position(caps)
-        for i, name in enumerate(("az", "el")):
+        for i, name in enumerate(("az", "el")[:len(caps.axes)]):
             lo, hi = eff[name]
             v = park[i]
             user = getattr(cfg.park, f"{name}_deg")
@@ -793,6 +804,26 @@ def _cross_check(cfg: Config) -> list[_Issue]:
 _ADC_CHANNELS = {"ads1115": 4, "mcp3008": 8}
 
 
+def _single_axis_issues(cfg: Config, caps: RotatorCaps) -> list[_Issue]:
+    """``rotator.elevation = false``: no setting may give the absent axis a value."""
+    if caps.has_el:
+        return []
+    expected = "no elevation setting (rotator.elevation = false: azimuth only)"
+    issues: list[_Issue] = []
+    given = [("limits.el.min_deg", cfg.limits.el.min_deg), ("limits.el.max_deg", cfg.limits.el.max_deg),
+             ("park.el_deg", cfg.park.el_deg), ("hardware.sim.start_el_deg", cfg.hardware.sim.start_el_deg),
+             ("hardware.gpio.el", None if cfg.hardware.gpio is None or cfg.hardware.gpio.el is None else "[...]")]
+    if cfg.offsets.el_deg:
+        given.append(("offsets.el_deg", cfg.offsets.el_deg))
+    for key, v in given:
+        if v is not None:
+            issues.append((key, expected, v, "remove it, or set rotator.elevation = true"))
+    if cfg.rotator.flip is True:
+        issues.append(("rotator.flip", 'false or "auto" (a single-axis rotator cannot fly over the top)',
+                       True, ""))
+    return issues
+
+
 def _gpio_issues(cfg: Config, caps: RotatorCaps) -> list[_Issue]:
     """[hardware.gpio]: every pin the profile's parts need, each pin once, one device
     per I2C address, ADC inputs that exist."""
@@ -820,7 +851,7 @@ def _gpio_issues(cfg: Config, caps: RotatorCaps) -> list[_Issue]:
     muxed_buses: set[int] = set()
     spi_vref: dict[int, tuple[str, float]] = {}
     adc_inputs: dict[tuple, str] = {}
-    for name in ("az", "el"):
+    for name in caps.axes:  # single-axis: no [hardware.gpio.el] needed (nor allowed)
         ax = getattr(g, name)
         pre = f"hardware.gpio.{name}"
         if ax is None:
@@ -986,10 +1017,10 @@ def _bridge_issues(cfg: Config) -> list[_Issue]:
             issues.append(("hardware.bridge.tcp", '"host:port", e.g. "127.0.0.1:4533"', br.tcp, ""))
     if br.baud is not None and br.tcp is not None:
         issues.append(("hardware.bridge.baud", "no baud with tcp (only a serial line has one)", br.baud, ""))
-    if br.protocol == "rot1prog" and cfg.hardware.backend == "bridge" and \
+    if br.protocol == "rot1prog" and cfg.hardware.backend == "bridge" and cfg.caps.has_el and \
             cfg.effective_limits(cfg.caps)["el"][1] > 1.0:
         issues.append(("limits.el.max_deg", "at most 1 (a Rot1Prog turns azimuth only)",
-                       cfg.limits.el.max_deg, "set [limits.el] max_deg = 1"))
+                       cfg.limits.el.max_deg, "set rotator.elevation = false (or [limits.el] max_deg = 1)"))
     return issues
 
 

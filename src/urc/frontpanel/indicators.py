@@ -65,7 +65,8 @@ def led_states(st: Status, t_s: float) -> LedStates:
         err = blink_on(fault_code(st.faults[0].kind), t_s)
     else:
         err = not st.position_known
-    return LedStates(cw=st.az.duty > 0, ccw=st.az.duty < 0, up=st.el.duty > 0, down=st.el.duty < 0,
+    el_duty = 0.0 if st.el is None else st.el.duty  # (a single-axis rotator: UP/DOWN stay dark)
+    return LedStates(cw=st.az.duty > 0, ccw=st.az.duty < 0, up=el_duty > 0, down=el_duty < 0,
                      fault=err)
 
 

@@ -113,7 +113,8 @@ class Hardware:
 
     backend: str
     az: AxisHardware
-    el: AxisHardware
+    #: None on a single-axis rotator (``RotatorCaps.axes == ("az",)``)
+    el: AxisHardware | None
     #: backends that simulate physics advance it here, before sensors are read.
     poll_hook: Any = None
     #: simulator only: returns the true mechanical state; None for real iron.
@@ -127,8 +128,10 @@ class Hardware:
     def axis(self, name: str) -> AxisHardware:
         if name == "az":
             return self.az
-        if name == "el":
+        if name == "el" and self.el is not None:
             return self.el
+        if name == "el":
+            raise ValueError("no elevation axis: this rotator is azimuth only")
         raise ValueError(f"no axis {name!r}: expected 'az' or 'el'")
 
     def drive_safe(self) -> None:
@@ -137,6 +140,8 @@ class Hardware:
         and every exit path)."""
         writes: list[tuple[str, Callable[[], Any]]] = []
         for name, ax in (("az", self.az), ("el", self.el)):
+            if ax is None:
+                continue
             writes.append((f"{name} motor off", lambda ax=ax: ax.motor.set_drive(0.0)))
             if ax.positioner is not None:  # an external controller's axis: told to stop
                 writes.append((f"{name} positioner stop", lambda ax=ax: ax.positioner.stop()))

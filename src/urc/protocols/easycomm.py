@@ -21,6 +21,7 @@ from .base import RotatorPort, bad_input_log, internal_error, protocol_logger
 from .easycomm_codec import (COMMANDS_II, COMMANDS_III, Command, EasycommParseError, format_axis,
                              format_az_el, format_value, parse_line)
 from .lines import LineSplitter
+from .single_axis import has_elevation
 
 _JOG = {"ML": ("az", -1), "MR": ("az", 1), "MU": ("el", 1), "MD": ("el", -1),
         "VL": ("az", -1), "VR": ("az", 1), "VU": ("el", 1), "VD": ("el", -1)}
@@ -149,6 +150,12 @@ class _EasycommSession:
 
     # ------------------------------------------------------------------ actions
     def _goto(self, target: dict[str, float]) -> list[bytes]:
+        if "az" not in target and not has_elevation(self.rotator):
+            # ``EL45`` alone on a single-axis rotator: Easycomm answers no set, so there is
+            # no error form to give; it is ignored and nothing moves. ``AZ100 EL45`` turns
+            # the azimuth, the elevation left aside; ``EL`` reads 0.0 (wire_status).
+            self._bad.info("EL set %s ignored: azimuth-only rotator", target.get("el"))
+            return []
         s = self.rotator.status()
         az = target.get("az", self._hold("az", s))
         el = target.get("el", self._hold("el", s))

@@ -26,6 +26,7 @@ from .gs232_codec import (SPEED_LEVELS, STYLE_A, STYLE_B, STYLE_GENERIC, Command
                           format_error, format_help, format_position, parse_command)
 from .lines import LineSplitter
 from .poses import extended_pose_deg, frame_offsets_deg
+from .single_axis import has_elevation
 
 #: the speed a session starts with (X4, fastest), until the client sends X1..X4.
 DEFAULT_SPEED_LEVEL = 4
@@ -115,6 +116,13 @@ class _Gs232Session:
             az, el = controller_pose(rot.status())  # never cached
             return format_position(self.style, az if cmd.what in ("az", "azel") else None,
                                    el if cmd.what in ("el", "azel") else None)
+        if not has_elevation(rot) and (cmd.op == "goto_el" or (cmd.op == "move" and cmd.what == "el")):
+            # a single-axis rotator (BIG-RAS "Elevation: OFF", a GS-232A on an azimuth
+            # rotator): the controller cannot tell that no elevation rotator hangs on its
+            # elevation output, so it acknowledges Keee / EL=eee / U / D / MU / MD as
+            # usual; urc does too, and moves nothing (the azimuth keeps its goal). C2/B
+            # read elevation 0 (single_axis.wire_status), W and AZ= EL= turn the azimuth.
+            return None
         if cmd.op == "goto":
             rot.goto(cmd.az_deg, cmd.el_deg)
         elif cmd.op == "goto_az":

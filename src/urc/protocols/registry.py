@@ -42,4 +42,7 @@ def session_class(name: str) -> type:
 
 
 def make_session(name: str, rotator: RotatorPort, **options: Any) -> Session:
-    return session_class(name)(rotator, **options)
+    """A session on ``rotator`` (a single-axis one as its protocol puts it on the wire)."""
+    from .single_axis import session_port
+
+    return session_class(name)(session_port(rotator), **options)

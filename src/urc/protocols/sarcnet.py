@@ -223,7 +223,7 @@ class SarcnetSession:
     def _sensor(self, axis: str):
         try:
             return self.rotator.hw.axis(axis).sensor           # type: ignore[attr-defined]
-        except AttributeError:
+        except (AttributeError, ValueError):  # (ValueError: a single-axis rotator's elevation)
             return None
 
     def _raw_parts(self):

@@ -120,6 +120,9 @@ class _SpidSession:
             try:
                 self._targets.move(axis, sign, 1.0)   # no target: it rests where it stops
             except CommandRejected as exc:
+                # (up/down on a single-axis rotator: reason no_axis. SPID frames have no
+                # error answer, so it is ignored, as a Rot2Prog with no elevation
+                # rotator drives nothing; set frames turn the azimuth, el left aside)
                 bad_input.warning("move %s %+d refused (%s): %s", axis, sign, exc.reason, exc)
 
     def _position(self) -> bytes:

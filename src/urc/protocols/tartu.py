@@ -42,7 +42,10 @@ System errors are reported on the serial port as they happen, as the document as
 
 Variant ``trc`` (option ``variant = "trc"``): the single-axis turntable controller of
 the document's Figure 1, which knows only VERS HELP BAUD ECHO GOAZ RDAZ WRAZ RDAP HALT
-OVRA (anything else is ``ERR 1``, and HELP lists those).
+OVRA (anything else is ``ERR 1``, and HELP lists those). It is the default on a
+single-axis rotator (``[rotator] elevation = false``); ``variant = "urc"`` there keeps
+the full set, whose elevation commands then answer ``ERR 7`` (not supported) and move
+nothing, while RDEL/RDEP read 0 as an azimuth-only unit would.
 """
 
 from __future__ import annotations
@@ -55,6 +58,7 @@ from .base import MAX_PENDING_BYTES, RotatorPort, bad_input_log, internal_error,
 from . import tartu_codec as codec
 from .lines import LineSplitter, TerminalEcho
 from .poses import ExtendedTarget, extended_pose_deg, extended_targets_deg
+from .single_axis import has_elevation
 from .tartu_codec import Command, TartuSyntaxError
 
 log = protocol_logger("tartu")
@@ -77,13 +81,16 @@ class TartuSession:
     """One connection speaking the Tartu URC command set.
 
     Options: ``echo`` (bool, default False): start with character echo on;
-    ``variant``: ``"urc"`` (default, both axes) or ``"trc"`` (the turntable's subset).
+    ``variant``: ``"urc"`` (both axes) or ``"trc"`` (the turntable's subset); default:
+    ``"trc"`` on a single-axis rotator, else ``"urc"``.
     """
 
     wants_tick = True       # reports faults as they latch (see the module notes)
     default_baud = DEFAULT_BAUD
 
-    def __init__(self, rotator: RotatorPort, *, echo: bool = False, variant: str = "urc"):
+    def __init__(self, rotator: RotatorPort, *, echo: bool = False, variant: str | None = None):
+        if variant is None:
+            variant = "urc" if has_elevation(rotator) else "trc"
         if variant not in VARIANTS:
             raise ValueError(f"variant must be one of {', '.join(VARIANTS)}, got {variant!r}")
         self.rotator = rotator
@@ -165,6 +172,10 @@ class TartuSession:
         return codec.ok()
 
     def _goto(self, az: float | None, el: float | None) -> bytes:
+        if az is None and not has_elevation(self.rotator):
+            # GOEL on a unit without elevation: ERR 7 (not supported), nothing moves;
+            # GOAE there turns the azimuth and leaves the elevation aside (the service)
+            raise CommandRejected("no elevation axis on this rotator (azimuth only)", "no_axis")
         self._targets.goto(az, el)
         return codec.ok()
 
@@ -199,7 +210,7 @@ class TartuSession:
         sensor = None
         try:
             sensor = self.rotator.hw.axis(axis).sensor        # type: ignore[attr-defined]
-        except AttributeError:
+        except (AttributeError, ValueError):  # (ValueError: no elevation axis: its count reads 0)
             pass
         counts = getattr(sensor, "counts", None)
         if counts is not None:

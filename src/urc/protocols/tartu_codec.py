@@ -20,6 +20,7 @@ from .base import ProtocolError
 from .lines import crlf_line as line
 from .numbers import DECIMAL, format_deg
 from .poses import extended_pose_deg, extended_targets_deg
+from .single_axis import wire_status
 
 # error codes (ERR <code> <text>)
 E_UNKNOWN = 1        # no such command
@@ -34,7 +35,7 @@ E_REJECTED = 9       # refused by the rotator for another reason
 
 #: CommandRejected.reason -> error code
 REASON_CODES = {"limit": E_LIMIT, "keepout": E_KEEPOUT, "fault": E_FAULT,
-                "uncertain": E_UNCERTAIN, "invalid": E_REJECTED}
+                "uncertain": E_UNCERTAIN, "invalid": E_REJECTED, "no_axis": E_UNSUPPORTED}
 
 BAUD_RATES = (1200, 2400, 4800, 9600, 19200, 38400, 57600, 115200, 230400, 460800)
 
@@ -201,6 +202,9 @@ def lcd_line(axis_label: str, pos_deg: float, target_deg: float | None, state: s
 def lcd_rows(st) -> list[str]:
     """The controller's two LCD rows for a Status (LCDC, and the front panel's LCD):
     azimuth and elevation in the extended frame, each axis' setpoint and state."""
+    single = st.el is None  # the TRC turntable: the azimuth row only, the other left blank
+    st = wire_status(st)
     pos, tgt = extended_pose_deg(st), extended_targets_deg(st)
-    return [lcd_line(label, pos[i], tgt[i], axis_state(st, axis))
+    rows = [lcd_line(label, pos[i], tgt[i], axis_state(st, axis))
             for i, (label, axis) in enumerate((("AZ", "az"), ("EL", "el")))]
+    return rows[:1] + [""] if single else rows

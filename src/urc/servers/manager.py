@@ -9,6 +9,7 @@ from ..config import ServeEntry, parse_host_port
 from ..errors import ConfigError
 from ..protocols.base import RotatorPort
 from ..protocols.registry import session_class
+from ..protocols.single_axis import session_port
 
 
 #: serial rate of a protocol whose session class names none (``default_baud``)
@@ -38,6 +39,7 @@ async def start_endpoints(entries: tuple[ServeEntry, ...], rotator: RotatorPort)
 async def _start(entry: ServeEntry, rotator: RotatorPort) -> Endpoint:
     cls = session_class(entry.protocol)
     options = dict(entry.options)
+    rotator = session_port(rotator)  # a single-axis rotator as its protocol puts it on the wire
 
     def factory():
         return cls(rotator, **options)

@@ -169,6 +169,8 @@ def circular_mean_deg(values: Sequence[float]) -> float:
 def _sensor(rotator: Any, axis: str) -> Any:
     if axis not in ("az", "el"):
         raise CalibrationError(f"axis must be az or el, got {axis!r}")
+    if axis not in rotator.caps.axes:
+        raise CalibrationError("this rotator has no elevation axis (azimuth only)")
     return rotator.hw.axis(axis).sensor
 
 
@@ -200,7 +202,7 @@ def compass_field(sensor: Any, samples: int = 16) -> tuple[float, float]:
 def describe_sensors(rotator: Any) -> dict[str, Any]:
     """Per axis: sensor kind, present constants and which procedures apply."""
     out = {}
-    for axis in ("az", "el"):
+    for axis in rotator.caps.axes:
         hw = rotator.hw.axis(axis)
         sensor = hw.sensor
         try:
@@ -346,8 +348,8 @@ class Procedure:
 
     @staticmethod
     def _still(status: Status) -> bool:
-        return not status.moving and status.az.mode in ("holding", "idle") and \
-            status.el.mode in ("holding", "idle")
+        return not status.moving and all(a is None or a.mode in ("holding", "idle")
+                                         for a in (status.az, status.el))
 
     def _poll(self, status: Status) -> None:
         raise NotImplementedError
@@ -381,11 +383,12 @@ class MagnetometerCalibration(Procedure):
         if self._phase == "start":
             if status.faults:
                 raise CalibrationError("clear the faults first")
-            lo, hi = status.limits["el"]
-            off = status.offsets.get("el", 0.0)
-            # hold elevation where it is (a noisy tilt sensor may read just below the limit)
             self._start_az_deg = status.az_deg
-            self._el_deg = min(max(status.el_deg, lo + off), min(hi + off, 90.0))
+            if status.el_deg is not None:  # (azimuth only: the goto's elevation is left aside)
+                lo, hi = status.limits["el"]
+                off = status.offsets.get("el", 0.0)
+                # hold elevation where it is (a noisy tilt sensor may read just below the limit)
+                self._el_deg = min(max(status.el_deg, lo + off), min(hi + off, 90.0))
             self._move(status)
         elif self._phase == "moving":
             if status.faults:

@@ -162,7 +162,7 @@ async def settle(rotator: Rotator, timeout_s: float = STANDSTILL_TIMEOUT_S, poll
     while time.monotonic() < deadline:
         await asyncio.sleep(poll_s)
         s = rotator.status()
-        if not s.moving and s.az.mode in ("idle", "holding") and s.el.mode in ("idle", "holding"):
+        if not s.moving and all(a is None or a.mode in ("idle", "holding") for a in (s.az, s.el)):
             return True
     return False
 

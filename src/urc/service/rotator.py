@@ -30,7 +30,7 @@ from ..errors import CommandRejected, SensorError, StateFileError
 from ..hardware.interfaces import AxisHardware, Hardware
 from ..persistence import StateStore
 from . import position_record as precord
-from .settings import RotatorSettings
+from .settings import FIXED_EL_DEG, RotatorSettings
 from .snapshot import AxisStatus, Status
 from .state_writer import StateWriter
 from .timing import LoopTiming
@@ -251,7 +251,9 @@ class Rotator:
         self.clock = clock
         self.store = store
         self.geometry: Geometry = self.settings.geometry()
-        self.axes = {n: _Axis(n, hardware.axis(n), self.settings) for n in AXES}
+        # a single-axis rotator has no elevation _Axis at all: its beam stays at
+        # FIXED_EL_DEG, which the pose maths below stand in for
+        self.axes = {n: _Axis(n, hardware.axis(n), self.settings) for n in self.caps.axes}
         self._commands: collections.deque[_Command] = collections.deque()
         self._route: list[tuple[float, float]] = []
         self._faults: list[Fault] = []
@@ -316,6 +318,9 @@ class Rotator:
         for name, ax in self.axes.items():
             saved = saved_axes.get(name)
             saved = saved if isinstance(saved, dict) else None
+            # a record without this axis (written while the rotator ran single-axis):
+            # where the axis is now is unknown
+            lost_axis = lost or (payload is not None and saved is None)
             if saved and saved.get("calibration"):
                 try:
                     ax.hw.sensor.load_calibration(saved["calibration"])
@@ -330,12 +335,12 @@ class Rotator:
             if win is not None and not precord.known_window(ax, win):
                 anchor = (win[0] + win[1]) / 2.0
             if not ax.caps.sensor.absolute:
-                self._restore_incremental(ax, saved, win, lost, anchor)
+                self._restore_incremental(ax, saved, win, lost_axis, anchor)
             ax.meas_deg = anchor
             if ax.read(0.0) is None:
                 self._event(f"{name}: sensor unreadable at start-up ({ax.sensor_error})")
             elif ax.modulo is not None:
-                self._check_wrap_ambiguity(ax, saved, win, lost)
+                self._check_wrap_ambiguity(ax, saved, win, lost_axis)
             if saved and saved.get("uncertainty_deg"):
                 ax.uncertainty_deg += float(saved["uncertainty_deg"])
             ax.law = replace(ax.law, ref_deg=ax.meas_deg, last_meas_deg=ax.meas_deg)
@@ -518,16 +523,17 @@ class Rotator:
                 self._event(f"guard: {ax.name} stopped at {ax.meas_deg:.2f} deg before its limit")
         if not self.geometry.zones:
             return
-        az, el = self.axes["az"], self.axes["el"]
-        now_pose = (az.meas_deg, el.meas_deg)
+        present = list(self.axes.values())
+        now_pose = self._current_pose()
         # a counting sensor can be a count off (pulse miscounts, the half-count estimate):
         # a pose within a count of a zone is treated as entering it
-        count_deg = max(az.caps.sensor.resolution_deg, el.caps.sensor.resolution_deg)
-        ahead = (az.heading_deg(count_deg), el.heading_deg(count_deg))
+        count_deg = max(ax.caps.sensor.resolution_deg for ax in present)
+        ahead = (self.axes["az"].heading_deg(count_deg),
+                 self.axes["el"].heading_deg(count_deg) if "el" in self.axes else FIXED_EL_DEG)
         # (from inside the margin, or a zone, only motion that gets no deeper is let on)
         zone = self.geometry.deeper_into_zone(now_pose, ahead, margin_deg=count_deg)
         if zone is not None:
-            for ax in (az, el):
+            for ax in present:
                 ax.out, ax.sp = law.OFF, None
             self._route = []
             self._event(f"guard: stopped before keep-out zone {zone.name!r}")
@@ -592,10 +598,24 @@ class Rotator:
         return self._seq
 
     def _rates(self) -> tuple[float, float]:
-        return (self.axes["az"].tuning.max_rate_deg_per_s, self.axes["el"].tuning.max_rate_deg_per_s)
+        el = self.axes.get("el")  # (no elevation axis: its pose never changes; any rate)
+        return (self.axes["az"].tuning.max_rate_deg_per_s, el.tuning.max_rate_deg_per_s if el else 1.0)
 
     def _current_pose(self) -> tuple[float, float]:
-        return (self.axes["az"].meas_deg, self.axes["el"].meas_deg)
+        el = self.axes.get("el")
+        return (self.axes["az"].meas_deg, el.meas_deg if el else FIXED_EL_DEG)
+
+    def _no_el(self, el_deg: float) -> float:
+        """A single-axis rotator takes any finite elevation in a two-axis command and
+        leaves it aside (each protocol says whether it answers that as its original
+        does, or refuses first); its pose keeps FIXED_EL_DEG."""
+        if not (isinstance(el_deg, (int, float)) and math.isfinite(el_deg)):
+            raise CommandRejected(f"elevation {el_deg!r} is not a finite number", "invalid")
+        return FIXED_EL_DEG
+
+    def _require_el(self, what: str) -> None:
+        if "el" not in self.axes:
+            raise CommandRejected(f"{what}: this rotator has no elevation axis (azimuth only)", "no_axis")
 
     def _explicit_pose(self, az_deg: float, el_deg: float) -> tuple[float, float] | None:
         """An azimuth outside 0..360 or an elevation past 90 names one mechanical pose.
@@ -669,6 +689,8 @@ class Rotator:
         self._require_motion_ok(automatic=True, local=local)
         if not (math.isfinite(az_m_deg) and math.isfinite(el_m_deg)):
             raise CommandRejected(f"pose {az_m_deg!r}, {el_m_deg!r} is not finite", "invalid")
+        if "el" not in self.axes:
+            el_m_deg = FIXED_EL_DEG
         g = self.geometry
         if not g.in_limits(az_m_deg, el_m_deg, slack_deg=1e-6):
             raise CommandRejected(f"pose az {az_m_deg:g}, el {el_m_deg:g} outside the limits", "limit")
@@ -690,6 +712,8 @@ class Rotator:
     def goto(self, az_deg: float, el_deg: float) -> list[tuple[float, float]]:
         """Point at sky (az, el). Returns the planned mechanical waypoints."""
         self._require_motion_ok(automatic=True)
+        if "el" not in self.axes:
+            el_deg = self._no_el(el_deg)
         route = self._plan(az_deg, el_deg)
         target = (wrap360(az_deg), el_deg) if self._explicit_pose(az_deg, el_deg) is None \
             else self.geometry.to_sky(*route[-1])
@@ -702,10 +726,13 @@ class Rotator:
 
     def goto_az(self, az_deg: float) -> list[tuple[float, float]]:
         """Azimuth only: elevation keeps its target (or where it is, after a stop)."""
+        if "el" not in self.axes:
+            return self.goto(az_deg, FIXED_EL_DEG)
         return self.goto(az_deg, self._target_sky[1] if self._target_sky else self.status().el_deg)
 
     def goto_el(self, el_deg: float) -> list[tuple[float, float]]:
         """Elevation only: azimuth keeps its target (or where it is, after a stop)."""
+        self._require_el("goto elevation")
         return self.goto(self._target_sky[0] if self._target_sky else self.status().az_deg, el_deg)
 
     def park(self, local: bool = False) -> list[tuple[float, float]]:
@@ -731,13 +758,15 @@ class Rotator:
         for v in (az_deg, el_deg, az_rate_deg_per_s, el_rate_deg_per_s):
             if not math.isfinite(v):
                 raise CommandRejected(f"track value {v!r} is not finite", "invalid")
+        if "el" not in self.axes:  # the azimuth follows; where it is in the sky is not asked
+            el_deg, el_rate_deg_per_s = FIXED_EL_DEG, 0.0
         t_ref = self.clock.now_s() if t_ref_s is None else t_ref_s
         g = self.geometry
         poses = g.candidates(wrap360(az_deg), el_deg)
         if not poses:
             raise CommandRejected(f"track point az {az_deg:g}, el {el_deg:g} outside the limits", "limit")
-        ref = (self.axes["az"].sp.target_at(t_ref) if self._tracking and self.axes["az"].sp else self.axes["az"].meas_deg,
-               self.axes["el"].sp.target_at(t_ref) if self._tracking and self.axes["el"].sp else self.axes["el"].meas_deg)
+        ref = tuple(ax.sp.target_at(t_ref) if self._tracking and ax.sp else ax.meas_deg
+                    for ax in self.axes.values()) + (FIXED_EL_DEG,) * (2 - len(self.axes))
         pose = min(poses, key=lambda p: abs(p[0] - ref[0]) + abs(p[1] - ref[1]))
         if g.zone_at(*pose, margin_deg=0.0) or g.segment_clear(self._current_pose(), pose, self._rates()):
             raise CommandRejected(f"track point az {az_deg:g}, el {el_deg:g} is in or behind a keep-out zone",
@@ -758,6 +787,8 @@ class Rotator:
         values = (az_m_deg, el_m_deg, az_rate_deg_per_s, el_rate_deg_per_s)
         if not all(math.isfinite(v) for v in values):
             raise CommandRejected(f"track pose {values!r} is not finite", "invalid")
+        if "el" not in self.axes:
+            el_m_deg, el_rate_deg_per_s = FIXED_EL_DEG, 0.0
         g = self.geometry
         if not g.in_limits(az_m_deg, el_m_deg, slack_deg=1e-6):
             raise CommandRejected(f"track pose az {az_m_deg:g}, el {el_m_deg:g} outside the limits", "limit")
@@ -779,8 +810,7 @@ class Rotator:
         self._tracking = True
         self._route = []
         seq = self._next_seq()
-        for name, p, r in zip(AXES, pose, rates):
-            ax = self.axes[name]
+        for ax, p, r in zip(self.axes.values(), pose, rates):
             lo, hi = ax.limits
             keep = was_tracking and ax.sp is not None
             ax.sp = law.Setpoint(min(max(p, lo), hi), r, t_ref, seq=ax.sp.seq if keep else seq,
@@ -794,6 +824,8 @@ class Rotator:
         """
         if axis not in AXES or direction not in (-1, 1):
             raise CommandRejected(f"move needs axis az|el and direction -1|+1, got {axis!r}, {direction!r}")
+        if axis == "el":
+            self._require_el("move elevation")
         if not (math.isfinite(speed_frac) and 0.0 < speed_frac <= 1.0):
             raise CommandRejected(f"move speed {speed_frac!r} outside 0 < speed <= 1")
         self._require_motion_ok(automatic=False, local=local)
@@ -807,7 +839,7 @@ class Rotator:
 
         def apply() -> None:
             self._parked = self._parking = False
-            others = [n for n in AXES if n != axis]
+            others = [n for n in self.axes if n != axis]
             if self._route or self._tracking or any(
                     self.axes[n].sp is not None and self.axes[n].sp.rate_deg_per_s for n in others):
                 # the other axis was flying a route or a track planned for both axes
@@ -823,13 +855,15 @@ class Rotator:
         """Stop (both axes, or one): decelerate at the axis' limit and hold there."""
         if axis is not None and axis not in AXES:
             raise CommandRejected(f"stop takes az, el or nothing, got {axis!r}")
+        if axis is not None and axis not in self.axes:
+            return  # no such axis here: nothing to stop (and the azimuth keeps its goal)
         self._target_sky = None
 
         def apply() -> None:
             self._route = []
             self._tracking = False
             self._parking = False  # a park cut short is no park
-            self._stop_axes([axis] if axis else list(AXES))
+            self._stop_axes([axis] if axis else list(self.axes))
         self._submit("stop", apply)
 
     def _stop_axes(self, names: list[str]) -> None:
@@ -855,6 +889,8 @@ class Rotator:
         """
         self._refuse_unless_local(local)
         g = self.geometry
+        if el_deg is not None:
+            self._require_el("set elevation position")
         values = {"az": az_deg, "el": el_deg}
         for name, v in values.items():
             if v is None:
@@ -922,15 +958,18 @@ class Rotator:
                 self._event(f"{axis} re-referenced to {mech_deg:.2f} deg (mechanical) by its search")
         self._submit("end_search", apply)
 
-    @staticmethod
-    def _check_axis(axis: str) -> None:
+    def _check_axis(self, axis: str) -> None:
         if axis not in AXES:
             raise CommandRejected(f"axis must be az or el, got {axis!r}")
+        if axis == "el":
+            self._require_el("elevation")
 
     def set_overshoot(self, axis: str, overshoot_deg: float) -> None:
         """Set the coast estimate of a relay axis (Tartu OVRA/OVRE); it keeps learning."""
         if axis not in AXES:
             raise CommandRejected(f"overshoot needs axis az|el, got {axis!r}")
+        if axis == "el":
+            self._require_el("elevation overshoot")
         if not (math.isfinite(overshoot_deg) and 0.0 <= overshoot_deg <= 20.0):
             raise CommandRejected(f"overshoot {overshoot_deg!r} outside 0..20 deg")
         ax = self.axes[axis]
@@ -944,6 +983,8 @@ class Rotator:
 
     def overshoot_deg(self, axis: str) -> float:
         """The present coast estimate at full drive (what OVRA/OVRE read)."""
+        if axis not in self.axes:
+            raise CommandRejected(f"no {axis} axis on this rotator (azimuth only)", "no_axis")
         return max(self.axes[axis].law.coast_deg, default=0.0)
 
     def reconfigure(self, settings: RotatorSettings) -> None:
@@ -955,7 +996,7 @@ class Rotator:
             raise CommandRejected("a new profile or loop rate takes effect at the next start")
         geometry = settings.geometry()
         pose = self._current_pose()
-        slack = max(self.caps.az.tolerance_deg, self.caps.el.tolerance_deg)
+        slack = max(self.caps.axis(n).tolerance_deg for n in self.axes)
         if not geometry.in_limits(*pose, slack_deg=slack):
             raise CommandRejected(f"the antenna (az {pose[0]:.1f}, el {pose[1]:.1f} mechanical) is outside "
                                   "the new limits: move it inside first", "limit")
@@ -998,8 +1039,8 @@ class Rotator:
     def _set_waypoint(self, pose: tuple[float, float]) -> None:
         seq = self._next_seq()
         now = self.clock.now_s()
-        for name, p in zip(AXES, pose):
-            self.axes[name].sp = law.Setpoint(p, 0.0, now, seq=seq)
+        for ax, p in zip(self.axes.values(), pose):
+            ax.sp = law.Setpoint(p, 0.0, now, seq=seq)
 
     def _advance_route(self) -> None:
         if len(self._route) <= 1:
@@ -1184,20 +1225,25 @@ class Rotator:
         return self._status
 
     def _build_status(self, now_s: float) -> Status:
-        az, el = self.axes["az"], self.axes["el"]
+        az, el = self.axes["az"], self.axes.get("el")
         g = self.geometry
-        el_ext = el.meas_deg + g.el_offset_deg
-        # within the tolerance past the zenith the antenna stands at its own azimuth, not
-        # "flipped" to the other side (a resting antenna at el 90 reads 90.05: half a count)
-        flipped = el_ext > 90.0 + el.tuning.tolerance_deg
-        sky_az, sky_el = g.to_sky(az.meas_deg, el.meas_deg) if flipped else \
-            (wrap360(az.meas_deg + g.az_offset_deg), min(el_ext, 180.0 - el_ext))
         loop = self.timing.health(now_s)
         tgt = self._target_sky
+        if el is None:
+            # no elevation axis: nothing measured, nothing to report (None, not a 0)
+            sky_az, sky_el, flipped, tgt_el = wrap360(az.meas_deg + g.az_offset_deg), None, False, None
+        else:
+            el_ext = el.meas_deg + g.el_offset_deg
+            # within the tolerance past the zenith the antenna stands at its own azimuth,
+            # not "flipped" to the other side (a resting antenna at el 90 reads 90.05)
+            flipped = el_ext > 90.0 + el.tuning.tolerance_deg
+            sky_az, sky_el = g.to_sky(az.meas_deg, el.meas_deg) if flipped else \
+                (wrap360(az.meas_deg + g.az_offset_deg), min(el_ext, 180.0 - el_ext))
+            tgt_el = None if tgt is None else tgt[1]
         return Status(
             t_s=now_s, profile=self.caps.name, az_deg=round(sky_az, 4) % 360.0, el_deg=sky_el,
-            az=az.status(), el=el.status(),
-            target_az_deg=None if tgt is None else tgt[0], target_el_deg=None if tgt is None else tgt[1],
+            az=az.status(), el=None if el is None else el.status(),
+            target_az_deg=None if tgt is None else tgt[0], target_el_deg=tgt_el,
             flipped=flipped,
             wrap_turns=int(math.floor((az.meas_deg + self.geometry.az_offset_deg) / 360.0)),
             moving=self._moving(), parked=self._parked, position_known=not self.position_uncertain(),
@@ -1205,9 +1251,9 @@ class Rotator:
             loop=loop.as_dict(),
             local_control=self.local_controls(),
             sim_truth=self.hw.sim_truth(),
-            limits={"az": az.limits, "el": el.limits},
+            limits={n: ax.limits for n, ax in self.axes.items()},
             offsets={"az": self.geometry.az_offset_deg, "el": self.geometry.el_offset_deg},
-            state_error=self._save_error)
+            state_error=self._save_error, axes=tuple(self.axes))
 
 
 def _holding_lock(method: Callable) -> Callable:

@@ -10,6 +10,10 @@ from ..control.geometry import Geometry, KeepOut
 from ..control.law import AxisTuning
 
 
+#: the elevation of a single-axis rotator's beam (a turntable, an HF beam): the horizon
+FIXED_EL_DEG = 0.0
+
+
 def default_tuning(ax: AxisCaps) -> AxisTuning:
     return AxisTuning(
         max_rate_deg_per_s=ax.max_rate_deg_per_s, min_rate_deg_per_s=ax.min_rate_deg_per_s,
@@ -63,8 +67,13 @@ class RotatorSettings:
         return replace(base, **overrides).completed()
 
     def completed(self) -> "RotatorSettings":
-        """Fill tuning and fault limits left as None from the caps."""
+        """Fill tuning and fault limits left as None from the caps. A single-axis rotator
+        (``caps.axes == ("az",)``) has its beam fixed at the horizon: elevation pinned to
+        0 (the pose keep-out zones are checked at), never flipped."""
         c = self.caps
+        fixed = {} if c.has_el else dict(el_limits_deg=(FIXED_EL_DEG, FIXED_EL_DEG), park_el_deg=FIXED_EL_DEG,
+                                         el_offset_deg=0.0, flip=False, pass_flip=False)
+        self = replace(self, **fixed)
         return replace(
             self,
             az_tuning=self.az_tuning or default_tuning(c.az),

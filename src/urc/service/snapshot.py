@@ -27,9 +27,9 @@ class Status:
     t_s: float
     profile: str
     az_deg: float               # where the beam points: compass azimuth 0..360
-    el_deg: float
+    el_deg: float | None        # None: the rotator has no elevation axis (``axes``)
     az: AxisStatus
-    el: AxisStatus
+    el: AxisStatus | None       # None: no elevation axis
     target_az_deg: float | None
     target_el_deg: float | None
     flipped: bool
@@ -55,10 +55,17 @@ class Status:
     loop: dict[str, Any] = field(default_factory=dict)
     #: local controls held now (front-panel buttons, IR keys): remote motion is refused
     local_control: tuple[str, ...] = ()
+    #: the axes the rotator has: ("az",) for a single-axis one (turntable, HF beam)
+    axes: tuple[str, ...] = ("az", "el")
+
+    @property
+    def has_el(self) -> bool:
+        return "el" in self.axes
 
     def as_dict(self) -> dict[str, Any]:
         d = asdict(self)
         d["faults"] = [f.as_dict() for f in self.faults]
         d["events"] = list(self.events)
+        d["axes"] = list(self.axes)
         d["simulator_truth"] = d.pop("sim_truth")
         return d

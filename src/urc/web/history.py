@@ -32,8 +32,14 @@ def setpoint(status: dict[str, Any]) -> tuple[float | None, float | None]:
     return status.get("target_az_deg"), status.get("target_el_deg")
 
 
+def _round4(v: float | None) -> float | None:
+    return None if v is None else round(v, 4)
+
+
 def pointing_error_deg(status: dict[str, Any]) -> float | None:
     taz, tel = setpoint(status)
+    if taz is not None and status.get("el_deg") is None:  # azimuth only: the azimuth error
+        return abs((status["az_deg"] - taz + 180.0) % 360.0 - 180.0)
     if taz is None or tel is None:
         return None
     return angular_distance_deg(status["az_deg"], status["el_deg"], taz, tel)
@@ -54,7 +60,7 @@ class History:
 
     def add(self, t_wall_s: float, status: dict[str, Any], error_deg: float | None) -> None:
         taz, tel = setpoint(status)
-        sample = (round(t_wall_s, 3), round(status["az_deg"], 4), round(status["el_deg"], 4),
+        sample = (round(t_wall_s, 3), round(status["az_deg"], 4), _round4(status["el_deg"]),
                   None if taz is None else round(taz, 4), None if tel is None else round(tel, 4),
                   None if error_deg is None else round(error_deg, 5),
                   round(status["az"]["pos_deg"], 4),

@@ -75,7 +75,9 @@ def router(ctx: WebContext) -> APIRouter:
                 "backend": rot.hw.backend, "simulator": "world" in rot.hw.extra,
                 "control_requires_token": ctx.cfg.api.control_requires_token,
                 "token_configured": bool(ctx.cfg.api.token),
-                "can_flip": caps.can_flip, "caps": {"az": axis("az"), "el": axis("el")},
+                "can_flip": caps.can_flip, "caps": {n: axis(n) for n in caps.axes},
+                # ["az"]: a single-axis rotator (the page shows no elevation controls)
+                "axes": list(caps.axes),
                 "limits": status.limits, "offsets": status.offsets,
                 # what the rotator enforces now (the settings page may have changed it live)
                 "keepout": [dataclasses.asdict(z) for z in rot.settings.zones],

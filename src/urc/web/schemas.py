@@ -91,9 +91,10 @@ class StatusDoc(BaseModel):
     t_s: float
     profile: str
     az_deg: float = Field(description="pointing azimuth")
-    el_deg: float = Field(description="pointing elevation")
+    el_deg: float | None = Field(description="pointing elevation (None: azimuth-only rotator)")
     az: AxisState
-    el: AxisState
+    el: AxisState | None = Field(description="None on an azimuth-only rotator (axes = ['az'])")
+    axes: list[str] = Field(description="the rotator's axes: ['az', 'el'], or ['az'] (single-axis)")
     target_az_deg: float | None
     target_el_deg: float | None
     flipped: bool
@@ -135,6 +136,7 @@ class InfoDoc(BaseModel):
     token_configured: bool
     can_flip: bool
     caps: dict[str, dict]
+    axes: list[str] = Field(description="['az', 'el'], or ['az'] for a single-axis rotator")
     limits: dict[str, tuple[float, float]]
     offsets: dict[str, float]
     keepout: list[ZoneInfo] = Field(description="the zones the rotator enforces now")

@@ -124,5 +124,6 @@ def build_bridge_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path, opti
     runner.start()
     # the rotator restores from the first report: give the link a moment to bring one
     client.wait_report(client.timeout_s + 1.0)
-    return Hardware(backend="bridge", az=az, el=el, close_hook=runner.close,
+    # a single-axis rotator: the controller's elevation is neither driven nor read
+    return Hardware(backend="bridge", az=az, el=el if caps.has_el else None, close_hook=runner.close,
                     extra={"bridge_client": client, "bridge_runner": runner})

@@ -167,7 +167,7 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
     lsm: dict[tuple[int, int | None, int], Lsm303dChip] = {}
     axes: dict[str, AxisHardware] = {}
     parts_list: list[tuple[str, Any]] = []
-    for name in ("az", "el"):
+    for name in caps.axes:  # a single-axis rotator wires no elevation parts at all
         ax_caps = caps.axis(name)
         cfg = getattr(gpio, name)
         pins = cfg.pins
@@ -316,7 +316,7 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
         # inputs follow the start position before the first read
         for s in syncs:
             s()
-        return Hardware(backend="gpio", az=axes["az"], el=axes["el"], poll_hook=poll,
+        return Hardware(backend="gpio", az=axes["az"], el=axes.get("el"), poll_hook=poll,
                         truth_hook=world.truth, close_hook=close, heartbeat=heartbeat, extra=extra)
 
     def close_real() -> None:
@@ -333,7 +333,7 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
             c.close()
         factory.close()
 
-    return Hardware(backend="gpio", az=axes["az"], el=axes["el"], close_hook=close_real,
+    return Hardware(backend="gpio", az=axes["az"], el=axes.get("el"), close_hook=close_real,
                     heartbeat=heartbeat, extra=extra)
 
 

@@ -61,7 +61,9 @@ def build_sim_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
     def truth() -> dict[str, Any]:
         return {**world.truth(), "heartbeat": heartbeat.truth()}
 
-    return Hardware(backend="sim", az=axis_hw("az"), el=axis_hw("el"),
+    # a single-axis rotator: the simulated mechanics keep an elevation joint (standing
+    # at its park), but no part of it is wired: nothing drives or reads it
+    return Hardware(backend="sim", az=axis_hw("az"), el=axis_hw("el") if caps.has_el else None,
                     poll_hook=world.advance_to, truth_hook=truth, heartbeat=heartbeat,
                     close_hook=lambda: (heartbeat.close(), world.close()),
                     # what a motor driver's over-current trip would be set to: well above

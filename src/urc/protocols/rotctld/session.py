@@ -19,6 +19,7 @@ from ... import __version__
 from ...errors import CommandRejected, ConfigError, HardwareError
 from ..base import MAX_PENDING_BYTES, RotatorPort, bad_input_log, internal_error, protocol_logger
 from ..poses import readback_pose_deg
+from ..single_axis import has_elevation
 from . import codec
 from .commands import (
     CONF_TOKENS, LEVELS, RIG_EINTERNAL, RIG_EINVAL, RIG_EIO, RIG_ELIMIT, RIG_ENAVAIL, RIG_ERJCTED,
@@ -189,6 +190,9 @@ class RotctldSession:
             bad_input.info("rotctld: move needs a direction and a speed 1..100 or -1, got %r", args)
             return RIG_EINVAL, ""
         started: list[str] = []
+        # UP/DOWN on an azimuth-only rotator: refused by the service (reason no_axis) ->
+        # RPRT -1 (EINVAL), the same answer as P with an elevation outside min_el..max_el
+        # (0..0); nothing moves (urc's choice: Hamlib has no rule for M on such a rotator)
         try:
             for axis, direction in moves:
                 self._rot.move(axis, direction, speed / 100.0)
@@ -265,7 +269,10 @@ class RotctldSession:
         return 0, codec.format_conf_list(self._conf_values())
 
     def _dump_state(self, args: tuple[str, ...], sep: str | None) -> Result:
-        return 0, codec.format_dump_state(MODEL, self.frame_limits(), 0, "AzEl", sep)
+        # an azimuth-only rotator: min_el = max_el = 0 and rot_type=Az, as Hamlib's own
+        # azimuth-only backends (GS-232A azimuth, Rot1Prog) report them
+        rot_type = "AzEl" if has_elevation(self._rot) else "Az"
+        return 0, codec.format_dump_state(MODEL, self.frame_limits(), 0, rot_type, sep)
 
     def _dump_caps(self, args: tuple[str, ...], sep: str | None) -> Result:
         return 0, codec.format_dump_caps(model=MODEL, model_name=f"urc {self._rot.status().profile}",
