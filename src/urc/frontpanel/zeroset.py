@@ -6,8 +6,10 @@ change it and the 'slow' button stores it in non-volatile memory, after which th
 controller runs normally with the new Z.
 
 On urc: Z is the azimuth sensor's own ``Z`` constant when it has one (a ratiometric pot,
-as on the G4JNT), stored through :func:`calibration.apply_sensor_calibration` (a
-re-reference that the state file keeps across restarts, nothing moves). A sensor without
+as on the G4JNT), stored exactly as set through :func:`calibration.apply_sensor_calibration`
+(the axis adopts the new bearing; the state file keeps Z across restarts; nothing moves).
+Precision is the document's unit, 0.1 deg: Z is kept to the step it was set in, and the
+bearing moves by exactly Z; a single reading is still quantised by the 10-bit pot. A sensor without
 a Z constant gets the equivalent: the procedure edits the azimuth the rotator reads now,
 stored as a re-reference (Tartu WRAZ). Steps of 0.1 deg (the document's unit); a held
 button repeats after 0.5 s every 0.1 s, in 1 deg steps after 2 s. While the procedure

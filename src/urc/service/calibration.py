@@ -223,20 +223,32 @@ def describe_sensors(rotator: Any) -> dict[str, Any]:
 
 
 # ================================================================= one-shot steps
-def apply_sensor_calibration(rotator: Any, axis: str, values: dict[str, Any], samples: int = 16) -> float:
+def apply_sensor_calibration(rotator: Any, axis: str, values: dict[str, Any], samples: int = 16,
+                             local: bool = False) -> float:
     """Load new constants into the sensor and re-reference the axis to what they say.
 
-    The sensor is first put back on its old reading (through its own reference), so the
-    next control tick sees no jump (no runaway/sensor-jump fault); then ``set_position``
-    moves the axis to the new calibrated angle, which the rotator treats as a deliberate
-    re-reference and persists with the constants. Runs between ticks (under the
-    rotator's lock). Returns the new mechanical angle.
+    An absolute sensor (pot, compass, AS5600): the constants are loaded exactly as
+    given and the axis adopts the sensor's new reading at once (``adopt_sensor_reading``),
+    both under the rotator's lock so no tick sees the step as a sensor jump. (Formerly
+    the sensor was put back on its old reading and ``set_position`` re-referenced it,
+    which re-derived the offset constant from one noisy reading: a G4JNT Z entered as
+    0.9 was stored as 0.9 +- 0.15.) An incremental sensor: put back on its old reading,
+    then ``set_position`` moves the axis by the change its constants make. Either way
+    the state save persists the new constants. Returns the new mechanical angle.
     """
     sensor = _sensor(rotator, axis)
     # the control loop runs on its own thread: hold its lock so that no tick reads the
     # sensor between the new constants and the re-reference
     with getattr(rotator, "lock", contextlib.nullcontext()):
         old = dict(sensor.calibration())
+        adopt = getattr(rotator, "adopt_sensor_reading", None)
+        if sensor.caps.absolute and adopt is not None:
+            sensor.load_calibration(values)
+            try:
+                return adopt(axis, local=local)
+            except Exception:
+                sensor.load_calibration(old)
+                raise
         modulo = getattr(sensor.caps, "modulo_deg", None)
         r0 = average_reading_deg(sensor, samples)
         sensor.load_calibration(values)
@@ -248,7 +260,7 @@ def apply_sensor_calibration(rotator: Any, axis: str, values: dict[str, Any], sa
             status = rotator.status()
             mech_new = getattr(status, axis).pos_deg + delta
             sensor.set_reference_deg(r0)
-            rotator.set_position(**{f"{axis}_deg": mech_new + status.offsets.get(axis, 0.0)})
+            rotator.set_position(**{f"{axis}_deg": mech_new + status.offsets.get(axis, 0.0)}, local=local)
         except Exception:
             sensor.load_calibration(old)
             raise

@@ -912,8 +912,35 @@ class Rotator:
                 self._event(f"{name} re-referenced to {v:.2f} deg")
         self._submit("set_position", apply)
 
-    def _rereference(self, ax: _Axis, mech_deg: float, uncertainty_deg: float = 0.0) -> None:
-        ax.set_reference(mech_deg)
+    def adopt_sensor_reading(self, axis: str, local: bool = False) -> float:
+        """An absolute sensor's constants were just changed (a G4JNT zero offset Z, a
+        declination): the axis takes what the sensor reads now as its position, at once
+        (call it under ``lock`` together with the change, so no tick sees the jump as a
+        fault). The sensor is not re-referenced: that would fold one noisy reading back
+        into the constant just set. Returns the new mechanical angle."""
+        self._refuse_unless_local(local)
+        if axis not in AXES:
+            raise CommandRejected(f"axis must be az or el, got {axis!r}")
+        ax = self.axes[axis]
+        if not ax.caps.sensor.absolute:
+            raise CommandRejected(f"{axis}: an incremental sensor has no reading to adopt; "
+                                  "re-reference it with set_position")
+        mech_deg = ax.unwrap(ax.hw.sensor.read_deg() + ax.count_centre_deg, ax.meas_deg)
+        lo, hi = ax.limits
+        slack = ax.caps.sensor.resolution_deg + 3.0 * ax.caps.sensor.noise_deg   # one noisy reading
+        if not lo - slack <= mech_deg <= hi + slack:
+            raise CommandRejected(f"{axis}: the new constants put the axis at {mech_deg:.1f} deg, "
+                                  f"outside {lo:g}..{hi:g}", "limit")
+        self._searches.pop(axis, None)
+        self._rereference(ax, mech_deg, set_sensor=False)
+        off = self.geometry.az_offset_deg if axis == "az" else self.geometry.el_offset_deg
+        self._event(f"{axis} re-referenced to {mech_deg + off:.2f} deg (new sensor constants)")
+        return mech_deg
+
+    def _rereference(self, ax: _Axis, mech_deg: float, uncertainty_deg: float = 0.0,
+                     set_sensor: bool = True) -> None:
+        if set_sensor:
+            ax.set_reference(mech_deg)
         ax.meas_deg = mech_deg
         ax.rate_deg_per_s = ax._filter_rate = 0.0
         ax.history.clear()
@@ -1268,5 +1295,6 @@ def _holding_lock(method: Callable) -> Callable:
 # queues its change under the same lock the tick holds, so it never sees half a tick.
 # (Reading ``status()`` needs no lock: a Status is immutable.)
 for _name in ("goto", "goto_pose", "goto_az", "goto_el", "park", "track", "track_pose", "move", "stop",
-              "set_position", "set_overshoot", "reconfigure", "clear_faults", "shutdown"):
+              "set_position", "adopt_sensor_reading", "set_overshoot", "reconfigure", "clear_faults",
+              "shutdown"):
     setattr(Rotator, _name, _holding_lock(getattr(Rotator, _name)))
