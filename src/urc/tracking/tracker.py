@@ -14,13 +14,14 @@ from __future__ import annotations
 
 import logging
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any, Callable
 
 import numpy as np
 
 from ..control.geometry import route_time_s
 from ..errors import CommandRejected
+from ..service.settings import FIXED_EL_DEG
 from .elements import ElementSet
 from .passes import Pass, find_passes
 from .planner import AxisLimits, Plan, PlanError, plan_pass
@@ -103,9 +104,17 @@ class Tracker:
         la = target.look(t)
         st = self.rot.status()
         az, el = self._axis_limits()
-        # the plan's time base is UTC; the pre-positioning start is compared in UTC too
-        return plan_pass(t, la.az_deg, la.el_deg, self.rot.geometry, az, el,
-                         (st.az.pos_deg, st.el.pos_deg), self.unix_at(now_s))
+        if st.el is not None:
+            # the plan's time base is UTC; the pre-positioning start is compared in UTC too
+            return plan_pass(t, la.az_deg, la.el_deg, self.rot.geometry, az, el,
+                             (st.az.pos_deg, st.el.pos_deg), self.unix_at(now_s))
+        # a single-axis rotator: the azimuth follows the whole pass (above min_el) with
+        # the beam at the horizon; no flip, no elevation targets. The plan keeps the
+        # satellite's true elevation for display.
+        beam_el = np.full_like(la.el_deg, FIXED_EL_DEG)
+        plan = plan_pass(t, la.az_deg, beam_el, self.rot.geometry, az, el,
+                         (st.az.pos_deg, FIXED_EL_DEG), self.unix_at(now_s))
+        return replace(plan, sky_el_deg=np.asarray(la.el_deg, dtype=float))
 
     def _plan_next(self, target: SatelliteTarget, now_s: float) -> None:
         now_u = self.unix_at(now_s)
@@ -188,7 +197,7 @@ class Tracker:
         if not g.zones:
             return False
         st = self.rot.status()
-        here = (st.az.pos_deg, st.el.pos_deg)
+        here = (st.az.pos_deg, FIXED_EL_DEG if st.el is None else st.el.pos_deg)
         rates = tuple(lim.max_rate_deg_per_s for lim in self._axis_limits())
         if g.segment_clear(here, (az_m, el_m), rates) is None:
             return False
