@@ -166,6 +166,11 @@ class GpioAxis(_Section):
     declination_deg: float = _num(0.0, ge=-180.0, le=180.0)
     relay_dead_time_s: float = _num(0.5, ge=0.0, le=10.0)
     limit_active_low: bool = True
+    #: the encoder's index (Z, pin enc_z): the axis angle of an index pulse (found at
+    #: commissioning) and the axis degrees between two (360 / turns of the encoder shaft
+    #: per axis turn); each pulse re-references the count. None = Z not used
+    encoder_index_deg: float | None = _num(None)
+    encoder_index_period_deg: float = _num(360.0, gt=0.0, le=360.0)
     #: counts an encoder may move with its motor off before that is a fault; None = no check
     encoder_drift_counts: int | None = Field(20, ge=1)
 
@@ -886,6 +891,9 @@ def _gpio_issues(cfg: Config, caps: RotatorCaps) -> list[_Issue]:
                                f"{used[pin]})", pin, ""))
             else:
                 used[pin] = f"{pre}.pins.{pin_name}"
+        if ax.encoder_index_deg is not None and (kind != "encoder" or "enc_z" not in ax.pins):
+            issues.append((f"{pre}.encoder_index_deg", "an encoder with its index on pins.enc_z",
+                           ax.encoder_index_deg, ""))
         if kind == "magnetometer" and ax.compass not in ("lsm303d", "lsm303agr"):
             issues.append((f"{pre}.compass", "lsm303d or lsm303agr", ax.compass, ""))
         if ax.adc not in _ADC_CHANNELS:

@@ -185,6 +185,22 @@ def test_encoder_reference_and_index_rereference():
     assert enc.read_deg() == pytest.approx(180.0)
     cnt.c = 815
     assert enc.read_deg() == pytest.approx(181.0)
+    assert enc.last_index_correction_deg == pytest.approx(-0.5)
+
+
+def test_encoder_index_every_period_snaps_to_the_nearest_mark():
+    """An index each 360 deg on a 400 deg azimuth: the pulse at 380 is the mark at 20
+    one turn on, not 20 (the old driver re-referenced every pulse to index_deg)."""
+    cnt = Counter()
+    enc = QuadratureEncoder(ENC, "az", cnt, index_deg=20.0)
+    enc.set_reference_deg(0.0)
+    cnt.c, cnt.idx = 3803, 3803                # 380.3 by the count: the mark at 380
+    assert enc.read_deg() == pytest.approx(380.0) and enc.index_rereferences == 1
+    # an encoder on a shaft turning 4x per axis turn: a pulse every 90 deg
+    enc = QuadratureEncoder(ENC, "az", Counter(), index_deg=20.0, index_period_deg=90.0)
+    enc.set_reference_deg(0.0)
+    enc.counter.c = enc.counter.idx = 2004     # 200.4: the mark at 200 (= 20 + 2 x 90)
+    assert enc.read_deg() == pytest.approx(200.0)
 
 
 def test_encoder_counting_with_motor_off_is_an_error():

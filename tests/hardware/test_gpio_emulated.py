@@ -332,3 +332,43 @@ def test_no_current_sense_reads_zero_as_on_iron(tmp_path):
     rot.goto(100.0, 30.0)
     s = run_virtual(rot, clock, 2.0)
     assert abs(s.sim_truth["az"]["current_a"]) > 0.1 and s.az.current_a == 0.0
+
+
+def test_encoder_index_rereferences_in_an_emulated_run(tmp_path):
+    """tartu-urc with its Track N wired: the emulated shaft pulses Z at 100 deg; edges
+    lost on the way (A and B changing together) leave the reading 1.4 deg off, and the
+    next pass over the index puts it right."""
+    data = with_emulation(load_config(next(p for p in EXAMPLES if p.stem == "tartu-urc"))).to_dict()
+    data["hardware"]["sim"] = {"wind": False}
+    az = data["hardware"]["gpio"]["az"]
+    az["pins"]["enc_z"] = 24
+    az["encoder_index_deg"] = 100.0
+    clock = VirtualClock(1000.0)
+    rot = build_rotator(Config.from_dict(data), clock, tmp_path, durable_state=False, fast_virtual=True)
+    enc, quad = rot.hw.az.sensor, rot.hw.extra["emulation"]["az"]
+
+    def go(az_deg):
+        rot.goto(az_deg, 30.0)
+        return run_virtual(rot, clock, 60.0, until=lambda s: not s.moving and abs(s.az_deg - az_deg) < 0.3
+                           and s.az.mode in ("holding", "idle"))
+
+    go(80.0)
+    assert enc.index_rereferences == 0 and not enc.index_seen()
+    errors0 = enc.counter.errors()
+    quad.miss = 7                                   # 7 double steps on the way: 14 counts lost
+    s = go(90.0)
+    assert enc.counter.errors() - errors0 == 7
+    assert s.sim_truth["az"]["deg"] - s.az_deg == pytest.approx(1.4, abs=0.2)
+    corrections = []
+    rot.goto(130.0, 30.0)                           # over the index at 100 deg
+    s = run_virtual(rot, clock, 60.0, on_tick=lambda _s: corrections.append(enc.last_index_correction_deg),
+                    until=lambda s: not s.moving and abs(s.az_deg - 130.0) < 0.3 and s.az.mode in ("holding", "idle"))
+    assert not s.faults, s.faults
+    assert enc.index_rereferences >= 1 and max(corrections) == pytest.approx(1.4, abs=0.15)
+    assert abs(s.sim_truth["az"]["deg"] - s.az_deg) < 0.25
+    # back over it the other way: the reading was right, the index only confirms it
+    pulses, n = enc.counter.index_pulses, enc.index_rereferences
+    s = go(70.0)
+    assert enc.counter.index_pulses > pulses
+    assert enc.index_rereferences == n or abs(enc.last_index_correction_deg) <= 0.1 + 1e-9
+    assert abs(s.sim_truth["az"]["deg"] - s.az_deg) < 0.25

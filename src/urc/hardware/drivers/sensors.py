@@ -64,21 +64,26 @@ class _Incremental(_Driver):
 class QuadratureEncoder(_Incremental):
     """Incremental encoder on an x4 quadrature counter (Tartu: 10 counts per degree).
 
-    ``index_deg``: the axis angle of the index (Z) mark; each new index pulse
-    re-references the count there (drift from missed edges is wiped at every pass).
+    ``index_deg``: the axis angle of an index (Z) pulse, which comes again every
+    ``index_period_deg`` (360 with the encoder on the axis; 360 / N on a shaft turning N
+    times per axis turn): each new index pulse re-references the count to the nearest
+    such angle (drift from missed edges, up to half a period, is wiped at every pass).
     ``motor``/``drift_counts``: with the motor off for ``still_after_s`` the count must
     not move by more than ``drift_counts`` (noise on A/B counts a motor that stands);
     past that the driver reports an error until re-referenced.
     """
 
     def __init__(self, caps: SensorCaps, name: str, counter: QuadratureCounter, *,
-                 index_deg: float | None = None, motor: Any = None,
+                 index_deg: float | None = None, index_period_deg: float = 360.0, motor: Any = None,
                  drift_counts: int | None = None, still_after_s: float = 2.0, clock: Any = None):
         super().__init__(caps, name)
         self.counter = counter
         self.counts_per_deg = round(1.0 / caps.resolution_deg)
-        self.index_deg = index_deg
+        self.index_deg, self.index_period_deg = index_deg, float(index_period_deg)
         self._index_count = counter.index_count()
+        #: index re-references so far and the last correction (deg): what the index wiped
+        self.index_rereferences = 0
+        self.last_index_correction_deg = 0.0
         self.motor, self.drift_counts, self.still_after_s, self.clock = motor, drift_counts, still_after_s, clock
         self._off_since: tuple[float, int] | None = None
         self._drives_seen = 0
@@ -93,7 +98,12 @@ class QuadratureEncoder(_Incremental):
             idx = self.counter.index_count()
             if idx is not None and idx != self._index_count:
                 self._index_count = idx
-                self.reference_deg = self.index_deg - idx * self.caps.resolution_deg
+                read_at_idx = idx * self.caps.resolution_deg + self.reference_deg
+                k = round((read_at_idx - self.index_deg) / self.index_period_deg)
+                mark = self.index_deg + k * self.index_period_deg
+                self.last_index_correction_deg = mark - read_at_idx
+                self.index_rereferences += 1
+                self.reference_deg += self.last_index_correction_deg
         self._check_drift(c)
         return self._wrap(c * self.caps.resolution_deg + self.reference_deg)
 

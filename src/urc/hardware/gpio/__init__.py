@@ -103,6 +103,8 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
     world = None
     buses: dict[int, Any] = {}
     fake_spi: dict[int, Any] = {}
+    #: emulation: each axis' emulated sensor part (QuadDriver, PulseDriver, fake chip)
+    emulation: dict[str, Any] = {}
     if emulate:
         from gpiozero.pins.mock import MockFactory, MockPWMPin
 
@@ -225,6 +227,8 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
         if sk == "encoder":
             counter = PinQuadrature(factory, pins["enc_a"], pins["enc_b"], pins.get("enc_z"))
             sensor = QuadratureEncoder(ax_caps.sensor, name, counter, motor=motor,
+                                       index_deg=cfg.encoder_index_deg,
+                                       index_period_deg=cfg.encoder_index_period_deg,
                                        drift_counts=cfg.encoder_drift_counts, clock=clock)
             parts_list.append((f"{name} encoder", counter))
         elif sk == "pulse":
@@ -271,7 +275,7 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
             fake_bus = buses.get(bus_n)
             devices = (fake_bus.devices if mux_ch is None else
                        fake_bus.mux_channel(gpio.i2c_mux_address, mux_ch)) if fake_bus is not None else {}
-            _feed_sensor(name, sk, world, sensor, devices, cfg, syncs, fake_spi)
+            _feed_sensor(name, sk, world, sensor, devices, cfg, syncs, fake_spi, emulation)
             if cs is not None:
                 _feed_current_sense(world.axes[name], cfg, devices, fake_spi)
             for side, sw in zip(("min", "max"), lims):
@@ -299,7 +303,7 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
         extra["power_fail"] = pf
         parts_list.append(("power-fail input", pf))
     if world is not None:
-        extra["world"], extra["fake_spi"] = world, fake_spi
+        extra["world"], extra["fake_spi"], extra["emulation"] = world, fake_spi, emulation
         extra["overcurrent_a"] = {n: 0.8 * params.axis(n).stall_current_a for n in ("az", "el")}
 
         def poll(now_s: float) -> None:
@@ -415,10 +419,11 @@ def _limit_sync(sw: LimitSwitchInput, sim_sw: Any) -> Any:
 
 
 def _feed_sensor(name: str, kind: str, world: Any, sensor: Any, devices: dict[int, Any], cfg: Any,
-                 syncs: list, fake_spi: dict[int, Any]) -> None:
+                 syncs: list, fake_spi: dict[int, Any], emulation: dict[str, Any]) -> None:
     """Emulation: connect the simulator to the pins / chip registers the sensor reads
     (``devices``: the fake I2C chips answering where the sensor's chip sits, by address;
-    ``fake_spi``: the fake SPI chips by chip select)."""
+    ``fake_spi``: the fake SPI chips by chip select; ``emulation``: where the axis'
+    emulated sensor part is left for tests, by axis)."""
     import random
 
     from ..sim.sensors import SimAccelerometer, SimAs5600, SimMagnetometer, SimPotAdc, SimQuadratureCounter
@@ -430,15 +435,28 @@ def _feed_sensor(name: str, kind: str, world: Any, sensor: Any, devices: dict[in
     rng = random.Random(f"urc-emu:{world.seed}:{name}")
     part = (phys, p, rng, True)
     if kind == "encoder":
-        sim = SimQuadratureCounter(*part, counts_per_deg=round(1.0 / caps.resolution_deg))
+        cpd = round(1.0 / caps.resolution_deg)
+        sim = SimQuadratureCounter(*part, counts_per_deg=cpd)
         counter = sensor.counter
-        d: Any = QuadDriver(counter.a, counter.b, sim.count)
+        index = None
+        if counter.z is not None and cfg.encoder_index_deg is not None:
+            # the Z pulse: one quadrature state wide, at the configured angle and every
+            # period after it, on the shaft's absolute count
+            c0 = sim.absolute_count() - sim.count()
+            idx0 = math.floor(cfg.encoder_index_deg * cpd + 1e-9) - c0
+            period = round(cfg.encoder_index_period_deg * cpd)
+
+            def index(pos: int) -> bool:
+                return (pos - idx0) % period == 0
+        d: Any = QuadDriver(counter.a, counter.b, sim.count, z=counter.z, index=index)
         syncs.append(d.sync)
+        emulation[name] = d
         # the encoder starts referenced to the true angle, as on a fresh sim rotator
         sensor.set_reference_deg(phys.sensor_side_deg())
     elif kind == "pulse":
         d = PulseDriver(sensor.counter.pin, lambda: phys.pulse_edges)
         syncs.append(d.sync)
+        emulation[name] = d
         sensor.set_reference_deg(phys.sensor_side_deg())
     elif kind == "as5600":
         chip = sensor.part

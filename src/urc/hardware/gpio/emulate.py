@@ -195,30 +195,50 @@ class FakeAds1115:
 
 
 class QuadDriver:
-    """Drives mock A/B pins through the Gray sequence to follow a count."""
+    """Drives mock A/B pins through the Gray sequence to follow a count, and the index
+    pin Z high while ``index(count)`` (one state wide: the counter has counted into the
+    state when Z rises, whichever way the shaft turns). ``miss``: that many of the next
+    steps are made two states at once (both channels change: the decoder cannot count
+    them, as when it misses edges)."""
 
-    def __init__(self, a: Any, b: Any, count: Callable[[], int]):
+    def __init__(self, a: Any, b: Any, count: Callable[[], int], *, z: Any = None,
+                 index: Callable[[int], bool] | None = None):
         self.a, self.b, self.count = a, b, count
+        self.z, self.index = z, index
         self.pos = count()
         self.state = 0b00
+        self.miss = 0
         self._apply()
 
     def _apply(self) -> None:
         for pin, bit in ((self.a, 2), (self.b, 1)):
             if bool(self.state & bit) != bool(pin.state):
                 (pin.drive_high if self.state & bit else pin.drive_low)()
+        if self.z is not None and self.index is not None:
+            on = self.index(self.pos)
+            if on != bool(self.z.state):
+                (self.z.drive_high if on else self.z.drive_low)()
 
     def sync(self) -> None:
         target = self.count()
         back = {v: k for k, v in _FWD.items()}
         while self.pos != target:
-            if target > self.pos:
-                self.state, self.pos = _FWD[self.state], self.pos + 1
+            step = 1 if target > self.pos else -1
+            nxt = _FWD if step > 0 else back
+            if self.miss and abs(target - self.pos) >= 2:
+                # A and B change together (A's edge unseen): an illegal transition, two counts lost
+                self.miss -= 1
+                self.state, self.pos = nxt[nxt[self.state]], self.pos + 2 * step
+                seen = self.a.when_changed
+                self.a.when_changed = None
+                (self.a.drive_high if self.state & 2 else self.a.drive_low)()
+                self.a.when_changed = seen
             else:
-                self.state, self.pos = back[self.state], self.pos - 1
+                self.state, self.pos = nxt[self.state], self.pos + step
             self._apply()
-        for pin in (self.a, self.b):
-            pin.clear_states()          # MockPin keeps a history: bound it
+        for pin in (self.a, self.b, self.z):
+            if pin is not None:
+                pin.clear_states()          # MockPin keeps a history: bound it
 
 
 class PulseDriver:

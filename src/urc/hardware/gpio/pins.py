@@ -99,6 +99,8 @@ class PinQuadrature:
         self._count = 0
         self._errors = 0
         self._index: int | None = None
+        #: index (Z) pulses seen
+        self.index_pulses = 0
         self._state = self._read_state()
         for p in (self.a, self.b):
             p.edges = "both"
@@ -127,6 +129,7 @@ class PinQuadrature:
     def _index_edge(self, ticks: Any = None, state: Any = None) -> None:
         with self._lock:
             self._index = self._count
+            self.index_pulses += 1
 
     def count(self) -> int:
         return self._count

@@ -61,6 +61,10 @@ class SimQuadratureCounter(_SimPart):
     def count(self) -> int:
         return self._raw() - self._c0
 
+    def absolute_count(self) -> int:
+        """The count from the shaft's 0 deg (where an index mark is placed)."""
+        return self._raw()
+
     def index_count(self) -> int | None:
         return self._index_count
 
