@@ -140,6 +140,22 @@ def test_stop_before_set_for_controllers_that_ignore_targets_while_moving():
     assert ex1.request == b"S\r" and ex2.kind == "poll" and ex3.request == b"W100 020\r", (ex1, ex2, ex3)
 
 
+def test_stop_before_set_while_whole_degree_reports_repeat():
+    """Polled every 40 ms, a GS-232 turning at 10 deg/s reports the same whole degree
+    twice in a row: it is still moving towards its target (a set sent then was ignored)."""
+    c = connected("gs232b", b"AZ=100  EL=020\r", ClientOptions(stop_before_set=True))
+    c.post("az", 200.0)
+    c.post("el", 20.0)
+    ex, _ = c.next_exchange(1.0)
+    assert ex.request == b"W200 020\r"
+    for t, pos in ((1.04, b"AZ=110  EL=020\r"), (1.08, b"AZ=110  EL=020\r")):
+        ex, _ = c.next_exchange(t)
+        c.answered(ex, pos, t, t + 0.01)
+    c.post("az", 100.0)
+    ex, _ = c.next_exchange(1.3)
+    assert ex.request == b"S\r", ex
+
+
 def test_spid_learns_the_controllers_resolution():
     c = connected("rot2prog", spid.encode_rot2_position(10.0, 20.0, 4, 4))
     assert c.dialect.resolution_deg == (0.25, 0.25)

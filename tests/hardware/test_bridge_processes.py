@@ -171,10 +171,12 @@ def test_link_loss_mid_move_is_a_fault(tmp_path):
 
 
 class FakeGs232b:
-    """A GS-232B on a pty that answers properly, then (on request) garbage or nothing at
-    all; it records every byte it is sent."""
+    """A GS-232B on a pty (10 deg/s on both axes) that answers properly, then (on
+    request) garbage or nothing at all; ``ignore_while_moving``: a new target while it
+    moves is ignored (some controllers need a stop first). It records every byte it is
+    sent, and the targets it ignored."""
 
-    def __init__(self, link: str):
+    def __init__(self, link: str, ignore_while_moving: bool = False):
         self.master, self.slave = os.openpty()
         tty.setraw(self.slave)
         self.link = link
@@ -182,6 +184,8 @@ class FakeGs232b:
         self.az = self.el = 0.0
         self.target = (0.0, 0.0)
         self.mode = "answer"    # | "garbage" | "silent"
+        self.ignore_while_moving = ignore_while_moving
+        self.ignored: list[tuple[float, float]] = []
         self.received = b""
         self.received_at_switch = -1
         self._stop = threading.Event()
@@ -221,7 +225,11 @@ class FakeGs232b:
                 elif line == b"C2":
                     os.write(self.master, b"AZ=%03d  EL=%03d\r\n" % (round(self.az), round(self.el)))
                 elif m := re.fullmatch(rb"W(\d{3}) (\d{3})", line):
-                    self.target = (float(m.group(1)), float(m.group(2)))
+                    target = (float(m.group(1)), float(m.group(2)))
+                    if self.ignore_while_moving and self.target != (self.az, self.el):
+                        self.ignored.append(target)
+                    else:
+                        self.target = target
                 elif line == b"S":
                     self.target = (self.az, self.el)
 
@@ -254,6 +262,29 @@ def test_garbage_or_silence_moves_nothing(tmp_path, mode, reason):
         after = ctl.received[ctl.received_at_switch:]
         assert b"W" not in after, after          # no target on answers not understood
         assert b"S\r" in after, after             # the fault told it to stop
+    finally:
+        down.stop()
+        ctl.close()
+
+
+def test_stop_before_set_for_a_controller_that_ignores_targets_while_moving(tmp_path):
+    """[hardware.bridge] stop_before_set: a new target while the controller moves goes
+    out after a stop, so a controller that ignores targets while moving still arrives."""
+    ctl = FakeGs232b(str(tmp_path / "ctl"), ignore_while_moving=True)
+    down = downstream(tmp_path, "down", bridge_config("gs232b", serial=ctl.link, extra="stop_before_set = true\n"))
+    try:
+        assert down.post("/api/goto", {"az_deg": 200.0, "el_deg": 40.0}).status_code == 200
+        down.wait(lambda s: s["az_deg"] > 40.0, timeout_s=15)
+        mark = len(ctl.received)
+        assert ctl.target == (200.0, 40.0) and ctl.az < 150.0     # still on its way
+        assert down.post("/api/goto", {"az_deg": 100.0, "el_deg": 10.0}).status_code == 200
+        s = down.wait(lambda s: settled(s) and angle_diff(s["az_deg"], 100.0) < 1.3
+                      and abs(s["el_deg"] - 10.0) < 1.3, timeout_s=30)
+        assert not s["faults"], s["faults"]
+        assert abs(ctl.az - 100.0) < 1.0 and abs(ctl.el - 10.0) < 1.0, (ctl.az, ctl.el)
+        sent = ctl.received[mark:]
+        assert b"W100 010\r" in sent and sent.index(b"S\r") < sent.index(b"W100 010\r"), sent
+        assert ctl.ignored == [], ctl.ignored     # every target came when it was standing
     finally:
         down.stop()
         ctl.close()

@@ -335,9 +335,18 @@ class BridgeClient:
         return (pose[0], pose[1])
 
     def _moving(self) -> bool:
-        if self._prev_pos is None or self._pos is None:
+        """The controller may be moving: it has not reported reaching the target it was
+        sent, or its reports still change. (Two reports in a row are no guide: whole
+        degrees polled every 40 ms repeat while it turns at 10 deg/s, and a target sent
+        then was ignored by a controller that takes none while moving.)"""
+        if self._pos is None:
             return False
-        return any(abs(a - b) >= self.dialect.report_resolution_deg for a, b in zip(self._pos, self._prev_pos))
+        if self._sent_pose is not None and not self._stopped:
+            d = self.dialect
+            if any(abs(self._near(i, s, p) - p) > d.resolution_deg[i] + d.report_resolution_deg
+                   for i, (s, p) in enumerate(zip(self._sent_pose, self._pos))):
+                return True
+        return any(self._speed(i) != 0.0 for i in range(len(AXES)))
 
     def answered(self, ex: Exchange, data: bytes, sent_s: float, now_s: float) -> None:
         """The whole answer to ``ex`` (framed by ``ex.reply``) arrived at ``now_s``."""
