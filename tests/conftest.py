@@ -13,6 +13,18 @@ from urc.profiles import PROFILES
 from urc.service.loop import run_virtual
 
 ALL_PROFILES = sorted(PROFILES)
+EXAMPLES_DIR = Path(__file__).resolve().parents[1] / "examples"
+
+
+def gpio_hardware(profile: str) -> dict:
+    """``[hardware]`` of the profile's shipped example (examples/<profile>.toml) on
+    emulated pins and chips: the gpio backend's real drivers fed by the simulator.
+    ``bench(profile, hardware=gpio_hardware(profile))`` runs a test on it."""
+    from urc.config import load_config
+
+    hw = load_config(EXAMPLES_DIR / f"{profile}.toml").to_dict()["hardware"]
+    hw["gpio"]["emulate"] = True
+    return hw
 
 
 class Bench:

@@ -103,8 +103,7 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
     world = None
     buses: dict[int, Any] = {}
     fake_spi: dict[int, Any] = {}
-    #: emulation: each axis' emulated sensor part (QuadDriver, PulseDriver, fake chip)
-    emulation: dict[str, Any] = {}
+
     if emulate:
         from gpiozero.pins.mock import MockFactory, MockPWMPin
 
@@ -166,6 +165,7 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
     for note in pwm_advice(gpio):
         log.warning("%s", note)
     syncs: list[Any] = []
+    emu = _Emulation(world, syncs, fake_spi, {}) if world is not None else None
     lsm: dict[tuple[int, int | None, int], Lsm303dChip] = {}
     axes: dict[str, AxisHardware] = {}
     parts_list: list[tuple[str, Any]] = []
@@ -275,7 +275,8 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
             fake_bus = buses.get(bus_n)
             devices = (fake_bus.devices if mux_ch is None else
                        fake_bus.mux_channel(gpio.i2c_mux_address, mux_ch)) if fake_bus is not None else {}
-            _feed_sensor(name, sk, world, sensor, devices, cfg, syncs, fake_spi, emulation)
+            assert emu is not None
+            _feed_sensor(name, sk, sensor, devices, cfg, emu)
             if cs is not None:
                 _feed_current_sense(world.axes[name], cfg, devices, fake_spi)
             for side, sw in zip(("min", "max"), lims):
@@ -303,7 +304,7 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
         extra["power_fail"] = pf
         parts_list.append(("power-fail input", pf))
     if world is not None:
-        extra["world"], extra["fake_spi"], extra["emulation"] = world, fake_spi, emulation
+        extra["world"], extra["fake_spi"], extra["emulation"] = world, fake_spi, emu.parts
         extra["overcurrent_a"] = {n: 0.8 * params.axis(n).stall_current_a for n in ("az", "el")}
 
         def poll(now_s: float) -> None:
@@ -418,18 +419,33 @@ def _limit_sync(sw: LimitSwitchInput, sim_sw: Any) -> Any:
     return sync
 
 
-def _feed_sensor(name: str, kind: str, world: Any, sensor: Any, devices: dict[int, Any], cfg: Any,
-                 syncs: list, fake_spi: dict[int, Any], emulation: dict[str, Any]) -> None:
+class _Emulation:
+    """What the emulated sensors are fed from and where their parts are left: the world,
+    per-axis views of it carrying the injected sensor faults, the sync hooks run before
+    each tick's reads, the fake SPI chips, and each axis' emulated sensor part (tests)."""
+
+    def __init__(self, world: Any, syncs: list, fake_spi: dict[int, Any], parts: dict[str, Any]):
+        from .emulate import FaultedView
+        self.world, self.syncs, self.fake_spi, self.parts = world, syncs, fake_spi, parts
+        self.views = {n: FaultedView(world.axes[n], lambda n=n: world.faults()[n]) for n in ("az", "el")}
+
+    def dead_chip(self, dev: Any, *axes: str) -> None:
+        """``dev`` NACKs while a sensor_dead fault is on any of ``axes`` (its chip)."""
+        def sync() -> None:
+            dev.dead = any(self.views[a].dead() for a in axes)
+        self.syncs.append(sync)
+
+
+def _feed_sensor(name: str, kind: str, sensor: Any, devices: dict[int, Any], cfg: Any, emu: _Emulation) -> None:
     """Emulation: connect the simulator to the pins / chip registers the sensor reads
-    (``devices``: the fake I2C chips answering where the sensor's chip sits, by address;
-    ``fake_spi``: the fake SPI chips by chip select; ``emulation``: where the axis'
-    emulated sensor part is left for tests, by axis)."""
+    (``devices``: the fake I2C chips answering where the sensor's chip sits, by address)."""
     import random
 
     from ..sim.sensors import SimAccelerometer, SimAs5600, SimMagnetometer, SimPotAdc, SimQuadratureCounter
     from .emulate import FakeAds1115, FakeAs5600, FakeLsm303agr, FakeLsm303d, PulseDriver, QuadDriver, tilted
 
-    phys = world.axes[name]
+    world, syncs = emu.world, emu.syncs
+    phys = emu.views[name]
     p = world.params.axis(name).sensor
     caps = world.caps.axis(name).sensor
     rng = random.Random(f"urc-emu:{world.seed}:{name}")
@@ -450,26 +466,29 @@ def _feed_sensor(name: str, kind: str, world: Any, sensor: Any, devices: dict[in
                 return (pos - idx0) % period == 0
         d: Any = QuadDriver(counter.a, counter.b, sim.count, z=counter.z, index=index)
         syncs.append(d.sync)
-        emulation[name] = d
+        emu.parts[name] = d
         # the encoder starts referenced to the true angle, as on a fresh sim rotator
         sensor.set_reference_deg(phys.sensor_side_deg())
     elif kind == "pulse":
         d = PulseDriver(sensor.counter.pin, lambda: phys.pulse_edges)
         syncs.append(d.sync)
-        emulation[name] = d
+        emu.parts[name] = d
         sensor.set_reference_deg(phys.sensor_side_deg())
     elif kind == "as5600":
         chip = sensor.part
-        devices[chip.address] = FakeAs5600(SimAs5600(*part).read_raw_angle)
+        dev = devices[chip.address] = FakeAs5600(SimAs5600(*part).read_raw_angle)
+        emu.parts[name] = dev
+        emu.dead_chip(dev, name)
     elif kind == "magnetometer":
         chip = sensor.accel.chip if hasattr(sensor, "accel") and sensor.accel is not None else sensor.mag.chip
         if chip.address in devices:
+            emu.parts[name] = devices[chip.address]
             return
-        el_phys = world.axes["el"]
+        az_view, el_view = emu.views["az"], emu.views["el"]
         az_p = world.params.axis("az").sensor
-        mag = SimMagnetometer(world.axes["az"], az_p, random.Random(f"urc-emu:{world.seed}:mag"), True,
+        mag = SimMagnetometer(az_view, az_p, random.Random(f"urc-emu:{world.seed}:mag"), True,
                               noise_deg=world.caps.az.sensor.noise_deg, board=world.board)
-        acc = SimAccelerometer(el_phys, world.params.axis("el").sensor,
+        acc = SimAccelerometer(el_view, world.params.axis("el").sensor,
                                random.Random(f"urc-emu:{world.seed}:acc"), True,
                                noise_deg=world.caps.el.sensor.noise_deg, board=world.board)
         dip = math.radians(az_p.dip_deg)
@@ -481,14 +500,19 @@ def _feed_sensor(name: str, kind: str, world: Any, sensor: Any, devices: dict[in
             bx, by, _ = mag.read_vector()
             # hard iron sits in the sensor: put it on after tilting the earth's field
             level = ((bx - az_p.hard_iron_x) * h_gauss, (by - az_p.hard_iron_y) * h_gauss, z_gauss)
-            v = tilted(level, el_phys.sensor_side_deg())
+            v = tilted(level, el_view.sensor_side_deg())
             return (v[0] + az_p.hard_iron_x * h_gauss, v[1] + az_p.hard_iron_y * h_gauss, v[2])
 
         if isinstance(chip, Lsm303agrChip):
             agr = FakeLsm303agr(field, acc.read_vector)
             devices[Lsm303agrChip.ACCEL], devices[Lsm303agrChip.MAG] = agr.accel, agr.mag
+            emu.dead_chip(agr.accel, "az", "el")
+            emu.dead_chip(agr.mag, "az", "el")
+            emu.parts[name] = agr
         else:
-            devices[chip.address] = FakeLsm303d(field, acc.read_vector)
+            dev = devices[chip.address] = FakeLsm303d(field, acc.read_vector)
+            emu.dead_chip(dev, "az", "el")      # one chip senses both axes
+            emu.parts[name] = dev
         if name == "az":   # the shipped calibration, in this field's units (gauss)
             sensor.hard_iron_x, sensor.hard_iron_y = az_p.hard_iron_x * h_gauss, az_p.hard_iron_y * h_gauss
             sensor.declination_deg = az_p.declination_deg
@@ -497,12 +521,14 @@ def _feed_sensor(name: str, kind: str, world: Any, sensor: Any, devices: dict[in
         ref_v = cfg.adc_reference_v
         ref_ch = _ads_reference(cfg)
         if cfg.adc == "mcp3008":
-            dev = fake_spi[cfg.spi_device]
+            dev = emu.fake_spi[cfg.spi_device]
             dev.vref_v = sensor.adc.chip.vref_v
             ref_ch = cfg.adc_reference_channel
         else:
             dev = devices.get(sensor.adc.chip.address) or FakeAds1115({})
             devices[sensor.adc.chip.address] = dev
-        dev.inputs[cfg.adc_channel] = lambda: ref_v * adc.read_counts() / 1024.0
+        # sensor_dead: the wiper open, the input pulled to 0 V
+        dev.inputs[cfg.adc_channel] = lambda: 0.0 if phys.dead() else ref_v * adc.read_counts() / 1024.0
         if ref_ch is not None:
             dev.inputs[ref_ch] = lambda: ref_v
+        emu.parts[name] = dev

@@ -42,7 +42,8 @@ class FakeSMBus:
         for mux in self.devices.values():
             if isinstance(mux, FakeTca9548a):
                 found += mux.selected(addr)
-        found = [d for d in found if not getattr(d, "nack", False)]
+        # ``nack``: set by tests; ``dead``: the simulator's sensor_dead fault on the chip
+        found = [d for d in found if not (getattr(d, "nack", False) or getattr(d, "dead", False))]
         if not found:
             raise OSError(121, "Remote I/O error")
         return found[0] if len(found) == 1 else _WiredAnd(found)
@@ -397,3 +398,51 @@ class FakeMcp3008:
 
     def close(self) -> None:
         pass
+
+
+class FaultedView:
+    """A simulated axis as an emulated sensor part senses it, with the sensor faults
+    injected into the simulator (``SimWorld.inject``) acting on the part as they would
+    on iron: ``sensor_stuck`` and ``sensor_dead`` freeze what the part senses (a jammed
+    magnet or wiper, encoder or reed lines that carry nothing any more), ``sensor_jump``
+    (deg) offsets it (a slipped coupling; the encoder/reed lines carry the extra edges).
+    A dead chip NACKs instead (see ``_feed_sensor``). Everything else is the axis'."""
+
+    def __init__(self, phys: Any, faults: Callable[[], dict[str, dict[str, Any]]]):
+        self._phys, self._faults = phys, faults
+        self._frozen_deg: float | None = None
+        self._frozen_edges: int | None = None
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self.__dict__["_phys"], name)
+
+    @staticmethod
+    def _jump_deg(f: dict[str, dict[str, Any]]) -> float:
+        return float(f["sensor_jump"].get("deg", 10.0)) if "sensor_jump" in f else 0.0
+
+    def sensor_side_deg(self) -> float:
+        f = self._faults()
+        deg = self._phys.sensor_side_deg()
+        if "sensor_stuck" in f or "sensor_dead" in f:
+            if self._frozen_deg is None:
+                self._frozen_deg = deg
+            deg = self._frozen_deg
+        else:
+            self._frozen_deg = None
+        return deg + self._jump_deg(f)
+
+    @property
+    def pulse_edges(self) -> int:
+        f = self._faults()
+        edges = self._phys.pulse_edges
+        if "sensor_stuck" in f or "sensor_dead" in f:
+            if self._frozen_edges is None:
+                self._frozen_edges = edges
+            edges = self._frozen_edges
+        else:
+            self._frozen_edges = None
+        jump, res = self._jump_deg(f), self._phys.pulse_res_deg
+        return edges + (round(abs(jump) / res) if jump and res else 0)
+
+    def dead(self) -> bool:
+        return "sensor_dead" in self._faults()
