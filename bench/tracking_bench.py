@@ -5,6 +5,9 @@ wrap), passes through ~89 and ~88 deg elevation (keyholes), and a 30-minute Sun 
 profile: RMS, p95, max pointing error, time within 0.1 and 0.5 deg, error at AOS
 (acquired?), against the sensor quantisation floor q/sqrt(12). In the same run, the same
 passes driven the way Gpredict drives a rotator (5 deg threshold, a command per 0.8 s).
+Both fly with flip allowed where the profile can flip, each by its own rule: urc's planner
+per pass (flip = "auto", the default), Gpredict a whole pass flipped when its azimuth
+track crosses north (its is_flipped_pass); the flip column says which rule and what it chose.
 Prints a table, writes JSON (default bench/results/tracking.json).
 Usage: python bench/tracking_bench.py [--profiles a,b] [--json PATH]
 """
@@ -64,7 +67,7 @@ def scenarios():
     return [("low pass", iss, TARTU, low), ("north crossing", noaa, TARTU, north), *keyholes]
 
 
-def sun_track(profile: str, tmp: Path, minutes: float = 30.0) -> PointingStats:
+def sun_track(profile: str, tmp: Path, minutes: float = 30.0) -> tuple[PointingStats, bool]:
     cfg = Config.from_dict({"rotator": {"profile": profile}, "hardware": {"sim": {"wind": False}}})
     clock = VirtualClock(0.0)
     rot = build_rotator(cfg, clock, tmp, fast_virtual=True)
@@ -76,7 +79,17 @@ def sun_track(profile: str, tmp: Path, minutes: float = 30.0) -> PointingStats:
     t, az, el = fly(rot, clock, tracker.step, unix_at, T0_UNIX_S + minutes * 60.0)
     up = t >= T0_UNIX_S
     la = sun_look_angles(TARTU, t[up])
-    return PointingStats.of(great_circle_deg(az[up], el[up], la.az_deg, la.el_deg))
+    return PointingStats.of(great_circle_deg(az[up], el[up], la.az_deg, la.el_deg)), bool(tracker.arc.flip)
+
+
+#: the flip rule each driver flies by where the profile can flip (the column says which)
+FLIP_RULES = {"urc": "auto", "gpredict": "gp"}
+
+
+def flip_text(row: dict) -> str:
+    if row["flip"] is None:
+        return row["flip_rule"]
+    return f"{row['flip_rule']}:{'yes' if row['flip'] else 'no'}"
 
 
 def floor_deg(profile: str) -> float:
@@ -96,9 +109,11 @@ def main() -> None:
             for driver in ("urc", "gpredict"):
                 with tempfile.TemporaryDirectory() as tmp:
                     t0 = time.process_time()
-                    rot, plan, st, plan_st, *_ = fly_pass_on_sim(profile, es, station, p, Path(tmp), driver=driver)
+                    flown = fly_pass_on_sim(profile, es, station, p, Path(tmp), driver=driver)
+                    rot, plan, st, plan_st = flown[:4]
                     rows.append({"profile": profile, "scenario": name, "driver": driver, "max_el_deg": p.max_el_deg,
-                                 "flip": bool(plan.flip) if plan else None, **st.as_dict(),
+                                 "flip_rule": FLIP_RULES[driver] if PROFILES[profile].can_flip else "cannot",
+                                 "flip": flown.flipped, **st.as_dict(),
                                  "plan_rms_deg": plan_st.rms_deg if plan_st else None,
                                  "plan_max_deg": plan_st.max_deg if plan_st else None,
                                  # holding the azimuth and sweeping the elevation over the top
@@ -108,18 +123,19 @@ def main() -> None:
                                  "floor_deg": floor_deg(profile), "faults": [f.kind for f in rot.status().faults],
                                  "cpu_s": time.process_time() - t0})
         with tempfile.TemporaryDirectory() as tmp:
-            st = sun_track(profile, Path(tmp))
+            st, flipped = sun_track(profile, Path(tmp))
             rows.append({"profile": profile, "scenario": "sun 30 min", "driver": "urc", "max_el_deg": None,
-                         "flip": None, **st.as_dict(), "plan_rms_deg": None, "plan_max_deg": None,
+                         "flip_rule": "auto" if PROFILES[profile].can_flip else "cannot", "flip": flipped, **st.as_dict(), "plan_rms_deg": None, "plan_max_deg": None,
                          "hold_bound_deg": None, "floor_deg": floor_deg(profile), "faults": [], "cpu_s": None})
         print(f"{profile}: done", file=sys.stderr, flush=True)
     print("\nPointing error vs simulator truth (deg); floor = q/sqrt(12); x floor = RMS / floor;"
           "\nplan RMS/max = the plan's own error (a perfect rotator flying it): > 0 where the geometry forbids better;"
           "\nbound = a keyhole's distance from the zenith (the worst error of holding the azimuth and sweeping"
-          "\nthe elevation over the top), next to the plan's max")
+          "\nthe elevation over the top), next to the plan's max;"
+          "\nflip = rule:choice; auto = urc's planner per pass, gp = Gpredict's whole-pass flip across north")
     print(f"{'profile':13s} {'scenario':16s} {'driver':8s} {'RMS':>6s} {'p95':>6s} {'max':>6s} {'<0.1%':>6s} "
           f"{'<0.5%':>6s} {'AOS err':>7s} {'floor':>6s} {'x floor':>7s} {'planRMS':>7s} {'planMax':>7s} {'bound':>6s} "
-          f"{'flip':>5s}")
+          f"{'flip':>9s}")
     for r in rows:
         plan_rms = "" if r["plan_rms_deg"] is None else f"{r['plan_rms_deg']:.3f}"
         plan_max = "" if r["plan_max_deg"] is None else f"{r['plan_max_deg']:.3f}"
@@ -127,7 +143,7 @@ def main() -> None:
         print(f"{r['profile']:13s} {r['scenario']:16s} {r['driver']:8s} {r['rms_deg']:6.3f} {r['p95_deg']:6.3f} "
               f"{r['max_deg']:6.3f} {r['within_0_1_pct']:6.1f} {r['within_0_5_pct']:6.1f} {r['aos_error_deg']:7.3f} "
               f"{r['floor_deg']:6.3f} {r['rms_deg'] / r['floor_deg']:7.1f} {plan_rms:>7s} {plan_max:>7s} {bound:>6s} "
-              f"{str(r['flip']):>5s}")
+              f"{flip_text(r):>9s}")
     write_json(rows, args.json)
 
 

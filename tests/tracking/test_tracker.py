@@ -265,3 +265,70 @@ def test_keyhole_plan_is_near_the_hold_azimuth_bound(leo_sets, dlat_deg):
                              laf.az_deg, laf.el_deg, g)
     assert plan.flip
     assert err.max() <= bound_deg + 0.002, (err.max(), bound_deg)
+
+
+def fly_continuous(tmp_path, profile: str, target_of, station: Station, start_unix_s: float, duration_s: float,
+                   flip="auto", config: dict | None = None):
+    """Track a continuous target on the simulator from ``start_unix_s``: (rotator,
+    tracker, UTC times, true sky az, el, mechanical az) at every tick."""
+    from urc.app import build_rotator
+    from urc.clock import VirtualClock
+    from urc.config import Config
+    from urc.service.loop import run_virtual
+    from urc.tracking.tracker import Tracker
+
+    cfg = Config.from_dict({"rotator": {"profile": profile, "flip": flip}, "hardware": {"sim": {"wind": False}},
+                            **(config or {})})
+    clock = VirtualClock(0.0)
+    rot = build_rotator(cfg, clock, tmp_path / profile, fast_virtual=True)
+    tracker = Tracker(rot, station, lambda now_s: start_unix_s + now_s)
+    tracker.track(target_of(station), clock.now_s())
+    rows = []
+
+    def on_tick(s) -> None:
+        tracker.step(s.t_s)
+        truth = s.sim_truth
+        rows.append((start_unix_s + s.t_s, *rot.geometry.to_sky(truth["az"]["deg"], truth["el"]["deg"]),
+                     truth["az"]["deg"]))
+    run_virtual(rot, clock, duration_s, on_tick=on_tick)
+    t, az, el, az_m = (np.array(c) for c in zip(*rows))
+    return rot, tracker, t, az, el, az_m
+
+
+#: no wrap turn of a 0..360 azimuth holds the Sun's noon at 30 deg south in January
+AZ_0_360 = {"limits": {"az": {"min_deg": 0.0, "max_deg": 360.0}}}
+
+
+@pytest.mark.parametrize("config", [None, AZ_0_360], ids=["0-400", "0-360"])
+def test_sun_culminating_across_the_wrap_point_is_not_lost(tmp_path, config):
+    """Issue 12 (continuous targets never flipped under flip = "auto"): at 30 deg south in
+    January the Sun culminates at 83 deg due north, its azimuth falling through 0/360
+    at noon. Tracked from 200 s before, the antenna took the turn nearest its park
+    pose and unwound 360 deg at culmination, up to 14 deg off the Sun for a minute. Its arc is
+    now planned when tracking starts: on tartu-urc's 0..400 deg, the overlap turn holds
+    the rest of the day (367 -> 243 deg); limited to 0..360, none does, and it flies
+    over the top (the azimuth passes 180 instead)."""
+    from urc.tracking.evaluate import great_circle_deg
+    from urc.tracking.propagate import sun_look_angles
+    from urc.tracking.targets import SunTarget
+
+    station = Station(-30.0, 116.0, 0.0, "south")
+    t = np.arange(T0_UNIX_S, T0_UNIX_S + 86400.0, 30.0)
+    noon = float(t[np.argmax(sun_look_angles(station, t).el_deg)])
+    rot, tracker, t, az, el, az_m = fly_continuous(tmp_path, "tartu-urc", SunTarget, station, noon - 200.0, 300.0,
+                                                   config=config)
+    sun = sun_look_angles(station, t)
+    err = great_circle_deg(az, el, sun.az_deg, sun.el_deg)
+    on = t > noon - 110.0  # 90 s to slew there from the park pose
+    assert err[on].max() < 0.2, err[on].max()
+    assert np.ptp(az_m[on]) < 30.0  # no unwind: the azimuth axis moved with the Sun only
+    assert rot.status().flipped == (config is AZ_0_360) and not rot.status().faults
+
+
+def test_sun_that_needs_no_flip_is_flown_unflipped(tmp_path, station):
+    """The planner keeps the unflipped pose whenever it is as good: the Sun over Tartu."""
+    from urc.tracking.targets import SunTarget
+
+    rot, tracker, *_ = fly_continuous(tmp_path, "tartu-urc", SunTarget, station, T0_UNIX_S, 60.0)
+    assert tracker.arc is not None and not tracker.arc.flip
+    assert not rot.status().flipped

@@ -71,13 +71,25 @@ GPREDICT_PERIOD_S = 0.8
 GPREDICT_THRESHOLD_DEG = 5.0
 
 
+def gpredict_flips(sky_az_deg: np.ndarray, el_max_deg: float) -> bool:
+    """Gpredict's own flip rule (``is_flipped_pass`` in gtk-rot-ctrl.c, 0..360 azimuth
+    type): on a rotator configured with a 180 deg elevation range, a pass whose azimuth
+    track jumps across the stop at north is flown flipped all the way (az + 180,
+    180 - el); any other pass is flown unflipped."""
+    az = np.asarray(sky_az_deg, dtype=float) % 360.0
+    return bool(el_max_deg >= 180.0 and np.any(np.abs(np.diff(az)) > 180.0))
+
+
 class GpredictDriver:
-    """Drives the rotator like Gpredict does through rotctld: threshold jumps, no plan."""
+    """Drives the rotator like Gpredict does through rotctld: threshold jumps, no plan;
+    ``flipped``: the whole pass in the flipped frame, as Gpredict decides it
+    (``gpredict_flips``)."""
 
     def __init__(self, rotator, target, unix_at: Callable[[float], float], aos_unix_s: float,
-                 los_unix_s: float, threshold_deg: float = GPREDICT_THRESHOLD_DEG):
+                 los_unix_s: float, threshold_deg: float = GPREDICT_THRESHOLD_DEG, flipped: bool = False):
         self.rot, self.target, self.unix_at = rotator, target, unix_at
         self.aos, self.los, self.threshold = aos_unix_s, los_unix_s, threshold_deg
+        self.flipped = flipped
         self.next_s = -math.inf
         self.last: tuple[float, float] | None = None
 
@@ -90,6 +102,8 @@ class GpredictDriver:
             return
         az, el = self.target.position(u)
         el = max(el, 0.0)
+        if self.flipped:
+            az, el = (az + 180.0) % 360.0, 180.0 - el
         if self.last is None or max(abs((az - self.last[0] + 180) % 360 - 180), abs(el - self.last[1])) > self.threshold:
             try:
                 self.rot.goto(az, el)
@@ -114,6 +128,8 @@ class FlownPass(NamedTuple):
     #: (utc_s, az_deg, el_deg): where the controller said it pointed at every tick
     #: (its sensors' view, blind to gear play)
     reported: tuple[np.ndarray, np.ndarray, np.ndarray]
+    #: the pass was flown flipped (over the top): the plan's choice, or Gpredict's
+    flipped: bool = False
 
 
 def fly_pass_on_sim(profile: str, elements, station, p, state_dir, *, flip: bool | str = "auto",
@@ -141,7 +157,15 @@ def fly_pass_on_sim(profile: str, elements, station, p, state_dir, *, flip: bool
         plan = tracker.track_pass(elements, p, clock.now_s())
         step = tracker.step
     else:
-        step = GpredictDriver(rot, SatelliteTarget(elements, station), unix_at, p.aos_unix_s, p.los_unix_s).step
+        # Gpredict flips by its own rule where the rotator can (its user configures the
+        # 180 deg elevation range), whatever ``flip`` says: like with like against urc's
+        # planner, which flips per pass under flip = "auto"
+        track = look_angles(elements, station, np.arange(p.aos_unix_s, p.los_unix_s, 1.0))
+        g = rot.geometry
+        gpredict = GpredictDriver(rot, SatelliteTarget(elements, station), unix_at, p.aos_unix_s, p.los_unix_s,
+                                  flipped=flip is not False and gpredict_flips(
+                                      track.az_deg, g.el_max_deg + g.el_offset_deg))
+        step = gpredict.step
     reported: list[tuple[float, float, float]] = []
     t, az, el = fly(rot, clock, step, unix_at, p.los_unix_s, reported)
     up = (t >= p.aos_unix_s) & (t <= p.los_unix_s)
@@ -154,4 +178,5 @@ def fly_pass_on_sim(profile: str, elements, station, p, state_dir, *, flip: bool
         plan_el = np.interp(t[up], plan.t_s, plan.el_deg)
         plan_stats = PointingStats.of(pointing_error_deg(plan_az, plan_el, la.az_deg, la.el_deg, rot.geometry))
     rep_t, rep_az, rep_el = (np.array(c) for c in zip(*reported))
-    return FlownPass(rot, plan, stats, plan_stats, (t, az, el), err, (rep_t, rep_az, rep_el))
+    flipped = bool(plan.flip) if plan is not None else gpredict.flipped
+    return FlownPass(rot, plan, stats, plan_stats, (t, az, el), err, (rep_t, rep_az, rep_el), flipped)

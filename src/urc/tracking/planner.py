@@ -364,8 +364,12 @@ def _best_partial(t, s_az, s_el, g: Geometry, az_budget: AxisLimits, el_budget: 
 
 
 def plan_pass(t_s: np.ndarray, sky_az_deg: np.ndarray, sky_el_deg: np.ndarray, geometry: Geometry,
-              az: AxisLimits, el: AxisLimits, start_pose: tuple[float, float], now_s: float) -> Plan:
-    """Choose wrap turn and flip for the pass and return the trajectory to fly."""
+              az: AxisLimits, el: AxisLimits, start_pose: tuple[float, float], now_s: float,
+              continuing: bool = False) -> Plan:
+    """Choose wrap turn and flip for the pass and return the trajectory to fly.
+    ``continuing``: the antenna is on the target already (a long arc planned anew): of
+    equally good plans, the one nearest its pose wins over the unflipped one, so that
+    it does not swing to the other side mid-track."""
     t = np.asarray(t_s, dtype=float)
     s_az = np.asarray(sky_az_deg, dtype=float) % 360.0
     s_el = np.asarray(sky_el_deg, dtype=float)
@@ -413,7 +417,8 @@ def plan_pass(t_s: np.ndarray, sky_az_deg: np.ndarray, sky_el_deg: np.ndarray, g
         # servo decides); then no flip; then the smaller worst case, to a millidegree
         # (a keyhole's minimax against a near miss); then the shorter pre-positioning move
         worst = float(_error_between_samples_deg(fa, fe, s_az, s_el, g).max())
-        cost = (round(worst / 0.05), flip, round(worst / 0.001), travel_s)
+        cost = (round(worst / 0.05), flip, round(worst / 0.001), travel_s) if not continuing else \
+            (round(worst / 0.05), round(travel_s), flip, round(worst / 0.001))
         if best is None or cost < best[0]:
             best = (cost, flip, fa, fe, travel_s, a, e, worst, not (fa is a and fe is e), keyhole)
     _, flip, a_fly, e_fly, travel_s, a, e, worst, rate_limited, keyhole = best

@@ -42,6 +42,13 @@ SEARCH_HOURS = 24.0
 #: drifts by kilometres a day, so the pass times and pointing slip
 STALE_ELEMENTS_DAYS = 14.0
 EARTH_RADIUS_KM = 6371.0
+#: a continuous target whose path is known ahead (Sun, Moon) is planned over its arc above
+#: the horizon, this far ahead at most, in steps of ARC_STEP_S
+ARC_HORIZON_S = 24 * 3600.0
+ARC_STEP_S = 60.0
+#: the exact target is flown on the arc plan's wrap turn and flip; where it is further than
+#: this from the plan's pose, the plan's pose is flown (a keyhole: the plan holds the azimuth)
+ARC_FOLLOW_DEG = 0.5
 
 
 @dataclass
@@ -67,6 +74,10 @@ class Tracker:
         self._next_update_s = -math.inf
         self._ground_cache: tuple | None = None
         self._route_until_s = -math.inf  # a routed move round a zone runs until then
+        #: the plan of a continuous target's arc (wrap turn and flip) and whether the arc
+        #: goes on past its end (cut at ARC_HORIZON_S, not at the horizon): re-planned then
+        self._arc: Plan | None = None
+        self._arc_goes_on = False
 
     # ------------------------------------------------------------------ commands
     def track(self, target: Target, now_s: float) -> None:
@@ -89,8 +100,14 @@ class Tracker:
     def stop_tracking(self) -> None:
         self.target = None
         self.job = None
+        self._arc = None
         self.follow_satellite = False
         self.last_error = ""
+
+    @property
+    def arc(self) -> Plan | None:
+        """The plan of the continuous target's arc being flown (Sun, Moon), if any."""
+        return self._arc
 
     # ------------------------------------------------------------------ planning
     def _axis_limits(self) -> tuple[AxisLimits, AxisLimits]:
@@ -214,10 +231,71 @@ class Tracker:
         az, el = self.target.position(u)
         if el < self.min_el_deg:
             self.last_error = f"{self.target.name} is below {self.min_el_deg:g} deg elevation"
+            self._arc = None  # the next rise is planned afresh
             return
         az_rate, el_rate = self.target.rate(u)
-        self.rot.track(az, el, az_rate, el_rate, now_s)
+        arc = self._arc_for(u)
+        if arc is None:
+            self.rot.track(az, el, az_rate, el_rate, now_s)
+        elif not (now_s < self._route_until_s and self.rot.status().moving):  # not flying round a zone
+            pose = self._arc_pose(arc, u, az, el, az_rate, el_rate)
+            if not self._go_round_zones(pose[0], pose[1], now_s, arc, u):
+                self.rot.track_pose(*pose, now_s)
         self.last_error = ""
+
+    # When a continuous target flips (issue 12, for a station left alone for a month).
+    # The Sun and the Moon move predictably: their arc above the horizon is planned like a
+    # pass when they rise (or tracking starts), and flown on the plan's wrap turn and
+    # flip. So under flip = "auto" they fly over the top exactly when that saves an
+    # unwind or a keyhole swing somewhere on the arc (the planner keeps the unflipped pose
+    # whenever it is as good), decided before it matters, never by a 180 deg swing
+    # mid-track: the Sun culminating across the wrap point (north of the zenith, south
+    # of the tropic of Cancer or in southern summer, the midnight sun) no longer unwinds
+    # 360 deg at noon. The wrap turn is chosen the same way on rotators that cannot flip.
+    # A balloon (NMEA) or a fixed direction is not planned: a balloon's path beyond the
+    # next minute is unknown, so a flip could cost a half-turn swing for nothing; it is
+    # followed on the side it is on (continuity), and a fixed direction needs no side.
+    def _arc_for(self, u: float) -> Plan | None:
+        if not hasattr(self.target, "look") or isinstance(self.target, SatelliteTarget):
+            return None
+        if self._arc is None or (self._arc_goes_on and u > self._arc.t_s[-1]):
+            try:
+                self._arc = self._plan_arc(u, continuing=self._arc is not None)
+            except PlanError as exc:
+                log.warning("%s: no plan for its arc (%s); followed on the side it is on", self.target.name, exc)
+                self._arc = None
+        return self._arc
+
+    def _plan_arc(self, u: float, continuing: bool) -> Plan | None:
+        t = np.arange(u, u + ARC_HORIZON_S + ARC_STEP_S / 2, ARC_STEP_S)
+        la = self.target.look(t)
+        below = np.flatnonzero(la.el_deg < self.min_el_deg)
+        self._arc_goes_on = len(below) == 0
+        n = len(t) if self._arc_goes_on else int(below[0])
+        if n < 2:
+            return None
+        st = self.rot.status()
+        az, el = self._axis_limits()
+        arc = plan_pass(t[:n], la.az_deg[:n], la.el_deg[:n], self.rot.geometry, az, el,
+                        (st.az.pos_deg, st.el.pos_deg), u, continuing=continuing)
+        log.info("%s: arc planned for %.0f min: %s, wrap turn %d%s", self.target.name, (t[n - 1] - u) / 60,
+                 "over the top" if arc.flip else "not flipped", arc.wrap_turns,
+                 "".join(f"; {note}" for note in arc.notes))
+        return arc
+
+    def _arc_pose(self, arc: Plan, u: float, az: float, el: float, az_rate: float,
+                  el_rate: float) -> tuple[float, float, float, float]:
+        """The mechanical pose and rates that point at (az, el) on the arc plan's side:
+        its flip at this moment, the wrap turn nearest its pose."""
+        g = self.rot.geometry
+        plan_az, plan_el, plan_az_rate, plan_el_rate = arc.pose_at(u)
+        if plan_el + g.el_offset_deg > 90.0:
+            az, el, el_rate = az + 180.0, 180.0 - el, -el_rate
+        az_m, el_m = az - g.az_offset_deg, el - g.el_offset_deg
+        az_m += 360.0 * round((plan_az - az_m) / 360.0)
+        if abs(az_m - plan_az) + abs(el_m - plan_el) > ARC_FOLLOW_DEG:
+            return plan_az, plan_el, plan_az_rate, plan_el_rate
+        return az_m, el_m, az_rate, el_rate
 
     # ------------------------------------------------------------------ status
     def status(self, now_s: float) -> dict[str, Any] | None:
@@ -248,6 +326,8 @@ class Tracker:
                            **plan.summary(),
                            "track": [[_iso(t), float(a), float(e)] for t, a, e in
                                      zip(plan.t_s[::step], plan.sky_az_deg[::step], plan.sky_el_deg[::step])]}
+        if self._arc is not None and self._arc.notes:
+            out["warnings"] = list(self._arc.notes)  # e.g. the midnight sun: no turn holds a day
         if isinstance(self.target, SatelliteTarget):
             age_days = (u - self.target.elements.epoch_unix_s) / 86400.0
             if age_days > STALE_ELEMENTS_DAYS:
