@@ -256,7 +256,8 @@ class Tracker:
     # next minute is unknown, so a flip could cost a half-turn swing for nothing; it is
     # followed on the side it is on (continuity), and a fixed direction needs no side.
     def _arc_for(self, u: float) -> Plan | None:
-        if not hasattr(self.target, "look") or isinstance(self.target, SatelliteTarget):
+        if not hasattr(self.target, "look") or isinstance(self.target, SatelliteTarget) \
+                or not self.rot.settings.caps.has_el:  # a single-axis rotator: no side to choose
             return None
         if self._arc is None or (self._arc_goes_on and u > self._arc.t_s[-1]):
             try:
