@@ -277,6 +277,9 @@ def _format_status(s: dict) -> str:
     for name in s.get("axes", ("az", "el")):
         if s[name]["uncertainty_deg"]:
             lines.append(f"          {name} uncertain by ±{s[name]['uncertainty_deg']:.2f} deg")
+    if s.get("cycle"):
+        c = s["cycle"]
+        lines.append(f"cycle     {c['document']} ({c['state']}): {c['why']}")
     for f in s["faults"]:
         lines.append(f"FAULT     {f['kind']}: {f['reason']}")
     if s.get("local_control"):

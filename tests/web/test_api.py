@@ -403,3 +403,10 @@ def test_live_settings_reach_info_and_frames_and_restart_needs_are_kept(make_cli
     assert body["restart_needed"] == ["api"] and any("restart" in m for m in body["messages"])
     assert c.get("/api/info").json()["restart_pending"] == ["api"]
     assert c.get("/api/settings").json()["restart_pending"] == ["api"]     # the settings page shows it
+
+
+def test_status_names_the_berkeley_state(make_client):
+    """Seed 004: the status JSON carries the document's state machine name."""
+    c = make_client("berkeley")
+    cyc = c.get("/api/status").json()["cycle"]
+    assert cyc["state"] == "process_tle" and cyc["document"] == "PROCESS_TLE" and cyc["why"]

@@ -558,6 +558,8 @@ def test_a_held_front_panel_button_is_shown_and_refuses_moves_from_the_page(tmp_
         try:
             page = open_page(srv.url + "/")
             assert page.locator("#local-banner").is_hidden()
+            # the Berkeley state machine's name for what urc does (nothing tracked here)
+            expect(page.locator("#cycle-pill")).to_have_text("cycle PROCESS_TLE")
             factory.pin(6).drive_low()                       # CCW pressed and held
             expect(page.locator("#local-banner")).to_be_visible(timeout=5000)
             expect(page.locator("#local-text")).to_contain_text("CCW button held at the rotator")

@@ -24,6 +24,7 @@ from typing import Any
 from starlette.websockets import WebSocket, WebSocketDisconnect, WebSocketState
 
 from ..errors import CommandRejected
+from ..tracking.cycle import cycle_state
 from ..tracking.tracker import tracking_now
 from .history import History, pointing_error_deg
 
@@ -113,6 +114,7 @@ class Hub:
     def status_dict(self) -> dict[str, Any]:
         d = self.rotator.status().as_dict()
         d.setdefault("tracking", tracking_now(self.tracking(), time.time()))
+        d["cycle"] = cycle_state(d, pointing_error_deg(d))
         return d
 
     def build_frame(self) -> str:

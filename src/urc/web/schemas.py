@@ -114,6 +114,10 @@ class StatusDoc(BaseModel):
     local_control: list[str] = Field(description="front-panel controls held now: motion from here is refused")
     simulator_truth: dict | None = Field(description="the simulator's true state (None on hardware)")
     tracking: dict | None = Field(description="the tracker's status (target, az/el, plan, ground track)")
+    cycle: dict = Field(description="the Berkeley state machine's name for what urc does now: state "
+                                    "(setup | process_tle | predict | track | report), document (the "
+                                    "document's name: setup, PROCESS_TLE, PREDICT, TRACK_MOTOR, "
+                                    "UPDATE_SERVER) and why (urc.tracking.cycle)")
 
 
 class ZoneInfo(BaseModel):

@@ -91,6 +91,14 @@ function onFrame(frame) {
   if (st.flipped) line.append(pill("flipped (over the top)", "on"));
   if (frame.error_deg !== null && frame.error_deg !== undefined) line.append(pill(`error ${fmt(frame.error_deg, 2)}°`));
   for (const axis of frame.jogs || []) line.append(pill(`jogging ${axis}`, "on"));
+  if (st.cycle) {
+    // the Berkeley state machine's name for what urc does now (urc.tracking.cycle)
+    const c = pill(`cycle ${st.cycle.document}`, st.cycle.state === "track" || st.cycle.state === "report" ? "on" : "");
+    c.id = "cycle-pill";
+    c.dataset.state = st.cycle.state;
+    c.title = st.cycle.why;
+    line.append(c);
+  }
   const trk = st.tracking;
   setText($("tracking-line"), trk ? `tracking ${trk.target}` + (trk.plan ? ` · AOS ${timeOf(trk.plan.aos)} · LOS ${timeOf(trk.plan.los)}` +
     `${trk.plan.flip ? " · over the top" : ""}${trk.plan.wrap_turns ? ` · wrap lap ${trk.plan.wrap_turns}` : ""}` : "") : "");

@@ -1,0 +1,55 @@
+"""The Berkeley rotor's state machine (seed 004), read off urc's own state.
+
+The Berkeley controller runs setup (GPS fix, encoder zero) and then loops
+PROCESS_TLE -> PREDICT -> TRACK_MOTOR -> UPDATE_SERVER once a second. urc has no such
+loop (it plans whole passes and steps every tick), so the document's names are a view
+of what urc is doing now, for users who know that machine:
+
+=============  ===============  ========================================================
+state          document         urc now
+=============  ===============  ========================================================
+setup          setup            the position is not referenced (the encoder zero of
+                                ``calibrate_encoders``), or a fault stops everything
+                                until it is cleared
+process_tle    PROCESS_TLE      nothing tracked: waiting for elements / a target
+predict        PREDICT          tracking, but the target is not up yet (waiting for
+                                the pass or moving to where it will rise)
+track          TRACK_MOTOR      following the target, still more than
+                                ``ON_TARGET_DEG`` off it
+report         UPDATE_SERVER    on the target (the document reports the encoder
+                                readings once they are "within an acceptable range")
+=============  ===============  ========================================================
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+STATES = ("setup", "process_tle", "predict", "track", "report")
+DOCUMENT_NAMES = {"setup": "setup", "process_tle": "PROCESS_TLE", "predict": "PREDICT",
+                  "track": "TRACK_MOTOR", "report": "UPDATE_SERVER"}
+#: "within an acceptable range": the document's band was 4 deg (bang-bang); urc's
+#: pointing is judged at 0.5 deg (DESIGN.md's measures)
+ON_TARGET_DEG = 0.5
+
+
+def cycle_state(status: dict[str, Any], error_deg: float | None) -> dict[str, str]:
+    """``{"state", "document", "why"}`` for a status dict (with its ``tracking``) and
+    the pointing error between where the antenna points and where it is told to."""
+    trk = status.get("tracking")
+    if status.get("faults"):
+        state, why = "setup", "a fault stops everything until it is cleared"
+    elif not status.get("position_known", True):
+        state, why = "setup", "the position is not referenced yet (zero it)"
+    elif not trk:
+        state, why = "process_tle", "nothing tracked: waiting for elements or a target"
+    elif trk.get("state") in ("waiting", "prepositioning") or trk.get("error") or \
+            status.get("target_az_deg") is None:
+        state = "predict"
+        why = trk.get("error") or ("moving to where the pass rises" if trk.get("state") == "prepositioning"
+                                   else "waiting for the pass")
+    elif error_deg is None or error_deg > ON_TARGET_DEG:
+        state, why = "track", "following the target" + ("" if error_deg is None else f", {error_deg:.2f} deg off")
+    else:
+        state, why = "report", f"on the target ({error_deg:.2f} deg)"
+    return {"state": state, "document": DOCUMENT_NAMES[state], "why": why}
