@@ -55,7 +55,9 @@ def settings_from_config(cfg: Config) -> RotatorSettings:
         az_offset_deg=cfg.offsets.az_deg, el_offset_deg=cfg.offsets.el_deg,
         flip=cfg.rotator.flip is True, pass_flip=cfg.rotator.flip_enabled(caps), zones=zones, idle_park_s=cfg.park.idle_park_s,
         az_tuning=tunings["az"], el_tuning=tunings["el"], az_faults=faults["az"], el_faults=faults["el"],
-        save_interval_s=cfg.state.save_interval_s, watchdog_s=cfg.faults.watchdog_s).completed()
+        save_interval_s=cfg.state.save_interval_s, watchdog_s=cfg.faults.watchdog_s,
+        watchdog_recover_s=cfg.faults.watchdog_recover_s, watchdog_latch_stalls=cfg.faults.watchdog_latch_stalls,
+        watchdog_latch_window_s=cfg.faults.watchdog_latch_window_s).completed()
 
 
 def bridged_caps(caps, protocol: str):

@@ -281,8 +281,14 @@ class FaultsSection(_Section):
     sensor_jump_deg: float = _num(5.0, gt=0.0)
     #: 0 = the backend's default.
     overcurrent_a: float = _num(0.0, ge=0.0)
-    #: control-loop deadline.
+    #: control-loop deadline: a tick this late stops the motors, held off until the loop
+    #: has been on time for watchdog_recover_s
     watchdog_s: float = _num(0.5, gt=0.0)
+    watchdog_recover_s: float = _num(1.0, ge=0.0, le=60.0)
+    #: this many stalls within watchdog_latch_window_s latch a watchdog fault (cleared
+    #: only by an operator); fewer are ridden out
+    watchdog_latch_stalls: int = Field(3, ge=1, le=1000)
+    watchdog_latch_window_s: float = _num(600.0, gt=0.0, le=86400.0)
 
 
 class ApiSection(_Section):

@@ -110,6 +110,47 @@ def test_stalls_far_apart_do_not_latch(bench):
     assert not s.faults and s.loop["stalls"] == b.rot.timing.latch_stalls + 1
 
 
+def test_the_stall_rule_is_configurable(bench):
+    """[faults] watchdog_latch_stalls / watchdog_latch_window_s / watchdog_recover_s: a
+    station that rides out 5 stalls in 2 min, held off for 3 s after each."""
+    b = bench("tartu-urc", faults={"watchdog_latch_stalls": 5, "watchdog_latch_window_s": 120.0,
+                                   "watchdog_recover_s": 3.0})
+    t = b.rot.timing
+    assert (t.latch_stalls, t.latch_window_s, t.recover_s) == (5, 120.0, 3.0)
+    start_moving(b, az=300.0)
+    stalled_tick(b, 0.6)
+    assert b.run(2.5).loop["held"]                   # still held 2.5 s on (the default 1 s would not)
+    s = b.run(1.0)
+    assert not s.loop["held"] and s.az.duty != 0.0
+    for _ in range(3):                               # 4 stalls within 2 min: ridden out
+        stalled_tick(b, 0.6)
+        on_time(b, 4.0)
+    assert not b.rot.status().faults
+    b.clock.advance(121.0)                           # the oldest fall out of the window
+    for _ in range(4):
+        stalled_tick(b, 0.6)
+        on_time(b, 4.0)
+    assert not b.rot.status().faults
+    stalled_tick(b, 0.6)                             # the 5th within the window latches
+    s = b.run(0.1)
+    assert [f.kind for f in s.faults] == ["watchdog"] and "5 stalls within 2 min" in s.faults[0].reason
+    # the settings page's reconfigure carries the rule too
+    from dataclasses import replace
+    b.rot.clear_faults()
+    b.rot.reconfigure(replace(b.rot.settings, watchdog_latch_stalls=1))
+    b.run(0.1)
+    assert b.rot.timing.latch_stalls == 1
+
+
+@pytest.mark.parametrize("key, value", [("watchdog_latch_stalls", 0), ("watchdog_latch_window_s", 0.0),
+                                        ("watchdog_recover_s", -1.0), ("watchdog_latch_stalls", 2.5)])
+def test_the_stall_rule_keys_are_validated(key, value):
+    from urc.config import Config
+    from urc.errors import ConfigError
+    with pytest.raises(ConfigError, match=f"faults.{key}"):
+        Config.from_dict({"faults": {key: value}})
+
+
 def test_clear_faults_then_goto_is_accepted_at_once(bench):
     """Issue 12.14: clear-faults answered ok but a goto right after it (before the next
     tick) was refused "fault latched"."""

@@ -279,6 +279,7 @@ class Rotator:
         #: reference searches in progress (homing): axis -> (uncertainty before, frame shift)
         self._searches: dict[str, tuple[float, float]] = {}
         self.timing = LoopTiming(self.settings.watchdog_s)
+        self._set_stall_rule(self.settings)
         self._heartbeat = False
         self._was_held = False
         self._status: Status | None = None
@@ -1034,6 +1035,7 @@ class Rotator:
 
         def apply() -> None:
             self.settings, self.geometry = settings, geometry
+            self._set_stall_rule(settings)
             for name, ax in self.axes.items():
                 ax.tuning, ax.flim, ax.limits = settings.tuning(name), settings.fault_limits(name), \
                     settings.limits(name)
@@ -1044,6 +1046,11 @@ class Rotator:
             self._target_sky = None
             self._event("new settings applied (limits, keep-out zones, offsets, speeds, park)")
         self._submit("reconfigure", apply)
+
+    def _set_stall_rule(self, settings: RotatorSettings) -> None:
+        t = self.timing
+        t.watchdog_s, t.recover_s = settings.watchdog_s, settings.watchdog_recover_s
+        t.latch_stalls, t.latch_window_s = settings.watchdog_latch_stalls, settings.watchdog_latch_window_s
 
     def clear_faults(self) -> None:
         """Clear latched faults now, before the reply (a goto right after it must be
