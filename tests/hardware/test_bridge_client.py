@@ -248,3 +248,33 @@ def test_the_saved_side_of_the_zenith_turns_the_first_report_over():
     assert el.sensor.calibration() == {"over_top": True}
     _report(c, 0.5, 127.0, 71.0)         # and continuity carries it on
     assert (c.reading("az"), c.reading("el")) == pytest.approx((307.0, 109.0))
+
+
+def test_a_jog_runs_the_controllers_own_move_and_stops_it_on_an_answer_not_understood():
+    c = connected("gs232b", b"AZ=100  EL=020\r")
+    c.post("el", 20.0)
+    c.post_move("az", 300.0, 0.5, 2.0)
+    ex, _ = c.next_exchange(1.0)
+    assert ex.kind == "move" and ex.request == b"X2\rR\r"
+    ex, _ = c.next_exchange(1.1)
+    assert ex.kind == "poll"
+    c.answered(ex, b"AZ=101  EL=020\r", 1.1, 1.11)
+    c.post_move("az", 300.0, 0.5, 2.0)             # posted again every tick: no new move
+    ex, _ = c.next_exchange(1.2)
+    assert ex.kind == "poll"
+    c.answered(ex, b"\x00garbage\r", 1.2, 1.21)
+    ex, _ = c.next_exchange(1.3)
+    assert ex.request == b"S\r"                      # not left running unwatched
+
+
+def test_a_jog_near_its_end_or_without_a_move_command_is_a_goto():
+    c = connected("gs232b", b"AZ=297  EL=020\r")
+    c.post("el", 20.0)
+    c.post_move("az", 300.0, 0.5, 2.0)              # 3 deg to go: too near to start a move
+    ex, _ = c.next_exchange(1.0)
+    assert ex.request == b"W300 020\r"
+    s = connected("rot2prog", spid.encode_rot2_position(100.0, 20.0, 2, 2))
+    s.post("el", 20.0)
+    s.post_move("az", 300.0, 0.5, 2.0)
+    ex, _ = s.next_exchange(1.0)
+    assert ex.kind == "set" and ex.pose == (300.0, 20.0)

@@ -192,3 +192,37 @@ def test_a_north_crossing_pass_flies_over_the_top_through_sky_frame_protocols(pr
     assert float(err.max()) < 2.5, float(err.max())
     # flown over the top: the controller's antenna went past the zenith
     assert rig.truth()[1] > 90.0 and rig.client.over_top(), rig.truth()
+
+
+# ------------------------------------------------------------ jogs: native moves
+@pytest.mark.parametrize("protocol, move", [("gs232b", b"X2\rR\r"), ("easycomm3", b"VR4900\n"),
+                                            ("easycomm2", b"MR\n"), ("rotctld", b"M 16 50\n")])
+def test_a_jog_is_the_controllers_own_move_stopped_by_urc_at_the_soft_limit(protocol, move, tmp_path):
+    """A jog at half speed goes out as the protocol's own move command (the controller
+    turns at that speed, no target of urc's); the controller's limit is 400 deg
+    (tartu-urc), urc's soft limit 200: urc stops the move there, not the controller."""
+    rig = rig_for(protocol, tmp_path, profile="tartu-urc",
+                  downstream_config={"limits": {"az": {"min_deg": 0.0, "max_deg": 200.0}}})
+    rig.downstream.goto(100.0, 20.0)
+    assert settled(rig.run(60.0, until=settled))
+    n = len(rig.link.sent)
+    rig.downstream.move("az", 1, 0.5)
+    rig.run(4.0)
+    commands = [req for _t, req in rig.link.sent[n:] if req != rig.dialect.poll().request]
+    assert commands[0] == move, commands[:3]
+    a0 = rig.truth()[0]
+    rig.run(2.0)
+    speed = (rig.truth()[0] - a0) / 2.0
+    if protocol != "easycomm2":   # ML..MR have no speed: the controller's own
+        assert speed == pytest.approx(0.5 * rig.upstream.caps.az.max_rate_deg_per_s, rel=0.1), speed
+    s = rig.run(40.0)     # (200 deg at 3 deg/s from 100 is 33 s)
+    assert not s.faults, s.faults
+    az_t, _ = rig.truth()
+    assert 198.0 <= az_t <= 200.0 + 0.5, az_t        # urc stopped it at its soft limit
+    assert s.az.mode == "holding" and s.az_deg == pytest.approx(az_t, abs=1.5)
+    assert_stands_still(rig)
+    assert rig.client.counts["moves"] == 1, rig.client.counts
+    # then targets only: the first where urc stops it (then the guard may hold it a
+    # hair inside the limit)
+    sets = [req for _t, req in rig.link.sent[n:] if req not in (rig.dialect.poll().request, move)]
+    assert sets and b"200" in sets[0], sets

@@ -82,6 +82,11 @@ class Positioner(Protocol):
     def stop(self) -> None:
         """Stop this axis (the controller decelerates and holds)."""
 
+    def move(self, end_deg: float, speed_frac: float, rate_deg_per_s: float) -> None:
+        """A jog towards ``end_deg`` (the soft limit or a zone's edge, never passed) at
+        ``speed_frac`` of the top speed (``rate_deg_per_s``): the controller's own move
+        where it has one, a goto to ``end_deg`` otherwise."""
+
     def latency_s(self) -> float:
         """Measured time from posting a target to the controller having it: moving
         targets are sent this far ahead."""

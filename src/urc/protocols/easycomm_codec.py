@@ -177,6 +177,19 @@ def format_stop() -> bytes:
     return b"SA SE\n"
 
 
+_MOVE_NAMES = {("az", -1): "L", ("az", 1): "R", ("el", 1): "U", ("el", -1): "D"}
+
+
+def format_move(axis: str, direction: int, speed_frac: float | None = None) -> bytes:
+    """A jog: Easycomm II ``ML``/``MR``/``MU``/``MD`` (the controller's speed), or with a
+    speed Easycomm III ``VL``..``VD`` in Hamlib's scale (speed s% -> (s - 1) x 100)."""
+    name = _MOVE_NAMES[(axis, 1 if direction > 0 else -1)]
+    if speed_frac is None:
+        return b"M%s\n" % name.encode()
+    speed_pct = min(max(round(speed_frac * 100.0), 1), 100)
+    return b"V%s%04d\n" % (name.encode(), (speed_pct - 1) * 100)
+
+
 def format_version_query() -> bytes:
     return b"VE\n"
 

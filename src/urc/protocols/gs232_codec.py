@@ -169,3 +169,11 @@ def format_query() -> bytes:
 def format_stop() -> bytes:
     """S: stop both axes."""
     return b"S\r"
+
+
+def format_move(axis: str, direction: int, speed_frac: float) -> bytes:
+    """A jog at the nearest speed level at or above ``speed_frac`` (X1..X4), then R/L
+    (azimuth) or U/D (elevation); it runs until a stop or a new target."""
+    level = next(n for n, frac in sorted(SPEED_LEVELS.items()) if frac >= min(speed_frac, 1.0) - 1e-9)
+    letter = next(k for k, v in _MOVES.items() if v == (axis, 1 if direction > 0 else -1))
+    return b"X%d\r%s\r" % (level, letter)

@@ -81,6 +81,11 @@ class BridgeAxis:
         if self.wake is not None:
             self.wake()
 
+    def move(self, end_deg: float, speed_frac: float, rate_deg_per_s: float) -> None:
+        self.client.post_move(self.name, end_deg - self.offset_deg, speed_frac, rate_deg_per_s)
+        if self.wake is not None:
+            self.wake()
+
     def stop(self) -> None:
         self.client.post(self.name, None)
         if self.wake is not None:

@@ -47,6 +47,9 @@ LATENCY_GAIN = 0.2
 EXTRAPOLATE_PERIODS = 1.0
 #: the speed to extrapolate with is measured over the reports of this long
 SPEED_WINDOW_S = 1.0
+#: a controller's own move is handed over to a goto this long (at its speed) before
+#: the jog's end, on top of the link's delays: it brakes and settles on its own loop
+NATIVE_MOVE_HANDOVER_S = 1.0
 
 
 @dataclass(frozen=True)
@@ -74,6 +77,11 @@ class BridgeClient:
         self._wanted: dict[str, float | None] = {"az": None, "el": None}
         self._stop_wanted = False
         self._hold: list[float | None] = [None, None]
+        # jogs (see post_move) per axis: (end, speed fraction, speed, handed over to a
+        # goto near its end), None = no jog
+        self._jog: list[tuple[float, float, float, bool] | None] = [None, None]
+        #: the controller's own move running now: (axis index, direction, speed fraction)
+        self._native: tuple[int, int, float] | None = None
         # what the controller was last told
         self._sent_pose: tuple[float, float] | None = None
         self._stopped = True
@@ -101,22 +109,45 @@ class BridgeClient:
         self._last_set_s = -math.inf
         self._recent: collections.deque[tuple[float, tuple[float, float]]] = collections.deque()
         self.identity: str | None = None
-        self.counts = {"exchanges": 0, "timeouts": 0, "garbage": 0, "sets": 0, "stops": 0, "reconnects": 0}
+        self.counts = {"exchanges": 0, "timeouts": 0, "garbage": 0, "sets": 0, "stops": 0, "moves": 0,
+                       "reconnects": 0}
 
     # ============================================================ control-tick side
     def post(self, axis: str, target_deg: float | None) -> None:
         """The target for one axis (its mechanical frame), or None to stop it."""
         with self._lock:
+            self._post(axis, target_deg)
+
+    def _post(self, axis: str, target_deg: float | None) -> None:
+        i = AXES.index(axis)
+        if target_deg is None and self._wanted[axis] is not None and self._pos is not None:
+            # one axis stopped while the other goes on: it holds where it is now (on
+            # the turn it was sent to: a compass report names no turn)
+            self._hold[i] = self._near(i, self._pos[i], self._wanted[axis])
+        if target_deg is not None:
+            self._hold[i] = None
+        self._wanted[axis] = target_deg
+        self._jog[i] = None
+        if all(self._wanted[a] is None for a in AXES):
+            self._stop_wanted = not self._stopped
+
+    def post_move(self, axis: str, end_deg: float, speed_frac: float, rate_deg_per_s: float) -> None:
+        """A jog of one axis towards ``end_deg`` (the soft limit or a keep-out zone's
+        edge), at ``speed_frac`` of its top speed (``rate_deg_per_s``). Where the
+        protocol has a move of its own (GS-232 R/L/U/D with X1..X4, Easycomm ML..MD or
+        VL..VD, rotctld ``M``) the controller moves on its own at that speed; urc takes
+        over with a goto to ``end_deg`` while the axis is still far enough from it to
+        stop in time (the controller's own limits may lie further out). Elsewhere it is
+        a goto to ``end_deg`` from the start."""
+        with self._lock:
             i = AXES.index(axis)
-            if target_deg is None and self._wanted[axis] is not None and self._pos is not None:
-                # one axis stopped while the other goes on: it holds where it is now (on
-                # the turn it was sent to: a compass report names no turn)
-                self._hold[i] = self._near(i, self._pos[i], self._wanted[axis])
-            if target_deg is not None:
-                self._hold[i] = None
-            self._wanted[axis] = target_deg
-            if all(self._wanted[a] is None for a in AXES):
-                self._stop_wanted = not self._stopped
+            jog = self._jog[i]
+            self._post(axis, end_deg)
+            # the same jog posted again (every tick) keeps its hand-over: once a goto
+            # finishes it, no new move starts (the controller overshooting its end
+            # would otherwise be sent moving back)
+            handed = jog is not None and jog[0] == end_deg and jog[3]
+            self._jog[i] = (end_deg, speed_frac, rate_deg_per_s, handed)
 
     def reading(self, axis: str, now_s: float | None = None) -> float:
         """The axis' latest reported position; SensorError when there is none to trust
@@ -291,16 +322,28 @@ class BridgeClient:
                 # a stop always goes out at once, understood or not
                 self._stop_wanted = False
                 self._stopped, self._sent_pose, self._after_command = True, None, True
+                self._native = None
                 self.counts["stops"] += 1
                 return d.stop(), 0.0
-            pose = self._pose_to_send()
+            native = self._native_move()
+            if native is not None:
+                if native != self._native and self._trusted and not self._after_command:
+                    ex = d.move(AXES[native[0]], native[1], native[2])
+                    # a move replaces the target the controller had: the pose after it is sent anew
+                    self._native, self._sent_pose, self._stopped, self._after_command = native, None, False, True
+                    self.counts["moves"] += 1
+                    return ex, 0.0
+                pose = None  # moving on its own: only polls until urc takes over
+            else:
+                pose = self._pose_to_send()
             if pose is not None and self._trusted and not self._after_command and \
                     now_s >= self._last_set_s + MIN_SET_INTERVAL_S:
                 if self.options.stop_before_set and self._moving() and not self._stopped:
-                    self._stopped, self._after_command = True, True
+                    self._stopped, self._after_command, self._native = True, True, None
                     self.counts["stops"] += 1
                     return d.stop(), 0.0
                 self._sent_pose, self._stopped, self._after_command = pose, False, True
+                self._native = None
                 self._last_set_s = now_s
                 self.counts["sets"] += 1
                 return d.goto(*pose), 0.0
@@ -309,6 +352,36 @@ class BridgeClient:
                 self._next_poll_s = now_s + max(self.options.poll_interval_s, MIN_POLL_INTERVAL_S)
                 return d.poll(), 0.0
             return None, max(0.0, self._next_poll_s - now_s)
+
+    def _native_move(self) -> tuple[int, int, float] | None:
+        """The controller's own move a jog should run now, or None (no jog, no such
+        command, the other axis still on its way, or too near the jog's end: urc stops
+        it there with a goto, in time for the speed, the link's round trip and two
+        report periods)."""
+        if self._pos is None:
+            return None
+        d = self.dialect
+        for i, jog in enumerate(self._jog):
+            if jog is None or jog[3]:
+                continue
+            end, speed_frac, rate, _ = jog
+            other = 1 - i
+            held = self._wanted[AXES[other]]
+            if held is not None and d.has_el and abs(self._near(other, held, self._pos[other]) - self._pos[other]) > \
+                    d.resolution_deg[other] + d.report_resolution_deg:
+                return None
+            pos = self._pos[i]
+            to_go = self._near(i, end, pos) - pos
+            rate = max(abs(self._speed(i)), rate)
+            margin = rate * (2.0 * max(self._period_s(), MIN_POLL_INTERVAL_S) + (self._rtt_s or self.timeout_s)
+                             + NATIVE_MOVE_HANDOVER_S) + 2.0 * d.resolution_deg[i] + d.report_resolution_deg
+            if d.move(AXES[i], 1, speed_frac) is None:
+                return None
+            if abs(to_go) <= margin:
+                self._jog[i] = (end, speed_frac, rate, True)
+                return None
+            return (i, 1 if to_go > 0 else -1, speed_frac)
+        return None
 
     def _pose_to_send(self) -> tuple[float, float] | None:
         """The quantised pose to command, or None when the controller already has it."""
@@ -369,6 +442,11 @@ class BridgeClient:
                 # rotctld refused the target (its own limits): nothing moves; say so
                 self._error = f"controller refused the target {ex.pose}: RPRT {value}"
                 log.warning("bridge %s: %s", self.dialect.name, self._error)
+            elif ex.kind == "move" and isinstance(value, int) and value != 0:
+                # rotctld has no move for this rotator: the jog goes on as a goto
+                log.warning("bridge %s: move refused (RPRT %d): jogging by goto", self.dialect.name, value)
+                self._native = None
+                self._jog = [None if j is None else (*j[:3], True) for j in self._jog]
             elif isinstance(value, tuple):
                 # sampled somewhere in the round trip: take its middle
                 self._position(value, now_s - 0.5 * rtt)
@@ -408,6 +486,9 @@ class BridgeClient:
             self._trusted = False
             self._after_command = False
             self._error = self._cause = reason
+            if self._native is not None:
+                # a controller moving on its own must not run on unwatched
+                self._stop_wanted, self._native = True, None
             log.warning("bridge %s: %s", self.dialect.name, reason)
 
     def link_broken(self) -> bool:

@@ -57,7 +57,7 @@ class Reply:
 
 @dataclass(frozen=True)
 class Exchange:
-    kind: str                                   # poll | set | stop | identify
+    kind: str                                   # poll | set | stop | move | identify
     request: bytes
     reply: Reply | None = None                  # None: the controller answers nothing
     parse: Callable[[bytes], Any] | None = None
@@ -95,6 +95,11 @@ class Dialect:
         raise NotImplementedError
 
     def identify(self) -> Exchange | None:
+        return None
+
+    def move(self, axis: str, direction: int, speed_frac: float) -> Exchange | None:
+        """The controller's own jog of one axis (runs until a stop or a new target), or
+        None where the protocol has none: a jog is then a goto to where it must end."""
         return None
 
     def quantise(self, value_deg: float, axis: int) -> float:
@@ -135,6 +140,9 @@ class Gs232(Dialect):
 
     def stop(self) -> Exchange:
         return Exchange("stop", gs.format_stop(), settle_s=0.05)
+
+    def move(self, axis: str, direction: int, speed_frac: float) -> Exchange:
+        return Exchange("move", gs.format_move(axis, direction, speed_frac), settle_s=0.05)
 
 
 class Gs232a(Gs232):
@@ -184,9 +192,15 @@ class Easycomm(Dialect):
 class Easycomm2(Easycomm):
     name = "easycomm2"
 
+    def move(self, axis: str, direction: int, speed_frac: float) -> Exchange:
+        return Exchange("move", ec.format_move(axis, direction))   # ML..MD: its own speed
+
 
 class Easycomm3(Easycomm):
     name = "easycomm3"
+
+    def move(self, axis: str, direction: int, speed_frac: float) -> Exchange:
+        return Exchange("move", ec.format_move(axis, direction, speed_frac))   # VL..VD
 
 
 # ---------------------------------------------------------------------- SPID
@@ -297,6 +311,10 @@ class Rotctld(Dialect):
 
     def stop(self) -> Exchange:
         return Exchange("stop", b"S\n", Reply(terminator=b"\n"), self._check_rprt)
+
+    def move(self, axis: str, direction: int, speed_frac: float) -> Exchange:
+        return Exchange("move", rc.format_move_request(axis, direction, speed_frac), Reply(terminator=b"\n"),
+                        self._check_rprt)
 
     def identify(self) -> Exchange:
         return Exchange("identify", b"_\n", Reply(terminator=b"\n"),

@@ -194,6 +194,12 @@ def format_set_pos_request(az_deg: float, el_deg: float) -> bytes:
     return b"P %.2f %.2f\n" % (az_deg, el_deg)
 
 
+def format_move_request(axis: str, direction: int, speed_frac: float) -> bytes:
+    """``M <direction> <speed>`` with Hamlib's numeric direction (``M %d %d``)."""
+    code = next(int(k) for k, v in MOVE_BASIC.items() if k.isdigit() and v == ((axis, 1 if direction > 0 else -1),))
+    return b"M %d %d\n" % (code, min(max(round(speed_frac * 100.0), 1), 100))
+
+
 def parse_rprt(line: bytes) -> int | None:
     """``RPRT n`` -> n; None for any other line."""
     m = re.fullmatch(rb"RPRT (-?[0-9]{1,4})\s*", line)
