@@ -88,3 +88,18 @@ def test_a_step_cutting_a_zone_corner_is_blocked():
     a, e = np.array([30.0, 40.0, 50.0, 60.0]), np.array([14.0, 11.0, 8.0, 5.0])
     assert g.zone_at(40.0, 11.0, margin_deg=0.0) is None and g.zone_at(50.0, 8.0, margin_deg=0.0) is None
     assert _blocked(a, e, g).tolist() == [False, True, True, False]
+
+
+def test_a_continuing_arc_keeps_the_side_the_antenna_is_on():
+    """A long arc (the midnight sun) is planned anew while the antenna is on it: where the
+    flipped and the unflipped plan are equally good, the side it is on wins over the
+    unflipped one, instead of a half-turn swing mid-track; a fresh plan prefers unflipped."""
+    g = Geometry(0.0, 450.0, 0.0, 180.0, flip=True)
+    t, s_az, s_el = great_circle_pass(180.0, 30.0, 0.5, 1)
+    lim = AxisLimits(6.0, 10.0)
+    flipped_aos = ((s_az[0] + 180.0) % 360.0, 180.0 - s_el[0])
+    fresh = plan_pass(t, s_az, s_el, g, lim, lim, flipped_aos, t[0] - 600.0)
+    assert not fresh.flip
+    going_on = plan_pass(t, s_az, s_el, g, lim, lim, flipped_aos, t[0], continuing=True)
+    assert going_on.flip
+    assert math.hypot(going_on.aos_pose[0] - flipped_aos[0], going_on.aos_pose[1] - flipped_aos[1]) < 1.0
