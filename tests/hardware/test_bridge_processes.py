@@ -14,6 +14,7 @@ import subprocess
 import threading
 import time
 import tty
+from pathlib import Path
 
 import pytest
 
@@ -288,6 +289,69 @@ def test_stop_before_set_for_a_controller_that_ignores_targets_while_moving(tmp_
     finally:
         down.stop()
         ctl.close()
+
+
+# ------------------------------------------------------- a pass flown in real time
+FIXTURES = Path(__file__).resolve().parents[1] / "tracking" / "fixtures"
+
+
+def test_a_pass_flown_in_real_time_through_a_pty_bridge(tmp_path):
+    """Two real ``urc run`` processes on the wall clock: the downstream tracks NOAA 19
+    (the test fixtures' elements) through a GS-232B bridge on a pty for 40 s, from a
+    station placed under the satellite's track so that it passes high right now; judged
+    by the upstream's simulator truth against the satellite, after a 12 s acquisition."""
+    import numpy as np
+    from click.testing import CliRunner
+    from skyfield.api import EarthSatellite, wgs84
+
+    from urc.cli import main as cli
+    from urc.tracking import sky
+    from urc.tracking.elements import load_elements
+    from urc.tracking.evaluate import great_circle_deg
+    from urc.tracking.propagate import look_angles
+    from urc.tracking.station import Station
+
+    noaa = next(s for s in load_elements(FIXTURES / "leo.tle") if s.norad_id == 33591)
+    ts = sky.timescale()
+    sub = wgs84.subpoint_of(EarthSatellite.from_satrec(noaa.satrec, ts).at(
+        ts.from_datetime(sky.utc_datetime(time.time() + 40.0))))
+    # 4 deg of latitude off the ground track: culmination near 60 deg elevation
+    lat = float(sub.latitude.degrees) + (4.0 if sub.latitude.degrees < 80.0 else -4.0)
+    station = Station(lat, float(sub.longitude.degrees), 0.0, "under NOAA 19")
+    cat = tmp_path / "cat"
+    res = CliRunner().invoke(cli, ["tle", "import", str(FIXTURES / "leo.tle"), "--catalog-dir", str(cat)])
+    assert res.exit_code == 0, res.output
+    up_dir = tmp_path / "up"
+    up_dir.mkdir()
+    pty_path = str(up_dir / "ctl")
+    up = UrcProcess(up_dir, profile=PROFILE, serve=[{"protocol": "gs232b", "pty": pty_path}]).start()
+    down = downstream(tmp_path, "down", bridge_config("gs232b", serial=pty_path)
+                      + f"[station]\nlat_deg = {station.lat_deg}\nlon_deg = {station.lon_deg}\nalt_m = 0.0\n"
+                      f"[tracking]\ncatalog_dir = '{cat}'\n")
+    try:
+        assert down.post("/api/track", {"kind": "satellite", "norad": 33591}).status_code == 200
+        start = time.time()
+        t, az, el = [], [], []
+        while time.time() < start + 40.0:
+            t0 = time.time()
+            truth = up.status()["simulator_truth"]
+            t.append((t0 + time.time()) / 2.0)
+            az.append(truth["az"]["deg"])
+            el.append(truth["el"]["deg"])
+            time.sleep(0.2)
+        s = down.status()
+        assert not s["faults"], s["faults"]
+        t = np.array(t)
+        on = t > start + 12.0
+        la = look_angles(noaa, station, t[on])
+        assert la.el_deg.min() > 10.0, la.el_deg        # the satellite was up all along
+        err = great_circle_deg(np.array(az)[on], np.array(el)[on], la.az_deg, la.el_deg)
+        rms = float(np.sqrt(np.mean(err ** 2)))
+        # GS-232 takes whole degrees (0.29 deg RMS of rounding alone) and reports them
+        assert len(err) > 40 and rms < 1.0 and float(err.max()) < 2.5, (rms, float(err.max()))
+    finally:
+        down.stop()
+        up.stop()
 
 
 # ------------------------------------------------------------------ urc hw check
