@@ -406,43 +406,34 @@ class FaultedView:
     on iron: ``sensor_stuck`` and ``sensor_dead`` freeze what the part senses (a jammed
     magnet or wiper, encoder or reed lines that carry nothing any more), ``sensor_jump``
     (deg) offsets it (a slipped coupling; the encoder/reed lines carry the extra edges).
-    A dead chip NACKs instead (see ``_feed_sensor``). Everything else is the axis'."""
+    A dead chip NACKs instead (see ``feed_sensor``). Everything else is the axis'."""
 
     def __init__(self, phys: Any, faults: Callable[[], dict[str, dict[str, Any]]]):
         self._phys, self._faults = phys, faults
-        self._frozen_deg: float | None = None
-        self._frozen_edges: int | None = None
+        self._frozen: dict[str, float] = {}
 
     def __getattr__(self, name: str) -> Any:
         return getattr(self.__dict__["_phys"], name)
 
-    @staticmethod
-    def _jump_deg(f: dict[str, dict[str, Any]]) -> float:
-        return float(f["sensor_jump"].get("deg", 10.0)) if "sensor_jump" in f else 0.0
+    def _sensed(self, what: str, live: float) -> tuple[float, float]:
+        """``live``, or what it was when a stuck/dead fault came, while it lasts; and
+        the jump (deg) on top."""
+        f = self._faults()
+        if "sensor_stuck" in f or "sensor_dead" in f:
+            live = self._frozen.setdefault(what, live)
+        else:
+            self._frozen.pop(what, None)
+        return live, float(f["sensor_jump"].get("deg", 10.0)) if "sensor_jump" in f else 0.0
 
     def sensor_side_deg(self) -> float:
-        f = self._faults()
-        deg = self._phys.sensor_side_deg()
-        if "sensor_stuck" in f or "sensor_dead" in f:
-            if self._frozen_deg is None:
-                self._frozen_deg = deg
-            deg = self._frozen_deg
-        else:
-            self._frozen_deg = None
-        return deg + self._jump_deg(f)
+        deg, jump_deg = self._sensed("deg", self._phys.sensor_side_deg())
+        return deg + jump_deg
 
     @property
     def pulse_edges(self) -> int:
-        f = self._faults()
-        edges = self._phys.pulse_edges
-        if "sensor_stuck" in f or "sensor_dead" in f:
-            if self._frozen_edges is None:
-                self._frozen_edges = edges
-            edges = self._frozen_edges
-        else:
-            self._frozen_edges = None
-        jump, res = self._jump_deg(f), self._phys.pulse_res_deg
-        return edges + (round(abs(jump) / res) if jump and res else 0)
+        edges, jump_deg = self._sensed("edges", self._phys.pulse_edges)
+        res = self._phys.pulse_res_deg
+        return int(edges) + (round(abs(jump_deg) / res) if jump_deg and res else 0)
 
     def dead(self) -> bool:
         return "sensor_dead" in self._faults()

@@ -1,0 +1,207 @@
+"""Emulated iron, wired: the gpio backend's real drivers connected to the physics
+simulator when ``[hardware.gpio] emulate`` is on. Motor and brake outputs are read back
+from the mock pins into the simulated axis; sensor pins and fake chips (:mod:`.emulate`)
+are fed from the simulated axis, with the simulator's injected faults acting on them as
+on iron; limit switch pins follow the simulated switches."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from ..drivers import LimitSwitchInput, RelayBrake
+from .i2c import Lsm303agrChip
+
+
+def emulated_motor_duty(kind: str, motor: Any, levels: tuple[float, ...]) -> float:
+    """What the bridge / relays really put on the motor, read back from the pins."""
+    if kind == "vnh5019":
+        d = int(motor.ina.read_back()) - int(motor.inb.read_back())
+        return d * motor.pwm.read_back()
+    if kind == "lmd18200":
+        if motor.brake_out.read_back():
+            return 0.0
+        return (1.0 if motor.dir_out.read_back() else -1.0) * motor.pwm_out.read_back()
+    if kind == "bts7960":
+        return motor.rpwm.read_back() - motor.lpwm.read_back()
+    if kind == "pwm_dir":
+        return (1.0 if motor.dir_out.read_back() else -1.0) * motor.pwm_out.read_back()
+    # relay: a speed relay selects the slow winding; without one the driver pulses
+    d = int(motor.cw.read_back()) - int(motor.ccw.read_back())
+    slow = motor.fast is not None and not motor.fast.read_back()
+    return d * (min(levels) if slow else 1.0)
+
+
+class EmulatedMotor:
+    """The driver on mock pins; after each drive the pins are decoded into the
+    simulated motor (after the world has caught up with the present)."""
+
+    def __init__(self, driver: Any, kind: str, world: Any, axis: str, levels: tuple[float, ...]):
+        self.driver, self.kind, self.world, self.axis, self.levels = driver, kind, world, axis, levels
+
+    def set_drive(self, duty: float) -> None:
+        self.world.catch_up()
+        self.driver.set_drive(duty)
+        self.world.axes[self.axis].set_command(emulated_motor_duty(self.kind, self.driver, self.levels))
+
+    def read_current_a(self) -> float:
+        # through the current-sense part when one is wired (0 without, as on iron)
+        return self.driver.read_current_a()
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self.__dict__["driver"], name)
+
+
+class EmulatedBrake:
+    def __init__(self, driver: RelayBrake, world: Any, axis: str):
+        self.driver, self.world, self.axis = driver, world, axis
+
+    def set_released(self, released: bool) -> None:
+        self.driver.set_released(released)
+        self.world.command_brake(self.axis, self.driver.coil.read_back())
+
+    def is_released(self) -> bool:
+        return self.driver.is_released()
+
+
+def limit_sync(sw: LimitSwitchInput, sim_sw: Any) -> Any:
+    pin = sw.pin.pin
+
+    def sync() -> None:
+        level = sim_sw.is_active() != sw.active_low
+        if level != bool(pin.state):
+            (pin.drive_high if level else pin.drive_low)()
+            pin.clear_states()
+    return sync
+
+
+class Emulation:
+    """What the emulated sensors are fed from and where their parts are left: the world,
+    per-axis views of it carrying the injected sensor faults, the sync hooks run before
+    each tick's reads, the fake SPI chips, and each axis' emulated sensor part (tests)."""
+
+    def __init__(self, world: Any, syncs: list, fake_spi: dict[int, Any], parts: dict[str, Any]):
+        from .emulate import FaultedView
+        self.world, self.syncs, self.fake_spi, self.parts = world, syncs, fake_spi, parts
+        self.views = {n: FaultedView(world.axes[n], lambda n=n: world.faults()[n]) for n in ("az", "el")}
+
+    def dead_chip(self, dev: Any, *axes: str) -> None:
+        """``dev`` NACKs while a sensor_dead fault is on any of ``axes`` (its chip)."""
+        def sync() -> None:
+            dev.dead = any(self.views[a].dead() for a in axes)
+        self.syncs.append(sync)
+
+
+def feed_sensor(name: str, kind: str, sensor: Any, devices: dict[int, Any], cfg: Any, emu: Emulation) -> None:
+    """Emulation: connect the simulator to the pins / chip registers the sensor reads
+    (``devices``: the fake I2C chips answering where the sensor's chip sits, by address)."""
+    import random
+
+    from ..sim.sensors import SimAccelerometer, SimAs5600, SimMagnetometer, SimPotAdc, SimQuadratureCounter
+    from .emulate import FakeAds1115, FakeAs5600, FakeLsm303agr, FakeLsm303d, PulseDriver, QuadDriver, tilted
+
+    world, syncs = emu.world, emu.syncs
+    phys = emu.views[name]
+    p = world.params.axis(name).sensor
+    caps = world.caps.axis(name).sensor
+    rng = random.Random(f"urc-emu:{world.seed}:{name}")
+    part = (phys, p, rng, True)
+    if kind == "encoder":
+        cpd = round(1.0 / caps.resolution_deg)
+        sim = SimQuadratureCounter(*part, counts_per_deg=cpd)
+        counter = sensor.counter
+        index = None
+        if counter.z is not None and cfg.encoder_index_deg is not None:
+            # the Z pulse: one quadrature state wide, at the configured angle and every
+            # period after it, on the shaft's absolute count
+            c0 = sim.absolute_count() - sim.count()
+            idx0 = math.floor(cfg.encoder_index_deg * cpd + 1e-9) - c0
+            period = round(cfg.encoder_index_period_deg * cpd)
+
+            def index(pos: int) -> bool:
+                return (pos - idx0) % period == 0
+        d: Any = QuadDriver(counter.a, counter.b, sim.count, z=counter.z, index=index)
+        syncs.append(d.sync)
+        emu.parts[name] = d
+        # the encoder starts referenced to the true angle, as on a fresh sim rotator
+        sensor.set_reference_deg(phys.sensor_side_deg())
+    elif kind == "pulse":
+        d = PulseDriver(sensor.counter.pin, lambda: phys.pulse_edges)
+        syncs.append(d.sync)
+        emu.parts[name] = d
+        sensor.set_reference_deg(phys.sensor_side_deg())
+    elif kind == "as5600":
+        chip = sensor.part
+        dev = devices[chip.address] = FakeAs5600(SimAs5600(*part).read_raw_angle)
+        emu.parts[name] = dev
+        emu.dead_chip(dev, name)
+    elif kind == "magnetometer":
+        chip = sensor.accel.chip if hasattr(sensor, "accel") and sensor.accel is not None else sensor.mag.chip
+        if chip.address in devices:
+            emu.parts[name] = devices[chip.address]
+            return
+        az_view, el_view = emu.views["az"], emu.views["el"]
+        az_p = world.params.axis("az").sensor
+        mag = SimMagnetometer(az_view, az_p, random.Random(f"urc-emu:{world.seed}:mag"), True,
+                              noise_deg=world.caps.az.sensor.noise_deg, board=world.board)
+        acc = SimAccelerometer(el_view, world.params.axis("el").sensor,
+                               random.Random(f"urc-emu:{world.seed}:acc"), True,
+                               noise_deg=world.caps.el.sensor.noise_deg, board=world.board)
+        dip = math.radians(az_p.dip_deg)
+        h_gauss, z_gauss = 0.2, 0.2 * math.tan(dip)
+
+        def field() -> tuple[float, float, float]:
+            if world.board.held:      # off the boom: the board's own 3-D reading
+                return tuple(c * h_gauss for c in mag.read_vector())  # type: ignore[return-value]
+            bx, by, _ = mag.read_vector()
+            # hard iron sits in the sensor: put it on after tilting the earth's field
+            level = ((bx - az_p.hard_iron_x) * h_gauss, (by - az_p.hard_iron_y) * h_gauss, z_gauss)
+            v = tilted(level, el_view.sensor_side_deg())
+            return (v[0] + az_p.hard_iron_x * h_gauss, v[1] + az_p.hard_iron_y * h_gauss, v[2])
+
+        if isinstance(chip, Lsm303agrChip):
+            agr = FakeLsm303agr(field, acc.read_vector)
+            devices[Lsm303agrChip.ACCEL], devices[Lsm303agrChip.MAG] = agr.accel, agr.mag
+            emu.dead_chip(agr.accel, "az", "el")
+            emu.dead_chip(agr.mag, "az", "el")
+            emu.parts[name] = agr
+        else:
+            dev = devices[chip.address] = FakeLsm303d(field, acc.read_vector)
+            emu.dead_chip(dev, "az", "el")      # one chip senses both axes
+            emu.parts[name] = dev
+        if name == "az":   # the shipped calibration, in this field's units (gauss)
+            sensor.hard_iron_x, sensor.hard_iron_y = az_p.hard_iron_x * h_gauss, az_p.hard_iron_y * h_gauss
+            sensor.declination_deg = az_p.declination_deg
+    else:  # pot on an ADS1115 or an MCP3008
+        adc = SimPotAdc(*part)
+        ref_v = cfg.adc_reference_v
+        ref_ch = ads_reference(cfg)
+        if cfg.adc == "mcp3008":
+            dev = emu.fake_spi[cfg.spi_device]
+            dev.vref_v = sensor.adc.chip.vref_v
+            ref_ch = cfg.adc_reference_channel
+        else:
+            dev = devices.get(sensor.adc.chip.address) or FakeAds1115({})
+            devices[sensor.adc.chip.address] = dev
+        # sensor_dead: the wiper open, the input pulled to 0 V
+        dev.inputs[cfg.adc_channel] = lambda: 0.0 if phys.dead() else ref_v * adc.read_counts() / 1024.0
+        if ref_ch is not None:
+            dev.inputs[ref_ch] = lambda: ref_v
+        emu.parts[name] = dev
+
+
+def feed_current_sense(phys: Any, cfg: Any, devices: dict[int, Any], fake_spi: dict[int, Any]) -> None:
+    """Emulation: the bridge's current-sense output (magnitude only, clipped at the
+    ADC's range) from the simulated motor current, on the configured ADC input."""
+    from .emulate import FakeAds1115
+    if cfg.adc == "mcp3008":
+        dev = fake_spi[cfg.spi_device]
+    else:
+        addr = cfg.i2c_address or 0x48
+        dev = devices.get(addr) or devices.setdefault(addr, FakeAds1115({}))
+    dev.inputs[cfg.current_sense_channel] = lambda: abs(phys.current_a()) * cfg.current_sense_v_per_a
+
+
+def ads_reference(cfg: Any) -> int:
+    """The ADS1115 input reading the pot supply (input 3 unless configured)."""
+    return 3 if cfg.adc_reference_channel is None else cfg.adc_reference_channel
