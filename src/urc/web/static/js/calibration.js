@@ -39,7 +39,8 @@ export async function loadCalibration() {
 
 // where the antenna reads now (mechanical + offset: beyond 0..360 names the wrap side)
 function reading(st) {
-  return { az: st.az.pos_deg + (st.offsets.az || 0), el: st.el.pos_deg + (st.offsets.el || 0) };
+  // (a single-axis rotator has no elevation reading: null)
+  return { az: st.az.pos_deg + (st.offsets.az || 0), el: st.el ? st.el.pos_deg + (st.offsets.el || 0) : null };
 }
 
 let pendingZero = null;
@@ -63,7 +64,7 @@ export function followPosition(st) {
   setText($("zero-now"), `az ${fmt(now.az, 2)}°, el ${fmt(now.el, 2)}°`);
   for (const [id, v] of [["zero-az", now.az], ["zero-el", now.el]]) {
     const field = $(id);
-    if (!field.dataset.edited && document.activeElement !== field) field.value = v.toFixed(2);
+    if (!field.dataset.edited && document.activeElement !== field) field.value = v === null ? "" : v.toFixed(2);
   }
   if (pendingZero) zeroQuestion(now);
 }

@@ -71,6 +71,7 @@ export function setupControls() {
       return;
     }
     const jog = KEYS[ev.key];
+    if (jog && jog[0] === "el" && document.body.classList.contains("az-only")) return;  // no elevation
     if (!jog || typing(ev.target) || location.hash.replace("#", "") !== "dashboard" && location.hash !== "") return;
     ev.preventDefault();
     if (!ev.repeat) startJog(jog[0], jog[1], "key");
@@ -83,9 +84,11 @@ export function setupControls() {
 
   $("goto-form").addEventListener("submit", async (ev) => {
     ev.preventDefault();
-    const az = Number($("goto-az").value), el = Number($("goto-el").value);
+    const azOnly = document.body.classList.contains("az-only");
+    // (a single-axis rotator leaves the elevation of a goto aside: 0 is sent)
+    const az = Number($("goto-az").value), el = azOnly ? 0 : Number($("goto-el").value);
     const r = await post("/api/goto", { az_deg: az, el_deg: el });
-    if (r.ok) toast(`going to az ${az}, el ${el}`);
+    if (r.ok) toast(azOnly ? `going to az ${az}` : `going to az ${az}, el ${el}`);
   });
   $("park-btn").addEventListener("click", async () => { if ((await post("/api/park")).ok) toast("parking"); });
   $("clear-fault-btn").addEventListener("click", async () => { if ((await post("/api/clear-faults")).ok) toast("faults cleared"); });

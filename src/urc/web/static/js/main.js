@@ -75,15 +75,17 @@ function onFrame(frame) {
   charts.push(frame);
 
   setText($("ro-az"), fmt(st.az_deg, 2));
+  // (a single-axis rotator: st.el is null; its cells are hidden, see loadInfo)
+  const el = st.el || {};
   setText($("ro-el"), fmt(st.el_deg, 2));
   setText($("ro-taz"), sp ? fmt(sp[0], 2) : "—");
   setText($("ro-tel"), sp ? fmt(sp[1], 2) : "—");
   setText($("ro-maz"), fmt(st.az.pos_deg, 2));
-  setText($("ro-mel"), fmt(st.el.pos_deg, 2));
+  setText($("ro-mel"), fmt(el.pos_deg, 2));
   setText($("ro-raz"), fmt(st.az.rate_deg_per_s, 2));
-  setText($("ro-rel"), fmt(st.el.rate_deg_per_s, 2));
+  setText($("ro-rel"), fmt(el.rate_deg_per_s, 2));
   setText($("ro-modeaz"), st.az.mode);
-  setText($("ro-modeel"), st.el.mode);
+  setText($("ro-modeel"), el.mode || "—");
   const line = $("state-line");
   clear(line);
   line.append(pill(st.moving ? "moving" : "standing", st.moving ? "on" : ""));
@@ -119,7 +121,7 @@ function onFrame(frame) {
   const uncertain = !st.position_known;
   $("warn-banner").hidden = !uncertain;
   if (uncertain) {
-    const parts = ["az", "el"].filter((a) => st[a].uncertainty_deg > 0).map((a) => `${a} ±${fmt(st[a].uncertainty_deg, 1)}°`);
+    const parts = ["az", "el"].filter((a) => st[a] && st[a].uncertainty_deg > 0).map((a) => `${a} ±${fmt(st[a].uncertainty_deg, 1)}°`);
     setText($("warn-text"), `${parts.join(", ")}: automatic moves are refused until the position is re-referenced.`);
   }
 
@@ -166,6 +168,10 @@ async function loadInfo() {
   map.setStation(info.station);
   setPassOptions(info);
   document.body.dataset.infoProfile = info.profile;
+  // a single-axis rotator: every elevation control and readout (.el-only) is hidden
+  const azOnly = !(info.axes || ["az", "el"]).includes("el");
+  document.body.classList.toggle("az-only", azOnly);
+  $("goto-el").required = !azOnly;  // a hidden required field would block the goto form
 }
 
 async function start() {

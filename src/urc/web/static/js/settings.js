@@ -89,6 +89,8 @@ function build() {
   form.append(h("fieldset", {}, h("legend", { text: "Rotator (restart needed)" }),
     field("rotator.profile", "profile", get_(c, "rotator.profile"), { options: profiles }),
     field("rotator.flip", "fly over the top (flip)", String(get_(c, "rotator.flip", "auto")), { options: ["auto", "true", "false"] }),
+    // BIG-RAS "Elevation: ON/OFF": false = a single-axis rotator, azimuth only
+    field("rotator.elevation", "elevation axis", String(get_(c, "rotator.elevation", true)), { options: ["true", "false"] }),
     field("rotator.loop_hz", "control loop Hz", get_(c, "rotator.loop_hz"))));
   form.append(h("fieldset", {}, h("legend", { text: "Limits (degrees; empty = the profile's)" }),
     field("limits.az.min_deg", "az min", get_(c, "limits.az.min_deg"), { placeholder: capsHint("az", "min_deg") }),

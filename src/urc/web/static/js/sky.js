@@ -99,18 +99,20 @@ export class SkyPlot {
   }
 
   update(status, setpoint, tWallS) {
+    // a single-axis rotator (el null): its beam stands at the horizon, drawn on the ring
     const az = wrap360(status.az_deg), el = status.el_deg;
-    const [x, y] = skyXY(az, el, R);
+    const [x, y] = skyXY(az, el ?? 0, R);
     this.antenna.setAttribute("cx", x.toFixed(2));
     this.antenna.setAttribute("cy", y.toFixed(2));
     this.antenna.dataset.azDeg = az.toFixed(3);
-    this.antenna.dataset.elDeg = el.toFixed(3);
+    if (el === null || el === undefined) delete this.antenna.dataset.elDeg;
+    else this.antenna.dataset.elDeg = el.toFixed(3);
     if (setpoint) {
-      const [tx, ty] = skyXY(wrap360(setpoint[0]), setpoint[1], R);
+      const [tx, ty] = skyXY(wrap360(setpoint[0]), setpoint[1] ?? 0, R);
       this.target.setAttribute("transform", `translate(${tx.toFixed(2)} ${ty.toFixed(2)})`);
       this.target.setAttribute("visibility", "visible");
       this.target.dataset.azDeg = wrap360(setpoint[0]).toFixed(3);
-      this.target.dataset.elDeg = setpoint[1].toFixed(3);
+      this.target.dataset.elDeg = setpoint[1] === null ? "" : setpoint[1].toFixed(3);
     } else {
       this.target.setAttribute("visibility", "hidden");
       delete this.target.dataset.azDeg;

@@ -1,0 +1,62 @@
+"""The dashboard of a single-axis rotator ([rotator] elevation = false) in Debian's
+chromium against a real ``urc run``: no elevation control or readout is shown, the
+azimuth controls work, the sky plot draws the beam on the horizon ring."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from urc_process import UrcProcess
+
+
+@pytest.fixture(scope="module")
+def urc(tmp_path_factory):
+    u = UrcProcess(tmp_path_factory.mktemp("web-az-only"), profile="tartu-urc")
+    u.config.write_text(u.config.read_text().replace('profile = "tartu-urc"\n',
+                                                     'profile = "tartu-urc"\nelevation = false\n'))
+    u.start()
+    yield u
+    u.stop()
+
+
+def test_elevation_controls_are_hidden_and_azimuth_works(urc, open_page, artifacts):
+    page = open_page(urc.url + "/")
+    page.wait_for_function("document.body.classList.contains('az-only')")
+    for sel in ("#goto-el", ".jog-btn.up", ".jog-btn.down", "#ro-el", "#ro-tel", "#ro-mel", "#ro-modeel",
+                "#chart-el"):
+        assert page.locator(sel).is_hidden(), sel
+    for sel in ("#goto-az", ".jog-btn.cw", ".jog-btn.ccw", "#ro-az", "#chart-az"):
+        assert page.locator(sel).is_visible(), sel
+    page.fill("#goto-az", "30")
+    page.click("#goto-form button[type=submit]")
+    s = urc.wait(lambda s: abs(s["az_deg"] - 30.0) < 0.3 and not s["moving"], 30)
+    assert s["el"] is None
+    page.wait_for_timeout(400)
+    m = page.locator("#sky-antenna")
+    assert float(m.get_attribute("data-az-deg")) == pytest.approx(s["az_deg"], abs=0.2)
+    assert m.get_attribute("data-el-deg") is None  # no elevation presented as measured
+    # the beam is drawn on the horizon ring in the direction of the azimuth
+    cx, cy = float(m.get_attribute("cx")), float(m.get_attribute("cy"))
+    assert math.hypot(cx - 100 * math.sin(math.radians(30)), cy + 100 * math.cos(math.radians(30))) < 1.0
+    # the arrow keys up/down do nothing (no elevation to jog), and nothing faults
+    page.locator("body").click(position={"x": 5, "y": 300})
+    page.keyboard.down("ArrowUp")
+    page.wait_for_timeout(500)
+    page.keyboard.up("ArrowUp")
+    s = urc.status()
+    assert not s["moving"] and not s["faults"]
+    page.screenshot(path=str(artifacts / "dashboard-az-only.png"), full_page=True)
+    page.problems.check()
+
+
+def test_settings_page_shows_the_elevation_switch(urc, open_page):
+    page = open_page(urc.url + "/#settings")
+    sel = page.locator("#f-rotator\\.elevation")
+    sel.wait_for()
+    assert sel.input_value() == "false"
+    page.click("#settings-validate")
+    page.wait_for_timeout(500)
+    assert page.locator(".field-error:not(:empty)").count() == 0  # the az-only document is valid as shown
+    page.problems.check()
