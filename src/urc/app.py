@@ -113,7 +113,7 @@ def build_rotator(cfg: Config, clock: Clock, state_dir: Path, durable_state: boo
     power_fail = hardware.extra.get("power_fail")
     if power_fail is not None:
         # BIG-RAS saves its position on a power-fail interrupt: urc also stops at once
-        power_fail.on_fail = rotator.power_fail
+        power_fail.on_fail, power_fail.save = rotator.power_fail, rotator.save_now
         if not power_fail.supply_ok():   # low already at start: no edge will come
             rotator.power_fail("power-fail input low at start")
     return rotator

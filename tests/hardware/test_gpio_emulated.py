@@ -205,12 +205,16 @@ def test_power_fail_edge_stops_the_motors_brakes_saves_and_shows_a_fault(tmp_pat
     before = store.load()["axes"]["az"]["mech_deg"]
     pos = rot.status().az.pos_deg
     assert abs(before - pos) > 1.0
-    rot.hw.extra["power_fail"].emulate_power_fail()
-    # at once, before any further tick: every motor pin off, brake coils released (engaged)
+    pf = rot.hw.extra["power_fail"]
+    pf.emulate_power_fail()
+    # at once, on the edge's callback, before any further tick: every motor pin off,
+    # brake coils off (engaged); the state write follows on a thread of its own
     for ax in (rot.hw.az, rot.hw.el):
         assert _pin_drives(ax) == [0.0] * len(_pin_drives(ax))
         if ax.brake is not None:
             assert not ax.brake.driver.coil.read_back()
+    pf.saver.join(5.0)
+    assert not pf.saver.is_alive()
     after = store.load()["axes"]["az"]["mech_deg"]
     assert after == pytest.approx(pos, abs=0.6) and rot.hw.extra["power_fail"].events == 1
     s = rot.status()
@@ -397,3 +401,25 @@ def test_simulator_sensor_dead_reaches_the_emulated_part(path, tmp_path):
     s = run_virtual(rot, clock, 2.0)
     assert s.az.duty == 0.0 and s.sim_truth["az"]["deg"] == pytest.approx(t0, abs=0.05)
     rot.hw.close()
+
+
+def test_power_fail_edge_does_not_wait_for_the_disk(tmp_path):
+    """The state write runs on a thread of its own: the pin callback thread (which also
+    counts the encoder edges while the axes coast) returns while the disk is still busy."""
+    import threading
+    rot, clock = _power_fail_rig(tmp_path, "tartu-urc")
+    pf, disk_free, saved = rot.hw.extra["power_fail"], threading.Event(), []
+
+    def slow_save():
+        disk_free.wait(5.0)                       # an SD card that takes its time
+        saved.append(rot.save_now())
+        return saved[-1]
+    pf.save = slow_save
+    rot.goto(120.0, 40.0)
+    run_virtual(rot, clock, 3.0)
+    pf.emulate_power_fail()                       # returns although the write has not begun
+    assert pf.saver.is_alive() and not saved
+    assert [f.kind for f in rot.status().faults] == ["power_fail"] and rot.hw.az.motor.driver.pwm.read_back() == 0.0
+    disk_free.set()
+    pf.saver.join(5.0)
+    assert saved == [True]

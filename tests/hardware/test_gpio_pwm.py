@@ -56,6 +56,12 @@ def test_advice_warns_about_software_pwm_and_config_check_shows_it(tmp_path):
     path.write_text((EXAMPLES / "tartu-urc.toml").read_text().replace("pwm = 12", "pwm = 24"))
     r = CliRunner().invoke(main, ["config", "check", str(path)])
     assert r.exit_code == 0 and "warning: hardware.gpio.az.pins.pwm: GPIO24 has no hardware PWM" in r.output
+    notes = pwm_advice(gpio_of("bigras", hardware_pwm="4chan").hardware.gpio)
+    assert notes == []
+    data = load_config(EXAMPLES / "bigras.toml").to_dict()
+    data["hardware"]["gpio"]["el"]["pwm_frequency_hz"] = 20000.0     # inaudible, but el is software PWM
+    notes = pwm_advice(Config.from_dict(data).hardware.gpio)
+    assert "hardware.gpio.el.pwm_frequency_hz: 20000 Hz, but GPIO18 runs software PWM" in notes[0]
     with pytest.raises(ConfigError, match=r"hardware.gpio.hardware_pwm.*2chan"):
         gpio_of("tartu-urc", hardware_pwm="3chan")
 
@@ -107,7 +113,9 @@ def test_iron_uses_hardware_pwm_where_the_pin_has_a_channel(iron, tmp_path):
     az.set_drive(-0.4)
     el.set_drive(0.7)
     assert FakeHardwarePWM.made[1].calls[-1] == ("duty", pytest.approx(40.0))   # LPWM: reverse
-    assert FakeHardwarePWM.made[0].calls[-1] == ("duty", 0.0)
+    assert FakeHardwarePWM.made[0].calls == [("start", 0)]                      # RPWM stays 0
+    az.set_drive(-0.4)                                                         # unchanged: no write
+    assert len(FakeHardwarePWM.made[1].calls) == 2
     assert el.rpwm.pin.state == pytest.approx(0.7) and el.lpwm.pin.state == 0.0
     labels = [label for label, _ in hw.extra["parts"]]
     assert "az rpwm" in labels and "el rpwm" not in labels

@@ -1227,21 +1227,21 @@ class Rotator:
             self._take_report(self.clock.now_s())
             return ok and self._durable is self._record
 
-    def power_fail(self, reason: str = "power-fail input: supply lost") -> bool:
+    def power_fail(self, reason: str = "power-fail input: supply lost") -> None:
         """The supply is going (a power-fail input, BIG-RAS's interrupt): every output
         safe first (written without waiting for a tick that may hold the lock), then a
-        ``power_fail`` fault latched so no tick drives again until it is cleared, then
-        the state saved at once. Callable from any thread (a pin's edge callback).
-        True once the record is on disk."""
+        ``power_fail`` fault latched so no tick drives again until it is cleared.
+        Callable from any thread (a pin's edge callback); the caller then saves the
+        state (:meth:`save_now`, which waits for the disk: not on a pin's callback
+        thread, which also serves the encoder edges)."""
         self.hw.drive_safe()
         with self.lock:
             for ax in self.axes.values():
                 ax.sp, ax.out = None, law.OFF
-            self._latch(Fault("power_fail", None, f"{reason}: motors stopped, brakes on, state saved",
+            self._latch(Fault("power_fail", None, f"{reason}: motors stopped, brakes on, state written at once",
                               self.clock.now_s()))
             self.hw.drive_safe()
             self._status = self._build_status(self.clock.now_s())
-        return self.save_now()
 
     def shutdown(self, save: bool = True) -> bool:
         """Motors off, brakes on, every output safe; then the state saved as it is (still

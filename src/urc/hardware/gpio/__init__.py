@@ -13,6 +13,7 @@ section), ``emulate`` (bool) plus the simulator's options when emulated.
 from __future__ import annotations
 
 import logging
+import threading
 from pathlib import Path
 from typing import Any
 
@@ -250,13 +251,16 @@ def _pot_sensor(caps: RotatorCaps, name: str, ax_caps: Any, cfg: Any, adc: Any) 
 
 class PowerFailInput:
     """BIG-RAS style power-fail line: a supply monitor pulls the pin low when the mains
-    goes (the Pi runs on on its hold-up capacitor for a moment). On that falling edge
-    ``on_fail`` runs at once, from the pin's callback thread: the app stops the motors,
-    engages the brakes, latches a ``power_fail`` fault and saves the state there
-    (:meth:`urc.service.rotator.Rotator.power_fail`), not at the next tick or save."""
+    goes (the Pi runs on its hold-up capacitor for a moment). On that falling edge
+    ``on_fail`` runs at once on the pin's callback thread (the app: motors off, brakes
+    on, a ``power_fail`` fault, :meth:`urc.service.rotator.Rotator.power_fail`), then
+    ``save`` on a thread of its own (``saver``): the state write waits for the disk,
+    and the callback thread also serves the encoder edges while the axes coast."""
 
     def __init__(self, factory: Any, pin: int):
         self.on_fail: Any = None
+        self.save: Any = None
+        self.saver: threading.Thread | None = None
         self.events = 0
         self.input = PinIn(factory, pin, on_edge=self._edge)
 
@@ -274,6 +278,16 @@ class PowerFailInput:
                 self.on_fail()
             except Exception:  # the callback thread must survive
                 log.exception("power-fail handling failed")
+        if self.save is not None:
+            self.saver = threading.Thread(target=self._save, name="power-fail save", daemon=True)
+            self.saver.start()
+
+    def _save(self) -> None:
+        try:
+            if not self.save():
+                log.error("power-fail: the state was not written in time")
+        except Exception:
+            log.exception("power-fail save failed")
 
     def identify(self) -> str:
         return f"{self.input.pin}: {'supply ok' if self.supply_ok() else 'POWER FAIL (low)'}"

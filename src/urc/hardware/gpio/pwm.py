@@ -21,6 +21,8 @@ log = logging.getLogger(__name__)
 HARDWARE_PWM = {"2chan": {12: 0, 18: 0, 13: 1, 19: 1},
                 "4chan": {12: 0, 13: 1, 18: 2, 19: 3},
                 "off": {}}
+#: lgpio's software PWM (tx_pwm) frequency limit
+SOFTWARE_PWM_MAX_HZ = 10_000.0
 #: the pins each motor driver runs PWM on
 PWM_PINS = {"vnh5019": ("pwm",), "lmd18200": ("pwm",), "bts7960": ("rpwm", "lpwm"),
             "pwm_dir": ("pwm",), "relay": ()}
@@ -62,6 +64,10 @@ def pwm_advice(gpio: Any) -> list[str]:
             continue
         axis, key = where.split(".")
         at = f"hardware.gpio.{axis}.pins.{key}"
+        hz = getattr(gpio, axis).pwm_frequency_hz
+        if hz > SOFTWARE_PWM_MAX_HZ:
+            notes.append(f"hardware.gpio.{axis}.pwm_frequency_hz: {hz:g} Hz, but GPIO{pin} runs software PWM, "
+                         f"which lgpio makes at {SOFTWARE_PWM_MAX_HZ:g} Hz at most")
         if pin in table:
             other = next(w for w, (p, c) in plan.items() if c == table[pin])
             notes.append(f"{at}: GPIO{pin} shares PWM{table[pin]} with {other} (GPIO{plan[other][0]}), so it "
@@ -85,8 +91,10 @@ class HardwarePwm:
         self.pwm.start(0)
 
     def write_duty(self, duty: float) -> None:
-        self.duty = min(1.0, max(0.0, float(duty)))
-        self.pwm.change_duty_cycle(self.duty * 100.0)
+        duty = min(1.0, max(0.0, float(duty)))
+        if duty != self.duty:          # a sysfs write per change, not per tick
+            self.pwm.change_duty_cycle(duty * 100.0)
+            self.duty = duty
 
     def read_back(self) -> float:
         return self.duty
