@@ -181,7 +181,7 @@ def test_get_conf_capture_46():
 # ---------------------------------------------------------------- \dump_state
 @pytest.mark.parametrize("profile,config,limits", [
     ("tartu-urc", {}, "min_az=0.000000\nmax_az=400.000000\nmin_el=0.000000\nmax_el=180.000000"),
-    ("berkeley", {}, "min_az=0.000000\nmax_az=360.000000\nmin_el=0.000000\nmax_el=90.000000"),
+    ("berkeley", {}, "min_az=0.000000\nmax_az=360.000000\nmin_el=-45.000000\nmax_el=225.000000"),
     ("sarcnet-mini", {}, "min_az=-90.000000\nmax_az=450.000000\nmin_el=0.000000\nmax_el=180.000000"),
     ("g5500", {"limits": {"el": {"max_deg": 90.0}}},
      "min_az=0.000000\nmax_az=450.000000\nmin_el=0.000000\nmax_el=90.000000"),

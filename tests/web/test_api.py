@@ -128,7 +128,7 @@ def test_bad_input_is_rejected_before_anything_moves(make_client, path, body):
 
 def test_refused_command_is_409_with_reason(make_client):
     c = make_client()
-    r = c.post("/api/goto", json={"az_deg": 10, "el_deg": 95})
+    r = c.post("/api/goto", json={"az_deg": 10, "el_deg": -60})
     assert r.status_code == 409 and r.json()["reason"] == "limit"
 
 

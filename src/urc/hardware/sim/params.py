@@ -265,7 +265,7 @@ def _build(caps: RotatorCaps) -> tuple[SimAxisParams, SimAxisParams]:
         kw = dict(gear_ratio=600, supply_v=12.0, r_ohm=3.0, motor_j_kgm2=2.0e-6,
                   load_j_kgm2=0.3, backlash_deg=1.5, sensor=mag)
         return (_dc_axis(az, hard=(-10.0, 370.0), **kw),  # type: ignore[arg-type]
-                _dc_axis(el, hard=(-5.0, 95.0), **kw))  # type: ignore[arg-type]
+                _dc_axis(el, hard=(-50.0, 230.0), **kw))  # type: ignore[arg-type]  # ~270 deg
     if name == "g4jnt":
         # Relay-switched AC rotator (CDE/Hy-Gain style), loaded pot on the output.
         return (_ac_axis(az, gear_j_kgm2=40.0, load_j_kgm2=15.0, coast_deg=az.overshoot_deg,
