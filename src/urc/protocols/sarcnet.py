@@ -256,9 +256,7 @@ class SarcnetSession:
         # the board is off the boom: nothing may drive on its readings meanwhile (the
         # document has the motor supply disconnected); the hold says why everywhere
         self.rotator.stop()
-        hold = getattr(self.rotator, "hold_local", None)
-        if hold is not None:
-            hold(CALIBRATION_HOLD, True)
+        self._hold(True)
         self._enter("calibrating")
         self._cal = calibration.TwelveDirectionCalibration()
         self._cal_shown = None
@@ -298,15 +296,11 @@ class SarcnetSession:
 
     def _save_calibration(self) -> list[bytes]:
         try:
-            result = self._cal.result()
-            self._release_hold()
-            on_disk = calibration.apply_twelve_direction(self.rotator, result)
+            on_disk = calibration.apply_twelve_direction(self.rotator, self._cal.result())
         except (calibration.CalibrationError, UrcError, ValueError) as exc:
-            hold = getattr(self.rotator, "hold_local", None)
-            if hold is not None:
-                hold(CALIBRATION_HOLD, True)
             bad_input.info("calibration not saved: %s", exc)
             return [codec.console(f"Error: calibration not saved: {exc}; nothing changed")]
+        self._hold(False)
         self.mode = "tracking"
         rows = codec.calibration_rows(*self._cal.fits())
         if not on_disk:
@@ -316,14 +310,15 @@ class SarcnetSession:
             "Calibration saved: put the sensor back on the boom, then r to reset")]
 
     def _end_calibration(self, text: str) -> list[bytes]:
-        self._release_hold()
+        self._hold(False)
         self.mode = "tracking"
         return [codec.console(text)]
 
-    def _release_hold(self) -> None:
+    def _hold(self, held: bool) -> None:
+        """Take or release the local-control hold (a rotator without one: nothing)."""
         hold = getattr(self.rotator, "hold_local", None)
         if hold is not None:
-            hold(CALIBRATION_HOLD, False)
+            hold(CALIBRATION_HOLD, held)
 
     def disconnected(self) -> None:
         """The client went away (TCP closed, serial port hung up): a calibration under
