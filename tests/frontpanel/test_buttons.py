@@ -220,3 +220,24 @@ def test_tracking_gives_way_to_the_panel_and_resumes_on_release(panel_rig, tmp_p
     rig.release("ccw")
     st = rig.run(30.0, on_tick=step, until=lambda s: abs(s.az.pos_deg - 200.0) < 0.5 and not s.moving)
     assert abs(st.az.pos_deg - 200.0) < 0.5, "released: the tracker took over again"
+
+
+@pytest.mark.parametrize("name, line, says", [
+    ("urc", b"GOAZ 200\r\n", b"local control active (CCW button held at the rotator)"),
+    ("sarcnet", b"200 10\r", b"Error: refused: local control active (CCW button held at the rotator)"),
+    ("rotctld", b"P 200 10\n", b"RPRT -"),       # Hamlib's reply carries a code, no text
+    ("gs232b", b"W200 010\r", b"?>"),
+])
+def test_protocols_refuse_during_a_held_button_and_say_why_where_they_can(panel_rig, name, line, says):
+    from urc.protocols import make_session
+
+    rig = panel_rig()
+    rig.settle()
+    session = make_session(name, rig.rot)
+    rig.press("ccw")
+    rig.run(0.5)
+    reply = b"".join(session.receive(line))
+    assert says in reply, reply
+    rig.release("ccw")
+    st = rig.settle()
+    assert st.target_az_deg is None or abs(st.target_az_deg - 200.0) > 1.0, "the refused move did not happen"
