@@ -45,6 +45,8 @@ def test_reversed_motor_is_found_and_the_fix_printed(tmp_path):
     assert n == 1, text
     assert "az" in text and "counted DOWN" in text and "[hardware.gpio.az] swap ina and inb" in text
     assert "el: motor" in text and "motor and sensor agree" in text
+    # the VNH5019 CS pins on the MCP3008: current at rest, and while jogging
+    assert "motor current: 0.00 A (current sense)" in text and "jog: motor current up to" in text
 
 
 def test_relay_machine_reversed_fix_names_its_pins(tmp_path):
@@ -69,3 +71,18 @@ def test_cli_lists_parts_and_limit_switches(tmp_path):
     assert r.exit_code == 0, r.output
     assert "az pulse counter" in r.output and "limit switch min: open" in r.output
     assert "no problems found" in r.output
+
+
+def test_encoder_index_is_shown(tmp_path):
+    cfg = with_emulation(load_config(EXAMPLES / "tartu-urc.toml"))
+    data = cfg.to_dict()
+    data["hardware"]["gpio"]["az"]["pins"]["enc_z"] = 24
+    data["hardware"]["gpio"]["az"]["encoder_index_deg"] = 1.0
+    cfg = type(cfg).from_dict(data)
+    caps = settings_from_config(cfg).caps
+    clock = VirtualClock(1000.0)
+    hw = build_hardware("gpio", caps, clock, tmp_path, hardware_options(cfg))
+    n, text = run_check(cfg, caps, clock, hw, move=True)
+    assert "encoder index: not seen yet" in text
+    n, text = run_check(cfg, caps, clock, hw, move=False)      # the first jog went over it
+    assert "encoder index: last at count" in text, text

@@ -63,6 +63,14 @@ def check(hw: Any, caps: Any, *, gpio: Any = None, move: bool = False, jog_duty:
                 out(f"  limit switch {side}: {'ACTIVE' if sw.is_active() else 'open'}")
         if ax.brake is not None:
             out(f"  brake: {'released' if ax.brake.is_released() else 'engaged'}")
+        gpio_ax = getattr(gpio, name, None) if gpio is not None else None
+        if gpio_ax is not None and gpio_ax.current_sense_channel is not None:
+            out(f"  motor current: {ax.motor.read_current_a():.2f} A (current sense)")
+        counter = getattr(getattr(ax.sensor, "driver", ax.sensor), "counter", None)
+        if gpio_ax is not None and getattr(counter, "z", None) is not None:
+            idx = counter.index_count()
+            out("  encoder index: " + ("not seen yet (jog over it: its count gives encoder_index_deg)"
+                                       if idx is None else f"last at count {idx}"))
         if move:
             problems += _jog(hw, name, ax, ax_caps, gpio, jog_duty, jog_s, sleep, now, out)
     out("no problems found" if not problems else f"{problems} problem(s) found")
@@ -85,13 +93,17 @@ def _jog(hw: Any, name: str, ax: Any, ax_caps: Any, gpio: Any, duty: float, jog_
             hw.poll(now())
             sleep(0.02)
     t_end = now() + jog_s
+    peak_a = 0.0
     try:
         while now() < t_end:
             ax.motor.set_drive(duty)
             hw.poll(now())
             sleep(0.02)
+            peak_a = max(peak_a, ax.motor.read_current_a())
     finally:
         ax.motor.set_drive(0.0)
+    if peak_a > 0.0:
+        out(f"  jog: motor current up to {peak_a:.2f} A")
     t_end = now() + 1.0          # let it coast to a stop before the second reading
     while now() < t_end:
         hw.poll(now())
