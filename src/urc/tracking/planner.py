@@ -5,10 +5,12 @@ mechanical trajectory (the wrap turn and flip chosen once, so the pass never cro
 end stop or swings 180 degrees at the zenith mid-pass), checked against the rotator's
 limits, speeds, accelerations and keep-out zones, plus when to start pre-positioning.
 
-Where the sky track needs more speed than an axis has (the keyhole of a near-zenith pass
-on a rotator that cannot flip), the trajectory is rate-limited symmetrically around the
-fast segment: the antenna starts the swing early and finishes late, halving the worst
-error instead of lagging behind the whole way.
+Where the sky track needs more azimuth speed than the axis has (the keyhole of a
+near-zenith pass), the plan is the minimax over the azimuth's speed: the azimuth turns
+with the target as closely as its speed allows, swinging early and finishing late with the
+elevation making up for the lag (``_follow_minimax``), or, on a rotator that can flip,
+holds still over the top while the elevation sweeps past the zenith (``_keyhole_holds``),
+whichever misses the target by less at worst.
 """
 
 from __future__ import annotations
@@ -311,8 +313,52 @@ def _keyhole_holds(t: np.ndarray, s_az: np.ndarray, s_el: np.ndarray, az_budget:
         off_s = float(np.ptp(t[w < 1.0])) if (w < 1.0).any() else 0.0
         note = (f"keyhole: the sky track needs {_peak_rate(np.degrees(np.unwrap(np.radians(s_az))), t):.1f} "
                 f"deg/s in azimuth at culmination; the azimuth holds {hold_az % 360.0:.1f} deg there, "
-                f"off the track for {off_s:.0f} s, while the elevation sweeps over the top")
+                f"off the track for {off_s:.0f} s, while the elevation sweeps over the top (no plan over "
+                "the top misses the pass by less than its distance from the zenith)")
         yield az, el, note
+
+
+#: bisection steps of the follow minimax (90 deg / 2**20: far below any sensor's count)
+MINIMAX_STEPS = 20
+
+
+def _follow_minimax(t: np.ndarray, s_az: np.ndarray, s_el: np.ndarray, budget: AxisLimits):
+    """The keyhole flown the other way, the azimuth turning the half turn with the
+    target (no flip), as the minimax over the azimuth's speed: the least error E for
+    which some azimuth path within the speed budget stays within E of the target at
+    every sample. With the elevation free (on the vertical circle the azimuth stands on,
+    ``_el_given_az``), a pose misses by asin(cos(el) |sin(az - az_m)|), so E allows the
+    azimuth a band round the target's, wide where the target is near the zenith. A
+    rate-limited path through a band exists iff the forward sweep of reachable intervals
+    never empties; bisection finds the least E, and the backward sweep picks, within the
+    band, the path nearest the track. Returns (az, el) in the sky frame."""
+    u = np.degrees(np.unwrap(np.radians(s_az)))
+    cos_el = np.cos(np.radians(np.clip(s_el, 0.0, 90.0)))
+    step = budget.max_rate_deg_per_s * (1.0 - 1e-9) * np.diff(t)
+
+    def sweep(err_deg: float):
+        ratio = np.sin(np.radians(err_deg)) / np.maximum(cos_el, 1e-12)
+        half = np.degrees(np.arcsin(np.clip(ratio, 0.0, 1.0)))
+        lo, hi = u - half, u + half
+        for i in range(1, len(u)):
+            lo[i], hi[i] = max(lo[i], lo[i - 1] - step[i - 1]), min(hi[i], hi[i - 1] + step[i - 1])
+            if lo[i] > hi[i]:
+                return None
+        return lo, hi
+
+    if sweep(90.0) is None:
+        return None
+    bad, good = 0.0, 90.0
+    for _ in range(MINIMAX_STEPS):
+        mid = 0.5 * (bad + good)
+        bad, good = (bad, mid) if sweep(mid) is not None else (mid, good)
+    lo, hi = sweep(good)
+    az = np.clip(u, lo, hi)
+    for i in range(len(u) - 2, -1, -1):
+        az[i] = min(max(u[i], lo[i], az[i + 1] - step[i]), hi[i], az[i + 1] + step[i])
+    a, e = np.radians(s_az), np.radians(np.clip(s_el, 0.0, 90.0))
+    el = np.degrees(np.arctan2(np.sin(e), np.cos(e) * np.cos(a - np.radians(az))))
+    return az, el
 
 
 #: candidate unwind moments per pass (every n-th sample)
@@ -378,8 +424,14 @@ def plan_pass(t_s: np.ndarray, sky_az_deg: np.ndarray, sky_el_deg: np.ndarray, g
     g = geometry
     az_budget, el_budget = _budget(az), _budget(el)
     base = [(flip, a, e, None) for flip, (a, e) in _base_trajectories(s_az, s_el, g.can_fly_passes_flipped)]
-    if g.can_fly_passes_flipped and _peak_rate(base[0][1], t) > az_budget.max_rate_deg_per_s:
-        base += [(True, a, e, note) for a, e, note in _keyhole_holds(t, s_az, s_el, az_budget, el_budget)]
+    peak_rate = _peak_rate(base[0][1], t)
+    if peak_rate > az_budget.max_rate_deg_per_s:
+        follow = _follow_minimax(t, s_az, s_el, az_budget)
+        if follow is not None:
+            base.append((False, *follow, f"keyhole: the sky track needs {peak_rate:.1f} deg/s in azimuth; "
+                         "the azimuth turns with it as fast as it can, the elevation making up for its lag"))
+        if g.can_fly_passes_flipped:
+            base += [(True, a, e, note) for a, e, note in _keyhole_holds(t, s_az, s_el, az_budget, el_budget)]
     candidates = []
     for flip, a, e, keyhole in base:
         a = a - g.az_offset_deg
@@ -424,8 +476,7 @@ def plan_pass(t_s: np.ndarray, sky_az_deg: np.ndarray, sky_el_deg: np.ndarray, g
     _, flip, a_fly, e_fly, travel_s, a, e, worst, rate_limited, keyhole = best
     if keyhole and not rate_limited:
         rate_limited = True  # the sky track was faster than the axes: the hold is the smoothing
-        notes.append(f"{keyhole}: worst pointing error {worst:.2f} deg (over the top, no plan misses "
-                     "the pass by less than its distance from the zenith)")
+        notes.append(f"{keyhole}; worst pointing error {worst:.2f} deg")
     elif rate_limited:
         notes.append(f"the sky track needs {_peak_rate(a, t):.1f} deg/s in azimuth at the fastest (keyhole); "
                      f"flown within the axes' speed and acceleration, worst pointing error {worst:.2f} deg")
