@@ -40,19 +40,22 @@ def settings_from_config(cfg: Config) -> RotatorSettings:
         c = control[name]
         tunings[name] = replace(default_tuning(ax), tolerance_deg=c["tolerance_deg"],
                                 restart_deg=c["restart_deg"], max_rate_deg_per_s=c["max_rate_deg_per_s"],
+                                min_rate_deg_per_s=c["min_rate_deg_per_s"],
                                 accel_deg_per_s2=c["accel_deg_per_s2"], kp_per_s=c["kp_per_s"],
                                 ki_per_s2=c["ki_per_s2"], overshoot_deg=c["overshoot_deg"],
                                 creep_lead_deg=c["creep_lead_deg"], backlash_deg=c["backlash_deg"])
         f = cfg.faults
         faults[name] = replace(default_fault_limits(ax, *limits[name]),
                                stall_timeout_s=f.stall_timeout_s, runaway_deg=f.runaway_deg,
-                               sensor_jump_deg=f.sensor_jump_deg, overcurrent_a=f.overcurrent_a)
+                               sensor_jump_deg=f.sensor_jump_deg, overcurrent_a=f.overcurrent_a,
+                               min_rate_deg_per_s=c["min_rate_deg_per_s"])
     park_az, park_el = cfg.park_position(caps)
     zones = tuple(z.keep_out(i) for i, z in enumerate(cfg.keepout))
     return RotatorSettings(
         caps=caps, az_limits_deg=limits["az"], el_limits_deg=limits["el"],
         park_az_deg=park_az, park_el_deg=park_el,
-        az_offset_deg=cfg.offsets.az_deg, el_offset_deg=cfg.offsets.el_deg,
+        # (a south zero point: the mechanical frame starts at south)
+        az_offset_deg=cfg.offsets.az_deg + cfg.rotator.zero_offset_deg, el_offset_deg=cfg.offsets.el_deg,
         flip=cfg.rotator.flip is True, pass_flip=cfg.rotator.flip_enabled(caps), zones=zones, idle_park_s=cfg.park.idle_park_s,
         az_tuning=tunings["az"], el_tuning=tunings["el"], az_faults=faults["az"], el_faults=faults["el"],
         save_interval_s=cfg.state.save_interval_s, watchdog_s=cfg.faults.watchdog_s,

@@ -28,6 +28,7 @@ import re
 import tomllib
 import types
 import typing
+from dataclasses import replace
 from importlib import resources
 from pathlib import Path
 from typing import Any, Literal, Union
@@ -85,14 +86,38 @@ class RotatorSection(_Section):
     #: with "Elevation: OFF", an HF beam): no elevation parts, limits, park or offset;
     #: protocols answer elevation queries as the original az-only units do.
     elevation: bool = True
+    #: BIG-RAS "Max. elevation": 90, or 180 (elevation 0..180: past 90 is over the top,
+    #: azimuth + 180, and passes may be flown so); None = the profile's range
+    max_el_deg: float | None = _num(None)
+    #: BIG-RAS "Pulse/degree": pulses the rotator's pulse sensor gives per degree (both
+    #: axes; profiles with pulse feedback only); None = the profile's
+    pulses_per_deg: int | None = Field(None, ge=1, le=100)
+    #: BIG-RAS "Zero point": where the rotator's mechanical zero points, "north" or
+    #: "south". South: the mechanical frame (limits, park, the pulse count) starts at
+    #: south, compass azimuth = mechanical + 180 (+ offsets.az_deg). Protocols, status
+    #: and the page always speak compass azimuth (north = 0), as the BIG-RAS does.
+    zero: Literal["north", "south"] = "north"
 
     def flip_enabled(self, caps: RotatorCaps) -> bool:
         """May the pass planner fly passes over the top on this profile?"""
         return caps.can_flip if self.flip == "auto" else bool(self.flip)
 
     def variant(self, caps: RotatorCaps) -> RotatorCaps:
-        """The profile's caps as this section narrows them (single-axis)."""
+        """The profile's caps as this section changes them (a new caps value): max
+        elevation, pulses per degree, single-axis."""
+        if self.max_el_deg is not None:
+            caps = replace(caps, el=replace(caps.el, max_deg=float(self.max_el_deg),
+                                            park_deg=min(caps.el.park_deg, float(self.max_el_deg))))
+        if self.pulses_per_deg is not None:
+            step_deg = 1.0 / self.pulses_per_deg
+            caps = replace(caps, **{n: replace(caps.axis(n), sensor=replace(caps.axis(n).sensor, resolution_deg=step_deg))
+                                    for n in ("az", "el") if caps.axis(n).sensor.kind == "pulse"})
         return caps if self.elevation else caps.single_axis()
+
+    @property
+    def zero_offset_deg(self) -> float:
+        """What the zero point adds to the mechanical azimuth to make it a compass one."""
+        return 180.0 if self.zero == "south" else 0.0
 
 
 class SimSection(_Section):
@@ -261,6 +286,10 @@ class AxisControl(_Section):
     tolerance_deg: float | None = _num(None, gt=0.0)
     restart_deg: float | None = _num(None, gt=0.0)
     max_rate_deg_per_s: float | None = _num(None, gt=0.0)
+    #: the slowest speed at which the motor still turns reliably (BIG-RAS "Minimal
+    #: turn"): motion starts from it and slows to it before stopping, and slow targets
+    #: are followed at it in bursts
+    min_rate_deg_per_s: float | None = _num(None, gt=0.0)
     accel_deg_per_s2: float | None = _num(None, gt=0.0)
     kp_per_s: float = _num(6.0, ge=0.0)
     ki_per_s2: float = _num(1.0, ge=0.0)
@@ -609,6 +638,7 @@ class Config(_Section):
                 "tolerance_deg": _pick(c.tolerance_deg, axis.tolerance_deg),
                 "restart_deg": _pick(c.restart_deg, axis.restart_deg),
                 "max_rate_deg_per_s": _pick(c.max_rate_deg_per_s, axis.max_rate_deg_per_s),
+                "min_rate_deg_per_s": _pick(c.min_rate_deg_per_s, axis.min_rate_deg_per_s),
                 "accel_deg_per_s2": _pick(c.accel_deg_per_s2, axis.accel_deg_per_s2),
                 "kp_per_s": float(c.kp_per_s),
                 "ki_per_s2": float(c.ki_per_s2),
@@ -663,6 +693,7 @@ def _cross_check(cfg: Config) -> list[_Issue]:
         hint = _suggest(cfg.rotator.profile, sorted(PROFILES))
         return [("rotator.profile", f"one of {valid}", cfg.rotator.profile, hint)]
 
+    issues += _menu_issues(cfg, caps)
     caps = cfg.rotator.variant(caps)
     issues += _single_axis_issues(cfg, caps)
     if cfg.rotator.flip is True and not caps.can_flip and caps.has_el:
@@ -801,6 +832,9 @@ def _cross_check(cfg: Config) -> list[_Issue]:
                                f"a number <= {_fmt(cap)} {unit} (profile {caps.name!r} "
                                f"{name} maximum)", v, ""))
         e = eff_ctl[name]
+        if c.min_rate_deg_per_s is not None and c.min_rate_deg_per_s > e["max_rate_deg_per_s"]:
+            issues.append((f"control.{name}.min_rate_deg_per_s", f"a number <= the {name} top speed "
+                           f"{_fmt(e['max_rate_deg_per_s'])} deg/s", c.min_rate_deg_per_s, ""))
         if e["restart_deg"] < e["tolerance_deg"]:
             key = f"control.{name}.restart_deg" if c.restart_deg is not None \
                 else f"control.{name}.tolerance_deg"
@@ -813,6 +847,21 @@ def _cross_check(cfg: Config) -> list[_Issue]:
 
 #: ADC inputs per converter
 _ADC_CHANNELS = {"ads1115": 4, "mcp3008": 8}
+
+
+def _menu_issues(cfg: Config, caps: RotatorCaps) -> list[_Issue]:
+    """The BIG-RAS menu settings in [rotator]: values the controller offers, on a profile
+    that has what they set."""
+    r, issues = cfg.rotator, []
+    if r.max_el_deg is not None and r.max_el_deg not in (90.0, 180.0):
+        issues.append(("rotator.max_el_deg", "90 or 180 (degrees)", r.max_el_deg, ""))
+    if r.max_el_deg is not None and not r.elevation:
+        issues.append(("rotator.max_el_deg", "no max_el_deg (rotator.elevation = false: azimuth only)",
+                       r.max_el_deg, ""))
+    if r.pulses_per_deg is not None and not any(caps.axis(n).sensor.kind == "pulse" for n in ("az", "el")):
+        issues.append(("rotator.pulses_per_deg", f"no pulses_per_deg (profile {caps.name!r} has no pulse "
+                       f"sensor: its sensor is {caps.az.sensor.kind})", r.pulses_per_deg, ""))
+    return issues
 
 
 def _single_axis_issues(cfg: Config, caps: RotatorCaps) -> list[_Issue]:
@@ -1174,6 +1223,8 @@ def _kind(model: type[BaseModel] | None, info: Any, name: str) -> str:
         return "true, false or " + " or ".join(words)
     if bool in args:
         return "true or false"
+    if typing.get_origin(ann) is Literal:  # zero = "north" | "south"
+        return " or ".join(f'"{v}"' for v in typing.get_args(ann))
     if float in args:
         unit = _unit(name)
         return f"a number ({unit})" if unit else "a number"

@@ -56,6 +56,10 @@ def test_settings_page_shows_the_elevation_switch(urc, open_page):
     sel = page.locator("#f-rotator\\.elevation")
     sel.wait_for()
     assert sel.input_value() == "false"
+    # the rest of the BIG-RAS menu is there too
+    assert page.locator("#f-rotator\\.zero").input_value() == "north"
+    assert page.locator("#f-rotator\\.pulses_per_deg").count() == 1
+    assert page.locator("#f-control\\.az\\.min_rate_deg_per_s").count() == 1
     page.click("#settings-validate")
     page.wait_for_timeout(500)
     assert page.locator(".field-error:not(:empty)").count() == 0  # the az-only document is valid as shown

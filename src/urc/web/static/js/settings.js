@@ -91,6 +91,10 @@ function build() {
     field("rotator.flip", "fly over the top (flip)", String(get_(c, "rotator.flip", "auto")), { options: ["auto", "true", "false"] }),
     // BIG-RAS "Elevation: ON/OFF": false = a single-axis rotator, azimuth only
     field("rotator.elevation", "elevation axis", String(get_(c, "rotator.elevation", true)), { options: ["true", "false"] }),
+    // the rest of the BIG-RAS menu: "Max. elevation", "Pulse/degree", "Zero point"
+    field("rotator.max_el_deg", "max elevation (90 or 180)", get_(c, "rotator.max_el_deg"), { placeholder: capsHint("el", "max_deg") }),
+    field("rotator.pulses_per_deg", "pulses per degree (pulse sensors)", get_(c, "rotator.pulses_per_deg"), { step: 1 }),
+    field("rotator.zero", "zero point", get_(c, "rotator.zero", "north"), { options: ["north", "south"] }),
     field("rotator.loop_hz", "control loop Hz", get_(c, "rotator.loop_hz"))));
   form.append(h("fieldset", {}, h("legend", { text: "Limits (degrees; empty = the profile's)" }),
     field("limits.az.min_deg", "az min", get_(c, "limits.az.min_deg"), { placeholder: capsHint("az", "min_deg") }),
@@ -102,8 +106,10 @@ function build() {
     field("offsets.el_deg", "el offset", get_(c, "offsets.el_deg"))));
   form.append(h("fieldset", {}, h("legend", { text: "Speeds (empty = the profile's)" }),
     field("control.az.max_rate_deg_per_s", "az max °/s", get_(c, "control.az.max_rate_deg_per_s"), { placeholder: capsHint("az", "max_rate_deg_per_s") }),
+    field("control.az.min_rate_deg_per_s", "az minimal turn °/s", get_(c, "control.az.min_rate_deg_per_s"), { placeholder: capsHint("az", "min_rate_deg_per_s") }),
     field("control.az.accel_deg_per_s2", "az accel °/s²", get_(c, "control.az.accel_deg_per_s2")),
     field("control.el.max_rate_deg_per_s", "el max °/s", get_(c, "control.el.max_rate_deg_per_s"), { placeholder: capsHint("el", "max_rate_deg_per_s") }),
+    field("control.el.min_rate_deg_per_s", "el minimal turn °/s", get_(c, "control.el.min_rate_deg_per_s"), { placeholder: capsHint("el", "min_rate_deg_per_s") }),
     field("control.el.accel_deg_per_s2", "el accel °/s²", get_(c, "control.el.accel_deg_per_s2"))));
   form.append(h("fieldset", {}, h("legend", { text: "Park" }),
     field("park.az_deg", "park az", get_(c, "park.az_deg"), { placeholder: capsHint("az", "park_deg") }),
