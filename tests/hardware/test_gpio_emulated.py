@@ -423,3 +423,31 @@ def test_power_fail_edge_does_not_wait_for_the_disk(tmp_path):
     disk_free.set()
     pf.saver.join(5.0)
     assert saved == [True]
+
+
+def test_slow_read_stalls_an_emulated_bus_and_the_watchdog_sees_it(tmp_path):
+    """Real time, the control loop on its thread: a bus transaction of the berkeley AS5600
+    hangs 0.7 s (the simulator's slow_read); the tick that made it is seen late and
+    the motors are held (the same as the sim backend's process test in test_app)."""
+    import time
+
+    from urc.clock import RealClock
+    from urc.service.loop import ControlThread
+    data = with_emulation(load_config(next(p for p in EXAMPLES if p.stem == "berkeley"))).to_dict()
+    data["hardware"]["sim"] = {"wind": False}
+    clock = RealClock()
+    rot = build_rotator(Config.from_dict(data), clock, tmp_path, durable_state=False)
+    control = ControlThread(rot, clock).start()
+    try:
+        time.sleep(0.3)
+        assert rot.status().loop["stalls"] == 0
+        rot.hw.extra["world"].inject("az", "slow_read", delay_s=0.7)
+        deadline = time.monotonic() + 10.0
+        while time.monotonic() < deadline and rot.status().loop["stalls"] < 1:
+            time.sleep(0.05)
+        loop = rot.status().loop
+        assert loop["stalls"] == 1 and loop["last_stall_ms"] >= 700, loop
+    finally:
+        control.stop()
+        rot.shutdown()
+        rot.hw.close()

@@ -16,6 +16,7 @@ from __future__ import annotations
 import collections
 import math
 import struct
+import time
 from typing import Any, Callable
 
 from ..parts import MagnetStatus
@@ -406,11 +407,20 @@ class FaultedView:
     on iron: ``sensor_stuck`` and ``sensor_dead`` freeze what the part senses (a jammed
     magnet or wiper, encoder or reed lines that carry nothing any more), ``sensor_jump``
     (deg) offsets it (a slipped coupling; the encoder/reed lines carry the extra edges).
-    A dead chip NACKs instead (see ``feed_sensor``). Everything else is the axis'."""
+    A dead chip NACKs instead (see ``feed_sensor``); ``slow_read`` stalls a chip's bus
+transactions (:meth:`bus_wait`; pins have no bus to stall). Everything else is the axis'."""
 
-    def __init__(self, phys: Any, faults: Callable[[], dict[str, dict[str, Any]]]):
-        self._phys, self._faults = phys, faults
+    def __init__(self, phys: Any, faults: Callable[[], dict[str, dict[str, Any]]],
+                 slow_s: Callable[[], float] | None = None):
+        self._phys, self._faults, self._slow_s = phys, faults, slow_s
         self._frozen: dict[str, float] = {}
+
+    def bus_wait(self) -> None:
+        """A chip's read through a bus that stalls (``slow_read``: clock stretching, a
+        timeout): the transaction takes that long in wall time."""
+        delay_s = self._slow_s() if self._slow_s is not None else 0.0
+        if delay_s > 0.0:
+            time.sleep(delay_s)
 
     def __getattr__(self, name: str) -> Any:
         return getattr(self.__dict__["_phys"], name)

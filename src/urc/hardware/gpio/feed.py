@@ -83,7 +83,16 @@ class Emulation:
     def __init__(self, world: Any, syncs: list, fake_spi: dict[int, Any], parts: dict[str, Any]):
         from .emulate import FaultedView
         self.world, self.syncs, self.fake_spi, self.parts = world, syncs, fake_spi, parts
-        self.views = {n: FaultedView(world.axes[n], lambda n=n: world.faults()[n]) for n in ("az", "el")}
+        self.views = {n: FaultedView(world.axes[n], lambda n=n: world.faults()[n],
+                                     lambda n=n: self._take_slow_read(n)) for n in ("az", "el")}
+
+    def _take_slow_read(self, axis: str) -> float:
+        """One of the reads a ``slow_read`` fault stalls (the simulator keeps the count)."""
+        s = self.world.sensors[axis]
+        if s.fault_slow_reads <= 0:
+            return 0.0
+        s.fault_slow_reads -= 1
+        return s.fault_slow_s
 
     def dead_chip(self, dev: Any, *axes: str) -> None:
         """``dev`` NACKs while a sensor_dead fault is on any of ``axes`` (its chip)."""
@@ -132,7 +141,12 @@ def feed_sensor(name: str, kind: str, sensor: Any, devices: dict[int, Any], cfg:
         sensor.set_reference_deg(phys.sensor_side_deg())
     elif kind == "as5600":
         chip = sensor.part
-        dev = devices[chip.address] = FakeAs5600(SimAs5600(*part).read_raw_angle)
+        raw = SimAs5600(*part).read_raw_angle
+
+        def raw_angle() -> int:
+            phys.bus_wait()
+            return raw()
+        dev = devices[chip.address] = FakeAs5600(raw_angle)
         emu.parts[name] = dev
         emu.dead_chip(dev, name)
     elif kind == "magnetometer":
@@ -150,7 +164,12 @@ def feed_sensor(name: str, kind: str, sensor: Any, devices: dict[int, Any], cfg:
         dip = math.radians(az_p.dip_deg)
         h_gauss, z_gauss = 0.2, 0.2 * math.tan(dip)
 
+        def gravity() -> tuple[float, float, float]:
+            el_view.bus_wait()
+            return acc.read_vector()
+
         def field() -> tuple[float, float, float]:
+            az_view.bus_wait()
             if world.board.held:      # off the boom: the board's own 3-D reading
                 return tuple(c * h_gauss for c in mag.read_vector())  # type: ignore[return-value]
             bx, by, _ = mag.read_vector()
@@ -160,13 +179,13 @@ def feed_sensor(name: str, kind: str, sensor: Any, devices: dict[int, Any], cfg:
             return (v[0] + az_p.hard_iron_x * h_gauss, v[1] + az_p.hard_iron_y * h_gauss, v[2])
 
         if isinstance(chip, Lsm303agrChip):
-            agr = FakeLsm303agr(field, acc.read_vector)
+            agr = FakeLsm303agr(field, gravity)
             devices[Lsm303agrChip.ACCEL], devices[Lsm303agrChip.MAG] = agr.accel, agr.mag
             emu.dead_chip(agr.accel, "az", "el")
             emu.dead_chip(agr.mag, "az", "el")
             emu.parts[name] = agr
         else:
-            dev = devices[chip.address] = FakeLsm303d(field, acc.read_vector)
+            dev = devices[chip.address] = FakeLsm303d(field, gravity)
             emu.dead_chip(dev, "az", "el")      # one chip senses both axes
             emu.parts[name] = dev
         if name == "az":   # the shipped calibration, in this field's units (gauss)
@@ -183,8 +202,10 @@ def feed_sensor(name: str, kind: str, sensor: Any, devices: dict[int, Any], cfg:
         else:
             dev = devices.get(sensor.adc.chip.address) or FakeAds1115({})
             devices[sensor.adc.chip.address] = dev
-        # sensor_dead: the wiper open, the input pulled to 0 V
-        dev.inputs[cfg.adc_channel] = lambda: 0.0 if phys.dead() else ref_v * adc.read_counts() / 1024.0
+        def wiper_v() -> float:
+            phys.bus_wait()
+            return 0.0 if phys.dead() else ref_v * adc.read_counts() / 1024.0   # dead: the wiper open
+        dev.inputs[cfg.adc_channel] = wiper_v
         if ref_ch is not None:
             dev.inputs[ref_ch] = lambda: ref_v
         emu.parts[name] = dev
