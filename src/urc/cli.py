@@ -252,7 +252,11 @@ def _request(url: str | None, config_path: str | None, method: str, path: str, b
     except ValueError:
         data = {"error": resp.text}
     if resp.status_code >= 400:
-        detail = data.get("error") or data.get("detail") or data
+        errors = data.get("errors") if isinstance(data, dict) else None
+        if errors:  # the settings' checks: one problem per key
+            detail = "; ".join(f"{e.get('key') or '-'}: {e.get('message')}" for e in errors)
+        else:
+            detail = data.get("error") or data.get("detail") or data
         raise click.ClickException(f"refused ({resp.status_code}): {detail}")
     return data
 
@@ -417,6 +421,65 @@ def _format_tracking(t: dict | None) -> str:
     for text in ([t["error"]] if t.get("error") else []) + list(t.get("warnings") or []):
         lines.append(f"warning   {text}")
     return "\n".join(lines)
+
+
+@main.group()
+def settings() -> None:
+    """Read and change a running urc's settings (what the web settings page edits: the
+    configuration file, kept across restarts; e.g. the BIG-RAS menu settings)."""
+
+
+def _setting_value(text: str):
+    """A value as TOML writes it (180, 1.5, true, "south"); a bare word is a string."""
+    import tomllib
+
+    try:
+        return tomllib.loads(f"v = {text}")["v"]
+    except tomllib.TOMLDecodeError:
+        return text
+
+
+@settings.command("show")
+@click.argument("key", required=False)
+@_client_options
+def settings_show(key: str | None, url: str | None, config_path: str | None) -> None:
+    """Print the settings (as TOML), or one dotted KEY's value."""
+    from .config import Config
+
+    doc = _request(url, config_path, "GET", "/api/settings")["config"]
+    if key is None:
+        click.echo(Config.from_dict(doc, source="settings").to_toml(), nl=False)
+        return
+    value = doc
+    for part in key.split("."):
+        if not isinstance(value, dict) or part not in value:
+            raise click.ClickException(f"{key}: not set (the default applies; `urc config example` lists them)")
+        value = value[part]
+    click.echo(value)
+
+
+@settings.command("set")
+@click.argument("assignments", nargs=-1, required=True, metavar="KEY=VALUE...")
+@_client_options
+def settings_set(assignments: tuple[str, ...], url: str | None, config_path: str | None) -> None:
+    """Change settings, checked by the same rules as the file, saved and applied (those
+    of [rotator], [hardware]... at the next start), e.g.
+    `urc settings set rotator.pulses_per_deg=1 control.az.min_rate_deg_per_s=1.2`."""
+    doc = _request(url, config_path, "GET", "/api/settings")["config"]
+    for a in assignments:
+        key, sep, text = a.partition("=")
+        if not sep or not key.strip():
+            raise click.UsageError(f"expected KEY=VALUE, got {a!r}")
+        *path, last = key.strip().split(".")
+        table = doc
+        for part in path:
+            table = table.setdefault(part, {})
+            if not isinstance(table, dict):
+                raise click.UsageError(f"{key}: {part} is not a table")
+        table[last] = _setting_value(text.strip())
+    data = _request(url, config_path, "POST", "/api/settings", doc)
+    for msg in data.get("messages", []):
+        click.echo(msg)
 
 
 def _register_tracking_commands() -> None:
