@@ -200,6 +200,14 @@ def _flyable(x: np.ndarray, t: np.ndarray, lo: float, hi: float, budget: AxisLim
     return out
 
 
+def _projected_el_deg(az_deg: np.ndarray, s_az: np.ndarray, s_el: np.ndarray) -> np.ndarray:
+    """Sky-frame elevation 0..180 along the vertical circle at ``az_deg`` (past 90 on the
+    far side of the zenith) nearest the sky track (s_az, s_el); a track a hair below the
+    horizon counts as on it."""
+    a, e = np.radians(s_az), np.radians(np.clip(s_el, 0.0, 90.0))
+    return np.degrees(np.arctan2(np.sin(e), np.cos(e) * np.cos(a - np.radians(az_deg))))
+
+
 def _el_given_az(az_m: np.ndarray, s_az: np.ndarray, s_el: np.ndarray, g: Geometry) -> np.ndarray:
     """The mechanical elevation that points closest to the sky track (s_az, s_el) when the
     azimuth axis stands at ``az_m``: the sky direction projected onto the vertical circle
@@ -207,9 +215,7 @@ def _el_given_az(az_m: np.ndarray, s_az: np.ndarray, s_el: np.ndarray, g: Geomet
     limits. Where the azimuth cannot keep up (the keyhole), sweeping the elevation over
     the top under a lagging azimuth bounds the error by the pass's distance from the
     zenith, instead of the elevation following its own track while the azimuth lags."""
-    alpha = np.radians(az_m + g.az_offset_deg)
-    a, e = np.radians(s_az), np.radians(s_el)
-    theta = np.degrees(np.arctan2(np.sin(e), np.cos(e) * np.cos(a - alpha)))
+    theta = _projected_el_deg(az_m + g.az_offset_deg, s_az, s_el)
     top = g.el_max_deg if g.can_fly_passes_flipped else min(g.el_max_deg, 90.0 - g.el_offset_deg)
     return np.clip(theta - g.el_offset_deg, g.el_min_deg, top)
 
@@ -246,7 +252,7 @@ def _wrap180(x):
 
 
 def _keyhole_holds(t: np.ndarray, s_az: np.ndarray, s_el: np.ndarray, az_budget: AxisLimits,
-                   el_budget: AxisLimits):
+                   el_budget: AxisLimits, peak_rate_deg_per_s: float):
     """The minimax plans of a keyhole pass on a rotator that can flip: (az, el, note) in
     the sky frame (azimuth continuous, elevation past 90 over the top).
 
@@ -259,9 +265,8 @@ def _keyhole_holds(t: np.ndarray, s_az: np.ndarray, s_el: np.ndarray, az_budget:
     on the direction of flight at culmination and sweeping the elevation over the top
     reaches exactly that bound and never exceeds it (a straight flight seen from the
     ground stays within its closest zenith distance of that circle). The alternative,
-    turning the azimuth the half turn with the target (the plain candidates, rate
-    limited), beats the bound only on rotators fast enough for the pass; the planner
-    compares both.
+    turning the azimuth the half turn with the target (``_follow_minimax``), beats the
+    bound only where the azimuth is fast enough for the pass; the planner compares both.
 
     Within the bound, the rest of the pass is flown as close to the track as the axes
     allow: the azimuth leaves the track for the held value only for a window around
@@ -286,11 +291,7 @@ def _keyhole_holds(t: np.ndarray, s_az: np.ndarray, s_el: np.ndarray, az_budget:
 
         def blended(w: np.ndarray):
             az = hold_az + w * rel
-            # the elevation along the vertical circle at az that points closest to the
-            # target (past 90 on the far side of the zenith)
-            sa, se = np.radians(s_az), np.radians(np.clip(s_el, 0.0, 90.0))  # a hair below: on the horizon
-            el = np.degrees(np.arctan2(np.sin(se), np.cos(se) * np.cos(sa - np.radians(az))))
-            return az, el
+            return az, _projected_el_deg(az, s_az, s_el)
 
         options = [(np.inf, np.inf, np.inf)]  # the azimuth held all the way: always an option
         for half_s in HOLD_HALF_WIDTHS_S:
@@ -311,8 +312,8 @@ def _keyhole_holds(t: np.ndarray, s_az: np.ndarray, s_el: np.ndarray, az_budget:
             0.5 - 0.5 * np.cos(np.pi * np.clip((d_s - half_s) / ramp_s, 0.0, 1.0))
         az, el = blended(w)
         off_s = float(np.ptp(t[w < 1.0])) if (w < 1.0).any() else 0.0
-        note = (f"keyhole: the sky track needs {_peak_rate(np.degrees(np.unwrap(np.radians(s_az))), t):.1f} "
-                f"deg/s in azimuth at culmination; the azimuth holds {hold_az % 360.0:.1f} deg there, "
+        note = (f"keyhole: the sky track needs {peak_rate_deg_per_s:.1f} deg/s in azimuth at "
+                f"culmination; the azimuth holds {hold_az % 360.0:.1f} deg there, "
                 f"off the track for {off_s:.0f} s, while the elevation sweeps over the top (no plan over "
                 "the top misses the pass by less than its distance from the zenith)")
         yield az, el, note
@@ -356,9 +357,7 @@ def _follow_minimax(t: np.ndarray, s_az: np.ndarray, s_el: np.ndarray, budget: A
     az = np.clip(u, lo, hi)
     for i in range(len(u) - 2, -1, -1):
         az[i] = min(max(u[i], lo[i], az[i + 1] - step[i]), hi[i], az[i + 1] + step[i])
-    a, e = np.radians(s_az), np.radians(np.clip(s_el, 0.0, 90.0))
-    el = np.degrees(np.arctan2(np.sin(e), np.cos(e) * np.cos(a - np.radians(az))))
-    return az, el
+    return az, _projected_el_deg(az, s_az, s_el)
 
 
 #: candidate unwind moments per pass (every n-th sample)
@@ -431,7 +430,8 @@ def plan_pass(t_s: np.ndarray, sky_az_deg: np.ndarray, sky_el_deg: np.ndarray, g
             base.append((False, *follow, f"keyhole: the sky track needs {peak_rate:.1f} deg/s in azimuth; "
                          "the azimuth turns with it as fast as it can, the elevation making up for its lag"))
         if g.can_fly_passes_flipped:
-            base += [(True, a, e, note) for a, e, note in _keyhole_holds(t, s_az, s_el, az_budget, el_budget)]
+            base += [(True, a, e, note) for a, e, note in
+                     _keyhole_holds(t, s_az, s_el, az_budget, el_budget, peak_rate)]
     candidates = []
     for flip, a, e, keyhole in base:
         a = a - g.az_offset_deg
@@ -475,7 +475,7 @@ def plan_pass(t_s: np.ndarray, sky_az_deg: np.ndarray, sky_el_deg: np.ndarray, g
             best = (cost, flip, fa, fe, travel_s, a, e, worst, not (fa is a and fe is e), keyhole)
     _, flip, a_fly, e_fly, travel_s, a, e, worst, rate_limited, keyhole = best
     if keyhole and not rate_limited:
-        rate_limited = True  # the sky track was faster than the axes: the hold is the smoothing
+        rate_limited = True  # the sky track was faster than the axes: a keyhole plan is the smoothing
         notes.append(f"{keyhole}; worst pointing error {worst:.2f} deg")
     elif rate_limited:
         notes.append(f"the sky track needs {_peak_rate(a, t):.1f} deg/s in azimuth at the fastest (keyhole); "
