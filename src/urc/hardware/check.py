@@ -46,7 +46,7 @@ def check(hw: Any, caps: Any, *, gpio: Any = None, move: bool = False, jog_duty:
         except UrcError as exc:
             problems += 1
             out(f"  {label}: PROBLEM {exc}")
-    for name in ("az", "el"):
+    for name in caps.axes:  # (a single-axis rotator has no elevation parts to check)
         ax = hw.axis(name)
         ax_caps = caps.axis(name)
         v, err = _read(ax.sensor)
