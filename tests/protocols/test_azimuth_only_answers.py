@@ -111,3 +111,34 @@ def test_spid_reports_el_0_and_ignores_up(trc):
     s.receive(encode_rot2_set(160.0, 45.0, 2, 2))
     trc.settle()
     assert abs(trc.truth("az") - 160.0) < 0.3
+
+
+#: each protocol's elevation-only commands and queries, as its clients send them
+ELEVATION_INPUT = {
+    "rotctld": [b"p\n", b"P 10 20\n", b"M UP 50\n", b"M DOWN 50\n", b"\\get_info\n", b"S\n"],
+    "easycomm1": [b"EL20.0\n", b"AZ10.0 EL20.0 UP000 XXX DN000 XXX\n"],
+    "easycomm2": [b"EL\n", b"EL20.0\n", b"MU\n", b"MD\n", b"SE\n", b"AZ EL\n"],
+    "easycomm3": [b"EL\n", b"EL20.0\n", b"MU\n", b"MD\n", b"SE\n", b"GS\n", b"GE\n", b"CR0\n"],
+    "gs232a": [b"B\r", b"C2\r", b"K020\r", b"U\r", b"D\r", b"E\r"],
+    "gs232b": [b"B\r", b"C2\r", b"EL=020\r", b"MU\r", b"MD\r", b"E\r"],
+    "gs232": [b"B\r", b"C2\r", b"K020\r", b"U\r", b"D\r"],
+    "foxdelta": [b"B\r", b"C2\r", b"K020\r"],
+    "urc": [b"RDEL\r\n", b"RDEP\r\n", b"GOEL 20\r\n", b"WREL 20\r\n", b"OVRE\r\n", b"HLTE\r\n", b"LCDC\r\n"],
+    "sarcnet": [b"EL20\n", b"AZ EL\n", b"b\n", b"r\n"],
+    "g4jnt": [b"G100,20\r", b"S\r"],
+}
+
+
+@pytest.mark.parametrize("protocol", sorted(ELEVATION_INPUT))
+def test_every_protocol_takes_elevation_input_without_a_bug_or_a_move(trc, protocol):
+    # (the autouse no_session_bugs fixture fails the test if a session hit an exception)
+    s = make_session(protocol, trc.rot)
+    for cmd in ELEVATION_INPUT[protocol]:
+        s.receive(cmd)
+        if hasattr(s, "tick"):
+            s.tick(trc.clock.now_s())
+    s = trc.run(3.0)
+    assert not s.faults and s.el is None
+    # sarcnet's r drives home (az 0), g4jnt's G100 turns the azimuth; the others stand
+    if protocol not in ("sarcnet", "g4jnt", "rotctld", "easycomm1"):
+        assert abs(trc.truth("az") - 100.0) < 0.3
