@@ -247,9 +247,11 @@ def test_sim_fault_injection_latches_a_fault(make_client):
 
 def test_sim_fault_refused_off_the_simulator(make_client):
     c = make_client()
-    c.bench.rot.hw.backend = "gpio"
+    c.bench.rot.hw.backend = "gpio"          # real iron: no simulated world behind the parts
+    world = c.bench.rot.hw.extra.pop("world")
     r = c.post("/api/sim/fault", json={"axis": "az", "kind": "jam"})
     assert r.status_code == 403 and "simulator" in r.json()["detail"]
+    c.bench.rot.hw.extra["world"] = world
 
 
 def test_sim_fault_not_possible_on_this_profile_is_409(make_client):
@@ -410,3 +412,15 @@ def test_status_names_the_berkeley_state(make_client):
     c = make_client("berkeley")
     cyc = c.get("/api/status").json()["cycle"]
     assert cyc["state"] == "process_tle" and cyc["document"] == "PROCESS_TLE" and cyc["why"]
+
+
+def test_fault_injection_reaches_the_emulated_gpio_backend(make_client):
+    """/api/info says simulator on the emulated gpio backend, and its fault injection
+    works there too (the injected faults act on the emulated parts)."""
+    from conftest import gpio_hardware
+    c = make_client("berkeley", hardware=gpio_hardware("berkeley"))
+    assert c.get("/api/info").json()["simulator"] and c.bench.rot.hw.backend == "gpio"
+    assert c.post("/api/sim/fault", json={"axis": "el", "kind": "sensor_dead"}).status_code == 200
+    s = c.bench.run(0.5)
+    assert ("sensor_dead", "el") in [(f.kind, f.axis) for f in s.faults]
+    assert c.post("/api/sim/clear", json={"axis": "el"}).status_code == 200
