@@ -126,6 +126,27 @@ def test_bridge_through_hamlib_rotctld(upstream, rotctld, tmp_path, model, proto
         down.stop()
 
 
+def test_a_jog_through_hamlib_is_the_controllers_move_stopped_at_urcs_soft_limit(upstream, rotctld, tmp_path):
+    """urc -> rotctld ``M 16 100`` -> Hamlib's Easycomm II backend ``MR`` -> urc's
+    emulation, which turns on towards its own limit (360); the bridged urc's soft limit
+    is 150 and it stops the move there itself."""
+    addr = rotctld(202, str(upstream.work / "ctl-easycomm2"), 9600)
+    down = downstream(tmp_path, "hamlib-jog", bridge_config("rotctld", tcp=addr)
+                      + "[limits.az]\nmin_deg = 0.0\nmax_deg = 150.0\n")
+    try:
+        fly_and_judge(upstream, down, 60.0, 20.0, tol_deg=1.3)
+        assert down.post("/api/move", {"axis": "az", "direction": 1, "speed": 1.0}).status_code == 200
+        # moving on its own: the controller heads for its own limit, not for urc's
+        u = upstream.wait(lambda u: u["moving"] and u["az"]["target_deg"] is not None, timeout_s=10)
+        assert u["az"]["target_deg"] > 300.0, u["az"]
+        s = down.wait(lambda s: s["az"]["mode"] == "holding" and not s["moving"], timeout_s=30)
+        assert not s["faults"], s["faults"]
+        truth = upstream.wait(lambda u: not u["moving"], timeout_s=20)["simulator_truth"]
+        assert 145.0 <= truth["az"]["deg"] <= 150.5, truth["az"]
+    finally:
+        down.stop()
+
+
 def test_bridge_to_hamlib_dummy(rotctld, tmp_path):
     """Model 1 (Hamlib's dummy rotator) as the controller: judged by its own p."""
     addr = rotctld(1)
