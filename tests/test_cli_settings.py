@@ -43,5 +43,8 @@ def test_menu_settings_from_the_cli_persist_and_apply_at_restart(tmp_path):
         assert abs(s["az_deg"] - 180.0) < 1.0  # the south zero point: mechanical 0 points south
         text = urc("status", "--url", u2.url).stdout
         assert "azimuth only" in text and " el " not in text, text
+        assert "going to az 200" in urc("goto", "200", "--url", u2.url).stdout  # no EL needed
+        s = u2.wait(lambda s: abs(s["az_deg"] - 200.0) < 1.0 and not s["moving"], 120)
+        assert s["el"] is None
     finally:
         u2.stop()

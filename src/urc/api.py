@@ -32,7 +32,8 @@ from .web.settings_store import SettingsStore
 
 class GotoRequest(Strict):
     az_deg: AzDeg
-    el_deg: ElDeg
+    #: None: azimuth only (the elevation keeps its target; a single-axis rotator has none)
+    el_deg: ElDeg | None = None
 
 
 class PositionRequest(Strict):
@@ -98,6 +99,8 @@ def create_api(rotator: Rotator, cfg: Config, *, config_path: str | os.PathLike 
 
     @ctl.post("/api/goto")
     async def goto(req: GotoRequest) -> Accepted:
+        if req.el_deg is None:
+            return Accepted(route=rotator.goto_az(req.az_deg))
         return Accepted(route=rotator.goto(req.az_deg, req.el_deg))
 
     @ctl.post("/api/park")

@@ -314,13 +314,15 @@ def status(as_json: bool, url: str | None, config_path: str | None) -> None:
 
 @main.command()
 @click.argument("az", type=float)
-@click.argument("el", type=float)
+@click.argument("el", type=float, required=False)
 @_client_options
-def goto(az: float, el: float, url: str | None, config_path: str | None) -> None:
-    """Point the antenna at AZ EL (degrees)."""
+def goto(az: float, el: float | None, url: str | None, config_path: str | None) -> None:
+    """Point the antenna at AZ [EL] (degrees; without EL the azimuth alone turns, as on
+    a single-axis rotator)."""
     data = _request(url, config_path, "POST", "/api/goto", {"az_deg": az, "el_deg": el})
     route = " -> ".join(f"({a:.1f}, {e:.1f})" for a, e in data.get("route", []))
-    click.echo(f"going to az {az:g} el {el:g}" + (f" via {route}" if route else ""))
+    where = f"az {az:g}" + ("" if el is None else f" el {el:g}")
+    click.echo(f"going to {where}" + (f" via {route}" if route else ""))
 
 
 @main.command()

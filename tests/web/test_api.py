@@ -424,3 +424,14 @@ def test_fault_injection_reaches_the_emulated_gpio_backend(make_client):
     s = c.bench.run(0.5)
     assert ("sensor_dead", "el") in [(f.kind, f.axis) for f in s.faults]
     assert c.post("/api/sim/clear", json={"axis": "el"}).status_code == 200
+
+
+def test_goto_without_elevation_turns_the_azimuth_alone(make_client):
+    c = make_client("tartu-urc", rotator={"profile": "tartu-urc", "elevation": False})
+    assert c.get("/api/info").json()["axes"] == ["az"]
+    r = c.post("/api/goto", json={"az_deg": 42.0})
+    assert r.status_code == 200, r.text
+    assert r.json()["route"][-1] == [42.0, 0.0]  # the mechanical pose: the beam at the horizon
+    c.bench.run(10.0)
+    s = c.get("/api/status").json()
+    assert s["target_az_deg"] == 42.0 and s["el"] is None and s["el_deg"] is None and s["axes"] == ["az"]
