@@ -32,12 +32,15 @@ def iss_pass():
 def test_iss_pass_through_emulated_gpio_within_1_2x_sim(path, tmp_path, iss_pass):
     es, p = iss_pass
     cfg = load_config(path)
-    gpio = cfg.to_dict()["hardware"]["gpio"]
+    doc = cfg.to_dict()
+    gpio = doc["hardware"]["gpio"]
     gpio["emulate"] = True
     profile = cfg.rotator.profile
-    sim = fly_pass_on_sim(profile, es, TARTU, p, tmp_path / "sim")
+    # the example's own rotator and limits on both sides (a single-axis example, its range)
+    own = {"rotator": doc["rotator"], "limits": doc["limits"]}
+    sim = fly_pass_on_sim(profile, es, TARTU, p, tmp_path / "sim", config=own)
     emu = fly_pass_on_sim(profile, es, TARTU, p, tmp_path / "gpio",
-                          config={"hardware": {"backend": "gpio", "gpio": gpio, "sim": {"wind": False}}})
+                          config={**own, "hardware": {"backend": "gpio", "gpio": gpio, "sim": {"wind": False}}})
     rot, stats = emu[0], emu[2]
     assert rot.hw.backend == "gpio" and not rot.status().faults
     assert stats.rms_deg <= 1.2 * sim[2].rms_deg, (stats.rms_deg, sim[2].rms_deg)
