@@ -1,6 +1,7 @@
-"""Hardware PWM pin selection: which motor PWM outputs get the Pi's PWM peripheral
-(config level), and the gpio backend on iron picking the hardware PWM part for them
-(mock pins for the rest, a fake rpi-hardware-pwm for the peripheral)."""
+"""The gpio backend's non-emulated path (what runs on a Pi) on mock pins, with the
+Pi-only libraries' classes standing in for the kernel devices (rpi-hardware-pwm's
+sysfs PWM, spidev, smbus2): hardware PWM pin selection (also at config level), SPI0
+for the MCP3008, the TCA9548A on a real bus object."""
 
 from __future__ import annotations
 
@@ -137,4 +138,60 @@ def test_hardware_pwm_that_cannot_open_falls_back_to_software(tmp_path, caplog):
     assert "GPIO13: hardware PWM1 unavailable" in caplog.text
     hw.el.motor.set_drive(0.5)
     assert hw.el.motor.pwm.pin.state == pytest.approx(0.5)
+    hw.close()
+
+
+class FakeSpiDev:
+    """py-spidev's SpiDev, answering as the MCP3008 emulation does."""
+    opened: list["FakeSpiDev"] = []
+
+    def __init__(self):
+        from urc.hardware.gpio.emulate import FakeMcp3008
+        self.chip = FakeMcp3008({0: lambda: 1.0, 1: lambda: 2.0})
+        self.port = self.device = self.max_speed_hz = self.mode = None
+        self.closed = False
+        self.opened.append(self)
+
+    def open(self, port, device):
+        self.port, self.device = port, device
+
+    def xfer2(self, data):
+        return self.chip.xfer2(list(data))
+
+    def close(self):
+        self.closed = True
+
+
+class SharedFakeSMBus:
+    """smbus2.SMBus(n) on iron: one fake bus per number, with the Berkeley chips behind a mux."""
+    buses: dict = {}
+
+    def __new__(cls, n):
+        from urc.hardware.gpio.emulate import FakeAs5600, FakeSMBus
+        if n not in cls.buses:
+            bus = FakeSMBus()
+            bus.mux_channel(0x70, 0)[0x36] = FakeAs5600(lambda: 1024)    # az: 90 deg
+            bus.mux_channel(0x70, 1)[0x36] = FakeAs5600(lambda: 512)     # el: 45 deg
+            cls.buses[n] = bus
+        return cls.buses[n]
+
+
+def test_iron_opens_spi0_and_the_i2c_mux_through_their_libraries(iron, tmp_path, monkeypatch):
+    """The non-emulated wiring of the MCP3008 (spidev) and the TCA9548A (smbus2), with
+    the libraries' classes standing in for the kernel devices."""
+    import smbus2
+    FakeSpiDev.opened = []
+    monkeypatch.setitem(sys.modules, "spidev", types.SimpleNamespace(SpiDev=FakeSpiDev))
+    SharedFakeSMBus.buses = {}
+    monkeypatch.setattr(smbus2, "SMBus", SharedFakeSMBus)
+    hw = iron("g4jnt", tmp_path)
+    (spi,) = FakeSpiDev.opened                       # one chip for both pots, on CE0, mode 0, 1 MHz
+    assert (spi.port, spi.device, spi.mode, spi.max_speed_hz) == (0, 0, 0, 1_000_000)
+    assert hw.az.sensor.adc.read_counts() == int(1024 * 1.0 / 3.3)
+    assert hw.el.sensor.adc.read_counts() == int(1024 * 2.0 / 3.3)
+    hw.close()
+    assert spi.closed
+    hw = iron("berkeley", tmp_path / "b")
+    assert hw.az.sensor.read_deg() == pytest.approx(90.0) and hw.el.sensor.read_deg() == pytest.approx(45.0)
+    assert SharedFakeSMBus.buses[1].devices[0x70].control == 0x02      # el read last: channel 1
     hw.close()
