@@ -194,6 +194,25 @@ def test_a_north_crossing_pass_flies_over_the_top_through_sky_frame_protocols(pr
     assert rig.truth()[1] > 90.0 and rig.client.over_top(), rig.truth()
 
 
+def test_a_restart_over_the_top_knows_the_side_of_the_zenith(tmp_path):
+    """Easycomm reports the antenna at mechanical (308, 110) as the sky direction
+    (128, 70): after a restart, the state record (not the report) tells the side."""
+    rig = BridgedRig("easycomm3", "g5500", tmp_path)
+    rig.downstream.goto_pose(308.0, 110.0)
+    s = rig.run(120.0, until=settled)
+    assert settled(s) and not s.faults, (s.faults, s.events)
+    assert rig.truth() == pytest.approx((308.0, 110.0), abs=1.5)
+    rig.restart_downstream()
+    s = rig.run(2.0)
+    assert not s.faults and s.position_known, (s.faults, s.events)
+    assert (s.az.pos_deg, s.el.pos_deg) == pytest.approx(rig.truth(), abs=1.5), (s.az, s.el, rig.truth())
+    # and it flies on from there: back over the top to the unflipped side
+    rig.downstream.goto_pose(100.0, 30.0)
+    s = rig.run(120.0, until=settled)
+    assert settled(s) and not s.faults, (s.faults, s.events)
+    assert rig.truth() == pytest.approx((100.0, 30.0), abs=1.5)
+
+
 # ------------------------------------------------------------ jogs: native moves
 @pytest.mark.parametrize("protocol, move", [("gs232b", b"X2\rR\r"), ("easycomm3", b"VR4900\n"),
                                             ("easycomm2", b"MR\n"), ("rotctld", b"M 16 50\n")])

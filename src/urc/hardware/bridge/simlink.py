@@ -111,11 +111,6 @@ class BridgedRig:
         from ...app import build_rotator, settings_from_config
         from ...clock import VirtualClock
         from ...config import Config
-        from ...persistence import StateStore
-        from ...protocols.registry import make_session
-        from ...service import Rotator
-        from ..interfaces import Hardware
-        from . import bridge_axes
         from .client import ClientOptions
         from .dialects import make_dialect
 
@@ -125,14 +120,24 @@ class BridgedRig:
         down = {"rotator": {"profile": profile},
                 "hardware": {"backend": "bridge", "bridge": {"protocol": protocol, "serial": "/dev/null"}},
                 **(downstream_config or {})}
-        cfg = Config.from_dict(down)
-        settings = settings_from_config(cfg)
+        self.settings = settings_from_config(Config.from_dict(down))
         self.dialect = make_dialect(protocol)
-        self.client = BridgeClient(self.dialect, client_options or
-                                   ClientOptions(over_top=settings.caps.el.max_deg > 90.0))
-        self.session = make_session(protocol, self.upstream)
-        link_baud = None if protocol == "rotctld" else (baud or self.dialect.default_baud)
-        self.link = SimLink(self.client, self.session, link_baud)
+        self._client_options = client_options or ClientOptions(over_top=self.settings.caps.el.max_deg > 90.0)
+        self._baud = None if protocol == "rotctld" else (baud or self.dialect.default_baud)
+        self._protocol, self._state_dir = protocol, state_dir / "down"
+        self._state_dir.mkdir(parents=True, exist_ok=True)
+        self._start_downstream()
+
+    def _start_downstream(self) -> None:
+        from ...persistence import StateStore
+        from ...protocols.registry import make_session
+        from ...service import Rotator
+        from ..interfaces import Hardware
+        from . import bridge_axes
+
+        self.client = BridgeClient(self.dialect, self._client_options)
+        self.session = make_session(self._protocol, self.upstream)
+        self.link = SimLink(self.client, self.session, self._baud)
         az, el = bridge_axes(self.client, self.clock)
         # a first report before the downstream rotator restores (as build_bridge_hardware waits)
         for _ in range(200):
@@ -141,9 +146,14 @@ class BridgedRig:
             if self.client._pos is not None:
                 break
             self.clock.advance(1.0 / self.upstream.caps.loop_hz)
-        (state_dir / "down").mkdir(parents=True, exist_ok=True)
-        self.downstream = Rotator(settings, Hardware("bridge", az, el), self.clock,
-                                  StateStore(state_dir / "down" / "state.json", durable=False))
+        self.downstream = Rotator(self.settings, Hardware("bridge", az, el), self.clock,
+                                  StateStore(self._state_dir / "state.json", durable=False))
+
+    def restart_downstream(self) -> None:
+        """The bridged urc stops (its state saved) and starts again on the same
+        controller: a new client, link and rotator, restored from that state."""
+        self.downstream.shutdown()
+        self._start_downstream()
 
     @property
     def period_s(self) -> float:
