@@ -131,8 +131,8 @@ class _Axis:
         elif self.sp.speed_cap_deg_per_s is not None and self.sp.rate_deg_per_s == 0.0:
             # a jog (Rotator.move): the controller's own move, ended at posted_deg (the
             # limit or a zone's edge) by urc
-            self.positioner.move(self.posted_deg, min(1.0, self.sp.speed_cap_deg_per_s / self.tuning.max_rate_deg_per_s),
-                                 self.sp.speed_cap_deg_per_s)
+            cap = self.sp.speed_cap_deg_per_s
+            self.positioner.move(self.posted_deg, min(1.0, cap / self.tuning.max_rate_deg_per_s), cap)
         else:
             self.positioner.goto(self.posted_deg)
 
