@@ -384,3 +384,36 @@ def test_keyhole_plan_is_the_minimax_over_the_azimuth_speed(leo_sets, profile, d
         least = min(least, 90.0 - p.max_el_deg)
     assert worst <= least + 0.005, (worst, least)
     assert plan.peak_az_rate_deg_per_s <= RATE_BUDGET * c.az.max_rate_deg_per_s + 1e-6
+
+
+def test_an_arc_that_cannot_be_planned_is_followed_and_not_replanned_at_every_update(tmp_path, station,
+                                                                                      monkeypatch):
+    """Planning a Sun's arc costs tens of milliseconds on the API's event loop: when it
+    fails, the Sun is followed on the side the antenna is on, and planning is tried again
+    a minute later, not five times a second."""
+    from urc.app import build_rotator
+    from urc.clock import VirtualClock
+    from urc.config import Config
+    from urc.tracking import tracker as tracker_mod
+    from urc.tracking.planner import PlanError
+    from urc.tracking.targets import SunTarget
+
+    calls = []
+
+    def refuse(*args, **kw):
+        calls.append(args[0][0])
+        raise PlanError("refused for the test")
+    monkeypatch.setattr(tracker_mod, "plan_pass", refuse)
+    clock = VirtualClock(0.0)
+    rot = build_rotator(Config.from_dict({"rotator": {"profile": "tartu-urc"}}), clock, tmp_path, fast_virtual=True)
+    followed = []
+    track = rot.track
+    monkeypatch.setattr(rot, "track", lambda *a, **kw: (followed.append(a), track(*a, **kw)))
+    trk = tracker_mod.Tracker(rot, station, lambda now_s: T0_UNIX_S + now_s)
+    trk.track(SunTarget(station), 0.0)
+    for i in range(100):  # 20 s of updates
+        trk.step(0.2 * i)
+    assert len(calls) == 1 and trk.arc is None
+    assert len(followed) > 80 and not trk.last_error  # followed all the same (an update per 0.2 s)
+    trk.step(tracker_mod.ARC_STEP_S + 1.0)
+    assert len(calls) == 2

@@ -78,6 +78,7 @@ class Tracker:
         #: goes on past its end (cut at ARC_HORIZON_S, not at the horizon): re-planned then
         self._arc: Plan | None = None
         self._arc_goes_on = False
+        self._arc_retry_u = -math.inf  # no arc could be planned: not tried again before then
 
     # ------------------------------------------------------------------ commands
     def track(self, target: Target, now_s: float) -> None:
@@ -101,6 +102,7 @@ class Tracker:
         self.target = None
         self.job = None
         self._arc = None
+        self._arc_retry_u = -math.inf
         self.follow_satellite = False
         self.last_error = ""
 
@@ -259,12 +261,15 @@ class Tracker:
         if not hasattr(self.target, "look") or isinstance(self.target, SatelliteTarget) \
                 or not self.rot.settings.caps.has_el:  # a single-axis rotator: no side to choose
             return None
-        if self._arc is None or (self._arc_goes_on and u > self._arc.t_s[-1]):
+        due = u >= self._arc_retry_u if self._arc is None else self._arc_goes_on and u > self._arc.t_s[-1]
+        if due:
             try:
                 self._arc = self._plan_arc(u, continuing=self._arc is not None)
             except PlanError as exc:
                 log.warning("%s: no plan for its arc (%s); followed on the side it is on", self.target.name, exc)
                 self._arc = None
+            if self._arc is None:  # planning costs tens of ms: not at every update
+                self._arc_retry_u = u + ARC_STEP_S
         return self._arc
 
     def _plan_arc(self, u: float, continuing: bool) -> Plan | None:
