@@ -145,7 +145,7 @@ def test_constants_are_the_rotators_calibration_and_persist(g4, bench):
     b.run(0.1)                                  # the rotator applies it at its next tick
     # Z applied to the bearing the rotator reports (a re-reference: nothing moves)
     assert b.rot.status().az_deg == pytest.approx(before + 5.0, abs=0.3)
-    assert b.rot.hw.az.sensor.calibration()["Z"] == pytest.approx(5.0, abs=0.1)   # (read with noise)
+    assert b.rot.hw.az.sensor.calibration()["Z"] == pytest.approx(5.0, abs=1e-9)  # as sent, in 0.1 deg
     # another connection, then a restart of urc: the same constants
     assert G4jntSession(b.rot).receive(b"?\r") == [b"Z 50\r\nM 18432\r\nC -504\r\nK 2048\r\n"]
     b.run(2.0)
