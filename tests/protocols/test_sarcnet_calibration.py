@@ -9,7 +9,6 @@ soft iron and accelerometer errors the shipped constants do not know about.
 from __future__ import annotations
 
 import math
-from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -32,7 +31,7 @@ IRON = dict(soft_iron=(1.15, 0.08, 0.03, 0.08, 0.90, -0.05, 0.03, -0.05, 1.02), 
 
 def disturb(world) -> None:
     """The magnetic conditions near the sensor change (the document's reason to redo it)."""
-    world.board.params = replace(world.board.params, **IRON)
+    world.board.change_conditions(**IRON)
 
 
 def operator(world, session, tick, directions=None, wiggles=(0.0, 8.0, -8.0), steps=7):

@@ -14,6 +14,7 @@ from a seeded ``random.Random``, so a run is exactly repeatable. Injected faults
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import random
 import time
@@ -207,6 +208,17 @@ class SensorBoard:
     def release(self) -> None:
         """Back on the boom."""
         self.rotation = None
+
+    def change_conditions(self, **changes: Any) -> None:
+        """The magnetic conditions near the board (or its accelerometer) change: any of
+        :class:`SimSensorParams`' hard_iron_x/y/z, soft_iron, dip_deg, accel_bias_g,
+        accel_scale (the reason the document gives to calibrate again)."""
+        allowed = {"hard_iron_x", "hard_iron_y", "hard_iron_z", "soft_iron", "dip_deg",
+                   "accel_bias_g", "accel_scale"}
+        unknown = set(changes) - allowed
+        if unknown:
+            raise ValueError(f"unknown board conditions {sorted(unknown)}; expected {sorted(allowed)}")
+        self.params = dataclasses.replace(self.params, **changes)
 
     def magnetic(self, mounted: tuple[float, float, float]) -> tuple[float, float, float]:
         """The magnetometer's reading before noise: soft then hard iron on the field."""
