@@ -732,8 +732,11 @@ def apply_twelve_direction(rotator: Any, result: dict[str, Any]) -> bool:
         (_sensor(rotator, "az"), {"hard_iron_x": hx, "hard_iron_y": hy, "hard_iron_z": hz,
                                   "mag_matrix": result["mag_matrix"], "soft_iron": [1.0, 0.0, 0.0, 1.0],
                                   **accel})]
-    el_sensor = _sensor(rotator, "el")
-    if "accel_offset" in el_sensor.calibration():
+    try:
+        el_sensor = _sensor(rotator, "el")
+    except ValueError:          # azimuth only: the compass carries its own accelerometer
+        el_sensor = None
+    if el_sensor is not None and "accel_offset" in el_sensor.calibration():
         steps.append((el_sensor, accel))
     with getattr(rotator, "lock", contextlib.nullcontext()):
         done: list[tuple[Any, dict[str, Any]]] = []

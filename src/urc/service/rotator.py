@@ -925,8 +925,8 @@ class Rotator:
         fault). The sensor is not re-referenced: that would fold one noisy reading back
         into the constant just set. Returns the new mechanical angle."""
         self._refuse_unless_local(local)
-        if axis not in AXES:
-            raise CommandRejected(f"axis must be az or el, got {axis!r}")
+        if axis not in self.axes:
+            raise CommandRejected(f"no {axis!r} axis on this rotator (it has {', '.join(self.axes)})")
         ax = self.axes[axis]
         if not ax.caps.sensor.absolute:
             raise CommandRejected(f"{axis}: an incremental sensor has no reading to adopt; "
