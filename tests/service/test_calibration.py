@@ -90,6 +90,24 @@ def test_fit_ellipsoid_refuses_too_few_directions():
         cal.fit_ellipsoid(flat)
 
 
+def test_twelve_directions_take_only_still_readings():
+    """SARCNET: "you must not bump the sensor": readings that jump between ticks neither
+    tick a direction off nor enter the fits; held still, a direction is done after
+    HOLD_SAMPLES readings in a row, and each is counted once."""
+    t = cal.TwelveDirectionCalibration()
+    down_x, along_field = (1.0, 0.02, 0.0), (0.42, 0.0, 0.91)
+    for k in range(20):                          # shaken: alternating readings
+        jolt = 0.2 if k % 2 else -0.2
+        assert t.feed((2.0 + jolt, 0.0, 1.0), (1.0 + jolt, 0.0, 0.0)) is None
+    assert not t.done and not t.mag
+    got = [t.feed((2.0, 0.0, 1.0), down_x) for _ in range(cal.TwelveDirectionCalibration.HOLD_SAMPLES + 3)]
+    assert got.count(("+X", "gravity")) == 1 and got[cal.TwelveDirectionCalibration.HOLD_SAMPLES] == ("+X", "gravity")
+    assert t.done == [("+X", "gravity")] and len(t.mag) == len(got) - 1   # the first has nothing to compare
+    with pytest.raises(CalibrationError, match="1 of 12 directions done"):
+        t.result()
+    assert t.feed((0.0, 0.0, 0.0), along_field) is None          # moved: a jump
+
+
 def test_circular_mean_across_north():
     assert ang_diff(cal.circular_mean_deg([359.0, 1.0, 0.5, 359.5]), 0.0) == pytest.approx(0.0, abs=1e-9)
 

@@ -22,7 +22,10 @@ export async function loadCalibration() {
   const table = $("cal-sensors");
   clear(table);
   for (const [axis, d] of Object.entries(axes)) {
-    const consts = Object.entries(d.calibration).map(([k, v]) => `${k} = ${typeof v === "number" ? Number(v.toPrecision(6)) : v}`).join(", ");
+    // numbers to 6 digits; vectors and matrices (the SARCNET 3-D calibration) to 4 each
+    const show = (v) => typeof v === "number" ? Number(v.toPrecision(6))
+      : Array.isArray(v) ? `[${v.map((x) => Number(Number(x).toPrecision(4))).join(" ")}]` : v;
+    const consts = Object.entries(d.calibration).map(([k, v]) => `${k} = ${show(v)}`).join(", ");
     table.append(h("tr", {}, h("td", { text: axis }), h("td", { text: `${d.kind}${d.absolute ? " (absolute)" : " (incremental)"}, ${fmt(d.resolution_deg, 3)}°/count` }),
       h("td", { class: "muted small", text: consts || "no constants" })));
   }
