@@ -133,7 +133,7 @@ def test_rotctld_as_proxy_in_front_of_urc(urc, model):
 def test_out_of_range_is_refused_and_nothing_moves(urc):
     port = f"127.0.0.1:{urc.rotctld_port}"
     before = urc.status()
-    res = subprocess.run([ROTCTL, "-m", "2", "-r", port, "P", "10", "95"], capture_output=True, text=True, timeout=20)
+    res = subprocess.run([ROTCTL, "-m", "2", "-r", port, "P", "10", "240"], capture_output=True, text=True, timeout=20)
     assert res.returncode != 0 or "error" in (res.stdout + res.stderr).lower()
     time.sleep(0.5)
     after = urc.status()
