@@ -27,6 +27,9 @@ class SensorCaps:
     absolute: bool
     #: absolute sensors that only know the angle modulo 360 (AS5600, compass) set 360.
     modulo_deg: float | None = None
+    #: readings that fold at this angle: a reading r may also be 2 * fold - r (a
+    #: controller reporting the sky direction, el 0..90, for an antenna over the top)
+    fold_deg: float | None = None
     #: expected 1-sigma reading noise, degrees (0 for clean digital sensors).
     noise_deg: float = 0.0
 

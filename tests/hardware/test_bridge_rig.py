@@ -213,6 +213,25 @@ def test_a_restart_over_the_top_knows_the_side_of_the_zenith(tmp_path):
     assert rig.truth() == pytest.approx((100.0, 30.0), abs=1.5)
 
 
+@pytest.mark.parametrize("crash_at_el_deg", [80.0, 95.0, 110.0])
+def test_a_crash_on_the_way_over_the_top_ends_exact_or_uncertain(crash_at_el_deg, tmp_path):
+    """Killed while the antenna flies over the top (a report (az, el) means that or
+    (az + 180, 180 - el)): the restart finds the side in the records written on the way,
+    or calls the position uncertain; never known and on the wrong side of the zenith.
+    Azimuth 0..360: no wrap to keep records for (with the old code the restart at
+    el 95 said (45, 82), known, for a truth of (225, 98))."""
+    rig = BridgedRig("easycomm3", "g5500", tmp_path,
+                     downstream_config={"limits": {"az": {"min_deg": 0.0, "max_deg": 360.0}}})
+    rig.downstream.goto_pose(308.0, 110.0)
+    rig.run(120.0, until=lambda s: rig.truth()[1] >= crash_at_el_deg)
+    rig.restart_downstream(crash=True)
+    s = rig.run(1.0)
+    if s.position_known:
+        assert (s.az.pos_deg, s.el.pos_deg) == pytest.approx(rig.truth(), abs=2.0), (s.az, s.el, rig.truth())
+    else:
+        assert "uncertain" in " ".join(s.events)
+
+
 # ------------------------------------------------------------ jogs: native moves
 @pytest.mark.parametrize("protocol, move", [("gs232b", b"X2\rR\r"), ("easycomm3", b"VR4900\n"),
                                             ("easycomm2", b"MR\n"), ("rotctld", b"M 16 50\n")])

@@ -12,8 +12,10 @@ uncertain by half the window), so writes are needed only when motion starts, eve
 instead of one per tick (SD cards wear out).
 
 Only axes whose position a restart cannot read back need this: incremental sensors
-(encoders, pulse counters) and absolute sensors that repeat within the range (a compass
-or AS5600 on a rotator with an overlap: the record tells which turn).
+(encoders, pulse counters), absolute sensors that repeat within the range (a compass
+or AS5600 on a rotator with an overlap: the record tells which turn) and readings that
+fold at the zenith (a bridged controller reporting sky directions: the record tells
+which side).
 """
 
 from __future__ import annotations
@@ -46,7 +48,8 @@ def needs_record(ax: Any) -> bool:
     if not s.absolute:
         return True
     lo, hi = ax.limits
-    return s.modulo_deg is not None and hi - lo > s.modulo_deg
+    return (s.modulo_deg is not None and hi - lo > s.modulo_deg) or \
+        (s.fold_deg is not None and lo < s.fold_deg < hi)
 
 
 def coast_deg(ax: Any, rate_deg_per_s: float) -> float:

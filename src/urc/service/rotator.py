@@ -345,8 +345,8 @@ class Rotator:
             ax.meas_deg = anchor
             if ax.read(0.0) is None:
                 self._event(f"{name}: sensor unreadable at start-up ({ax.sensor_error})")
-            elif ax.modulo is not None:
-                self._check_wrap_ambiguity(ax, saved, win, lost_axis)
+            else:
+                self._check_ambiguity(ax, saved, win, lost_axis)
             if saved and saved.get("uncertainty_deg"):
                 ax.uncertainty_deg += float(saved["uncertainty_deg"])
             ax.law = replace(ax.law, ref_deg=ax.meas_deg, last_meas_deg=ax.meas_deg)
@@ -376,25 +376,32 @@ class Rotator:
             ax.uncertainty_deg = (win[1] - win[0]) / 2.0 + precord.estimate_slack_deg(ax)
         ax.set_reference(anchor)
 
-    def _check_wrap_ambiguity(self, ax: _Axis, saved: dict | None, win: tuple[float, float] | None,
-                              lost: bool) -> None:
+    def _check_ambiguity(self, ax: _Axis, saved: dict | None, win: tuple[float, float] | None,
+                         lost: bool) -> None:
+        """A reading that could also mean another position within the limits (another
+        turn of a sensor modulo 360; the other side of the zenith of a folded report):
+        the record must tell which, else the axis is uncertain by the distance."""
         lo, hi = ax.limits
-        alternatives = [ax.meas_deg + k * ax.modulo for k in (-1, 1)
-                        if lo <= ax.meas_deg + k * ax.modulo <= hi]
+        fold = ax.caps.sensor.fold_deg
+        alternatives = [ax.meas_deg + k * ax.modulo for k in (-1, 1)] if ax.modulo is not None else []
+        if fold is not None and abs(ax.meas_deg - fold) > precord.hold_band_deg(ax):
+            alternatives.append(2.0 * fold - ax.meas_deg)
+        alternatives = [a for a in alternatives if lo <= a <= hi]
         if not alternatives:
             return
+        apart_deg = max(abs(a - ax.meas_deg) for a in alternatives)
+        slack = precord.estimate_slack_deg(ax)
         if saved is None:
             if lost:
-                ax.uncertainty_deg = ax.modulo
+                ax.uncertainty_deg = apart_deg
             else:
                 self._event(f"{ax.name}: first start in this state directory; assuming "
                             f"{ax.meas_deg:.1f} deg, nearest park (also possible: "
                             f"{', '.join(f'{a:.1f}' for a in alternatives)})")
-        elif win is not None and any(win[0] - precord.estimate_slack_deg(ax) <= a
-                                     <= win[1] + precord.estimate_slack_deg(ax) for a in alternatives):
-            ax.uncertainty_deg = ax.modulo  # the record cannot tell which turn
+        elif win is not None and any(win[0] - slack <= a <= win[1] + slack for a in alternatives):
+            ax.uncertainty_deg = apart_deg  # the record cannot tell which
         elif win is None and saved.get("moving"):
-            ax.uncertainty_deg = ax.modulo
+            ax.uncertainty_deg = apart_deg
 
     # ====================================================================== the tick
     def tick(self, deadline_s: float | None = None) -> Status:

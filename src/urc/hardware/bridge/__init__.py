@@ -17,7 +17,7 @@ from typing import Any
 from ...caps import RotatorCaps
 from ...clock import Clock
 from ..interfaces import AxisHardware, Hardware
-from .client import BridgeClient, ClientOptions
+from .client import BridgeClient, ClientOptions, folds_at_zenith
 from .dialects import BRIDGE_PROTOCOLS, Dialect, make_dialect
 from .link import LinkRunner, port_url
 
@@ -49,7 +49,7 @@ class BridgeAxis:
     # ---- PositionSensor
     @property
     def caps(self):
-        return report_caps(self.client.dialect, self.name)
+        return report_caps(self.client.dialect, self.name, self.client.options.over_top)
 
     def read_deg(self) -> float:
         return self.client.reading(self.name, self.clock.now_s()) + self.offset_deg
@@ -98,13 +98,16 @@ class BridgeAxis:
         return self.client.sample_interval_s()
 
 
-def report_caps(dialect: Dialect, axis: str):
+def report_caps(dialect: Dialect, axis: str, over_top: bool = False):
     """What the controller's position reports are, as a sensor: absolute, the protocol's
-    step; azimuth modulo 360 where the controller reports compass azimuth (rotctld)."""
+    step; azimuth modulo 360 where the controller reports compass azimuth (rotctld);
+    elevation folded at the zenith where such a report cannot tell the side of a rotator
+    that flies ``over_top``."""
     from ...caps import SensorCaps
 
     return SensorCaps(kind="controller", resolution_deg=dialect.report_resolution_deg, absolute=True,
-                      modulo_deg=dialect.az_modulo_deg if axis == "az" else None)
+                      modulo_deg=dialect.az_modulo_deg if axis == "az" else None,
+                      fold_deg=90.0 if axis == "el" and folds_at_zenith(dialect, over_top) else None)
 
 
 def bridge_axes(client: BridgeClient, clock: Clock, wake=None) -> tuple[AxisHardware, AxisHardware]:

@@ -67,6 +67,13 @@ class ClientOptions:
     over_top: bool = False
 
 
+
+def folds_at_zenith(dialect: Dialect, over_top: bool) -> bool:
+    """Reports are sky directions (compass azimuth, el 0..90) of a rotator that flies
+    over the top: a report cannot tell the side of the zenith (the client follows it
+    from report to report; the state records keep it across a restart)."""
+    return bool(over_top and dialect.az_modulo_deg)
+
 class BridgeClient:
     def __init__(self, dialect: Dialect, options: ClientOptions | None = None):
         self.dialect = dialect
@@ -204,7 +211,7 @@ class BridgeClient:
     def assume_over_top(self, over_top: bool) -> None:
         """The side of the zenith a saved state names (start-up, before any motion):
         reports already unfolded to the other side are turned over."""
-        if not (self.options.over_top and self.dialect.az_modulo_deg):
+        if not self.folds_at_zenith():
             return
         with self._lock:
             ref_el = 135.0 if over_top else 45.0
@@ -221,6 +228,9 @@ class BridgeClient:
             if self._prev_pos is not None:
                 self._prev_pos = turn(self._prev_pos)
             self._recent = collections.deque((t, turn(p)) for t, p in self._recent)
+
+    def folds_at_zenith(self) -> bool:
+        return folds_at_zenith(self.dialect, self.options.over_top)
 
     def over_top(self) -> bool:
         """The antenna is over the top (its last report unfolded past el 90)."""

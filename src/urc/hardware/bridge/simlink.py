@@ -149,10 +149,12 @@ class BridgedRig:
         self.downstream = Rotator(self.settings, Hardware("bridge", az, el), self.clock,
                                   StateStore(self._state_dir / "state.json", durable=False))
 
-    def restart_downstream(self) -> None:
+    def restart_downstream(self, crash: bool = False) -> None:
         """The bridged urc stops (its state saved) and starts again on the same
-        controller: a new client, link and rotator, restored from that state."""
-        self.downstream.shutdown()
+        controller: a new client, link and rotator, restored from that state.
+        ``crash``: it dies instead (kill -9: only the records already written count)."""
+        if not crash:
+            self.downstream.shutdown()
         self._start_downstream()
 
     @property
