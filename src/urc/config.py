@@ -502,6 +502,10 @@ class PanelSection(_Section):
     """The local front panel: buttons, LEDs, beeper, display, IR remote."""
 
     enabled: bool = False
+    #: how the buttons are wired (urc.frontpanel.controls.LAYOUTS): "labelled", each
+    #: does its name; "big-ras", the BIG-RAS five-button row named by its two-axis
+    #: functions, which changes with elevation off (the far left button turns left)
+    layout: Literal["labelled", "big-ras"] = "labelled"
     #: gpiozero's MockFactory instead of real pins (no hardware; tests, a laptop)
     emulate: bool = False
     #: jog speed as a fraction of the axis' top speed; ``slow`` held: slow_speed

@@ -13,19 +13,21 @@ BEEPER = 18
 
 
 class PanelRig:
-    def __init__(self, bench, display=None, ir=None, power_on=True, held=()):
+    def __init__(self, bench, display=None, ir=None, power_on=True, held=(), buttons=None,
+                 layout="labelled"):
         self.bench = bench
         self.rot = bench.rot
         self.factory = MockFactory()
-        self.panel = FrontPanel(self.rot, pin_factory=self.factory, buttons=BUTTONS, leds=LEDS,
-                                beeper_pin=BEEPER, display=display, ir=ir)
+        self.buttons = buttons or BUTTONS
+        self.panel = FrontPanel(self.rot, pin_factory=self.factory, buttons=self.buttons, leds=LEDS,
+                                beeper_pin=BEEPER, display=display, ir=ir, layout=layout)
         for name in held:  # buttons already down at power-on
             self.pin(name).drive_low()
         if power_on:
             self.panel.power_on()
 
     def pin(self, button: str):
-        return self.factory.pin(BUTTONS[button])
+        return self.factory.pin(self.buttons[button])
 
     def led(self, name: str) -> bool:
         return bool(self.factory.pin(LEDS[name]).state)
@@ -45,8 +47,8 @@ class PanelRig:
         return self.bench.run(seconds, until=until, on_tick=tick)
 
     def settle(self, timeout_s: float = 60.0):
-        return self.run(timeout_s, until=lambda s: s.az.mode in ("holding", "idle")
-                        and s.el.mode in ("holding", "idle") and not s.moving)
+        return self.run(timeout_s, until=lambda s: not s.moving and all(
+            a.mode in ("holding", "idle") for a in (s.az, s.el) if a is not None))
 
 
 @pytest.fixture

@@ -38,7 +38,7 @@ def build_panel(cfg, rotator, dispatch: Callable[..., None] | None = None):
     buttons = {k: v for k, v in p.buttons.model_dump().items() if v is not None}
     leds = {k: v for k, v in p.leds.model_dump().items() if v is not None}
     panel = FrontPanel(rotator, pin_factory=pin_factory(p.emulate), buttons=buttons, leds=leds,
-                       beeper_pin=p.beeper, display=display, ir=ir, jog_speed=p.jog_speed,
+                       beeper_pin=p.beeper, display=display, ir=ir, layout=p.layout, jog_speed=p.jog_speed,
                        slow_speed=p.slow_speed, bounce_time_s=None if p.emulate or not p.bounce_s else p.bounce_s,
                        dispatch=dispatch)
     panel.power_on()

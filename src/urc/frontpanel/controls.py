@@ -9,6 +9,11 @@ a stop is accepted from anyone.
 Actions: ``cw``/``ccw``/``up``/``down`` jog while held and stop that axis on release
 (hold to jog, like the Tartu toggle switches and the G4JNT buttons); ``slow`` held with a
 jog makes it slow (the G4JNT 'slow' button); ``stop`` stops both axes; ``park`` parks.
+
+On a rotator without elevation (``[rotator] elevation = false``) UP/DOWN have no
+function: pressing them does nothing at all (no hold over the clients, no beep), like
+the BIG-RAS's unused buttons with "Elevation: OFF". ``[panel] layout`` says how the
+buttons are wired (:data:`LAYOUTS`); :func:`button_action` gives what each does.
 """
 
 from __future__ import annotations
@@ -23,6 +28,21 @@ log = logging.getLogger("urc.frontpanel")
 #: jog actions: the axis and direction each drives
 JOGS = {"cw": ("az", 1), "ccw": ("az", -1), "up": ("el", 1), "down": ("el", -1)}
 ACTIONS = (*JOGS, "slow", "stop", "park")
+
+#: ``labelled``: each button does what its name says (Tartu, G4JNT, a home-made panel).
+#: ``big-ras``: the BIG-RAS five-button row (seed 002), wired under its two-axis
+#: functions, left to right down, up, stop, ccw, cw. With elevation off that row turns
+#: left on the far left button, right on the far right one, stops on the middle one;
+#: the second and fourth have no function.
+LAYOUTS = ("labelled", "big-ras")
+_AZ_ONLY_REMAP = {"labelled": {}, "big-ras": {"down": "ccw", "up": None, "ccw": None}}
+
+
+def button_action(layout: str, button: str, has_el: bool) -> str | None:
+    """What the button wired as ``button`` does on this rotator (None: nothing)."""
+    if has_el:
+        return button
+    return _AZ_ONLY_REMAP[layout].get(button, button)
 
 
 class LocalControls:
@@ -53,6 +73,9 @@ class LocalControls:
         """An action's control went down. Returns whether the rotator accepted it."""
         if action not in ACTIONS:
             raise ValueError(f"unknown front-panel action {action!r}")
+        if not self._has_axis(action):
+            log.debug("front panel %s: no such axis, no function", action)
+            return False
         self._held.add((source, action))
         self.rotator.hold_local(self.hold_name(source, action), True)
         try:
@@ -77,6 +100,8 @@ class LocalControls:
     def release(self, action: str, source: str = "button") -> None:
         """An action's control came up: a jog stops its axis unless another source
         still jogs it that way."""
+        if not self._has_axis(action):
+            return
         self._held.discard((source, action))
         self.rotator.hold_local(self.hold_name(source, action), False)
         if action in JOGS and not self.held(action):
@@ -95,6 +120,9 @@ class LocalControls:
         for src, action in sorted(self._held):
             if source is None or src == source:
                 self.release(action, src)
+
+    def _has_axis(self, action: str) -> bool:
+        return action not in JOGS or JOGS[action][0] in self.rotator.caps.axes
 
     def _jog(self, action: str) -> None:
         axis, direction = JOGS[action]

@@ -19,7 +19,7 @@ from typing import Any, Callable
 from ..errors import UrcError
 from ..protocols.tartu import lcd_contrast
 from ..protocols.tartu_codec import LCD_CONTRAST_MAX
-from .controls import JOGS, LocalControls
+from .controls import JOGS, LocalControls, button_action
 from .indicators import Beeper, led_states
 from .ir import IrRemote
 from .screen import status_rows, zero_rows
@@ -34,7 +34,7 @@ class FrontPanel:
     def __init__(self, rotator, *, pin_factory: Any = None, buttons: dict[str, int] | None = None,
                  leds: dict[str, int] | None = None, beeper_pin: int | None = None,
                  display: Any = None, ir: tuple[Any, dict[int, str]] | None = None,
-                 jog_speed: float = 1.0, slow_speed: float = 0.2, bounce_time_s: float | None = None,
+                 layout: str = "labelled", jog_speed: float = 1.0, slow_speed: float = 0.2, bounce_time_s: float | None = None,
                  dispatch: Callable[..., None] | None = None, now_s: Callable[[], float] | None = None,
                  wall_s: Callable[[], float] = time.time):
         from gpiozero import LED, Button, Buzzer
@@ -47,6 +47,8 @@ class FrontPanel:
         self.beeper = Beeper(self._device(Buzzer, beeper_pin, pin_factory) if beeper_pin is not None else None)
         self.controls = LocalControls(rotator, jog_speed=jog_speed, slow_speed=slow_speed,
                                       on_result=lambda ok, text: self.beeper.beep("click" if ok else "refused"))
+        # what each button does (fixed: the axes do not change while urc runs)
+        self.actions = {name: button_action(layout, name, rotator.caps.has_el) for name in (buttons or {})}
         self.buttons = {name: self._device(Button, pin, pin_factory, pull_up=True, bounce_time=bounce_time_s)
                         for name, pin in (buttons or {}).items()}
         self.leds = {name: self._device(LED, pin, pin_factory) for name, pin in (leds or {}).items()}
@@ -73,22 +75,29 @@ class FrontPanel:
         self._devices.append(dev)
         return dev
 
-    def _pressed(self, name: str) -> bool:
-        return name in self.buttons and self.buttons[name].is_pressed
+    def _pressed(self, action: str) -> bool:
+        """Is a button doing ``action`` down?"""
+        return any(self.actions[n] == action and b.is_pressed for n, b in self.buttons.items())
 
     # ---------------------------------------------------------------- inputs
     def _press(self, name: str) -> None:
-        if self.zero is not None and self.zero.active:
-            self._zero_press(name)
+        action = self.actions[name]
+        if action is None:  # a button with no function here
             return
-        self.controls.press(name, "button")
+        if self.zero is not None and self.zero.active:
+            self._zero_press(action)
+            return
+        self.controls.press(action, "button")
 
     def _release(self, name: str) -> None:
-        if self.zero is not None and self.zero.active:
-            if name in ("cw", "ccw"):
-                self.zero.release(JOGS[name][1])
+        action = self.actions[name]
+        if action is None:
             return
-        self.controls.release(name, "button")
+        if self.zero is not None and self.zero.active:
+            if action in ("cw", "ccw"):
+                self.zero.release(JOGS[action][1])
+            return
+        self.controls.release(action, "button")
 
     def _zero_press(self, name: str) -> None:
         if name in ("cw", "ccw"):

@@ -8,7 +8,8 @@ urc's rows are the ones its LCDC command prints (:func:`tartu_codec.lcd_rows`):
 Where the document is silent, urc's choice: a 4-row display adds the fault (with its
 LED blink code) or the local control held, and a one-line summary (parked, tracking,
 position unknown). A 2-row display alternates its second row every 2 s between the
-elevation and that message while there is one. During the G4JNT zero-setting procedure
+elevation and that message while there is one. A rotator without elevation shows no
+elevation row at all (no fake 0): that row carries the summary instead. During the G4JNT zero-setting procedure
 the display shows Z and how to change and store it.
 """
 
@@ -38,6 +39,8 @@ def message(st: Status) -> str:
 def summary(st: Status) -> str:
     if st.parked:
         return "PARKED"
+    if st.target_az_deg is not None and st.el is None:
+        return f"TGT {st.target_az_deg:05.1f}"
     if st.target_az_deg is not None and st.target_el_deg is not None:
         return f"TGT {st.target_az_deg:05.1f} {st.target_el_deg:+05.1f}"
     return "MOVING" if st.moving else "READY"
@@ -49,8 +52,11 @@ def status_rows(st: Status, t_s: float, cols: int = 20, rows: int = 2,
     shows the UTC time, as the Berkeley rotor's OLED does beside encoder and target."""
     out = lcd_rows(st)
     msg = message(st)
+    extra = [msg, summary(st)]
+    if st.el is None:  # the (blank) elevation row shows the summary instead
+        out[1] = extra.pop()
     if rows >= 4:
-        out += [msg, summary(st)]
+        out += extra
     if rows >= 5 and utc_unix_s is not None:
         out.append(time.strftime("UTC %H:%M:%S", time.gmtime(utc_unix_s)))
     elif msg and int(t_s // ALTERNATE_S) % 2 == 1:

@@ -19,6 +19,7 @@ runs it holds a local control, so no other source moves the rotator.
 from __future__ import annotations
 
 from ..protocols.poses import extended_pose_deg
+from ..protocols.single_axis import wire_status
 from ..service import calibration
 
 HOLD_NAME = "ZERO SET"
@@ -36,7 +37,7 @@ class ZeroSetting:
         if self.cal is not None:
             self.label, self.value_deg = "Z", float(self.cal["Z"])
         else:
-            self.label, self.value_deg = "AZ", round(extended_pose_deg(rotator.status())[0], 1)
+            self.label, self.value_deg = "AZ", round(extended_pose_deg(wire_status(rotator.status()))[0], 1)
         self.active = True
         rotator.hold_local(HOLD_NAME, True)
         #: direction held (-1 left/CCW, +1 right/CW) and since when, for repeats
