@@ -43,6 +43,7 @@ keys = { KEY_LEFT = "ccw", KEY_RIGHT = "cw", KEY_POWER = "stop" }
     ('[panel.ir]\ndevice = "/dev/input/event0"\nkeys = { KEY_LEFT = "left" }\n', "panel.ir.keys.KEY_LEFT", "left"),
     ('[panel.ir]\ndevice = "/dev/input/event0"\nkeys = { left = "cw" }\n', "panel.ir.keys.left", "left"),
     ("[panel]\nbutons = 1\n", "panel.butons", "butons"),
+    ('[panel]\nlayout = "bigras"\n', "panel.layout", "bigras"),
 ])
 def test_panel_errors_name_file_key_expected_found(text, key, found):
     with pytest.raises(ConfigError) as exc:

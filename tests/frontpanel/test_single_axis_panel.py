@@ -114,3 +114,30 @@ def test_oled_rows_show_no_elevation_on_a_single_axis_rotator(panel_rig):
     rows = status_rows(rig.rot.status(), 0.0, 21, 5, utc_unix_s=0.0)
     assert rows[1].rstrip() == "TGT 200.0" and "UTC 00:00:00" in [r.rstrip() for r in rows]
     assert not any(r.startswith("EL") for r in rows)
+
+
+def test_config_layout_reaches_the_panel(bench):
+    """[panel] layout = "big-ras" from a config file: build_panel wires the row so."""
+    from urc.config import loads_config
+    from urc.frontpanel import build_panel
+
+    cfg = loads_config("""
+[rotator]
+elevation = false
+[panel]
+enabled = true
+emulate = true
+layout = "big-ras"
+[panel.buttons]
+down = 5
+up = 6
+stop = 13
+ccw = 19
+cw = 26
+""", "p.toml")
+    b = bench("bigras", **AZ_ONLY)
+    panel = build_panel(cfg, b.rot)
+    try:
+        assert panel.actions == {"down": "ccw", "up": None, "stop": "stop", "ccw": None, "cw": "cw"}
+    finally:
+        panel.close()
