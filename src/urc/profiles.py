@@ -87,22 +87,26 @@ PROFILES: dict[str, RotatorCaps] = {
     ),
     # Berkeley automatic rotor (ESP32): fast geared DC motors, AS5600 absolute encoders,
     # noticeable play in the gears. Speeds: its worm gearing gives ~240 deg/s at full duty
-    # (1.5 s a turn) but it stalls below 15 % duty and is too fast above 18 % (~36-43
-    # deg/s usable, bang-bang with a 4 deg band). urc runs it at up to 30 deg/s and creeps
-    # down to 3 deg/s: at 40 deg/s its hold chatters in the 1.5 deg gear play and a
-    # target at a limit is missed by 1.3 deg (tests/service/test_motion.py), at 240 deg/s
-    # the loop latches wrong-way and runaway faults. Elevation: "a ~270 degree range"
-    # (counterweight and encoder mount), zero level and forward; the document does not
-    # say where the range ends, so it is taken centred on the zenith, -45..225.
+    # (~400 rpm motor, 10:1 worm, 1.5 s a turn) but it stalls below ~15 % duty and is too
+    # fast above ~18 % (PWM 37-40 of 255; ~36-43 deg/s usable, bang-bang in a 4 deg band).
+    # urc slews at 40 deg/s (inside that band) and creeps down to 3 deg/s; the ramp is
+    # 30 deg/s^2: at 60 deg/s^2 the axis lags its braking reference and the hold chatters
+    # in the 1.5 deg gear play and a goto to az 0 stops 1.3 deg short (limit guard;
+    # tests/service/test_motion.py). Not the 240 deg/s top speed: urc's slew speed is also
+    # its full-duty speed (duty = rate / max_rate), and flown at 240 deg/s (accel 30) the
+    # axes latch runaway faults (el +3.3 deg the wrong way, az +3.4 deg with the motor off)
+    # and 8 berkeley goto/track tests in test_motion.py end up to 48 deg off. Elevation: "a
+    # ~270 degree range" (counterweight and encoder mount), zero level and forward; the
+    # document does not say where the range ends, so it is taken centred on the zenith, -45..225.
     "berkeley": RotatorCaps(
         name="berkeley",
         description="Berkeley (ESP32): fast geared motors, AS5600 12-bit absolute, gear play",
         az=AxisCaps(name="az", min_deg=0.0, max_deg=360.0, park_deg=0.0,
-                    max_rate_deg_per_s=30.0, min_rate_deg_per_s=3.0, accel_deg_per_s2=60.0,
+                    max_rate_deg_per_s=40.0, min_rate_deg_per_s=3.0, accel_deg_per_s2=30.0,
                     sensor=_AS5600, tolerance_deg=0.09, restart_deg=0.2, backlash_deg=1.5,
                     creep_lead_deg=0.03),
         el=AxisCaps(name="el", min_deg=-45.0, max_deg=225.0, park_deg=0.0,
-                    max_rate_deg_per_s=30.0, min_rate_deg_per_s=3.0, accel_deg_per_s2=60.0,
+                    max_rate_deg_per_s=40.0, min_rate_deg_per_s=3.0, accel_deg_per_s2=30.0,
                     sensor=_AS5600, tolerance_deg=0.09, restart_deg=0.2, backlash_deg=1.5,
                     creep_lead_deg=0.03),
         command_sets=("rotctld",),
