@@ -278,3 +278,35 @@ def test_a_jog_near_its_end_or_without_a_move_command_is_a_goto():
     s.post_move("az", 300.0, 0.5, 2.0)
     ex, _ = s.next_exchange(1.0)
     assert ex.kind == "set" and ex.pose == (300.0, 20.0)
+
+
+def test_an_md01_jog_is_its_own_move_after_a_stop_and_is_stopped_before_the_goto_ends_it():
+    """MD-01/02 (Hamlib 903): a stop, then the K 0x14 frame with the direction bits
+    (no speed, no answer); near the jog's end a stop again, then the goto. Rot2Prog has
+    no move: it jogs by goto (above)."""
+    c = connected("md01", spid.encode_rot2_position(100.0, 20.0, 2, 2))
+    c.post("el", 20.0)
+    c.post_move("az", 300.0, 0.5, 2.0)
+    ex, _ = c.next_exchange(1.0)
+    assert ex.kind == "stop" and ex.request == spid.encode_query(spid.K_STOP)
+    c.answered(ex, spid.encode_rot2_position(100.0, 20.0, 2, 2), 1.0, 1.01)
+    ex, _ = c.next_exchange(1.4)
+    assert ex.kind == "poll"
+    c.answered(ex, spid.encode_rot2_position(100.0, 20.0, 2, 2), 1.4, 1.41)
+    ex, _ = c.next_exchange(1.8)
+    assert ex.kind == "move" and ex.reply is None
+    assert ex.request == spid.encode_move(spid.DIR_RIGHT, (2, 2))
+    c.sent(ex, 1.81)
+    ex, _ = c.next_exchange(2.2)
+    assert ex.kind == "poll"
+    c.answered(ex, spid.encode_rot2_position(299.0, 20.0, 2, 2), 2.2, 2.21)   # near its end
+    c.post_move("az", 300.0, 0.5, 2.0)
+    ex, _ = c.next_exchange(2.6)
+    assert ex.kind == "stop"
+    c.answered(ex, spid.encode_rot2_position(299.0, 20.0, 2, 2), 2.6, 2.61)
+    ex, _ = c.next_exchange(3.0)
+    assert ex.kind == "poll"
+    c.answered(ex, spid.encode_rot2_position(299.0, 20.0, 2, 2), 3.0, 3.01)
+    ex, _ = c.next_exchange(3.4)
+    assert ex.kind == "set" and ex.pose == (300.0, 20.0)
+    assert c.counts["moves"] == 1

@@ -15,6 +15,7 @@ import pytest
 
 from urc.hardware.bridge import BRIDGE_PROTOCOLS
 from urc.hardware.bridge.simlink import BridgedRig
+from urc.protocols import spid_codec as spid
 from urc.tracking.elements import load_elements
 from urc.tracking.evaluate import great_circle_deg
 from urc.tracking.passes import find_passes
@@ -233,12 +234,17 @@ def test_a_crash_on_the_way_over_the_top_ends_exact_or_uncertain(crash_at_el_deg
 
 
 # ------------------------------------------------------------ jogs: native moves
+SPID_STOP = spid.encode_query(spid.K_STOP)
+
+
 @pytest.mark.parametrize("protocol, move", [("gs232b", b"X2\rR\r"), ("easycomm3", b"VR4900\n"),
-                                            ("easycomm2", b"MR\n"), ("rotctld", b"M 16 50\n")])
+                                            ("easycomm2", b"MR\n"), ("rotctld", b"M 16 50\n"),
+                                            ("md01", spid.encode_move(spid.DIR_RIGHT, (2, 2)))])
 def test_a_jog_is_the_controllers_own_move_stopped_by_urc_at_the_soft_limit(protocol, move, tmp_path):
     """A jog at half speed goes out as the protocol's own move command (the controller
     turns at that speed, no target of urc's); the controller's limit is 400 deg
-    (tartu-urc), urc's soft limit 200: urc stops the move there, not the controller."""
+    (tartu-urc), urc's soft limit 200: urc stops the move there, not the controller.
+    MD-01: a stop before its move (as Hamlib sends it) and before the goto that ends it."""
     rig = rig_for(protocol, tmp_path, profile="tartu-urc",
                   downstream_config={"limits": {"az": {"min_deg": 0.0, "max_deg": 200.0}}})
     rig.downstream.goto(100.0, 20.0)
@@ -247,11 +253,11 @@ def test_a_jog_is_the_controllers_own_move_stopped_by_urc_at_the_soft_limit(prot
     rig.downstream.move("az", 1, 0.5)
     rig.run(4.0)
     commands = [req for _t, req in rig.link.sent[n:] if req != rig.dialect.poll().request]
-    assert commands[0] == move, commands[:3]
+    assert commands[:2] == ([SPID_STOP, move] if protocol == "md01" else [move, *commands[1:2]]), commands[:3]
     a0 = rig.truth()[0]
     rig.run(2.0)
     speed = (rig.truth()[0] - a0) / 2.0
-    if protocol != "easycomm2":   # ML..MR have no speed: the controller's own
+    if protocol not in ("easycomm2", "md01"):   # ML..MR, MD-01 0x14: no speed, the controller's own
         assert speed == pytest.approx(0.5 * rig.upstream.caps.az.max_rate_deg_per_s, rel=0.1), speed
     s = rig.run(40.0)     # (200 deg at 3 deg/s from 100 is 33 s)
     assert not s.faults, s.faults
@@ -262,5 +268,9 @@ def test_a_jog_is_the_controllers_own_move_stopped_by_urc_at_the_soft_limit(prot
     assert rig.client.counts["moves"] == 1, rig.client.counts
     # then targets only: the first where urc stops it (then the guard may hold it a
     # hair inside the limit)
-    sets = [req for _t, req in rig.link.sent[n:] if req not in (rig.dialect.poll().request, move)]
-    assert sets and b"200" in sets[0], sets
+    sets = [req for _t, req in rig.link.sent[n:] if req not in (rig.dialect.poll().request, move, SPID_STOP)]
+    assert sets, sets
+    if protocol == "md01":
+        assert spid.decode_command(sets[0], "md01", (2, 2)).az_deg == pytest.approx(200.0), sets
+    else:
+        assert b"200" in sets[0], sets

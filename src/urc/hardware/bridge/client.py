@@ -92,6 +92,8 @@ class BridgeClient:
         # what the controller was last told
         self._sent_pose: tuple[float, float] | None = None
         self._stopped = True
+        #: a stop is the last command the controller got (not merely nothing sent yet)
+        self._told_stop = False
         self._after_command = False
         # what it last reported
         self._pos: tuple[float, float] | None = None
@@ -142,10 +144,11 @@ class BridgeClient:
         """A jog of one axis towards ``end_deg`` (the soft limit or a keep-out zone's
         edge), at ``speed_frac`` of its top speed (``rate_deg_per_s``). Where the
         protocol has a move of its own (GS-232 R/L/U/D with X1..X4, Easycomm ML..MD or
-        VL..VD, rotctld ``M``) the controller moves on its own at that speed; urc takes
-        over with a goto to ``end_deg`` while the axis is still far enough from it to
-        stop in time (the controller's own limits may lie further out). Elsewhere it is
-        a goto to ``end_deg`` from the start."""
+        VL..VD, rotctld ``M``, MD-01 K 0x14) the controller moves on its own at that
+        speed (Easycomm II, MD-01: at its own); urc takes over with a goto to
+        ``end_deg`` while the axis is still far enough from it to stop in time (the
+        controller's own limits may lie further out). Elsewhere it is a goto to
+        ``end_deg`` from the start."""
         with self._lock:
             i = AXES.index(axis)
             jog = self._jog[i]
@@ -284,7 +287,7 @@ class BridgeClient:
             self._error = self._cause or "no position report yet"
             self._next_poll_s = -math.inf
             # the controller may have been told something urc no longer wants
-            self._sent_pose = None
+            self._sent_pose, self._told_stop = None, False
             self._after_command = False
 
     def link_down(self, reason: str, now_s: float, failures: bool = False) -> None:
@@ -330,17 +333,18 @@ class BridgeClient:
             d = self.dialect
             if self._stop_wanted or (all(self._wanted[a] is None for a in AXES) and not self._stopped):
                 # a stop always goes out at once, understood or not
-                self._stop_wanted = False
-                self._stopped, self._sent_pose, self._after_command = True, None, True
-                self._native = None
-                self.counts["stops"] += 1
-                return d.stop(), 0.0
+                self._stop_wanted, self._sent_pose = False, None
+                return self._stop_first(d)
             native = self._native_move()
             if native is not None:
                 if native != self._native and self._trusted and not self._after_command:
+                    if d.stop_around_move and not self._told_stop:
+                        # (also when urc sent nothing yet: it may be moving on its own)
+                        return self._stop_first(d)
                     ex = d.move(AXES[native[0]], native[1], native[2])
                     # a move replaces the target the controller had: the pose after it is sent anew
                     self._native, self._sent_pose, self._stopped, self._after_command = native, None, False, True
+                    self._told_stop = False
                     self.counts["moves"] += 1
                     return ex, 0.0
                 pose = None  # moving on its own: only polls until urc takes over
@@ -348,12 +352,11 @@ class BridgeClient:
                 pose = self._pose_to_send()
             if pose is not None and self._trusted and not self._after_command and \
                     now_s >= self._last_set_s + MIN_SET_INTERVAL_S:
-                if self.options.stop_before_set and self._moving() and not self._stopped:
-                    self._stopped, self._after_command, self._native = True, True, None
-                    self.counts["stops"] += 1
-                    return d.stop(), 0.0
+                if (self.options.stop_before_set and self._moving()
+                        or d.stop_around_move and self._native is not None) and not self._stopped:
+                    return self._stop_first(d)
                 self._sent_pose, self._stopped, self._after_command = pose, False, True
-                self._native = None
+                self._native, self._told_stop = None, False
                 self._last_set_s = now_s
                 self.counts["sets"] += 1
                 return d.goto(*pose), 0.0
@@ -362,6 +365,12 @@ class BridgeClient:
                 self._next_poll_s = now_s + max(self.options.poll_interval_s, MIN_POLL_INTERVAL_S)
                 return d.poll(), 0.0
             return None, max(0.0, self._next_poll_s - now_s)
+
+    def _stop_first(self, d: Dialect) -> tuple[Exchange, float]:
+        """A stop (before a new target or move: a poll follows it, then the command)."""
+        self._stopped, self._after_command, self._native, self._told_stop = True, True, None, True
+        self.counts["stops"] += 1
+        return d.stop(), 0.0
 
     def _native_move(self) -> tuple[int, int, float] | None:
         """The controller's own move a jog should run now, or None (no jog, no such

@@ -78,6 +78,9 @@ class Dialect:
     az_modulo_deg: float | None = None
     #: it has an elevation axis
     has_el = True
+    #: its own move must start from rest (a stop first), and a move it runs is ended by
+    #: a stop before urc's goto takes over (SPID MD-01/02)
+    stop_around_move = False
 
     def __init__(self) -> None:
         #: the smallest step a set can express, per axis
@@ -261,9 +264,26 @@ class Rot2Prog(Spid):
 
 
 class Md01(Spid):
+    """MD-01/02 in ROT2 mode: Rot2Prog's frames, a position answer to a set, and a move
+    of its own (K 0x14, Hamlib's model 903, the only SPID backend that has one): the
+    direction bits in byte 1, no speed (it turns at the speed set on the controller),
+    no answer. Hamlib always sends a stop before it ("the rotator must be stopped before
+    changing directions"); urc also stops it before the goto that ends it, since nothing
+    upstream says a set is taken while it moves on its own."""
+
     name = "md01"
     variant = "md01"
     default_baud = 115200
+    stop_around_move = True
+    _DIRECTIONS = {("az", -1): spid.DIR_LEFT, ("az", 1): spid.DIR_RIGHT,
+                   ("el", 1): spid.DIR_UP, ("el", -1): spid.DIR_DOWN}
+
+    def move(self, axis: str, direction: int, speed_frac: float) -> Exchange:
+        # bytes 5 and 10 are uninitialised in Hamlib's frame (the controller ignores
+        # them): urc fills in the PH/PV it reported, as in a set
+        ph, pv = self.pulses if all(self.pulses) else (1, 1)
+        frame = spid.encode_move(self._DIRECTIONS[axis, 1 if direction > 0 else -1], (ph, pv))
+        return Exchange("move", frame, settle_s=self.settle_s)
 
 
 class Rot1Prog(Spid):
