@@ -11,6 +11,11 @@ judged by the controller's simulator truth (DESIGN.md pointing error):
   target every 0.8 s when it moved more than 5 deg, no plan);
 * and once, ``direct``: urc on the simulator itself (no bridge), the floor.
 
+Like with like (as bench/tracking_bench.py): where the controller can flip, every driver
+flies by its own flip rule, urc's planner per pass (flip = "auto"), Gpredict a whole pass
+flipped when its azimuth track crosses north (is_flipped_pass); the flip column names the
+rule and what it chose.
+
 Also the link each protocol makes: round trip of one exchange and the age of a
 position report. Prints a table, writes JSON (default bench/results/bridge.json).
 Usage: python bench/bridge_bench.py [--profile g5500] [--protocols a,b] [--scenario low]
@@ -27,10 +32,11 @@ from pathlib import Path
 import numpy as np
 
 from bench_report import write_json
-from tracking_bench import scenarios
+from tracking_bench import FLIP_RULES, flip_text, scenarios
 from urc.hardware.bridge import BRIDGE_PROTOCOLS
 from urc.hardware.bridge.simlink import BridgedRig
-from urc.tracking.evaluate import GpredictDriver, PointingStats, fly_pass_on_sim, great_circle_deg
+from urc.tracking.evaluate import (GpredictDriver, PointingStats, fly_pass_on_sim, gpredict_flips_pass,
+                                   great_circle_deg)
 from urc.tracking.propagate import look_angles
 from urc.tracking.targets import SatelliteTarget
 from urc.tracking.tracker import Tracker
@@ -60,11 +66,13 @@ def fly_bridge(protocol: str, profile: str, es, station, p, driver: str, tmp: Pa
         return start_u + now_s
     if driver == "bridge":
         tracker = Tracker(rig.downstream, station, unix_at, park_after_pass=False)
-        tracker.track_pass(es, p, rig.clock.now_s())
+        flipped = bool(tracker.track_pass(es, p, rig.clock.now_s()).flip)
         step = tracker.step
     else:
+        # the rotator's ranges as the bridged urc has them (Rot1Prog: azimuth only)
+        flipped = gpredict_flips_pass(es, station, p, rig.downstream.geometry)
         step = GpredictDriver(_WireGoto(rig), SatelliteTarget(es, station), unix_at, p.aos_unix_s,
-                              p.los_unix_s).step
+                              p.los_unix_s, flipped=flipped).step
     geometry = rig.upstream.geometry
     t, az, el, rtt, age = [], [], [], [], []
     n = round((p.los_unix_s - unix_at(rig.clock.now_s())) / rig.period_s)
@@ -87,7 +95,11 @@ def fly_bridge(protocol: str, profile: str, es, station, p, driver: str, tmp: Pa
     else:
         stats = PointingStats.of(great_circle_deg(az[up], el[up], la.az_deg, la.el_deg))
     faults = [f.kind for f in rig.downstream.status().faults] if driver == "bridge" else []
-    return {**stats.as_dict(), "rtt_ms": 1000 * float(np.median(rtt)), "report_interval_ms": 1000 * float(np.median(age)),
+    g = rig.downstream.geometry   # its limits (Rot1Prog: elevation held at 0, cannot flip)
+    can_flip = g.el_max_deg + g.el_offset_deg >= 180.0
+    rule = FLIP_RULES["gpredict" if driver == "gpredict" else "urc"] if can_flip else "cannot"
+    return {**stats.as_dict(), "flip_rule": rule, "flip": flipped, "rtt_ms": 1000 * float(np.median(rtt)),
+            "report_interval_ms": 1000 * float(np.median(age)),
             "sets": rig.client.counts["sets"], "faults": faults,
             "garbage_or_timeouts": rig.client.counts["garbage"] + rig.client.counts["timeouts"]}
 
@@ -106,8 +118,10 @@ def main() -> None:
     for driver in ("urc", "gpredict"):
         with tempfile.TemporaryDirectory() as tmp:
             t0 = time.process_time()
-            st = fly_pass_on_sim(args.profile, es, station, p, Path(tmp), driver=driver, lead_s=LEAD_S).stats
-            rows.append({"protocol": "direct (sim)", "driver": driver, **st.as_dict(), "rtt_ms": None,
+            flown = fly_pass_on_sim(args.profile, es, station, p, Path(tmp), driver=driver, lead_s=LEAD_S)
+            rows.append({"protocol": "direct (sim)", "driver": driver, **flown.stats.as_dict(),
+                         "flip_rule": FLIP_RULES[driver] if flown.rotator.caps.can_flip else "cannot",
+                         "flip": flown.flipped, "rtt_ms": None,
                          "report_interval_ms": None, "sets": None, "faults": [], "garbage_or_timeouts": 0,
                          "cpu_s": time.process_time() - t0})
     for protocol in args.protocols.split(","):
@@ -119,15 +133,16 @@ def main() -> None:
         print(f"{protocol}: done", file=sys.stderr, flush=True)
     print(f"\nPointing error through each bridge vs the controller's simulator truth (deg); {name}, "
           f"profile {args.profile}.\nrtt = one exchange on the simulated wire; report = spacing of "
-          "position reports; sets = targets sent to the controller; rot1prog (azimuth only): the azimuth error")
+          "position reports; sets = targets sent to the controller; rot1prog (azimuth only): the azimuth error;"
+          "\nflip = rule:choice; auto = urc's planner per pass, gp = Gpredict's whole-pass flip across north")
     print(f"{'protocol':13s} {'driver':8s} {'RMS':>6s} {'p95':>6s} {'max':>6s} {'<0.5%':>6s} {'AOS err':>7s} "
-          f"{'rtt ms':>7s} {'report ms':>9s} {'sets':>5s} {'faults':>6s}")
+          f"{'rtt ms':>7s} {'report ms':>9s} {'sets':>5s} {'faults':>6s} {'flip':>9s}")
     for r in rows:
         rtt = "" if r["rtt_ms"] is None else f"{r['rtt_ms']:.1f}"
         rep = "" if r["report_interval_ms"] is None else f"{r['report_interval_ms']:.0f}"
         print(f"{r['protocol']:13s} {r['driver']:8s} {r['rms_deg']:6.3f} {r['p95_deg']:6.3f} {r['max_deg']:6.3f} "
               f"{r['within_0_5_pct']:6.1f} {r['aos_error_deg']:7.3f} {rtt:>7s} {rep:>9s} "
-              f"{'' if r['sets'] is None else r['sets']:>5} {len(r['faults']):6d}")
+              f"{'' if r['sets'] is None else r['sets']:>5} {len(r['faults']):6d} {flip_text(r):>9s}")
     write_json({"scenario": name, "profile": args.profile, "max_el_deg": p.max_el_deg, "rows": rows}, args.json)
 
 

@@ -80,6 +80,15 @@ def gpredict_flips(sky_az_deg: np.ndarray, el_max_deg: float) -> bool:
     return bool(el_max_deg >= 180.0 and np.any(np.abs(np.diff(az)) > 180.0))
 
 
+def gpredict_flips_pass(elements, station, p, geometry) -> bool:
+    """``gpredict_flips`` for pass ``p`` on a rotator of ``geometry`` (its user sets the
+    elevation range Gpredict is told to the rotator's own)."""
+    from .propagate import look_angles
+
+    track = look_angles(elements, station, np.arange(p.aos_unix_s, p.los_unix_s, 1.0))
+    return gpredict_flips(track.az_deg, geometry.el_max_deg + geometry.el_offset_deg)
+
+
 class GpredictDriver:
     """Drives the rotator like Gpredict does through rotctld: threshold jumps, no plan;
     ``flipped``: the whole pass in the flipped frame, as Gpredict decides it
@@ -160,11 +169,9 @@ def fly_pass_on_sim(profile: str, elements, station, p, state_dir, *, flip: bool
         # Gpredict flips by its own rule where the rotator can (its user configures the
         # 180 deg elevation range), whatever ``flip`` says: like with like against urc's
         # planner, which flips per pass under flip = "auto"
-        track = look_angles(elements, station, np.arange(p.aos_unix_s, p.los_unix_s, 1.0))
-        g = rot.geometry
         gpredict = GpredictDriver(rot, SatelliteTarget(elements, station), unix_at, p.aos_unix_s, p.los_unix_s,
-                                  flipped=flip is not False and gpredict_flips(
-                                      track.az_deg, g.el_max_deg + g.el_offset_deg))
+                                  flipped=flip is not False and gpredict_flips_pass(elements, station, p,
+                                                                                    rot.geometry))
         step = gpredict.step
     reported: list[tuple[float, float, float]] = []
     t, az, el = fly(rot, clock, step, unix_at, p.los_unix_s, reported)
