@@ -195,3 +195,34 @@ def test_calibration_on_the_emulated_lsm303d(tmp_path):
     assert (cal["hard_iron_x"], cal["hard_iron_y"], cal["hard_iron_z"]) == \
         pytest.approx((0.04 * h_gauss, -0.03 * h_gauss, 0.12 * h_gauss), abs=0.003)
     assert cal["accel_offset"] == pytest.approx(list(IRON["accel_bias_g"]), abs=0.005)
+
+
+def test_calibration_on_an_azimuth_only_sarcnet_in_the_plain_simulator(bench):
+    """[rotator] elevation = false: no tilt sensor, so the compass's own accelerometer
+    (on the same simulated board) gives the accelerometer half. Before, ``c`` answered
+    "Error: no raw magnetometer/accelerometer on this rotator"."""
+    from urc.protocols import make_session
+
+    b = bench("sarcnet-mini", rotator={"elevation": False})
+    disturb(b.world)
+    s = make_session("sarcnet", b.rot)      # the single-axis port, as urc run serves it
+
+    def tick():
+        b.run(0.1)
+        return s.tick(b.clock.now_s())
+    before = az_errors(b)
+    assert max(before) > 3.0, "the new iron spoils the heading"
+    assert s.receive(b"c\r")[-1] == b"Next: +X face down (0 of 12 done)\r\n"
+    assert operator(b.world, s, tick)[-1].startswith(b"All 12 directions done")
+    assert s.receive(b"s\r")[-1].startswith(b"Calibration saved")
+    cal = b.rot.hw.axis("az").sensor.calibration()
+    assert cal["hard_iron_z"] == pytest.approx(0.12, abs=0.01)
+    assert cal["accel_offset"] == pytest.approx(list(IRON["accel_bias_g"]), abs=0.005)
+    b.world.board.release()                      # back on the boom, then r (as the document)
+    b.run(1.0)
+    assert s.receive(b"r\r")[-1] == b"Reset complete\r\n"
+    b.settle()
+    after = az_errors(b)
+    assert max(after) < 1.0, (before, after)
+    b2 = b.restart()
+    assert b2.rot.hw.axis("az").sensor.calibration()["mag_matrix"] == pytest.approx(cal["mag_matrix"])

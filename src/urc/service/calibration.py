@@ -732,10 +732,8 @@ def apply_twelve_direction(rotator: Any, result: dict[str, Any]) -> bool:
         (_sensor(rotator, "az"), {"hard_iron_x": hx, "hard_iron_y": hy, "hard_iron_z": hz,
                                   "mag_matrix": result["mag_matrix"], "soft_iron": [1.0, 0.0, 0.0, 1.0],
                                   **accel})]
-    try:
-        el_sensor = _sensor(rotator, "el")
-    except ValueError:          # azimuth only: the compass carries its own accelerometer
-        el_sensor = None
+    # azimuth only: no tilt sensor, the compass carries its own accelerometer
+    el_sensor = _sensor(rotator, "el") if "el" in rotator.caps.axes else None
     if el_sensor is not None and "accel_offset" in el_sensor.calibration():
         steps.append((el_sensor, accel))
     with getattr(rotator, "lock", contextlib.nullcontext()):

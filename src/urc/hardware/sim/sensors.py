@@ -271,6 +271,17 @@ class SimAccelerometer(_SimPart):
                 gz + self._gauss(sigma))
 
 
+class SimStageAccelerometer(SimAccelerometer):
+    """The compass board's accelerometer where no tilt sensor shares it (a single-axis
+    rotator): the board sits level on the azimuth stage, so on the boom it reads plain
+    gravity (as the sim's magnetometer reads the level field); in the hand, what its
+    :class:`SensorBoard` is held to see. It gives the 12-direction calibration the
+    accelerometer half it needs, as the LSM303's own does on the gpio backend."""
+
+    def _angle(self) -> float:
+        return 0.0
+
+
 class FaultySensor:
     """A driver with the simulator's injected sensor faults on top of its reading.
 
@@ -316,10 +327,13 @@ class FaultySensor:
 
 def make_sensor(axis_name: str, caps: SensorCaps, axis: AxisPhysics, params: SimSensorParams,
                 rng: random.Random, *, noise: bool, referenced: bool,
-                drive: DirectionTracker, board: SensorBoard | None = None) -> FaultySensor:
+                drive: DirectionTracker, board: SensorBoard | None = None,
+                compass_accel_rng: random.Random | None = None) -> FaultySensor:
     """The driver for ``caps.kind`` on simulated parts. ``referenced``: incremental
     sensors start referenced to the true angle (a fresh installation), else they read
-    0 + counts. ``drive``: where a pulse counter takes its direction from."""
+    0 + counts. ``drive``: where a pulse counter takes its direction from.
+    ``compass_accel_rng``: the compass has an accelerometer of its own (no elevation
+    axis whose tilt sensor would carry it), with this noise stream."""
     kind = caps.kind
     part = (axis, params, rng, noise)
     driver: Any
@@ -335,8 +349,10 @@ def make_sensor(axis_name: str, caps: SensorCaps, axis: AxisPhysics, params: Sim
     elif kind == "as5600":
         driver = As5600Sensor(caps, axis_name, SimAs5600(*part))
     elif kind == "magnetometer" and axis_name == "az":
+        accel = None if compass_accel_rng is None else SimStageAccelerometer(
+            axis, params, compass_accel_rng, noise, noise_deg=caps.noise_deg, board=board)
         driver = CompassSensor(caps, axis_name, SimMagnetometer(*part, noise_deg=caps.noise_deg, board=board),
-                               hard_iron=(params.hard_iron_x, params.hard_iron_y),
+                               accel, hard_iron=(params.hard_iron_x, params.hard_iron_y),
                                declination_deg=params.declination_deg)
     elif kind == "magnetometer":
         driver = TiltSensor(caps, axis_name, SimAccelerometer(*part, noise_deg=caps.noise_deg, board=board))

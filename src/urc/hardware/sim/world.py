@@ -84,7 +84,9 @@ class SimWorld:
             self.sensors[name] = make_sensor(
                 name, ax_caps.sensor, phys, p.sensor,
                 random.Random(f"urc-sim:{self.seed}:{name}:sensor"),
-                noise=sensor_noise, referenced=saved is None, drive=self.motors[name], board=self.board)
+                noise=sensor_noise, referenced=saved is None, drive=self.motors[name], board=self.board,
+                compass_accel_rng=None if caps.has_el or name != "az"
+                else random.Random(f"urc-sim:{self.seed}:az:accel"))
             self.brakes[name] = SimBrake(self, name) if p.has_brake else None
             lo = hi = None
             if ax_caps.limit_switches and p.switch_min_deg is not None:
