@@ -226,3 +226,82 @@ def test_calibration_on_an_azimuth_only_sarcnet_in_the_plain_simulator(bench):
     assert max(after) < 1.0, (before, after)
     b2 = b.restart()
     assert b2.rot.hw.axis("az").sensor.calibration()["mag_matrix"] == pytest.approx(cal["mag_matrix"])
+
+
+#: the compass constants the two soft-iron procedures set
+SOFT_KEYS = ("hard_iron_x", "hard_iron_y", "hard_iron_z", "mag_matrix", "soft_iron")
+IDENTITY3 = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]
+
+
+def _soft(b) -> dict:
+    c = b.rot.hw.axis("az").sensor.calibration()
+    return {k: c[k] for k in SOFT_KEYS}
+
+
+def _turn_round(b):
+    """The web page's turn-round calibration (the procedure its route starts)."""
+    from urc.service.calibration import MagnetometerCalibration
+
+    proc = MagnetometerCalibration(b.rot)
+    b.run(1200.0, on_tick=proc.poll, until=lambda st: proc.finished)
+    assert proc.state == "done", proc.as_dict()
+    b.run(0.2)
+    return proc.result
+
+
+def _hand_held(b, s, tick):
+    assert s.receive(b"c\r")[-1].startswith(b"Next: ")
+    assert operator(b.world, s, tick)[-1].startswith(b"All 12 directions done")
+    assert s.receive(b"s\r")[-1].startswith(b"Calibration saved")
+    b.world.board.release()
+    b.run(1.0)
+    assert s.receive(b"r\r")[-1] == b"Reset complete\r\n"
+    b.settle()
+
+
+def test_turn_round_and_c_each_replace_the_others_soft_iron_and_the_last_one_is_kept(rig):
+    b, s, tick = rig
+    first = _turn_round(b)
+    assert first["soft_iron"] is not None, "the board's soft iron makes an ellipse"
+    assert _soft(b)["soft_iron"] == pytest.approx(first["soft_iron"])
+
+    _hand_held(b, s, tick)                           # c after the turn-round
+    after_c = _soft(b)
+    assert after_c["soft_iron"] == [1.0, 0.0, 0.0, 1.0], "c replaced the horizontal soft iron"
+    assert after_c["mag_matrix"] != pytest.approx(IDENTITY3)
+    assert max(az_errors(b)) < 1.0
+    b = b.restart()                                  # what is kept is what was applied
+    assert _soft(b) == pytest.approx(after_c)
+
+    last = _turn_round(b)                            # the turn-round after c
+    now = _soft(b)
+    assert now["mag_matrix"] == IDENTITY3, "the turn-round replaced c's 3-D soft iron"
+    assert now["soft_iron"] == pytest.approx(last["soft_iron"] or [1.0, 0.0, 0.0, 1.0])
+    assert (now["hard_iron_x"], now["hard_iron_y"]) == pytest.approx((last["hard_iron_x"], last["hard_iron_y"]))
+    assert max(az_errors(b)) < 1.0
+    b = b.restart()
+    assert _soft(b) == pytest.approx(now)
+
+
+def test_c_during_a_turn_round_stops_it_and_only_c_is_applied(rig):
+    """The board taken off the boom while the antenna turns round: the turn-round ends
+    without applying anything (its samples would mix boom and hand), c's result is the
+    one in use and on disk."""
+    from urc.service.calibration import MagnetometerCalibration
+
+    b, s, tick = rig
+    before = _soft(b)
+    proc = MagnetometerCalibration(b.rot)
+    # at the last direction, the antenna standing still for its sample
+    b.run(600.0, on_tick=proc.poll, until=lambda st: len(proc.samples) == 11 and proc._phase == "dwell")
+    assert not proc.finished
+    s.receive(b"c\r")       # its last sample comes next: applying it is refused by c's hold
+    b.run(30.0, on_tick=proc.poll, until=lambda st: proc.finished)
+    assert proc.state == "failed" and "local control active" in proc.error, proc.as_dict()
+    assert _soft(b) == before, "nothing of the turn-round applied"
+    assert s.receive(b"a\r") == [b"Calibration aborted: nothing changed\r\n"]
+    assert _soft(b) == before
+    _hand_held(b, s, tick)
+    after_c = _soft(b)
+    assert after_c["mag_matrix"] != pytest.approx(IDENTITY3) and after_c["soft_iron"] == [1.0, 0.0, 0.0, 1.0]
+    assert _soft(b.restart()) == pytest.approx(after_c)
