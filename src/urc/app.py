@@ -70,9 +70,8 @@ def bridged_caps(caps, protocol: str):
     from .hardware.bridge import make_dialect, report_caps
 
     dialect = make_dialect(protocol)
-    over_top = caps.el.max_deg > 90.0
-    return replace(caps, az=replace(caps.az, sensor=report_caps(dialect, "az", over_top)),
-                   el=replace(caps.el, sensor=report_caps(dialect, "el", over_top)))
+    return replace(caps, az=replace(caps.az, sensor=report_caps(dialect, "az", caps.el_past_zenith)),
+                   el=replace(caps.el, sensor=report_caps(dialect, "el", caps.el_past_zenith)))
 
 
 def hardware_options(cfg: Config, fast_virtual: bool = False) -> dict:

@@ -95,6 +95,12 @@ class RotatorCaps:
         return "el" in self.axes
 
     @property
+    def el_past_zenith(self) -> bool:
+        """The elevation range reaches past 90: a controller reporting sky directions
+        (el 0..90) cannot tell which side of the zenith the antenna is on."""
+        return self.el.max_deg > 90.0
+
+    @property
     def can_flip(self) -> bool:
         """Elevation reaches past the zenith, so a pass can be flown 'over the top'."""
         return self.has_el and self.el.max_deg >= 180.0 - 1e-9

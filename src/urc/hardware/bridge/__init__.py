@@ -125,7 +125,7 @@ def build_bridge_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path, opti
     client = BridgeClient(dialect, ClientOptions(timeout_s=cfg.timeout_s, poll_interval_s=cfg.poll_interval_s,
                                                  max_failures=cfg.max_failures,
                                                  stop_before_set=cfg.stop_before_set,
-                                                 over_top=caps.el.max_deg > 90.0))
+                                                 over_top=caps.el_past_zenith))
     runner = LinkRunner(client, port_url(cfg.serial, cfg.tcp), cfg.baud or dialect.default_baud,
                         reconnect_attempts=cfg.reconnect_attempts, name=f"bridge-{cfg.protocol}")
     az, el = bridge_axes(client, clock, runner.wake)

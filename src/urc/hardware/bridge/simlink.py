@@ -122,7 +122,7 @@ class BridgedRig:
                 **(downstream_config or {})}
         self.settings = settings_from_config(Config.from_dict(down))
         self.dialect = make_dialect(protocol)
-        self._client_options = client_options or ClientOptions(over_top=self.settings.caps.el.max_deg > 90.0)
+        self._client_options = client_options or ClientOptions(over_top=self.settings.caps.el_past_zenith)
         self._baud = None if protocol == "rotctld" else (baud or self.dialect.default_baud)
         self._protocol, self._state_dir = protocol, state_dir / "down"
         self._state_dir.mkdir(parents=True, exist_ok=True)
