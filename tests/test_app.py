@@ -36,26 +36,117 @@ def heartbeat(u: UrcProcess) -> dict:
     return read_output_file(u.state_dir / "heartbeat")
 
 
-def test_kill_stop_and_kill_9_stop_the_heartbeat(urc):
+def truth(u: UrcProcess) -> dict:
+    return json.loads((u.state_dir / "simulator-truth.json").read_text())["axes"]
+
+
+def wait_until(pred, timeout_s: float, what: str):
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        got = pred()
+        if got:
+            return got
+        time.sleep(0.1)
+    raise AssertionError(f"not within {timeout_s} s: {what}")
+
+
+def test_a_hung_or_killed_control_process_stops_the_heartbeat(urc):
+    """The square wave comes from the control loop's ticks: stopped (hung) or killed,
+    it stops, so external hardware cuts the motors; the I/O process then exits with
+    the reason instead of serving a dead rotator."""
     u = urc().start()
+    ctl = u.control_pid()
+    assert ctl != u.proc.pid
     first = heartbeat(u)["toggles"]
     time.sleep(0.6)
     assert heartbeat(u)["toggles"] > first, "the heartbeat toggles while urc runs"
-    u.proc.send_signal(signal.SIGSTOP)  # hung: the square wave stops too
+    os.kill(ctl, signal.SIGSTOP)  # hung: the square wave stops too
     try:
         time.sleep(0.2)
         hung = heartbeat(u)
         time.sleep(0.5)
         assert heartbeat(u) == hung
+        time.sleep(1.0)  # the I/O process sees that its status is stale, and says so
+        s = u.status()
+        assert any(f["kind"] == "control" and "silent" in f["reason"] for f in s["faults"]), s["faults"]
     finally:
-        u.proc.send_signal(signal.SIGCONT)
+        os.kill(ctl, signal.SIGCONT)
     time.sleep(0.5)
     assert heartbeat(u)["toggles"] > hung["toggles"], "and starts again when the process runs"
-    u.proc.send_signal(signal.SIGKILL)
-    u.proc.wait()
+    assert not u.status()["faults"]
+    os.kill(ctl, signal.SIGKILL)
+    out, _ = u.proc.communicate(timeout=30)
     dead = heartbeat(u)
     time.sleep(0.6)
-    assert heartbeat(u) == dead, "the square wave stopped with the process"
+    assert heartbeat(u) == dead, "the square wave stopped with the control process"
+    assert u.proc.returncode != 0 and "control loop died" in out, out
+
+
+def test_kill_9_of_the_io_process_stops_the_axes_saves_and_the_heartbeat(urc):
+    """kill -9 of `urc run` (the I/O process): its control process sees the socket close,
+    brings the axes to rest, saves and exits, and the heartbeat stops; a new urc started
+    at once waits for it and comes up exact."""
+    u = urc(profile="tartu-urc").start()
+    ctl = u.control_pid()
+    assert u.post("/api/goto", {"az_deg": 300, "el_deg": 30}).status_code == 200
+    u.wait(lambda s: s["moving"] and abs(s["az"]["rate_deg_per_s"]) > 3)
+    u.proc.send_signal(signal.SIGKILL)
+    u.proc.wait()
+    wait_until(lambda: not os.path.exists(f"/proc/{ctl}") or "Z" in open(f"/proc/{ctl}/stat").read().split()[2],
+               30, "the control process exits")
+    dead = heartbeat(u)
+    time.sleep(0.6)
+    assert heartbeat(u) == dead and dead["level"] == 0
+    for axis, ax in truth(u).items():
+        assert ax["load_deg_per_s"] == 0.0 and ax["brake_released"] is False, (axis, ax)
+    saved = json.loads((u.state_dir / "state.json").read_text())["payload"]["axes"]
+    assert not saved["az"]["moving"]
+    u.start()
+    s = u.status()
+    assert s["position_known"] and abs(s["az_deg"] - 300) > 5  # stopped on the way, where it was
+    for axis in ("az", "el"):
+        assert s[axis]["pos_deg"] == pytest.approx(s["simulator_truth"][axis]["deg"], abs=0.2)
+    u.stop()
+
+
+def test_a_restart_waits_for_the_previous_control_process(urc):
+    """Right after a kill -9 of `urc run`, its control process still holds the instance
+    lock while it stops the axes: a new start waits for it instead of failing."""
+    u = urc(profile="tartu-urc").start()
+    assert u.post("/api/goto", {"az_deg": 300, "el_deg": 30}).status_code == 200
+    u.wait(lambda s: s["moving"] and abs(s["az"]["rate_deg_per_s"]) > 3)
+    ctl = u.control_pid()
+    u.proc.send_signal(signal.SIGKILL)
+    u.proc.wait()
+    assert os.path.exists(f"/proc/{ctl}")  # still bringing the axes to rest
+    u.start()
+    assert u.status()["position_known"]
+    u.stop()
+
+
+def test_a_hung_io_process_stops_the_axes_but_not_the_loop(urc):
+    """SIGSTOP on `urc run` (web, protocols and tracker hung): the control process stops
+    the axes after IO_SILENT_S and keeps holding them (the heartbeat goes on: the loop
+    is well); once the I/O process runs again, commands move the antenna again."""
+    from urc.service.control_process import IO_SILENT_S
+
+    u = urc(profile="tartu-urc").start()
+    assert u.post("/api/goto", {"az_deg": 390, "el_deg": 30}).status_code == 200
+    u.wait(lambda s: s["moving"] and abs(s["az"]["rate_deg_per_s"]) > 3)
+    u.proc.send_signal(signal.SIGSTOP)
+    try:
+        time.sleep(IO_SILENT_S + 3.0)
+        beat = heartbeat(u)["toggles"]
+        assert all(ax["load_deg_per_s"] == 0.0 for ax in truth(u).values()), truth(u)
+        time.sleep(0.5)
+        assert heartbeat(u)["toggles"] > beat
+    finally:
+        u.proc.send_signal(signal.SIGCONT)
+    s = u.wait(lambda s: not s["moving"])
+    assert abs(s["az_deg"] - 30) > 5 and any("silent" in e for e in s["events"]), s["events"]
+    assert u.post("/api/goto", {"az_deg": 100, "el_deg": 30}).status_code == 200
+    u.wait(lambda s: not s["moving"] and abs(s["az_deg"] - 100) < 0.3, timeout_s=90)
+    u.stop()
 
 
 def test_sigterm_during_a_move_stops_waits_for_standstill_and_saves(urc):
@@ -168,13 +259,16 @@ def test_systemd_notify_ready_and_watchdog_pings_only_while_on_time(urc, tmp_pat
             got += messages(0.5)
         assert "READY=1" in got
         assert "WATCHDOG=1" in messages(1.0)
-        u.proc.send_signal(signal.SIGSTOP)  # a hung process: no pings
-        try:
-            messages(0.3)  # (drain what was sent before the stop)
-            assert "WATCHDOG=1" not in messages(1.0)
-        finally:
-            u.proc.send_signal(signal.SIGCONT)
-        assert "WATCHDOG=1" in messages(3.0)
+        from urc.service.control_process import IO_SILENT_S
+
+        for pid, silent_s in ((u.control_pid(), 0.3), (u.proc.pid, IO_SILENT_S + 0.5)):
+            os.kill(pid, signal.SIGSTOP)  # a hung control process (or I/O process): no pings
+            try:
+                messages(silent_s)  # (drain what was sent before it was seen)
+                assert "WATCHDOG=1" not in messages(1.0), pid
+            finally:
+                os.kill(pid, signal.SIGCONT)
+            assert "WATCHDOG=1" in messages(3.0)
         u.proc.send_signal(signal.SIGTERM)
         assert "STOPPING=1" in messages(3.0)
         u.proc.communicate(timeout=30)

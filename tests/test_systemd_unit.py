@@ -18,7 +18,7 @@ def test_print_shows_a_notify_unit_with_a_watchdog(tmp_path):
                                   "--state-dir", str(tmp_path / "state"), "--user", "station"])
     assert r.exit_code == 0, r.output
     unit = r.output
-    for line in ("Type=notify", "NotifyAccess=main", "WatchdogSec=2", "Restart=on-failure", "User=station",
+    for line in ("Type=notify", "NotifyAccess=all", "WatchdogSec=2", "Restart=on-failure", "User=station",
                  "WantedBy=multi-user.target"):
         assert line in unit.splitlines()
     exec_line = next(ln for ln in unit.splitlines() if ln.startswith("ExecStart="))

@@ -62,6 +62,17 @@ class UrcProcess:
                 time.sleep(0.1)
         raise AssertionError("urc run did not start listening")
 
+    def control_pid(self) -> int:
+        """The pid of this urc's control process (the loop, the rotator, the hardware)."""
+        assert self.proc is not None
+        for pid in Path(f"/proc/{self.proc.pid}/task/{self.proc.pid}/children").read_text().split():
+            try:
+                if b"urc.service.control_process" in Path(f"/proc/{pid}/cmdline").read_bytes():
+                    return int(pid)
+            except FileNotFoundError:
+                pass
+        raise AssertionError("no control process found")
+
     def status(self) -> dict:
         return httpx.get(self.url + "/api/status", timeout=5).json()
 

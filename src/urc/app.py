@@ -10,7 +10,7 @@ import socket
 from dataclasses import replace
 from pathlib import Path
 
-from .clock import Clock, RealClock
+from .clock import Clock
 from .config import Config
 from .control.faults import FaultLimits
 from .control.law import AxisTuning
@@ -154,13 +154,13 @@ def _hardware_key(cfg: Config) -> str:
     return "bridge-" + re.sub(r"[^A-Za-z0-9_.-]+", "_", where).strip("_")
 
 
-async def serve(cfg: Config, state_dir: Path, clock: Clock | None = None,
-                config_path: Path | None = None) -> None:
-    """The ``urc run`` process: control loop (its own thread) + servers until SIGINT/SIGTERM.
+async def serve(cfg: Config, state_dir: Path, config_path: Path | None = None) -> None:
+    """The ``urc run`` process: servers here, the rotator and its loop in the control
+    process (:mod:`urc.service.control_process`), until SIGINT/SIGTERM.
 
     Start-up takes the instance lock, binds every port and only then starts the control
-    loop, so a refused start writes no state. Every exit path stops the axes, waits for
-    standstill (bounded), leaves every output safe and saves.
+    process, so a refused start writes no state. Every exit path stops the axes, waits
+    for standstill (bounded), leaves every output safe and saves (in the control process).
     """
     from .service.instance import lock_instance
 
@@ -168,7 +168,7 @@ async def serve(cfg: Config, state_dir: Path, clock: Clock | None = None,
     try:
         api_socket = bind_api_socket(cfg.api.host, cfg.api.port)
         try:
-            await _serve(cfg, state_dir, clock or RealClock(), config_path, api_socket)
+            await _serve(cfg, state_dir, config_path, api_socket, [lk.fd for lk in locks if lk.fd is not None])
         finally:
             api_socket.close()
     finally:
@@ -189,32 +189,34 @@ def _api_server(config):
     return ApiServer(config)
 
 
-async def _serve(cfg: Config, state_dir: Path, clock: Clock, config_path: Path | None,
-                 api_socket: socket.socket) -> None:
+async def _serve(cfg: Config, state_dir: Path, config_path: Path | None, api_socket: socket.socket,
+                 lock_fds: list[int]) -> None:
     import uvicorn
 
     from .api import create_api
     from .servers import start_endpoints
-    from .service.loop import ControlThread, WatchdogPing, sd_notifier, settle
+    from .service.control_process import ControlProcess
+    from .service.loop import sd_notifier
     from .tracking.service import TrackingService
 
-    rotator = build_rotator(cfg, clock, state_dir)
-    control: ControlThread | None = None
+    stop = asyncio.Event()
+    loop = asyncio.get_running_loop()
+    control = ControlProcess(cfg, state_dir, lock_fds, on_lost=lambda _why: loop.call_soon_threadsafe(stop.set))
+    rotator = control.start()
+    server = web = stopper = None
     try:
-        stop = asyncio.Event()
-        loop = asyncio.get_running_loop()
         for sig in (signal.SIGINT, signal.SIGTERM):
             loop.add_signal_handler(sig, stop.set)
         tracking = TrackingService(rotator, cfg)
         api = create_api(rotator, cfg, config_path=config_path, state_dir=state_dir,
                          tracker=tracking if tracking.station is not None or tracking.gps is not None else None)
         server = _api_server(uvicorn.Config(api, log_level="warning", lifespan="off"))
-        # every protocol port or none (the API port is bound already): a start that
-        # fails here has not ticked, so it has written no state
+        # every protocol port or none (the API port is bound already)
         endpoints = await start_endpoints(cfg.served, rotator)
         caps = rotator.caps
         print(f"urc: profile {caps.name} ({caps.description}) on the {cfg.hardware.backend} backend", flush=True)
         print(f"urc: state in {state_dir}", flush=True)
+        print(f"urc: control loop in process {rotator.pid} ({rotator.priority} priority)", flush=True)
         print(f"urc: dashboard on http://{cfg.api.host}:{cfg.api.port}/ ; control API at /api "
               f"(OpenAPI at /openapi.json)", flush=True)
         # (the rotator's start-up events were logged as they happened: not printed again)
@@ -224,11 +226,9 @@ async def _serve(cfg: Config, state_dir: Path, clock: Clock, config_path: Path |
         _announce_tracking(tracking, cfg)
 
         notify = sd_notifier()
-        control = ControlThread(rotator, clock, watchdog=WatchdogPing(notify),
-                                on_exit=lambda _e: loop.call_soon_threadsafe(stop.set))
-        control.start()
         web = asyncio.create_task(server.serve(sockets=[api_socket]), name="api")
-        steps = asyncio.create_task(_step_tracker(tracking, clock, stop), name="tracker")
+        steps = asyncio.create_task(_step_tracker(tracking, rotator.clock, stop), name="tracker")
+        pings = asyncio.create_task(_ping_control(control, stop), name="control-ping")
         from .frontpanel import serve_panel
 
         panel = asyncio.create_task(serve_panel(cfg, rotator, stop), name="front-panel")
@@ -241,30 +241,25 @@ async def _serve(cfg: Config, state_dir: Path, clock: Clock, config_path: Path |
         for ep in endpoints:
             ep.close()
         tracking.close()
-        await asyncio.gather(steps, panel, return_exceptions=True)
-        if control.alive:
-            if not await settle(rotator):
-                print("urc: the axes did not come to rest in time; saved as moving", flush=True)
-        control.stop()
-        server.should_exit = True
-        await asyncio.gather(web, return_exceptions=True)
-        stopper.cancel()
-        if control.error is not None:
-            raise RuntimeError(f"control loop died: {control.error!r}") from control.error
-        if web.done() and not web.cancelled() and web.exception() is not None:
-            raise web.exception()
+        await asyncio.gather(steps, panel, pings, return_exceptions=True)
     finally:
-        # every path: motors off, brakes on, heartbeat low; state saved only if the
-        # loop ran (a failed start leaves the saved state as it was)
-        if control is not None:
-            control.stop()
-        if control is not None and control.alive:
-            # a tick hangs (in the hardware) and holds the rotator: outputs safe without it
-            rotator.hw.drive_safe()
-            raise RuntimeError("the control loop hangs in a tick: outputs made safe, state not saved")
-        saved = rotator.shutdown(save=control is not None)
-        rotator.hw.close()
-    print("urc: stopped, state saved" if saved else "urc: stopped; the state could NOT be saved "
+        # every path: the control process stops the axes, waits for standstill, leaves
+        # the outputs safe and saves (a failed start above never got here)
+        result = await asyncio.to_thread(control.stop)
+        if web is not None:
+            server.should_exit = True
+            await asyncio.gather(web, return_exceptions=True)
+        if stopper is not None:
+            stopper.cancel()
+    if result["hung"]:
+        raise RuntimeError("the control loop hangs in a tick: outputs made safe, state not saved")
+    if result["error"]:
+        raise RuntimeError(f"control loop died: {result['error']}")
+    if not result["settled"] and result["saved"]:
+        print("urc: the axes did not come to rest in time; saved as moving", flush=True)
+    if web.done() and not web.cancelled() and web.exception() is not None:
+        raise web.exception()
+    print("urc: stopped, state saved" if result["saved"] else "urc: stopped; the state could NOT be saved "
           "(the next start treats the position as uncertain)", flush=True)
 
 
@@ -283,6 +278,18 @@ def _announce_tracking(tracking, cfg: Config) -> None:
 
 #: how often the tracker looks whether a new setpoint is due (it sends one every 0.2 s)
 TRACKER_STEP_S = 0.05
+
+
+async def _ping_control(control, stop: asyncio.Event) -> None:
+    """Tell the control process this one is alive (silent too long: it stops the axes)."""
+    from .service.control_process import PING_S
+
+    while not stop.is_set():
+        control.ping()
+        try:
+            await asyncio.wait_for(stop.wait(), PING_S)
+        except asyncio.TimeoutError:
+            pass
 
 
 async def _step_tracker(tracking, clock: Clock, stop: asyncio.Event) -> None:

@@ -2,7 +2,7 @@
 
 ``Type=notify``: urc says READY=1 once every port is served and the control loop runs;
 ``WatchdogSec``: the control loop pings WATCHDOG=1 only while its ticks are on time
-(``urc.service.loop.WatchdogPing``), so a hung or stalled controller is killed and
+(``urc.service.loop.WatchdogPing``, from the control process: ``NotifyAccess=all``), so a hung or stalled controller is killed and
 restarted by systemd, while the heartbeat output lets external hardware cut the motors
 at once. ``TimeoutStopSec`` leaves room for the orderly stop (axes to rest, then save).
 """
@@ -34,7 +34,7 @@ def unit_text(config_path: Path | None, state_dir: Path | None, user: str | None
              "",
              "[Service]",
              "Type=notify",
-             "NotifyAccess=main",
+             "NotifyAccess=all",  # the control process pings the watchdog
              f"ExecStart={shlex.join(cmd)}",
              f"WatchdogSec={WATCHDOG_SEC}",
              "Restart=on-failure",

@@ -11,11 +11,15 @@ from __future__ import annotations
 import fcntl
 import os
 import tempfile
+import time
 from pathlib import Path
 
 from ..errors import UrcError
 
 LOCK_FILE = "urc.lock"
+#: how long a start waits for a previous urc whose I/O process is gone while its control
+#: process still brings the axes to rest and saves (loop.STANDSTILL_TIMEOUT_S and more)
+STOPPING_WAIT_S = 15.0
 
 
 class InstanceLocked(UrcError):
@@ -28,20 +32,30 @@ class InstanceLock:
         self.what = what
         self._fd: int | None = None
 
-    def acquire(self) -> "InstanceLock":
+    def acquire(self, stopping_wait_s: float = STOPPING_WAIT_S) -> "InstanceLock":
         self.path.parent.mkdir(parents=True, exist_ok=True)
         fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:
-            holder = os.read(fd, 64).decode(errors="replace").strip() or "unknown"
-            os.close(fd)
-            raise InstanceLocked(f"{self.what} is in use by another urc (pid {holder}, lock {self.path}); "
-                                 "stop that one first, or give this one another --state-dir") from None
+        give_up_s = time.monotonic() + stopping_wait_s
+        while True:
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                break
+            except OSError:
+                holder = os.pread(fd, 64, 0).decode(errors="replace").strip() or "unknown"
+                if _stopping(holder) and time.monotonic() < give_up_s:
+                    time.sleep(0.1)  # its control process is bringing the axes to rest
+                    continue
+                os.close(fd)
+                raise InstanceLocked(f"{self.what} is in use by another urc (pid {holder}, lock {self.path}); "
+                                     "stop that one first, or give this one another --state-dir") from None
         os.ftruncate(fd, 0)
-        os.write(fd, f"{os.getpid()}\n".encode())
+        os.pwrite(fd, f"{os.getpid()}\n".encode(), 0)
         self._fd = fd
         return self
+
+    @property
+    def fd(self) -> int | None:
+        return self._fd
 
     def release(self) -> None:
         if self._fd is not None:
@@ -68,3 +82,30 @@ def lock_instance(state_dir: Path, backend: str, real_hardware: bool) -> list[In
             locks[0].release()
             raise
     return locks
+
+
+def mark_stopping(fd: int) -> None:
+    """In a control process whose I/O process is gone: say in the lock file (still held
+    through the inherited descriptor) that this holder is on its way out."""
+    try:
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, f"{os.getpid()} stopping\n".encode(), 0)
+    except OSError:
+        pass
+
+
+def _stopping(holder: str) -> bool:
+    """The lock's holder is leaving: it said so, or the process that wrote its pid is gone
+    (an I/O process killed before its control process could say so)."""
+    parts = holder.split()
+    if "stopping" in parts:
+        return True
+    if not parts or not parts[0].isdigit():
+        return False
+    try:
+        os.kill(int(parts[0]), 0)
+    except ProcessLookupError:
+        return True
+    except OSError:
+        return False
+    return False

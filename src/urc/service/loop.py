@@ -50,10 +50,13 @@ class WatchdogPing:
     pinged from the control loop only while its ticks are on time, so a hung or stalled
     loop gets the service killed and restarted (the heartbeat output cuts the motors)."""
 
-    def __init__(self, notify: Callable[[str], None] | None = None, interval_s: float | None = None):
+    def __init__(self, notify: Callable[[str], None] | None = None, interval_s: float | None = None,
+                 alive: Callable[[], bool] = lambda: True):
         if notify is None:
             notify = sd_notifier()
         self.notify = notify
+        #: what else must be well for a ping (the control process: its I/O process talks)
+        self.alive = alive
         usec = os.environ.get("WATCHDOG_USEC")
         self.interval_s = interval_s if interval_s is not None else \
             (int(usec) / 1e6 / 4 if usec and usec.isdigit() and int(usec) > 0 else 1.0)
@@ -61,7 +64,7 @@ class WatchdogPing:
 
     def tick(self, on_time: bool) -> None:
         now = time.monotonic()
-        if on_time and now - self._last_s >= self.interval_s:
+        if on_time and now - self._last_s >= self.interval_s and self.alive():
             self._last_s = now
             self.notify("WATCHDOG=1")
 
@@ -151,16 +154,16 @@ class ControlThread:
                 self.on_exit(self.error)
 
 
-async def settle(rotator: Rotator, timeout_s: float = STANDSTILL_TIMEOUT_S, poll_s: float = 0.02) -> bool:
+def settle(rotator: Rotator, timeout_s: float = STANDSTILL_TIMEOUT_S, poll_s: float = 0.02) -> bool:
     """Stop both axes and wait (bounded) until they stand still, while the loop keeps
-    ticking. True if they came to rest."""
+    ticking on its own thread. True if they came to rest."""
     try:
         rotator.stop()
     except Exception:  # the stop command itself may be refused (uncertain position...)
         log.exception("stop before shutdown failed")
     deadline = time.monotonic() + timeout_s
     while time.monotonic() < deadline:
-        await asyncio.sleep(poll_s)
+        time.sleep(poll_s)
         s = rotator.status()
         if not s.moving and all(a is None or a.mode in ("idle", "holding") for a in (s.az, s.el)):
             return True

@@ -566,6 +566,11 @@ class Rotator:
         log.error("FAULT %s: %s", fault.kind, fault.reason)
         self._event(f"fault {fault.kind}: {fault.reason}")
 
+    def announce(self, text: str) -> None:
+        """An event from outside the rotator (logged, and in status' recent events)."""
+        with self.lock:
+            self._event(text)
+
     def _event(self, text: str) -> None:
         log.warning("%s", text)
         self._events.append(text)

@@ -270,6 +270,10 @@ class SimWorld:
 
     def close(self) -> None:
         """Power down: save the truth (always) and stop driving."""
+        if self._origin_s is not None and not self._closed:
+            # a brake whose coil was just switched off engages after its delay, powered
+            # or not: the truth saved is the iron after that, not before
+            self.advance_to(max([self.clock.now_s(), *(ev[0] + self.dt_s for ev in self._brake_events.values())]))
         if self._truth_writer is not None:
             self._truth_writer.close()
         if self.truth_path is not None:

@@ -1,0 +1,304 @@
+"""``urc run``'s control process: the rotator, its hardware and the control loop, nothing else.
+
+The I/O process (web, protocol servers, tracker, front panel) starts it with
+:class:`ControlProcess` and talks to it through :mod:`.remote`. Why a process of its own
+is in that module's docstring; what this one guarantees:
+
+* Every thread here runs at real-time priority when the host allows it (the loop thread
+  above the rest), and none of them does heavy work, so a thread that holds Python's
+  lock here is never one that the OS has preempted for a busy web server.
+* It never waits for the I/O process: statuses go out on a thread of their own, latest
+  first, and a slow reader only makes that thread skip statuses.
+* The instance locks are shared with the I/O process (inherited descriptors): they stay
+  held until both processes are gone, so a new ``urc run`` cannot open the hardware
+  while this one still brings the axes to rest.
+* Every end stops the axes, waits for standstill (bounded), leaves the outputs safe and
+  saves the state: asked to stop, the I/O process gone (its socket closed, even after a
+  ``kill -9``), SIGTERM/SIGINT here, or the loop dying. An I/O process that goes silent
+  (hung) stops the axes after ``IO_SILENT_S``; the loop keeps holding them, and a
+  command accepted once it talks again moves them again.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import logging
+import os
+import signal
+import socket
+import subprocess
+import sys
+import threading
+import time
+from multiprocessing.connection import Connection
+from pathlib import Path
+from typing import Any, Callable
+
+from ..clock import RealClock
+from .instance import mark_stopping
+from .loop import ControlThread, WatchdogPing, settle
+from .remote import (ControlLink, ControlUnavailable, RemoteRotator, exception_from_wire, exception_to_wire, resolve,
+                     travels)
+
+log = logging.getLogger(__name__)
+
+#: real-time priority (SCHED_FIFO) of this process's threads; the loop thread raises
+#: itself to loop.RT_PRIORITY, above them
+PROCESS_RT_PRIORITY = 5
+#: how often the I/O process says it is alive
+PING_S = 0.5
+#: the I/O process silent this long (hung, stopped): the axes stop
+IO_SILENT_S = 3.0
+#: how long building the hardware may take (imports, a bridge's first contact)
+START_TIMEOUT_S = 60.0
+#: how long the I/O process waits for an orderly stop (standstill, then saving)
+STOP_TIMEOUT_S = 20.0
+
+
+# ======================================================================== the child
+class ControlServer:
+    def __init__(self, conn: Connection, cfg: Any, state_dir: Path, lock_fds: list[int]):
+        self.conn = conn
+        self.cfg = cfg
+        self.state_dir = state_dir
+        self.lock_fds = lock_fds
+        self._send_lock = threading.Lock()
+        self._latest = None
+        self._fresh = threading.Event()
+        self._closing = False
+        self._signal = ""
+        self._heard_s = time.monotonic()  # the I/O process's last message
+        self.rot: Any = None
+        self.control: ControlThread | None = None
+
+    def send(self, msg: tuple) -> None:
+        with self._send_lock:
+            self.conn.send(msg)
+
+    # ------------------------------------------------------------- lifetime
+    def run(self) -> int:
+        from ..app import build_rotator
+
+        for sig in (signal.SIGTERM, signal.SIGINT):
+            signal.signal(sig, self._on_signal)
+        try:
+            self.rot = build_rotator(self.cfg, RealClock(), self.state_dir)
+        except BaseException as exc:
+            log.debug("control process could not start", exc_info=True)
+            self.send(("failed", exception_to_wire(exc)))
+            return 1
+        # systemd's watchdog is fed while the loop is on time and the I/O process talks:
+        # a hung web server and protocol ports are a hung service to restart too
+        self.control = ControlThread(self.rot, RealClock(), on_tick=self._publish,
+                                     watchdog=WatchdogPing(alive=lambda: time.monotonic() - self._heard_s < IO_SILENT_S))
+        self.control.start()
+        while not self.control.priority:  # (set first thing on the loop thread)
+            time.sleep(0.001)
+        rot = self.rot
+        self.send(("ready", {"pid": os.getpid(), "priority": self.control.priority, "settings": rot.settings,
+                             "caps": rot.caps, "geometry": rot.geometry, "status": rot.status()}))
+        # (statuses only after "ready": the first message the I/O process reads is that)
+        threading.Thread(target=self._publish_loop, name="urc-status-out", daemon=True).start()
+        reason = self._serve()
+        result = self._shutdown(reason)
+        self._closing = True
+        try:
+            self.send(("stopped", result))
+        except OSError:
+            pass
+        return 0 if result["saved"] and not result["error"] else 1
+
+    def _on_signal(self, signum: int, _frame: Any) -> None:
+        self._signal = signal.Signals(signum).name
+
+    def _serve(self) -> str:
+        """Answer the I/O process until something ends it; returns why."""
+        assert self.control is not None
+        silenced = False
+        while True:
+            if self._signal:
+                return f"{self._signal} received"
+            if not self.control.alive:
+                error = repr(self.control.error)
+                self._tell(("died", error))
+                return f"control loop died: {error}"
+            try:
+                ready = self.conn.poll(0.1)
+                msg = self.conn.recv() if ready else None
+            except (EOFError, OSError):
+                return "the I/O process is gone"
+            now_s = time.monotonic()
+            if msg is None:
+                if now_s - self._heard_s > IO_SILENT_S and not silenced:
+                    silenced = True
+                    self._stop_for_silence(now_s - self._heard_s)
+                continue
+            self._heard_s, silenced = now_s, False
+            if msg[0] == "stop":
+                return "asked to stop"
+            if msg[0] in ("call", "get"):
+                self._answer(*msg)
+
+    def _stop_for_silence(self, silent_s: float) -> None:
+        try:
+            self.rot.stop()
+        except Exception:
+            log.exception("stop after the I/O process went silent failed")
+        self.rot.announce(f"axes stopped: the I/O process (web, protocols, tracker) was silent for "
+                          f"{silent_s:.1f} s")
+
+    def _answer(self, kind: str, rid: int, path: tuple, args: tuple, kwargs: dict) -> None:
+        try:
+            target = resolve(self.rot, path)
+            value = target(*args, **kwargs) if kind == "call" else target
+            outcome = "value" if travels(value) else "ref"
+        except Exception as exc:
+            outcome, value = "error", exception_to_wire(exc)
+        # (with the status the command left: a cleared fault shows at once)
+        self.send(("reply", rid, outcome, None if outcome == "ref" else value, self.rot.status()))
+
+    def _tell(self, msg: tuple) -> None:
+        try:
+            self.send(msg)
+        except OSError:
+            pass
+
+    def _shutdown(self, reason: str) -> dict[str, Any]:
+        """Axes to rest, outputs safe, state saved: every way this process ends."""
+        assert self.control is not None
+        log.info("control process stopping: %s", reason)
+        if reason == "the I/O process is gone":
+            for fd in self.lock_fds:  # a new urc waits for this one instead of failing
+                mark_stopping(fd)
+        settled = settle(self.rot) if self.control.alive else False
+        self.control.stop()
+        result: dict[str, Any] = {"reason": reason, "settled": settled, "hung": False,
+                                  "error": None if self.control.error is None else repr(self.control.error)}
+        if self.control.alive:
+            # a tick hangs (in the hardware) and holds the rotator: outputs safe without it
+            self.rot.hw.drive_safe()
+            result.update(saved=False, hung=True)
+        else:
+            result["saved"] = self.rot.shutdown(save=True)
+        self.rot.hw.close()
+        return result
+
+    # ------------------------------------------------------------- statuses
+    def _publish(self, status: Any) -> None:
+        """On the loop thread after each tick: hand over, never wait."""
+        self._latest = status
+        self._fresh.set()
+
+    def _publish_loop(self) -> None:
+        while not self._closing:
+            if not self._fresh.wait(0.5):
+                continue
+            self._fresh.clear()
+            try:
+                self.send(("status", self._latest))
+            except OSError:
+                return
+
+
+def _die_with_parent() -> None:
+    """SIGTERM (an orderly stop) if the I/O process dies, even when it is killed before
+    its socket's close is seen (Linux prctl PR_SET_PDEATHSIG)."""
+    try:
+        ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGTERM)
+    except (OSError, AttributeError):
+        pass
+
+
+def _realtime() -> str:
+    """SCHED_FIFO for this thread, inherited by every thread it starts (needs root or
+    CAP_SYS_NICE, which the systemd unit has)."""
+    try:
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(PROCESS_RT_PRIORITY))
+        return f"SCHED_FIFO {PROCESS_RT_PRIORITY}"
+    except (AttributeError, OSError):
+        return "normal"
+
+
+def main(argv: list[str]) -> int:
+    conn = Connection(int(argv[0]))
+    _die_with_parent()
+    if os.getppid() == 1:  # the I/O process died before the line above
+        return 1
+    kind, cfg, state_dir, lock_fds, log_level = conn.recv()
+    logging.basicConfig(level=log_level, format="%(asctime)s %(levelname)s %(name)s: %(message)s")
+    log.debug("control process: %s priority for its threads", _realtime())
+    return ControlServer(conn, cfg, Path(state_dir), lock_fds).run()
+
+
+# ======================================================================== the parent
+class ControlProcess:
+    """The I/O process's handle on the control process: start it, use its rotator, stop it."""
+
+    def __init__(self, cfg: Any, state_dir: Path, lock_fds: list[int],
+                 on_lost: Callable[[str], None] | None = None):
+        self.cfg = cfg
+        self.state_dir = state_dir
+        self.lock_fds = lock_fds
+        self.on_lost = on_lost
+        self.proc: subprocess.Popen | None = None
+        self.link: ControlLink | None = None
+
+    def start(self, timeout_s: float = START_TIMEOUT_S) -> RemoteRotator:
+        """Spawn it and wait until its rotator is built (its start-up errors are raised
+        here, as building the rotator in this process raised them)."""
+        ours, theirs = socket.socketpair()
+        try:
+            # a fresh interpreter, not a fork: this process may already run threads
+            self.proc = subprocess.Popen([sys.executable, "-m", "urc.service.control_process", str(theirs.fileno())],
+                                         pass_fds=(theirs.fileno(), *self.lock_fds), start_new_session=True)
+        finally:
+            theirs.close()
+        conn = Connection(ours.detach())
+        conn.send(("init", self.cfg, str(self.state_dir), self.lock_fds, logging.getLogger().getEffectiveLevel()))
+        try:
+            if not conn.poll(timeout_s):
+                raise ControlUnavailable(f"the control process did not start within {timeout_s:g} s")
+            kind, payload = conn.recv()
+        except (EOFError, OSError):
+            code = self.proc.wait(5)
+            raise ControlUnavailable(f"the control process exited while starting (exit code {code})") from None
+        except BaseException:
+            self.proc.kill()
+            conn.close()
+            raise
+        if kind == "failed":
+            self.proc.wait(5)
+            conn.close()
+            raise exception_from_wire(payload)
+        self.link = ControlLink(conn, self.on_lost).start()
+        return RemoteRotator(self.link, payload)
+
+    def ping(self) -> None:
+        assert self.link is not None
+        if not self.link.lost:
+            try:
+                self.link.send(("ping",))
+            except OSError:
+                pass
+
+    def stop(self, timeout_s: float = STOP_TIMEOUT_S) -> dict[str, Any]:
+        """Ask for an orderly stop and wait for it; returns how it ended."""
+        assert self.proc is not None and self.link is not None
+        if not self.link.lost:
+            try:
+                self.link.send(("stop",))
+            except OSError:
+                pass
+        self.link.finished.wait(timeout_s)
+        try:
+            code = self.proc.wait(5)
+        except subprocess.TimeoutExpired:
+            self.proc.kill()  # (its own exit paths failed: the heartbeat stops with it)
+            code = self.proc.wait()
+        final = self.link.final or {"saved": False, "settled": False, "hung": False, "reason": self.link.lost,
+                                     "error": f"the control process ended without a word ({self.link.lost})"}
+        return {**final, "exit_code": code}
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))

@@ -1,0 +1,122 @@
+"""The control process and the wire to it (urc.service.control_process, urc.service.remote):
+a real child process with the simulator, driven through the RemoteRotator the I/O
+process uses."""
+
+from __future__ import annotations
+
+import errno
+import threading
+import time
+
+import pytest
+
+from urc.config import Config
+from urc.errors import CommandRejected, ConfigError, UrcError
+from urc.service.control_process import PING_S, ControlProcess
+from urc.service.remote import ControlUnavailable, exception_from_wire, exception_to_wire, resolve
+
+
+@pytest.fixture
+def control(tmp_path):
+    cfg = Config.from_dict({"rotator": {"profile": "tartu-urc"}, "hardware": {"sim": {"wind": False}}})
+    lost: list[str] = []
+    proc = ControlProcess(cfg, tmp_path / "state", [], on_lost=lost.append)
+    rot = proc.start()
+    done = threading.Event()
+
+    def ping() -> None:  # what urc run's event loop does (silent: the axes stop)
+        while not done.wait(PING_S):
+            proc.ping()
+    threading.Thread(target=ping, daemon=True).start()
+    yield proc, rot, lost
+    done.set()
+    if proc.proc is not None and proc.proc.poll() is None:
+        proc.proc.kill()
+        proc.proc.wait()
+
+
+def wait_for(pred, timeout_s: float = 30.0):
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        got = pred()
+        if got:
+            return got
+        time.sleep(0.02)
+    raise AssertionError("condition not met")
+
+
+def test_commands_status_and_errors_cross_the_process_boundary(control):
+    proc, rot, lost = control
+    assert rot.pid == proc.proc.pid and rot.caps.name == "tartu-urc"
+    t0 = rot.status().t_s
+    wait_for(lambda: rot.status().t_s > t0 + 0.1)  # statuses arrive as the loop ticks
+    assert rot.goto(40.0, 20.0) == [(40.0, 20.0)]
+    s = wait_for(lambda: (lambda s: s if not s.moving and abs(s.az_deg - 40) < 0.3 else None)(rot.status()))
+    assert abs(s.el_deg - 20) < 0.3
+    with pytest.raises(CommandRejected) as refused:  # its own class and reason, as in-process
+        rot.goto(500.0, 20.0)
+    assert refused.value.reason == "limit" and "outside the limits" in str(refused.value)
+    rot.hold_local("panel:cw", True)
+    assert rot.local_controls() == ("panel:cw",)
+    wait_for(lambda: rot.status().local_control == ("panel:cw",))
+    with pytest.raises(CommandRejected) as held:
+        rot.goto(41.0, 20.0)
+    assert held.value.reason == "local"
+    rot.hold_local("panel:cw", False)
+    result = proc.stop()
+    assert result["saved"] and result["settled"] and result["exit_code"] == 0 and not result["error"]
+    assert lost == ["it stopped"]
+
+
+def test_the_hardware_stays_in_the_control_process_and_is_reached_by_path(control):
+    _proc, rot, _lost = control
+    sensor = rot.hw.axis("az").sensor
+    assert "sensor" in repr(sensor)                  # a reference, not a copy
+    assert isinstance(sensor.calibration(), dict)    # calls run over there
+    assert sensor.caps.kind == "encoder"             # values that can travel come back
+    assert "world" in rot.hw.extra
+    rot.hw.extra.get("world").inject("az", "sensor_stuck")
+    rot.goto(60.0, 20.0)
+    s = wait_for(lambda: (lambda s: s if s.faults else None)(rot.status()))
+    assert s.faults[0].axis == "az"
+    with pytest.raises(AttributeError):
+        rot.hw._backend_private  # noqa: B018 - private names never travel
+    with pytest.raises(AttributeError):
+        rot.tick()  # the tick belongs to the control process
+
+
+def test_a_killed_control_process_refuses_commands_and_says_why(control):
+    proc, rot, lost = control
+    proc.proc.kill()
+    wait_for(lambda: lost)
+    with pytest.raises(ControlUnavailable) as gone:
+        rot.goto(10.0, 10.0)
+    assert "gone" in str(gone.value) and gone.value.reason == "fault"
+    assert any(f.kind == "control" and "gone" in f.reason for f in rot.status().faults)
+    result = proc.stop()
+    assert not result["saved"] and result["error"]
+
+
+def test_exceptions_keep_their_class_and_attributes():
+    wire = exception_to_wire(ConfigError("bad", key="limits.az.max_deg", found=500))
+    back = exception_from_wire(wire)
+    assert type(back) is ConfigError and back.key == "limits.az.max_deg" and back.found == 500
+    assert str(back) == "bad"
+    os_err = exception_from_wire(exception_to_wire(OSError(errno.ENOENT, "no such port")))
+    assert isinstance(os_err, FileNotFoundError) and os_err.errno == errno.ENOENT
+    unknown = exception_from_wire(("no.such.module", "Gone", ("x",), {}, "x"))
+    assert isinstance(unknown, UrcError) and "Gone" in str(unknown)
+
+
+def test_paths_reach_public_names_only():
+    class Thing:
+        value = 3
+        _secret = 4
+
+        def twice(self, n):
+            return 2 * n
+    assert resolve(Thing(), ("twice", ("()", (5,), {}))) == 10
+    with pytest.raises(AttributeError):
+        resolve(Thing(), ("_secret",))
+    with pytest.raises(AttributeError):
+        resolve(Thing(), ("__class__",))
