@@ -263,3 +263,19 @@ def test_a_freeze_runs_on_with_the_drive_the_hardware_last_had(tmp_path, profile
     hard_max = physics_for(profile).axis(axis).hard_max_deg
     expected = min(rate * freeze_s, (hard_max if hard_max is not None else math.inf) - before)
     assert moved >= 0.8 * expected, (moved, rate * freeze_s)
+
+
+def test_close_right_after_the_brake_is_switched_off_saves_it_engaged(tmp_path):
+    """A brake engages its delay after its coil is switched off, powered or not: a close
+    within that delay (every orderly stop: outputs safe, then close) saved it released."""
+    clock = VirtualClock()
+    hw = build_hardware("sim", PROFILES["tartu-urc"], clock, tmp_path, {"wind": False})
+    hw.poll(0.0)
+    hw.az.brake.set_released(True)
+    clock.advance(1.0)
+    hw.poll(1.0)
+    assert hw.sim_truth()["az"]["brake_released"] is True
+    hw.drive_safe()
+    hw.close()
+    saved = json.loads((tmp_path / "simulator-truth.json").read_text())["axes"]
+    assert saved["az"]["brake_released"] is False and saved["el"]["brake_released"] is False
