@@ -30,17 +30,22 @@ def test_there_is_an_example_per_seed_machine_and_a_g5500():
     assert {p.stem for p in EXAMPLES} >= {"tartu-urc", "sarcnet-mini", "bigras", "g4jnt", "berkeley", "g5500"}
 
 
+def _a_goto(s) -> tuple[float, float]:
+    """A pose inside any example's range: az 40 (or short of its top), el 30 (or half
+    way up a lower range)."""
+    az = min(s.limits["az"][1] - 5.0, 40.0)
+    # a single-axis example (trc-turntable) has no elevation: the goto's el is left aside
+    el_hi = s.limits["el"][1] if s.has_el else 0.0
+    return az, 30.0 if el_hi >= 30 else el_hi / 2
+
+
 @pytest.mark.parametrize("path", EXAMPLES, ids=lambda p: p.stem)
 def test_example_goes_where_it_is_told(path, tmp_path):
     rot, clock = emulated(path, tmp_path)
     assert rot.hw.backend == "gpio" and rot.hw.extra["emulated"]
     s = rot.status()
     assert s.sim_truth is not None and not s.faults
-    lo, hi = s.limits["az"]
-    az = min(hi - 5.0, 40.0)
-    # a single-axis example (trc-turntable) has no elevation: the goto's el is left aside
-    el_hi = s.limits["el"][1] if s.has_el else 0.0
-    el = 30.0 if el_hi >= 30 else el_hi / 2
+    az, el = _a_goto(s)
     rot.goto(az, el)
     s = run_virtual(rot, clock, 120.0, until=lambda s: not s.moving and all(
         a is None or a.mode in ("holding", "idle") for a in (s.az, s.el))
@@ -451,3 +456,54 @@ def test_slow_read_stalls_an_emulated_bus_and_the_watchdog_sees_it(tmp_path):
         control.stop()
         rot.shutdown()
         rot.hw.close()
+
+
+def _ticks_of_a_goto(path: Path, state_dir: Path, seconds: float = 6.0) -> list[tuple]:
+    """Every tick of a goto on the emulated example: each output pin's level, what the
+    controller reads and the simulator's truth (compared bit for bit)."""
+    rot, clock = emulated(path, state_dir)
+    factory = rot.hw.extra["pin_factory"]
+    outputs = sorted((p for p in factory.pins.values() if p.function == "output"), key=lambda p: p.info.name)
+    s = rot.status()
+    rot.goto(*_a_goto(s))
+    ticks: list[tuple] = []
+
+    def record(s) -> None:
+        truth = s.sim_truth
+        ticks.append((s.az_deg, s.el_deg, truth["az"]["deg"], truth["az"]["gear_deg"], truth["el"]["deg"],
+                      truth["el"]["gear_deg"], tuple(float(p.state) for p in outputs), tuple(f.reason for f in s.faults)))
+    run_virtual(rot, clock, seconds, on_tick=record)
+    rot.hw.close()
+    return ticks
+
+
+class _RacingWall:
+    """A wall clock running far ahead of the virtual one: 0.25 s more at every read."""
+
+    def __init__(self, start_s: float):
+        self.t_s = start_s
+
+    def __call__(self) -> float:
+        self.t_s += 0.25
+        return self.t_s
+
+
+@pytest.mark.parametrize("path", EXAMPLES, ids=lambda p: p.stem)
+def test_emulated_run_is_a_function_of_the_virtual_clock(path, tmp_path, monkeypatch):
+    """The emulated backend on the virtual clock depends on nothing else: a goto flown
+    twice gives the same pins, readings and truth at every tick, the second time with a
+    wall clock that races ahead. Wall time or thread timing leaking into a tick (a
+    time.monotonic() pacing a part, a callback thread) would make the runs differ."""
+    import time
+
+    first = _ticks_of_a_goto(path, tmp_path / "first")
+    monkeypatch.setattr(time, "monotonic", _RacingWall(time.monotonic()))
+    monkeypatch.setattr(time, "perf_counter", _RacingWall(time.perf_counter()))
+    monkeypatch.setattr(time, "time", _RacingWall(time.time()))
+    second = _ticks_of_a_goto(path, tmp_path / "second")
+    assert len(first) == len(second) == 300
+    moved = [abs(t[2] - first[0][2]) + abs(t[4] - first[0][4]) for t in first]
+    assert max(moved) > 1.0, "the goto should move the axes"
+    diverged = next((i for i, (a, b) in enumerate(zip(first, second)) if a != b), None)
+    assert diverged is None, (f"tick {diverged}: {first[diverged]} then {second[diverged]}")
+
