@@ -507,3 +507,15 @@ def test_emulated_run_is_a_function_of_the_virtual_clock(path, tmp_path, monkeyp
     diverged = next((i for i, (a, b) in enumerate(zip(first, second)) if a != b), None)
     assert diverged is None, (f"tick {diverged}: {first[diverged]} then {second[diverged]}")
 
+
+@pytest.mark.parametrize("path", EXAMPLES, ids=lambda p: p.stem)
+def test_emulated_pins_keep_no_growing_history(path, tmp_path):
+    """gpiozero's MockPin records every level change; the heartbeat output toggles each
+    tick, so a day of ``urc run --emulate`` would hold millions of them. Only the last
+    tick's changes are kept."""
+    rot, clock = emulated(path, tmp_path)
+    rot.goto(*_a_goto(rot.status()))
+    run_virtual(rot, clock, 10.0)
+    pins = rot.hw.extra["pin_factory"].pins.values()
+    assert max(len(p.states) for p in pins) <= 4, {p.info.name: len(p.states) for p in pins}
+    rot.hw.close()

@@ -27,7 +27,7 @@ from ..interfaces import AxisHardware, Hardware
 from ..sim.params import PHYSICS, physics_for
 from .buses import Buses
 from .feed import (EmulatedBrake, EmulatedMotor, Emulation, ads_reference, feed_current_sense, feed_sensor,
-                   limit_sync)
+                   forget_output_history, limit_sync)
 from .i2c import AdcInput, Ads1115Channel, As5600Chip, Lsm303Accel, Lsm303agrChip, Lsm303dChip, Lsm303Mag
 from .pins import PinIn, PinOut, PinPulseCounter, PinQuadrature
 from .pwm import HardwarePwm, make_pwm, pwm_advice, pwm_plan
@@ -204,6 +204,7 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
         assert emu is not None
         extra["world"], extra["fake_spi"], extra["emulation"] = world, buses.fake_spi, emu.parts
         extra["overcurrent_a"] = {n: 0.8 * params.axis(n).stall_current_a for n in ("az", "el")}
+        syncs.append(forget_output_history(factory))
 
         def poll(now_s: float) -> None:
             world.advance_to(now_s)

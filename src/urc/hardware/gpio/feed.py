@@ -75,6 +75,18 @@ def limit_sync(sw: LimitSwitchInput, sim_sw: Any) -> Any:
     return sync
 
 
+def forget_output_history(factory: Any) -> Any:
+    """gpiozero's MockPin keeps every level change of a pin for tests to assert on; an
+    output's is never read here, and the heartbeat toggles it every tick (30 000 entries,
+    ~3.5 MB, per 10 min of ``urc run --emulate``). Forget it each tick, as the input feeds
+    do for theirs."""
+    def sync() -> None:
+        for pin in factory.pins.values():
+            if pin.function == "output" and len(pin.states) > 1:
+                pin.clear_states()
+    return sync
+
+
 class Emulation:
     """What the emulated sensors are fed from and where their parts are left: the world,
     per-axis views of it carrying the injected sensor faults, the sync hooks run before
