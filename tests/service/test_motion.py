@@ -342,3 +342,18 @@ def test_a_flipped_target_uses_the_cable_overlap(bench):
     assert s.flipped and s.az_deg == pytest.approx(186.9, abs=0.3)
     # an azimuth outside 0..360 still names its own turn
     assert b.rot.goto(367.0, 120.0)[-1][0] == pytest.approx(367.0)
+
+
+def test_a_speed_reading_above_the_top_speed_does_not_stop_the_axis_short(bench):
+    """A bridged controller's late report then a burst read as ~70 deg/s on a 40 deg/s
+    berkeley axis, and the squared speed put its predicted stop 70 deg out: the guard
+    stopped a goto at 72 deg, 'before its limit' at 0 (test_bridge_over_a_pty, under load)."""
+    b = bench("berkeley")
+    ax = b.rot.axes["az"]
+    ax.meas_deg, ax.rate_deg_per_s = 72.0, -70.0
+    top = ax.caps.max_rate_deg_per_s
+    reach = top * top / (2 * ax.tuning.accel_deg_per_s2)
+    assert ax.stop_position_deg() >= 72.0 - 1.25 ** 2 * reach - 1e-9
+    assert ax.stop_position_deg() > 0.0
+    ax.rate_deg_per_s = -10.0  # a speed it can have: unchanged
+    assert ax.stop_position_deg() == pytest.approx(72.0 - 100.0 / (2 * ax.tuning.accel_deg_per_s2))

@@ -40,6 +40,9 @@ log = logging.getLogger(__name__)
 AXES = ("az", "el")
 #: guard look-ahead: how far ahead (seconds of current motion) keep-out zones are checked.
 GUARD_LOOKAHEAD_S = 0.3
+#: a speed estimate above this many times the axis' top speed is taken as its top speed
+#: when predicting where it would stop
+STOP_RATE_MARGIN = 1.25
 
 
 class _Axis:
@@ -212,7 +215,13 @@ class _Axis:
         if self.tuning.drive == "relay":
             dist = max(self.law.coast_deg, default=0.0)
         else:
-            dist = stopping_distance_deg(self.rate_deg_per_s, self.tuning.accel_deg_per_s2)
+            # no faster than the axis can turn (with a margin for its calibration): a
+            # faster estimate is an artefact of the readings (a late controller report
+            # then a burst), and squared it made the guard stop a bridged axis 70 deg
+            # short of its limit
+            top_deg_per_s = STOP_RATE_MARGIN * self.caps.max_rate_deg_per_s
+            rate_deg_per_s = max(-top_deg_per_s, min(top_deg_per_s, self.rate_deg_per_s))
+            dist = stopping_distance_deg(rate_deg_per_s, self.tuning.accel_deg_per_s2)
         return self.meas_deg + math.copysign(dist, self.rate_deg_per_s)
 
     def planned_stop_deg(self) -> float | None:
