@@ -92,14 +92,20 @@ class ControlServer:
         self.control = ControlThread(self.rot, RealClock(), on_tick=self._publish,
                                      watchdog=WatchdogPing(alive=lambda: time.monotonic() - self._heard_s < IO_SILENT_S))
         self.control.start()
-        while not self.control.priority:  # (set first thing on the loop thread)
-            time.sleep(0.001)
-        rot = self.rot
-        self.send(("ready", {"pid": os.getpid(), "priority": self.control.priority, "settings": rot.settings,
-                             "caps": rot.caps, "geometry": rot.geometry, "status": rot.status()}))
-        # (statuses only after "ready": the first message the I/O process reads is that)
-        threading.Thread(target=self._publish_loop, name="urc-status-out", daemon=True).start()
-        reason = self._serve()
+        try:
+            while not self.control.priority:  # (set first thing on the loop thread)
+                time.sleep(0.001)
+            rot = self.rot
+            self.send(("ready", {"pid": os.getpid(), "priority": self.control.priority, "settings": rot.settings,
+                                 "caps": rot.caps, "geometry": rot.geometry, "status": rot.status()}))
+            # (statuses only after "ready": the first message the I/O process reads is that)
+            threading.Thread(target=self._publish_loop, name="urc-status-out", daemon=True).start()
+            reason = self._serve()
+        except (EOFError, OSError):
+            reason = "the I/O process is gone"
+        except BaseException as exc:  # a bug here must still end in the orderly stop
+            log.exception("control process failed")
+            reason = f"control process failed: {exc!r}"
         result = self._shutdown(reason)
         self._closing = True
         try:
@@ -180,7 +186,10 @@ class ControlServer:
             result.update(saved=False, hung=True)
         else:
             result["saved"] = self.rot.shutdown(save=True)
-        self.rot.hw.close()
+        try:
+            self.rot.hw.close()
+        except Exception:  # (the outputs are safe and the state saved already)
+            log.exception("closing the hardware failed")
         return result
 
     # ------------------------------------------------------------- statuses

@@ -1,10 +1,12 @@
 """Running the rotator's tick: in real time (its own thread) or on a virtual clock (tests, bench).
 
-The real-time loop runs on a thread of its own with absolute deadlines, apart from the
-asyncio I/O, so no request, client flood or search on the event loop delays a tick
-(within one process the GIL is shared: ``sys.setswitchinterval`` is shortened so that
-Python code on other threads gives the loop its turn within ``SWITCH_INTERVAL_S``;
-bench/loop_bench.py measures what is left). A late loop never runs catch-up ticks: it
+The real-time loop runs on a thread of its own with absolute deadlines. In ``urc run``
+that thread lives in the control process (:mod:`.control_process`), apart from the
+process that serves the network: Python's lock is shared by the threads of one process,
+and a busy event-loop thread preempted by the OS while holding it delayed ticks by
+10-19 ms (bench/loop_bench.py). The few threads beside the loop there run short
+Python code; ``sys.setswitchinterval`` is shortened so that they give the loop its turn
+within ``SWITCH_INTERVAL_S``. A late loop never runs catch-up ticks: it
 resumes on the next deadline. Every exit path of the thread leaves the outputs safe.
 """
 
