@@ -8,6 +8,7 @@ import os
 import signal
 import socket
 import subprocess
+import threading
 import time
 
 import pytest
@@ -116,12 +117,17 @@ def test_a_restart_waits_for_the_previous_control_process(urc):
     assert u.post("/api/goto", {"az_deg": 300, "el_deg": 30}).status_code == 200
     u.wait(lambda s: s["moving"] and abs(s["az"]["rate_deg_per_s"]) > 3)
     ctl = u.control_pid()
+    os.kill(ctl, signal.SIGSTOP)  # (held, so that the new start surely finds it still there)
     u.proc.send_signal(signal.SIGKILL)
     u.proc.wait()
-    assert os.path.exists(f"/proc/{ctl}")  # still bringing the axes to rest
+    killed = u.proc.pid
+    threading.Timer(1.5, os.kill, (ctl, signal.SIGCONT)).start()
     u.start()
     assert u.status()["position_known"]
-    u.stop()
+    out = u.stop()
+    # (the lock file still names the killed process: its control process had no time to
+    # write that it is stopping)
+    assert f"waiting (at most 15 s) for the urc that held it (pid {killed}) " in out, out
 
 
 def test_a_hung_io_process_stops_the_axes_but_not_the_loop(urc):

@@ -31,3 +31,31 @@ def test_real_hardware_is_locked_across_state_dirs(tmp_path, monkeypatch):
         lock.release()
     for lock in first:
         lock.release()
+
+
+def test_a_holder_on_its_way_out_is_waited_for_a_live_one_is_not(tmp_path):
+    """A control process whose I/O process died keeps the lock (an inherited descriptor)
+    while it brings the axes to rest: a new start waits for it, bounded; a running urc
+    is refused at once."""
+    import threading
+    import time
+
+    held = lock_instance(tmp_path / "state", "sim", real_hardware=False)[0]
+    instance.mark_stopping(held.fd)
+    threading.Timer(0.4, held.release).start()
+    t0 = time.monotonic()
+    for lock in lock_instance(tmp_path / "state", "sim", real_hardware=False):
+        assert 0.3 < time.monotonic() - t0 < 5.0
+        lock.release()
+
+    held = lock_instance(tmp_path / "state", "sim", real_hardware=False)[0]
+    instance.mark_stopping(held.fd)
+    with pytest.raises(InstanceLocked, match="stopping"):  # bounded: it never left
+        instance.InstanceLock(tmp_path / "state" / instance.LOCK_FILE, "state dir").acquire(stopping_wait_s=0.3)
+    held.release()
+    held = lock_instance(tmp_path / "state", "sim", real_hardware=False)[0]  # (names this live pid)
+    t0 = time.monotonic()
+    with pytest.raises(InstanceLocked):
+        lock_instance(tmp_path / "state", "sim", real_hardware=False)
+    assert time.monotonic() - t0 < 0.3
+    held.release()

@@ -9,12 +9,15 @@ or written: a refused start leaves the state untouched.
 from __future__ import annotations
 
 import fcntl
+import logging
 import os
 import tempfile
 import time
 from pathlib import Path
 
 from ..errors import UrcError
+
+log = logging.getLogger(__name__)
 
 LOCK_FILE = "urc.lock"
 #: how long a start waits for a previous urc whose I/O process is gone while its control
@@ -36,6 +39,7 @@ class InstanceLock:
         self.path.parent.mkdir(parents=True, exist_ok=True)
         fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
         give_up_s = time.monotonic() + stopping_wait_s
+        waited = False
         while True:
             try:
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
@@ -43,6 +47,10 @@ class InstanceLock:
             except OSError:
                 holder = os.pread(fd, 64, 0).decode(errors="replace").strip() or "unknown"
                 if _stopping(holder) and time.monotonic() < give_up_s:
+                    if not waited:
+                        log.warning("%s: waiting (at most %.0f s) for the urc that held it (pid %s) to bring "
+                                    "its axes to rest and save", self.what, stopping_wait_s, holder.split()[0])
+                        waited = True
                     time.sleep(0.1)  # its control process is bringing the axes to rest
                     continue
                 os.close(fd)
