@@ -83,6 +83,16 @@ def test_a_hung_or_killed_control_process_stops_the_heartbeat(urc):
     assert u.proc.returncode != 0 and "control loop died" in out, out
 
 
+def test_a_control_process_that_stops_by_itself_fails_the_service(urc):
+    """SIGTERM to the control process alone: it stops in order and saves, and `urc run`
+    exits non-zero saying so, so that systemd (Restart=on-failure) starts it again; it
+    used to print 'stopped, state saved' and exit 0, leaving the station down."""
+    u = urc().start()
+    os.kill(u.control_pid(), signal.SIGTERM)
+    out, _ = u.proc.communicate(timeout=30)
+    assert u.proc.returncode != 0 and "stopped on its own: SIGTERM received" in out, out
+
+
 def test_kill_9_of_the_io_process_stops_the_axes_saves_and_the_heartbeat(urc):
     """kill -9 of `urc run` (the I/O process): its control process sees the socket close,
     brings the axes to rest, saves and exits, and the heartbeat stops; a new urc started
@@ -127,7 +137,9 @@ def test_a_restart_waits_for_the_previous_control_process(urc):
     out = u.stop()
     # (the lock file still names the killed process: its control process had no time to
     # write that it is stopping)
-    assert f"waiting (at most 15 s) for the urc that held it (pid {killed}) " in out, out
+    from urc.service.instance import STOPPING_WAIT_S
+
+    assert f"waiting (at most {STOPPING_WAIT_S:.0f} s) for the urc that held it (pid {killed}) " in out, out
 
 
 def test_a_hung_io_process_stops_the_axes_but_not_the_loop(urc):

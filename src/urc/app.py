@@ -201,12 +201,13 @@ async def _serve(cfg: Config, state_dir: Path, config_path: Path | None, api_soc
 
     stop = asyncio.Event()
     loop = asyncio.get_running_loop()
+    asked: list[str] = []  # why this process stops, when it was asked to (a signal)
     control = ControlProcess(cfg, state_dir, lock_fds, on_lost=lambda _why: loop.call_soon_threadsafe(stop.set))
     rotator = control.start()
     server = web = stopper = None
     try:
         for sig in (signal.SIGINT, signal.SIGTERM):
-            loop.add_signal_handler(sig, stop.set)
+            loop.add_signal_handler(sig, lambda sig=sig: (asked.append(sig.name), stop.set()))
         tracking = TrackingService(rotator, cfg)
         api = create_api(rotator, cfg, config_path=config_path, state_dir=state_dir,
                          tracker=tracking if tracking.station is not None or tracking.gps is not None else None)
@@ -255,6 +256,9 @@ async def _serve(cfg: Config, state_dir: Path, config_path: Path | None, api_soc
         raise RuntimeError("the control loop hangs in a tick: outputs made safe, state not saved")
     if result["error"]:
         raise RuntimeError(f"control loop died: {result['error']}")
+    if not asked and result["reason"] != "asked to stop":
+        # (exit non-zero: systemd restarts a service whose controller stopped by itself)
+        raise RuntimeError(f"the control process stopped on its own: {result['reason']}")
     if not result["settled"] and result["saved"]:
         print("urc: the axes did not come to rest in time; saved as moving", flush=True)
     if web.done() and not web.cancelled() and web.exception() is not None:

@@ -13,7 +13,7 @@ import shlex
 import sys
 from pathlib import Path
 
-from .service.loop import STANDSTILL_TIMEOUT_S
+from .service.control_process import STOP_TIMEOUT_S
 
 UNIT_NAME = "urc.service"
 #: systemd kills the service when no WATCHDOG=1 comes for this long
@@ -39,9 +39,12 @@ def unit_text(config_path: Path | None, state_dir: Path | None, user: str | None
              f"WatchdogSec={WATCHDOG_SEC}",
              "Restart=on-failure",
              "RestartSec=2",
-             # SIGTERM: stop, wait for standstill (bounded), save; then SIGKILL
-             f"TimeoutStopSec={int(STANDSTILL_TIMEOUT_S + 12)}",
-             "KillMode=mixed"]
+             # SIGTERM to both processes (also when the I/O process died, and on a watchdog
+             # timeout): the control process stops, waits for standstill (bounded) and
+             # saves on its own; SIGKILL only after that can have happened
+             f"TimeoutStopSec={int(STOP_TIMEOUT_S + 5)}",
+             "KillMode=control-group",
+             "WatchdogSignal=SIGTERM"]
     if user and not user_unit:
         lines.append(f"User={user}")
     lines += ["", "[Install]", f"WantedBy={'default.target' if user_unit else 'multi-user.target'}", ""]

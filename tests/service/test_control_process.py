@@ -17,8 +17,9 @@ from urc.service.remote import ControlUnavailable, exception_from_wire, exceptio
 
 
 @pytest.fixture
-def control(tmp_path):
-    cfg = Config.from_dict({"rotator": {"profile": "tartu-urc"}, "hardware": {"sim": {"wind": False}}})
+def control(tmp_path, request):
+    profile = getattr(request, "param", "tartu-urc")
+    cfg = Config.from_dict({"rotator": {"profile": profile}, "hardware": {"sim": {"wind": False}}})
     lost: list[str] = []
     proc = ControlProcess(cfg, tmp_path / "state", [], on_lost=lost.append)
     rot = proc.start()
@@ -97,13 +98,58 @@ def test_a_killed_control_process_refuses_commands_and_says_why(control):
     assert not result["saved"] and result["error"]
 
 
+def test_a_hung_tick_gets_the_outputs_made_safe_without_it(control):
+    """A tick that hangs (here a sensor read blocking for 4 s, a bus timing out) holds the
+    rotator and the loop: the control process's main thread turns the motors off after
+    the watchdog time. Before, the motors kept their last drive until the tick returned."""
+    _proc, rot, _lost = control
+    rot.goto(300.0, 20.0)
+    wait_for(lambda: abs(rot.status().az.rate_deg_per_s) > 3)
+    assert rot.hw.az.motor.duty != 0.0
+    rot.hw.extra.get("world").inject("az", "slow_read", delay_s=4.0, reads=1)
+    time.sleep(1.5)  # watchdog_s (0.5 s) and the main thread's watch (0.1 s) later
+    assert rot.hw.az.motor.duty == 0.0 and rot.hw.el.motor.duty == 0.0
+
+
+@pytest.mark.parametrize("control", ["g4jnt"], indirect=True)
+def test_a_calibration_is_applied_in_one_piece_in_the_control_process(control):
+    """New pot constants and the re-reference are one step under the rotator's lock, in
+    the control process: called step by step from the I/O process, ticks fell in between
+    and latched sensor_jump and runaway faults while its event loop was busy."""
+    from urc.service.calibration import apply_sensor_calibration
+
+    _proc, rot, _lost = control
+    busy = threading.Event()
+
+    def spin() -> None:  # a busy I/O process (other clients)
+        while not busy.is_set():
+            sum(range(1000))
+    spinners = [threading.Thread(target=spin, daemon=True) for _ in range(3)]
+    for t in spinners:
+        t.start()
+    try:
+        cal = rot.hw.axis("az").sensor.calibration()
+        before = rot.status().az.pos_deg
+        mech = apply_sensor_calibration(rot, "az", {**cal, "M": cal["M"] * 1.2})
+        assert isinstance(mech, float) and abs(mech - before) > 5  # the reading moved with M
+        time.sleep(1.0)
+    finally:
+        busy.set()
+    assert rot.hw.axis("az").sensor.calibration()["M"] == pytest.approx(cal["M"] * 1.2)
+    assert not rot.status().faults, rot.status().faults
+    with pytest.raises(TypeError):
+        with rot.lock:  # never a lock that does not lock
+            pass
+
+
 def test_exceptions_keep_their_class_and_attributes():
     wire = exception_to_wire(ConfigError("bad", key="limits.az.max_deg", found=500))
     back = exception_from_wire(wire)
     assert type(back) is ConfigError and back.key == "limits.az.max_deg" and back.found == 500
     assert str(back) == "bad"
-    os_err = exception_from_wire(exception_to_wire(OSError(errno.ENOENT, "no such port")))
+    os_err = exception_from_wire(exception_to_wire(OSError(errno.ENOENT, "no such bus", "/dev/i2c-1")))
     assert isinstance(os_err, FileNotFoundError) and os_err.errno == errno.ENOENT
+    assert os_err.filename == "/dev/i2c-1" and "/dev/i2c-1" in str(os_err)
     unknown = exception_from_wire(("no.such.module", "Gone", ("x",), {}, "x"))
     assert isinstance(unknown, UrcError) and "Gone" in str(unknown)
 

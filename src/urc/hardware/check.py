@@ -80,7 +80,7 @@ def check(hw: Any, caps: Any, *, gpio: Any = None, move: bool = False, jog_duty:
 def _jog(hw: Any, name: str, ax: Any, ax_caps: Any, gpio: Any, duty: float, jog_s: float,
          sleep: Callable[[float], None], now: Callable[[], float], out: Callable[[str], None]) -> int:
     if ax.limit_max is not None and ax.limit_max.is_active():
-        out(f"  jog: skipped, the max limit switch is active")
+        out("  jog: skipped, the max limit switch is active")
         return 0
     r0, err = _read(ax.sensor)
     if r0 is None:

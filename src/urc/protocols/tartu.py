@@ -57,7 +57,7 @@ from ..errors import CommandRejected, UrcError
 from .base import MAX_PENDING_BYTES, RotatorPort, bad_input_log, internal_error, protocol_logger
 from . import tartu_codec as codec
 from .lines import LineSplitter, TerminalEcho
-from .poses import ExtendedTarget, extended_pose_deg, extended_targets_deg
+from .poses import ExtendedTarget, extended_pose_deg
 from .single_axis import has_elevation
 from .tartu_codec import Command, TartuSyntaxError
 

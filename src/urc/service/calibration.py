@@ -20,6 +20,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from ..errors import CommandRejected, UrcError
+from .remote import in_control_process
 from .snapshot import Status
 
 
@@ -199,6 +200,7 @@ def compass_field(sensor: Any, samples: int = 16) -> tuple[float, float]:
     return float(pts[:, 0].mean()), float(pts[:, 1].mean())
 
 
+@in_control_process
 def describe_sensors(rotator: Any) -> dict[str, Any]:
     """Per axis: sensor kind, present constants and which procedures apply."""
     out = {}
@@ -223,6 +225,7 @@ def describe_sensors(rotator: Any) -> dict[str, Any]:
 
 
 # ================================================================= one-shot steps
+@in_control_process
 def apply_sensor_calibration(rotator: Any, axis: str, values: dict[str, Any], samples: int = 16,
                              local: bool = False) -> float:
     """Load new constants into the sensor and re-reference the axis to what they say.
@@ -238,7 +241,8 @@ def apply_sensor_calibration(rotator: Any, axis: str, values: dict[str, Any], sa
     """
     sensor = _sensor(rotator, axis)
     # the control loop runs on its own thread: hold its lock so that no tick reads the
-    # sensor between the new constants and the re-reference
+    # sensor between the new constants and the re-reference (in urc run this runs in
+    # the control process, where the lock is)
     with getattr(rotator, "lock", contextlib.nullcontext()):
         old = dict(sensor.calibration())
         adopt = getattr(rotator, "adopt_sensor_reading", None)
@@ -272,6 +276,7 @@ def zero(rotator: Any, az_deg: float | None = None, el_deg: float | None = None)
     rotator.set_position(az_deg, el_deg)
 
 
+@in_control_process
 def pot_apply(rotator: Any, axis: str, points: Sequence[tuple[float, float]]) -> dict[str, float]:
     """Two (bearing_deg, P) points -> M, C; load them (Z back to 0) and re-reference.
 
@@ -715,6 +720,7 @@ class TwelveDirectionCalibration:
                 "accel_scale": list(acc.half_extent), "accel_rms_rel": acc.rms_rel}
 
 
+@in_control_process
 def apply_twelve_direction(rotator: Any, result: dict[str, Any]) -> bool:
     """Load a :class:`TwelveDirectionCalibration` result into the compass (azimuth) and
     the tilt sensor (elevation) and write the state record at once (the constants live

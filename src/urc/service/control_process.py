@@ -24,6 +24,8 @@ from __future__ import annotations
 import ctypes
 import logging
 import os
+import queue
+import select
 import signal
 import socket
 import subprocess
@@ -37,8 +39,8 @@ from typing import Any, Callable
 from ..clock import RealClock
 from .instance import mark_stopping
 from .loop import ControlThread, WatchdogPing, settle
-from .remote import (ControlLink, ControlUnavailable, RemoteRotator, exception_from_wire, exception_to_wire, resolve,
-                     travels)
+from .remote import (ControlLink, ControlUnavailable, RemoteRotator, control_side_function, exception_from_wire,
+                     exception_to_wire, resolve, travels)
 
 log = logging.getLogger(__name__)
 
@@ -51,12 +53,21 @@ PING_S = 0.5
 IO_SILENT_S = 3.0
 #: how long building the hardware may take (imports, a bridge's first contact)
 START_TIMEOUT_S = 60.0
-#: how long the I/O process waits for an orderly stop (standstill, then saving)
-STOP_TIMEOUT_S = 20.0
+#: how long the I/O process waits for an orderly stop: standstill (loop.STANDSTILL_TIMEOUT_S,
+#: 8 s), the loop thread's end (5 s), the state save on a slow card (5 s), and more
+STOP_TIMEOUT_S = 30.0
 
 
 # ======================================================================== the child
+#: why a control process may end with exit code 0 (the service was asked to stop)
+ORDERLY = ("asked to stop", "SIGTERM received", "SIGINT received")
+
+
 class ControlServer:
+    """The control process's main thread only reads the I/O process's messages and keeps
+    watch (signals, a silent I/O process, a hung tick); commands run on a thread of their
+    own, in order, so a slow one (a state save on a slow SD card) blinds none of that."""
+
     def __init__(self, conn: Connection, cfg: Any, state_dir: Path, lock_fds: list[int]):
         self.conn = conn
         self.cfg = cfg
@@ -67,7 +78,11 @@ class ControlServer:
         self._fresh = threading.Event()
         self._closing = False
         self._signal = ""
-        self._heard_s = time.monotonic()  # the I/O process's last message
+        #: the I/O process's last message (None: not heard since "ready", as it starts)
+        self._heard_s: float | None = None
+        #: when the last tick ended (the loop thread's own clock reading)
+        self._ticked_s = time.monotonic()
+        self._commands: queue.SimpleQueue[tuple | None] = queue.SimpleQueue()
         self.rot: Any = None
         self.control: ControlThread | None = None
 
@@ -75,11 +90,15 @@ class ControlServer:
         with self._send_lock:
             self.conn.send(msg)
 
+    def _io_alive(self) -> bool:
+        return self._heard_s is None or time.monotonic() - self._heard_s < IO_SILENT_S
+
     # ------------------------------------------------------------- lifetime
     def run(self) -> int:
         from ..app import build_rotator
 
-        for sig in (signal.SIGTERM, signal.SIGINT):
+        # (SIGABRT: what systemd's watchdog sends by default)
+        for sig in (signal.SIGTERM, signal.SIGINT, signal.SIGABRT):
             signal.signal(sig, self._on_signal)
         try:
             self.rot = build_rotator(self.cfg, RealClock(), self.state_dir)
@@ -90,7 +109,7 @@ class ControlServer:
         # systemd's watchdog is fed while the loop is on time and the I/O process talks:
         # a hung web server and protocol ports are a hung service to restart too
         self.control = ControlThread(self.rot, RealClock(), on_tick=self._publish,
-                                     watchdog=WatchdogPing(alive=lambda: time.monotonic() - self._heard_s < IO_SILENT_S))
+                                     watchdog=WatchdogPing(alive=self._io_alive))
         self.control.start()
         try:
             while not self.control.priority:  # (set first thing on the loop thread)
@@ -100,50 +119,72 @@ class ControlServer:
                                  "caps": rot.caps, "geometry": rot.geometry, "status": rot.status()}))
             # (statuses only after "ready": the first message the I/O process reads is that)
             threading.Thread(target=self._publish_loop, name="urc-status-out", daemon=True).start()
+            threading.Thread(target=self._command_loop, name="urc-commands", daemon=True).start()
             reason = self._serve()
         except (EOFError, OSError):
             reason = "the I/O process is gone"
         except BaseException as exc:  # a bug here must still end in the orderly stop
             log.exception("control process failed")
             reason = f"control process failed: {exc!r}"
+        self._commands.put(None)
         result = self._shutdown(reason)
         self._closing = True
-        try:
-            self.send(("stopped", result))
-        except OSError:
-            pass
-        return 0 if result["saved"] and not result["error"] else 1
+        self._last_word(("stopped", result))
+        return 0 if reason in ORDERLY and result["saved"] and not result["error"] else 1
 
     def _on_signal(self, signum: int, _frame: Any) -> None:
         self._signal = signal.Signals(signum).name
 
     def _serve(self) -> str:
-        """Answer the I/O process until something ends it; returns why."""
+        """Read the I/O process's messages and keep watch until something ends it;
+        returns why."""
         assert self.control is not None
-        silenced = False
+        silenced = hung = False
+        watchdog_s = self.rot.settings.watchdog_s
         while True:
             if self._signal:
                 return f"{self._signal} received"
             if not self.control.alive:
                 error = repr(self.control.error)
-                self._tell(("died", error))
+                self._last_word(("died", error))
                 return f"control loop died: {error}"
             try:
-                ready = self.conn.poll(0.1)
-                msg = self.conn.recv() if ready else None
+                msg = self.conn.recv() if self.conn.poll(0.1) else None
             except (EOFError, OSError):
                 return "the I/O process is gone"
             now_s = time.monotonic()
+            # a tick that hangs (in a driver, on a bus) holds the rotator's lock and the
+            # loop: the outputs go safe from here, without either
+            late_s = now_s - self._ticked_s
+            if late_s > watchdog_s and not hung:
+                hung = True
+                log.critical("control loop: no tick for %.1f s (a hung tick): outputs made safe", late_s)
+                self.rot.hw.drive_safe()
+            elif late_s <= watchdog_s:
+                hung = False
             if msg is None:
-                if now_s - self._heard_s > IO_SILENT_S and not silenced:
+                if self._heard_s is not None and now_s - self._heard_s > IO_SILENT_S and not silenced:
                     silenced = True
-                    self._stop_for_silence(now_s - self._heard_s)
+                    self._commands.put(("silent", now_s - self._heard_s))
                 continue
             self._heard_s, silenced = now_s, False
             if msg[0] == "stop":
                 return "asked to stop"
-            if msg[0] in ("call", "get"):
+            if msg[0] in ("call", "get", "run"):
+                self._commands.put(msg)
+
+    def _command_loop(self) -> None:
+        while True:
+            msg = self._commands.get()
+            if msg is None:
+                return
+            if msg[0] == "silent":
+                self._stop_for_silence(msg[1])
+                continue
+            try:
                 self._answer(*msg)
+            except OSError:  # the I/O process is gone: the main thread sees it too
+                return
 
     def _stop_for_silence(self, silent_s: float) -> None:
         try:
@@ -155,19 +196,29 @@ class ControlServer:
 
     def _answer(self, kind: str, rid: int, path: tuple, args: tuple, kwargs: dict) -> None:
         try:
-            target = resolve(self.rot, path)
-            value = target(*args, **kwargs) if kind == "call" else target
+            if kind == "run":
+                value = control_side_function(*path)(self.rot, *args, **kwargs)
+            else:
+                target = resolve(self.rot, path)
+                value = target(*args, **kwargs) if kind == "call" else target
             outcome = "value" if travels(value) else "ref"
         except Exception as exc:
             outcome, value = "error", exception_to_wire(exc)
         # (with the status the command left: a cleared fault shows at once)
         self.send(("reply", rid, outcome, None if outcome == "ref" else value, self.rot.status()))
 
-    def _tell(self, msg: tuple) -> None:
+    def _last_word(self, msg: tuple, timeout_s: float = 2.0) -> None:
+        """Tell the I/O process, unless it cannot hear (hung with its socket full): this
+        process must end all the same."""
+        if not self._send_lock.acquire(timeout=timeout_s):
+            return
         try:
-            self.send(msg)
-        except OSError:
+            if select.select([], [self.conn.fileno()], [], timeout_s)[1]:
+                self.conn.send(msg)
+        except (OSError, ValueError):
             pass
+        finally:
+            self._send_lock.release()
 
     def _shutdown(self, reason: str) -> dict[str, Any]:
         """Axes to rest, outputs safe, state saved: every way this process ends."""
@@ -176,7 +227,9 @@ class ControlServer:
         if reason == "the I/O process is gone":
             for fd in self.lock_fds:  # a new urc waits for this one instead of failing
                 mark_stopping(fd)
-        settled = settle(self.rot) if self.control.alive else False
+        # (a hung tick holds the lock that the stop command needs: no waiting for it)
+        ticking = time.monotonic() - self._ticked_s <= self.rot.settings.watchdog_s
+        settled = settle(self.rot) if self.control.alive and ticking else False
         self.control.stop()
         result: dict[str, Any] = {"reason": reason, "settled": settled, "hung": False,
                                   "error": None if self.control.error is None else repr(self.control.error)}
@@ -195,6 +248,7 @@ class ControlServer:
     # ------------------------------------------------------------- statuses
     def _publish(self, status: Any) -> None:
         """On the loop thread after each tick: hand over, never wait."""
+        self._ticked_s = time.monotonic()
         self._latest = status
         self._fresh.set()
 
@@ -231,7 +285,7 @@ def _realtime() -> str:
 def main(argv: list[str]) -> int:
     conn = Connection(int(argv[0]))
     _die_with_parent()
-    if os.getppid() == 1:  # the I/O process died before the line above
+    if os.getppid() != int(argv[1]):  # the I/O process died before the line above
         return 1
     kind, cfg, state_dir, lock_fds, log_level = conn.recv()
     logging.basicConfig(level=log_level, format="%(asctime)s %(levelname)s %(name)s: %(message)s")
@@ -258,7 +312,8 @@ class ControlProcess:
         ours, theirs = socket.socketpair()
         try:
             # a fresh interpreter, not a fork: this process may already run threads
-            self.proc = subprocess.Popen([sys.executable, "-m", "urc.service.control_process", str(theirs.fileno())],
+            self.proc = subprocess.Popen([sys.executable, "-m", "urc.service.control_process", str(theirs.fileno()),
+                                          str(os.getpid())],
                                          pass_fds=(theirs.fileno(), *self.lock_fds), start_new_session=True)
         finally:
             theirs.close()

@@ -21,8 +21,8 @@ log = logging.getLogger(__name__)
 
 LOCK_FILE = "urc.lock"
 #: how long a start waits for a previous urc whose I/O process is gone while its control
-#: process still brings the axes to rest and saves (loop.STANDSTILL_TIMEOUT_S and more)
-STOPPING_WAIT_S = 15.0
+#: process still brings the axes to rest and saves (control_process.STOP_TIMEOUT_S)
+STOPPING_WAIT_S = 30.0
 
 
 class InstanceLocked(UrcError):

@@ -27,6 +27,7 @@ from __future__ import annotations
 import dataclasses
 import datetime
 import enum
+import functools
 import importlib
 import itertools
 import logging
@@ -44,9 +45,9 @@ from .snapshot import Status
 
 log = logging.getLogger(__name__)
 
-#: how long a command waits for the control process's answer (its lock is held for
-#: a tick at a time; a longer wait means the process hangs)
-CALL_TIMEOUT_S = 2.0
+#: how long a command waits for the control process's answer (its lock is held for a
+#: tick at a time; a state save may wait for a slow SD card up to 5 s: longer means hung)
+CALL_TIMEOUT_S = 6.0
 #: a status older than this means the control process has stopped publishing
 STATUS_STALE_S = 1.0
 
@@ -114,6 +115,8 @@ def exception_to_wire(exc: BaseException) -> tuple:
     keeps in attributes (CommandRejected's reason, ConfigError's key)."""
     cls = type(exc)
     args = exc.args if _picklable(exc.args) else (str(exc),)
+    if isinstance(exc, OSError) and exc.filename is not None and len(args) == 2:
+        args = (*args, exc.filename)  # (not in args: the device or file that failed)
     attrs = {k: v for k, v in vars(exc).items() if _picklable(v)}
     return cls.__module__, cls.__qualname__, args, attrs, str(exc)
 
@@ -177,11 +180,11 @@ class ControlLink:
                 timeout_s: float = CALL_TIMEOUT_S) -> Any:
         """Send one request and wait for its answer: the value, a RemoteRef for what
         cannot travel, or the exception raised over there."""
-        if self.lost:
-            raise ControlUnavailable(f"the control process is gone ({self.lost}): nothing was done")
         rid = next(self._ids)
-        slot = self._pending[rid] = _Slot()
+        slot = self._pending[rid] = _Slot()  # (before the check: a loss now fills it)
         try:
+            if self.lost:
+                raise ControlUnavailable(f"the control process is gone ({self.lost}): nothing was done")
             try:
                 self.send((kind, rid, path, args, kwargs or {}))
             except (OSError, EOFError) as exc:
@@ -199,6 +202,8 @@ class ControlLink:
         if outcome == "error":
             raise exception_from_wire(payload)
         if outcome == "ref":
+            if kind == "run":
+                raise UrcError(f"{'.'.join(path)} returned something that cannot leave the control process")
             return RemoteRef(self, path if kind == "get" else path + ((CALL, args, kwargs or {}),))
         return payload
 
@@ -242,7 +247,10 @@ class ControlLink:
             slot.reply = ("lost", reason, None)
             slot.done.set()
         if self.on_lost is not None:
-            self.on_lost(reason)
+            try:
+                self.on_lost(reason)
+            except Exception:  # (an event loop already closed: nobody to tell)
+                log.exception("telling that the control process is gone failed")
 
 
 class RemoteRef:
@@ -294,6 +302,11 @@ class RemoteRotator:
         self.caps = info["caps"]
         self.geometry = info["geometry"]
 
+    @property
+    def lock(self) -> Any:
+        raise TypeError("the rotator's lock is in the control process: steps that must not be split by "
+                        "a tick run there (urc.service.remote.in_control_process)")
+
     def status(self) -> Status:
         s = self._link.status
         assert s is not None
@@ -327,3 +340,27 @@ class RemoteRotator:
         remote_call.__name__ = name
         return remote_call
 
+
+
+def in_control_process(fn: Callable[..., Any]) -> Callable[..., Any]:
+    """For ``fn(rotator, ...)``: given a RemoteRotator, the whole call runs in the control
+    process on the real rotator (by name: the function must be importable there), so
+    steps that hold the rotator's lock stay together, no tick in between, and its
+    sensor reads cost no round trips. Arguments and result must be data."""
+    @functools.wraps(fn)
+    def where_the_rotator_is(rotator: Any, *args: Any, **kwargs: Any) -> Any:
+        if isinstance(rotator, RemoteRotator):
+            return rotator._link.request("run", (fn.__module__, fn.__qualname__), args, kwargs)
+        return fn(rotator, *args, **kwargs)
+    where_the_rotator_is.in_control_process = True  # type: ignore[attr-defined]
+    return where_the_rotator_is
+
+
+def control_side_function(module: str, qualname: str) -> Callable[..., Any]:
+    """The function an ``in_control_process`` call names (nothing else may be run)."""
+    fn: Any = importlib.import_module(module)
+    for part in qualname.split("."):
+        fn = getattr(fn, part)
+    if not getattr(fn, "in_control_process", False):
+        raise AttributeError(f"{module}.{qualname} is not meant to run in the control process")
+    return fn
