@@ -20,7 +20,8 @@ RANGE_MARGIN_DEG = 10.0
 @dataclass(frozen=True)
 class Fault:
     kind: str  # stall, runaway, sensor_stuck, sensor_jump, sensor_range, sensor_dead,
-    #            limit_switch, overcurrent, watchdog, state, power_fail
+    #            limit_switch, overcurrent, watchdog, state, power_fail, control (the
+    #            control process silent or gone: shown by urc run's I/O process)
     axis: str | None
     reason: str
     t_s: float

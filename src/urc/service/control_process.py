@@ -14,9 +14,11 @@ is in that module's docstring; what this one guarantees:
   while this one still brings the axes to rest.
 * Every end stops the axes, waits for standstill (bounded), leaves the outputs safe and
   saves the state: asked to stop, the I/O process gone (its socket closed, even after a
-  ``kill -9``), SIGTERM/SIGINT here, or the loop dying. An I/O process that goes silent
-  (hung) stops the axes after ``IO_SILENT_S``; the loop keeps holding them, and a
+  ``kill -9``), SIGTERM/SIGINT/SIGABRT here, or the loop dying. An I/O process that goes
+  silent (hung) stops the axes after ``IO_SILENT_S``; the loop keeps holding them, and a
   command accepted once it talks again moves them again.
+* A tick that hangs (a driver blocked on a bus) holds the rotator's lock: the main
+  thread, which only reads messages and keeps watch, makes the outputs safe without it.
 """
 
 from __future__ import annotations

@@ -31,7 +31,6 @@ import functools
 import importlib
 import itertools
 import logging
-import math
 import pickle
 import threading
 from multiprocessing.connection import Connection
@@ -198,7 +197,7 @@ class ControlLink:
         outcome, payload, status = slot.reply
         if outcome == "lost":
             raise ControlUnavailable(f"the control process is gone ({payload}): nothing was done")
-        self._newer(status)
+        self.offer_status(status)
         if outcome == "error":
             raise exception_from_wire(payload)
         if outcome == "ref":
@@ -207,7 +206,7 @@ class ControlLink:
             return RemoteRef(self, path if kind == "get" else path + ((CALL, args, kwargs or {}),))
         return payload
 
-    def _newer(self, status: Status | None) -> None:
+    def offer_status(self, status: Status | None) -> None:
         # a reply carries the status a command left (read-your-writes); ticks publish too
         if status is not None and (self.status is None or status.t_s >= self.status.t_s):
             self.status = status
@@ -219,7 +218,7 @@ class ControlLink:
                 msg = self.conn.recv()
                 kind = msg[0]
                 if kind == "status":
-                    self._newer(msg[1])
+                    self.offer_status(msg[1])
                 elif kind == "reply":
                     slot = self._pending.get(msg[1])
                     if slot is not None:
@@ -295,7 +294,7 @@ class RemoteRotator:
         self.hw = RemoteRef(link, ("hw",))
         self.store = RemoteRef(link, ("store",))
         self._take_settings(info)
-        link._newer(info["status"])
+        link.offer_status(info["status"])
 
     def _take_settings(self, info: dict[str, Any]) -> None:
         self.settings = info["settings"]
@@ -319,9 +318,13 @@ class RemoteRotator:
         if self._link.lost:
             return Fault("control", None, f"control process gone: {self._link.lost}", s.t_s)
         age_s = self.clock.now_s() - s.t_s
-        if age_s > STATUS_STALE_S and not math.isnan(age_s):
+        if age_s > STATUS_STALE_S:
             return Fault("control", None, f"control process silent for {age_s:.1f} s", s.t_s)
         return None
+
+    def run(self, fn: Callable[..., Any], *args: Any, **kwargs: Any) -> Any:
+        """``fn(rotator, *args, **kwargs)`` in the control process (see in_control_process)."""
+        return self._link.request("run", (fn.__module__, fn.__qualname__), args, kwargs)
 
     def reconfigure(self, settings: Any) -> None:
         self._link.request("call", ("reconfigure",), (settings,))
@@ -350,7 +353,7 @@ def in_control_process(fn: Callable[..., Any]) -> Callable[..., Any]:
     @functools.wraps(fn)
     def where_the_rotator_is(rotator: Any, *args: Any, **kwargs: Any) -> Any:
         if isinstance(rotator, RemoteRotator):
-            return rotator._link.request("run", (fn.__module__, fn.__qualname__), args, kwargs)
+            return rotator.run(fn, *args, **kwargs)
         return fn(rotator, *args, **kwargs)
     where_the_rotator_is.in_control_process = True  # type: ignore[attr-defined]
     return where_the_rotator_is
