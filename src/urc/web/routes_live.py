@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+import os
 from typing import Literal
 
 from fastapi import APIRouter, Depends, HTTPException, Query, WebSocket
@@ -87,7 +88,10 @@ def router(ctx: WebContext) -> APIRouter:
                 "frame_hz": round(1.0 / ctx.hub.period_s, 3), "jog_lease_s": JOG_LEASE_S,
                 "tracking_available": ctx.tracker is not None,
                 "profiles": {n: c.description for n, c in PROFILES.items()},
-                "protocols": list(PROTOCOLS)}
+                "protocols": list(PROTOCOLS),
+                # urc run: the control loop's own process and the priority it was given
+                "control": {"pid": getattr(rot, "pid", os.getpid()),
+                            "priority": getattr(rot, "priority", "") or "in this process"}}
 
     @r.get("/api/history", **documented(HistoryDoc))
     def history(which: Literal["recent", "current", "last"] = "recent",

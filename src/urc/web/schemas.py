@@ -152,6 +152,8 @@ class InfoDoc(BaseModel):
     tracking_available: bool
     profiles: dict[str, str]
     protocols: list[str]
+    control: dict[str, int | str] = Field(description="the control loop's process (pid) and the scheduling "
+                                                      "priority it was given")
 
 
 class HistoryDoc(BaseModel):
