@@ -53,6 +53,10 @@ PROCESS_RT_PRIORITY = 5
 PING_S = 0.5
 #: the I/O process silent this long (hung, stopped): the axes stop
 IO_SILENT_S = 3.0
+#: how often the main thread looks for a hung tick at least (a hung tick's motors are
+#: cut within [faults] watchdog_s plus this; state records reach save_interval_s / 2 of
+#: travel, plus the coast, ahead of a moving axis)
+WATCH_S = 0.05
 #: how long building the hardware may take (imports, a bridge's first contact)
 START_TIMEOUT_S = 60.0
 #: how long the I/O process waits for an orderly stop: standstill (loop.STANDSTILL_TIMEOUT_S,
@@ -122,6 +126,7 @@ class ControlServer:
             # (statuses only after "ready": the first message the I/O process reads is that)
             threading.Thread(target=self._publish_loop, name="urc-status-out", daemon=True).start()
             threading.Thread(target=self._command_loop, name="urc-commands", daemon=True).start()
+            self._ticked_s = time.monotonic()  # (building the rotator took its time)
             reason = self._serve()
         except (EOFError, OSError):
             reason = "the I/O process is gone"
@@ -151,7 +156,7 @@ class ControlServer:
                 self._last_word(("died", error))
                 return f"control loop died: {error}"
             try:
-                msg = self.conn.recv() if self.conn.poll(0.1) else None
+                msg = self.conn.recv() if self.conn.poll(WATCH_S) else None
             except (EOFError, OSError):
                 return "the I/O process is gone"
             now_s = time.monotonic()
