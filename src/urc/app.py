@@ -256,9 +256,11 @@ async def _serve(cfg: Config, state_dir: Path, config_path: Path | None, api_soc
         raise RuntimeError("the control loop hangs in a tick: outputs made safe, state not saved")
     if result["error"]:
         raise RuntimeError(f"control loop died: {result['error']}")
+    # (exit non-zero when nobody asked: systemd restarts a service that stopped by itself)
     if not asked and result["reason"] != "asked to stop":
-        # (exit non-zero: systemd restarts a service whose controller stopped by itself)
         raise RuntimeError(f"the control process stopped on its own: {result['reason']}")
+    if not asked and web.done() and not web.cancelled() and web.exception() is None:
+        raise RuntimeError("the API server stopped on its own")
     if not result["settled"] and result["saved"]:
         print("urc: the axes did not come to rest in time; saved as moving", flush=True)
     if web.done() and not web.cancelled() and web.exception() is not None:

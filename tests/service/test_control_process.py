@@ -5,6 +5,7 @@ process uses."""
 from __future__ import annotations
 
 import errno
+import json
 import threading
 import time
 
@@ -109,6 +110,21 @@ def test_a_hung_tick_gets_the_outputs_made_safe_without_it(control):
     rot.hw.extra.get("world").inject("az", "slow_read", delay_s=4.0, reads=1)
     time.sleep(1.5)  # watchdog_s (0.5 s) and the main thread's watch (0.1 s) later
     assert rot.hw.az.motor.duty == 0.0 and rot.hw.el.motor.duty == 0.0
+
+
+def test_a_tick_that_hangs_as_the_stop_begins_is_cut_too(control, tmp_path):
+    """The hung-tick watch runs through the orderly stop: a stop that met a hung tick
+    used to wait for the rotator's lock with the motors driving until the tick returned."""
+    proc, rot, _lost = control
+    rot.goto(300.0, 20.0)
+    wait_for(lambda: abs(rot.status().az.rate_deg_per_s) > 3)
+    az0_deg = rot.status().az.pos_deg
+    rot.hw.extra.get("world").inject("az", "slow_read", delay_s=4.0, reads=1)
+    time.sleep(0.05)
+    result = proc.stop()
+    truth = json.loads((tmp_path / "state" / "simulator-truth.json").read_text())["axes"]["az"]
+    assert truth["load_deg"] - az0_deg < 8.0, (az0_deg, truth)  # 4 s at 6 deg/s: 24 deg
+    assert result["exit_code"] == 0 and result["saved"]
 
 
 @pytest.mark.parametrize("control", ["g4jnt"], indirect=True)

@@ -41,7 +41,7 @@ from typing import Any, Callable
 from ..clock import RealClock
 from .instance import mark_stopping
 from .loop import ControlThread, WatchdogPing, settle
-from .remote import (ControlLink, ControlUnavailable, RemoteRotator, control_side_function, exception_from_wire,
+from .remote import (CALL_TIMEOUT_S, ControlLink, ControlUnavailable, RemoteRotator, control_side_function, exception_from_wire,
                      exception_to_wire, resolve, travels)
 
 log = logging.getLogger(__name__)
@@ -51,8 +51,9 @@ log = logging.getLogger(__name__)
 PROCESS_RT_PRIORITY = 5
 #: how often the I/O process says it is alive
 PING_S = 0.5
-#: the I/O process silent this long (hung, stopped): the axes stop
-IO_SILENT_S = 3.0
+#: the I/O process silent this long (hung, stopped): the axes stop (more than a command
+#: may take: remote.CALL_TIMEOUT_S, which the event loop may spend waiting)
+IO_SILENT_S = 8.0
 #: how often the main thread looks for a hung tick at least (a hung tick's motors are
 #: cut within [faults] watchdog_s plus this; state records reach save_interval_s / 2 of
 #: travel, plus the coast, ahead of a moving axis)
@@ -89,6 +90,11 @@ class ControlServer:
         #: when the last tick ended (the loop thread's own clock reading)
         self._ticked_s = time.monotonic()
         self._commands: queue.SimpleQueue[tuple | None] = queue.SimpleQueue()
+        self._worker = threading.Thread(target=self._command_loop, name="urc-commands", daemon=True)
+        #: set when the orderly stop begins: commands still queued are refused
+        self._stopping = False
+        #: the tick watch acts (until the loop is stopped on purpose, at the very end)
+        self._watching = True
         self.rot: Any = None
         self.control: ControlThread | None = None
 
@@ -108,6 +114,8 @@ class ControlServer:
             signal.signal(sig, self._on_signal)
         try:
             self.rot = build_rotator(self.cfg, RealClock(), self.state_dir)
+            # what @in_control_process calls need (numpy): imported now, not while ticking
+            import urc.service.calibration  # noqa: F401
         except BaseException as exc:
             log.debug("control process could not start", exc_info=True)
             self.send(("failed", exception_to_wire(exc)))
@@ -125,15 +133,15 @@ class ControlServer:
                                  "caps": rot.caps, "geometry": rot.geometry, "status": rot.status()}))
             # (statuses only after "ready": the first message the I/O process reads is that)
             threading.Thread(target=self._publish_loop, name="urc-status-out", daemon=True).start()
-            threading.Thread(target=self._command_loop, name="urc-commands", daemon=True).start()
+            self._worker.start()
             self._ticked_s = time.monotonic()  # (building the rotator took its time)
+            threading.Thread(target=self._watch_ticks, name="urc-tick-watch", daemon=True).start()
             reason = self._serve()
         except (EOFError, OSError):
             reason = "the I/O process is gone"
         except BaseException as exc:  # a bug here must still end in the orderly stop
             log.exception("control process failed")
             reason = f"control process failed: {exc!r}"
-        self._commands.put(None)
         result = self._shutdown(reason)
         self._closing = True
         self._last_word(("stopped", result))
@@ -146,8 +154,7 @@ class ControlServer:
         """Read the I/O process's messages and keep watch until something ends it;
         returns why."""
         assert self.control is not None
-        silenced = hung = False
-        watchdog_s = self.rot.settings.watchdog_s
+        silenced = False
         while True:
             if self._signal:
                 return f"{self._signal} received"
@@ -160,15 +167,6 @@ class ControlServer:
             except (EOFError, OSError):
                 return "the I/O process is gone"
             now_s = time.monotonic()
-            # a tick that hangs (in a driver, on a bus) holds the rotator's lock and the
-            # loop: the outputs go safe from here, without either
-            late_s = now_s - self._ticked_s
-            if late_s > watchdog_s and not hung:
-                hung = True
-                log.critical("control loop: no tick for %.1f s (a hung tick): outputs made safe", late_s)
-                self.rot.hw.drive_safe()
-            elif late_s <= watchdog_s:
-                hung = False
             if msg is None:
                 if self._heard_s is not None and now_s - self._heard_s > IO_SILENT_S and not silenced:
                     silenced = True
@@ -180,18 +178,43 @@ class ControlServer:
             if msg[0] in ("call", "get", "run"):
                 self._commands.put(msg)
 
+    def _watch_ticks(self) -> None:
+        """A tick that hangs (in a driver, on a bus) holds the rotator's lock and the loop:
+        from here, for the whole life of the process (an orderly stop included), the
+        outputs go safe without either once no tick has ended for watchdog_s."""
+        hung = False
+        while True:
+            time.sleep(WATCH_S)
+            late_s = time.monotonic() - self._ticked_s
+            if late_s <= self.rot.settings.watchdog_s:
+                hung = False
+            elif not hung and self._watching:
+                hung = True
+                try:
+                    self.rot.hw.drive_safe()
+                    log.critical("control loop: no tick for %.1f s (a hung tick): outputs made safe", late_s)
+                except Exception:  # (each write is tried; this thread must go on watching)
+                    log.exception("making the outputs safe after a hung tick failed")
+
     def _command_loop(self) -> None:
         while True:
             msg = self._commands.get()
             if msg is None:
                 return
-            if msg[0] == "silent":
-                self._stop_for_silence(msg[1])
-                continue
             try:
-                self._answer(*msg)
+                if msg[0] == "silent":
+                    self._stop_for_silence(msg[1])
+                elif self._stopping:
+                    self.send(("reply", msg[1], "error", exception_to_wire(
+                        ControlUnavailable("the control process is stopping: nothing was done")), None))
+                else:
+                    self._answer(*msg)
             except OSError:  # the I/O process is gone: the main thread sees it too
                 return
+            except Exception as exc:  # (this thread must outlive any one command)
+                log.exception("command %r failed", msg[:3])
+                if msg[0] != "silent":
+                    self._tell(("reply", msg[1], "error", exception_to_wire(exc), None))
 
     def _stop_for_silence(self, silent_s: float) -> None:
         try:
@@ -234,9 +257,16 @@ class ControlServer:
         if reason == "the I/O process is gone":
             for fd in self.lock_fds:  # a new urc waits for this one instead of failing
                 mark_stopping(fd)
-        # (a hung tick holds the lock that the stop command needs: no waiting for it)
-        ticking = time.monotonic() - self._ticked_s <= self.rot.settings.watchdog_s
-        settled = settle(self.rot) if self.control.alive and ticking else False
+        self._stopping = True  # (commands still queued are refused, none runs after this)
+        self._commands.put(None)
+        self._worker.join(timeout=CALL_TIMEOUT_S)
+        # a hung tick holds the lock that the stop command needs (the watch thread has made
+        # the outputs safe): no waiting for it
+        settled = False
+        if self.control.alive and self.rot.lock.acquire(timeout=2 * self.rot.settings.watchdog_s):
+            self.rot.lock.release()
+            settled = settle(self.rot)
+        self._watching = False
         self.control.stop()
         result: dict[str, Any] = {"reason": reason, "settled": settled, "hung": False,
                                   "error": None if self.control.error is None else repr(self.control.error)}
@@ -355,17 +385,21 @@ class ControlProcess:
     def stop(self, timeout_s: float = STOP_TIMEOUT_S) -> dict[str, Any]:
         """Ask for an orderly stop and wait for it; returns how it ended."""
         assert self.proc is not None and self.link is not None
-        if not self.link.lost:
-            try:
-                self.link.send(("stop",))
-            except OSError:
-                pass
+        try:
+            self.link.send(("stop",))  # (also after a broken link: the socket may still carry it)
+        except OSError:
+            pass
+        give_up_s = time.monotonic() + timeout_s
         self.link.finished.wait(timeout_s)
         try:
-            code = self.proc.wait(5)
+            code = self.proc.wait(max(5.0, give_up_s - time.monotonic()))
         except subprocess.TimeoutExpired:
-            self.proc.kill()  # (its own exit paths failed: the heartbeat stops with it)
-            code = self.proc.wait()
+            self.proc.terminate()  # its orderly stop once more, on SIGTERM
+            try:
+                code = self.proc.wait(10.0)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()  # (its own exit paths failed: the heartbeat stops with it)
+                code = self.proc.wait()
         final = self.link.final or {"saved": False, "settled": False, "hung": False, "reason": self.link.lost,
                                      "error": f"the control process ended without a word ({self.link.lost})"}
         return {**final, "exit_code": code}
