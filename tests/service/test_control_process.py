@@ -182,3 +182,35 @@ def test_paths_reach_public_names_only():
         resolve(Thing(), ("_secret",))
     with pytest.raises(AttributeError):
         resolve(Thing(), ("__class__",))
+
+
+def test_the_command_thread_outlives_a_reply_that_cannot_be_sent(tmp_path):
+    """A value that cannot be pickled made the reply's send raise: the command thread
+    answered that request with the error and went on (it died on a missing helper, and
+    every later command timed out)."""
+    from urc.service.control_process import ControlServer
+
+    class Conn:
+        def __init__(self):
+            self.sent, self.refuse = [], 1
+
+        def send(self, msg):
+            if msg[2] == "value" and self.refuse:
+                self.refuse -= 1
+                raise TypeError("cannot pickle this value")
+            self.sent.append(msg)
+
+    class Rot:
+        answer = 42
+
+        def status(self):
+            return None
+    server = ControlServer(Conn(), None, tmp_path, [])
+    server.rot = Rot()
+    for rid in (1, 2):
+        server._commands.put(("get", rid, ("answer",), (), {}))
+    server._commands.put(None)
+    server._command_loop()
+    (first, second) = server.conn.sent
+    assert first[:3] == ("reply", 1, "error") and "cannot pickle" in first[3][4]
+    assert second[:4] == ("reply", 2, "value", 42)

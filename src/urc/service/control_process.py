@@ -151,8 +151,9 @@ class ControlServer:
         self._signal = signal.Signals(signum).name
 
     def _serve(self) -> str:
-        """Read the I/O process's messages and keep watch until something ends it;
-        returns why."""
+        """Read the I/O process's messages, hand commands to the command thread, and
+        watch for signals, a dead loop and a silent I/O process until something ends it
+        (a hung tick has its own watch thread); returns why."""
         assert self.control is not None
         silenced = False
         while True:
@@ -205,8 +206,7 @@ class ControlServer:
                 if msg[0] == "silent":
                     self._stop_for_silence(msg[1])
                 elif self._stopping:
-                    self.send(("reply", msg[1], "error", exception_to_wire(
-                        ControlUnavailable("the control process is stopping: nothing was done")), None))
+                    self._reply_error(msg[1], ControlUnavailable("the control process is stopping: nothing was done"))
                 else:
                     self._answer(*msg)
             except OSError:  # the I/O process is gone: the main thread sees it too
@@ -214,7 +214,13 @@ class ControlServer:
             except Exception as exc:  # (this thread must outlive any one command)
                 log.exception("command %r failed", msg[:3])
                 if msg[0] != "silent":
-                    self._tell(("reply", msg[1], "error", exception_to_wire(exc), None))
+                    try:
+                        self._reply_error(msg[1], exc)
+                    except OSError:
+                        return
+
+    def _reply_error(self, rid: int, exc: BaseException) -> None:
+        self.send(("reply", rid, "error", exception_to_wire(exc), None))
 
     def _stop_for_silence(self, silent_s: float) -> None:
         try:
