@@ -120,12 +120,18 @@ def exception_to_wire(exc: BaseException) -> tuple:
     return cls.__module__, cls.__qualname__, args, attrs, str(exc)
 
 
+def _named(module: str, qualname: str) -> Any:
+    """What ``module.qualname`` names (a class or function, by the name it travelled as)."""
+    obj: Any = importlib.import_module(module)
+    for part in qualname.split("."):
+        obj = getattr(obj, part)
+    return obj
+
+
 def exception_from_wire(wire: tuple) -> BaseException:
     module, qualname, args, attrs, text = wire
     try:
-        cls: Any = importlib.import_module(module)
-        for part in qualname.split("."):
-            cls = getattr(cls, part)
+        cls = _named(module, qualname)
         if isinstance(cls, type) and issubclass(cls, BaseException):
             try:
                 exc = cls(*args)  # (OSError keeps errno and text only through __init__)
@@ -361,9 +367,7 @@ def in_control_process(fn: Callable[..., Any]) -> Callable[..., Any]:
 
 def control_side_function(module: str, qualname: str) -> Callable[..., Any]:
     """The function an ``in_control_process`` call names (nothing else may be run)."""
-    fn: Any = importlib.import_module(module)
-    for part in qualname.split("."):
-        fn = getattr(fn, part)
+    fn = _named(module, qualname)
     if not getattr(fn, "in_control_process", False):
         raise AttributeError(f"{module}.{qualname} is not meant to run in the control process")
     return fn
