@@ -16,7 +16,7 @@ import pytest
 
 from urc.hardware.sim.outputs import read_output_file
 
-from urc_process import URC, UrcProcess, free_port
+from urc_process import URC, UrcProcess, free_port, wait_until
 
 
 @pytest.fixture
@@ -40,16 +40,6 @@ def heartbeat(u: UrcProcess) -> dict:
 
 def truth(u: UrcProcess) -> dict:
     return json.loads((u.state_dir / "simulator-truth.json").read_text())["axes"]
-
-
-def wait_until(pred, timeout_s: float, what: str):
-    deadline = time.monotonic() + timeout_s
-    while time.monotonic() < deadline:
-        got = pred()
-        if got:
-            return got
-        time.sleep(0.1)
-    raise AssertionError(f"not within {timeout_s} s: {what}")
 
 
 def test_a_hung_or_killed_control_process_stops_the_heartbeat(urc):

@@ -33,6 +33,17 @@ def toml_serve(entries: list[dict]) -> str:
     return "\n".join(out) + "\n"
 
 
+def wait_until(pred, timeout_s: float = 30.0, what: str = "condition", poll_s: float = 0.05):
+    """Poll ``pred`` until it returns something true (returned), or fail after ``timeout_s``."""
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        got = pred()
+        if got:
+            return got
+        time.sleep(poll_s)
+    raise AssertionError(f"not within {timeout_s} s: {what}")
+
+
 class UrcProcess:
     def __init__(self, workdir: Path, profile: str = "tartu-urc", serve: list[dict] | None = None,
                  extra: str = "", port: int | None = None):

@@ -38,6 +38,18 @@ class PanelRig:
     def release(self, button: str):
         self.pin(button).drive_high()
 
+    def screens_while_held(self, button: str, chip, seconds: int = 4) -> list[list[str]]:
+        """What ``chip`` shows (rows, trailing blanks off), once a second while ``button``
+        is held; released afterwards."""
+        self.press(button)
+        screens = []
+        for _ in range(seconds):
+            self.run(1.0)
+            self.panel.refresh_display()
+            screens.append([row.rstrip() for row in chip.text()])
+        self.release(button)
+        return screens
+
     def run(self, seconds: float, until=None, on_tick=None):
         """Virtual time with the panel updated every tick, as run_panel does on a Pi."""
         def tick(st):

@@ -45,13 +45,7 @@ def test_lcd_20x2_alternates_the_message_row(panel_rig):
     rig = panel_rig(display=CharLcd(chip, 0x27, 20, 2))
     rig.rot.goto(100.0, 30.0)
     rig.settle()
-    rig.press("cw")
-    seen = set()
-    for k in range(4):
-        rig.run(1.0)
-        rig.panel.refresh_display()
-        seen.add(chip.text()[1].rstrip())
-    rig.release("cw")
+    seen = {screen[1] for screen in rig.screens_while_held("cw", chip)}
     assert "LOCAL CW button" in seen and any(s.startswith("EL ") for s in seen)
 
 

@@ -95,13 +95,7 @@ def test_lcd_shows_no_elevation_on_a_single_axis_rotator(panel_rig, rows):
     assert text[1].rstrip() == "TGT 123.4", "the elevation row carries the summary"
     assert not any("EL" in row or "+" in row for row in text), text
     rig.settle()
-    rig.press("cw")
-    seen = set()
-    for _ in range(4):
-        rig.run(1.0)
-        rig.panel.refresh_display()
-        seen.update(r.rstrip() for r in chip.text())
-    rig.release("cw")
+    seen = {row for screen in rig.screens_while_held("cw", chip) for row in screen}
     assert "LOCAL CW button" in seen and not any(r.startswith("EL") for r in seen)
 
 

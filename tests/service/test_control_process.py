@@ -15,6 +15,7 @@ from urc.config import Config
 from urc.errors import CommandRejected, ConfigError, UrcError
 from urc.service.control_process import PING_S, ControlProcess
 from urc.service.remote import ControlUnavailable, exception_from_wire, exception_to_wire, resolve
+from urc_process import wait_until
 
 
 @pytest.fixture
@@ -37,30 +38,20 @@ def control(tmp_path, request):
         proc.proc.wait()
 
 
-def wait_for(pred, timeout_s: float = 30.0):
-    deadline = time.monotonic() + timeout_s
-    while time.monotonic() < deadline:
-        got = pred()
-        if got:
-            return got
-        time.sleep(0.02)
-    raise AssertionError("condition not met")
-
-
 def test_commands_status_and_errors_cross_the_process_boundary(control):
     proc, rot, lost = control
     assert rot.pid == proc.proc.pid and rot.caps.name == "tartu-urc"
     t0 = rot.status().t_s
-    wait_for(lambda: rot.status().t_s > t0 + 0.1)  # statuses arrive as the loop ticks
+    wait_until(lambda: rot.status().t_s > t0 + 0.1)  # statuses arrive as the loop ticks
     assert rot.goto(40.0, 20.0) == [(40.0, 20.0)]
-    s = wait_for(lambda: (lambda s: s if not s.moving and abs(s.az_deg - 40) < 0.3 else None)(rot.status()))
+    s = wait_until(lambda: (lambda s: s if not s.moving and abs(s.az_deg - 40) < 0.3 else None)(rot.status()))
     assert abs(s.el_deg - 20) < 0.3
     with pytest.raises(CommandRejected) as refused:  # its own class and reason, as in-process
         rot.goto(500.0, 20.0)
     assert refused.value.reason == "limit" and "outside the limits" in str(refused.value)
     rot.hold_local("panel:cw", True)
     assert rot.local_controls() == ("panel:cw",)
-    wait_for(lambda: rot.status().local_control == ("panel:cw",))
+    wait_until(lambda: rot.status().local_control == ("panel:cw",))
     with pytest.raises(CommandRejected) as held:
         rot.goto(41.0, 20.0)
     assert held.value.reason == "local"
@@ -79,7 +70,7 @@ def test_the_hardware_stays_in_the_control_process_and_is_reached_by_path(contro
     assert "world" in rot.hw.extra
     rot.hw.extra.get("world").inject("az", "sensor_stuck")
     rot.goto(60.0, 20.0)
-    s = wait_for(lambda: (lambda s: s if s.faults else None)(rot.status()))
+    s = wait_until(lambda: (lambda s: s if s.faults else None)(rot.status()))
     assert s.faults[0].axis == "az"
     with pytest.raises(AttributeError):
         rot.hw._backend_private  # noqa: B018 - private names never travel
@@ -90,7 +81,7 @@ def test_the_hardware_stays_in_the_control_process_and_is_reached_by_path(contro
 def test_a_killed_control_process_refuses_commands_and_says_why(control):
     proc, rot, lost = control
     proc.proc.kill()
-    wait_for(lambda: lost)
+    wait_until(lambda: lost)
     with pytest.raises(ControlUnavailable) as gone:
         rot.goto(10.0, 10.0)
     assert "gone" in str(gone.value) and gone.value.reason == "fault"
@@ -105,10 +96,10 @@ def test_a_hung_tick_gets_the_outputs_made_safe_without_it(control):
     the watchdog time. Before, the motors kept their last drive until the tick returned."""
     _proc, rot, _lost = control
     rot.goto(300.0, 20.0)
-    wait_for(lambda: abs(rot.status().az.rate_deg_per_s) > 3)
+    wait_until(lambda: abs(rot.status().az.rate_deg_per_s) > 3)
     assert rot.hw.az.motor.duty != 0.0
     rot.hw.extra.get("world").inject("az", "slow_read", delay_s=4.0, reads=1)
-    time.sleep(1.5)  # watchdog_s (0.5 s) and the main thread's watch (0.1 s) later
+    time.sleep(1.5)  # watchdog_s (0.5 s) and the watch thread's look (50 ms) later
     assert rot.hw.az.motor.duty == 0.0 and rot.hw.el.motor.duty == 0.0
 
 
@@ -117,7 +108,7 @@ def test_a_tick_that_hangs_as_the_stop_begins_is_cut_too(control, tmp_path):
     used to wait for the rotator's lock with the motors driving until the tick returned."""
     proc, rot, _lost = control
     rot.goto(300.0, 20.0)
-    wait_for(lambda: abs(rot.status().az.rate_deg_per_s) > 3)
+    wait_until(lambda: abs(rot.status().az.rate_deg_per_s) > 3)
     az0_deg = rot.status().az.pos_deg
     rot.hw.extra.get("world").inject("az", "slow_read", delay_s=4.0, reads=1)
     time.sleep(0.05)
