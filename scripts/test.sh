@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # Install everything the tests need on a fresh Debian machine, then run the whole suite.
 # Usage: bash scripts/test.sh [pytest args...]
+#   URC_DEPS=latest bash scripts/test.sh   the newest releases instead of the locked set
+#   bash scripts/lock.sh                   refresh the lock, then run the suite on it
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -20,5 +22,12 @@ if [ ${#missing[@]} -gt 0 ]; then
   DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq "${missing[@]}"
 fi
 
-python3 -m pip install -q -e '.[test]'
+# The tests run on the exact versions in requirements/test.lock (a constraints file:
+# `pip install -e .` for users keeps pyproject's ranges). URC_DEPS=latest takes the
+# newest releases instead, to see what a refreshed lock would meet.
+if [ "${URC_DEPS:-locked}" = latest ]; then
+  python3 -m pip install -q --upgrade --upgrade-strategy eager -e '.[test]'
+else
+  python3 -m pip install -q -c requirements/test.lock -e '.[test]'
+fi
 exec python3 -m pytest "$@"

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import os
+import uuid
 from pathlib import Path
 
 import pytest
@@ -94,3 +96,35 @@ def no_session_bugs():
     before = internal_error_count()
     yield
     assert internal_error_count() == before, "a session caught an unexpected exception (see the log)"
+
+
+# -- no process outlives its test module or the run ---------------------------------
+# Each pytest process (the xdist controller and every worker) marks the environment its
+# children inherit; after each test module, and at the end of the run, any ``urc``
+# process still carrying this process's mark is a leak: killed, and the run fails.
+
+LEAK_GRACE_S = 30.0   # a control process whose I/O process died stops its axes first
+
+
+def pytest_configure(config):
+    from urc_process import SUITE_MARK
+
+    os.environ[SUITE_MARK] = f"{os.getpid()}-{uuid.uuid4().hex[:8]}"
+
+
+@pytest.fixture(autouse=True, scope="module")
+def no_leaked_urc_processes():
+    from urc_process import SUITE_MARK, reap_leaked
+
+    yield
+    leaked = reap_leaked(os.environ[SUITE_MARK], LEAK_GRACE_S)
+    assert not leaked, "urc processes still running after this module (killed now):\n" + "\n".join(leaked)
+
+
+def pytest_sessionfinish(session, exitstatus):
+    from urc_process import SUITE_MARK, reap_leaked
+
+    leaked = reap_leaked(os.environ[SUITE_MARK], LEAK_GRACE_S)
+    if leaked:
+        print("\nurc processes still running at the end of the run (killed now):\n" + "\n".join(leaked))
+        session.exitstatus = pytest.ExitCode.TESTS_FAILED

@@ -29,9 +29,7 @@ def urc(tmp_path):
         return u
     yield make
     for u in made:
-        if u.proc is not None and u.proc.poll() is None:
-            u.proc.kill()
-            u.proc.wait()
+        u.stop()
 
 
 def heartbeat(u: UrcProcess) -> dict:
@@ -256,7 +254,8 @@ def test_systemd_notify_ready_and_watchdog_pings_only_while_on_time(urc, tmp_pat
         u = urc()
         env = dict(os.environ, NOTIFY_SOCKET=path, WATCHDOG_USEC="400000")  # pings every 0.1 s
         u.proc = subprocess.Popen(URC + ["run", "--config", str(u.config), "--state-dir", str(u.state_dir)],
-                                  stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env)
+                                  stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env,
+                                  start_new_session=True)
 
         def messages(seconds: float) -> list[str]:
             got, end = [], time.monotonic() + seconds

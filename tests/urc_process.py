@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import json
+import os
+import signal
 import socket
 import subprocess
 import sys
@@ -12,6 +14,86 @@ from pathlib import Path
 import httpx
 
 URC = [sys.executable, "-m", "urc"]
+
+# Every process the suite starts inherits this variable (set per pytest process by
+# conftest.py), so the leak check can find a ``urc`` process however it was started.
+SUITE_MARK = "URC_TEST_SUITE_RUN"
+
+# start-up waits end when the port answers; the bound is for a machine under heavy load
+START_TIMEOUT_S = 120.0
+
+
+def _is_urc(cmdline: list[bytes]) -> bool:
+    """``python -m urc ...``, the ``urc`` script, or a control process."""
+    if any(a == b"urc.service.control_process" for a in cmdline):
+        return True
+    if any(a == b"-m" and b == b"urc" for a, b in zip(cmdline, cmdline[1:])):
+        return True
+    return any(a.endswith(b"/urc") for a in cmdline[:2])
+
+
+def suite_urc_processes(mark: str) -> list[tuple[int, str]]:
+    """(pid, command line) of every live ``urc`` process whose environment carries
+    ``SUITE_MARK=mark``."""
+    needle = f"{SUITE_MARK}={mark}".encode()
+    found = []
+    for entry in Path("/proc").iterdir():
+        if not entry.name.isdigit() or int(entry.name) == os.getpid():
+            continue
+        try:
+            if needle not in (entry / "environ").read_bytes().split(b"\0"):
+                continue
+            cmdline = (entry / "cmdline").read_bytes().split(b"\0")
+            state = (entry / "stat").read_text().rsplit(")", 1)[1].split()[0]
+        except (FileNotFoundError, ProcessLookupError, PermissionError):
+            continue
+        if state != "Z" and _is_urc(cmdline):
+            found.append((int(entry.name), b" ".join(cmdline).decode(errors="replace").strip()))
+    return found
+
+
+def reap_leaked(mark: str, grace_s: float) -> list[str]:
+    """Wait up to ``grace_s`` for this suite's ``urc`` processes to end (a control process
+    whose I/O process was killed stops its axes and saves first), then SIGKILL what is
+    left. Returns the command lines that had to be killed."""
+    deadline = time.monotonic() + grace_s
+    while (left := suite_urc_processes(mark)) and time.monotonic() < deadline:
+        time.sleep(0.2)
+    for pid, _ in left:
+        try:
+            os.kill(pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+    return [f"{pid}: {cmd}" for pid, cmd in left]
+
+
+def stop_process_group(proc: subprocess.Popen, timeout_s: float = 30.0) -> str:
+    """SIGTERM a process started with ``start_new_session=True`` and everything in its
+    group, wait up to ``timeout_s``, then SIGKILL the group. Returns its output."""
+    if proc.returncode is not None:   # waited for already: only stragglers remain
+        _kill_group(proc.pid)
+        return ""
+    for sig in (signal.SIGTERM, signal.SIGKILL):
+        try:
+            os.killpg(proc.pid, sig)
+        except ProcessLookupError:
+            pass
+        try:
+            out, _ = proc.communicate(timeout=timeout_s)
+            break
+        except subprocess.TimeoutExpired:
+            continue
+    else:
+        out, _ = proc.communicate()
+    _kill_group(proc.pid)     # a member that outlived its leader (the control process)
+    return out or ""
+
+
+def _kill_group(pgid: int) -> None:
+    try:
+        os.killpg(pgid, signal.SIGKILL)
+    except ProcessLookupError:
+        pass
 
 
 def free_port(kind: int = socket.SOCK_STREAM) -> int:
@@ -59,19 +141,28 @@ class UrcProcess:
         self.proc: subprocess.Popen | None = None
         self.banner = ""
 
-    def start(self, timeout_s: float = 30.0) -> "UrcProcess":
+    def start(self, timeout_s: float = START_TIMEOUT_S, env: dict | None = None) -> "UrcProcess":
+        """Start ``urc run`` in a process group of its own (so a stop reaches its control
+        process too) and wait until its API answers; a start that fails leaves nothing
+        running."""
         self.proc = subprocess.Popen(URC + ["run", "--config", str(self.config), "--state-dir", str(self.state_dir)],
-                                     stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-        deadline = time.monotonic() + timeout_s
-        while time.monotonic() < deadline:
-            if self.proc.poll() is not None:
-                raise AssertionError(f"urc run exited: {self.proc.stdout.read()}")
-            try:
-                httpx.get(self.url + "/api/status", timeout=0.5)
-                return self
-            except httpx.HTTPError:
-                time.sleep(0.1)
-        raise AssertionError("urc run did not start listening")
+                                     stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                                     start_new_session=True, env=env)
+        try:
+            wait_until(self._answers, timeout_s, "urc run answers on its API port", poll_s=0.1)
+        except BaseException:
+            out = stop_process_group(self.proc, timeout_s=10)
+            raise AssertionError(f"urc run did not start listening:\n{out}") from None
+        return self
+
+    def _answers(self) -> bool:
+        if self.proc.poll() is not None:
+            raise AssertionError(f"urc run exited: {self.proc.stdout.read()}")
+        try:
+            httpx.get(self.url + "/api/status", timeout=2.0)
+            return True
+        except httpx.HTTPError:
+            return False
 
     def control_pid(self) -> int:
         """The pid of this urc's control process (the loop, the rotator, the hardware)."""
@@ -101,12 +192,7 @@ class UrcProcess:
         raise AssertionError(f"condition not met within {timeout_s} s; last status {s}")
 
     def stop(self) -> str:
-        if self.proc is None or self.proc.poll() is not None:
+        """SIGTERM, then SIGKILL after 30 s; either way nothing of this urc is left."""
+        if self.proc is None:
             return ""
-        self.proc.terminate()
-        try:
-            out, _ = self.proc.communicate(timeout=20)
-        except subprocess.TimeoutExpired:
-            self.proc.kill()
-            out, _ = self.proc.communicate()
-        return out
+        return stop_process_group(self.proc)

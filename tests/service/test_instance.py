@@ -33,19 +33,22 @@ def test_real_hardware_is_locked_across_state_dirs(tmp_path, monkeypatch):
         lock.release()
 
 
-def test_a_holder_on_its_way_out_is_waited_for_a_live_one_is_not(tmp_path):
+def test_a_holder_on_its_way_out_is_waited_for_a_live_one_is_not(tmp_path, monkeypatch):
     """A control process whose I/O process died keeps the lock (an inherited descriptor)
     while it brings the axes to rest: a new start waits for it, bounded; a running urc
     is refused at once."""
     import threading
-    import time
 
     held = lock_instance(tmp_path / "state", "sim", real_hardware=False)[0]
     instance.mark_stopping(held.fd)
-    threading.Timer(0.4, held.release).start()
-    t0 = time.monotonic()
+    released = threading.Event()
+
+    def release() -> None:
+        released.set()
+        held.release()
+    threading.Timer(0.4, release).start()
     for lock in lock_instance(tmp_path / "state", "sim", real_hardware=False):
-        assert 0.3 < time.monotonic() - t0 < 5.0
+        assert released.is_set(), "the lock was had only once the stopping holder let go"
         lock.release()
 
     held = lock_instance(tmp_path / "state", "sim", real_hardware=False)[0]
@@ -54,8 +57,10 @@ def test_a_holder_on_its_way_out_is_waited_for_a_live_one_is_not(tmp_path):
         instance.InstanceLock(tmp_path / "state" / instance.LOCK_FILE, "state dir").acquire(stopping_wait_s=0.3)
     held.release()
     held = lock_instance(tmp_path / "state", "sim", real_hardware=False)[0]  # (names this live pid)
-    t0 = time.monotonic()
-    with pytest.raises(InstanceLocked):
+
+    def no_waiting(_s: float) -> None:
+        raise AssertionError("a live holder is refused without waiting")
+    monkeypatch.setattr(instance.time, "sleep", no_waiting)
+    with pytest.raises(InstanceLocked, match=f"pid {os.getpid()}"):
         lock_instance(tmp_path / "state", "sim", real_hardware=False)
-    assert time.monotonic() - t0 < 0.3
     held.release()
