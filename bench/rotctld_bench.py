@@ -1,6 +1,6 @@
 """rotctld protocol benchmark: urc against Hamlib's own ``rotctld -m 1`` in the same run.
 
-For each server: ``p`` (get_pos) round trip (median, p99) and throughput with 1, 8 and 32
+For each server: ``P`` (set_pos) round trip with one client; ``p`` (get_pos) round trip (median, p99) and throughput with 1, 8 and 32
 concurrent clients each sending ``p`` and waiting for the reply, and a burst of 64
 simultaneous connections (how many were accepted and answered). For urc also the control
 loop's tick lateness p99 idle and under the 32-client load (from its status).
@@ -120,8 +120,33 @@ def burst(port: int, n: int = BURST) -> dict:
     return {"connections": n, "answered": ok[0], "seconds": time.perf_counter() - t0}
 
 
+def set_round_trip(port: int, n: int = 400) -> dict:
+    """One client sends ``P`` (set_pos) and waits for its ``RPRT 0``, n times, between
+    two nearby poses: on urc every one is a command to the control process and back."""
+    rtts: list[float] = []
+    with socket.create_connection(("127.0.0.1", port), timeout=10) as sock:
+        sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        buf = bytearray()
+        for i in range(n):
+            cmd = f"P {100 + (i % 2) * 0.5:.1f} 40.0\n".encode()
+            t0 = time.perf_counter()
+            sock.sendall(cmd)
+            while b"\n" not in buf:
+                chunk = sock.recv(4096)
+                if not chunk:
+                    raise ConnectionError("closed")
+                buf.extend(chunk)
+            rtts.append(time.perf_counter() - t0)
+            reply, _, rest = bytes(buf).partition(b"\n")
+            buf = bytearray(rest)
+            if reply != b"RPRT 0":
+                raise RuntimeError(f"P answered {reply!r}")
+    rtts.sort()
+    return {"requests": n, "median_ms": 1000 * statistics.median(rtts), "p99_ms": 1000 * rtts[int(0.99 * (n - 1))]}
+
+
 def measure(port: int, seconds: float) -> dict:
-    return {"load": [load(port, c, seconds) for c in CLIENTS], "burst": burst(port)}
+    return {"load": [load(port, c, seconds) for c in CLIENTS], "burst": burst(port), "set": set_round_trip(port)}
 
 
 def main() -> None:
@@ -166,6 +191,9 @@ def main() -> None:
         print(f"{u['clients']:7d} | {u['median_ms']:10.3f} {u['p99_ms']:7.3f} {u['throughput_per_s']:8.0f} | "
               f"{h['median_ms']:10.3f} {h['p99_ms']:7.3f} {h['throughput_per_s']:8.0f} | "
               f"{u['throughput_per_s'] / h['throughput_per_s']:9.2f} {u['median_ms'] / h['median_ms']:9.2f}")
+    us, hs = results["urc"]["set"], results["hamlib"]["set"]
+    print(f"`P` (set) round trip, 1 client: urc median {us['median_ms']:.3f} ms p99 {us['p99_ms']:.3f} | hamlib "
+          f"median {hs['median_ms']:.3f} ms p99 {hs['p99_ms']:.3f} | ratio {us['median_ms'] / hs['median_ms']:.2f}")
     ub, hb = results["urc"]["burst"], results["hamlib"]["burst"]
     print(f"burst of {BURST}: urc answered {ub['answered']}/{BURST}, hamlib answered {hb['answered']}/{BURST}")
     print(f"urc control tick lateness p99: idle {results['urc']['tick_late_p99_ms_idle']:.2f} ms, "

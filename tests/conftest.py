@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from urc.app import build_rotator
+from urc.assembly import build_rotator
 from urc.clock import VirtualClock
 from urc.config import Config
 from urc.profiles import PROFILES
@@ -107,9 +107,13 @@ LEAK_GRACE_S = 30.0   # a control process whose I/O process died stops its axes 
 
 
 def pytest_configure(config):
+    from urc.service.remote import STRICT_ENV
     from urc_process import SUITE_MARK
 
     os.environ[SUITE_MARK] = f"{os.getpid()}-{uuid.uuid4().hex[:8]}"
+    # a round trip to the control process that would block the event loop raises
+    # (in every urc run the suite starts) instead of being logged
+    os.environ[STRICT_ENV] = "1"
 
 
 @pytest.fixture(autouse=True, scope="module")

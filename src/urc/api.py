@@ -20,6 +20,8 @@ from pydantic import BaseModel
 from . import __version__
 from .config import Config
 from .errors import CommandRejected, UrcError
+from .ipc import bridge
+from .service.remote import StopQueued
 from .service import Rotator
 from .service.calibration import CalibrationError
 from .web import WebContext, install
@@ -44,6 +46,10 @@ class PositionRequest(Strict):
 class Accepted(BaseModel):
     ok: bool = True
     route: list[tuple[float, float]] = []
+    #: a stop the control process has not confirmed yet (it is held up): sent, and
+    #: applied as soon as it resumes; ``note`` says so
+    queued: bool = False
+    note: str = ""
 
 
 def create_api(rotator: Rotator, cfg: Config, *, config_path: str | os.PathLike | None = None,
@@ -87,9 +93,8 @@ def create_api(rotator: Rotator, cfg: Config, *, config_path: str | os.PathLike 
     async def refused(_request, exc: UrcError) -> JSONResponse:
         return JSONResponse({"ok": False, "error": str(exc), "reason": type(exc).__name__}, status_code=409)
 
-    # Handlers are coroutines: they run on the event loop thread, like the control loop,
-    # so commands reach the rotator service from its own thread (FastAPI would run plain
-    # functions in a thread pool).
+    # Handlers are coroutines on the event loop; a command that waits for the control
+    # process runs bridged (urc.ipc.bridge): it suspends this request, never the loop.
     ctl = APIRouter(dependencies=[Depends(control_allowed)], responses=CONTROL_RESPONSES)
 
     @app.get("/api/status", **documented(StatusDoc))
@@ -100,43 +105,49 @@ def create_api(rotator: Rotator, cfg: Config, *, config_path: str | os.PathLike 
     @ctl.post("/api/goto")
     async def goto(req: GotoRequest) -> Accepted:
         if req.el_deg is None:
-            return Accepted(route=rotator.goto_az(req.az_deg))
-        return Accepted(route=rotator.goto(req.az_deg, req.el_deg))
+            return Accepted(route=await bridge.run(rotator.goto_az, req.az_deg))
+        return Accepted(route=await bridge.run(rotator.goto, req.az_deg, req.el_deg))
 
     @ctl.post("/api/park")
     async def park() -> Accepted:
-        return Accepted(route=rotator.park())
+        return Accepted(route=await bridge.run(rotator.park))
 
     @ctl.post("/api/stop")
     async def stop(req: StopRequest | None = None) -> Accepted:
         """Stop. Without an axis: everything — jogs, a calibration, tracking, both axes."""
         axis = req.axis if req else None
+        accepted = Accepted()
+        try:  # the stop goes out first: nothing else may delay it
+            await bridge.run(rotator.stop, axis)
+        except StopQueued as exc:
+            accepted = Accepted(queued=True, note=str(exc))
+        await bridge.run(_stop_everything_else, axis)
+        if axis is None and tracker is not None:
+            await hub.refresh_tracking()
+        return accepted
+
+    def _stop_everything_else(axis: str | None) -> None:
         hub.release(axis)
         if axis is None:
             if hub.procedure is not None:
                 hub.procedure.cancel()
             trk_stop = getattr(tracker, "stop", None)
             if trk_stop is not None:
-                out = trk_stop()
-                if asyncio.iscoroutine(out):
-                    await out
-                await hub.refresh_tracking()
-        rotator.stop(axis)
-        return Accepted()
+                trk_stop()
 
     @ctl.post("/api/move")
     async def move(req: MoveRequest) -> Ok:
-        rotator.move(req.axis, req.direction, req.speed)
+        await bridge.run(rotator.move, req.axis, req.direction, req.speed)
         return Ok()
 
     @ctl.post("/api/set-position")
     async def set_position(req: PositionRequest) -> Ok:
-        rotator.set_position(req.az_deg, req.el_deg)
+        await bridge.run(rotator.set_position, req.az_deg, req.el_deg)
         return Ok()
 
     @ctl.post("/api/clear-faults")
     async def clear_faults() -> Ok:
-        rotator.clear_faults()
+        await bridge.run(rotator.clear_faults)
         return Ok()
 
     app.include_router(ctl)

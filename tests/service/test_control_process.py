@@ -181,27 +181,36 @@ def test_the_command_thread_outlives_a_reply_that_cannot_be_sent(tmp_path):
     every later command timed out)."""
     from urc.service.control_process import ControlServer
 
+    from urc.ipc import codec
+    from urc.ipc.messages import Envelope, OvershootQuery
+
     class Conn:
         def __init__(self):
-            self.sent, self.refuse = [], 1
+            self.sent = []
 
-        def send(self, msg):
-            if msg[2] == "value" and self.refuse:
-                self.refuse -= 1
-                raise TypeError("cannot pickle this value")
-            self.sent.append(msg)
+        def send_bytes(self, data):
+            self.sent.append(codec.loads(data))
+
+    import dataclasses
+
+    @dataclasses.dataclass
+    class Local:  # data, but a class pickle cannot name
+        x: int = 1
 
     class Rot:
-        answer = 42
+        answers = [Local(), 42]
+
+        def overshoot_deg(self, axis):
+            return self.answers.pop(0)
 
         def status(self):
             return None
     server = ControlServer(Conn(), None, tmp_path, [])
     server.rot = Rot()
     for rid in (1, 2):
-        server._commands.put(("get", rid, ("answer",), (), {}))
+        server._commands.put(("request", Envelope(rid, None, OvershootQuery("az"))))
     server._commands.put(None)
     server._command_loop()
-    (first, second) = server.conn.sent
-    assert first[:3] == ("reply", 1, "error") and "cannot pickle" in first[3][4]
-    assert second[:4] == ("reply", 2, "value", 42)
+    (first, second) = (reply for _, reply in server.conn.sent)
+    assert (first.rid, first.outcome) == (1, "error") and "pickle" in first.value[4]
+    assert (second.rid, second.outcome, second.value) == (2, "value", 42)

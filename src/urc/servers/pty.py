@@ -28,7 +28,7 @@ import time
 import tty
 from pathlib import Path
 
-from .common import READ_CHUNK, SessionFactory, feed, hang_up, log, needs_tick, tick_loop
+from .common import READ_CHUNK, SessionFactory, SessionRunner, log, needs_tick, tick_loop
 
 PRESENCE_POLL_S = 0.05
 _PTS_DIR = "/dev/pts/"
@@ -57,6 +57,7 @@ class PtyEndpoint:
         self.name = name
         self.where = f"{name} pty {self.link}"
         self.session = factory()
+        self.runner = SessionRunner(self.session, self._write, self.where)
         self.master_fd, slave_fd = os.openpty()
         try:
             # raw: no echo, no line discipline games with CR/LF or binary SPID frames
@@ -81,7 +82,7 @@ class PtyEndpoint:
     def start(self) -> None:
         self._watcher = asyncio.create_task(self._watch())
         if needs_tick(self.session):
-            self._ticker = asyncio.create_task(tick_loop(self.session, self._write, time.monotonic, self.where))
+            self._ticker = asyncio.create_task(tick_loop(self.runner, time.monotonic))
 
     # ------------------------------------------------------------ client presence
     def _hung_up(self) -> bool:
@@ -104,7 +105,7 @@ class PtyEndpoint:
         else:
             loop.remove_reader(self.master_fd)
             self._discard_unread()
-            hang_up(self.session, self.where)
+            self.runner.hang_up()
             log.debug("%s: client closed the port (%d writes dropped so far)", self.where, self.dropped_writes)
         self.client_present = present
 
@@ -129,8 +130,7 @@ class PtyEndpoint:
         except OSError:  # EIO: the client closed the port just now
             self._set_present(False)
             return
-        for reply in feed(self.session, data, self.where):
-            self._write(reply)
+        self.runner.feed(data)
 
     def _write(self, reply: bytes) -> None:
         if not self.client_present or self._hung_up():

@@ -7,7 +7,7 @@ import time
 
 import serial
 
-from .common import READ_CHUNK, SessionFactory, feed, hang_up, log, needs_tick, tick_loop
+from .common import READ_CHUNK, SessionFactory, SessionRunner, log, needs_tick, tick_loop
 
 
 class SerialEndpoint:
@@ -16,12 +16,13 @@ class SerialEndpoint:
         self.where = f"{name} serial {device}"
         self.session = factory()
         self.port = serial.Serial(device, baudrate=baud, timeout=0, write_timeout=0)
+        self.runner = SessionRunner(self.session, self._write, self.where, after=self._apply_baud_request)
         self._ticker: asyncio.Task | None = None
 
     def start(self) -> None:
         asyncio.get_running_loop().add_reader(self.port.fileno(), self._readable)
         if needs_tick(self.session):
-            self._ticker = asyncio.create_task(tick_loop(self.session, self._write, time.monotonic, self.where))
+            self._ticker = asyncio.create_task(tick_loop(self.runner, time.monotonic))
 
     def _readable(self) -> None:
         try:
@@ -29,9 +30,7 @@ class SerialEndpoint:
         except serial.SerialException as exc:
             log.error("%s: read failed: %s", self.where, exc)
             return
-        for reply in feed(self.session, data, self.where):
-            self._write(reply)
-        self._apply_baud_request()
+        self.runner.feed(data)
 
     def _apply_baud_request(self) -> None:
         """A session may ask for a new line rate (Tartu ``BAUD 9600``): it takes effect
@@ -60,5 +59,5 @@ class SerialEndpoint:
             pass
         if self._ticker is not None:
             self._ticker.cancel()
-        hang_up(self.session, self.where)
+        self.runner.hang_up()
         self.port.close()

@@ -11,7 +11,7 @@ import asyncio
 import socket
 import time
 
-from .common import SessionFactory, feed, hang_up, log, needs_tick, tick_loop
+from .common import SessionFactory, SessionRunner, log, needs_tick, tick_loop
 
 #: Hamlib's rotctld listens with a backlog of 4; a burst of 64 clients (a logger, SDR
 #: software and a tracker all reconnecting) must all get in.
@@ -33,25 +33,25 @@ class _Connection(asyncio.Protocol):
         sock = transport.get_extra_info("socket")
         if sock is not None:
             sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-        self.session = self.factory()
-        if needs_tick(self.session):
-            self.ticker = asyncio.get_running_loop().create_task(
-                tick_loop(self.session, self.write, time.monotonic, self.where))
+        self.runner = SessionRunner(self.factory(), self.write, self.where, after=self._close_if_asked)
+        if needs_tick(self.runner.session):
+            self.ticker = asyncio.get_running_loop().create_task(tick_loop(self.runner, time.monotonic))
 
     def write(self, reply: bytes) -> None:
-        if self.transport.get_write_buffer_size() < MAX_WRITE_BUFFER:
+        if not self.transport.is_closing() and self.transport.get_write_buffer_size() < MAX_WRITE_BUFFER:
             self.transport.write(reply)  # one write per complete reply (gpredict needs it whole)
 
-    def data_received(self, data: bytes) -> None:
-        for reply in feed(self.session, data, self.where):
-            self.write(reply)
-        if self.session.closed:
+    def _close_if_asked(self) -> None:
+        if self.runner.session.closed:
             self.transport.close()
+
+    def data_received(self, data: bytes) -> None:
+        self.runner.feed(data)
 
     def connection_lost(self, exc: Exception | None) -> None:
         if self.ticker is not None:
             self.ticker.cancel()
-        hang_up(self.session, self.where)
+        self.runner.hang_up()
         log.debug("%s: closed", self.where)
 
 

@@ -4,12 +4,12 @@ from __future__ import annotations
 
 import asyncio
 
-from .common import SessionFactory, feed
+from .common import SessionFactory, SessionRunner
 
 
 class _Datagrams(asyncio.DatagramProtocol):
     def __init__(self, factory: SessionFactory, reply_port: int, name: str):
-        self.session = factory()
+        self.runner = SessionRunner(factory(), self._drop, name)
         self.reply_port = reply_port
         self.name = name
         self.transport: asyncio.DatagramTransport | None = None
@@ -18,8 +18,12 @@ class _Datagrams(asyncio.DatagramProtocol):
         self.transport = transport
 
     def datagram_received(self, data: bytes, addr) -> None:
-        for reply in feed(self.session, data, f"{self.name} udp {addr}"):
-            self.transport.sendto(reply, (addr[0], self.reply_port))
+        # (each datagram's replies go to its own sender)
+        self.runner.feed(data, lambda reply: self.transport.sendto(reply, (addr[0], self.reply_port)))
+
+    @staticmethod
+    def _drop(reply: bytes) -> None:
+        """Output nobody asked for has no address to go to."""
 
 
 async def serve_udp(factory: SessionFactory, host: str, port: int, reply_port: int,

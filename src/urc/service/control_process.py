@@ -39,10 +39,12 @@ from pathlib import Path
 from typing import Any, Callable
 
 from ..clock import RealClock
+from ..ipc import codec
+from ..ipc.messages import COMMANDS, Envelope, HardwareCall, Procedure, Reply, Request
 from .instance import mark_stopping
 from .loop import ControlThread, WatchdogPing, settle
-from .remote import (CALL_TIMEOUT_S, ControlLink, ControlUnavailable, RemoteRotator, control_side_function, exception_from_wire,
-                     exception_to_wire, resolve, travels)
+from .remote import (CALL_TIMEOUT_S, ControlLink, ControlUnavailable, RemoteRotator, control_side_function,
+                     exception_from_wire, exception_to_wire, resolve, travels)
 
 log = logging.getLogger(__name__)
 
@@ -99,15 +101,16 @@ class ControlServer:
         self.control: ControlThread | None = None
 
     def send(self, msg: tuple) -> None:
+        data = codec.dumps(msg)
         with self._send_lock:
-            self.conn.send(msg)
+            self.conn.send_bytes(data)
 
     def _io_alive(self) -> bool:
         return self._heard_s is None or time.monotonic() - self._heard_s < IO_SILENT_S
 
     # ------------------------------------------------------------- lifetime
     def run(self) -> int:
-        from ..app import build_rotator
+        from ..assembly import build_rotator
 
         # (SIGABRT: what systemd's watchdog sends by default)
         for sig in (signal.SIGTERM, signal.SIGINT, signal.SIGABRT):
@@ -164,9 +167,12 @@ class ControlServer:
                 self._last_word(("died", error))
                 return f"control loop died: {error}"
             try:
-                msg = self.conn.recv() if self.conn.poll(WATCH_S) else None
+                msg = codec.loads(self.conn.recv_bytes()) if self.conn.poll(WATCH_S) else None
             except (EOFError, OSError):
                 return "the I/O process is gone"
+            except Exception:  # (refused by the codec: a bug or a stranger on the socket)
+                log.exception("control process: unreadable message from the I/O process, ignored")
+                continue
             now_s = time.monotonic()
             if msg is None:
                 if self._heard_s is not None and now_s - self._heard_s > IO_SILENT_S and not silenced:
@@ -176,7 +182,7 @@ class ControlServer:
             self._heard_s, silenced = now_s, False
             if msg[0] == "stop":
                 return "asked to stop"
-            if msg[0] in ("call", "get", "run"):
+            if msg[0] == "request" and isinstance(msg[1], Envelope):
                 self._commands.put(msg)
 
     def _watch_ticks(self) -> None:
@@ -206,21 +212,21 @@ class ControlServer:
                 if msg[0] == "silent":
                     self._stop_for_silence(msg[1])
                 elif self._stopping:
-                    self._reply_error(msg[1], ControlUnavailable("the control process is stopping: nothing was done"))
+                    self._reply_error(msg[1].rid, ControlUnavailable("the control process is stopping: nothing was done"))
                 else:
-                    self._answer(*msg)
+                    self._answer(msg[1])
             except OSError:  # the I/O process is gone: the main thread sees it too
                 return
             except Exception as exc:  # (this thread must outlive any one command)
-                log.exception("command %r failed", msg[:3])
+                log.exception("command %r failed", msg[1])
                 if msg[0] != "silent":
                     try:
-                        self._reply_error(msg[1], exc)
+                        self._reply_error(msg[1].rid, exc)
                     except OSError:
                         return
 
     def _reply_error(self, rid: int, exc: BaseException) -> None:
-        self.send(("reply", rid, "error", exception_to_wire(exc), None))
+        self.send(("reply", Reply(rid, "error", exception_to_wire(exc), None)))
 
     def _stop_for_silence(self, silent_s: float) -> None:
         try:
@@ -230,18 +236,33 @@ class ControlServer:
         self.rot.announce(f"axes stopped: the I/O process (web, protocols, tracker) was silent for "
                           f"{silent_s:.1f} s")
 
-    def _answer(self, kind: str, rid: int, path: tuple, args: tuple, kwargs: dict) -> None:
+    def _answer(self, env: Envelope) -> None:
+        if env.deadline_s is not None and time.monotonic() > env.deadline_s:
+            # its caller was told "no answer, nothing done" already: keep that true
+            self._reply_error(env.rid, ControlUnavailable(
+                f"{type(env.request).__name__} arrived after its deadline (this process was held up): "
+                "nothing was done"))
+            return
         try:
-            if kind == "run":
-                value = control_side_function(*path)(self.rot, *args, **kwargs)
-            else:
-                target = resolve(self.rot, path)
-                value = target(*args, **kwargs) if kind == "call" else target
+            value = self._run(env.request)
             outcome = "value" if travels(value) else "ref"
         except Exception as exc:
             outcome, value = "error", exception_to_wire(exc)
         # (with the status the command left: a cleared fault shows at once)
-        self.send(("reply", rid, outcome, None if outcome == "ref" else value, self.rot.status()))
+        self.send(("reply", Reply(env.rid, outcome, None if outcome == "ref" else value, self.rot.status())))
+
+    def _run(self, request: Request) -> Any:
+        """Each request type runs what COMMANDS names for it; nothing else can run."""
+        if isinstance(request, Procedure):
+            return control_side_function(request.module, request.qualname)(self.rot, *request.args, **request.kwargs)
+        if isinstance(request, HardwareCall):
+            if not request.path or request.path[0] not in ("hw", "store"):
+                raise AttributeError(f"{request.path!r}: only the hardware and the state store are reachable")
+            return resolve(self.rot, request.path)
+        method = COMMANDS.get(type(request))
+        if method is None:
+            raise TypeError(f"{type(request).__name__} is not a request the control process runs")
+        return getattr(self.rot, method)(**request.arguments())
 
     def _last_word(self, msg: tuple, timeout_s: float = 2.0) -> None:
         """Tell the I/O process, unless it cannot hear (hung with its socket full): this
@@ -250,7 +271,7 @@ class ControlServer:
             return
         try:
             if select.select([], [self.conn.fileno()], [], timeout_s)[1]:
-                self.conn.send(msg)
+                self.conn.send_bytes(codec.dumps(msg))
         except (OSError, ValueError):
             pass
         finally:
@@ -330,7 +351,7 @@ def main(argv: list[str]) -> int:
     _die_with_parent()
     if os.getppid() != int(argv[1]):  # the I/O process died before the line above
         return 1
-    kind, cfg, state_dir, lock_fds, log_level = conn.recv()
+    kind, cfg, state_dir, lock_fds, log_level = codec.loads(conn.recv_bytes())
     logging.basicConfig(level=log_level, format="%(asctime)s %(levelname)s %(name)s: %(message)s")
     log.debug("control process: %s priority for its threads", _realtime())
     return ControlServer(conn, cfg, Path(state_dir), lock_fds).run()
@@ -348,6 +369,11 @@ class ControlProcess:
         self.on_lost = on_lost
         self.proc: subprocess.Popen | None = None
         self.link: ControlLink | None = None
+        #: set when the orderly stop begins (a silent process is then not a frozen one)
+        self.stopping = threading.Event()
+        #: why the I/O process took the outputs over ("" if it did not)
+        self.taken_over = ""
+        self._watcher: threading.Thread | None = None
 
     def start(self, timeout_s: float = START_TIMEOUT_S) -> RemoteRotator:
         """Spawn it and wait until its rotator is built (its start-up errors are raised
@@ -361,11 +387,12 @@ class ControlProcess:
         finally:
             theirs.close()
         conn = Connection(ours.detach())
-        conn.send(("init", self.cfg, str(self.state_dir), self.lock_fds, logging.getLogger().getEffectiveLevel()))
+        conn.send_bytes(codec.dumps(("init", self.cfg, str(self.state_dir), self.lock_fds,
+                                     logging.getLogger().getEffectiveLevel())))
         try:
             if not conn.poll(timeout_s):
                 raise ControlUnavailable(f"the control process did not start within {timeout_s:g} s")
-            kind, payload = conn.recv()
+            kind, payload = codec.loads(conn.recv_bytes())
         except (EOFError, OSError):
             code = self.proc.wait(5)
             raise ControlUnavailable(f"the control process exited while starting (exit code {code})") from None
@@ -388,9 +415,54 @@ class ControlProcess:
             except OSError:
                 pass
 
+    def watch(self, takeover_s: float, take_over: Callable[[str], None]) -> None:
+        """From a thread of its own (the event loop may be what is stuck): once the
+        control process is gone, or has published no status for ``takeover_s``
+        (frozen: SIGSTOP, a hung interpreter), kill it so its outputs are free, then call
+        ``take_over(why)`` to drive them safe from here. Layer 2 of the safety chain."""
+        if takeover_s <= 0:
+            return
+
+        def run() -> None:
+            assert self.link is not None and self.proc is not None
+            while True:
+                stopping = self.stopping.wait(WATCH_S)
+                status = self.link.status
+                age_s = time.monotonic() - status.t_s if status is not None else 0.0
+                if self.link.lost:
+                    try:  # (a loop that died still stops in order, saves and says so)
+                        self.proc.wait(5.0)
+                    except subprocess.TimeoutExpired:
+                        pass
+                    if self.link.final is not None:
+                        return  # it ended in order: outputs safe, state saved
+                    why = f"the control process died ({self.link.lost})"
+                elif stopping:
+                    return  # (an orderly stop: silence now is that stop)
+                elif age_s > takeover_s:
+                    why = f"the control process froze (no status for {age_s:.1f} s)"
+                else:
+                    continue
+                self.proc.kill()  # (a stopped process dies too: its lines are free after this)
+                self.proc.wait()
+                self.taken_over = why
+                try:
+                    take_over(why)
+                except Exception:
+                    log.exception("taking the outputs over failed")
+                return
+        self._watcher = threading.Thread(target=run, name="urc-control-watch", daemon=True)
+        self._watcher.start()
+
     def stop(self, timeout_s: float = STOP_TIMEOUT_S) -> dict[str, Any]:
         """Ask for an orderly stop and wait for it; returns how it ended."""
         assert self.proc is not None and self.link is not None
+        self.stopping.set()
+        if self._watcher is not None:  # (it decides whether a dead process is taken over)
+            self._watcher.join(10.0)
+        if self.taken_over:
+            return {"reason": self.taken_over, "settled": False, "hung": False, "saved": False,
+                    "error": self.taken_over, "exit_code": self.proc.wait()}
         try:
             self.link.send(("stop",))  # (also after a broken link: the socket may still carry it)
         except OSError:

@@ -8,14 +8,17 @@ p99, bench/loop_bench.py, against 0.1-0.2 ms for a C thread in the same run). Th
 control process runs only the rotator, its hardware and the loop, at real-time
 priority; everything that answers the network stays here.
 
-This module is the wire between the two, over one Unix socket
-(``multiprocessing.connection``, pickled messages):
+This module is the I/O side of the wire between the two, over one Unix socket
+(messages: :mod:`urc.ipc.messages`; codec: :mod:`urc.ipc.codec`):
 
 * the control process publishes a :class:`Status` after every tick; :meth:`RemoteRotator.status`
   returns the newest, so reading status (every protocol's position query) costs no
-  round trip;
-* every command is a call by name on the real Rotator, answered with its result or
-  its exception (its own class, so each protocol still answers in its own error form);
+  round trip; a status that stopped coming is a ``control`` fault, and the sessions'
+  view refuses to give it out as a position;
+* every command is one typed request, answered with its result or its exception (its
+  own class, so each protocol still answers in its own error form). It never blocks the
+  event loop: protocol sessions and web routes run in bridged greenlets
+  (:mod:`urc.ipc.bridge`) that suspend while they wait;
 * data comes back as a copy (:func:`travels`); objects with behaviour (the hardware, a
   sensor) stay where they are and come back as :class:`RemoteRef` paths that the
   control process resolves again on use, e.g. ``rotator.hw.axis("az").sensor.calibration()``.
@@ -24,6 +27,7 @@ This module is the wire between the two, over one Unix socket
 
 from __future__ import annotations
 
+import asyncio
 import dataclasses
 import datetime
 import enum
@@ -31,8 +35,10 @@ import functools
 import importlib
 import itertools
 import logging
+import os
 import pickle
 import threading
+import time
 from multiprocessing.connection import Connection
 from pathlib import PurePath
 from typing import Any, Callable
@@ -40,6 +46,11 @@ from typing import Any, Callable
 from ..clock import RealClock
 from ..control.faults import Fault
 from ..errors import CommandRejected, UrcError
+from ..ipc import bridge, codec
+from ..ipc.messages import (AdoptSensorReading, Announce, ClearFaults, EndSearch, Envelope, Goto, GotoAz, GotoEl,
+                            GotoPose, HardwareCall, HoldLocal, LocalControls, Move, OvershootQuery, Park,
+                            PositionUncertain, PowerFail, Procedure, Reconfigure, Reply, Request, SaveNow,
+                            SearchFrame, SetOvershoot, SetPosition, Stop, Track, TrackPose)
 from .snapshot import Status
 
 log = logging.getLogger(__name__)
@@ -47,6 +58,9 @@ log = logging.getLogger(__name__)
 #: how long a command waits for the control process's answer (its lock is held for a
 #: tick at a time; a state save may wait for a slow SD card up to 5 s: longer means hung)
 CALL_TIMEOUT_S = 6.0
+#: how long a stop waits for its confirmation (it is applied however late it arrives,
+#: so a longer wait would only keep its caller from telling the operator)
+STOP_ACK_S = 1.0
 #: a status older than this means the control process has stopped publishing
 STATUS_STALE_S = 1.0
 
@@ -61,6 +75,11 @@ class ControlUnavailable(CommandRejected):
 
     def __init__(self, message: str, reason: str = "fault"):
         super().__init__(message, reason)
+
+
+class StopQueued(ControlUnavailable):
+    """A stop the control process has not confirmed in STOP_ACK_S: it is on its way and
+    runs as soon as that process reads it (a stop has no deadline)."""
 
 
 # ------------------------------------------------------------------ the wire format
@@ -129,34 +148,69 @@ def _named(module: str, qualname: str) -> Any:
 
 
 def exception_from_wire(wire: tuple) -> BaseException:
+    """The exception exception_to_wire described, if its class is one the link's codec
+    admits (urc's own, or a built-in); otherwise a UrcError with its text."""
     module, qualname, args, attrs, text = wire
-    try:
-        cls = _named(module, qualname)
-        if isinstance(cls, type) and issubclass(cls, BaseException):
-            try:
-                exc = cls(*args)  # (OSError keeps errno and text only through __init__)
-            except Exception:
-                exc = cls.__new__(cls)
-                exc.args = tuple(args)
-            vars(exc).update(attrs)
-            return exc
-    except Exception:
-        pass
+    cls = codec.allowed_class(module, qualname)
+    if isinstance(cls, type) and issubclass(cls, BaseException):
+        try:
+            exc = cls(*args)  # (OSError keeps errno and text only through __init__)
+        except Exception:
+            exc = cls.__new__(cls)
+            exc.args = tuple(args)
+        vars(exc).update(attrs)
+        return exc
     return UrcError(f"{qualname}: {text}")
 
 
 # ------------------------------------------------------------------ the I/O side
-class _Slot:
-    __slots__ = ("done", "reply")
+def _on_event_loop() -> bool:
+    try:
+        asyncio.get_running_loop()
+        return True
+    except RuntimeError:
+        return False
 
-    def __init__(self) -> None:
-        self.done = threading.Event()
-        self.reply: tuple | None = None
+
+#: tests set this: a round trip that would block the event loop raises instead of being logged
+STRICT_ENV = "URC_STRICT_EVENT_LOOP"
+
+
+class _Pending:
+    """One request awaiting its reply: a thread waits on ``done``, or the event loop
+    holds ``future`` (resolved from the reader thread with call_soon_threadsafe)."""
+
+    __slots__ = ("request", "done", "reply", "future", "loop")
+
+    def __init__(self, request: Request, loop: asyncio.AbstractEventLoop | None = None):
+        self.request = request
+        self.reply: Reply | None = None
+        self.loop = loop
+        self.done = threading.Event() if loop is None else None
+        self.future: asyncio.Future | None = None if loop is None else loop.create_future()
+
+    def deliver(self, reply: Reply) -> None:
+        self.reply = reply
+        if self.done is not None:
+            self.done.set()
+        else:
+            assert self.loop is not None and self.future is not None
+            try:
+                self.loop.call_soon_threadsafe(_settle, self.future, reply)
+            except RuntimeError:  # (its event loop is closed: nobody is waiting)
+                pass
+
+
+def _settle(fut: asyncio.Future, reply: Reply) -> None:
+    if not fut.done():
+        fut.set_result(reply)
 
 
 class ControlLink:
-    """The I/O process's end of the socket: a reader thread takes statuses and replies,
-    callers on any thread send requests and wait (bounded) for their answer."""
+    """The I/O process's end of the socket: a reader thread takes statuses and replies.
+    A request waits for its reply without blocking anyone: from a protocol session or a
+    web route (bridged greenlets on the event loop) it suspends its caller only; from
+    another thread it waits on an event. Either way bounded by ``timeout_s``."""
 
     def __init__(self, conn: Connection, on_lost: Callable[[str], None] | None = None):
         self.conn = conn
@@ -168,9 +222,10 @@ class ControlLink:
         self.final: dict[str, Any] | None = None
         self.finished = threading.Event()
         self._ids = itertools.count(1)
-        self._pending: dict[int, _Slot] = {}
+        self._pending: dict[int, _Pending] = {}
         self._send_lock = threading.Lock()
         self._reader: threading.Thread | None = None
+        self._complained: set[str] = set()
 
     def start(self) -> "ControlLink":
         self._reader = threading.Thread(target=self._read, name="urc-control-link", daemon=True)
@@ -178,39 +233,77 @@ class ControlLink:
         return self
 
     def send(self, msg: tuple) -> None:
+        data = codec.dumps(msg)
         with self._send_lock:
-            self.conn.send(msg)
+            self.conn.send_bytes(data)
 
-    def request(self, kind: str, path: tuple, args: tuple = (), kwargs: dict | None = None,
-                timeout_s: float = CALL_TIMEOUT_S) -> Any:
-        """Send one request and wait for its answer: the value, a RemoteRef for what
-        cannot travel, or the exception raised over there."""
+    def call(self, request: Request, timeout_s: float = CALL_TIMEOUT_S) -> Any:
+        """Run ``request`` in the control process; its value (a RemoteRef for what cannot
+        leave the control process), or the exception raised there. A stop is always
+        applied, however late it arrives; anything else that is not answered within
+        ``timeout_s`` is refused over there too (it carries that deadline)."""
+        if bridge.in_bridge():
+            pending = self._submit(request, timeout_s, asyncio.get_running_loop())
+            assert pending.future is not None
+            return self._outcome(pending.request, bridge.wait(pending.future))
+        if _on_event_loop():
+            self._complain(request)
+        pending = self._submit(request, timeout_s, None)
+        assert pending.done is not None
+        if not pending.done.wait(timeout_s):
+            self._expire(pending, timeout_s)
+        assert pending.reply is not None
+        return self._outcome(request, pending.reply)
+
+    def _complain(self, request: Request) -> None:
+        """A round trip from the event loop thread outside a bridge blocks every client:
+        a bug in urc (wrap the caller in urc.ipc.bridge), loud in tests."""
+        name = type(request).__name__
+        if os.environ.get(STRICT_ENV):
+            raise RuntimeError(f"{name} would block the event loop: call it through urc.ipc.bridge")
+        if name not in self._complained:
+            self._complained.add(name)
+            log.error("%s blocks the event loop while it waits for the control process (a bug)", name,
+                      stack_info=True)
+
+    def _submit(self, request: Request, timeout_s: float,
+                loop: asyncio.AbstractEventLoop | None) -> _Pending:
         rid = next(self._ids)
-        slot = self._pending[rid] = _Slot()  # (before the check: a loss now fills it)
-        try:
-            if self.lost:
-                raise ControlUnavailable(f"the control process is gone ({self.lost}): nothing was done")
+        pending = self._pending[rid] = _Pending(request, loop)  # (before the check: a loss now fills it)
+        deadline_s = None if isinstance(request, Stop) else time.monotonic() + timeout_s
+        if self.lost:
+            pending.deliver(_lost_reply(rid, self.lost))
+        else:
             try:
-                self.send((kind, rid, path, args, kwargs or {}))
-            except (OSError, EOFError) as exc:
-                raise ControlUnavailable(f"the control process is gone ({exc}): nothing was done") from None
-            if not slot.done.wait(timeout_s):
-                raise ControlUnavailable(f"the control process did not answer within {timeout_s:g} s "
-                                         "(hung?): the command may still take effect")
-        finally:
-            self._pending.pop(rid, None)
-        assert slot.reply is not None
-        outcome, payload, status = slot.reply
-        if outcome == "lost":
-            raise ControlUnavailable(f"the control process is gone ({payload}): nothing was done")
-        self.offer_status(status)
-        if outcome == "error":
-            raise exception_from_wire(payload)
-        if outcome == "ref":
-            if kind == "run":
-                raise UrcError(f"{'.'.join(path)} returned something that cannot leave the control process")
-            return RemoteRef(self, path if kind == "get" else path + ((CALL, args, kwargs or {}),))
-        return payload
+                self.send(("request", Envelope(rid, deadline_s, request)))
+            except (OSError, EOFError, ValueError) as exc:
+                pending.deliver(_lost_reply(rid, str(exc)))
+        if loop is not None and pending.reply is None:
+            loop.call_later(timeout_s, self._expire, pending, timeout_s)
+        return pending
+
+    def _expire(self, pending: _Pending, timeout_s: float) -> None:
+        rid = next((r for r, p in self._pending.items() if p is pending), None)
+        if rid is None or pending.reply is not None:
+            return
+        self._pending.pop(rid, None)
+        text = f"the control process did not answer within {timeout_s:g} s (hung?): "
+        exc = (StopQueued(text + "the stop is sent and runs as soon as it resumes")
+               if isinstance(pending.request, Stop) else ControlUnavailable(text + "nothing was done"))
+        pending.deliver(Reply(rid, "error", exception_to_wire(exc), None))
+
+    def _outcome(self, request: Request, reply: Reply) -> Any:
+        self._pending.pop(reply.rid, None)
+        if reply.outcome == "lost":
+            raise ControlUnavailable(f"the control process is gone ({reply.value}): nothing was done")
+        self.offer_status(reply.status)
+        if reply.outcome == "error":
+            raise exception_from_wire(reply.value)
+        if reply.outcome == "ref":
+            if not isinstance(request, HardwareCall):
+                raise UrcError(f"{type(request).__name__} returned something that cannot leave the control process")
+            return RemoteRef(self, request.path)
+        return reply.value
 
     def offer_status(self, status: Status | None) -> None:
         # a reply carries the status a command left (read-your-writes); ticks publish too
@@ -221,15 +314,14 @@ class ControlLink:
         reason = "its socket closed"
         try:
             while True:
-                msg = self.conn.recv()
+                msg = codec.loads(self.conn.recv_bytes())
                 kind = msg[0]
                 if kind == "status":
                     self.offer_status(msg[1])
                 elif kind == "reply":
-                    slot = self._pending.get(msg[1])
-                    if slot is not None:
-                        slot.reply = msg[2:]
-                        slot.done.set()
+                    pending = self._pending.get(msg[1].rid)
+                    if pending is not None:
+                        pending.deliver(msg[1])
                 elif kind == "died":
                     reason = f"control loop died: {msg[1]}"
                     self._lose(reason)
@@ -248,9 +340,8 @@ class ControlLink:
         if self.lost:
             return
         self.lost = reason
-        for slot in list(self._pending.values()):
-            slot.reply = ("lost", reason, None)
-            slot.done.set()
+        for rid, pending in list(self._pending.items()):
+            pending.deliver(_lost_reply(rid, reason))
         if self.on_lost is not None:
             try:
                 self.on_lost(reason)
@@ -258,10 +349,14 @@ class ControlLink:
                 log.exception("telling that the control process is gone failed")
 
 
+def _lost_reply(rid: int, reason: str) -> Reply:
+    return Reply(rid, "lost", reason, None)
+
+
 class RemoteRef:
     """Something that stays in the control process (the hardware, a sensor), named by
     the path that reaches it from the rotator. Attributes come back as values when they
-    can travel and are not callable; calls run over there."""
+    can travel and are not callable; calls run over there (HardwareCall)."""
 
     __slots__ = ("_link", "_path")
 
@@ -272,40 +367,54 @@ class RemoteRef:
     def __getattr__(self, name: str) -> Any:
         if name.startswith("_"):
             raise AttributeError(name)
-        return self._link.request("get", self._path + (name,))
+        return self._link.call(HardwareCall(self._path + (name,)))
 
     def __call__(self, *args: Any, **kwargs: Any) -> Any:
-        return self._link.request("call", self._path, args, kwargs)
+        return self._link.call(HardwareCall(self._path + ((CALL, args, kwargs),)))
 
     def __contains__(self, item: Any) -> bool:
-        return bool(self._link.request("call", self._path + ("__contains__",), (item,)))
+        return bool(self._link.call(HardwareCall(self._path + ("__contains__", (CALL, (item,), {})))))
 
     def __repr__(self) -> str:
         return f"<RemoteRef {'.'.join(s if isinstance(s, str) else '()' for s in self._path)}>"
 
 
+class _Shared:
+    """What every view of one remote rotator shares: the settings it runs with."""
+
+    def __init__(self, info: dict[str, Any]):
+        self.settings = info["settings"]
+        self.caps = info["caps"]
+        self.geometry = info["geometry"]
+
+
 class RemoteRotator:
     """Stands in for :class:`~urc.service.rotator.Rotator` in the I/O process: the same
-    commands (run by the real one, in the control process) and the same status."""
+    commands, each a typed request (urc.ipc.messages) run by the real one in the control
+    process, and the same status, published by every tick (reading it costs nothing)."""
 
-    #: Rotator methods the I/O process must not call: the control process owns the tick
-    #: and its own shutdown
-    LOCAL_ONLY = frozenset({"tick", "shutdown", "note_lateness"})
-
-    def __init__(self, link: ControlLink, info: dict[str, Any]):
+    def __init__(self, link: ControlLink, info: dict[str, Any], shared: _Shared | None = None,
+                 fresh_status_only: bool = False):
         self._link = link
+        self._shared = shared or _Shared(info)
+        self._fresh_status_only = fresh_status_only
         self.pid: int = info["pid"]
         self.priority: str = info.get("priority", "")
         self.clock = RealClock()  # CLOCK_MONOTONIC: the same time base in both processes
         self.hw = RemoteRef(link, ("hw",))
         self.store = RemoteRef(link, ("store",))
-        self._take_settings(info)
+        self._info = info
         link.offer_status(info["status"])
 
-    def _take_settings(self, info: dict[str, Any]) -> None:
-        self.settings = info["settings"]
-        self.caps = info["caps"]
-        self.geometry = info["geometry"]
+    def for_sessions(self) -> "RemoteRotator":
+        """The view protocol sessions get: ``status()`` raises ControlUnavailable while the
+        control process is gone or silent, so no protocol answers a stale position as if
+        it were current (each answers in its own error form)."""
+        return RemoteRotator(self._link, self._info, self._shared, fresh_status_only=True)
+
+    settings = property(lambda self: self._shared.settings)
+    caps = property(lambda self: self._shared.caps)
+    geometry = property(lambda self: self._shared.geometry)
 
     @property
     def lock(self) -> Any:
@@ -316,7 +425,11 @@ class RemoteRotator:
         s = self._link.status
         assert s is not None
         fault = self._link_fault(s)
-        return s if fault is None else dataclasses.replace(s, faults=s.faults + (fault,))
+        if fault is None:
+            return s
+        if self._fresh_status_only:
+            raise ControlUnavailable(f"{fault.reason}: position unknown")
+        return dataclasses.replace(s, faults=s.faults + (fault,))
 
     def _link_fault(self, s: Status) -> Fault | None:
         """A control process that is gone or silent is a fault every client sees (the
@@ -330,25 +443,83 @@ class RemoteRotator:
 
     def run(self, fn: Callable[..., Any], *args: Any, **kwargs: Any) -> Any:
         """``fn(rotator, *args, **kwargs)`` in the control process (see in_control_process)."""
-        return self._link.request("run", (fn.__module__, fn.__qualname__), args, kwargs)
+        return self._link.call(Procedure(fn.__module__, fn.__qualname__, args, kwargs))
 
     def reconfigure(self, settings: Any) -> None:
-        self._link.request("call", ("reconfigure",), (settings,))
+        self._link.call(Reconfigure(settings))
         # accepted: the control process applies them at its next tick, as these are
         settings = settings.completed()
-        self._take_settings({"settings": settings, "caps": settings.caps, "geometry": settings.geometry()})
+        self._shared.settings, self._shared.caps = settings, settings.caps
+        self._shared.geometry = settings.geometry()
 
-    def __getattr__(self, name: str) -> Any:
-        from .rotator import Rotator
+    # ------------------------------------------------------------- the commands (RotatorPort)
+    def goto(self, az_deg: float, el_deg: float) -> list:
+        return self._link.call(Goto(az_deg, el_deg))
 
-        if name.startswith("_") or name in self.LOCAL_ONLY or not callable(getattr(Rotator, name, None)):
-            raise AttributeError(name)
+    def goto_az(self, az_deg: float) -> list:
+        return self._link.call(GotoAz(az_deg))
 
-        def remote_call(*args: Any, **kwargs: Any) -> Any:
-            return self._link.request("call", (name,), args, kwargs)
-        remote_call.__name__ = name
-        return remote_call
+    def goto_el(self, el_deg: float) -> list:
+        return self._link.call(GotoEl(el_deg))
 
+    def goto_pose(self, az_m_deg: float, el_m_deg: float, name: str = "goto_pose", local: bool = False) -> list:
+        return self._link.call(GotoPose(az_m_deg, el_m_deg, name, local))
+
+    def park(self, local: bool = False) -> list:
+        return self._link.call(Park(local))
+
+    def track(self, az_deg: float, el_deg: float, az_rate_deg_per_s: float = 0.0, el_rate_deg_per_s: float = 0.0,
+              t_ref_s: float | None = None) -> None:
+        self._link.call(Track(az_deg, el_deg, az_rate_deg_per_s, el_rate_deg_per_s, t_ref_s))
+
+    def track_pose(self, az_m_deg: float, el_m_deg: float, az_rate_deg_per_s: float = 0.0,
+                   el_rate_deg_per_s: float = 0.0, t_ref_s: float | None = None) -> None:
+        self._link.call(TrackPose(az_m_deg, el_m_deg, az_rate_deg_per_s, el_rate_deg_per_s, t_ref_s))
+
+    def move(self, axis: str, direction: int, speed_frac: float = 1.0, local: bool = False) -> None:
+        self._link.call(Move(axis, direction, speed_frac, local))
+
+    def stop(self, axis: str | None = None) -> None:
+        self._link.call(Stop(axis), timeout_s=STOP_ACK_S)
+
+    def set_position(self, az_deg: float | None = None, el_deg: float | None = None, local: bool = False) -> None:
+        self._link.call(SetPosition(az_deg, el_deg, local))
+
+    def adopt_sensor_reading(self, axis: str, local: bool = False) -> float:
+        return self._link.call(AdoptSensorReading(axis, local))
+
+    def search_frame(self, axis: str, mech_deg: float) -> None:
+        self._link.call(SearchFrame(axis, mech_deg))
+
+    def end_search(self, axis: str, mech_deg: float | None = None) -> None:
+        self._link.call(EndSearch(axis, mech_deg))
+
+    def set_overshoot(self, axis: str, overshoot_deg: float) -> None:
+        self._link.call(SetOvershoot(axis, overshoot_deg))
+
+    def overshoot_deg(self, axis: str) -> float:
+        return self._link.call(OvershootQuery(axis))
+
+    def clear_faults(self) -> None:
+        self._link.call(ClearFaults())
+
+    def hold_local(self, control: str, held: bool) -> None:
+        self._link.call(HoldLocal(control, held))
+
+    def local_controls(self) -> tuple[str, ...]:
+        return self._link.call(LocalControls())
+
+    def announce(self, text: str) -> None:
+        self._link.call(Announce(text))
+
+    def power_fail(self, reason: str = "power-fail input: supply lost") -> None:
+        self._link.call(PowerFail(reason))
+
+    def save_now(self, timeout_s: float = 5.0) -> bool:
+        return self._link.call(SaveNow(timeout_s), timeout_s=CALL_TIMEOUT_S + timeout_s)
+
+    def position_uncertain(self) -> bool:
+        return self._link.call(PositionUncertain())
 
 
 def in_control_process(fn: Callable[..., Any]) -> Callable[..., Any]:
@@ -366,7 +537,9 @@ def in_control_process(fn: Callable[..., Any]) -> Callable[..., Any]:
 
 
 def control_side_function(module: str, qualname: str) -> Callable[..., Any]:
-    """The function an ``in_control_process`` call names (nothing else may be run)."""
+    """The function a Procedure names (only those marked in_control_process may run)."""
+    if not (module == "urc" or module.startswith("urc.")):
+        raise AttributeError(f"{module}.{qualname} is not meant to run in the control process")
     fn = _named(module, qualname)
     if not getattr(fn, "in_control_process", False):
         raise AttributeError(f"{module}.{qualname} is not meant to run in the control process")

@@ -13,17 +13,11 @@ import math
 from dataclasses import dataclass
 from typing import Any, Iterable
 
+from ..angles import great_circle_deg
+
 #: sample fields, in order (also the keys of the arrays the endpoint returns)
 FIELDS = ("t_wall_s", "az_deg", "el_deg", "target_az_deg", "target_el_deg", "error_deg",
           "az_mech_deg", "az_target_mech_deg")
-
-
-def angular_distance_deg(az1_deg: float, el1_deg: float, az2_deg: float, el2_deg: float) -> float:
-    """Great-circle angle between two sky directions (haversine: exact for small angles)."""
-    p1, p2 = math.radians(el1_deg), math.radians(el2_deg)
-    dl = math.radians(az2_deg - az1_deg)
-    h = math.sin((p2 - p1) / 2) ** 2 + math.cos(p1) * math.cos(p2) * math.sin(dl / 2) ** 2
-    return math.degrees(2 * math.asin(min(1.0, math.sqrt(h))))
 
 
 def setpoint(status: dict[str, Any]) -> tuple[float | None, float | None]:
@@ -42,7 +36,7 @@ def pointing_error_deg(status: dict[str, Any]) -> float | None:
         return abs((status["az_deg"] - taz + 180.0) % 360.0 - 180.0)
     if taz is None or tel is None:
         return None
-    return angular_distance_deg(status["az_deg"], status["el_deg"], taz, tel)
+    return float(great_circle_deg(status["az_deg"], status["el_deg"], taz, tel))
 
 
 @dataclass

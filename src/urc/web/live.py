@@ -23,6 +23,7 @@ from typing import Any
 
 from starlette.websockets import WebSocket, WebSocketDisconnect, WebSocketState
 
+from ..ipc import bridge
 from ..errors import CommandRejected
 from ..tracking.cycle import cycle_state
 from ..tracking.tracker import tracking_now
@@ -175,7 +176,8 @@ class Hub:
                 asyncio.get_running_loop().create_task(self._refresh_tracking())
             try:
                 self.frame_text = self.build_frame()
-                self._expire_jogs()
+                if self.jogs:
+                    await bridge.run(self._expire_jogs)
             except Exception:
                 log.exception("live frame failed")
             for fut in self._waiters:
@@ -280,5 +282,5 @@ class Hub:
             status = self.rotator.status()
             if status.t_s != last_t:
                 last_t = status.t_s
-                proc.poll(status)
+                await bridge.run(proc.poll, status)
             await asyncio.sleep(period_s)

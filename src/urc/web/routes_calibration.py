@@ -12,6 +12,7 @@ from typing import Literal
 from fastapi import APIRouter, Depends
 from pydantic import Field
 
+from ..ipc import bridge
 from ..service import calibration as cal
 from .context import WebContext
 from .schemas import CONTROL_RESPONSES, AzDeg, Deg, ElDeg, Ok, Strict
@@ -64,39 +65,41 @@ def router(ctx: WebContext) -> APIRouter:
     @r.get("")
     async def overview() -> dict:
         """Per axis: sensor, constants, procedures that apply; the running procedure."""
-        return {"axes": cal.describe_sensors(rot), "procedure": ctx.hub.procedure_dict()}
+        return {"axes": await bridge.run(cal.describe_sensors, rot), "procedure": ctx.hub.procedure_dict()}
 
     @r.post("/zero", **control)
     async def zero(req: ZeroRequest) -> Ok:
         """Declare where the antenna points now (re-reference)."""
-        cal.zero(rot, req.az_deg, req.el_deg)
+        await bridge.run(cal.zero, rot, req.az_deg, req.el_deg)
         return Ok()
 
     @r.post("/pot/read", **control)
     async def pot_read(req: AxisRequest) -> PotReading:
         """The pot's linearised reading P here (averaged), for a two-point calibration."""
-        sensor = rot.hw.axis(req.axis).sensor
-        status = rot.status()
-        return {"ok": True, "axis": req.axis, "p": cal.pot_units(sensor),
-                "reading_deg": getattr(status, req.axis).pos_deg + status.offsets.get(req.axis, 0.0)}
+        def read() -> dict:
+            sensor = rot.hw.axis(req.axis).sensor
+            status = rot.status()
+            return {"ok": True, "axis": req.axis, "p": cal.pot_units(sensor),
+                    "reading_deg": getattr(status, req.axis).pos_deg + status.offsets.get(req.axis, 0.0)}
+        return await bridge.run(read)
 
     @r.post("/pot/apply", **control)
     async def pot_apply(req: PotApplyRequest) -> PotApplied:
         """Compute M and C from two (bearing, P) points and load them."""
-        result = cal.pot_apply(rot, req.axis, [(p.bearing_deg, p.p) for p in req.points])
+        result = await bridge.run(cal.pot_apply, rot, req.axis, [(p.bearing_deg, p.p) for p in req.points])
         # JSON has no NaN (an old constant that was never set): null
         return PotApplied(result={k: v if math.isfinite(v) else None for k, v in result.items()})
 
     @r.post("/magnetometer", **control)
     async def magnetometer() -> ProcedureState:
         """Start the 12-direction hard-iron calibration (the antenna turns all the way round)."""
-        ctx.hub.start_procedure(cal.MagnetometerCalibration(rot))
+        ctx.hub.start_procedure(await bridge.run(cal.MagnetometerCalibration, rot))
         return ProcedureState(procedure=ctx.hub.procedure_dict())
 
     @r.post("/homing", **control)
     async def homing(req: HomingRequest) -> ProcedureState:
         """Start limit-switch homing of one axis (slow jog onto the lower switch)."""
-        ctx.hub.start_procedure(cal.LimitSwitchHoming(rot, req.axis, req.speed_frac, req.switch_deg))
+        ctx.hub.start_procedure(await bridge.run(cal.LimitSwitchHoming, rot, req.axis, req.speed_frac, req.switch_deg))
         return ProcedureState(procedure=ctx.hub.procedure_dict())
 
     @r.get("/procedure")
@@ -106,7 +109,7 @@ def router(ctx: WebContext) -> APIRouter:
     @r.post("/procedure/cancel", **control)
     async def cancel() -> ProcedureState:
         if ctx.hub.procedure is not None:
-            ctx.hub.procedure.cancel()
+            await bridge.run(ctx.hub.procedure.cancel)
         return ProcedureState(procedure=ctx.hub.procedure_dict())
 
     return r

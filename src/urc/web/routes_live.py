@@ -10,6 +10,7 @@ from typing import Literal
 from fastapi import APIRouter, Depends, HTTPException, Query, WebSocket
 from pydantic import Field
 
+from ..ipc import bridge
 from .. import __version__
 from ..profiles import PROFILES
 from ..protocols.registry import PROTOCOLS
@@ -106,12 +107,12 @@ def router(ctx: WebContext) -> APIRouter:
     async def jog(req: MoveRequest) -> JogLease:
         """Start or renew a press-and-hold jog. It stops by itself unless renewed within
         ``jog_lease_s`` (the page renews while the button is held)."""
-        ctx.hub.jog(req.axis, req.direction, req.speed)
+        await bridge.run(ctx.hub.jog, req.axis, req.direction, req.speed)
         return JogLease(lease_s=JOG_LEASE_S)
 
     @r.post("/api/jog/release", dependencies=control, responses=CONTROL_RESPONSES)
     async def jog_release(req: StopRequest | None = None) -> Ok:
-        ctx.hub.release(req.axis if req else None)
+        await bridge.run(ctx.hub.release, req.axis if req else None)
         return Ok()
 
     return r

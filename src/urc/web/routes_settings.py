@@ -8,6 +8,7 @@ from fastapi import APIRouter, Body, Depends
 from fastapi.responses import JSONResponse
 from pydantic import BaseModel, Field
 
+from ..ipc import bridge
 from .context import WebContext
 from .schemas import CONTROL_RESPONSES
 from .settings_store import RESTART_SECTIONS
@@ -18,7 +19,7 @@ def _apply_live(ctx: WebContext, cfg: Any) -> tuple[bool, str]:
     reconfigure = getattr(ctx.rotator, "reconfigure", None)
     if reconfigure is None:
         return False, "this urc cannot change limits/zones/offsets while running: they apply at the next start"
-    from ..app import settings_from_config
+    from ..assembly import settings_from_config
 
     try:
         reconfigure(settings_from_config(cfg))
@@ -91,7 +92,7 @@ def router(ctx: WebContext) -> APIRouter:
         # last save (a port changed in one save still waits after the next)
         restart = store.restart_pending()
         live = [k for k in changed if k not in RESTART_SECTIONS]
-        applied, note = (_apply_live(ctx, cfg) if live else (True, "nothing to apply"))
+        applied, note = (await bridge.run(_apply_live, ctx, cfg) if live else (True, "nothing to apply"))
         msgs = [f"saved to {path}"]
         if started_without_file:
             msgs.append(f"urc run was started without a configuration file; start it with --config {path} "

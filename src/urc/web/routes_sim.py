@@ -10,6 +10,7 @@ from typing import Literal
 from fastapi import APIRouter, Depends, HTTPException
 from pydantic import Field
 
+from ..ipc import bridge
 from .context import WebContext
 from .schemas import CONTROL_RESPONSES, Deg, Ok, Strict
 
@@ -47,11 +48,10 @@ def router(ctx: WebContext) -> APIRouter:
     @r.post("/fault")
     async def inject(req: SimFault) -> Ok:
         """Simulator only: make the simulated hardware fail (the controller is not told)."""
-        w = world()
         kw = {k: v for k, v in (("deg", req.deg), ("duty", req.duty), ("which", req.which),
                                 ("delay_s", req.delay_s), ("reads", req.reads)) if v is not None}
         try:
-            w.inject(req.axis, req.kind, **kw)
+            await bridge.run(lambda: world().inject(req.axis, req.kind, **kw))
         except ValueError as exc:
             raise HTTPException(409, str(exc)) from None
         return Ok()
@@ -59,7 +59,7 @@ def router(ctx: WebContext) -> APIRouter:
     @r.post("/clear")
     async def clear(req: SimClear) -> Ok:
         """Simulator only: repair the simulated hardware (latched faults still need clearing)."""
-        world().clear(req.axis, req.kind)
+        await bridge.run(lambda: world().clear(req.axis, req.kind))
         return Ok()
 
     return r

@@ -30,6 +30,7 @@ from typing import Any, Literal
 from fastapi import APIRouter, Depends, HTTPException, Query, Response
 from pydantic import BaseModel, Field, model_validator
 
+from ..ipc import bridge
 from ..errors import CommandRejected, UrcError
 from .context import WebContext
 from .pass_search import MAX_HOURS, PassSearch
@@ -85,7 +86,7 @@ async def _call(fn: Any, *args: Any, **kw: Any) -> Any:
     else it raises (a plan that does not fit, a bad element set) is a refusal too, not
     a server crash: the page shows the reason."""
     try:
-        out = fn(*args, **kw)
+        out = await bridge.run(fn, *args, **kw)
         return await out if inspect.isawaitable(out) else out
     except (UrcError, HTTPException):
         raise

@@ -1,0 +1,86 @@
+"""A held-up control process holds up no client (issue 19): a real ``urc run`` whose
+control process is SIGSTOPped while a set waits on one rotctld connection."""
+
+from __future__ import annotations
+
+import os
+import signal
+import socket
+
+import httpx
+import pytest
+
+from urc_process import UrcProcess, free_port, wait_until
+
+#: generous: the point is what answers before the pending set does, not how fast
+ANSWER_TIMEOUT_S = 30.0
+
+
+def line(sock: socket.socket, end: bytes = b"\n") -> bytes:
+    got = b""
+    while not got.endswith(end):
+        chunk = sock.recv(256)
+        if not chunk:
+            break
+        got += chunk
+    return got
+
+
+@pytest.fixture
+def frozen_setup(tmp_path):
+    rotctld_port, gs232_port = free_port(), free_port()
+    # (the I/O process's takeover of a frozen control process off: this is about the link)
+    u = UrcProcess(tmp_path, profile="tartu-urc", extra="[faults]\ncontrol_takeover_s = 0\n", serve=[
+        {"protocol": "rotctld", "tcp": f"127.0.0.1:{rotctld_port}"},
+        {"protocol": "gs232b", "tcp": f"127.0.0.1:{gs232_port}"}]).start()
+    conns = [socket.create_connection(("127.0.0.1", p), timeout=ANSWER_TIMEOUT_S)
+             for p in (rotctld_port, rotctld_port, gs232_port)]
+    pid = u.control_pid()
+    yield u, conns, pid
+    try:
+        os.kill(pid, signal.SIGCONT)
+    except ProcessLookupError:
+        pass
+    for c in conns:
+        c.close()
+    u.stop()
+
+
+def test_a_stopped_control_process_blocks_no_other_client_and_a_stop_waits_for_it(frozen_setup):
+    u, (setter, poller, gs232), pid = frozen_setup
+    assert u.post("/api/goto", {"az_deg": 300, "el_deg": 60}).status_code == 200
+    u.wait(lambda s: s["moving"])
+    poller.sendall(b"p\n")
+    live = line(poller).split()
+    assert len(live) == 2 and float(live[0]) >= 0  # a position while the process runs
+
+    os.kill(pid, signal.SIGSTOP)
+    setter.sendall(b"P 100 45\n")  # waits for a control process that does not answer
+    setter.setblocking(False)
+    # (once its status is a second old, the process counts as silent; a set sent after
+    # that is refused at once: only positions known to be current are checked against)
+    u.wait(lambda s: any(f["kind"] == "control" for f in s["faults"]), timeout_s=ANSWER_TIMEOUT_S)
+
+    # every other client is served meanwhile, each told that no position is current
+    poller.sendall(b"p\n")
+    assert line(poller) == b"RPRT -9\n"
+    gs232.sendall(b"C2\r")
+    assert line(gs232, b"\r\n") == b"?>\r\n"
+    status = httpx.get(u.url + "/api/status", timeout=ANSWER_TIMEOUT_S).json()
+    assert any(f["kind"] == "control" and "silent" in f["reason"] for f in status["faults"])
+    with pytest.raises(BlockingIOError):
+        setter.recv(64)  # ... all while the set still waits
+
+    stop = u.post("/api/stop")  # the dashboard's STOP: sent, confirmed once the process runs
+    assert stop.status_code == 200 and stop.json()["queued"], stop.text
+    setter.setblocking(True)
+    assert line(setter) == b"RPRT -9\n"  # the set timed out: refused, and never applied
+
+    os.kill(pid, signal.SIGCONT)
+    s = u.wait(lambda s: not s["moving"] and not any(f["kind"] == "control" for f in s["faults"]),
+               timeout_s=ANSWER_TIMEOUT_S)
+    assert s["target_az_deg"] is None, "the queued stop ran"
+    assert abs(s["az_deg"] - 100) > 5, "the set that timed out did not run later"
+    poller.sendall(b"p\n")
+    assert len(line(poller).split()) == 2  # positions again
+    wait_until(lambda: not u.status()["moving"], ANSWER_TIMEOUT_S, "standing")
