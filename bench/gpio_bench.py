@@ -21,7 +21,7 @@ from pathlib import Path
 from bench_report import write_json
 from gpiozero.pins.mock import MockFactory, MockPWMPin
 
-from urc.app import build_rotator
+from urc.assembly import build_rotator
 from urc.clock import VirtualClock
 from urc.config import Config, load_config
 from urc.hardware.gpio.pins import PinPulseCounter, PinQuadrature

@@ -16,7 +16,7 @@ import tempfile
 from pathlib import Path
 
 from bench_report import write_json
-from urc.app import build_rotator
+from urc.assembly import build_rotator
 from urc.clock import VirtualClock
 from urc.config import Config
 from urc.profiles import PROFILES

@@ -25,7 +25,7 @@ import numpy as np
 from skyfield.api import EarthSatellite, wgs84
 
 from bench_report import write_json
-from urc.app import build_rotator
+from urc.assembly import build_rotator
 from urc.clock import VirtualClock
 from urc.config import Config
 from urc.profiles import PROFILES

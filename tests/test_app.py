@@ -32,6 +32,10 @@ def urc(tmp_path):
         u.stop()
 
 
+#: the I/O process never takes the outputs over (the control process's own contract alone)
+NO_TAKEOVER = "[faults]\ncontrol_takeover_s = 0\n"
+
+
 def heartbeat(u: UrcProcess) -> dict:
     return read_output_file(u.state_dir / "heartbeat")
 
@@ -43,8 +47,9 @@ def truth(u: UrcProcess) -> dict:
 def test_a_hung_or_killed_control_process_stops_the_heartbeat(urc):
     """The square wave comes from the control loop's ticks: stopped (hung) or killed,
     it stops, so external hardware cuts the motors; the I/O process then exits with
-    the reason instead of serving a dead rotator."""
-    u = urc().start()
+    the reason instead of serving a dead rotator. (Without the I/O process's takeover,
+    which would end a control process frozen this long: see the test after this one.)"""
+    u = urc(extra=NO_TAKEOVER).start()
     ctl = u.control_pid()
     assert ctl != u.proc.pid
     control = httpx.get(u.url + "/api/info", timeout=5).json()["control"]
@@ -72,6 +77,30 @@ def test_a_hung_or_killed_control_process_stops_the_heartbeat(urc):
     time.sleep(0.6)
     assert heartbeat(u) == dead, "the square wave stopped with the control process"
     assert u.proc.returncode != 0 and "control loop died" in out, out
+
+
+@pytest.mark.parametrize("how", ["SIGSTOP", "SIGKILL"])
+def test_a_frozen_or_dead_control_process_is_ended_and_its_outputs_driven_safe_from_here(urc, how):
+    """Layer 2 of the safety chain (issue 20): a control process frozen mid-move (or
+    killed) is noticed by the I/O process, killed, and every output driven safe by the
+    I/O process itself, held until it exits; the service ends saying why in one line,
+    and the move does not carry on at the next start."""
+    u = urc().start()
+    ctl = u.control_pid()
+    assert u.post("/api/goto", {"az_deg": 300, "el_deg": 30}).status_code == 200
+    u.wait(lambda s: s["moving"] and s["az"]["rate_deg_per_s"] > 1)
+    os.kill(ctl, getattr(signal, how))
+    out, _ = u.proc.communicate(timeout=60)
+    assert u.proc.returncode != 0, out
+    assert "every output driven safe by this process" in out and "Traceback" not in out, out
+    assert ("froze" if how == "SIGSTOP" else "died") in out, out
+    assert not os.path.exists(f"/proc/{ctl}") or "Z" in open(f"/proc/{ctl}/stat").read().split()[2]
+    assert read_output_file(u.state_dir / "heartbeat")["level"] == 0
+    truth_then = truth(u)
+    u.start()  # the next start: the move in progress is not resumed
+    s = u.wait(lambda s: not s["moving"])
+    assert s["target_az_deg"] is None
+    assert abs(truth(u)["az"]["load_deg"] - truth_then["az"]["load_deg"]) < 1.0
 
 
 def test_a_control_process_that_stops_by_itself_fails_the_service(urc):

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import asyncio
 import json
 import logging
 import os
@@ -28,7 +27,25 @@ def _load(config_path: str | None, profile: str | None = None):
     return cfg
 
 
-@click.group()
+class _LazyGroup(click.Group):
+    """Subcommands that live in heavy modules are imported only when used: `urc status`
+    must not pay for numpy and skyfield (the tracking commands)."""
+
+    LAZY = {"passes": "urc.tracking.cli:passes_command", "tle": "urc.tracking.cli:tle_command"}
+
+    def list_commands(self, ctx: click.Context) -> list[str]:
+        return sorted({*super().list_commands(ctx), *self.LAZY})
+
+    def get_command(self, ctx: click.Context, name: str) -> click.Command | None:
+        if name in self.LAZY and name not in self.commands:
+            import importlib
+
+            module, _, attr = self.LAZY[name].partition(":")
+            self.add_command(getattr(importlib.import_module(module), attr), name)
+        return super().get_command(ctx, name)
+
+
+@click.group(cls=_LazyGroup)
 @click.version_option(__version__, prog_name="urc")
 def main() -> None:
     """urc — the Universal Rotator Controller."""
@@ -45,7 +62,9 @@ def main() -> None:
 def run(config_path: str | None, profile: str | None, state_dir: str | None, port: int | None,
         emulate: bool, verbose: bool) -> None:
     """Start the controller (the simulator with no arguments)."""
-    from .app import serve
+    import asyncio
+
+    from .app import ServiceFailed, serve
     from .service.instance import InstanceLocked
 
     logging.basicConfig(level=logging.DEBUG if verbose else logging.INFO,
@@ -61,7 +80,7 @@ def run(config_path: str | None, profile: str | None, state_dir: str | None, por
             cfg = with_emulation(cfg)
         asyncio.run(serve(cfg, cfg.state.resolve_dir(state_dir),
                           config_path=Path(config_path) if config_path else None))
-    except ConfigError as exc:
+    except (ConfigError, ServiceFailed) as exc:
         raise click.ClickException(str(exc)) from None
     except (InstanceLocked, OSError) as exc:
         # another urc on this state dir or hardware, a port in use: nothing was started
@@ -94,7 +113,7 @@ def hw_check(config_path: str | None, profile: str | None, state_dir: str | None
              move: bool) -> None:
     """List the parts, read every sensor, check I2C ids, magnets and limit switches
     (bridge: identify the controller, read its position, measure the link latency)."""
-    from .app import hardware_options, settings_from_config
+    from .assembly import hardware_options, settings_from_config
     from .clock import RealClock, VirtualClock
     from .hardware import build_hardware
     from .hardware.check import check
@@ -482,16 +501,6 @@ def settings_set(assignments: tuple[str, ...], url: str | None, config_path: str
     data = _request(url, config_path, "POST", "/api/settings", doc)
     for msg in data.get("messages", []):
         click.echo(msg)
-
-
-def _register_tracking_commands() -> None:
-    from .tracking.cli import passes_command, tle_command
-
-    main.add_command(passes_command, "passes")
-    main.add_command(tle_command, "tle")
-
-
-_register_tracking_commands()
 
 
 if __name__ == "__main__":  # pragma: no cover

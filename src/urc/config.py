@@ -318,6 +318,11 @@ class FaultsSection(_Section):
     #: only by an operator); fewer are ridden out
     watchdog_latch_stalls: int = Field(3, ge=1, le=1000)
     watchdog_latch_window_s: float = _num(600.0, gt=0.0, le=86400.0)
+    #: urc run's I/O process takes the outputs over from a control process that is dead
+    #: or has published no status for this long (frozen): it kills it, drives every
+    #: output safe itself and stops the service (0: never; the control process's own
+    #: watch and an external safety chain remain)
+    control_takeover_s: float = _num(1.0, ge=0.0, le=60.0)
 
 
 class ApiSection(_Section):

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from urc.app import hardware_options, settings_from_config
+from urc.assembly import hardware_options, settings_from_config
 from urc.clock import VirtualClock
 from urc.config import Config, load_config
 from urc.errors import HardwareError

@@ -328,7 +328,7 @@ def test_a_pass_flown_in_real_time_through_a_pty_bridge(tmp_path):
     from urc.cli import main as cli
     from urc.tracking import sky
     from urc.tracking.elements import load_elements
-    from urc.tracking.evaluate import great_circle_deg
+    from urc.angles import great_circle_deg
     from urc.tracking.propagate import look_angles
     from urc.tracking.station import Station
 

@@ -17,7 +17,7 @@ from urc.hardware.bridge import BRIDGE_PROTOCOLS
 from urc.hardware.bridge.simlink import BridgedRig
 from urc.protocols import spid_codec as spid
 from urc.tracking.elements import load_elements
-from urc.tracking.evaluate import great_circle_deg
+from urc.angles import great_circle_deg
 from urc.tracking.passes import find_passes
 from urc.tracking.propagate import look_angles
 from urc.tracking.station import Station

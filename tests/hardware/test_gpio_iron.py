@@ -15,7 +15,7 @@ from click.testing import CliRunner
 from gpiozero import Device
 from gpiozero.pins.mock import MockFactory, MockPWMPin
 
-from urc.app import hardware_options, settings_from_config
+from urc.assembly import hardware_options, settings_from_config
 from urc.cli import main
 from urc.clock import VirtualClock
 from urc.config import Config, load_config

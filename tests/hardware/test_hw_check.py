@@ -7,7 +7,7 @@ from pathlib import Path
 
 from click.testing import CliRunner
 
-from urc.app import hardware_options, settings_from_config
+from urc.assembly import hardware_options, settings_from_config
 from urc.cli import main, with_emulation
 from urc.clock import VirtualClock
 from urc.config import load_config

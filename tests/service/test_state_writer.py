@@ -7,7 +7,7 @@ import threading
 import pytest
 
 from conftest import bounded
-from urc.app import build_rotator
+from urc.assembly import build_rotator
 from urc.clock import RealClock
 from urc.config import Config
 from urc.errors import CommandRejected

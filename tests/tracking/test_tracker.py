@@ -185,7 +185,7 @@ def test_flip_is_decided_per_pass_unless_forbidden(profile, flip, expect):
     """Issue 12.4: tartu-urc shipped flip = false, so a 165 deg pass across north unwound
     360 deg at culmination (22 deg RMS) where flying over the top costs nothing. The
     default is now "auto": the planner decides on every rotator that can flip."""
-    from urc.app import settings_from_config
+    from urc.assembly import settings_from_config
     from urc.config import Config
     rotator = {"profile": profile} if flip is None else {"profile": profile, "flip": flip}
     g = settings_from_config(Config.from_dict({"rotator": rotator})).geometry()
@@ -243,7 +243,7 @@ def test_keyhole_plan_is_near_the_hold_azimuth_bound(leo_sets, dlat_deg):
     over the top is bounded by the pass's distance from the zenith (2.0; 0.74). That
     bound is the minimax of every plan over the top, and the plan now reaches it, judged
     between its samples too (the tracker interpolates them)."""
-    from urc.app import settings_from_config
+    from urc.assembly import settings_from_config
     from urc.config import Config
     from urc.tracking.planner import pointing_error_deg
     from urc.tracking.propagate import look_angles
@@ -271,7 +271,7 @@ def fly_continuous(tmp_path, profile: str, target_of, station: Station, start_un
                    flip="auto", config: dict | None = None):
     """Track a continuous target on the simulator from ``start_unix_s``: (rotator,
     tracker, UTC times, true sky az, el, mechanical az) at every tick."""
-    from urc.app import build_rotator
+    from urc.assembly import build_rotator
     from urc.clock import VirtualClock
     from urc.config import Config
     from urc.service.loop import run_virtual
@@ -308,7 +308,7 @@ def test_sun_culminating_across_the_wrap_point_is_not_lost(tmp_path, config):
     now planned when tracking starts: on tartu-urc's 0..400 deg, the overlap turn holds
     the rest of the day (367 -> 243 deg); limited to 0..360, none does, and it flies
     over the top (the azimuth passes 180 instead)."""
-    from urc.tracking.evaluate import great_circle_deg
+    from urc.angles import great_circle_deg
     from urc.tracking.propagate import sun_look_angles
     from urc.tracking.targets import SunTarget
 
@@ -364,7 +364,7 @@ def test_keyhole_plan_is_the_minimax_over_the_azimuth_speed(leo_sets, profile, d
     deg by 12.1 deg where 7.9 is possible), or, on a rotator that can flip, holding it
     over the top (the pass's distance from the zenith), whichever is less (on tartu-urc
     the hold at 88 deg, the turn at 85.6)."""
-    from urc.app import settings_from_config
+    from urc.assembly import settings_from_config
     from urc.config import Config
     from urc.tracking.planner import RATE_BUDGET, pointing_error_deg
     from urc.tracking.propagate import look_angles
@@ -391,7 +391,7 @@ def test_an_arc_that_cannot_be_planned_is_followed_and_not_replanned_at_every_up
     """Planning a Sun's arc costs tens of milliseconds on the API's event loop: when it
     fails, the Sun is followed on the side the antenna is on, and planning is tried again
     a minute later, not five times a second."""
-    from urc.app import build_rotator
+    from urc.assembly import build_rotator
     from urc.clock import VirtualClock
     from urc.config import Config
     from urc.tracking import tracker as tracker_mod

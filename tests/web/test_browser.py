@@ -234,7 +234,7 @@ class InProcessUrc:
 
     def __init__(self, state_dir: Path, tracker):
         from urc.api import create_api
-        from urc.app import build_rotator
+        from urc.assembly import build_rotator
         from urc.clock import RealClock
         from urc.config import Config
 

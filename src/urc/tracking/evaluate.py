@@ -13,15 +13,9 @@ from typing import Callable, NamedTuple
 
 import numpy as np
 
+from ..angles import great_circle_deg
 from ..clock import VirtualClock
 from ..service.loop import run_virtual
-
-
-def great_circle_deg(az1_deg, el1_deg, az2_deg, el2_deg) -> np.ndarray:
-    a1, e1, a2, e2 = (np.radians(np.asarray(x, dtype=float)) for x in (az1_deg, el1_deg, az2_deg, el2_deg))
-    # haversine form: accurate for the small angles that matter here
-    h = np.sin((e2 - e1) / 2) ** 2 + np.cos(e1) * np.cos(e2) * np.sin((a2 - a1) / 2) ** 2
-    return np.degrees(2 * np.arcsin(np.sqrt(np.clip(h, 0.0, 1.0))))
 
 
 @dataclass(frozen=True)
@@ -144,7 +138,7 @@ class FlownPass(NamedTuple):
 def fly_pass_on_sim(profile: str, elements, station, p, state_dir, *, flip: bool | str = "auto",
                     driver: str = "urc", lead_s: float = 240.0, config: dict | None = None) -> FlownPass:
     """Fly pass ``p`` on a fresh simulated rotator (``flip`` as ``[rotator] flip``)."""
-    from ..app import build_rotator
+    from ..assembly import build_rotator
     from ..config import Config
     from .planner import pointing_error_deg
     from .propagate import look_angles

@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..angles import great_circle_deg
 from ..control.geometry import Geometry, route_time_s
 from .errors import TrackingError
 
@@ -135,7 +136,6 @@ def pointing_error_deg(az_m, el_m, sky_az, sky_el, g: Geometry) -> np.ndarray:
 
 def _sky_pose_error_deg(az, el, sky_az, sky_el) -> np.ndarray:
     """The same for poses in the sky frame (elevation past 90 is over the top)."""
-    from .evaluate import great_circle_deg
     over = el > 90.0
     az = np.where(over, az + 180.0, az)
     el = np.where(over, 180.0 - el, el)

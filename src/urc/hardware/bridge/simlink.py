@@ -108,7 +108,7 @@ class BridgedRig:
     def __init__(self, protocol: str, profile: str, state_dir, *, baud: int | None = None,
                  upstream_config: dict | None = None, downstream_config: dict | None = None,
                  client_options=None, start_s: float = 0.0):
-        from ...app import build_rotator, settings_from_config
+        from ...assembly import build_rotator, settings_from_config
         from ...clock import VirtualClock
         from ...config import Config
         from .client import ClientOptions

@@ -1,0 +1,129 @@
+"""Build a rotator from a configuration: the composition root that ``urc run``'s control
+process, the tools (``urc hw check``) and the tests and benchmarks share. Nothing here
+starts a server; :mod:`urc.app` (which nothing imports) runs the service."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from pathlib import Path
+
+from .clock import Clock
+from .config import Config
+from .control.faults import FaultLimits
+from .control.law import AxisTuning
+from .hardware import Hardware, build_hardware
+from .persistence import StateStore
+from .profiles import get_profile
+from .service import Rotator, RotatorSettings
+from .service.settings import default_fault_limits, default_tuning
+
+STATE_FILE = "state.json"
+
+
+def settings_from_config(cfg: Config) -> RotatorSettings:
+    caps = cfg.rotator.variant(get_profile(cfg.rotator.profile))
+    if caps.loop_hz != cfg.rotator.loop_hz:
+        caps = replace(caps, loop_hz=cfg.rotator.loop_hz)
+    if cfg.hardware.backend == "bridge":
+        caps = bridged_caps(caps, cfg.hardware.bridge.protocol)
+    limits = cfg.effective_limits(caps)
+    control = cfg.effective_control(caps)
+    tunings: dict[str, AxisTuning] = {}
+    faults: dict[str, FaultLimits] = {}
+    for name in ("az", "el"):
+        ax = caps.axis(name)
+        c = control[name]
+        tunings[name] = replace(default_tuning(ax), tolerance_deg=c["tolerance_deg"],
+                                restart_deg=c["restart_deg"], max_rate_deg_per_s=c["max_rate_deg_per_s"],
+                                min_rate_deg_per_s=c["min_rate_deg_per_s"],
+                                accel_deg_per_s2=c["accel_deg_per_s2"], kp_per_s=c["kp_per_s"],
+                                ki_per_s2=c["ki_per_s2"], overshoot_deg=c["overshoot_deg"],
+                                creep_lead_deg=c["creep_lead_deg"], backlash_deg=c["backlash_deg"])
+        f = cfg.faults
+        faults[name] = replace(default_fault_limits(ax, *limits[name]),
+                               stall_timeout_s=f.stall_timeout_s, runaway_deg=f.runaway_deg,
+                               sensor_jump_deg=f.sensor_jump_deg, overcurrent_a=f.overcurrent_a,
+                               min_rate_deg_per_s=c["min_rate_deg_per_s"])
+    park_az, park_el = cfg.park_position(caps)
+    zones = tuple(z.keep_out(i) for i, z in enumerate(cfg.keepout))
+    return RotatorSettings(
+        caps=caps, az_limits_deg=limits["az"], el_limits_deg=limits["el"],
+        park_az_deg=park_az, park_el_deg=park_el,
+        # (a south zero point: the mechanical frame starts at south)
+        az_offset_deg=cfg.offsets.az_deg + cfg.rotator.zero_offset_deg, el_offset_deg=cfg.offsets.el_deg,
+        flip=cfg.rotator.flip is True, pass_flip=cfg.rotator.flip_enabled(caps), zones=zones, idle_park_s=cfg.park.idle_park_s,
+        az_tuning=tunings["az"], el_tuning=tunings["el"], az_faults=faults["az"], el_faults=faults["el"],
+        save_interval_s=cfg.state.save_interval_s, watchdog_s=cfg.faults.watchdog_s,
+        watchdog_recover_s=cfg.faults.watchdog_recover_s, watchdog_latch_stalls=cfg.faults.watchdog_latch_stalls,
+        watchdog_latch_window_s=cfg.faults.watchdog_latch_window_s).completed()
+
+
+def bridged_caps(caps, protocol: str):
+    """A profile behind an external controller: its mechanics stay, its sensor is the
+    controller's position report (absolute, the protocol's step; compass azimuth through
+    Easycomm and rotctld, whose reports the bridge unfolds over the top)."""
+    from .hardware.bridge import make_dialect, report_caps
+
+    dialect = make_dialect(protocol)
+    return replace(caps, az=replace(caps.az, sensor=report_caps(dialect, "az", caps.el_past_zenith)),
+                   el=replace(caps.el, sensor=report_caps(dialect, "el", caps.el_past_zenith)))
+
+
+def hardware_options(cfg: Config, fast_virtual: bool = False) -> dict:
+    """The backend options a configuration gives (``build_hardware``)."""
+    sim = cfg.hardware.sim
+    options = {"seed": sim.seed, "wind": sim.wind, "truth_wall_interval_s": 0.02 if fast_virtual else 0.0}
+    if sim.start_az_deg is not None:
+        options["start_az_deg"] = sim.start_az_deg
+    if sim.start_el_deg is not None:
+        options["start_el_deg"] = sim.start_el_deg
+    if cfg.hardware.bridge is not None:
+        options["bridge"] = cfg.hardware.bridge
+    if cfg.hardware.gpio is not None:
+        options["gpio"] = cfg.hardware.gpio
+    return options
+
+
+def take_outputs(cfg: Config, state_dir: Path) -> Hardware:
+    """The hardware opened afresh with every output driven safe (motors off, brakes
+    engaged, heartbeat low): the I/O process's hold on the outputs once the control
+    process that had them is dead. Close it to let go."""
+    from .clock import RealClock
+
+    hardware = build_hardware(cfg.hardware.backend, settings_from_config(cfg).caps, RealClock(), state_dir,
+                              hardware_options(cfg))
+    hardware.drive_safe()
+    return hardware
+
+
+def build_rotator(cfg: Config, clock: Clock, state_dir: Path, durable_state: bool = True,
+                  fast_virtual: bool = False) -> Rotator:
+    """Everything ``urc run`` builds, minus the servers: for tests and benchmarks too.
+
+    ``durable_state=False`` skips fsync (virtual-time tests); ``fast_virtual=True`` also
+    skips it and spaces simulator-truth writes in wall time (benchmarks: restart exactness
+    of the simulated iron on the virtual clock is traded for speed).
+    """
+    settings = settings_from_config(cfg)
+    if fast_virtual:
+        durable_state = False
+    state_dir.mkdir(parents=True, exist_ok=True)
+    options = hardware_options(cfg, fast_virtual)
+    hardware = build_hardware(cfg.hardware.backend, settings.caps, clock, state_dir, options)
+    if cfg.faults.overcurrent_a == 0:
+        # 0 = the backend knows its motors best
+        default_a = hardware.extra.get("overcurrent_a")
+        if default_a:
+                settings = replace(settings,
+                               az_faults=replace(settings.az_faults, overcurrent_a=default_a.get("az", 0.0)),
+                               el_faults=replace(settings.el_faults, overcurrent_a=default_a.get("el", 0.0)))
+    # a backend may keep the state itself (the gpio backend's FRAM)
+    store = hardware.extra.get("state_store") or StateStore(state_dir / STATE_FILE, durable=durable_state)
+    rotator = Rotator(settings, hardware, clock, store)
+    power_fail = hardware.extra.get("power_fail")
+    if power_fail is not None:
+        # BIG-RAS saves its position on a power-fail interrupt: urc also stops at once
+        power_fail.on_fail, power_fail.save = rotator.power_fail, rotator.save_now
+        if not power_fail.supply_ok():   # low already at start: no edge will come
+            rotator.power_fail("power-fail input low at start")
+    return rotator
