@@ -96,10 +96,13 @@ async def _serve(cfg: Config, state_dir: Path, config_path: Path | None, api_soc
 
     from .api import create_api
     from .servers import start_endpoints
+    from .servers.limits import MAX_HTTP_CONNECTIONS, bound_library_logs, raise_open_file_limit
     from .service.control_process import ControlProcess
     from .service.loop import sd_notifier
     from .tracking.service import TrackingService
 
+    raise_open_file_limit()
+    bound_library_logs()
     stop = asyncio.Event()
     loop = asyncio.get_running_loop()
     asked: list[str] = []  # why this process stops, when it was asked to (a signal)
@@ -121,7 +124,8 @@ async def _serve(cfg: Config, state_dir: Path, config_path: Path | None, api_soc
         tracking = TrackingService(rotator, cfg)
         api = create_api(rotator, cfg, config_path=config_path, state_dir=state_dir,
                          tracker=tracking if tracking.station is not None or tracking.gps is not None else None)
-        server = _api_server(uvicorn.Config(api, log_level="warning", lifespan="off"))
+        server = _api_server(uvicorn.Config(api, log_level="warning", lifespan="off",
+                                            limit_concurrency=MAX_HTTP_CONNECTIONS))
         # every protocol port or none (the API port is bound already)
         endpoints = await start_endpoints(cfg.served, rotator.for_sessions())
         caps = rotator.caps

@@ -44,7 +44,10 @@ def unit_text(config_path: Path | None, state_dir: Path | None, user: str | None
              # saves on its own; SIGKILL only after that can have happened
              f"TimeoutStopSec={int(STOP_TIMEOUT_S + 5)}",
              "KillMode=control-group",
-             "WatchdogSignal=SIGTERM"]
+             "WatchdogSignal=SIGTERM",
+             # room for every client the ports admit (servers/limits.py) and then some:
+             # 1024, systemd's usual soft limit, let idle connections take every port down
+             "LimitNOFILE=65536"]
     if user and not user_unit:
         lines.append(f"User={user}")
     lines += ["", "[Install]", f"WantedBy={'default.target' if user_unit else 'multi-user.target'}", ""]

@@ -12,6 +12,7 @@ import socket
 import time
 
 from .common import SessionFactory, SessionRunner, log, needs_tick, tick_loop
+from .limits import MAX_CLIENTS_PER_PORT, ClientCap
 
 #: Hamlib's rotctld listens with a backlog of 4; a burst of 64 clients (a logger, SDR
 #: software and a tracker all reconnecting) must all get in.
@@ -21,14 +22,20 @@ MAX_WRITE_BUFFER = 256 * 1024
 
 
 class _Connection(asyncio.Protocol):
-    def __init__(self, factory: SessionFactory, name: str):
+    def __init__(self, factory: SessionFactory, name: str, cap: ClientCap):
         self.factory = factory
         self.name = name
+        self.cap = cap
+        self.admitted = False
         self.transport: asyncio.Transport | None = None
         self.ticker: asyncio.Task | None = None
 
     def connection_made(self, transport: asyncio.Transport) -> None:
         self.transport = transport
+        self.admitted = self.cap.admit()
+        if not self.admitted:  # (its descriptor is freed now, not when the client gives up)
+            transport.abort()
+            return
         self.where = f"{self.name} tcp {transport.get_extra_info('peername')}"
         sock = transport.get_extra_info("socket")
         if sock is not None:
@@ -46,15 +53,21 @@ class _Connection(asyncio.Protocol):
             self.transport.close()
 
     def data_received(self, data: bytes) -> None:
-        self.runner.feed(data)
+        if self.admitted:
+            self.runner.feed(data)
 
     def connection_lost(self, exc: Exception | None) -> None:
+        if not self.admitted:
+            return
+        self.cap.release()
         if self.ticker is not None:
             self.ticker.cancel()
         self.runner.hang_up()
         log.debug("%s: closed", self.where)
 
 
-async def serve_tcp(factory: SessionFactory, host: str, port: int, name: str) -> asyncio.Server:
+async def serve_tcp(factory: SessionFactory, host: str, port: int, name: str,
+                    max_clients: int = MAX_CLIENTS_PER_PORT) -> asyncio.Server:
+    cap = ClientCap(f"{name} tcp {host}:{port}", max_clients)
     return await asyncio.get_running_loop().create_server(
-        lambda: _Connection(factory, name), host, port, backlog=LISTEN_BACKLOG, reuse_address=True)
+        lambda: _Connection(factory, name, cap), host, port, backlog=LISTEN_BACKLOG, reuse_address=True)
