@@ -74,7 +74,7 @@ def main() -> None:
         samples = np.arange(p.aos_unix_s, p.los_unix_s, SAMPLE_S)
         ref_az, ref_el = reference_az_el(iss, samples)
 
-        def at(times, values):
+        def at(times, values, samples=samples):
             # the value at the last tick at or before each sample instant (what a reading
             # taken then gives)
             idx = np.searchsorted(times, samples, side="right") - 1

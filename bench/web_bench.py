@@ -36,7 +36,7 @@ import httpx
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
-from bench_report import write_json
+from bench_report import write_json  # noqa: E402
 from urc_process import UrcProcess  # noqa: E402
 
 CHROMIUM = "/usr/bin/chromium"

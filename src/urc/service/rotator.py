@@ -438,7 +438,7 @@ class Rotator:
         dt = (1.0 / self.caps.loop_hz) if self._last_t_s is None else max(now - self._last_t_s, 0.0)
         self._last_t_s = now
         self.hw.poll(now)
-        for name, ax in self.axes.items():
+        for ax in self.axes.values():
             meas = ax.read(dt)
             ax.read_switches()
             ax.mon, fault = faultmod.check(ax.mon, MonitorInputs(
@@ -459,7 +459,7 @@ class Rotator:
         if self._was_held and not held:
             self._event("control loop on time again: motion resumed")
         self._was_held = held
-        for name, ax in self.axes.items():
+        for ax in self.axes.values():
             sp = None if self._faults or held else ax.sp
             ax.step(sp, now, dt)
         self._guard()

@@ -289,7 +289,7 @@ def _keyhole_holds(t: np.ndarray, s_az: np.ndarray, s_el: np.ndarray, az_budget:
         pose_az = np.where(over_top, s_az + 180.0, s_az)
         rel = _wrap180(pose_az - hold_az)  # within +-90 of the hold: the blend's way
 
-        def blended(w: np.ndarray):
+        def blended(w: np.ndarray, hold_az: float = hold_az, rel: np.ndarray = rel):
             az = hold_az + w * rel
             return az, _projected_el_deg(az, s_az, s_el)
 
