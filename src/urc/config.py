@@ -126,6 +126,9 @@ class SimSection(_Section):
     #: where the simulated antenna starts; None = at the park position.
     start_az_deg: float | None = _num(None)
     start_el_deg: float | None = _num(None)
+    #: model the external safety chain (docs/hardware.md): motor power only while the
+    #: heartbeat's rising edges come at most this far apart; None = not modelled
+    motor_enable_timeout_s: float | None = _num(None, gt=0.0, le=10.0)
 
 
 class BridgeSection(_Section):
@@ -212,6 +215,10 @@ class GpioSection(_Section):
     #: the TCA9548A's address (A2..A0 straps) on any bus an axis uses i2c_mux_channel on
     i2c_mux_address: int = Field(0x70, ge=0x70, le=0x77)
     heartbeat_pin: int | None = Field(None, ge=0, le=27)
+    #: the external safety chain on heartbeat_pin (docs/hardware.md "Safety chain"): its
+    #: monostable's timeout. Emulated, the part is modelled with it; on iron it is what
+    #: `urc hw check` states. None = no such part wired
+    motor_enable_timeout_s: float | None = _num(None, gt=0.0, le=10.0)
     power_fail_pin: int | None = Field(None, ge=0, le=27)
     #: keep the state in an I2C FRAM (MB85RC256V class, on i2c_bus) instead of a file
     fram_address: int | None = Field(None, ge=0x03, le=0x77)

@@ -26,7 +26,7 @@ from ..drivers import (As5600Sensor, Bts7960Motor, CompassSensor, LimitSwitchInp
 from ..interfaces import AxisHardware, Hardware
 from ..sim.params import PHYSICS, physics_for
 from .buses import Buses
-from .feed import (EmulatedBrake, EmulatedMotor, Emulation, ads_reference, feed_current_sense, feed_sensor,
+from .feed import (EmulatedBrake, EmulatedHeartbeat, EmulatedMotor, Emulation, ads_reference, feed_current_sense, feed_sensor,
                    forget_output_history, limit_sync)
 from .i2c import AdcInput, Ads1115Channel, As5600Chip, Lsm303Accel, Lsm303agrChip, Lsm303dChip, Lsm303Mag
 from .pins import PinIn, PinOut, PinPulseCounter, PinQuadrature
@@ -56,6 +56,8 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
 
         from ..sim import make_world
         sim_opts = {k: v for k, v in options.items() if k not in ("gpio", "emulate", "bridge")}
+        if gpio.motor_enable_timeout_s is not None and gpio.heartbeat_pin is not None:
+            sim_opts["motor_enable_timeout_s"] = gpio.motor_enable_timeout_s   # the part, modelled
         world, params = make_world(caps, clock, state_dir, sim_opts)
         factory = MockFactory(pin_class=MockPWMPin)
     else:
@@ -185,7 +187,9 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
         axes[name] = AxisHardware(motor=motor_hw, sensor=sensor, brake=brake_hw,
                                   limit_min=lims[0], limit_max=lims[1])
 
-    heartbeat = PinOut(factory, gpio.heartbeat_pin) if gpio.heartbeat_pin is not None else None
+    heartbeat: Any = PinOut(factory, gpio.heartbeat_pin) if gpio.heartbeat_pin is not None else None
+    if heartbeat is not None and world is not None and world.enable is not None:
+        heartbeat = EmulatedHeartbeat(heartbeat, world.enable)
     extra: dict[str, Any] = {"parts": parts_list, "buses": buses.i2c, "pin_factory": factory,
                              "emulated": emulate}
     if gpio.fram_address is not None:
@@ -211,6 +215,12 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
             for s in syncs:
                 s()
 
+        def truth() -> dict[str, Any]:
+            out = world.truth()
+            if world.enable is not None:
+                out["motor_enable"] = world.enable.truth()
+            return out
+
         def close() -> None:
             buses.close()
             world.close()
@@ -220,7 +230,7 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
         for s in syncs:
             s()
         return Hardware(backend="gpio", az=axes["az"], el=axes.get("el"), poll_hook=poll,
-                        truth_hook=world.truth, close_hook=close, heartbeat=heartbeat, extra=extra)
+                        truth_hook=truth, close_hook=close, heartbeat=heartbeat, extra=extra)
 
     def close_real() -> None:
         for ax in axes.values():

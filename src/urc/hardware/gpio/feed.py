@@ -64,6 +64,21 @@ class EmulatedBrake:
         return self.driver.is_released()
 
 
+class EmulatedHeartbeat:
+    """The heartbeat pin wired to the safety chain's monostable (:mod:`..sim.safety`):
+    the part sees the pin's level after each write, as the CD4538B's trigger input would."""
+
+    def __init__(self, out: Any, enable: Any):
+        self.out, self.enable = out, enable
+
+    def write(self, value: bool) -> None:
+        self.out.write(value)
+        self.enable.heartbeat(self.out.read_back())
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self.__dict__["out"], name)
+
+
 def limit_sync(sw: LimitSwitchInput, sim_sw: Any) -> Any:
     pin = sw.pin.pin
 
