@@ -179,7 +179,12 @@ class GpioAxis(_Section):
     #: resistor) on this input of the axis' ADC (``adc``): the overcurrent fault and the
     #: stall / stuck-sensor verdict then see the motor current; None = not wired
     current_sense_channel: int | None = Field(None, ge=-100, le=100)
-    current_sense_v_per_a: float = _num(0.14, gt=0.0, le=10.0)
+    #: None = the bridge's own figure (VNH5019 carrier 0.14, IBT-2/BTS7960 0.118); the
+    #: LMD18200 needs it (377 uA/A into your resistor)
+    current_sense_v_per_a: float | None = _num(None, gt=0.0, le=10.0)
+    #: output pins (by name: ina, cw, brake, ...) whose load is on when the pin is LOW
+    #: (most relay modules); urc then drives them high to keep them off
+    active_low: list[str] = []
     #: the pot's input and the input wired to the pot supply (None: ADS1115 input 3; on
     #: an MCP3008 its VREF is the pot supply, so N is read as the G4JNT PIC reads it)
     adc_channel: int = Field(0, ge=-100, le=100)
@@ -193,7 +198,16 @@ class GpioAxis(_Section):
     compass: str = "lsm303d"
     declination_deg: float = _num(0.0, ge=-180.0, le=180.0)
     relay_dead_time_s: float = _num(0.5, ge=0.0, le=10.0)
-    limit_active_low: bool = True
+    #: False (default): normally-closed limit switches to ground, the pin pulled up: it
+    #: reads high (active) when the switch opens OR its wire breaks. True: normally-open
+    #: switches closing to ground (a broken wire never shows a limit)
+    limit_active_low: bool = False
+    #: a limit input's level counts once it has held this long (contact bounce, pickup)
+    limit_debounce_s: float = _num(0.02, ge=0.0, le=1.0)
+    #: a pulse (SPID reed) closer than this to the last one is bounce, not a pulse
+    pulse_debounce_s: float = _num(0.005, ge=0.0, le=1.0)
+    #: an encoder's x4 counts per axis degree; None = the profile's (1 / resolution)
+    encoder_counts_per_deg: float | None = _num(None, gt=0.0, le=100000.0)
     #: the encoder's index (Z, pin enc_z): the axis angle of an index pulse (found at
     #: commissioning) and the axis degrees between two (360 / turns of the encoder shaft
     #: per axis turn); each pulse re-references the count. None = Z not used
@@ -212,6 +226,9 @@ class GpioSection(_Section):
     #: motor PWM on the PWM peripheral where a pin has it: "2chan" (Pi 3/4/Zero 2 W: PWM0 on
     #: GPIO12 or 18, PWM1 on 13 or 19), "4chan" (Pi 5: 12, 13, 18, 19), "off" (all software)
     hardware_pwm: str = "2chan"
+    #: the sysfs pwmchip of the PWM peripheral; None = found at start (Pi 4: 0; Pi 5:
+    #: 2 before kernel 6.12, 0 after; a 4-channel chip means a Pi 5: its own pin table)
+    pwm_chip: int | None = Field(None, ge=0, le=31)
     #: the TCA9548A's address (A2..A0 straps) on any bus an axis uses i2c_mux_channel on
     i2c_mux_address: int = Field(0x70, ge=0x70, le=0x77)
     heartbeat_pin: int | None = Field(None, ge=0, le=27)

@@ -113,8 +113,10 @@ def test_iron_uses_hardware_pwm_where_the_pin_has_a_channel(iron, tmp_path):
     assert isinstance(el.rpwm, PinPwm) and el.rpwm.pin.frequency == 1000.0
     az.set_drive(-0.4)
     el.set_drive(0.7)
-    assert FakeHardwarePWM.made[1].calls[-1] == ("duty", pytest.approx(40.0))   # LPWM: reverse
-    assert FakeHardwarePWM.made[0].calls == [("start", 0)]                      # RPWM stays 0
+    # a channel is disabled at once (a killed urc may have left it running), enabled
+    # only with the first non-zero duty
+    assert FakeHardwarePWM.made[1].calls == [("stop",), ("start", pytest.approx(40.0))]   # LPWM: reverse
+    assert FakeHardwarePWM.made[0].calls == [("stop",)]                                   # RPWM stays off
     az.set_drive(-0.4)                                                         # unchanged: no write
     assert len(FakeHardwarePWM.made[1].calls) == 2
     assert el.rpwm.pin.state == pytest.approx(0.7) and el.lpwm.pin.state == 0.0
