@@ -152,7 +152,7 @@ class PinIn:
         self._edges = 0
         self._last_edge_s: float | None = None
         self._on_edge = on_edge
-        self._stable = bool(self.pin.state)
+        self._stable: bool | None = None       # the first read takes the live level
         self.pin.edges = "both"
         self.pin.when_changed = guarded(self, self._changed)
 
@@ -164,7 +164,7 @@ class PinIn:
 
     def read(self) -> bool:
         live = bool(self.pin.state)
-        if self.debounce_s <= 0.0 or self._last_edge_s is None or \
+        if self._stable is None or self.debounce_s <= 0.0 or self._last_edge_s is None or \
                 self._now_s() - self._last_edge_s >= self.debounce_s - 1e-9:
             self._stable = live
         return self._stable
