@@ -237,6 +237,9 @@ class GpioSection(_Section):
     #: `urc hw check` states. None = no such part wired
     motor_enable_timeout_s: float | None = _num(None, gt=0.0, le=10.0)
     power_fail_pin: int | None = Field(None, ge=0, le=27)
+    #: output pins fitted with an external pull-down (GPIO0-8 are pulled up from power-on
+    #: until urc claims them: a motor, relay or brake output there needs one)
+    pulled_down: list[int] = []
     #: keep the state in an I2C FRAM (MB85RC256V class, on i2c_bus) instead of a file
     fram_address: int | None = Field(None, ge=0x03, le=0x77)
     az: GpioAxis | None = None
@@ -921,7 +924,7 @@ def _gpio_issues(cfg: Config, caps: RotatorCaps) -> list[_Issue]:
             return [("hardware.gpio", "[hardware.gpio] with [hardware.gpio.az] and [hardware.gpio.el] "
                      '(backend "gpio"; see examples/)', None, "")]
         return []
-    from .hardware.gpio import MOTOR_PINS, OPTIONAL_PINS, SENSOR_PINS
+    from .hardware.gpio import FAULT_INPUT_PINS, MOTOR_PINS, OPTIONAL_PINS, SENSOR_PINS
     from .hardware.gpio.pwm import HARDWARE_PWM
 
     issues: list[_Issue] = []
@@ -1018,7 +1021,80 @@ def _gpio_issues(cfg: Config, caps: RotatorCaps) -> list[_Issue]:
             if b == bus and a == g.i2c_mux_address:
                 issues.append(("hardware.gpio.i2c_mux_address", f"an address free on I2C bus {bus} for "
                                f"the TCA9548A (0x{a:02x} is {other[0]}'s)", hex(a), ""))
+    if g.motor_enable_timeout_s is not None and g.heartbeat_pin is None:
+        issues.append(("hardware.gpio.motor_enable_timeout_s", "a heartbeat_pin for the safety chain to watch",
+                       g.motor_enable_timeout_s, ""))
+    for name in caps.axes:
+        ax = getattr(g, name)
+        if ax is None:
+            continue
+        outputs = set(MOTOR_PINS.get(ax.motor, ())) | set(OPTIONAL_PINS.get(ax.motor, ())) | {"brake"}
+        outputs -= set(FAULT_INPUT_PINS) | set(SENSOR_PINS.get("encoder", ())) | {"pulse"}
+        for key in ax.active_low:
+            if key not in outputs or key not in ax.pins:
+                issues.append((f"hardware.gpio.{name}.active_low", "names of this axis' output pins "
+                               f"({', '.join(sorted(k for k in ax.pins if k in outputs))})", key, ""))
+    # every pin against every other: the panel's too, and the buses' (I2C1 is GPIO2/3
+    # whenever a chip, the FRAM or a panel display sits on it)
+    bus_users = bool(i2c) or cfg.panel.lcd is not None or cfg.panel.oled is not None
+    if bus_users:
+        for pin, what in ((2, "I2C1 SDA"), (3, "I2C1 SCL")):
+            for key, p in list(used.items()):
+                if key == pin:
+                    issues.append((p, f"a pin not used by the I2C bus (GPIO{pin} is {what})", pin, ""))
+            used.setdefault(pin, what)
+    p = cfg.panel
+    panel = [(f"panel.buttons.{k}", v) for k, v in p.buttons.model_dump().items()] + \
+        [(f"panel.leds.{k}", v) for k, v in p.leds.model_dump().items()] + [("panel.beeper", p.beeper)]
+    for key, pin in panel:
+        if pin is not None and pin in used:
+            issues.append((key, f"a GPIO not already used (GPIO{pin} is {used[pin]})", pin, ""))
     return issues
+
+
+#: BCM2711/BCM2835 default pulls at power-on: GPIO0-8 up, 9-27 down (BCM2711 ARM
+#: Peripherals, "Alternative Function Assignments", the pull column)
+BOOT_HIGH_PINS = frozenset(range(0, 9))
+
+
+def gpio_warnings(cfg: Config) -> list[str]:
+    """What ``urc config check`` warns about in [hardware.gpio] without refusing it: a
+    motor, relay or brake output that is high from power-on until urc claims it (or,
+    active low, low from power-on), and current sensed with no overcurrent trip."""
+    g = cfg.hardware.gpio
+    if g is None:
+        return []
+    from .hardware.gpio import FAULT_INPUT_PINS, MOTOR_PINS, OPTIONAL_PINS
+    notes = []
+    for name in ("az", "el"):
+        ax = getattr(g, name)
+        if ax is None:
+            continue
+        outputs = (set(MOTOR_PINS.get(ax.motor, ())) | set(OPTIONAL_PINS.get(ax.motor, ())) | {"brake"}) \
+            - set(FAULT_INPUT_PINS)
+        for key, pin in sorted(ax.pins.items()):
+            if key not in outputs or pin in g.pulled_down:
+                continue
+            high_at_boot = pin in BOOT_HIGH_PINS
+            low_active = key in ax.active_low
+            if high_at_boot == low_active:     # off at boot: high for active low, low otherwise
+                continue
+            if high_at_boot:
+                notes.append(f"hardware.gpio.{name}.pins.{key}: GPIO{pin} is pulled HIGH from power-on until "
+                             "urc starts: the output is on during boot. Use a pin from GPIO9-27, or fit a "
+                             f"10 kOhm pull-down and list it in hardware.gpio.pulled_down")
+            else:
+                notes.append(f"hardware.gpio.{name}.pins.{key}: active low on GPIO{pin}, which is pulled LOW "
+                             "from power-on until urc starts: the load is on during boot. Use a pin from "
+                             "GPIO0-8 for an active-low output, or fit a pull-up")
+        if ax.current_sense_channel is not None and cfg.faults.overcurrent_a == 0 and not g.emulate:
+            notes.append(f"hardware.gpio.{name}.current_sense_channel: the motor current is sensed but "
+                         "faults.overcurrent_a is 0: no overcurrent trip. Set it (about twice the running "
+                         "current, below the stall current)")
+    if g.heartbeat_pin is not None and g.motor_enable_timeout_s is None:
+        notes.append("hardware.gpio.motor_enable_timeout_s: no safety chain declared: if urc freezes or dies "
+                     "nothing but urc stops the motors (docs/hardware.md, \"Safety chain\")")
+    return notes
 
 
 #: motor drivers with a current-sense output

@@ -350,7 +350,7 @@ def test_encoder_index_rereferences_in_an_emulated_run(tmp_path):
     data = with_emulation(load_config(next(p for p in EXAMPLES if p.stem == "tartu-urc"))).to_dict()
     data["hardware"]["sim"] = {"wind": False}
     az = data["hardware"]["gpio"]["az"]
-    az["pins"]["enc_z"] = 24
+    az["pins"]["enc_z"] = 19
     az["encoder_index_deg"] = 100.0
     clock = VirtualClock(1000.0)
     rot = build_rotator(Config.from_dict(data), clock, tmp_path, durable_state=False, fast_virtual=True)

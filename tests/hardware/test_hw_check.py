@@ -90,7 +90,7 @@ def test_a_broken_limit_circuit_is_shown(tmp_path):
 def test_encoder_index_is_shown(tmp_path):
     cfg = with_emulation(load_config(EXAMPLES / "tartu-urc.toml"))
     data = cfg.to_dict()
-    data["hardware"]["gpio"]["az"]["pins"]["enc_z"] = 24
+    data["hardware"]["gpio"]["az"]["pins"]["enc_z"] = 19
     data["hardware"]["gpio"]["az"]["encoder_index_deg"] = 1.0
     cfg = type(cfg).from_dict(data)
     caps = settings_from_config(cfg).caps
