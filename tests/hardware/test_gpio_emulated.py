@@ -184,7 +184,7 @@ def test_magnet_too_weak_is_a_fault(tmp_path):
 def _power_fail_rig(tmp_path, machine: str):
     data = with_emulation(load_config(next(p for p in EXAMPLES if p.stem == machine))).to_dict()
     data["hardware"]["sim"] = {"wind": False}
-    data["hardware"]["gpio"].setdefault("power_fail_pin", 25)
+    data["hardware"]["gpio"].setdefault("power_fail_pin", 14)
     data.setdefault("state", {})["save_interval_s"] = 10.0
     clock = VirtualClock(1000.0)
     return build_rotator(Config.from_dict(data), clock, tmp_path, durable_state=False), clock
