@@ -59,6 +59,13 @@ def claim_output(pin: Any, level: bool) -> None:
         import lgpio
         lgpio.gpio_claim_output(handle, pin._number, int(bool(level)))
         return
+    from gpiozero.pins.mock import MockPin
+    if isinstance(pin, MockPin):
+        # gpiozero's default output_with_state is "function, then state": a moment at
+        # the old level. The emulation models lgpio's one-call claim instead.
+        pin._state = bool(level)
+        pin.function = "output"
+        return
     pin.output_with_state(bool(level))
 
 
