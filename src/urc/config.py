@@ -986,6 +986,9 @@ def _gpio_issues(cfg: Config, caps: RotatorCaps) -> list[_Issue]:
             issues.append((f"{pre}.adc", "one of " + ", ".join(_ADC_CHANNELS), ax.adc,
                            _suggest(ax.adc, list(_ADC_CHANNELS))))
             continue
+        if ax.current_sense_channel is not None and ax.current_sense_v_per_a is None and ax.motor == "lmd18200":
+            issues.append((f"{pre}.current_sense_v_per_a", "volts per motor ampere for the LMD18200's sense "
+                           "output (377e-6 x your sense resistor in ohms)", None, ""))
         uses_adc = kind == "pot" or ax.current_sense_channel is not None
         if uses_adc:
             issues += _adc_issues(pre, ax, kind, used, spi_vref, adc_inputs,
