@@ -87,6 +87,11 @@ def test_lmd18200_brakes_at_zero():
         if not levels["BRAKE"]:
             assert levels["PWM"] in (0.0, 0.3), log.events
     assert log.events[-2:] == [("BRAKE", True), ("PWM", 1.0)]
+    # at exit, with the PWM channel about to be disabled: BRAKE low, PWM low, the
+    # table's other braking row (both sourcing switches on)
+    m.before_pwm_close()
+    assert (pwm.value, brk.value) == (0.0, False)
+    assert lmd18200_state(False, d.value, False) == "brake"
 
 
 def relay(levels=(0.5, 1.0), fast=False, dead_s=0.5):

@@ -216,6 +216,15 @@ class Lmd18200Motor(HBridgeMotor):
         self.pwm_out.write_duty(1.0)
         self._braking = True
 
+    def before_pwm_close(self) -> None:
+        """At exit the PWM channel is disabled (its pin then idles low): hold the brake
+        through the other braking row of the table, BRAKE low with PWM low (both
+        sourcing switches on) — also what the lines fall to once the process is gone
+        (GPIO9-27 pulled low)."""
+        self.pwm_out.write_duty(0.0)
+        self.brake_out.write(False)
+        self._braking = False
+
     def _apply(self, duty: float) -> None:
         if duty == 0.0:
             if not self._braking:

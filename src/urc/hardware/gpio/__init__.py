@@ -270,6 +270,13 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
                     ax.brake.set_released(False)
             except Exception:  # pragma: no cover - closing must go on
                 log.exception("gpio: could not make %s safe", ax)
+        for ax in axes.values():       # a bridge whose off needs PWM high brakes another way
+            hold = getattr(ax.motor, "before_pwm_close", None)
+            if hold is not None and pwm_parts:
+                try:
+                    hold()
+                except Exception:  # pragma: no cover - closing must go on
+                    log.exception("gpio: could not hold %s braked", ax)
         buses.close()
         for p in pwm_parts:
             p.close()                  # duty 0 and the channel disabled
