@@ -1094,6 +1094,10 @@ def gpio_warnings(cfg: Config) -> list[str]:
             notes.append(f"hardware.gpio.{name}.current_sense_channel: the motor current is sensed but "
                          "faults.overcurrent_a is 0: no overcurrent trip. Set it (about twice the running "
                          "current, below the stall current)")
+    if g.heartbeat_pin is not None and g.heartbeat_pin in BOOT_HIGH_PINS and g.heartbeat_pin not in g.pulled_down:
+        notes.append(f"hardware.gpio.heartbeat_pin: GPIO{g.heartbeat_pin} is pulled high at power-on: that rising "
+                     "edge can hold the safety chain's relay in for one timeout while the Pi boots. Use a "
+                     "pin from GPIO9-27")
     if g.heartbeat_pin is not None and g.motor_enable_timeout_s is None:
         notes.append("hardware.gpio.motor_enable_timeout_s: no safety chain declared: if urc freezes or dies "
                      "nothing but urc stops the motors (docs/hardware.md, \"Safety chain\")")

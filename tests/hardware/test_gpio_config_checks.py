@@ -81,3 +81,9 @@ def test_active_low_names_output_pins_and_the_part_needs_the_heartbeat():
         Config.from_dict(example("tartu-urc", **{"hardware.gpio.heartbeat_pin": None}))
     cfg = Config.from_dict(example("tartu-urc", **{"hardware.gpio.motor_enable_timeout_s": None}))
     assert any("no safety chain declared" in n for n in gpio_warnings(cfg))
+
+
+def test_a_heartbeat_pulled_up_at_boot_is_warned_about():
+    cfg = Config.from_dict(example("g5500", **{"hardware.gpio.heartbeat_pin": 4}))
+    assert any(n.startswith("hardware.gpio.heartbeat_pin: GPIO4 is pulled high at power-on")
+               for n in gpio_warnings(cfg))

@@ -147,7 +147,7 @@ def test_emulated_lmd18200_coasts_further_than_it_brakes(tmp_path):
 
 def test_a_bridge_fault_output_stops_the_axes_with_a_driver_fault(tmp_path):
     rot, clock = emulated("tartu-urc", tmp_path, az={"pins": {
-        **load_config(EXAMPLES / "tartu-urc.toml").hardware.gpio.az.pins, "diag": 18}})
+        **load_config(EXAMPLES / "tartu-urc.toml").hardware.gpio.az.pins, "diag": 19}})
     run_virtual(rot, clock, 0.5)
     assert not rot.status().faults
     rot.hw.az.motor.driver.fault_in.pin.drive_low()   # the VNH5019 pulls EN/DIAG low
