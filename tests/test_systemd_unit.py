@@ -45,3 +45,15 @@ def test_user_unit_is_written_where_systemctl_user_looks(tmp_path, monkeypatch):
 def test_bad_arguments_are_refused(args):
     r = CliRunner().invoke(main, ["service", "install", "--print", *args])
     assert r.exit_code != 0
+
+
+def test_the_unit_runs_where_lgpio_can_make_its_notify_fifo(tmp_path):
+    """lgpio makes its FIFO in LG_WD (else the current directory) and its Python module
+    opens it relative to the current directory: the unit runs in the state directory
+    (else the user's home), never in /, with LG_WD unset."""
+    from urc.systemd_unit import unit_text
+
+    lines = unit_text(None, tmp_path / "state", user="station").splitlines()
+    assert f"WorkingDirectory={(tmp_path / 'state').resolve()}" in lines
+    assert "UnsetEnvironment=LG_WD" in lines
+    assert "WorkingDirectory=~" in unit_text(None, None, user_unit=True).splitlines()

@@ -176,7 +176,9 @@ def config_check(path: str) -> None:
     click.echo(f"{path}: ok (profile {cfg.rotator.profile})")
     from .hardware.gpio.pwm import pwm_advice
 
-    for note in pwm_advice(cfg.hardware.gpio):
+    from .config import gpio_warnings
+
+    for note in pwm_advice(cfg.hardware.gpio) + gpio_warnings(cfg):
         click.echo(f"warning: {note}")
 
 

@@ -126,6 +126,9 @@ class SimSection(_Section):
     #: where the simulated antenna starts; None = at the park position.
     start_az_deg: float | None = _num(None)
     start_el_deg: float | None = _num(None)
+    #: model the external safety chain (docs/hardware.md): motor power only while the
+    #: heartbeat's rising edges come at most this far apart; None = not modelled
+    motor_enable_timeout_s: float | None = _num(None, gt=0.0, le=10.0)
 
 
 class BridgeSection(_Section):
@@ -176,7 +179,12 @@ class GpioAxis(_Section):
     #: resistor) on this input of the axis' ADC (``adc``): the overcurrent fault and the
     #: stall / stuck-sensor verdict then see the motor current; None = not wired
     current_sense_channel: int | None = Field(None, ge=-100, le=100)
-    current_sense_v_per_a: float = _num(0.14, gt=0.0, le=10.0)
+    #: None = the bridge's own figure (VNH5019 carrier 0.14, IBT-2/BTS7960 0.118); the
+    #: LMD18200 needs it (377 uA/A into your resistor)
+    current_sense_v_per_a: float | None = _num(None, gt=0.0, le=10.0)
+    #: output pins (by name: ina, cw, brake, ...) whose load is on when the pin is LOW
+    #: (most relay modules); urc then drives them high to keep them off
+    active_low: list[str] = []
     #: the pot's input and the input wired to the pot supply (None: ADS1115 input 3; on
     #: an MCP3008 its VREF is the pot supply, so N is read as the G4JNT PIC reads it)
     adc_channel: int = Field(0, ge=-100, le=100)
@@ -190,7 +198,16 @@ class GpioAxis(_Section):
     compass: str = "lsm303d"
     declination_deg: float = _num(0.0, ge=-180.0, le=180.0)
     relay_dead_time_s: float = _num(0.5, ge=0.0, le=10.0)
-    limit_active_low: bool = True
+    #: False (default): normally-closed limit switches to ground, the pin pulled up: it
+    #: reads high (active) when the switch opens OR its wire breaks. True: normally-open
+    #: switches closing to ground (a broken wire never shows a limit)
+    limit_active_low: bool = False
+    #: a limit input's level counts once it has held this long (contact bounce, pickup)
+    limit_debounce_s: float = _num(0.02, ge=0.0, le=1.0)
+    #: a pulse (SPID reed) closer than this to the last one is bounce, not a pulse
+    pulse_debounce_s: float = _num(0.005, ge=0.0, le=1.0)
+    #: an encoder's x4 counts per axis degree; None = the profile's (1 / resolution)
+    encoder_counts_per_deg: float | None = _num(None, gt=0.0, le=100000.0)
     #: the encoder's index (Z, pin enc_z): the axis angle of an index pulse (found at
     #: commissioning) and the axis degrees between two (360 / turns of the encoder shaft
     #: per axis turn); each pulse re-references the count. None = Z not used
@@ -209,10 +226,20 @@ class GpioSection(_Section):
     #: motor PWM on the PWM peripheral where a pin has it: "2chan" (Pi 3/4/Zero 2 W: PWM0 on
     #: GPIO12 or 18, PWM1 on 13 or 19), "4chan" (Pi 5: 12, 13, 18, 19), "off" (all software)
     hardware_pwm: str = "2chan"
+    #: the sysfs pwmchip of the PWM peripheral; None = found at start (Pi 4: 0; Pi 5:
+    #: 2 before kernel 6.12, 0 after; a 4-channel chip means a Pi 5: its own pin table)
+    pwm_chip: int | None = Field(None, ge=0, le=31)
     #: the TCA9548A's address (A2..A0 straps) on any bus an axis uses i2c_mux_channel on
     i2c_mux_address: int = Field(0x70, ge=0x70, le=0x77)
     heartbeat_pin: int | None = Field(None, ge=0, le=27)
+    #: the external safety chain on heartbeat_pin (docs/hardware.md "Safety chain"): its
+    #: monostable's timeout. Emulated, the part is modelled with it; on iron it is what
+    #: `urc hw check` states. None = no such part wired
+    motor_enable_timeout_s: float | None = _num(None, gt=0.0, le=10.0)
     power_fail_pin: int | None = Field(None, ge=0, le=27)
+    #: output pins fitted with an external pull-down (GPIO0-8 are pulled up from power-on
+    #: until urc claims them: a motor, relay or brake output there needs one)
+    pulled_down: list[int] = []
     #: keep the state in an I2C FRAM (MB85RC256V class, on i2c_bus) instead of a file
     fram_address: int | None = Field(None, ge=0x03, le=0x77)
     az: GpioAxis | None = None
@@ -902,7 +929,7 @@ def _gpio_issues(cfg: Config, caps: RotatorCaps) -> list[_Issue]:
             return [("hardware.gpio", "[hardware.gpio] with [hardware.gpio.az] and [hardware.gpio.el] "
                      '(backend "gpio"; see examples/)', None, "")]
         return []
-    from .hardware.gpio import MOTOR_PINS, OPTIONAL_PINS, SENSOR_PINS
+    from .hardware.gpio import FAULT_INPUT_PINS, MOTOR_PINS, OPTIONAL_PINS, SENSOR_PINS
     from .hardware.gpio.pwm import HARDWARE_PWM
 
     issues: list[_Issue] = []
@@ -964,6 +991,9 @@ def _gpio_issues(cfg: Config, caps: RotatorCaps) -> list[_Issue]:
             issues.append((f"{pre}.adc", "one of " + ", ".join(_ADC_CHANNELS), ax.adc,
                            _suggest(ax.adc, list(_ADC_CHANNELS))))
             continue
+        if ax.current_sense_channel is not None and ax.current_sense_v_per_a is None and ax.motor == "lmd18200":
+            issues.append((f"{pre}.current_sense_v_per_a", "volts per motor ampere for the LMD18200's sense "
+                           "output (377e-6 x your sense resistor in ohms)", None, ""))
         uses_adc = kind == "pot" or ax.current_sense_channel is not None
         if uses_adc:
             issues += _adc_issues(pre, ax, kind, used, spi_vref, adc_inputs,
@@ -999,7 +1029,84 @@ def _gpio_issues(cfg: Config, caps: RotatorCaps) -> list[_Issue]:
             if b == bus and a == g.i2c_mux_address:
                 issues.append(("hardware.gpio.i2c_mux_address", f"an address free on I2C bus {bus} for "
                                f"the TCA9548A (0x{a:02x} is {other[0]}'s)", hex(a), ""))
+    if g.motor_enable_timeout_s is not None and g.heartbeat_pin is None:
+        issues.append(("hardware.gpio.motor_enable_timeout_s", "a heartbeat_pin for the safety chain to watch",
+                       g.motor_enable_timeout_s, ""))
+    for name in caps.axes:
+        ax = getattr(g, name)
+        if ax is None:
+            continue
+        outputs = set(MOTOR_PINS.get(ax.motor, ())) | set(OPTIONAL_PINS.get(ax.motor, ())) | {"brake"}
+        outputs -= set(FAULT_INPUT_PINS) | set(SENSOR_PINS.get("encoder", ())) | {"pulse"}
+        for key in ax.active_low:
+            if key not in outputs or key not in ax.pins:
+                issues.append((f"hardware.gpio.{name}.active_low", "names of this axis' output pins "
+                               f"({', '.join(sorted(k for k in ax.pins if k in outputs))})", key, ""))
+    # every pin against every other: the panel's too, and the buses' (I2C1 is GPIO2/3
+    # whenever a chip, the FRAM or a panel display sits on it)
+    bus_users = bool(i2c) or cfg.panel.lcd is not None or cfg.panel.oled is not None
+    if bus_users:
+        for pin, what in ((2, "I2C1 SDA"), (3, "I2C1 SCL")):
+            for key, p in list(used.items()):
+                if key == pin:
+                    issues.append((p, f"a pin not used by the I2C bus (GPIO{pin} is {what})", pin, ""))
+            used.setdefault(pin, what)
+    p = cfg.panel
+    panel = [(f"panel.buttons.{k}", v) for k, v in p.buttons.model_dump().items()] + \
+        [(f"panel.leds.{k}", v) for k, v in p.leds.model_dump().items()] + [("panel.beeper", p.beeper)]
+    for key, pin in panel:
+        if pin is not None and pin in used:
+            issues.append((key, f"a GPIO not already used (GPIO{pin} is {used[pin]})", pin, ""))
     return issues
+
+
+#: BCM2711/BCM2835 default pulls at power-on: GPIO0-8 up, 9-27 down (BCM2711 ARM
+#: Peripherals, "Alternative Function Assignments", the pull column)
+BOOT_HIGH_PINS = frozenset(range(0, 9))
+
+
+def gpio_warnings(cfg: Config) -> list[str]:
+    """What ``urc config check`` warns about in [hardware.gpio] without refusing it: a
+    motor, relay or brake output that is high from power-on until urc claims it (or,
+    active low, low from power-on), and current sensed with no overcurrent trip."""
+    g = cfg.hardware.gpio
+    if g is None:
+        return []
+    from .hardware.gpio import FAULT_INPUT_PINS, MOTOR_PINS, OPTIONAL_PINS
+    notes = []
+    for name in ("az", "el"):
+        ax = getattr(g, name)
+        if ax is None:
+            continue
+        outputs = (set(MOTOR_PINS.get(ax.motor, ())) | set(OPTIONAL_PINS.get(ax.motor, ())) | {"brake"}) \
+            - set(FAULT_INPUT_PINS)
+        for key, pin in sorted(ax.pins.items()):
+            if key not in outputs or pin in g.pulled_down:
+                continue
+            high_at_boot = pin in BOOT_HIGH_PINS
+            low_active = key in ax.active_low
+            if high_at_boot == low_active:     # off at boot: high for active low, low otherwise
+                continue
+            if high_at_boot:
+                notes.append(f"hardware.gpio.{name}.pins.{key}: GPIO{pin} is pulled HIGH from power-on until "
+                             "urc starts: the output is on during boot. Use a pin from GPIO9-27, or fit a "
+                             f"10 kOhm pull-down and list it in hardware.gpio.pulled_down")
+            else:
+                notes.append(f"hardware.gpio.{name}.pins.{key}: active low on GPIO{pin}, which is pulled LOW "
+                             "from power-on until urc starts: the load is on during boot. Use a pin from "
+                             "GPIO0-8 for an active-low output, or fit a pull-up")
+        if ax.current_sense_channel is not None and cfg.faults.overcurrent_a == 0 and not g.emulate:
+            notes.append(f"hardware.gpio.{name}.current_sense_channel: the motor current is sensed but "
+                         "faults.overcurrent_a is 0: no overcurrent trip. Set it (about twice the running "
+                         "current, below the stall current)")
+    if g.heartbeat_pin is not None and g.heartbeat_pin in BOOT_HIGH_PINS and g.heartbeat_pin not in g.pulled_down:
+        notes.append(f"hardware.gpio.heartbeat_pin: GPIO{g.heartbeat_pin} is pulled high at power-on: that rising "
+                     "edge can hold the safety chain's relay in for one timeout while the Pi boots. Use a "
+                     "pin from GPIO9-27")
+    if g.heartbeat_pin is not None and g.motor_enable_timeout_s is None:
+        notes.append("hardware.gpio.motor_enable_timeout_s: no safety chain declared: if urc freezes or dies "
+                     "nothing but urc stops the motors (docs/hardware.md, \"Safety chain\")")
+    return notes
 
 
 #: motor drivers with a current-sense output

@@ -5,6 +5,14 @@
 (``urc.service.loop.WatchdogPing``, from the control process: ``NotifyAccess=all``), so a hung or stalled controller is killed and
 restarted by systemd, while the heartbeat output lets external hardware cut the motors
 at once. ``TimeoutStopSec`` leaves room for the orderly stop (axes to rest, then save).
+
+``WorkingDirectory``: lgpio creates its notification FIFO (``.lgd-nfy<N>``) in the
+directory named by ``LG_WD``, else the current one, and its Python module then opens it
+by a path relative to the current directory (lgpio 0.2.2 ``_callback_thread``). A unit
+without one runs in ``/``: a non-root user cannot create the FIFO there
+(``FileNotFoundError: '.lgd-nfy-3'``) and root litters ``/``. So the unit runs in the
+state directory given (else the user's home, ``~``: writable by its user) and leaves ``LG_WD`` unset (``UnsetEnvironment``):
+with it pointing elsewhere the C library and the Python module would disagree.
 """
 
 from __future__ import annotations
@@ -22,6 +30,7 @@ WATCHDOG_SEC = 2
 
 def unit_text(config_path: Path | None, state_dir: Path | None, user: str | None = None,
               user_unit: bool = False, python: str = sys.executable) -> str:
+    work_dir = Path(state_dir).resolve() if state_dir is not None else None
     cmd = [python, "-m", "urc", "run"]
     if config_path is not None:
         cmd += ["--config", str(Path(config_path).resolve())]
@@ -36,6 +45,9 @@ def unit_text(config_path: Path | None, state_dir: Path | None, user: str | None
              "Type=notify",
              "NotifyAccess=all",  # the control process pings the watchdog
              f"ExecStart={shlex.join(cmd)}",
+             # lgpio's notify FIFO is made in, and opened from, the working directory
+             f"WorkingDirectory={work_dir if work_dir is not None else '~'}",
+             "UnsetEnvironment=LG_WD",
              f"WatchdogSec={WATCHDOG_SEC}",
              "Restart=on-failure",
              "RestartSec=2",

@@ -37,11 +37,15 @@ def make(path: Path, backend: str, tmp_path: Path):
 
 
 def run(hw, clock, seconds: float, drive: dict | None = None) -> None:
-    for _ in range(round(seconds / 0.02)):
+    """Ticks of 20 ms, each toggling the heartbeat as the control loop does (the gpio
+    examples wire the safety chain: no heartbeat, no motor power)."""
+    for k in range(round(seconds / 0.02)):
         clock.advance(0.02)
         hw.poll(clock.now_s())
         for name, duty in (drive or {}).items():
             hw.axis(name).motor.set_drive(duty)
+        if hw.heartbeat is not None:
+            hw.heartbeat.write(k % 2 == 0)
 
 
 def circ(a: float, b: float, m: float | None) -> float:

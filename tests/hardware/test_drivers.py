@@ -12,7 +12,7 @@ from urc.errors import SensorError
 from urc.hardware.drivers import (As5600Sensor, Bts7960Motor, CompassSensor, LimitSwitchInput,
                                   Lmd18200Motor, PotSensor, QuadratureEncoder, RelayBrake,
                                   RelayMotor, SpidPulseSensor, TiltSensor, Vnh5019Motor)
-from urc.hardware.drivers.motors import DirectionTracker
+from urc.hardware.drivers.motors import DirectionTracker, lmd18200_state
 from urc.hardware.drivers.sensors import tilt_compensate
 from urc.hardware.parts import MagnetStatus
 
@@ -69,11 +69,29 @@ def test_lmd18200_brakes_at_zero():
     log = Log()
     pwm, d, brk = Out(log, "PWM"), Out(log, "DIR"), Out(log, "BRAKE")
     m = Lmd18200Motor("el", pwm, d, brk)
-    assert brk.value is True and pwm.value == 0.0
+    # TI's truth table: braking is BRAKE high with PWM high (PWM low would coast)
+    assert brk.value is True and pwm.value == 1.0
+    assert lmd18200_state(pwm.value == 1.0, d.value, brk.value) == "brake"
     m.set_drive(-0.4)
     assert (pwm.value, d.value, brk.value) == (0.4, False, False)
     m.set_drive(0.0)
-    assert (pwm.value, brk.value) == (0.0, True)
+    assert (pwm.value, brk.value) == (1.0, True)
+    # never a moment of drive on the way in or out of the brake: PWM falls before BRAKE
+    # does, and BRAKE rises before PWM does
+    log.events.clear()
+    m.set_drive(0.3)
+    m.set_drive(0.0)
+    levels = {"PWM": 1.0, "DIR": False, "BRAKE": True}
+    for name, value in log.events:
+        levels[name] = value
+        if not levels["BRAKE"]:
+            assert levels["PWM"] in (0.0, 0.3), log.events
+    assert log.events[-2:] == [("BRAKE", True), ("PWM", 1.0)]
+    # at exit, with the PWM channel about to be disabled: BRAKE low, PWM low, the
+    # table's other braking row (both sourcing switches on)
+    m.before_pwm_close()
+    assert (pwm.value, brk.value) == (0.0, False)
+    assert lmd18200_state(False, d.value, False) == "brake"
 
 
 def relay(levels=(0.5, 1.0), fast=False, dead_s=0.5):

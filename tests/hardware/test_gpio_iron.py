@@ -49,14 +49,14 @@ def test_advice_warns_about_software_pwm_and_config_check_shows_it(tmp_path):
     notes = pwm_advice(gpio_of("bigras").hardware.gpio)
     assert len(notes) == 2 and notes[0].startswith("hardware.gpio.el.pins.rpwm: GPIO18 shares PWM0 with az.rpwm")
     data = load_config(EXAMPLES / "tartu-urc.toml").to_dict()
-    data["hardware"]["gpio"]["az"]["pins"]["pwm"] = 24
+    data["hardware"]["gpio"]["az"]["pins"]["pwm"] = 5
     notes = pwm_advice(Config.from_dict(data).hardware.gpio)
-    assert notes == ["hardware.gpio.az.pins.pwm: GPIO24 has no hardware PWM; software PWM jitters under CPU "
+    assert notes == ["hardware.gpio.az.pins.pwm: GPIO5 has no hardware PWM; software PWM jitters under CPU "
                      "load (hardware PWM pins: GPIO12, GPIO13, GPIO18, GPIO19)"]
     path = tmp_path / "c.toml"
-    path.write_text((EXAMPLES / "tartu-urc.toml").read_text().replace("pwm = 12", "pwm = 24"))
+    path.write_text((EXAMPLES / "tartu-urc.toml").read_text().replace("pwm = 12", "pwm = 5"))
     r = CliRunner().invoke(main, ["config", "check", str(path)])
-    assert r.exit_code == 0 and "warning: hardware.gpio.az.pins.pwm: GPIO24 has no hardware PWM" in r.output
+    assert r.exit_code == 0 and "warning: hardware.gpio.az.pins.pwm: GPIO5 has no hardware PWM" in r.output
     notes = pwm_advice(gpio_of("bigras", hardware_pwm="4chan").hardware.gpio)
     assert notes == []
     data = load_config(EXAMPLES / "bigras.toml").to_dict()
@@ -113,8 +113,10 @@ def test_iron_uses_hardware_pwm_where_the_pin_has_a_channel(iron, tmp_path):
     assert isinstance(el.rpwm, PinPwm) and el.rpwm.pin.frequency == 1000.0
     az.set_drive(-0.4)
     el.set_drive(0.7)
-    assert FakeHardwarePWM.made[1].calls[-1] == ("duty", pytest.approx(40.0))   # LPWM: reverse
-    assert FakeHardwarePWM.made[0].calls == [("start", 0)]                      # RPWM stays 0
+    # a channel is disabled at once (a killed urc may have left it running), enabled
+    # only with the first non-zero duty
+    assert FakeHardwarePWM.made[1].calls == [("stop",), ("start", pytest.approx(40.0))]   # LPWM: reverse
+    assert FakeHardwarePWM.made[0].calls == [("stop",)]                                   # RPWM stays off
     az.set_drive(-0.4)                                                         # unchanged: no write
     assert len(FakeHardwarePWM.made[1].calls) == 2
     assert el.rpwm.pin.state == pytest.approx(0.7) and el.lpwm.pin.state == 0.0

@@ -70,9 +70,9 @@ def test_missed_edge_is_counted_as_an_error_not_guessed(factory):
     q.a.drive_high()                      # 01 -> 11 (+1), then 11 -> 10 (+1)
     q.b.drive_low()
     assert q.count() - c0 == 3
-    # A and B both changed before the callback looked (10 -> 01): an error, not a guess
-    q.a._state, q.b._state = False, True
-    q._edge()
+    # a report of A at the level A already had: A's previous edge was lost; an error,
+    # not a guess
+    q._edge(2, q.a, True)
     assert q.errors() == 1 and q.count() - c0 == 3
 
 

@@ -69,14 +69,28 @@ def test_cli_lists_parts_and_limit_switches(tmp_path):
     r = CliRunner().invoke(main, ["hw", "check", "--config", str(EXAMPLES / "bigras.toml"), "--emulate",
                                   "--state-dir", str(tmp_path)])
     assert r.exit_code == 0, r.output
-    assert "az pulse counter" in r.output and "limit switch min: open" in r.output
+    assert "az pulse counter" in r.output and "limit switch min: closed circuit, not active" in r.output
     assert "no problems found" in r.output
+
+
+def test_a_broken_limit_circuit_is_shown(tmp_path):
+    """Normally-closed limit switches (the default): a wire that breaks reads as the
+    switch opening, and both of an axis' limits open at once can only be the circuit."""
+    cfg, caps, clock, hw = emulated_hw("bigras", tmp_path)
+    n, text = run_check(cfg, caps, clock, hw, move=False)
+    assert n == 0 and "broken limit circuit" not in text
+    for sw in (hw.el.limit_min, hw.el.limit_max):      # the el switches' common wire cut
+        sw.pin.pin.drive_high()
+    clock.advance(0.1)                                  # longer than the debounce
+    n, text = run_check(cfg, caps, clock, hw, move=False)
+    assert n == 1 and "both el limits read active: a broken limit circuit" in text, text
+    assert hw.el.limit_min.is_active() and not hw.az.limit_min.is_active()
 
 
 def test_encoder_index_is_shown(tmp_path):
     cfg = with_emulation(load_config(EXAMPLES / "tartu-urc.toml"))
     data = cfg.to_dict()
-    data["hardware"]["gpio"]["az"]["pins"]["enc_z"] = 24
+    data["hardware"]["gpio"]["az"]["pins"]["enc_z"] = 19
     data["hardware"]["gpio"]["az"]["encoder_index_deg"] = 1.0
     cfg = type(cfg).from_dict(data)
     caps = settings_from_config(cfg).caps

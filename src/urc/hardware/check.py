@@ -19,6 +19,19 @@ REVERSE_FIX = {"vnh5019": "swap ina and inb", "bts7960": "swap rpwm and lpwm",
                "pwm_dir": "swap the motor's two wires at the driver board"}
 
 
+class _Beat:
+    """The heartbeat while the check drives a motor: the safety chain (docs/hardware.md)
+    cuts motor power without it, as it must while urc is not running its loop."""
+
+    def __init__(self, hw: Any):
+        self.hw, self.level = hw, False
+
+    def __call__(self) -> None:
+        if self.hw.heartbeat is not None:
+            self.level = not self.level
+            self.hw.heartbeat.write(self.level)
+
+
 def _read(sensor: Any) -> tuple[float | None, str]:
     try:
         return float(sensor.read_deg()), ""
@@ -32,6 +45,11 @@ def check(hw: Any, caps: Any, *, gpio: Any = None, move: bool = False, jog_duty:
     """Run the checks; returns the number of problems found."""
     problems = 0
     out(f"backend {hw.backend}, profile {caps.name}")
+    if gpio is not None and gpio.heartbeat_pin is not None:
+        out(f"  heartbeat GPIO{gpio.heartbeat_pin}: " + (
+            f"safety chain, motor power drops {gpio.motor_enable_timeout_s:g} s after its last rising edge"
+            if gpio.motor_enable_timeout_s is not None else
+            "no safety chain declared (motor_enable_timeout_s): nothing cuts the motors if urc hangs"))
     if gpio is not None:
         from .gpio.pwm import pwm_plan
         for where, (pin, ch) in pwm_plan(gpio).items():
@@ -58,9 +76,7 @@ def check(hw: Any, caps: Any, *, gpio: Any = None, move: bool = False, jog_duty:
             out(f"  sensor: PROBLEM {err}")
         else:
             out(f"  sensor reads {v:.2f} deg")
-        for side, sw in (("min", ax.limit_min), ("max", ax.limit_max)):
-            if sw is not None:
-                out(f"  limit switch {side}: {'ACTIVE' if sw.is_active() else 'open'}")
+        problems += _limits(name, ax, out)
         if ax.brake is not None:
             out(f"  brake: {'released' if ax.brake.is_released() else 'engaged'}")
         gpio_ax = getattr(gpio, name, None) if gpio is not None else None
@@ -72,13 +88,33 @@ def check(hw: Any, caps: Any, *, gpio: Any = None, move: bool = False, jog_duty:
             out("  encoder index: " + ("not seen yet (jog over it: its count gives encoder_index_deg)"
                                        if idx is None else f"last at count {idx}"))
         if move:
-            problems += _jog(hw, name, ax, ax_caps, gpio, jog_duty, jog_s, sleep, now, out)
+            problems += _jog(hw, name, ax, ax_caps, gpio, jog_duty, jog_s, sleep, now, out, _Beat(hw))
     out("no problems found" if not problems else f"{problems} problem(s) found")
     return problems
 
 
+def _limits(name: str, ax: Any, out: Callable[[str], None]) -> int:
+    """Each limit switch's state; with normally-closed switches (the default) an active
+    input also means an open circuit (a broken wire, a connector off): both at once
+    cannot be the antenna, so that is reported as a broken limit circuit."""
+    active = {}
+    for side, sw in (("min", ax.limit_min), ("max", ax.limit_max)):
+        if sw is None:
+            continue
+        active[side] = sw.is_active()
+        nc = not getattr(sw, "active_low", True)
+        what = "ACTIVE" + (" (normally closed: the switch is open, or its circuit is broken)" if nc else "")
+        out(f"  limit switch {side}: {what if active[side] else 'closed circuit, not active' if nc else 'open'}")
+    if len(active) == 2 and all(active.values()):
+        out(f"  limit switches: PROBLEM both {name} limits read active: a broken limit circuit "
+            "(the common wire, the switches' supply, or the connector)")
+        return 1
+    return 0
+
+
 def _jog(hw: Any, name: str, ax: Any, ax_caps: Any, gpio: Any, duty: float, jog_s: float,
-         sleep: Callable[[float], None], now: Callable[[], float], out: Callable[[str], None]) -> int:
+         sleep: Callable[[float], None], now: Callable[[], float], out: Callable[[str], None],
+         beat: Callable[[], None] = lambda: None) -> int:
     if ax.limit_max is not None and ax.limit_max.is_active():
         out("  jog: skipped, the max limit switch is active")
         return 0
@@ -90,6 +126,7 @@ def _jog(hw: Any, name: str, ax: Any, ax_caps: Any, gpio: Any, duty: float, jog_
         ax.brake.set_released(True)
         t_end = now() + ax_caps.brake_release_s + 0.1
         while now() < t_end:
+            beat()
             hw.poll(now())
             sleep(0.02)
     t_end = now() + jog_s
@@ -97,6 +134,7 @@ def _jog(hw: Any, name: str, ax: Any, ax_caps: Any, gpio: Any, duty: float, jog_
     try:
         while now() < t_end:
             ax.motor.set_drive(duty)
+            beat()
             hw.poll(now())
             sleep(0.02)
             peak_a = max(peak_a, ax.motor.read_current_a())
@@ -106,6 +144,7 @@ def _jog(hw: Any, name: str, ax: Any, ax_caps: Any, gpio: Any, duty: float, jog_
         out(f"  jog: motor current up to {peak_a:.2f} A")
     t_end = now() + 1.0          # let it coast to a stop before the second reading
     while now() < t_end:
+        beat()
         hw.poll(now())
         sleep(0.02)
     if ax.brake is not None:

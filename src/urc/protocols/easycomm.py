@@ -36,6 +36,7 @@ GS_IDLE, GS_MOVING, GS_POINTING, GS_ERROR = 1, 2, 4, 8
 GE_SENSOR, GE_JAM, GE_HOMING = 1, 2, 4
 _GE_BITS = {"sensor_stuck": GE_SENSOR, "sensor_jump": GE_SENSOR, "sensor_range": GE_SENSOR,
             "sensor_dead": GE_SENSOR, "stall": GE_JAM, "runaway": GE_JAM, "overcurrent": GE_JAM,
+            "driver": GE_JAM,
             "limit_switch": GE_HOMING, "state": GE_HOMING}
 
 

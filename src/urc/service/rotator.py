@@ -251,6 +251,19 @@ class _Command:
     apply: Callable[[], None]
 
 
+def _driver_fault(axis: str, motor: Any, now_s: float) -> Fault | None:
+    """A motor bridge's own fault output (VNH5019 EN/DIAG, LMD18200 thermal flag,
+    BTS7960 IS fault current), where the driver reads one."""
+    read = getattr(motor, "driver_fault", None)
+    if read is None:
+        return None
+    try:
+        reason = read()
+    except Exception as exc:  # an unreadable fault pin is itself a reason to stop
+        reason = f"{axis} motor: its fault output cannot be read ({exc})"
+    return Fault("driver", axis, reason, now_s) if reason else None
+
+
 class Rotator:
     def __init__(self, settings: RotatorSettings, hardware: Hardware, clock: Clock,
                  store: StateStore | None = None):
@@ -446,6 +459,8 @@ class Rotator:
                 min_duty=ax.tuning.min_duty if ax.tuning.drive == "pwm" else min(ax.tuning.drive_levels or (1.0,)),
                 current_a=ax.current_a, limit_min=ax.limit_min, limit_max=ax.limit_max,
                 estimate_deg=ax.meas_deg if meas is not None else None), ax.flim)
+            if fault is None:
+                fault = _driver_fault(name, ax.hw.motor, now)
             if fault is not None:
                 if fault.kind == "sensor_range" and meas is not None:
                     ax.meas_deg, ax._filter_rate = meas, 0.0  # show the reading, not the wild estimate

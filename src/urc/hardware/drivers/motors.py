@@ -16,7 +16,52 @@ from typing import Callable, Sequence
 
 from ...clock import Clock
 from ...errors import HardwareError
-from ..parts import CurrentSense, DigitalOut, PwmOut, VoltageIn
+from ..parts import CurrentSense, DigitalIn, DigitalOut, PwmOut, VoltageIn
+
+#: current-sense volts per motor ampere, per bridge as its datasheet and board give it:
+#: VNH5019: K = I_OUT/I_SENSE typ. 7000 (ST VNH5019A-E datasheet, electrical
+#: characteristics, current sense) into the Pololu carrier's 1 kOhm-class CS resistor:
+#: 140 mV/A as Pololu states; BTS7960: k_ILIS = I_L/I_IS typ. 8500 (Infineon BTS7960
+#: datasheet, table "Electrical characteristics - current sense") into the IBT-2 board's
+#: 1 kOhm R_IS: 1000/8500 = 0.118 V/A. LMD18200: 377 uA/A (TI LMD18200 datasheet,
+#: "current sense output") into a resistor of your choosing: no default, set it.
+SENSE_V_PER_A = {"vnh5019": 0.14, "bts7960": 1000.0 / 8500.0}
+#: BTS7960: on overtemperature, current limitation or undervoltage the IS pin sources
+#: I_IS(lim) typ. 4.5 mA (datasheet, "Current sense" / fault signal): into 1 kOhm that
+#: is 4.5 V, clipped at the ADC's range; anything above this reads as that fault
+BTS7960_FAULT_V = 3.0
+
+#: TI LMD18200 datasheet, Table 1 "Logic Truth Table": (PWM, DIR, BRAKE) -> outputs on.
+#: PWM high with BRAKE high shorts the winding through two switches (brake); PWM low
+#: with BRAKE high turns every switch off (coast); BRAKE low: drive (PWM low = both
+#: sources on, i.e. braking in the PWM off-time).
+LMD18200_TRUTH_TABLE = {
+    (1, 1, 0): "source1 sink2",      # forward
+    (1, 0, 0): "sink1 source2",      # reverse
+    (0, 1, 0): "source1 source2",    # PWM off-time: braked through the high sides
+    (0, 0, 0): "source1 source2",
+    (1, 1, 1): "source1 source2",    # brake
+    (1, 0, 1): "sink1 sink2",        # brake
+    (0, 1, 1): "none",               # coast
+    (0, 0, 1): "none",
+}
+
+
+def lmd18200_state(pwm_high: bool, dir_high: bool, brake_high: bool) -> str:
+    """``"forward"``, ``"reverse"``, ``"brake"`` or ``"coast"`` from the truth table."""
+    on = LMD18200_TRUTH_TABLE[(int(pwm_high), int(dir_high), int(brake_high))]
+    if on == "none":
+        return "coast"
+    if on in ("source1 source2", "sink1 sink2"):
+        return "brake"
+    return "forward" if on == "source1 sink2" else "reverse"
+
+
+#: ST VNH5019A-E datasheet, "Truth table in normal operating conditions": (INA, INB) ->
+#: outputs (EN/DIAGA = EN/DIAGB = 1). Both high: brake to VCC; both low: brake to GND.
+#: A fault (overtemperature, short, undervoltage...) pulls EN/DIAG low ("Truth table in
+#: fault conditions").
+VNH5019_TRUTH_TABLE = {(1, 0): "forward", (0, 1): "reverse", (1, 1): "brake to VCC", (0, 0): "brake to GND"}
 
 
 def clamp_duty(duty: float, name: str) -> float:
@@ -37,13 +82,20 @@ def quantise_relay(duty: float, levels: tuple[float, ...]) -> float:
 
 class SenseCurrent:
     """A bridge's current-sense output on an ADC input: amperes = volts / ``v_per_a``
-    (VNH5019 carrier: about 0.14 V/A; the output gives the magnitude, not the sign)."""
+    (:data:`SENSE_V_PER_A`; the output gives the magnitude, not the sign).
+    ``fault_v``: a reading at or above it is the bridge's fault signal (BTS7960), kept
+    in ``fault`` until the next reading below it."""
 
-    def __init__(self, volts: VoltageIn, v_per_a: float):
-        self.volts, self.v_per_a = volts, float(v_per_a)
+    def __init__(self, volts: VoltageIn, v_per_a: float, fault_v: float | None = None):
+        self.volts, self.v_per_a, self.fault_v = volts, float(v_per_a), fault_v
+        self.fault: str | None = None
 
     def read_current_a(self) -> float:
-        return self.volts.read_volts() / self.v_per_a
+        v = self.volts.read_volts()
+        if self.fault_v is not None:
+            self.fault = (f"current-sense output at {v:.2f} V: the bridge signals a fault "
+                          "(overtemperature, current limitation or undervoltage)") if v >= self.fault_v else None
+        return v / self.v_per_a
 
 
 class DirectionTracker:
@@ -74,11 +126,14 @@ class DirectionTracker:
 class HBridgeMotor(DirectionTracker):
     """Common part of the PWM H-bridges: clamp, track direction, current sense."""
 
-    def __init__(self, name: str, current: CurrentSense | None = None):
+    def __init__(self, name: str, current: CurrentSense | None = None, fault_in: DigitalIn | None = None):
         super().__init__()
         self.name = name
         self.duty = 0.0
         self._current = current
+        #: the bridge's fault output where wired (active low: VNH5019 EN/DIAG,
+        #: LMD18200 thermal flag)
+        self.fault_in = fault_in
 
     def set_drive(self, duty: float) -> None:
         duty = clamp_duty(duty, self.name)
@@ -92,18 +147,32 @@ class HBridgeMotor(DirectionTracker):
     def read_current_a(self) -> float:
         return float(self._current.read_current_a()) if self._current is not None else 0.0
 
+    #: what the fault input going low means (subclasses)
+    FAULT_TEXT = "fault output low"
+
+    def driver_fault(self) -> str | None:
+        """Why the bridge says it is faulted (its fault pin low, its current-sense fault
+        signal), None when it does not or nothing of it is wired."""
+        if self.fault_in is not None and not self.fault_in.read():
+            return f"{self.name} motor: {type(self).__name__[:-5].upper()} {self.FAULT_TEXT}"
+        sense_fault = getattr(self._current, "fault", None)
+        return f"{self.name} motor: {sense_fault}" if sense_fault else None
+
 
 class Vnh5019Motor(HBridgeMotor):
     """VNH5019 (Tartu board): INA/INB set the direction, PWM the speed, CS the current.
 
-    INA=1 INB=0 forward, INA=0 INB=1 reverse, both 0 with PWM 0: brake to ground.
-    The direction pins change only with PWM at 0, so the bridge never sees a reversal
-    under drive.
+    :data:`VNH5019_TRUTH_TABLE`: INA=1 INB=0 forward, INA=0 INB=1 reverse, both 0:
+    brake to ground. The direction pins change only with PWM at 0, so the bridge never
+    sees a reversal under drive. ``diag``: EN/DIAG (carrier pull-up to logic supply),
+    pulled low by the chip on a fault.
     """
 
+    FAULT_TEXT = "EN/DIAG pulled low: the bridge shut down (overtemperature, short circuit or undervoltage)"
+
     def __init__(self, name: str, ina: DigitalOut, inb: DigitalOut, pwm: PwmOut,
-                 current: CurrentSense | None = None):
-        super().__init__(name, current)
+                 current: CurrentSense | None = None, diag: DigitalIn | None = None):
+        super().__init__(name, current, diag)
         self.ina, self.inb, self.pwm = ina, inb, pwm
         self._dir = 0
         pwm.write_duty(0.0)
@@ -121,25 +190,51 @@ class Vnh5019Motor(HBridgeMotor):
 
 
 class Lmd18200Motor(HBridgeMotor):
-    """LMD18200 (SARCNET): PWM, DIR and BRAKE inputs. Off = BRAKE high, PWM low
-    (the winding shorted, as the sim's powered bridge at duty 0)."""
+    """LMD18200 (SARCNET): PWM, DIR and BRAKE inputs, :data:`LMD18200_TRUTH_TABLE`.
+
+    Off = BRAKE high and PWM high: the winding shorted (brake, as the simulator's
+    powered bridge at duty 0). BRAKE high with PWM low would turn every switch off
+    (coast). Going into brake, BRAKE rises before PWM; leaving it, PWM falls first (a
+    moment of coast, never a moment of drive). ``thermal_flag``: pin 9, open collector,
+    low while the junction is above 145 C (the thermal warning; shutdown at 170 C).
+    """
+
+    FAULT_TEXT = "thermal flag low: junction above 145 C (thermal shutdown follows at 170 C)"
 
     def __init__(self, name: str, pwm: PwmOut, dir: DigitalOut, brake: DigitalOut,
-                 current: CurrentSense | None = None):
-        super().__init__(name, current)
+                 current: CurrentSense | None = None, thermal_flag: DigitalIn | None = None):
+        super().__init__(name, current, thermal_flag)
         self.pwm_out, self.dir_out, self.brake_out = pwm, dir, brake
-        pwm.write_duty(0.0)
+        self._braking = False
+        pwm.write_duty(0.0)          # coast while BRAKE may still be low
         brake.write(True)
         dir.write(False)
+        self._brake()
+
+    def _brake(self) -> None:
+        self.brake_out.write(True)
+        self.pwm_out.write_duty(1.0)
+        self._braking = True
+
+    def before_pwm_close(self) -> None:
+        """At exit the PWM channel is disabled (its pin then idles low): hold the brake
+        through the other braking row of the table, BRAKE low with PWM low (both
+        sourcing switches on) — also what the lines fall to once the process is gone
+        (GPIO9-27 pulled low)."""
+        self.pwm_out.write_duty(0.0)
+        self.brake_out.write(False)
+        self._braking = False
 
     def _apply(self, duty: float) -> None:
         if duty == 0.0:
-            self.pwm_out.write_duty(0.0)
-            self.brake_out.write(True)
+            if not self._braking:
+                self.pwm_out.write_duty(0.0)
+                self._brake()
             return
-        self.pwm_out.write_duty(0.0)
+        self.pwm_out.write_duty(0.0)    # coast (BRAKE high) or brake in the off-time (BRAKE low)
         self.dir_out.write(duty > 0)
         self.brake_out.write(False)
+        self._braking = False
         self.pwm_out.write_duty(abs(duty))
 
 
@@ -149,7 +244,7 @@ class Bts7960Motor(HBridgeMotor):
 
     def __init__(self, name: str, rpwm: PwmOut, lpwm: PwmOut, enable: DigitalOut | None = None,
                  current: CurrentSense | None = None):
-        super().__init__(name, current)
+        super().__init__(name, current)   # its fault signal comes on IS (SenseCurrent.fault_v)
         self.rpwm, self.lpwm, self.enable = rpwm, lpwm, enable
         rpwm.write_duty(0.0)
         lpwm.write_duty(0.0)

@@ -12,6 +12,7 @@ section), ``emulate`` (bool) plus the simulator's options when emulated.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import threading
 from pathlib import Path
@@ -20,17 +21,18 @@ from typing import Any
 from ...caps import RotatorCaps
 from ...clock import Clock
 from ...errors import ConfigError
+from ..drivers.motors import BTS7960_FAULT_V
 from ..drivers import (As5600Sensor, Bts7960Motor, CompassSensor, LimitSwitchInput, Lmd18200Motor,
                        PotSensor, PwmDirMotor, QuadratureEncoder, RelayBrake, RelayMotor,
                        SenseCurrent, SpidPulseSensor, TiltSensor, Vnh5019Motor)
 from ..interfaces import AxisHardware, Hardware
 from ..sim.params import PHYSICS, physics_for
 from .buses import Buses
-from .feed import (EmulatedBrake, EmulatedMotor, Emulation, ads_reference, feed_current_sense, feed_sensor,
+from .feed import (EmulatedBrake, EmulatedHeartbeat, EmulatedMotor, Emulation, ads_reference, feed_current_sense, feed_sensor,
                    forget_output_history, limit_sync)
 from .i2c import AdcInput, Ads1115Channel, As5600Chip, Lsm303Accel, Lsm303agrChip, Lsm303dChip, Lsm303Mag
-from .pins import PinIn, PinOut, PinPulseCounter, PinQuadrature
-from .pwm import HardwarePwm, make_pwm, pwm_advice, pwm_plan
+from .pins import PinIn, PinOut, PinPulseCounter, PinQuadrature, release_inputs
+from .pwm import HardwarePwm, detect_pwm_chip, make_pwm, pwm_advice, pwm_plan
 from .spi import Mcp3008Channel
 
 log = logging.getLogger(__name__)
@@ -38,7 +40,24 @@ log = logging.getLogger(__name__)
 #: pins each motor driver needs (besides brake / limit_min / limit_max)
 MOTOR_PINS = {"vnh5019": ("ina", "inb", "pwm"), "lmd18200": ("pwm", "dir", "bridge_brake"),
               "bts7960": ("rpwm", "lpwm"), "pwm_dir": ("pwm", "dir"), "relay": ("cw", "ccw")}
-OPTIONAL_PINS = {"relay": ("fast",), "encoder": ("enc_z",)}
+OPTIONAL_PINS = {"relay": ("fast",), "encoder": ("enc_z",), "vnh5019": ("diag",),
+                 "lmd18200": ("thermal_flag",), "bts7960": ("en",)}
+#: optional pins that are inputs (a bridge's fault output, active low)
+FAULT_INPUT_PINS = ("diag", "thermal_flag")
+
+
+def sense_v_per_a(cfg: Any) -> float:
+    """The axis' current-sense scale: configured, else its bridge's (SENSE_V_PER_A)."""
+    from ..drivers.motors import SENSE_V_PER_A
+    if cfg.current_sense_v_per_a is not None:
+        return float(cfg.current_sense_v_per_a)
+    try:
+        return SENSE_V_PER_A[cfg.motor]
+    except KeyError:
+        raise ConfigError(f"current sense on a {cfg.motor}: set current_sense_v_per_a",
+                          key="hardware.gpio.current_sense_v_per_a",
+                          expected="volts per motor ampere (LMD18200: 377e-6 x the sense resistor)",
+                          found=None) from None
 SENSOR_PINS = {"encoder": ("enc_a", "enc_b"), "pulse": ("pulse",)}
 
 
@@ -52,12 +71,13 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
     emulate = bool(options.get("emulate", gpio.emulate))
     world = None
     if emulate:
-        from gpiozero.pins.mock import MockFactory, MockPWMPin
-
         from ..sim import make_world
+        from .emulate import EmulatedFactory
         sim_opts = {k: v for k, v in options.items() if k not in ("gpio", "emulate", "bridge")}
+        if gpio.motor_enable_timeout_s is not None and gpio.heartbeat_pin is not None:
+            sim_opts["motor_enable_timeout_s"] = gpio.motor_enable_timeout_s   # the part, modelled
         world, params = make_world(caps, clock, state_dir, sim_opts)
-        factory = MockFactory(pin_class=MockPWMPin)
+        factory = EmulatedFactory(clock.now_s)
     else:
         try:
             from gpiozero import Device
@@ -72,7 +92,8 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
 
     parts_list: list[tuple[str, Any]] = []
     buses = Buses(gpio, emulate, parts_list)
-    plan = pwm_plan(gpio)
+    pwm_chip, pwm_table = (0, None) if emulate else detect_pwm_chip(gpio)
+    plan = pwm_plan(gpio, pwm_table)
     pwm_parts: list[HardwarePwm] = []
     for note in pwm_advice(gpio):
         log.warning("%s", note)
@@ -87,10 +108,14 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
         pwm_hz = cfg.pwm_frequency_hz
 
         def out(key: str) -> PinOut:
-            return PinOut(factory, pins[key])
+            return PinOut(factory, pins[key], active_low=key in cfg.active_low)
+
+        def fault_in(key: str) -> PinIn | None:
+            return PinIn(factory, pins[key], now_s=clock.now_s) if key in pins else None
 
         def pwm(key: str) -> Any:
-            part = make_pwm(factory, pins[key], plan[f"{name}.{key}"][1], pwm_hz, emulated=emulate)
+            part = make_pwm(factory, pins[key], plan[f"{name}.{key}"][1], pwm_hz, emulated=emulate,
+                            chip=pwm_chip)
             if isinstance(part, HardwarePwm):
                 pwm_parts.append(part)
                 parts_list.append((f"{name} {key}", part))
@@ -104,17 +129,21 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
         cs = None
         if cfg.current_sense_channel is not None:
             cs_chip = buses.adc(name, cfg, bus_n, pot_vref=pot_vref)
-            cs = SenseCurrent(AdcInput(cs_chip, cfg.current_sense_channel), cfg.current_sense_v_per_a)
+            cs = SenseCurrent(AdcInput(cs_chip, cfg.current_sense_channel), sense_v_per_a(cfg),
+                              fault_v=BTS7960_FAULT_V if cfg.motor == "bts7960" else None)
             where = f"SPI0 CE{cfg.spi_device}" if cfg.adc == "mcp3008" else on_bus
             parts_list.append((f"{name} current sense {cfg.adc.upper()} ch{cfg.current_sense_channel} "
                                f"({where})", cs_chip))
         kind = cfg.motor
         if kind == "vnh5019":
-            motor: Any = Vnh5019Motor(name, out("ina"), out("inb"), pwm("pwm"), current=cs)
+            motor: Any = Vnh5019Motor(name, out("ina"), out("inb"), pwm("pwm"), current=cs,
+                                      diag=fault_in("diag"))
         elif kind == "lmd18200":
-            motor = Lmd18200Motor(name, pwm("pwm"), out("dir"), out("bridge_brake"), current=cs)
+            motor = Lmd18200Motor(name, pwm("pwm"), out("dir"), out("bridge_brake"), current=cs,
+                                  thermal_flag=fault_in("thermal_flag"))
         elif kind == "bts7960":
-            motor = Bts7960Motor(name, pwm("rpwm"), pwm("lpwm"), current=cs)
+            motor = Bts7960Motor(name, pwm("rpwm"), pwm("lpwm"), enable=out("en") if "en" in pins else None,
+                                 current=cs)
         elif kind == "pwm_dir":
             motor = PwmDirMotor(name, pwm("pwm"), out("dir"))
         else:
@@ -125,13 +154,15 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
         sensor: Any
         if sk == "encoder":
             counter = PinQuadrature(factory, pins["enc_a"], pins["enc_b"], pins.get("enc_z"))
-            sensor = QuadratureEncoder(ax_caps.sensor, name, counter, motor=motor,
+            enc_caps = ax_caps.sensor if cfg.encoder_counts_per_deg is None else \
+                dataclasses.replace(ax_caps.sensor, resolution_deg=1.0 / cfg.encoder_counts_per_deg)
+            sensor = QuadratureEncoder(enc_caps, name, counter, motor=motor,
                                        index_deg=cfg.encoder_index_deg,
                                        index_period_deg=cfg.encoder_index_period_deg,
                                        drift_counts=cfg.encoder_drift_counts, clock=clock)
             parts_list.append((f"{name} encoder", counter))
         elif sk == "pulse":
-            counter = PinPulseCounter(factory, pins["pulse"])
+            counter = PinPulseCounter(factory, pins["pulse"], debounce_s=cfg.pulse_debounce_s)
             sensor = SpidPulseSensor(ax_caps.sensor, name, counter, motor)
             parts_list.append((f"{name} pulse counter", counter))
         elif sk == "as5600":
@@ -165,7 +196,8 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
             parts_list.append((f"{name} {cfg.adc.upper()} ch{cfg.adc_channel} ({where})", chip))
         brake = RelayBrake(name, out("brake"), clock, release_s=ax_caps.brake_release_s) \
             if "brake" in pins else None
-        lims = [LimitSwitchInput(f"{name} {side}", PinIn(factory, pins[f"limit_{side}"]),
+        lims = [LimitSwitchInput(f"{name} {side}", PinIn(factory, pins[f"limit_{side}"],
+                                                         debounce_s=cfg.limit_debounce_s, now_s=clock.now_s),
                                  active_low=cfg.limit_active_low) if f"limit_{side}" in pins else None
                 for side in ("min", "max")]
         if world is not None:
@@ -185,7 +217,9 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
         axes[name] = AxisHardware(motor=motor_hw, sensor=sensor, brake=brake_hw,
                                   limit_min=lims[0], limit_max=lims[1])
 
-    heartbeat = PinOut(factory, gpio.heartbeat_pin) if gpio.heartbeat_pin is not None else None
+    heartbeat: Any = PinOut(factory, gpio.heartbeat_pin) if gpio.heartbeat_pin is not None else None
+    if heartbeat is not None and world is not None and world.enable is not None:
+        heartbeat = EmulatedHeartbeat(heartbeat, world.enable)
     extra: dict[str, Any] = {"parts": parts_list, "buses": buses.i2c, "pin_factory": factory,
                              "emulated": emulate}
     if gpio.fram_address is not None:
@@ -211,16 +245,22 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
             for s in syncs:
                 s()
 
+        def truth() -> dict[str, Any]:
+            out = world.truth()
+            if world.enable is not None:
+                out["motor_enable"] = world.enable.truth()
+            return out
+
         def close() -> None:
             buses.close()
             world.close()
-            factory.close()
+            release_inputs(factory)    # outputs stay driven at their safe level
 
         # inputs follow the start position before the first read
         for s in syncs:
             s()
         return Hardware(backend="gpio", az=axes["az"], el=axes.get("el"), poll_hook=poll,
-                        truth_hook=world.truth, close_hook=close, heartbeat=heartbeat, extra=extra)
+                        truth_hook=truth, close_hook=close, heartbeat=heartbeat, extra=extra)
 
     def close_real() -> None:
         for ax in axes.values():
@@ -230,10 +270,17 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
                     ax.brake.set_released(False)
             except Exception:  # pragma: no cover - closing must go on
                 log.exception("gpio: could not make %s safe", ax)
+        for ax in axes.values():       # a bridge whose off needs PWM high brakes another way
+            hold = getattr(ax.motor, "before_pwm_close", None)
+            if hold is not None and pwm_parts:
+                try:
+                    hold()
+                except Exception:  # pragma: no cover - closing must go on
+                    log.exception("gpio: could not hold %s braked", ax)
         buses.close()
         for p in pwm_parts:
-            p.close()
-        factory.close()
+            p.close()                  # duty 0 and the channel disabled
+        release_inputs(factory)        # outputs stay driven at their safe level, never floated
 
     return Hardware(backend="gpio", az=axes["az"], el=axes.get("el"), close_hook=close_real,
                     heartbeat=heartbeat, extra=extra)

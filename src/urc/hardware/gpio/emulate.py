@@ -19,8 +19,40 @@ import struct
 import time
 from typing import Any, Callable
 
+from gpiozero.pins.mock import MockFactory, MockPWMPin
+from gpiozero.pins.pi import PiPin
+
 from ..parts import MagnetStatus
 from .pins import _FWD
+
+
+class EmulatedPin(MockPWMPin):
+    """A mock pin whose edge reports carry the simulator's time (as lgpio's carry the
+    kernel's timestamp of the edge), not the wall time the emulation happens to run at."""
+
+    def _call_when_changed(self) -> None:  # type: ignore[override]
+        PiPin._call_when_changed(self, self._factory.event_ticks(), self._state)
+
+
+class EmulatedFactory(MockFactory):
+    """gpiozero's MockFactory on the control loop's clock: ``ticks()`` is clock time,
+    and a feed may stamp the edges it makes (``event_s``) with when they happened
+    between two polls."""
+
+    def __init__(self, now_s: Callable[[], float]):
+        super().__init__(pin_class=EmulatedPin)
+        self._now_s = now_s
+        self.event_s: float | None = None
+
+    def ticks(self) -> float:  # type: ignore[override]
+        return self._now_s()
+
+    @staticmethod
+    def ticks_diff(later: float, earlier: float) -> float:  # type: ignore[override]
+        return later - earlier
+
+    def event_ticks(self) -> float:
+        return self._now_s() if self.event_s is None else self.event_s
 
 
 class FakeSMBus:
@@ -200,8 +232,9 @@ class QuadDriver:
     """Drives mock A/B pins through the Gray sequence to follow a count, and the index
     pin Z high while ``index(count)`` (one state wide: the counter has counted into the
     state when Z rises, whichever way the shaft turns). ``miss``: that many of the next
-    steps are made two states at once (both channels change: the decoder cannot count
-    them, as when it misses edges)."""
+    steps are made two states at once, A's edge unreported (as when an edge report is
+    lost: the decoder sees B's report only, and A's next report with the level A
+    already had, an error)."""
 
     def __init__(self, a: Any, b: Any, count: Callable[[], int], *, z: Any = None,
                  index: Callable[[int], bool] | None = None):
@@ -244,19 +277,36 @@ class QuadDriver:
 
 
 class PulseDriver:
-    """One low-high pulse on a mock pin per new edge of the simulated reed contact."""
+    """One low-high pulse on a mock pin per new edge of the simulated reed contact,
+    stamped evenly over the time since the last sync (the reports' timestamps are what
+    the counter's debounce judges). ``bounce``: each of the next pulses comes with that
+    many extra closures right after it (a bouncing reed), 0.2 ms apart."""
 
     def __init__(self, pin: Any, edges: Callable[[], int]):
         self.pin, self.edges = pin, edges
         self.seen = edges()
+        self.bounce = 0
+        factory = pin.factory
+        self._now_s = factory.ticks if isinstance(factory, EmulatedFactory) else None
+        self._last_s = self._now_s() if self._now_s is not None else 0.0
         pin.drive_high()
 
     def sync(self) -> None:
         target = self.edges()
-        while self.seen < target:
-            self.pin.drive_low()
-            self.pin.drive_high()
+        factory = self.pin.factory
+        now_s = self._now_s() if self._now_s is not None else 0.0
+        n = target - self.seen
+        for k in range(max(0, n)):
+            t_s = self._last_s + (k + 1) * (now_s - self._last_s) / n
+            for j in range(1 + self.bounce):
+                if isinstance(factory, EmulatedFactory):
+                    factory.event_s = t_s + j * 0.0002
+                self.pin.drive_low()
+                self.pin.drive_high()
             self.seen += 1
+        if isinstance(factory, EmulatedFactory):
+            factory.event_s = None
+        self._last_s = now_s
         self.pin.clear_states()
 
 

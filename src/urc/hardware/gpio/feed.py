@@ -14,11 +14,15 @@ from .i2c import Lsm303agrChip
 
 
 def emulated_motor_duty(kind: str, motor: Any, levels: tuple[float, ...]) -> float:
-    """What the bridge / relays really put on the motor, read back from the pins."""
+    """What the bridge / relays really put on the motor, read back from the pins (a
+    bridge with every switch off reads 0 here: see :func:`emulated_bridge_open`)."""
     if kind == "vnh5019":
+        # VNH5019_TRUTH_TABLE: one of INA/INB high drives; both equal brake
         d = int(motor.ina.read_back()) - int(motor.inb.read_back())
         return d * motor.pwm.read_back()
     if kind == "lmd18200":
+        # LMD18200_TRUTH_TABLE, per level of the PWM input: BRAKE low drives for the
+        # PWM's high time (braked through the high sides in its low time)
         if motor.brake_out.read_back():
             return 0.0
         return (1.0 if motor.dir_out.read_back() else -1.0) * motor.pwm_out.read_back()
@@ -32,6 +36,15 @@ def emulated_motor_duty(kind: str, motor: Any, levels: tuple[float, ...]) -> flo
     return d * (min(levels) if slow else 1.0)
 
 
+def emulated_bridge_open(kind: str, motor: Any) -> bool:
+    """Whether the bridge has every switch off (the winding open: the motor coasts):
+    the LMD18200 with BRAKE high and its PWM input low (LMD18200_TRUTH_TABLE)."""
+    if kind != "lmd18200" or not motor.brake_out.read_back():
+        return False
+    from ..drivers.motors import lmd18200_state
+    return lmd18200_state(motor.pwm_out.read_back() > 0.0, motor.dir_out.read_back(), True) == "coast"
+
+
 class EmulatedMotor:
     """The driver on mock pins; after each drive the pins are decoded into the
     simulated motor (after the world has caught up with the present)."""
@@ -42,7 +55,9 @@ class EmulatedMotor:
     def set_drive(self, duty: float) -> None:
         self.world.catch_up()
         self.driver.set_drive(duty)
-        self.world.axes[self.axis].set_command(emulated_motor_duty(self.kind, self.driver, self.levels))
+        phys = self.world.axes[self.axis]
+        phys.bridge_open = emulated_bridge_open(self.kind, self.driver)
+        phys.set_command(emulated_motor_duty(self.kind, self.driver, self.levels))
 
     def read_current_a(self) -> float:
         # through the current-sense part when one is wired (0 without, as on iron)
@@ -62,6 +77,21 @@ class EmulatedBrake:
 
     def is_released(self) -> bool:
         return self.driver.is_released()
+
+
+class EmulatedHeartbeat:
+    """The heartbeat pin wired to the safety chain's monostable (:mod:`..sim.safety`):
+    the part sees the pin's level after each write, as the CD4538B's trigger input would."""
+
+    def __init__(self, out: Any, enable: Any):
+        self.out, self.enable = out, enable
+
+    def write(self, value: bool) -> None:
+        self.out.write(value)
+        self.enable.heartbeat(self.out.read_back())
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self.__dict__["out"], name)
 
 
 def limit_sync(sw: LimitSwitchInput, sim_sw: Any) -> Any:
@@ -128,7 +158,7 @@ def feed_sensor(name: str, kind: str, sensor: Any, devices: dict[int, Any], cfg:
     rng = random.Random(f"urc-emu:{world.seed}:{name}")
     part = (phys, p, rng, True)
     if kind == "encoder":
-        cpd = round(1.0 / caps.resolution_deg)
+        cpd = cfg.encoder_counts_per_deg or round(1.0 / caps.resolution_deg)
         sim = SimQuadratureCounter(*part, counts_per_deg=cpd)
         counter = sensor.counter
         index = None
@@ -232,7 +262,9 @@ def feed_current_sense(phys: Any, cfg: Any, devices: dict[int, Any], fake_spi: d
     else:
         addr = cfg.i2c_address or 0x48
         dev = devices.get(addr) or devices.setdefault(addr, FakeAds1115({}))
-    dev.inputs[cfg.current_sense_channel] = lambda: abs(phys.current_a()) * cfg.current_sense_v_per_a
+    from . import sense_v_per_a
+    v_per_a = sense_v_per_a(cfg)
+    dev.inputs[cfg.current_sense_channel] = lambda: abs(phys.current_a()) * v_per_a
 
 
 def ads_reference(cfg: Any) -> int:

@@ -4,13 +4,35 @@ Only gpiozero's pin layer is used (``factory.pin(n)``: function, pull, edges,
 when_changed, frequency, state), so the same code runs on LGPIOFactory and on
 MockFactory pins the simulator drives. gpiozero has no quadrature decoder with x4
 counting and error detection (RotaryEncoder counts detents), hence :class:`PinQuadrature`.
+
+What lgpio does that shapes this module (lgpio 0.2.2 ``lgpio.py``, gpiozero 2.0.1
+``pins/lgpio.py``):
+
+* Edge callbacks run on lgpio's one notification thread, which reads the kernel's
+  reports (timestamp, chip, gpio, level) from a FIFO and calls every callback in turn.
+  A callback that raises ends that thread for good: every edge callback of the process
+  stops, silently. So every handler here is guarded (:func:`guarded`): an exception is
+  caught, counted and logged, and the part then reports a fault instead of counts.
+* Reports arrive late and in bursts (the thread is a Python thread); each carries the
+  level the line went to. The live level (``pin.state``) may have changed many times
+  since, so the decoders count from the levels in the reports, never from a read.
+* ``factory.pin(n)`` claims the line as an input; ``function = "output"`` then claims it
+  as an output at level 0, and a pin's ``close()`` makes it an input again (floating).
+  Outputs are therefore claimed at their safe level in one call (:func:`claim_output`)
+  and never closed: at exit they stay driven at the safe level until the process ends
+  (after that only the external pull resistors and the safety chain hold them).
 """
 
 from __future__ import annotations
 
+import logging
 import threading
 import time
-from typing import Any
+from typing import Any, Callable
+
+from ..parts import PartError
+
+log = logging.getLogger(__name__)
 
 # x4 decoding: state = A<<1 | B; forward order 00 -> 01 -> 11 -> 10 -> 00.
 #: (previous state << 2 | new state) -> count change; None = both channels changed (an
@@ -27,19 +49,80 @@ def quad_decode(prev: int, new: int) -> int | None:
     return QUAD_TABLE[prev << 2 | new]
 
 
-class PinOut:
-    """Digital output (also the heartbeat: ``write(bool)``)."""
+def claim_output(pin: Any, level: bool) -> None:
+    """Make ``pin`` an output already driving ``level`` (no glitch through another
+    level): on lgpio one ``gpio_claim_output`` with the level, elsewhere gpiozero's
+    ``output_with_state``."""
+    factory = getattr(pin, "factory", None)
+    handle = getattr(factory, "_handle", None)
+    if type(pin).__name__ == "LGPIOPin" and handle is not None:
+        import lgpio
+        lgpio.gpio_claim_output(handle, pin._number, int(bool(level)))
+        return
+    from gpiozero.pins.mock import MockPin
+    if isinstance(pin, MockPin):
+        # gpiozero's default output_with_state is "function, then state": a moment at
+        # the old level. The emulation models lgpio's one-call claim instead.
+        pin._state = bool(level)
+        pin.function = "output"
+        return
+    pin.output_with_state(bool(level))
 
-    def __init__(self, factory: Any, pin: int, *, initial: bool = False):
+
+def guarded(owner: Any, fn: Callable[..., None]) -> Callable[..., None]:
+    """``fn`` as a pin callback that never raises into the pin library's thread: an
+    exception is counted in ``owner.callback_errors`` and logged (the first, then every
+    100th), and the part reports a fault from then on. gpiozero holds a callback only
+    weakly, so the owner keeps it (``owner._handlers``)."""
+    if not hasattr(owner, "callback_errors"):
+        owner.callback_errors = 0
+
+    def handler(*args: Any) -> None:
+        try:
+            fn(*args)
+        except Exception:
+            owner.callback_errors += 1
+            if owner.callback_errors == 1 or owner.callback_errors % 100 == 0:
+                log.exception("%s: edge callback failed (%d so far); its counts are no longer trusted",
+                              owner, owner.callback_errors)
+    owner.__dict__.setdefault("_handlers", []).append(handler)
+    return handler
+
+
+def _check_callbacks(owner: Any) -> None:
+    if owner.callback_errors:
+        raise PartError(f"{owner}: {owner.callback_errors} edge callback(s) failed: edges may be "
+                        "lost (see the log)")
+
+
+def _event_level(pin: Any, state: Any) -> bool:
+    """The level an edge report carries (the live level only if it carries none)."""
+    return bool(pin.state) if state is None else bool(state)
+
+
+class PinOut:
+    """Digital output (also the heartbeat: ``write(bool)``).
+
+    ``active_low``: the load is on when the pin is low (the usual relay modules); the
+    driver still writes logical levels. The pin is claimed already at the safe level:
+    logical off, i.e. high for an active-low output.
+    """
+
+    def __init__(self, factory: Any, pin: int, *, initial: bool = False, active_low: bool = False):
+        self.number = pin
+        self.active_low = bool(active_low)
         self.pin = factory.pin(pin)
-        self.pin.function = "output"
-        self.pin.state = bool(initial)
+        claim_output(self.pin, bool(initial) != self.active_low)
 
     def write(self, value: bool) -> None:
-        self.pin.state = bool(value)
+        self.pin.state = bool(value) != self.active_low
 
     def read_back(self) -> bool:
-        return bool(self.pin.state)
+        """The logical level (True = the load is on)."""
+        return bool(self.pin.state) != self.active_low
+
+    def __repr__(self) -> str:
+        return f"GPIO{self.number} output" + (" (active low)" if self.active_low else "")
 
 
 class PinPwm:
@@ -47,7 +130,7 @@ class PinPwm:
 
     def __init__(self, factory: Any, pin: int, *, frequency_hz: float = 1000.0):
         self.pin = factory.pin(pin)
-        self.pin.function = "output"
+        claim_output(self.pin, False)
         self.pin.frequency = frequency_hz
         self.pin.state = 0.0
 
@@ -59,26 +142,39 @@ class PinPwm:
 
 
 class PinIn:
-    """Digital input with pull-up and edge timing (limit switch, power-fail line)."""
+    """Digital input with pull-up and edge timing (limit switch, power-fail line).
 
-    def __init__(self, factory: Any, pin: int, *, pull: str = "up", on_edge: Any = None):
+    ``debounce_s``: :meth:`read` returns a new level only once no edge has come for that
+    long (a bouncing contact, pickup on a long cable); ``now_s`` is the clock it is
+    timed on (the control loop's)."""
+
+    def __init__(self, factory: Any, pin: int, *, pull: str = "up", on_edge: Any = None,
+                 debounce_s: float = 0.0, now_s: Callable[[], float] = time.monotonic):
+        self.number = pin
         self.pin = factory.pin(pin)
         self.pin.function = "input"
         self.pin.pull = pull
+        self.debounce_s = float(debounce_s)
+        self._now_s = now_s
         self._edges = 0
         self._last_edge_s: float | None = None
         self._on_edge = on_edge
+        self._stable: bool | None = None       # the first read takes the live level
         self.pin.edges = "both"
-        self.pin.when_changed = self._changed
+        self.pin.when_changed = guarded(self, self._changed)
 
     def _changed(self, ticks: Any = None, state: Any = None) -> None:
         self._edges += 1
-        self._last_edge_s = time.monotonic()
+        self._last_edge_s = self._now_s()
         if self._on_edge is not None:
-            self._on_edge(self.read())
+            self._on_edge(_event_level(self.pin, state))
 
     def read(self) -> bool:
-        return bool(self.pin.state)
+        live = bool(self.pin.state)
+        if self._stable is None or self.debounce_s <= 0.0 or self._last_edge_s is None or \
+                self._now_s() - self._last_edge_s >= self.debounce_s - 1e-9:
+            self._stable = live
+        return self._stable
 
     def edges(self) -> int:
         return self._edges
@@ -86,11 +182,20 @@ class PinIn:
     def last_edge_s(self) -> float | None:
         return self._last_edge_s
 
+    def __repr__(self) -> str:
+        return f"GPIO{self.number} input"
+
 
 class PinQuadrature:
-    """x4 quadrature counter on two pins (optional index Z latches the count)."""
+    """x4 quadrature counter on two pins (optional index Z latches the count).
+
+    The state machine advances on the level each edge report carries, in the order
+    the reports come (lgpio delivers one line's and both lines' reports in time order,
+    however late): a report whose level the channel already had means an edge of that
+    channel was lost, counted as an error, never guessed."""
 
     def __init__(self, factory: Any, a: int, b: int, z: int | None = None):
+        self.numbers = (a, b, z)
         self.a, self.b = factory.pin(a), factory.pin(b)
         for p in (self.a, self.b):
             p.function = "input"
@@ -101,26 +206,28 @@ class PinQuadrature:
         self._index: int | None = None
         #: index (Z) pulses seen
         self.index_pulses = 0
-        self._state = self._read_state()
-        for p in (self.a, self.b):
-            p.edges = "both"
-            p.when_changed = self._edge
+        self._state = (1 if self.a.state else 0) << 1 | (1 if self.b.state else 0)
+        self.a.edges = self.b.edges = "both"
+        self.a.when_changed = guarded(self, lambda ticks=None, state=None: self._edge(2, self.a, state))
+        self.b.when_changed = guarded(self, lambda ticks=None, state=None: self._edge(1, self.b, state))
         self.z = None
         if z is not None:
             self.z = factory.pin(z)
             self.z.function = "input"
             self.z.pull = "up"
             self.z.edges = "rising"
-            self.z.when_changed = self._index_edge
+            self.z.when_changed = guarded(self, self._index_edge)
 
-    def _read_state(self) -> int:
-        return (1 if self.a.state else 0) << 1 | (1 if self.b.state else 0)
-
-    def _edge(self, ticks: Any = None, state: Any = None) -> None:
-        new = self._read_state()
+    def _edge(self, bit: int, pin: Any, state: Any) -> None:
+        level = _event_level(pin, state)
         with self._lock:
-            d = QUAD_TABLE[self._state << 2 | new]
-            if d is None:
+            old = self._state
+            new = (old | bit) if level else (old & ~bit)
+            if new == old:
+                self._errors += 1          # this channel's previous edge never came
+                return
+            d = QUAD_TABLE[old << 2 | new]
+            if d is None:                  # cannot happen: one channel changes per report
                 self._errors += 1
             else:
                 self._count += d
@@ -132,6 +239,7 @@ class PinQuadrature:
             self.index_pulses += 1
 
     def count(self) -> int:
+        _check_callbacks(self)
         return self._count
 
     def index_count(self) -> int | None:
@@ -140,20 +248,60 @@ class PinQuadrature:
     def errors(self) -> int:
         return self._errors
 
+    def __repr__(self) -> str:
+        a, b, z = self.numbers
+        return f"encoder GPIO{a}/GPIO{b}" + (f"/Z GPIO{z}" if z is not None else "")
+
 
 class PinPulseCounter:
-    """SPID reed contact to ground: one count per falling edge (pin pulled up)."""
+    """SPID reed contact to ground: one count per falling edge (pin pulled up).
 
-    def __init__(self, factory: Any, pin: int):
+    ``debounce_s``: a falling edge within that long of the last counted one is contact
+    bounce (or pickup), not a pulse: rejected and counted in ``rejected``. Timed on the
+    reports' own timestamps (``factory.ticks_diff``), so late or bunched callbacks do
+    not change what is counted."""
+
+    def __init__(self, factory: Any, pin: int, *, debounce_s: float = 0.0):
+        self.number = pin
+        self.factory = factory
         self.pin = factory.pin(pin)
         self.pin.function = "input"
         self.pin.pull = "up"
+        self.debounce_s = float(debounce_s)
         self._count = 0
+        self._last_ticks: Any = None
+        #: falling edges rejected as bounce
+        self.rejected = 0
         self.pin.edges = "falling"
-        self.pin.when_changed = self._edge
+        self.pin.when_changed = guarded(self, self._edge)
 
     def _edge(self, ticks: Any = None, state: Any = None) -> None:
+        if state is not None and bool(state):
+            return                           # a rising report (edges not filtered): not a pulse
+        if self.debounce_s > 0.0 and ticks is not None and self._last_ticks is not None and \
+                self.factory.ticks_diff(ticks, self._last_ticks) < self.debounce_s:
+            self.rejected += 1
+            return
+        self._last_ticks = ticks
         self._count += 1
 
     def count(self) -> int:
+        _check_callbacks(self)
         return self._count
+
+    def __repr__(self) -> str:
+        return f"pulse input GPIO{self.number}"
+
+
+def release_inputs(factory: Any) -> None:
+    """At close: end the inputs' callbacks and give their lines back, but leave every
+    output claimed at the level last written (gpiozero's ``close`` would make them
+    floating inputs): they stay driven safe until the process ends."""
+    for key, pin in list(factory.pins.items()):
+        try:
+            if pin.function == "input":
+                pin.when_changed = None
+                pin.close()
+                del factory.pins[key]
+        except Exception:  # pragma: no cover - closing must go on
+            log.exception("gpio: could not release %r", pin)

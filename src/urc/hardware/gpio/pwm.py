@@ -8,11 +8,21 @@ duty, so one pin per channel), four on a Pi 5 (GPIO12, 13, 18, 19 each their own
 kernel exposes it through /sys/class/pwm once the overlay is loaded
 (``dtoverlay=pwm-2chan,pin=12,func=4,pin2=13,func2=4`` in config.txt); rpi-hardware-pwm
 (``pip install urc[pi]``) drives that.
+
+Which ``pwmchipN`` that is differs: 0 on a Pi 4; on a Pi 5 the RP1's PWM0 is pwmchip2
+before kernel 6.12 and pwmchip0 after (rpi-hardware-pwm's notes), and its channels map
+GPIO12/13/18/19 to 0/1/2/3 whatever overlay is loaded: :func:`detect_pwm_chip`.
+
+rpi-hardware-pwm 0.3.1 exports the channel and writes its period and a duty of 0, but
+leaves ``enable`` as it found it: a channel a killed urc left enabled stays enabled.
+:class:`HardwarePwm` therefore disables it at once (``stop``: duty 0, enable 0), enables
+it only for the first non-zero duty, and disables it again at close.
 """
 
 from __future__ import annotations
 
 import logging
+from pathlib import Path
 from typing import Any
 
 log = logging.getLogger(__name__)
@@ -28,10 +38,47 @@ PWM_PINS = {"vnh5019": ("pwm",), "lmd18200": ("pwm",), "bts7960": ("rpwm", "lpwm
             "pwm_dir": ("pwm",), "relay": ()}
 
 
-def pwm_plan(gpio: Any) -> dict[str, tuple[int, int | None]]:
+#: the PWM peripheral's platform device, by model (the pwmchip's ``device`` link)
+PWM_DEVICES = {"1f00098000.pwm": "pi5", "fe20c000.pwm": "pi4", "7e20c000.pwm": "pi4", "20c000.pwm": "pi4"}
+
+
+def detect_pwm_chip(gpio: Any, sys_pwm: Path = Path("/sys/class/pwm")) -> tuple[int, str | None]:
+    """``(pwmchip number, pin table name or None = as configured)``: ``pwm_chip`` if
+    set; else the pwmchip whose device is the Pi's PWM peripheral (a Pi 5's RP1 PWM0:
+    its own 4-channel table, whatever ``hardware_pwm`` says); 0 when none is found."""
+    if gpio.hardware_pwm == "off":
+        return 0, None
+    found: list[tuple[int, str]] = []
+    try:
+        for chip in sorted(sys_pwm.glob("pwmchip*")):
+            dev = (chip / "device").resolve().name
+            model = next((m for d, m in PWM_DEVICES.items() if dev.endswith(d)), None)
+            if model is None:
+                try:
+                    model = "pi5" if int((chip / "npwm").read_text()) == 4 else None
+                except (OSError, ValueError):
+                    model = None
+            if model is not None:
+                found.append((int(chip.name[len("pwmchip"):]), model))
+    except OSError:
+        found = []
+    if gpio.pwm_chip is not None:
+        model = next((m for n, m in found if n == gpio.pwm_chip), None)
+        return gpio.pwm_chip, "4chan" if model == "pi5" else None
+    if not found:
+        return 0, None
+    number, model = found[0]
+    if model == "pi5" and gpio.hardware_pwm != "4chan":
+        log.warning("hardware_pwm = %r, but this is a Pi 5 (pwmchip%d, the RP1's PWM0): its channels "
+                    "are GPIO12/13/18/19 -> 0/1/2/3 (hardware_pwm = \"4chan\")", gpio.hardware_pwm, number)
+    return number, "4chan" if model == "pi5" else None
+
+
+def pwm_plan(gpio: Any, table_name: str | None = None) -> dict[str, tuple[int, int | None]]:
     """``"az.pwm" -> (pin, hardware channel or None)`` for every motor PWM output, az
-    first: a pin gets its channel if no earlier output took it."""
-    table = HARDWARE_PWM.get(gpio.hardware_pwm, {})
+    first: a pin gets its channel if no earlier output took it. ``table_name``
+    overrides ``hardware_pwm`` (a detected Pi 5)."""
+    table = HARDWARE_PWM.get(table_name or gpio.hardware_pwm, {})
     taken: set[int] = set()
     plan: dict[str, tuple[int, int | None]] = {}
     for name in ("az", "el"):
@@ -82,32 +129,42 @@ class HardwarePwm:
     """A motor PWM output on the PWM peripheral (rpi-hardware-pwm over sysfs); duty in
     [0, 1] like :class:`.pins.PinPwm`."""
 
-    def __init__(self, pin: int, channel: int, *, frequency_hz: float, pwm_class: Any = None):
+    def __init__(self, pin: int, channel: int, *, frequency_hz: float, pwm_class: Any = None,
+                 chip: int = 0):
         if pwm_class is None:
             from rpi_hardware_pwm import HardwarePWM as pwm_class
-        self.pin, self.channel, self.frequency_hz = pin, channel, frequency_hz
-        self.pwm = pwm_class(pwm_channel=channel, hz=frequency_hz, chip=0)
+        self.pin, self.channel, self.frequency_hz, self.chip = pin, channel, frequency_hz, chip
+        self.pwm = pwm_class(pwm_channel=channel, hz=frequency_hz, chip=chip)
         self.duty = 0.0
-        self.pwm.start(0)
+        self.enabled = True            # not known: a dead urc may have left it running
+        self.pwm.stop()                # duty 0, then disabled
+        self.enabled = False
 
     def write_duty(self, duty: float) -> None:
         duty = min(1.0, max(0.0, float(duty)))
         if duty != self.duty:          # a sysfs write per change, not per tick
-            self.pwm.change_duty_cycle(duty * 100.0)
+            if not self.enabled:
+                self.pwm.start(duty * 100.0)
+                self.enabled = True
+            else:
+                self.pwm.change_duty_cycle(duty * 100.0)
             self.duty = duty
 
     def read_back(self) -> float:
         return self.duty
 
     def identify(self) -> str:
-        return f"GPIO{self.pin}: hardware PWM{self.channel} at {self.frequency_hz:g} Hz"
+        return f"GPIO{self.pin}: hardware PWM{self.channel} (pwmchip{self.chip}) at {self.frequency_hz:g} Hz"
 
     def close(self) -> None:
+        """Duty 0 and the channel disabled (the pin idles low)."""
         self.pwm.stop()
+        self.enabled = False
+        self.duty = 0.0
 
 
 def make_pwm(factory: Any, pin: int, channel: int | None, frequency_hz: float, *, emulated: bool,
-             pwm_class: Any = None) -> Any:
+             pwm_class: Any = None, chip: int = 0) -> Any:
     """The PWM part for a motor output: hardware PWM where the plan gives the pin a
     channel (on iron; emulated, every PWM is a mock pin), else lgpio's software PWM. A
     hardware PWM that cannot be opened (overlay not loaded, no rights) falls back to
@@ -116,7 +173,7 @@ def make_pwm(factory: Any, pin: int, channel: int | None, frequency_hz: float, *
 
     if channel is not None and not emulated:
         try:
-            return HardwarePwm(pin, channel, frequency_hz=frequency_hz, pwm_class=pwm_class)
+            return HardwarePwm(pin, channel, frequency_hz=frequency_hz, pwm_class=pwm_class, chip=chip)
         except Exception as exc:  # rpi-hardware-pwm raises its own exception, or OSError
             log.warning("GPIO%d: hardware PWM%d unavailable (%s): software PWM instead; add "
                         "dtoverlay=pwm-2chan to config.txt", pin, channel, exc)

@@ -15,7 +15,9 @@ park), ``fault_injection`` (faults active from the start: a list of
 between truth writes), ``truth_wall_interval_s`` (float, 0.02: least wall time between
 writes, so a fast virtual clock is not slowed by file writes; 0 = exactly repeatable), ``heartbeat_file``
 (path, default ``state_dir/"heartbeat"`` on a real clock, none on a virtual one; ``None``: no file): the simulated heartbeat output's level and
-toggle count, also in the truth as ``heartbeat``.
+toggle count, also in the truth as ``heartbeat``; ``motor_enable_timeout_s`` (float, None =
+not wired): the external safety chain (:mod:`.safety`), motor power held only while the
+heartbeat's rising edges come at most this far apart, in the truth as ``motor_enable``.
 """
 
 from __future__ import annotations
@@ -36,7 +38,8 @@ from .world import FAULT_KINDS, SimWorld
 log = logging.getLogger(__name__)
 
 _OPTIONS = {"seed", "wind", "truth_file", "start_az_deg", "start_el_deg", "fault_injection",
-            "sensor_noise", "truth_interval_s", "truth_wall_interval_s", "heartbeat_file"}
+            "sensor_noise", "truth_interval_s", "truth_wall_interval_s", "heartbeat_file",
+            "motor_enable_timeout_s"}
 
 
 def build_sim_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
@@ -56,10 +59,14 @@ def build_sim_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
     # (tests, benchmarks: thousands of rotators) it would only be one more thread each
     default_file = None if isinstance(clock, VirtualClock) else Path(state_dir) / "heartbeat"
     heartbeat_file = options.get("heartbeat_file", default_file)
-    heartbeat = SimDigitalOutput("heartbeat", Path(heartbeat_file) if heartbeat_file else None)
+    heartbeat = SimDigitalOutput("heartbeat", Path(heartbeat_file) if heartbeat_file else None,
+                                 on_write=world.enable.heartbeat if world.enable is not None else None)
 
     def truth() -> dict[str, Any]:
-        return {**world.truth(), "heartbeat": heartbeat.truth()}
+        out = {**world.truth(), "heartbeat": heartbeat.truth()}
+        if world.enable is not None:
+            out["motor_enable"] = world.enable.truth()
+        return out
 
     # a single-axis rotator: the simulated mechanics keep an elevation joint (standing
     # at its park), but no part of it is wired: nothing drives or reads it
@@ -88,12 +95,17 @@ def make_world(caps: RotatorCaps, clock: Clock, state_dir: Path,
                          seed=int(options.get("seed", 1)), wind=bool(options.get("wind", True)),
                          start_deg=start, sensor_noise=bool(options.get("sensor_noise", True)),
                          truth_interval_s=float(options.get("truth_interval_s", 0.02)),
-                         truth_wall_interval_s=float(options.get("truth_wall_interval_s", 0.02)))
+                         truth_wall_interval_s=float(options.get("truth_wall_interval_s", 0.02)),
+                         motor_enable_timeout_s=_timeout(options.get("motor_enable_timeout_s")))
     except (TypeError, ValueError) as exc:
         raise ConfigError(f"simulator options: {exc}", key="hardware.options") from exc
     for axis, kind, kw in _fault_list(options.get("fault_injection")):
         world.inject(axis, kind, **kw)
     return world, params
+
+
+def _timeout(value: Any) -> float | None:
+    return None if value is None else float(value)
 
 
 def _fault_list(spec: Any) -> list[tuple[str, str, dict[str, Any]]]:

@@ -20,8 +20,11 @@ log = logging.getLogger(__name__)
 
 
 class SimDigitalOutput:
-    def __init__(self, name: str, path: Path | None = None, file_interval_s: float = 0.1):
+    def __init__(self, name: str, path: Path | None = None, file_interval_s: float = 0.1,
+                 on_write: Any = None):
         self.name = name
+        #: what the pin is wired to (the safety chain's monostable): told every level
+        self.on_write = on_write
         self.path = path
         self.file_interval_s = file_interval_s
         self.level = False
@@ -39,6 +42,8 @@ class SimDigitalOutput:
         if value != self.level:
             self.level = value
             self.toggles += 1
+        if self.on_write is not None:
+            self.on_write(value)
 
     def truth(self) -> dict[str, Any]:
         return {"level": self.level, "toggles": self.toggles}

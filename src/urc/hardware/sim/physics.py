@@ -79,6 +79,8 @@ class AxisPhysics:
         self.reversed = False
         self.jammed = False
         self.powered = True          # False: drive electronics off (motor terminals open)
+        #: the bridge has every switch off (LMD18200 BRAKE high, PWM low): terminals open
+        self.bridge_open = False
         self.brake_engaged = p.has_brake   # a powerless brake holds
         # --- wind (Ornstein-Uhlenbeck gust around a mean) ---
         self._wind_rng = wind_rng
@@ -118,7 +120,7 @@ class AxisPhysics:
 
     def effective_duty(self) -> float:
         """The duty the motor really gets: after faults (runaway, reversed wiring)."""
-        if not self.powered:
+        if not self.powered or self.bridge_open:
             return 0.0
         duty = self.cmd_duty if self.runaway_duty is None else self.runaway_duty
         return -duty if self.reversed else duty
@@ -146,7 +148,7 @@ class AxisPhysics:
             self._level = duty
             self._ta = self._dc_nm_per_v * duty * p.supply_v
             # powered H-bridge at duty 0 shorts the winding (dynamic braking); unpowered: open
-            self._tb = self._dc_b if self.powered else 0.0
+            self._tb = self._dc_b if self.powered and not self.bridge_open else 0.0
             self._cap = math.inf
         if self._level != old_level:
             self._phase0 = self.tick
@@ -173,7 +175,7 @@ class AxisPhysics:
             tm = p.ac_torque_nm if self.held else min(abs(self._ta - self._tb * vg), self._cap)
             frac = min(1.0, tm / self._cap) if self._cap > 0 else 1.0
             return p.ac_noload_current_a + (p.ac_stall_current_a - p.ac_noload_current_a) * frac
-        if not self.powered:
+        if not self.powered or self.bridge_open:
             return 0.0
         volts = self.effective_duty() * p.supply_v
         w_motor_rad = vg * DEG2RAD * p.gear_ratio

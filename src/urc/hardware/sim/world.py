@@ -24,6 +24,7 @@ from ...clock import Clock, VirtualClock
 from .drives import SimBrake, SimLimitSwitch, SimMotor
 from .params import SimRotatorParams
 from .physics import AxisPhysics
+from .safety import MotorPowerEnable
 from .sensors import FaultySensor, SensorBoard, make_sensor
 
 log = logging.getLogger(__name__)
@@ -40,7 +41,8 @@ class SimWorld:
     def __init__(self, caps: RotatorCaps, params: SimRotatorParams, clock: Clock, *,
                  truth_path: Path | None, seed: int = 1, wind: bool = True,
                  start_deg: dict[str, float] | None = None, sensor_noise: bool = True,
-                 truth_interval_s: float = 0.02, truth_wall_interval_s: float = 0.02):
+                 truth_interval_s: float = 0.02, truth_wall_interval_s: float = 0.02,
+                 motor_enable_timeout_s: float | None = None):
         self.caps = caps
         self.params = params
         self.clock = clock
@@ -53,6 +55,9 @@ class SimWorld:
         self.truth_wall_interval_s = float(truth_wall_interval_s)
         self.dt_s = params.substep_s
         start_deg = start_deg or {}
+        #: the external safety chain (heartbeat -> motor power enable), None = not wired
+        self.enable = MotorPowerEnable(motor_enable_timeout_s, clock.now_s) \
+            if motor_enable_timeout_s is not None else None
         saved = self._load_truth()
 
         self.axes: dict[str, AxisPhysics] = {}
@@ -97,6 +102,13 @@ class SimWorld:
 
         self._origin_s: float | None = None
         self._brake_events: dict[str, tuple[float, bool]] = {}
+        #: what the brake relays ask for (the coil gets it only while motor power is on)
+        self._brake_cmd: dict[str, bool] = {n: False for n in AXES}
+        if self.enable is not None:
+            self.enable.on_edge = self._heartbeat_edge
+            for phys in self.axes.values():     # no heartbeat yet: the relay is out
+                phys.powered = False
+                phys._apply_drive()
         self._faults: dict[str, dict[str, dict[str, Any]]] = {n: {} for n in AXES}
         self._last_written: tuple | None = self._state_key() if saved is not None else None
         # in real time the truth file is written by a thread of its own (a write can wait
@@ -122,17 +134,22 @@ class SimWorld:
             self._origin_s = float(now_s)
             return
         target = math.floor((now_s - self._origin_s) / self.dt_s + 1e-9)
+        cut_tick = self._cut_tick()
         for name, phys in self.axes.items():
-            if target <= phys.tick:
-                continue
-            ev = self._brake_events.get(name)
-            if ev is not None:
-                ev_tick = max(phys.tick, math.ceil((ev[0] - self._origin_s) / self.dt_s - 1e-9))
-                if ev_tick <= target:
-                    phys.step_n(ev_tick - phys.tick)
+            while target > phys.tick:
+                # the next event inside this step: the brake moving, or the safety relay
+                # dropping out (power cut at the heartbeat's timeout)
+                ev = self._brake_events.get(name)
+                ev_tick = math.inf if ev is None else \
+                    max(phys.tick, math.ceil((ev[0] - self._origin_s) / self.dt_s - 1e-9))
+                cut = cut_tick if phys.powered and cut_tick is not None else math.inf
+                nxt = min(ev_tick, cut, target)
+                phys.step_n(int(nxt) - phys.tick)
+                if nxt == cut:
+                    self._power_off(name, phys, self._origin_s + cut * self.dt_s)
+                elif nxt == ev_tick and ev is not None:
                     phys.brake_engaged = not ev[1]
                     del self._brake_events[name]
-            phys.step_n(target - phys.tick)
             self.sensors[name].after_advance()
         if (self.truth_path is not None
                 and now_s - self._last_write_s + 1e-6 >= self.truth_interval_s
@@ -157,6 +174,13 @@ class SimWorld:
         phys = self.axes[name]
         if not phys.p.has_brake:
             return
+        self._brake_cmd[name] = bool(released)
+        if not phys.powered:
+            released = False         # the safety relay has the coil's supply off
+        self._schedule_brake(name, released, self.clock.now_s())
+
+    def _schedule_brake(self, name: str, released: bool, at_s: float) -> None:
+        phys = self.axes[name]
         pending = self._brake_events.get(name)
         if pending is not None:
             if pending[1] == released:
@@ -166,7 +190,44 @@ class SimWorld:
             return
         ax = self.caps.axis(name)
         delay_s = ax.brake_release_s if released else ax.brake_engage_s
-        self._brake_events[name] = (self.clock.now_s() + delay_s, released)
+        self._brake_events[name] = (at_s + delay_s, released)
+
+    # ------------------------------------------------------------ safety chain
+    def _cut_tick(self) -> int | None:
+        """The substep at which the safety relay drops out (None: no part / no edge
+        yet, the power is already off then)."""
+        if self.enable is None or self._origin_s is None or self.enable.last_edge_s is None:
+            return None
+        return math.ceil((self.enable.cut_at_s() - self._origin_s) / self.dt_s - 1e-9)
+
+    def _power_off(self, name: str, phys: AxisPhysics, at_s: float) -> None:
+        """The relay dropped out: the motor supply opens (the motor coasts, terminals
+        open) and the brake coil's supply with it (the brake engages after its delay)."""
+        phys.powered = False
+        phys._apply_drive()
+        if name == "az" and self.enable is not None:
+            self.enable.trips += 1
+            log.warning("simulator: no heartbeat edge for %.3f s: the safety relay cut motor power",
+                        self.enable.timeout_s)
+        if phys.p.has_brake:
+            self._schedule_brake(name, False, at_s)
+
+    def _heartbeat_edge(self, now_s: float) -> None:
+        """A rising heartbeat edge at ``now_s``: the world first runs to it under the old
+        deadline, then the relay (re)closes: the motors get their drive back, and the
+        brake coil what its relay asks for."""
+        if self._origin_s is not None:
+            self.advance_to(now_s)
+        for name, phys in self.axes.items():
+            if not phys.powered:
+                phys.powered = True
+                phys._apply_drive()
+                if self._brake_cmd[name]:
+                    self._schedule_brake(name, True, now_s)
+
+    def motor_power(self) -> bool:
+        """Whether the motors have their supply (always, without the safety part)."""
+        return all(phys.powered for phys in self.axes.values())
 
     # ------------------------------------------------------------------ truth
     def truth(self) -> dict[str, Any]:
@@ -192,11 +253,17 @@ class SimWorld:
                       a.brake_engaged) for a in self.axes.values())
 
     def _truth_record(self) -> dict[str, Any]:
-        return {"version": TRUTH_VERSION, "profile": self.caps.name, "axes": {
+        rec: dict[str, Any] = {"version": TRUTH_VERSION, "profile": self.caps.name, "axes": {
             name: {"gear_deg": a.gear_deg, "gear_deg_per_s": a.gear_deg_per_s,
                    "load_deg": a.load_deg, "load_deg_per_s": a.load_deg_per_s,
-                   "brake_released": not a.brake_engaged}
+                   "brake_released": not a.brake_engaged, "drive": a.effective_duty()}
             for name, a in self.axes.items()}}
+        if self.enable is not None and not isinstance(self.clock, VirtualClock):
+            # a process killed now leaves the motors driving until the safety relay
+            # drops out: the next world runs them until then (wall time)
+            rec["wall_s"] = time.time()
+            rec["power_cut_at_wall_s"] = self.enable.cut_at_wall_s()
+        return rec
 
     def _write_truth(self, data: dict[str, Any] | None = None) -> None:
         assert self.truth_path is not None
@@ -230,6 +297,8 @@ class SimWorld:
                 if not all(math.isfinite(v) for v in vals.values()):
                     raise ValueError("non-finite value")
                 vals["brake_released"] = bool(a.get("brake_released", False))
+                vals["run_on_s"] = self._run_on_s(data) if math.isfinite(float(a.get("drive", 0.0))) else 0.0
+                vals["drive"] = float(a.get("drive", 0.0)) if vals["run_on_s"] > 0 else 0.0
                 out[name] = vals
             return out
         except (OSError, ValueError, KeyError, TypeError, AttributeError) as exc:
@@ -237,17 +306,40 @@ class SimWorld:
                         path, exc)
             return None
 
+    @staticmethod
+    def _run_on_s(data: dict[str, Any]) -> float:
+        """How long the motors kept their drive after the last record: until the safety
+        relay dropped out (the record's heartbeat deadline), 0 without the part (a process
+        death is then simulated as a power cut: the drive ends with the record)."""
+        try:
+            wall_s, cut_s = data.get("wall_s"), data.get("power_cut_at_wall_s")
+            if wall_s is None or cut_s is None:
+                return 0.0
+            run_s = min(float(cut_s), time.time()) - float(wall_s)
+        except (TypeError, ValueError):
+            return 0.0
+        return max(0.0, min(10.0, run_s)) if math.isfinite(run_s) else 0.0
+
     def _restore(self, phys: AxisPhysics, s: dict[str, float], brake_engage_s: float) -> None:
-        """Put the saved state back; if it was moving, coast down with the power cut."""
+        """Put the saved state back; if it was moving, coast down with the power cut
+        (after running on with its drive until the safety relay cut it, when one is
+        wired: ``run_on_s``)."""
         phys.gear_deg, phys.gear_deg_per_s = s["gear_deg"], s["gear_deg_per_s"]
         phys.load_deg, phys.load_deg_per_s = s["load_deg"], s["load_deg_per_s"]
         if abs(phys.gear_deg - phys.load_deg) > phys.half_gap_deg:
             phys.gear_deg = phys.load_deg + math.copysign(phys.half_gap_deg,
                                                           phys.gear_deg - phys.load_deg)
         has_brake = phys.p.has_brake
-        if not phys.at_rest():
+        run_on_s = s.get("run_on_s", 0.0) if s.get("drive", 0.0) else 0.0
+        if not phys.at_rest() or run_on_s > 0.0:
             wind = phys.wind_enabled
             phys.wind_enabled = False
+            if run_on_s > 0.0:
+                # the process died; its lines kept driving until the relay dropped out
+                phys.brake_engaged = has_brake and not s["brake_released"]
+                phys.set_command(s["drive"])
+                phys.step_n(round(run_on_s / phys.dt_s))
+                phys.set_command(0.0)
             phys.powered = False
             phys._apply_drive()
             phys.brake_engaged = has_brake and not s["brake_released"]

@@ -1,0 +1,89 @@
+"""`urc config check` on the pin map: every pin (the front panel's too) against every
+other and the buses' pins; outputs that are on while the Pi boots; the safety chain."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from urc.config import BOOT_HIGH_PINS, Config, gpio_warnings, load_config
+from urc.errors import ConfigError
+
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
+GPIO_EXAMPLES = sorted(EXAMPLES.glob("*.toml"))
+
+
+def example(name: str, **changes) -> dict:
+    data = load_config(EXAMPLES / f"{name}.toml").to_dict()
+    for path, value in changes.items():
+        node = data
+        *head, last = path.split(".")
+        for k in head:
+            node = node.setdefault(k, {})
+        node[last] = value
+    return data
+
+
+@pytest.mark.parametrize("path", GPIO_EXAMPLES, ids=lambda p: p.stem)
+def test_examples_keep_outputs_off_at_boot_and_wire_the_safety_chain(path):
+    cfg = load_config(path)
+    g = cfg.hardware.gpio
+    assert g.heartbeat_pin is not None and g.motor_enable_timeout_s is not None
+    assert g.motor_enable_timeout_s <= 0.25
+    assert not [n for n in gpio_warnings(cfg) if "power-on" in n or "safety chain" in n]
+    for name in cfg_axes(cfg):
+        ax = getattr(g, name)
+        assert not ax.limit_active_low          # normally-closed limit switches
+
+
+def cfg_axes(cfg: Config) -> list[str]:
+    return [n for n in ("az", "el") if getattr(cfg.hardware.gpio, n) is not None]
+
+
+@pytest.mark.parametrize("section, pin, taken_by", [
+    ("panel.buttons.cw", 24, "hardware.gpio.az.pins.ina"),          # the issue's case, on today's map
+    ("panel.buttons.ccw", 10, "SPI0"),                              # the MCP3008's MOSI
+    ("panel.leds.fault", 12, "hardware.gpio.az.pins.pwm"),
+])
+def test_panel_pins_are_checked_against_the_motor_and_bus_pins(section, pin, taken_by):
+    with pytest.raises(ConfigError, match=section.replace(".", r"\.")) as exc:
+        Config.from_dict(example("tartu-urc", **{section: pin}))
+    assert taken_by in str(exc.value)
+
+
+def test_i2c_pins_are_reserved_while_a_chip_is_on_the_bus():
+    with pytest.raises(ConfigError, match=r"panel\.leds\.fault.*I2C1 SCL"):
+        Config.from_dict(example("berkeley", **{"panel.leds.fault": 3}))
+    with pytest.raises(ConfigError, match=r"hardware\.gpio\.az\.pins\.dir.*I2C1 SDA"):
+        Config.from_dict(example("berkeley", **{"hardware.gpio.az.pins": {"pwm": 12, "dir": 2}}))
+
+
+def test_an_output_high_at_boot_is_warned_about_unless_pulled_down():
+    assert BOOT_HIGH_PINS == frozenset(range(9))
+    cfg = Config.from_dict(example("g5500", **{"hardware.gpio.az.pins": {"cw": 5, "ccw": 6}}))
+    notes = [n for n in gpio_warnings(cfg) if "power-on" in n]
+    assert len(notes) == 2 and notes[0].startswith("hardware.gpio.az.pins.ccw: GPIO6 is pulled HIGH")
+    cfg = Config.from_dict(example("g5500", **{"hardware.gpio.az.pins": {"cw": 5, "ccw": 6},
+                                               "hardware.gpio.pulled_down": [5, 6]}))
+    assert not [n for n in gpio_warnings(cfg) if "power-on" in n]
+    # an active-low relay module is off when its pin is high: fine on GPIO5, not on 23
+    cfg = Config.from_dict(example("g5500", **{"hardware.gpio.az.pins": {"cw": 5, "ccw": 23},
+                                               "hardware.gpio.az.active_low": ["cw", "ccw"]}))
+    notes = [n for n in gpio_warnings(cfg) if "power-on" in n]
+    assert len(notes) == 1 and "ccw: active low on GPIO23" in notes[0]
+
+
+def test_active_low_names_output_pins_and_the_part_needs_the_heartbeat():
+    with pytest.raises(ConfigError, match=r"hardware\.gpio\.az\.active_low"):
+        Config.from_dict(example("tartu-urc", **{"hardware.gpio.az.active_low": ["enc_a"]}))
+    with pytest.raises(ConfigError, match=r"motor_enable_timeout_s.*heartbeat_pin"):
+        Config.from_dict(example("tartu-urc", **{"hardware.gpio.heartbeat_pin": None}))
+    cfg = Config.from_dict(example("tartu-urc", **{"hardware.gpio.motor_enable_timeout_s": None}))
+    assert any("no safety chain declared" in n for n in gpio_warnings(cfg))
+
+
+def test_a_heartbeat_pulled_up_at_boot_is_warned_about():
+    cfg = Config.from_dict(example("g5500", **{"hardware.gpio.heartbeat_pin": 4}))
+    assert any(n.startswith("hardware.gpio.heartbeat_pin: GPIO4 is pulled high at power-on")
+               for n in gpio_warnings(cfg))

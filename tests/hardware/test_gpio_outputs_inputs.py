@@ -1,0 +1,192 @@
+"""Outputs (claimed at their safe level, active low, held at close, hardware PWM
+off at start and close, the PWM chip found), inputs (debounce, normally-closed limits,
+encoder scale) and the bridges' fault outputs, on mock pins and emulated iron."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from gpiozero.pins.mock import MockFactory, MockPWMPin
+
+from urc.app import build_rotator
+from urc.cli import with_emulation
+from urc.clock import VirtualClock
+from urc.config import Config, load_config
+from urc.hardware.drivers.motors import (BTS7960_FAULT_V, LMD18200_TRUTH_TABLE, SENSE_V_PER_A,
+                                         VNH5019_TRUTH_TABLE, SenseCurrent, lmd18200_state)
+from urc.hardware.gpio.pins import PinIn, PinOut, PinPulseCounter
+from urc.hardware.gpio.pwm import detect_pwm_chip
+from urc.service.loop import run_virtual
+
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
+
+
+@pytest.fixture
+def factory():
+    f = MockFactory(pin_class=MockPWMPin)
+    yield f
+    f.close()
+
+
+class Recording(MockPWMPin):
+    """A mock pin that records every level it is driven to as an output."""
+
+    def _set_state(self, value):
+        self.factory.driven.append((self.info.name, self._function, bool(value)))
+        super()._set_state(value)
+
+    def _set_function(self, value):
+        self.factory.driven.append((self.info.name, value, bool(self._state)))
+        super()._set_function(value)
+
+
+def test_an_active_low_output_is_claimed_high_and_never_passes_low(factory):
+    f = MockFactory(pin_class=Recording)
+    f.driven = []
+    out = PinOut(f, 23, active_low=True)
+    levels = [lvl for _, fn, lvl in f.driven if fn == "output"]
+    assert levels and all(levels), f.driven           # off (high) from the claim on
+    assert bool(out.pin.state) is True and out.read_back() is False
+    out.write(True)
+    assert bool(out.pin.state) is False and out.read_back() is True
+    f.close()
+
+
+def emulated(name: str, tmp_path: Path, **changes):
+    data = with_emulation(load_config(EXAMPLES / f"{name}.toml")).to_dict()
+    data["hardware"]["sim"] = {"wind": False}
+    for axis, kv in changes.items():
+        data["hardware"]["gpio"][axis].update(kv)
+    clock = VirtualClock(1000.0)
+    return build_rotator(Config.from_dict(data), clock, tmp_path, durable_state=False, fast_virtual=True), clock
+
+
+def test_close_holds_every_output_at_its_safe_level(tmp_path):
+    """gpiozero's close would float the outputs (inputs); urc releases the inputs only."""
+    rot, clock = emulated("g5500", tmp_path, az={"active_low": ["cw", "ccw"]})
+    factory = rot.hw.extra["pin_factory"]
+    rot.goto_az(rot.status().az_deg + 30.0)
+    run_virtual(rot, clock, 3.0)
+    rot.hw.drive_safe()
+    rot.hw.close()
+    levels = {pin.info.name: (pin.function, pin.state) for pin in factory.pins.values()}
+    assert levels["GPIO23"] == ("output", True) and levels["GPIO24"] == ("output", True)   # active low: off
+    assert levels["GPIO20"] == ("output", False) and levels["GPIO21"] == ("output", False)
+    assert all(fn == "output" for fn, _ in levels.values())
+
+
+def test_limit_input_counts_a_level_once_it_held_the_debounce(factory):
+    t = [0.0]
+    pin = PinIn(factory, 22, debounce_s=0.02, now_s=lambda: t[0])
+    pin.pin.drive_low()
+    assert pin.read() is False                       # first read: the live level
+    pin.pin.drive_high()                             # a bounce
+    pin.pin.drive_low()
+    t[0] = 0.01
+    pin.pin.drive_high()
+    assert pin.read() is False                       # not held yet
+    t[0] = 0.031
+    assert pin.read() is True and pin.edges() == 4
+
+
+def test_pulse_debounce_rejects_bounce_in_an_emulated_run(tmp_path):
+    """A bouncing reed (two extra closures 0.2 ms after each pulse) counts as many
+    pulses as a clean one: the BIG-RAS antenna still ends where the counter says."""
+    rot, clock = emulated("bigras", tmp_path)
+    drv = rot.hw.extra["emulation"]["az"]
+    drv.bounce = 2
+    start = rot.status().az_deg
+    rot.goto_az(start + 40.0)
+    s = run_virtual(rot, clock, 60.0, until=lambda s: not s.moving and abs(s.az_deg - start - 40.0) < 1.5)
+    counter = rot.hw.az.sensor.counter
+    assert counter.rejected >= 2 * 30                # the bounces, rejected
+    assert abs(s.sim_truth["az"]["deg"] - s.az_deg) <= 1.5
+
+
+def test_encoder_counts_per_degree_are_configurable(tmp_path):
+    """A 4096-count encoder geared 1:1 (x4: 11.378 counts/deg) on tartu-urc's pins."""
+    rot, clock = emulated("tartu-urc", tmp_path, az={"encoder_counts_per_deg": 4096 * 4 / 360})
+    rot.goto_az(50.0)
+    s = run_virtual(rot, clock, 60.0, until=lambda s: not s.moving and abs(s.az_deg - 50.0) < 0.3)
+    assert abs(s.sim_truth["az"]["deg"] - 50.0) < 0.5
+    assert rot.hw.az.sensor.counts() == pytest.approx(50.0 * 4096 * 4 / 360, abs=8)
+
+
+def test_lmd18200_table_and_the_emulation_coast_against_brake():
+    # TI's Table 1, all eight rows
+    assert [lmd18200_state(*k) for k in sorted(LMD18200_TRUTH_TABLE)] == [
+        "brake", "coast", "brake", "coast", "reverse", "brake", "forward", "brake"]
+    assert VNH5019_TRUTH_TABLE[(0, 0)] == "brake to GND"
+    assert SENSE_V_PER_A["bts7960"] == pytest.approx(0.1176, abs=1e-4)
+
+
+def test_emulated_lmd18200_coasts_further_than_it_brakes(tmp_path):
+    """The emulated bridge follows the table: BRAKE high with PWM high (urc's off)
+    stops the motor sooner than BRAKE high with PWM low (every switch off)."""
+    travel = {}
+    for mode in ("brake", "coast"):
+        rot, clock = emulated("sarcnet-mini", tmp_path / mode)
+        m = rot.hw.az
+        rot.goto_az(rot.status().az_deg + 60.0)
+        run_virtual(rot, clock, 8.0)
+        world = rot.hw.extra["world"]
+        x0 = world.truth()["az"]["deg"]
+        assert abs(world.truth()["az"]["rate_deg_per_s"]) > 1.0
+        m.motor.set_drive(0.0)                      # BRAKE high, PWM high
+        if mode == "coast":
+            m.motor.driver.pwm_out.write_duty(0.0)  # BRAKE high, PWM low
+            m.motor.set_drive(0.0)                  # (the pins read back into the bridge)
+        assert world.axes["az"].bridge_open == (mode == "coast")
+        for _ in range(200):
+            clock.advance(0.02)
+            rot.hw.poll(clock.now_s())
+        travel[mode] = abs(world.truth()["az"]["deg"] - x0)
+    assert travel["coast"] > travel["brake"]
+
+
+def test_a_bridge_fault_output_stops_the_axes_with_a_driver_fault(tmp_path):
+    rot, clock = emulated("tartu-urc", tmp_path, az={"pins": {
+        **load_config(EXAMPLES / "tartu-urc.toml").hardware.gpio.az.pins, "diag": 19}})
+    run_virtual(rot, clock, 0.5)
+    assert not rot.status().faults
+    rot.hw.az.motor.driver.fault_in.pin.drive_low()   # the VNH5019 pulls EN/DIAG low
+    s = run_virtual(rot, clock, 0.5)
+    (f,) = [f for f in s.faults if f.kind == "driver"]
+    assert f.axis == "az" and "EN/DIAG pulled low" in f.reason
+
+
+def test_bts7960_fault_current_on_is_reads_as_a_fault():
+    class Volts:
+        v = 0.5
+
+        def read_volts(self):
+            return self.v
+    src = Volts()
+    cs = SenseCurrent(src, SENSE_V_PER_A["bts7960"], fault_v=BTS7960_FAULT_V)
+    assert cs.read_current_a() == pytest.approx(0.5 * 8.5) and cs.fault is None
+    src.v = 3.3                                       # 4.5 mA into 1 kOhm, clipped by the ADC
+    cs.read_current_a()
+    assert cs.fault and "signals a fault" in cs.fault
+
+
+def _sysfs(tmp_path: Path, chips: dict[int, tuple[str, int]]) -> Path:
+    root = tmp_path / "pwm"
+    for n, (dev, npwm) in chips.items():
+        d = root / f"pwmchip{n}"
+        d.mkdir(parents=True)
+        (d / "npwm").write_text(f"{npwm}\n")
+        target = tmp_path / "devices" / dev
+        target.mkdir(parents=True, exist_ok=True)
+        (d / "device").symlink_to(target)
+    return root
+
+
+def test_the_pwm_chip_is_found_pi4_and_pi5_before_and_after_6_12(tmp_path):
+    gpio = load_config(EXAMPLES / "bigras.toml").hardware.gpio
+    assert detect_pwm_chip(gpio, _sysfs(tmp_path / "a", {0: ("fe20c000.pwm", 2)})) == (0, None)
+    # a Pi 5 before 6.12: the RP1's PWM0 is pwmchip2 (0 and 1 are other chips' PWMs)
+    pi5 = _sysfs(tmp_path / "b", {0: ("1f0009c000.pwm-fan", 1), 2: ("1f00098000.pwm", 4)})
+    assert detect_pwm_chip(gpio, pi5) == (2, "4chan")
+    assert detect_pwm_chip(gpio, _sysfs(tmp_path / "c", {0: ("1f00098000.pwm", 4)})) == (0, "4chan")
+    assert detect_pwm_chip(gpio, tmp_path / "none") == (0, None)

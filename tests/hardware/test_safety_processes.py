@@ -1,0 +1,82 @@
+"""The modelled safety chain against real `urc run` processes: the control process
+frozen (SIGSTOP), then thawed or killed; the simulator's truth shows how far the
+antenna went after the heartbeat stopped."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import time
+
+import pytest
+
+from urc.clock import RealClock
+from urc.hardware.sim import SimWorld, physics_for
+from urc.profiles import get_profile
+from urc_process import UrcProcess, wait_until
+
+PROFILE = "tartu-urc"
+TIMEOUT_S = 0.22
+
+
+def start(tmp_path, part: bool) -> UrcProcess:
+    p = UrcProcess(tmp_path, profile=PROFILE)
+    if part:
+        p.config.write_text(p.config.read_text().replace(
+            "wind = false\n", f"wind = false\nmotor_enable_timeout_s = {TIMEOUT_S}\n", 1))
+    return p.start()
+
+
+def moving_fast(p: UrcProcess) -> dict:
+    """Goto far, and return the status once the azimuth turns at most of its top speed."""
+    top = get_profile(PROFILE).az.max_rate_deg_per_s
+    assert p.post("/api/goto", {"az_deg": 300, "el_deg": 30}).status_code == 200
+    return p.wait(lambda s: abs(s["simulator_truth"]["az"]["rate_deg_per_s"]) > 0.8 * top, 60.0)
+
+
+def test_a_frozen_then_thawed_control_process_lost_motor_power(tmp_path):
+    p = start(tmp_path, part=True)
+    try:
+        s = moving_fast(p)
+        assert s["simulator_truth"]["motor_enable"]["trips"] == 0
+        pid = p.control_pid()
+        os.kill(pid, signal.SIGSTOP)
+        time.sleep(2.0)
+        os.kill(pid, signal.SIGCONT)
+        # the world catches up on the first tick after the thaw: the relay dropped once
+        s = p.wait(lambda s: s["simulator_truth"]["motor_enable"]["trips"] >= 1, 30.0)
+        assert s["simulator_truth"]["motor_enable"]["trips"] == 1
+    finally:
+        p.stop()
+
+
+@pytest.mark.parametrize("freeze_s", [0.0, 2.0])
+def test_a_frozen_or_killed_control_process_runs_on_only_until_the_relay_drops(tmp_path, freeze_s):
+    """kill -9 (after a freeze of ``freeze_s``): the control process's last truth
+    record carries the heartbeat deadline; the iron (a world built from that record)
+    ran on until it, then coasted: within the top speed x timeout + coast."""
+    p = start(tmp_path, part=True)
+    truth_file = p.state_dir / "simulator-truth.json"
+    try:
+        moving_fast(p)
+        pid = p.control_pid()
+        if freeze_s:
+            os.kill(pid, signal.SIGSTOP)
+            time.sleep(freeze_s)
+        os.kill(pid, signal.SIGKILL)
+        wait_until(lambda: not os.path.exists(f"/proc/{pid}") or
+                   open(f"/proc/{pid}/stat").read().split()[2] == "Z", 10.0, "control process gone")
+    finally:
+        p.stop()
+    record = json.loads(truth_file.read_text())
+    assert record["power_cut_at_wall_s"] is not None and record["axes"]["az"]["drive"] != 0.0
+    last_deg = record["axes"]["az"]["load_deg"]
+    caps = get_profile(PROFILE)
+    world = SimWorld(caps, physics_for(PROFILE), RealClock(), truth_path=truth_file, wind=False)
+    travel = abs(world.truth()["az"]["deg"] - last_deg)
+    top = caps.az.max_rate_deg_per_s
+    run_on_s = max(0.0, record["power_cut_at_wall_s"] - record["wall_s"])
+    assert run_on_s <= TIMEOUT_S + 0.1                # the record is fresh: at most a tick old
+    assert 0.0 < travel <= top * (TIMEOUT_S + 0.1) + 1.0, travel
+
