@@ -1,0 +1,28 @@
+"""An aiomqtt client for a broker URL (plain or TLS, password or client certificate)."""
+
+from __future__ import annotations
+
+import ssl
+from typing import Any
+
+from .config import Broker
+
+
+def tls_context(ca_file: str = "", cert_file: str = "", key_file: str = "") -> ssl.SSLContext:
+    ctx = ssl.create_default_context(cafile=ca_file or None)
+    if cert_file:
+        ctx.load_cert_chain(cert_file, key_file or None)
+    return ctx
+
+
+def make_client(broker: Broker, *, identifier: str | None = None, username: str = "", password: str = "",
+                ca_file: str = "", cert_file: str = "", key_file: str = "", will: Any = None,
+                keepalive_s: int = 15, timeout_s: float = 10.0) -> Any:
+    import aiomqtt
+
+    user = broker.username or username
+    return aiomqtt.Client(broker.host, broker.port, identifier=identifier,
+                          username=user or None, password=(broker.password or password) or None,
+                          tls_context=tls_context(ca_file, cert_file, key_file) if broker.tls else None,
+                          will=will, keepalive=keepalive_s, timeout=timeout_s,
+                          protocol=aiomqtt.ProtocolVersion.V5)
