@@ -489,6 +489,9 @@ def _register_tracking_commands() -> None:
 
     main.add_command(passes_command, "passes")
     main.add_command(tle_command, "tle")
+    from .mqtt.fleet_cli import fleet_command
+
+    main.add_command(fleet_command, "fleet")
 
 
 _register_tracking_commands()

@@ -62,11 +62,11 @@ class Track(_Cmd):
     kind: str
     name: str | None = None
     norad: int | None = None
-    lat_deg: float | None = None
-    lon_deg: float | None = None
-    alt_m: float | None = None
-    az_deg: float | None = None
-    el_deg: float | None = None
+    lat_deg: float | None = Field(None, allow_inf_nan=False)
+    lon_deg: float | None = Field(None, allow_inf_nan=False)
+    alt_m: float | None = Field(None, allow_inf_nan=False)
+    az_deg: float | None = Field(None, allow_inf_nan=False)
+    el_deg: float | None = Field(None, allow_inf_nan=False)
     source: str | None = None
 
     def request(self) -> dict[str, Any]:
@@ -90,10 +90,6 @@ class BadCommand(ValueError):
         self.cmd_id = cmd_id
 
 
-def _no_constant(name: str) -> Any:
-    raise ValueError(f"{name} is not a number here (finite numbers only)")
-
-
 def _describe(errors: list[dict]) -> str:
     out = []
     for e in errors[:3]:
@@ -115,7 +111,9 @@ def parse_command(payload: bytes) -> Goto | Stop | Park | ClearFaults | Track | 
     if len(payload) > MAX_PAYLOAD_BYTES:
         raise BadCommand(f"payload of {len(payload)} bytes: a command is at most {MAX_PAYLOAD_BYTES}")
     try:
-        doc = json.loads(payload, parse_constant=_no_constant)
+        # (NaN and Infinity parse, so the error can name the field and echo the id:
+        # every number field refuses them)
+        doc = json.loads(payload)
     except (ValueError, RecursionError) as exc:
         raise BadCommand(f"not a JSON object: {str(exc)[:120]}") from None
     if not isinstance(doc, dict):

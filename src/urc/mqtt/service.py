@@ -55,6 +55,7 @@ class MqttService:
         #: counts for the benchmark and the logs
         self.published = {"messages": 0, "bytes": 0}
         self._down_logged = False
+        self._ever_connected = False
 
     @property
     def where(self) -> str:
@@ -89,9 +90,11 @@ class MqttService:
             try:
                 async with self._client() as client:
                     delay_s = 1.0
-                    log.warning("MQTT: broker %s reachable again", self.where) if self._down_logged else \
-                        log.info("MQTT: connected to %s as %s", self.where, self.topics.base)
-                    print(f"urc: MQTT connected to {self.where}, topics under {self.topics.base}/", flush=True)
+                    if self._down_logged:
+                        log.warning("MQTT: broker %s reachable again", self.where)
+                    elif not self._ever_connected:
+                        print(f"urc: MQTT connected to {self.where}, topics under {self.topics.base}/", flush=True)
+                    self._ever_connected = True
                     self._down_logged = False
                     self.connected = True
                     try:
@@ -102,7 +105,6 @@ class MqttService:
                 if not self._down_logged:  # once per loss, not once per attempt
                     log.warning("MQTT: broker %s unreachable or lost (%s); retrying with back-off up to %g s",
                                 self.where, exc, self.section.reconnect_max_s)
-                    print(f"urc: MQTT broker {self.where} unreachable or lost: {exc}; retrying", flush=True)
                     self._down_logged = True
             except Exception:  # a bug here must not take the controller down
                 log.exception("MQTT client failed; restarting it")
@@ -117,7 +119,10 @@ class MqttService:
 
     async def _session(self, client: Any, stop: asyncio.Event) -> None:
         t = self.topics
-        await client.subscribe(t.cmd, qos=1)
+        from paho.mqtt.subscribeoptions import SubscribeOptions
+
+        # retain as published: a retained command is seen as one, and refused, even live
+        await client.subscribe(t.cmd, options=SubscribeOptions(qos=1, retainAsPublished=True))
         await self._publish(client, t.availability, ONLINE, qos=1, retain=True)
         m = self.section
         msgs = discovery_messages(m.discovery_prefix, t, self.station, self.profile, self.version) \
