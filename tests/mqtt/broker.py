@@ -4,6 +4,7 @@ and bench/mqtt_bench.py."""
 from __future__ import annotations
 
 import json
+import os
 import queue
 import shutil
 import subprocess
@@ -30,6 +31,8 @@ class Mosquitto:
         self.url = f"mqtt://127.0.0.1:{self.port}"
         lines = [f"listener {self.port} 127.0.0.1", "persistence false", "log_dest stdout",
                  "log_type error", "log_type warning"]
+        if os.geteuid() == 0:  # (as root it would become user mosquitto: unable to read our files)
+            lines.append("user root")
         if users:
             pw = workdir / "passwd"
             pw.write_text("")
