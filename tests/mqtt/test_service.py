@@ -239,3 +239,23 @@ def test_broker_killed_and_restarted_mid_pass(broker, station, clients, tmp_path
         out = u.stop()
         restarted.stop()
     assert out.count("unreachable or lost") == 1 and out.count("reachable again") == 1, out
+
+
+def test_a_fault_is_seen_everywhere_refuses_motion_and_stop_is_still_accepted(broker, station, clients):
+    u = station("dish", broker.url)
+    c = clients(broker.port)
+    wait_until(lambda: c.last(f"{BASE}/status"), 20, "a status")
+    assert u.post("/api/sim/fault", {"axis": "az", "kind": "jam"}).status_code == 200
+    assert c.command(BASE, {"id": "g", "command": "goto", "az_deg": 90.0, "el_deg": 45.0})["ok"]
+    s = wait_until(lambda: (c.last(f"{BASE}/status") or {}).get("state") == "fault" and c.last(f"{BASE}/status"),
+                   60, "the fault on MQTT")
+    assert s["faults"] and s["faults"][0]["axis"] == "az"
+    ev = wait_until(lambda: [e for e in c.json_on(f"{BASE}/event") if e["type"] == "fault"], 10, "a fault event")
+    assert ev[0]["kind"] == s["faults"][0]["kind"] and ev[0]["reason"] == s["faults"][0]["reason"]
+    r = c.command(BASE, {"id": "g2", "command": "goto", "az_deg": 10.0, "el_deg": 45.0})
+    assert r["ok"] is False and r["reason"] == "fault", r
+    assert c.command(BASE, {"id": "st", "command": "stop"}) == {"id": "st", "ok": True}
+    assert u.post("/api/sim/clear", {"axis": "az"}).status_code == 200
+    assert c.command(BASE, {"id": "cf", "command": "clear_faults"}) == {"id": "cf", "ok": True}
+    wait_until(lambda: [e for e in c.json_on(f"{BASE}/event") if e["type"] == "faults_cleared"], 10, "cleared")
+    wait_until(lambda: (c.last(f"{BASE}/status") or {}).get("faults") == [], 10, "no faults on MQTT")
