@@ -135,3 +135,20 @@ class Client:
     def close(self) -> None:
         self.c.loop_stop()
         self.c.disconnect()
+
+
+def overhead_station() -> tuple[str, Path]:
+    """[station] lines for a station 4 deg off NOAA 19's ground track 40 s from now (the
+    satellite is high for the next minutes), and the test element sets' file (NORAD 33591)."""
+    from skyfield.api import EarthSatellite, wgs84
+
+    from urc.tracking import sky
+    from urc.tracking.elements import load_elements
+
+    fixtures = Path(__file__).resolve().parents[1] / "tracking" / "fixtures"
+    noaa = next(s for s in load_elements(fixtures / "leo.tle") if s.norad_id == 33591)
+    ts = sky.timescale()
+    sub = wgs84.subpoint_of(EarthSatellite.from_satrec(noaa.satrec, ts).at(
+        ts.from_datetime(sky.utc_datetime(time.time() + 40.0))))
+    lat = float(sub.latitude.degrees) + (4.0 if sub.latitude.degrees < 80.0 else -4.0)
+    return f"lat_deg = {lat}\nlon_deg = {float(sub.longitude.degrees)}\n", fixtures / "leo.tle"

@@ -6,11 +6,10 @@ from __future__ import annotations
 
 import json
 import time
-from pathlib import Path
 
 from urc_process import wait_until
 
-from .broker import Mosquitto
+from .broker import Mosquitto, overhead_station
 
 BASE = "urc/dish"
 
@@ -177,23 +176,6 @@ def test_starts_without_the_broker_and_connects_when_it_comes(tmp_path, station,
     assert out.count("unreachable or lost") == 1, out
 
 
-def _noaa19_station() -> tuple[str, float]:
-    """[station] lines for a station 4 deg off NOAA 19's ground track now (the satellite
-    is up for the next minutes), and the catalog dir with the test element sets."""
-    from skyfield.api import EarthSatellite, wgs84
-
-    from urc.tracking import sky
-    from urc.tracking.elements import load_elements
-
-    fixtures = Path(__file__).resolve().parents[1] / "tracking" / "fixtures"
-    noaa = next(s for s in load_elements(fixtures / "leo.tle") if s.norad_id == 33591)
-    ts = sky.timescale()
-    sub = wgs84.subpoint_of(EarthSatellite.from_satrec(noaa.satrec, ts).at(
-        ts.from_datetime(sky.utc_datetime(time.time() + 40.0))))
-    lat = float(sub.latitude.degrees) + (4.0 if sub.latitude.degrees < 80.0 else -4.0)
-    return f"lat_deg = {lat}\nlon_deg = {float(sub.longitude.degrees)}\n", fixtures / "leo.tle"
-
-
 def test_broker_killed_and_restarted_mid_pass(broker, station, clients, tmp_path):
     """Tracking goes on while the broker is away; telemetry resumes when it is back; the
     loss and the return are logged once each."""
@@ -201,7 +183,7 @@ def test_broker_killed_and_restarted_mid_pass(broker, station, clients, tmp_path
 
     from urc.cli import main as cli
 
-    where, tle = _noaa19_station()
+    where, tle = overhead_station()
     cat = tmp_path / "cat"
     assert CliRunner().invoke(cli, ["tle", "import", str(tle), "--catalog-dir", str(cat)]).exit_code == 0
     u = station("dish", broker.url, station_extra=where + f"[tracking]\ncatalog_dir = '{cat}'\n")
