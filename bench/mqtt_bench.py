@@ -12,8 +12,12 @@
    under 1 s old: N stations tracking at once; each second every station's age
    (now - t_unix_s of its newest status) is sampled; CPU of the broker and of all urc
    processes (I/O and control) over the window.
+4. The control loop with MQTT on and the broker flapping: two stations tracking side by
+   side, one with [mqtt], one without; lateness/tick p99 and stalls with the broker
+   steady, then killed and restarted every 2 s.
 Prints a table, writes JSON (default bench/results/mqtt.json). Never gates CI.
-Usage: python bench/mqtt_bench.py [--trials 20] [--window-s 60] [--stations 1,2,4] [--json PATH]
+Usage: python bench/mqtt_bench.py [--trials 20] [--window-s 60] [--stations 1,2,4] [--phase-s 12]
+       [--only latency,tracking,flapping] [--json PATH]
 """
 
 from __future__ import annotations
@@ -206,8 +210,9 @@ def tracking(work: Path, broker: Mosquitto, n: int, window_s: float, where: str,
         u.start()
     c = Client(broker.port, subscribe=("urc/#",))
     try:
-        for u in stations:
-            assert u.post("/api/track", {"kind": "satellite", "norad": 33591}).status_code == 200
+        for u in stations:  # (planning the pass takes a while on a busy host)
+            assert httpx.post(u.url + "/api/track", json={"kind": "satellite", "norad": 33591},
+                              timeout=120).status_code == 200
         for name in names:
             wait_until(lambda: ((c.last(f"urc/{name}/status") or {}).get("tracking") or {}).get("state")
                        in ("tracking", "prepositioning"), 60, f"{name} tracking")
@@ -248,22 +253,91 @@ def tracking(work: Path, broker: Mosquitto, n: int, window_s: float, where: str,
                             "urc_total": sum(cpu[p] for p in pids)}}
 
 
+# ---------------------------------------------------------------------- 4. the loop, broker flapping
+def flapping(work: Path, broker: Mosquitto, phase_s: float, where: str, cat: Path) -> dict:
+    """Two stations tracking side by side, one with MQTT and one without: the control
+    loop's lateness p99 and stalls (its own window: the last 500 ticks) with the broker
+    steady, then killed and restarted every 2 s."""
+    with_mqtt = make_station(work, "flap-mqtt", broker.url, where, cat).start()
+    d = work / "flap-none"
+    d.mkdir()
+    without = UrcProcess(d, extra=f'[station]\nname = "flap-none"\n{where}[tracking]\ncatalog_dir = \'{cat}\'\n').start()
+    out: dict = {}
+    try:
+        for u in (with_mqtt, without):
+            assert httpx.post(u.url + "/api/track", json={"kind": "satellite", "norad": 33591},
+                              timeout=120).status_code == 200
+        time.sleep(5.0)
+        for phase in ("broker steady", "broker flapping"):
+            t0 = time.monotonic()
+            flaps = 0
+            while time.monotonic() - t0 < phase_s:
+                if phase == "broker flapping":
+                    broker.kill()
+                    time.sleep(1.0)
+                    broker.start()
+                    flaps += 1
+                    time.sleep(1.0)
+                else:
+                    time.sleep(1.0)
+            out[phase] = {"flaps": flaps}
+            for name, u in (("mqtt", with_mqtt), ("no mqtt", without)):
+                s = u.status()
+                out[phase][name] = {"late_p99_ms": s["loop"]["late_p99_ms"], "tick_p99_ms": s["loop"]["tick_p99_ms"],
+                                    "stalls": s["loop"]["stalls"], "faults": [f["kind"] for f in s["faults"]],
+                                    "tracking": (s.get("tracking") or {}).get("target")}
+    finally:
+        log = with_mqtt.stop()
+        without.stop()
+    out["lost_broker_log_lines"] = log.count("unreachable or lost")
+    out["broker_back_log_lines"] = log.count("reachable again")
+    return out
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--trials", type=int, default=20, help="gotos per path (latency)")
     ap.add_argument("--window-s", type=float, default=60.0, help="tracking window per station count")
     ap.add_argument("--stations", default="1,2,4", help="station counts to try (comma separated)")
+    ap.add_argument("--phase-s", type=float, default=12.0, help="loop timing: each broker phase")
+    ap.add_argument("--only", default="latency,tracking,flapping", help="which parts to run")
     ap.add_argument("--json", default=str(ROOT / "bench" / "results" / "mqtt.json"))
     args = ap.parse_args()
     work = Path(tempfile.mkdtemp(prefix="urc-mqtt-bench-"))
     broker = Mosquitto(work / "broker").start()
+    parts = set(args.only.split(","))
+    lat, runs, flap = None, [], None
+    ratio = None
+    print(f"MQTT benchmark ({os.cpu_count()} CPUs, load average {os.getloadavg()[0]:.1f} at start, Mosquitto, "
+          "urc run on the simulator)", flush=True)
     try:
-        lat = latency(work, broker, args.trials)
+        if "latency" in parts:
+            lat = latency(work, broker, args.trials)
+            ratio = report_latency(lat)
         where, cat = catalog(work)
-        runs = [tracking(work, broker, int(n), args.window_s, where, cat) for n in args.stations.split(",")]
+        if "tracking" in parts:
+            for n in args.stations.split(","):
+                runs.append(tracking(work, broker, int(n), args.window_s, where, cat))
+            report_tracking(runs)
+        if "flapping" in parts:
+            flap = flapping(work, broker, args.phase_s, where, cat)
     finally:
         broker.stop()
-    print(f"MQTT benchmark ({os.cpu_count()} CPUs, Mosquitto, urc run on the simulator)")
+    load = os.getloadavg()
+    if flap is not None:
+        print("\ncontrol loop while tracking, MQTT on vs off side by side (lateness / tick p99 ms, stalls)")
+        for phase in ("broker steady", "broker flapping"):
+            r = flap[phase]
+            print(f"  {phase:<16} " + "   ".join(
+                f"{name}: {r[name]['late_p99_ms']:.2f} / {r[name]['tick_p99_ms']:.2f} ms, {r[name]['stalls']} stalls, "
+                f"faults {r[name]['faults'] or 'none'}" for name in ("mqtt", "no mqtt")) +
+                (f"  ({r['flaps']} restarts)" if r["flaps"] else ""))
+        print(f"  log lines: broker lost x{flap['lost_broker_log_lines']}, back x{flap['broker_back_log_lines']}")
+    write_json({"load_average": load, "latency": lat, "ratio_mqtt_over_rotctld": ratio, "tracking": runs,
+                "loop_with_broker_flapping": flap}, args.json)
+
+
+def report_latency(lat: dict) -> dict:
     print(f"\ncommand to motion, goto az/el (ms, median / p95; the status is read every "
           f"{lat['status_read_ms_median']:.1f} ms)")
     print(f"  {'':<10} {'acknowledged':>16} {'setpoint in status':>20} {'iron turns':>18}")
@@ -272,7 +346,11 @@ def main() -> None:
         print(f"  {path:<10} " + " ".join(f"{d[k]['median']:>8.1f} / {d[k]['p95']:<6.1f}".rjust(w) for k, w in
                                            (("ack_ms", 16), ("setpoint_ms", 20), ("motion_ms", 18))))
     ratio = {k: lat["mqtt"][k]["median"] / lat["rotctld"][k]["median"] for k in ("ack_ms", "setpoint_ms", "motion_ms")}
-    print("  mqtt/rotctld " + ", ".join(f"{k[:-3]} x{v:.2f}" for k, v in ratio.items()))
+    print("  mqtt/rotctld " + ", ".join(f"{k[:-3]} x{v:.2f}" for k, v in ratio.items()), flush=True)
+    return ratio
+
+
+def report_tracking(runs: list[dict]) -> None:
     print("\nwhile tracking NOAA 19 (per station)")
     print(f"  {'N':>3} {'msgs/min':>9} {'KiB/min':>8} {'status B':>9} {'age p99 s':>10} {'age max s':>10} "
           f"{'<1 s':>5} {'broker %':>9} {'urc I/O %':>10} {'urc ctl %':>10}")
@@ -280,8 +358,8 @@ def main() -> None:
         print(f"  {r['stations']:>3} {r['msgs_per_min_per_station']:>9.0f} {r['bytes_per_min_per_station'] / 1024:>8.1f} "
               f"{r['status_bytes_mean']:>9.0f} {r['status_age_s']['p99']:>10.2f} {r['status_age_s']['max']:>10.2f} "
               f"{'yes' if r['all_under_1s'] else 'NO':>5} {r['cpu_percent']['broker']:>9.1f} "
-              f"{r['cpu_percent']['urc_io_per_station']:>10.1f} {r['cpu_percent']['urc_control_per_station']:>10.1f}")
-    write_json({"latency": lat, "ratio_mqtt_over_rotctld": ratio, "tracking": runs}, args.json)
+              f"{r['cpu_percent']['urc_io_per_station']:>10.1f} {r['cpu_percent']['urc_control_per_station']:>10.1f}",
+              flush=True)
 
 
 if __name__ == "__main__":

@@ -24,13 +24,17 @@ class Mosquitto:
     """``users``: name -> password; with them a password file and ``acl`` (the text of an
     ACL file) are written and anonymous clients are refused."""
 
-    def __init__(self, workdir: Path, users: dict[str, str] | None = None, acl: str = ""):
+    def __init__(self, workdir: Path, users: dict[str, str] | None = None, acl: str = "",
+                 tls: "Pki | None" = None):
         self.workdir = workdir
         workdir.mkdir(parents=True, exist_ok=True)
         self.port = free_port()
-        self.url = f"mqtt://127.0.0.1:{self.port}"
+        self.url = f"{'mqtts' if tls else 'mqtt'}://127.0.0.1:{self.port}"
         lines = [f"listener {self.port} 127.0.0.1", "persistence false", "log_dest stdout",
                  "log_type error", "log_type warning"]
+        if tls is not None:  # TLS, and only clients with a certificate from our CA
+            lines += [f"cafile {tls.ca}", f"certfile {tls.server_cert}", f"keyfile {tls.server_key}",
+                      "require_certificate true"]
         if os.geteuid() == 0:  # (as root it would become user mosquitto: unable to read our files)
             lines.append("user root")
         if users:
@@ -73,13 +77,39 @@ class Mosquitto:
         self.kill()
 
 
+class Pki:
+    """A throwaway CA (openssl) with a server certificate for 127.0.0.1 and a client one."""
+
+    def __init__(self, workdir: Path):
+        workdir.mkdir(parents=True, exist_ok=True)
+        self.ca, ca_key = workdir / "ca.pem", workdir / "ca.key"
+        self._openssl("req", "-x509", "-newkey", "rsa:2048", "-nodes", "-days", "2", "-subj", "/CN=urc test CA",
+                      "-keyout", ca_key, "-out", self.ca)
+        self.server_cert, self.server_key = self._issue(workdir, "server", ca_key, "subjectAltName=IP:127.0.0.1")
+        self.client_cert, self.client_key = self._issue(workdir, "client", ca_key, "extendedKeyUsage=clientAuth")
+
+    def _issue(self, workdir: Path, name: str, ca_key: Path, ext: str) -> tuple[Path, Path]:
+        key, csr, cert = workdir / f"{name}.key", workdir / f"{name}.csr", workdir / f"{name}.pem"
+        self._openssl("req", "-newkey", "rsa:2048", "-nodes", "-subj", f"/CN={name}", "-keyout", key, "-out", csr)
+        (workdir / f"{name}.ext").write_text(ext + "\n")
+        self._openssl("x509", "-req", "-in", csr, "-CA", self.ca, "-CAkey", ca_key, "-CAcreateserial",
+                      "-days", "2", "-extfile", workdir / f"{name}.ext", "-out", cert)
+        return cert, key
+
+    @staticmethod
+    def _openssl(*args) -> None:
+        subprocess.run(["openssl", *map(str, args)], check=True, capture_output=True)
+
+
 class Client:
     """A paho client that records every message it receives (topic -> payloads)."""
 
     def __init__(self, port: int, username: str | None = None, password: str | None = None,
-                 subscribe: tuple[str, ...] = ("#",)):
+                 subscribe: tuple[str, ...] = ("#",), tls: Pki | None = None):
         self.c = paho.Client(paho.CallbackAPIVersion.VERSION2, client_id=f"test-{uuid.uuid4().hex[:8]}",
                              protocol=paho.MQTTv5)
+        if tls is not None:
+            self.c.tls_set(ca_certs=str(tls.ca), certfile=str(tls.client_cert), keyfile=str(tls.client_key))
         if username:
             self.c.username_pw_set(username, password)
         self.lock = threading.Lock()
