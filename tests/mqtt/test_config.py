@@ -58,3 +58,20 @@ def test_base_topic_from_the_station_name_or_host():
 def test_round_trip_through_toml():
     cfg = loads_config('[mqtt]\nurl = "mqtts://b:8883"\nusername = "u"\npassword = "p"\ndiscovery = false\n')
     assert loads_config(cfg.to_toml()) == cfg
+
+
+def test_settings_page_never_shows_the_broker_password_and_keeps_it(tmp_path):
+    """GET /api/settings is open to read: the [mqtt] password stays out of it (as the API
+    token does), and saving the page's document back keeps it; [mqtt] waits for a restart."""
+    from urc.web.settings_store import RESTART_SECTIONS, SettingsStore
+
+    cfg = loads_config('[mqtt]\nurl = "mqtt://b"\nusername = "dish"\npassword = "pw-123"\n')
+    store = SettingsStore(cfg, tmp_path / "urc.toml", None)
+    doc = store.document()["config"]
+    assert "password" not in doc["mqtt"] and "pw-123" not in repr(doc)
+    doc["mqtt"]["url"] = "mqtt://other"
+    new, errors = store.validate(doc)
+    assert not errors and new.mqtt.password == "pw-123" and new.mqtt.url == "mqtt://other"
+    assert store.changed_sections(new) == ["mqtt"] and "mqtt" in RESTART_SECTIONS
+    doc["mqtt"]["password"] = "changed"
+    assert store.validate(doc)[0].mqtt.password == "changed"
