@@ -14,7 +14,6 @@ import uuid
 from pathlib import Path
 
 import paho.mqtt.client as paho
-
 from urc_process import free_port, wait_until
 
 MOSQUITTO = shutil.which("mosquitto") or "/usr/sbin/mosquitto"
@@ -25,7 +24,7 @@ class Mosquitto:
     ACL file) are written and anonymous clients are refused."""
 
     def __init__(self, workdir: Path, users: dict[str, str] | None = None, acl: str = "",
-                 tls: "Pki | None" = None):
+                 tls: Pki | None = None):
         self.workdir = workdir
         workdir.mkdir(parents=True, exist_ok=True)
         self.port = free_port()
@@ -55,7 +54,7 @@ class Mosquitto:
         self.conf.write_text("\n".join(lines) + "\n")
         self.proc: subprocess.Popen | None = None
 
-    def start(self) -> "Mosquitto":
+    def start(self) -> Mosquitto:
         self.proc = subprocess.Popen([MOSQUITTO, "-c", str(self.conf)], stdout=subprocess.PIPE,
                                      stderr=subprocess.STDOUT, text=True)
         import socket

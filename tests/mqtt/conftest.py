@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import pytest
-
 from urc_process import UrcProcess
 
 from .broker import Client, Mosquitto

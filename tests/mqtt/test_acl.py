@@ -7,7 +7,6 @@ from __future__ import annotations
 import json
 
 import pytest
-
 from urc_process import wait_until
 
 from .broker import Client, Mosquitto

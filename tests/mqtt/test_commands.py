@@ -8,7 +8,14 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from urc.mqtt.commands import MAX_PAYLOAD_BYTES, BadCommand, Goto, Stop, Track, parse_command
+from urc.mqtt.commands import (
+    MAX_PAYLOAD_BYTES,
+    BadCommand,
+    Goto,
+    Stop,
+    Track,
+    parse_command,
+)
 
 
 def test_commands_parse():

@@ -6,7 +6,6 @@ from __future__ import annotations
 import time
 
 import pytest
-
 from urc_process import wait_until
 
 from .broker import Mosquitto, Pki

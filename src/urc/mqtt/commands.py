@@ -79,7 +79,7 @@ class TrackStop(_Cmd):
     command: Literal["track_stop"]
 
 
-Command = Annotated[Union[Goto, Stop, Park, ClearFaults, Track, TrackStop], Field(discriminator="command")]
+Command = Annotated[Goto | Stop | Park | ClearFaults | Track | TrackStop, Field(discriminator="command")]
 _COMMAND = TypeAdapter(Command)
 COMMANDS = ("goto", "stop", "park", "clear_faults", "track", "track_stop")
 

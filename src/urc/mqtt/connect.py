@@ -8,7 +8,6 @@ from typing import Any
 
 from .config import Broker
 
-
 #: paho's own log: it logs every failed socket read (each reconnection attempt to a
 #: broker that refuses the TLS handshake); urc.mqtt logs the loss once instead
 _PAHO_LOG = logging.getLogger("urc.mqtt.paho")

@@ -154,6 +154,6 @@ async def send_command(broker: Broker, base: str, command: dict[str, Any], timeo
             raise CommandFailed("the broker closed the connection")
         try:
             return await asyncio.wait_for(result(), timeout_s)
-        except asyncio.TimeoutError:
+        except TimeoutError:
             raise CommandFailed(f"no answer from {base} within {timeout_s:g} s (is it running and connected?)") \
                 from None

@@ -5,7 +5,6 @@ from __future__ import annotations
 import asyncio
 import json
 import sys
-import time
 from dataclasses import dataclass
 from typing import Any
 
@@ -108,15 +107,20 @@ async def _show(target: _Target, once: bool, wait_s: float, as_json: bool) -> No
             finally:
                 painter.cancel()
         return
-    last = [""]
-    shown_s = [0.0]
-
-    def plain() -> None:  # not a terminal: a new table when something changed, at most once a second
-        text = plain_table(fleet.rows())
-        if text != last[0] and time.monotonic() - shown_s[0] >= 1.0:
-            click.echo(text + "\n", nl=True)
-            last[0], shown_s[0] = text, time.monotonic()
-    await watch(target.broker, fleet, plain, **target.auth)
+    # not a terminal: the table again whenever it changed, checked once a second
+    async def reprint() -> None:
+        last = ""
+        while True:
+            await asyncio.sleep(1.0)
+            text = plain_table(fleet.rows())
+            if text != last:
+                click.echo(text + "\n")
+                last = text
+    printer = asyncio.create_task(reprint())
+    try:
+        await watch(target.broker, fleet, lambda: None, **target.auth)
+    finally:
+        printer.cancel()
 
 
 def _send(target: _Target, station: str, command: dict) -> None:

@@ -15,7 +15,8 @@ import json
 import logging
 import os
 import time
-from typing import Any, Callable
+from collections.abc import Callable
+from typing import Any
 
 from .commands import CommandHandler
 from .config import MqttSection, parse_url
@@ -77,7 +78,7 @@ class MqttService:
         await stop.wait()
         try:
             await asyncio.wait_for(inner, STOP_GRACE_S)
-        except (asyncio.TimeoutError, asyncio.CancelledError):
+        except (TimeoutError, asyncio.CancelledError):
             pass
         except Exception:
             log.exception("MQTT client failed while stopping")
