@@ -281,6 +281,15 @@ def flapping(work: Path, broker: Mosquitto, phase_s: float, where: str, cat: Pat
                 else:
                     time.sleep(1.0)
             out[phase] = {"flaps": flaps}
+            if flaps:  # telemetry resumes: a status taken after the last restart reaches a client
+                back = time.time()
+                c = Client(broker.port, subscribe=("urc/flap-mqtt/status",))
+                try:
+                    wait_until(lambda: any(m["t_unix_s"] > back for m in c.json_on("urc/flap-mqtt/status")),
+                               60, "telemetry after the flapping")
+                    out[phase]["telemetry_resumed_after_s"] = round(time.time() - back, 1)
+                finally:
+                    c.close()
             for name, u in (("mqtt", with_mqtt), ("no mqtt", without)):
                 s = u.status()
                 out[phase][name] = {"late_p99_ms": s["loop"]["late_p99_ms"], "tick_p99_ms": s["loop"]["tick_p99_ms"],
@@ -331,7 +340,8 @@ def main() -> None:
             print(f"  {phase:<16} " + "   ".join(
                 f"{name}: {r[name]['late_p99_ms']:.2f} / {r[name]['tick_p99_ms']:.2f} ms, {r[name]['stalls']} stalls, "
                 f"faults {r[name]['faults'] or 'none'}" for name in ("mqtt", "no mqtt")) +
-                (f"  ({r['flaps']} restarts)" if r["flaps"] else ""))
+                (f"  ({r['flaps']} restarts; telemetry back {r['telemetry_resumed_after_s']:.1f} s after the last)"
+                 if r["flaps"] else ""))
         print(f"  log lines: broker lost x{flap['lost_broker_log_lines']}, back x{flap['broker_back_log_lines']}")
     write_json({"load_average": load, "latency": lat, "ratio_mqtt_over_rotctld": ratio, "tracking": runs,
                 "loop_with_broker_flapping": flap}, args.json)
