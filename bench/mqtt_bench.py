@@ -145,7 +145,12 @@ class TruthPoller:
 
 def latency(work: Path, broker: Mosquitto, trials: int) -> dict:
     rot_port = free_port()
-    u = make_station(work, "lat", broker.url, serve=[{"protocol": "rotctld", "tcp": f"127.0.0.1:{rot_port}"}]).start()
+    u = make_station(work, "lat", broker.url, serve=[{"protocol": "rotctld", "tcp": f"127.0.0.1:{rot_port}"}])
+    try:
+        u.start(timeout_s=120.0)
+    except BaseException:
+        u.stop()
+        raise
     base = "urc/lat"
     c = Client(broker.port, subscribe=(f"{base}/cmd/result",))
     results: dict[str, float] = {}
@@ -206,10 +211,11 @@ def latency(work: Path, broker: Mosquitto, trials: int) -> dict:
 def tracking(work: Path, broker: Mosquitto, n: int, window_s: float, where: str, cat: Path) -> dict:
     names = [f"s{n}-{i}" for i in range(n)]
     stations = [make_station(work, name, broker.url, where, cat) for name in names]
-    for u in stations:
-        u.start()
-    c = Client(broker.port, subscribe=("urc/#",))
-    try:
+    c = None
+    try:  # (every station started is stopped, whatever fails)
+        for u in stations:
+            u.start(timeout_s=120.0)  # (a busy host starts many slowly)
+        c = Client(broker.port, subscribe=("urc/#",))
         for u in stations:  # (planning the pass takes a while on a busy host)
             assert httpx.post(u.url + "/api/track", json={"kind": "satellite", "norad": 33591},
                               timeout=120).status_code == 200
@@ -236,7 +242,8 @@ def tracking(work: Path, broker: Mosquitto, n: int, window_s: float, where: str,
         per = {name: [(t, p) for t, p, _ in window if t.startswith(f"urc/{name}/")] for name in names}
         states = {name: (c.last(f"urc/{name}/status") or {}).get("state") for name in names}
     finally:
-        c.close()
+        if c is not None:
+            c.close()
         for u in stations:
             u.stop()
     msgs = [len(v) / elapsed * 60.0 for v in per.values()]
@@ -258,12 +265,15 @@ def flapping(work: Path, broker: Mosquitto, phase_s: float, where: str, cat: Pat
     """Two stations tracking side by side, one with MQTT and one without: the control
     loop's lateness p99 and stalls (its own window: the last 500 ticks) with the broker
     steady, then killed and restarted every 2 s."""
-    with_mqtt = make_station(work, "flap-mqtt", broker.url, where, cat).start()
+    with_mqtt = make_station(work, "flap-mqtt", broker.url, where, cat)
     d = work / "flap-none"
     d.mkdir()
-    without = UrcProcess(d, extra=f'[station]\nname = "flap-none"\n{where}[tracking]\ncatalog_dir = \'{cat}\'\n').start()
+    without = UrcProcess(d, extra=f'[station]\nname = "flap-none"\n{where}[tracking]\ncatalog_dir = \'{cat}\'\n')
     out: dict = {}
+    log = ""
     try:
+        with_mqtt.start(timeout_s=120.0)
+        without.start(timeout_s=120.0)
         for u in (with_mqtt, without):
             assert httpx.post(u.url + "/api/track", json={"kind": "satellite", "norad": 33591},
                               timeout=120).status_code == 200
