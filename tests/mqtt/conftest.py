@@ -45,7 +45,7 @@ def station(tmp_path):
         work.mkdir()
         u = UrcProcess(work, extra=f'[station]\nname = "{name}"\n{station_extra}' + mqtt_section(url, **mqtt_keys))
         made.append(u)
-        return u.start() if start else u
+        return u.start(timeout_s=90.0) if start else u  # (generous: a busy CI host starts slowly)
     yield make
     for u in made:
         if u.proc is not None and u.proc.poll() is None:

@@ -52,9 +52,6 @@ class MqttService:
         self.version = version
         self.gate = StatusGate(section.deadband_deg, section.max_rate_hz, section.refresh_s)
         self.watcher = EventWatcher()
-        self.connected = False
-        #: counts for the benchmark and the logs
-        self.published = {"messages": 0, "bytes": 0}
         self._down_logged = False
         self._ever_connected = False
 
@@ -97,11 +94,7 @@ class MqttService:
                         print(f"urc: MQTT connected to {self.where}, topics under {self.topics.base}/", flush=True)
                     self._ever_connected = True
                     self._down_logged = False
-                    self.connected = True
-                    try:
-                        await self._session(client, stop)
-                    finally:
-                        self.connected = False
+                    await self._session(client, stop)
             except (aiomqtt.MqttError, OSError, ValueError) as exc:
                 if not self._down_logged:  # once per loss, not once per attempt
                     log.warning("MQTT: broker %s unreachable or lost (%s); retrying with back-off up to %g s",
@@ -115,13 +108,11 @@ class MqttService:
 
     async def _publish(self, client: Any, topic: str, payload: str, qos: int = 0, retain: bool = False) -> None:
         await client.publish(topic, payload, qos=qos, retain=retain)
-        self.published["messages"] += 1
-        self.published["bytes"] += len(topic) + len(payload.encode())
 
     async def _session(self, client: Any, stop: asyncio.Event) -> None:
-        t = self.topics
         from paho.mqtt.subscribeoptions import SubscribeOptions
 
+        t = self.topics
         # retain as published: a retained command is seen as one, and refused, even live
         await client.subscribe(t.cmd, options=SubscribeOptions(qos=1, retainAsPublished=True))
         await self._publish(client, t.availability, ONLINE, qos=1, retain=True)
