@@ -153,11 +153,11 @@ class Client:
         got = self.json_on(topic)
         return got[-1] if got else None
 
-    def result(self, base: str, cmd_id, timeout_s: float = 20.0) -> dict:
+    def result(self, base: str, cmd_id, timeout_s: float = 60.0) -> dict:
         return wait_until(lambda: next((r for r in self.json_on(f"{base}/cmd/result") if r.get("id") == cmd_id),
                                        None), timeout_s, f"result of command {cmd_id!r}")
 
-    def command(self, base: str, doc: dict, timeout_s: float = 20.0) -> dict:
+    def command(self, base: str, doc: dict, timeout_s: float = 60.0) -> dict:
         self.publish(f"{base}/cmd", json.dumps(doc))
         return self.result(base, doc.get("id"), timeout_s)
 

@@ -18,7 +18,7 @@ def test_three_stations_listed_and_commanded(broker, station, clients):
     names = ["yagi", "dish", "hf beam"]
     stations = {n: station(n, broker.url) for n in names}
     watch = clients(broker.port)
-    wait_until(lambda: all(watch.last(f"urc/{k}/status") for k in ("yagi", "dish", "hf-beam")), 30, "three statuses")
+    wait_until(lambda: all(watch.last(f"urc/{k}/status") for k in ("yagi", "dish", "hf-beam")), 60, "three statuses")
 
     res = fleet(broker.url, "--once", "--wait-s", "2")
     assert res.returncode == 0, res.stderr
@@ -31,11 +31,11 @@ def test_three_stations_listed_and_commanded(broker, station, clients):
     # a command to one station: it moves, the others do not
     res = fleet(broker.url, "goto", "dish", "200", "20")
     assert res.returncode == 0 and "urc/dish: goto accepted" in res.stdout, res.stdout + res.stderr
-    stations["dish"].wait(lambda s: s["moving"], 20)
+    stations["dish"].wait(lambda s: s["moving"], 60)
     assert stations["yagi"].status()["target_az_deg"] is None
     res = fleet(broker.url, "stop", "dish")
     assert res.returncode == 0 and "stop accepted" in res.stdout, res.stdout + res.stderr
-    stations["dish"].wait(lambda s: not s["moving"], 30)
+    stations["dish"].wait(lambda s: not s["moving"], 60)
     # refused by the gate: the reason, exit status 1
     res = fleet(broker.url, "goto", "yagi", "--", "10", "-40")
     assert res.returncode == 1 and "refused" in res.stderr, res.stdout + res.stderr

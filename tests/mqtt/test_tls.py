@@ -38,7 +38,7 @@ def test_tls_without_a_client_certificate_is_refused(tls_broker, pki, station):
     # (TLS 1.3: the broker's refusal comes after the handshake; the attempt ends when
     # aiomqtt's connect timeout (10 s) expires: let two attempts fail)
     time.sleep(25.0)
-    u.wait(lambda s: s["target_az_deg"] == 15.0 and not s["faults"], 10)
+    u.wait(lambda s: s["target_az_deg"] == 15.0 and not s["faults"], 60)
     out = u.stop()
     assert out.count("unreachable or lost") == 1 and "certificate required" not in out, out
 
