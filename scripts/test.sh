@@ -11,7 +11,9 @@ cd "$(dirname "$0")/.."
 # never downloads a browser of its own).
 # gcc, the kernel and Python headers: pip builds evdev's C extension (IR remote tests)
 # from source where no wheel fits; systemd's own systemd-analyze checks urc's unit file.
-DEB_PACKAGES=(libhamlib-utils chromium gcc linux-libc-dev python3-dev systemd)
+# mosquitto: the MQTT tests start their own broker (never the system service); openssl
+# makes their throwaway CA and certificates (mqtts://).
+DEB_PACKAGES=(libhamlib-utils chromium gcc linux-libc-dev python3-dev systemd mosquitto openssl)
 missing=()
 for pkg in "${DEB_PACKAGES[@]}"; do
   dpkg -s "$pkg" >/dev/null 2>&1 || missing+=("$pkg")

@@ -147,6 +147,11 @@ async def _serve(cfg: Config, state_dir: Path, config_path: Path | None, api_soc
         from .frontpanel import serve_panel
 
         panel = asyncio.create_task(serve_panel(cfg, rotator, stop), name="front-panel")
+        from .mqtt import build_service
+
+        mqtt = build_service(cfg, rotator, tracking if tracking.station is not None or tracking.gps is not None
+                             else None, api.state.web.hub)
+        broker = asyncio.create_task(mqtt.run(stop) if mqtt else stop.wait(), name="mqtt")
         notify("READY=1")
         stopper = asyncio.create_task(stop.wait())
         await asyncio.wait({web, stopper}, return_when=asyncio.FIRST_COMPLETED)
@@ -156,7 +161,7 @@ async def _serve(cfg: Config, state_dir: Path, config_path: Path | None, api_soc
         for ep in endpoints:
             ep.close()
         tracking.close()
-        await asyncio.gather(steps, panel, pings, return_exceptions=True)
+        await asyncio.gather(steps, panel, pings, broker, return_exceptions=True)
     finally:
         # every path: the control process stops the axes, waits for standstill, leaves
         # the outputs safe and saves (a failed start above never got here)

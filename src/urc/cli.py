@@ -31,7 +31,8 @@ class _LazyGroup(click.Group):
     """Subcommands that live in heavy modules are imported only when used: `urc status`
     must not pay for numpy and skyfield (the tracking commands)."""
 
-    LAZY = {"passes": "urc.tracking.cli:passes_command", "tle": "urc.tracking.cli:tle_command"}
+    LAZY = {"passes": "urc.tracking.cli:passes_command", "tle": "urc.tracking.cli:tle_command",
+            "fleet": "urc.mqtt.fleet_cli:fleet_command"}
 
     def list_commands(self, ctx: click.Context) -> list[str]:
         return sorted({*super().list_commands(ctx), *self.LAZY})

@@ -39,6 +39,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 from .caps import AxisCaps, RotatorCaps
 from .control.geometry import KeepOut
 from .errors import ConfigError
+from .mqtt.config import MqttSection, mqtt_issues
 from .profiles import DEFAULT_PROFILE, PROFILES
 
 __all__ = [
@@ -608,6 +609,8 @@ class Config(_Section):
     #: protocols served and where; None (no [[serve]] at all) = rotctld on 127.0.0.1:4533
     serve: tuple[ServeEntry, ...] | None = Field(None, strict=False)
     panel: PanelSection = PanelSection()
+    #: None (no [mqtt]) = no broker (urc.mqtt)
+    mqtt: MqttSection | None = None
 
     @property
     def served(self) -> tuple[ServeEntry, ...]:
@@ -744,6 +747,7 @@ def _cross_check(cfg: Config) -> list[_Issue]:
     issues += _bridge_issues(cfg)
     issues += _gpio_issues(cfg, caps)
     issues += _panel_issues(cfg)
+    issues += mqtt_issues(cfg)
 
     for name in ("az", "el"):
         axis = caps.axis(name)

@@ -20,7 +20,7 @@ from ..errors import ConfigError
 
 SOURCE = "settings"
 #: top-level sections whose change only takes effect when ``urc run`` restarts
-RESTART_SECTIONS = ("rotator", "hardware", "api", "state", "serve", "station", "tracking")
+RESTART_SECTIONS = ("rotator", "hardware", "api", "state", "serve", "station", "tracking", "mqtt")
 CONFIG_NAME = "urc.toml"
 
 
@@ -59,6 +59,7 @@ class SettingsStore:
         """What the page edits: the configuration without the token."""
         data = self.cfg.to_dict()
         data.get("api", {}).pop("token", None)
+        data.get("mqtt", {}).pop("password", None)  # (reading is open: the broker's password is not)
         target = self.target_path
         return {
             "config": data,
@@ -75,6 +76,9 @@ class SettingsStore:
         api = data.setdefault("api", {})
         if isinstance(api, dict) and not api.get("token") and self.cfg.api.token:
             api["token"] = self.cfg.api.token
+        mqtt = data.get("mqtt")
+        if isinstance(mqtt, dict) and "password" not in mqtt and self.cfg.mqtt is not None and self.cfg.mqtt.password:
+            mqtt["password"] = self.cfg.mqtt.password
         return data
 
     def validate(self, data: Any) -> tuple[Config | None, list[dict[str, str]]]:

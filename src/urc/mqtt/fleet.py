@@ -1,0 +1,159 @@
+"""The fleet view: every station seen on a broker, from their retained availability and
+status, and one command sent to one station with its result awaited."""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import time
+import uuid
+from dataclasses import dataclass, field
+from typing import Any
+
+from .config import Broker
+from .connect import make_client
+from .topics import OFFLINE, ONLINE, Topics, fleet_patterns, station_of
+
+#: columns of the table: (title, function of a Station)
+COLUMNS = ("station", "online", "az", "el", "state", "faults", "tracking", "next pass", "age")
+
+
+@dataclass
+class Station:
+    key: str                      # its topic level under the prefix
+    online: bool | None = None    # None: no availability seen
+    status: dict[str, Any] = field(default_factory=dict)
+    seen_unix_s: float = 0.0
+
+    def row(self, now_unix_s: float) -> dict[str, str]:
+        s = self.status
+        faults = s.get("faults") or []
+        trk = s.get("tracking") or {}
+        nxt = s.get("next_pass") or {}
+        t = s.get("t_unix_s")
+        return {"station": s.get("station") or self.key,
+                "online": {True: ONLINE, False: OFFLINE, None: "?"}[self.online],
+                "az": _deg(s.get("az_deg")), "el": _deg(s.get("el_deg")),
+                "state": s.get("state", "?"),
+                "faults": "; ".join(f"{f.get('kind')}: {f.get('reason')}" for f in faults) or "-",
+                "tracking": trk.get("target") or "-",
+                "next pass": (nxt.get("aos") or "-")[:19].replace("T", " "),
+                "age": "-" if t is None else f"{max(now_unix_s - t, 0.0):.0f} s"}
+
+
+def _deg(x: Any) -> str:
+    return "-" if x is None else f"{x:.1f}"
+
+
+class Fleet:
+    """Stations under ``prefix`` (``urc`` unless their base topics say otherwise)."""
+
+    def __init__(self, prefix: str = "urc"):
+        self.prefix = prefix.rstrip("/")
+        self.stations: dict[str, Station] = {}
+
+    def feed(self, topic: str, payload: bytes) -> None:
+        where = station_of(topic, self.prefix)
+        if where is None:
+            return
+        key, kind = where
+        if not payload:   # a cleared retained message: nothing to show
+            return
+        st = self.stations.setdefault(key, Station(key))
+        if kind == "availability":
+            st.online = payload.decode(errors="replace") == ONLINE
+        elif kind == "status":
+            try:
+                doc = json.loads(payload)
+            except ValueError:
+                return
+            if isinstance(doc, dict):
+                st.status, st.seen_unix_s = doc, time.time()
+
+    def rows(self, now_unix_s: float | None = None) -> list[dict[str, str]]:
+        now = time.time() if now_unix_s is None else now_unix_s
+        return [self.stations[k].row(now) for k in sorted(self.stations)]
+
+
+def plain_table(rows: list[dict[str, str]]) -> str:
+    if not rows:
+        return "no stations seen"
+    widths = {c: max(len(c), *(len(r[c]) for r in rows)) for c in COLUMNS}
+    lines = ["  ".join(c.upper().ljust(widths[c]) for c in COLUMNS)]
+    lines += ["  ".join(r[c].ljust(widths[c]) for c in COLUMNS) for r in rows]
+    return "\n".join(line.rstrip() for line in lines)
+
+
+def rich_table(rows: list[dict[str, str]]) -> Any:
+    from rich.table import Table
+
+    table = Table(title="urc fleet", expand=False)
+    for c in COLUMNS:
+        table.add_column(c, justify="right" if c in ("az", "el", "age") else "left", no_wrap=c != "faults")
+    for r in rows:
+        style = "red" if r["faults"] != "-" or r["state"] == "fault" else ("dim" if r["online"] != ONLINE else None)
+        table.add_row(*(r[c] for c in COLUMNS), style=style)
+    return table
+
+
+def _client(broker: Broker, **auth: Any) -> Any:
+    return make_client(broker, identifier=f"urc-fleet-{uuid.uuid4().hex[:8]}", **auth)
+
+
+async def watch(broker: Broker, fleet: Fleet, on_change, stop: asyncio.Event | None = None,
+                seconds: float | None = None, **auth: Any) -> None:
+    """Feed ``fleet`` from the broker; ``on_change()`` after each message. Until
+    ``stop`` is set, or for ``seconds`` (the retained messages arrive at once)."""
+    async with _client(broker, **auth) as client:
+        for pattern in fleet_patterns(fleet.prefix).values():
+            await client.subscribe(pattern, qos=1)
+
+        async def read() -> None:
+            async for msg in client.messages:
+                fleet.feed(str(msg.topic), msg.payload if isinstance(msg.payload, bytes) else b"")
+                on_change()
+        reader = asyncio.create_task(read())
+        waits = [reader]
+        if stop is not None:
+            waits.append(asyncio.create_task(stop.wait()))
+        try:
+            await asyncio.wait(waits, timeout=seconds, return_when=asyncio.FIRST_COMPLETED)
+        finally:
+            for t in waits:
+                t.cancel()
+            await asyncio.gather(*waits, return_exceptions=True)
+        if reader.done() and not reader.cancelled() and reader.exception() is not None:
+            raise reader.exception()
+
+
+class CommandFailed(Exception):
+    pass
+
+
+async def send_command(broker: Broker, base: str, command: dict[str, Any], timeout_s: float = 10.0,
+                       **auth: Any) -> dict[str, Any]:
+    """Publish one command to the station at ``base`` and return its result."""
+    topics = Topics(base)
+    cmd_id = f"fleet-{uuid.uuid4().hex[:12]}"
+    async with _client(broker, **auth) as client:
+        await client.subscribe(topics.cmd_result, qos=1)
+        await client.subscribe(topics.availability, qos=1)
+        await client.publish(topics.cmd, json.dumps({"id": cmd_id, **command}), qos=1)
+
+        async def result() -> dict[str, Any]:
+            async for msg in client.messages:
+                if str(msg.topic) == topics.availability and msg.payload == OFFLINE.encode():
+                    raise CommandFailed(f"{base} is offline")
+                if str(msg.topic) == topics.cmd_result:
+                    try:
+                        doc = json.loads(msg.payload)
+                    except ValueError:
+                        continue
+                    if isinstance(doc, dict) and doc.get("id") == cmd_id:
+                        return doc
+            raise CommandFailed("the broker closed the connection")
+        try:
+            return await asyncio.wait_for(result(), timeout_s)
+        except TimeoutError:
+            raise CommandFailed(f"no answer from {base} within {timeout_s:g} s (is it running and connected?)") \
+                from None

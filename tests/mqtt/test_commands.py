@@ -1,0 +1,65 @@
+"""Command payloads: parsed strictly, or refused with the id when it can be read."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from urc.mqtt.commands import (
+    MAX_PAYLOAD_BYTES,
+    BadCommand,
+    Goto,
+    Stop,
+    Track,
+    parse_command,
+)
+
+
+def test_commands_parse():
+    assert parse_command(b'{"id": "a1", "command": "goto", "az_deg": 120.0, "el_deg": 30}') == \
+        Goto(id="a1", command="goto", az_deg=120.0, el_deg=30.0)
+    assert parse_command(b'{"command": "stop", "axis": "el"}') == Stop(command="stop", axis="el")
+    t = parse_command(b'{"id": 7, "command": "track", "kind": "satellite", "norad": 25544}')
+    assert isinstance(t, Track) and t.request() == {"kind": "satellite", "norad": 25544}
+    assert parse_command(b'{"command": "track", "kind": "azel", "az_deg": 10, "el_deg": 20}').request() == \
+        {"kind": "azel", "az_deg": 10.0, "el_deg": 20.0}
+
+
+@pytest.mark.parametrize("doc, cmd_id, says", [
+    ({"id": "a", "command": "goto", "az_deg": 10, "el_deg": 200}, "a", "el_deg"),
+    ({"id": "a", "command": "stop", "axis": "x"}, "a", "axis"),
+    ({"id": "a", "command": "park", "now": True}, "a", "unknown field"),
+    ({"id": "x" * 65, "command": "park"}, None, "id"),
+    ({"id": True, "command": "park"}, None, "id"),
+    ({"id": "a", "command": "track", "kind": "point", "lat_deg": 1.0}, "a", "lon_deg"),
+    ({"id": "a", "command": "track", "kind": "satellite", "norad": "25544"}, "a", "norad"),
+    ({"id": "a", "command": ["goto"]}, "a", "command"),
+])
+def test_refusals(doc, cmd_id, says):
+    with pytest.raises(BadCommand) as err:
+        parse_command(json.dumps(doc).encode())
+    assert err.value.cmd_id == cmd_id and says in str(err.value), str(err.value)
+
+
+def test_deep_nesting_and_size():
+    with pytest.raises(BadCommand, match="not a JSON object"):
+        parse_command(b"[" * 2000 + b"]" * 2000)
+    with pytest.raises(BadCommand, match=f"at most {MAX_PAYLOAD_BYTES}"):
+        parse_command(b" " * (MAX_PAYLOAD_BYTES + 1))
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.one_of(st.binary(max_size=300),
+                 st.recursive(st.none() | st.booleans() | st.floats() | st.integers() | st.text(max_size=20),
+                              lambda c: st.lists(c, max_size=4) | st.dictionaries(st.text(max_size=8), c, max_size=4),
+                              max_leaves=12).map(lambda d: json.dumps(d).encode())))
+def test_anything_is_a_command_or_a_bad_command(payload):
+    try:
+        cmd = parse_command(payload)
+    except BadCommand as exc:
+        assert str(exc) and len(str(exc)) < 1000
+    else:
+        assert cmd.command in ("goto", "stop", "park", "clear_faults", "track", "track_stop")
