@@ -18,6 +18,7 @@ from typing import Annotated, Any, Literal, Union
 from pydantic import BaseModel, ConfigDict, Field, TypeAdapter, ValidationError
 
 from ..errors import CommandRejected, UrcError
+from ..ipc import bridge
 from ..protocols.base import RateLimitedLog
 from ..web.routes_tracking import TrackRequest
 from ..web.schemas import AzDeg, ElDeg
@@ -183,7 +184,7 @@ class CommandHandler:
         hub = self.hub
         if axis is None:
             if hub is not None and hub.procedure is not None:
-                hub.procedure.cancel()
+                await bridge.run(hub.procedure.cancel)
             if self.tracker is not None:
                 await self._tracker_call("stop")
         if hub is not None:
@@ -193,7 +194,8 @@ class CommandHandler:
     async def _tracker_call(self, name: str, *args: Any) -> None:
         if self.tracker is None:
             raise CommandRejected("tracking is off: no [station] configured", "tracking")
-        out = getattr(self.tracker, name)(*args)
+        # (bridged: a tracker command may wait for the control process, never on the loop)
+        out = await bridge.run(getattr(self.tracker, name), *args)
         if inspect.isawaitable(out):
             await out
         if self.hub is not None:
