@@ -451,7 +451,7 @@ class Rotator:
         dt = (1.0 / self.caps.loop_hz) if self._last_t_s is None else max(now - self._last_t_s, 0.0)
         self._last_t_s = now
         self.hw.poll(now)
-        for ax in self.axes.values():
+        for name, ax in self.axes.items():
             meas = ax.read(dt)
             ax.read_switches()
             ax.mon, fault = faultmod.check(ax.mon, MonitorInputs(

@@ -15,7 +15,7 @@ import math
 from typing import Callable, Sequence
 
 from ...clock import Clock
-from ...errors import HardwareError
+from ...errors import ConfigError, HardwareError
 from ..parts import CurrentSense, DigitalIn, DigitalOut, PwmOut, VoltageIn
 
 #: current-sense volts per motor ampere, per bridge as its datasheet and board give it:
@@ -372,3 +372,16 @@ class RelayMotor(DirectionTracker):
 
     def read_current_a(self) -> float:
         return float(self._current.read_current_a()) if self._current is not None else 0.0
+
+
+def sense_v_per_a(cfg: object) -> float:
+    """The axis' current-sense scale: configured, else its bridge's (SENSE_V_PER_A)."""
+    if cfg.current_sense_v_per_a is not None:  # type: ignore[attr-defined]
+        return float(cfg.current_sense_v_per_a)  # type: ignore[attr-defined]
+    try:
+        return SENSE_V_PER_A[cfg.motor]  # type: ignore[attr-defined]
+    except KeyError:
+        raise ConfigError(f"current sense on a {cfg.motor}: set current_sense_v_per_a",
+                          key="hardware.gpio.current_sense_v_per_a",
+                          expected="volts per motor ampere (LMD18200: 377e-6 x the sense resistor)",
+                          found=None) from None

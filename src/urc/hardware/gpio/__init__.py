@@ -21,7 +21,7 @@ from typing import Any
 from ...caps import RotatorCaps
 from ...clock import Clock
 from ...errors import ConfigError
-from ..drivers.motors import BTS7960_FAULT_V
+from ..drivers.motors import BTS7960_FAULT_V, sense_v_per_a
 from ..drivers import (As5600Sensor, Bts7960Motor, CompassSensor, LimitSwitchInput, Lmd18200Motor,
                        PotSensor, PwmDirMotor, QuadratureEncoder, RelayBrake, RelayMotor,
                        SenseCurrent, SpidPulseSensor, TiltSensor, Vnh5019Motor)
@@ -46,18 +46,6 @@ OPTIONAL_PINS = {"relay": ("fast",), "encoder": ("enc_z",), "vnh5019": ("diag",)
 FAULT_INPUT_PINS = ("diag", "thermal_flag")
 
 
-def sense_v_per_a(cfg: Any) -> float:
-    """The axis' current-sense scale: configured, else its bridge's (SENSE_V_PER_A)."""
-    from ..drivers.motors import SENSE_V_PER_A
-    if cfg.current_sense_v_per_a is not None:
-        return float(cfg.current_sense_v_per_a)
-    try:
-        return SENSE_V_PER_A[cfg.motor]
-    except KeyError:
-        raise ConfigError(f"current sense on a {cfg.motor}: set current_sense_v_per_a",
-                          key="hardware.gpio.current_sense_v_per_a",
-                          expected="volts per motor ampere (LMD18200: 377e-6 x the sense resistor)",
-                          found=None) from None
 SENSOR_PINS = {"encoder": ("enc_a", "enc_b"), "pulse": ("pulse",)}
 
 

@@ -262,7 +262,7 @@ def feed_current_sense(phys: Any, cfg: Any, devices: dict[int, Any], fake_spi: d
     else:
         addr = cfg.i2c_address or 0x48
         dev = devices.get(addr) or devices.setdefault(addr, FakeAds1115({}))
-    from . import sense_v_per_a
+    from ..drivers.motors import sense_v_per_a
     v_per_a = sense_v_per_a(cfg)
     dev.inputs[cfg.current_sense_channel] = lambda: abs(phys.current_a()) * v_per_a
 
