@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import json
 import logging
+import math
 import os
 import shutil
 import time
@@ -31,7 +32,34 @@ MARKER = "urc-initialised"
 
 
 def _canonical(payload: dict[str, Any]) -> bytes:
-    return json.dumps(payload, sort_keys=True, separators=(",", ":")).encode()
+    # allow_nan=False: a NaN or infinity is never written (ValueError instead)
+    return json.dumps(payload, sort_keys=True, separators=(",", ":"), allow_nan=False).encode()
+
+
+def nonfinite_field(value: Any, where: str = "payload") -> str | None:
+    """Where the first NaN or infinite number in a decoded record is, None if there is
+    none. Python's JSON reader accepts NaN and Infinity, and a checksum computed over
+    such a value is valid, so a record must be checked for them before it is trusted."""
+    if isinstance(value, float):
+        return None if math.isfinite(value) else where
+    if isinstance(value, dict):
+        items: Any = value.items()
+    elif isinstance(value, list):
+        items = enumerate(value)
+    else:
+        return None
+    for key, item in items:
+        found = nonfinite_field(item, f"{where}.{key}")
+        if found is not None:
+            return found
+    return None
+
+
+def check_finite(payload: dict[str, Any], name: Any) -> None:
+    """StateFileError if ``payload`` holds a NaN or an infinity (a damaged record)."""
+    bad = nonfinite_field(payload)
+    if bad is not None:
+        raise StateFileError(f"{name}: {bad} is not a finite number; the record is damaged")
 
 
 @dataclass
@@ -58,6 +86,7 @@ class StateStore:
         payload = record.get("payload")
         if not isinstance(payload, dict):
             raise StateFileError(f"{self.path}: no payload")
+        check_finite(payload, self.path)
         crc = zlib.crc32(_canonical(payload))
         if record.get("crc32") != crc:
             raise StateFileError(f"{self.path}: checksum mismatch (stored {record.get('crc32')}, "
@@ -65,6 +94,7 @@ class StateStore:
         return payload
 
     def save(self, payload: dict[str, Any]) -> None:
+        check_finite(payload, self.path)  # never write back what load would call damaged
         record = {"format": FORMAT, "version": VERSION, "saved_unix_s": time.time(),
                   "crc32": zlib.crc32(_canonical(payload)), "payload": payload}
         self.path.parent.mkdir(parents=True, exist_ok=True)
