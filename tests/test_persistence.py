@@ -94,3 +94,29 @@ def test_non_finite_value_is_never_written(tmp_path):
     with pytest.raises(StateFileError, match="not a finite number"):
         store.save({"profile": "x", "axes": {"az": {"mech_deg": float("nan")}}})
     assert store.load() == PAYLOAD, "the good record stays"
+
+
+def test_a_fifo_in_place_of_the_state_file_is_an_error_not_a_hang(tmp_path):
+    """Reading a FIFO blocks until a writer comes; the control process must not."""
+    import os
+    import threading
+
+    store = StateStore(tmp_path / "state.json")
+    os.mkfifo(store.path)
+    outcome: list[BaseException | object] = []
+
+    def load():
+        try:
+            outcome.append(store.load())
+        except BaseException as exc:  # noqa: BLE001 - recorded for the assertion
+            outcome.append(exc)
+    t = threading.Thread(target=load, daemon=True)
+    t.start()
+    t.join(timeout=10.0)  # a hang guard, not a measurement
+    if t.is_alive():
+        with open(store.path, "wb"):  # let the blocked reader go
+            pass
+        t.join()
+        pytest.fail("loading a FIFO blocked")
+    assert isinstance(outcome[0], StateFileError) and "not a regular file (a FIFO)" in str(outcome[0])
+    assert store.quarantine() is None, "nothing copied (copying a FIFO would block too)"

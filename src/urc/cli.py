@@ -12,7 +12,7 @@ from pathlib import Path
 import click
 
 from . import __version__
-from .errors import ConfigError
+from .errors import ConfigError, StateFileError
 
 DEFAULT_URL = "http://127.0.0.1:8080"
 
@@ -63,8 +63,9 @@ def run(config_path: str | None, profile: str | None, state_dir: str | None, por
                           config_path=Path(config_path) if config_path else None))
     except ConfigError as exc:
         raise click.ClickException(str(exc)) from None
-    except (InstanceLocked, OSError) as exc:
-        # another urc on this state dir or hardware, a port in use: nothing was started
+    except (InstanceLocked, OSError, StateFileError) as exc:
+        # another urc on this state dir or hardware, a port in use, a state dir holding
+        # something other than files: nothing was started
         raise _Busy(f"cannot start: {exc}") from None
 
 

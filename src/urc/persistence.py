@@ -16,6 +16,7 @@ import logging
 import math
 import os
 import shutil
+import stat
 import time
 import zlib
 from dataclasses import dataclass
@@ -72,7 +73,7 @@ class StateStore:
     def load(self) -> dict[str, Any] | None:
         """The saved payload, None if there is none; StateFileError if it is damaged."""
         try:
-            raw = self.path.read_bytes()
+            raw = _read_regular(self.path)
         except FileNotFoundError:
             return None
         try:
@@ -128,8 +129,8 @@ class StateStore:
     def quarantine(self) -> Path | None:
         """Keep a copy of a damaged file for inspection. The file itself stays until the
         next save replaces it, so there is never a moment without a record to read."""
-        if not self.path.exists():
-            return None
+        if not self.path.is_file():
+            return None  # (nothing, or not a file: copying a FIFO would block)
         dest = self.path.with_name(f"{self.path.name}.corrupt-{time.time_ns()}")
         try:
             os.link(self.path, dest)
@@ -137,6 +138,46 @@ class StateStore:
             shutil.copyfile(self.path, dest)
         log.warning("damaged state file copied to %s", dest)
         return dest
+
+
+def _read_regular(path: Path) -> bytes:
+    """The bytes of a regular file; StateFileError for anything else. Opened without
+    blocking, so a FIFO or a device in its place cannot hang the control process."""
+    fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
+    try:
+        mode = os.fstat(fd).st_mode
+        if not stat.S_ISREG(mode):
+            raise StateFileError(f"{path}: not a regular file ({_kind(mode)})")
+        with os.fdopen(fd, "rb", closefd=False) as fh:
+            return fh.read()
+    finally:
+        os.close(fd)
+
+
+def _kind(mode: int) -> str:
+    for test, name in ((stat.S_ISFIFO, "a FIFO"), (stat.S_ISSOCK, "a socket"), (stat.S_ISCHR, "a character device"),
+                       (stat.S_ISBLK, "a block device"), (stat.S_ISDIR, "a directory")):
+        if test(mode):
+            return name
+    return "not a file"
+
+
+def check_state_dir(state_dir: Path) -> None:
+    """Before anything starts: StateFileError if an entry of the state directory is not
+    a regular file or a directory (a FIFO in place of state.json would block every
+    reader: the control process would hang holding the lock)."""
+    try:
+        entries = list(os.scandir(state_dir))
+    except (FileNotFoundError, NotADirectoryError):
+        return  # created later; a file in its place fails there with a clear OSError
+    for entry in entries:
+        try:
+            mode = os.stat(entry.path).st_mode  # a symlink counts as what it points to
+        except OSError:
+            continue  # a dangling link: like a missing file
+        if not (stat.S_ISREG(mode) or stat.S_ISDIR(mode)):
+            raise StateFileError(f"{entry.path} is {_kind(mode)}, not a regular file: urc keeps its "
+                                 "state in regular files; remove it or choose another --state-dir")
 
 
 def _fsync_dir(path: Path) -> None:
