@@ -614,6 +614,11 @@ class Rotator:
         if self._faults:
             raise CommandRejected("refused: fault latched (" + "; ".join(f.reason for f in self._faults)
                                   + "); clear faults first", "fault")
+        if self._save_error and any(precord.needs_record(ax) for ax in self.axes.values()):
+            # the first tick would hold the axes and latch the state fault: say so now,
+            # not "ok" for a move that cannot happen (a fault cleared on a full disk)
+            raise CommandRejected(f"refused: state not saved ({self._save_error}); motion would stop at "
+                                  "once so that the saved position stays true", "state")
         if automatic and self.position_uncertain():
             bounds = ", ".join(f"{n} ±{ax.uncertainty_deg:.2f} deg" for n, ax in self.axes.items()
                                if ax.uncertainty_deg)
