@@ -242,7 +242,7 @@ async def _serve(cfg: Config, state_dir: Path, config_path: Path | None, api_soc
     try:
         for sig in (signal.SIGINT, signal.SIGTERM):
             loop.add_signal_handler(sig, lambda sig=sig: (asked.append(sig.name), stop.set()))
-        tracking = TrackingService(rotator, cfg)
+        tracking = TrackingService(rotator, cfg, background=True)  # planning off the event loop
         api = create_api(rotator, cfg, config_path=config_path, state_dir=state_dir,
                          tracker=tracking if tracking.station is not None or tracking.gps is not None else None)
         server = _api_server(uvicorn.Config(api, log_level="warning", lifespan="off"))

@@ -424,8 +424,16 @@ def track(target: str | None, norad: int | None, point, azel, nmea_source: str |
     else:
         _request(url, config_path, "POST", "/api/track", body)
     # the command answers ok; what is being tracked, the plan and its warnings are the
-    # tracker's status (it printed "tracking  None" from the bare ok)
+    # tracker's status (it printed "tracking  None" from the bare ok). The next pass is
+    # searched and planned in the background: its plan is shown once it is there.
+    import time
+
+    ctx = click.get_current_context()
+    give_up_s = time.monotonic() + (ctx.meta.get("urc.timeout_s") or CLIENT_TIMEOUT_S)
     status = _request(url, config_path, "GET", "/api/status")
+    while (status.get("tracking") or {}).get("state") == "planning" and time.monotonic() < give_up_s:
+        time.sleep(0.25)
+        status = _request(url, config_path, "GET", "/api/status")
     click.echo(_format_tracking(status.get("tracking")))
 
 

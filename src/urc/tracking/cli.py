@@ -23,6 +23,11 @@ __all__ = ["default_catalog_dir", "passes_command", "tle_command"]
 _PROGRESS_MIN_SATS = 100
 
 
+#: a running controller reads the catalog again within tracking.service.CATALOG_CHECK_S
+RUNNING_NOTE = ("a running urc reads the catalog again within seconds and flies the new "
+                "elements from the next pass on")
+
+
 def default_catalog_dir() -> Path:
     import platformdirs
 
@@ -228,6 +233,7 @@ def tle_import(files: tuple[str, ...], no_checksum: bool, catalog_dir: str | Non
     except UrcError as exc:
         raise _fail(exc) from None
     click.echo(f"catalog: {len(cat)} satellites in {where}")
+    click.echo(RUNNING_NOTE)
 
 
 @tle_command.command("update")
@@ -278,6 +284,7 @@ def _print_update(report: Any, where: Path) -> None:
     m = report.merge
     click.echo(f"catalog: {report.catalog_size} satellites in {where} ({len(m.added)} new, "
                f"{len(m.updated)} updated)")
+    click.echo(RUNNING_NOTE)
 
 
 @tle_command.command("list")
