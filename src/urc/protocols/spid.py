@@ -47,7 +47,7 @@ class _SpidSession:
         res = self.default_resolution_deg if resolution_deg is None else float(resolution_deg)
         self.pulses = codec.resolution_to_pulses(res)
         self._buf = b""
-        self._targets = ExtendedTarget(rotator)   # Rot1Prog: az-only sets keep elevation
+        self._targets = ExtendedTarget(rotator, named=True)   # Rot1Prog: az-only sets keep elevation
 
     # ------------------------------------------------------------------ Session
     def receive(self, data: bytes) -> list[bytes]:

@@ -137,6 +137,9 @@ class _Axis:
             cap = self.sp.speed_cap_deg_per_s
             self.positioner.move(self.posted_deg, min(1.0, cap / self.tuning.max_rate_deg_per_s), cap)
         else:
+            note = getattr(self.positioner, "note_position", None)
+            if note is not None:
+                note(self.meas_deg)  # the turn it is on: a compass protocol's report names none
             self.positioner.goto(self.posted_deg)
 
     # ---- sensing ------------------------------------------------------------------
