@@ -237,24 +237,35 @@ def tle_command() -> None:
 def tle_import(files: tuple[str, ...], no_checksum: bool, catalog_dir: str | None,
                config_path: str | None) -> None:
     """Import TLE/3LE, OMM JSON or OMM CSV files (newest epoch per satellite wins)."""
-    from .elements import Catalog, load_elements
+    from .elements import StreamingImport, iter_elements
 
     where = _resolve_dir(catalog_dir, _load_config(config_path))
+    # streaming: a 50 MB file of 350k sets is read set by set, never held whole
     try:
-        cat = Catalog.load(where)
-        for f in files:
-            sets = load_elements(f, checksum=not no_checksum)
-            for es in sets:
-                if es.sgp4_error:  # kept out: the catalog's older set, if any, stays usable
-                    click.echo(f"warning: {es.label} (NORAD {es.norad_id}) not imported: "
-                               f"{es.sgp4_error} at its epoch {es.epoch:%Y-%m-%d}", err=True)
-            r = cat.merge(es for es in sets if not es.sgp4_error)
-            click.echo(f"{f}: {len(sets)} element sets: {len(r.added)} new, "
-                       f"{len(r.updated)} newer, {len(r.kept)} not newer (kept the catalog's)")
-        cat.save(where)
+        cat = StreamingImport(where)
     except UrcError as exc:
         raise _fail(exc) from None
-    click.echo(f"catalog: {len(cat)} satellites in {where}")
+    try:
+        for f in files:
+            counted = {"n": 0}
+
+            def usable(sets):
+                for es in sets:
+                    counted["n"] += 1
+                    if es.sgp4_error:  # kept out: the catalog's older set, if any, stays usable
+                        click.echo(f"warning: {es.label} (NORAD {es.norad_id}) not imported: "
+                                   f"{es.sgp4_error} at its epoch {es.epoch:%Y-%m-%d}", err=True)
+                        continue
+                    yield es
+            r = cat.merge(usable(iter_elements(f, checksum=not no_checksum)))
+            click.echo(f"{f}: {counted['n']} element sets: {len(r.added)} new, "
+                       f"{len(r.updated)} newer, {len(r.kept)} not newer (kept the catalog's)")
+        size = len(cat)
+        cat.save()
+    except UrcError as exc:
+        cat.close()
+        raise _fail(exc) from None
+    click.echo(f"catalog: {size} satellites in {where}")
     click.echo(RUNNING_NOTE)
 
 
