@@ -35,3 +35,37 @@ def test_park_from_the_overlap_unwinds_through_the_bridge(protocol, tmp_path):
     up = rig.upstream.status()
     assert up.az.pos_deg == pytest.approx(rig.downstream.settings.park_az_deg, abs=2.0), \
         "the controller's own axis unwound to the park turn"
+
+
+@pytest.mark.parametrize("protocol", ["gs232b", "easycomm3", "rotctld"])
+def test_a_link_drop_is_one_fault_that_clears_itself(protocol, tmp_path):
+    """Issue 21: after a link drop sensor_dead stayed latched, a stall was invented, and
+    a controller that came back elsewhere (restarted) added runaway and sensor_jump. Now:
+    one link fault, cleared once the controller answers and its position is re-read."""
+    rig = BridgedRig(protocol, "g5500", tmp_path)
+    rig.downstream.goto(100.0, 30.0)
+    rig.run(3.0)
+    rig.link.cut("cable pulled", rig.clock.now_s())
+    s = rig.run(5.0, until=lambda s: bool(s.faults))
+    assert [f.kind for f in s.faults] and {f.kind for f in s.faults} == {"sensor_dead"}, s.faults
+    # meanwhile the controller is moved by hand (or restarted elsewhere) 40 deg away
+    rig.upstream.stop()
+    rig.run(3.0)
+    rig.upstream.goto(rig.upstream.status().az_deg - 40.0, 20.0)
+    for _ in range(2000):
+        rig.upstream.tick()
+        rig.clock.advance(1.0 / rig.upstream.caps.loop_hz)
+        if not rig.upstream.status().moving:
+            break
+    rig.link.mend(rig.clock.now_s())
+    s = rig.run(10.0, until=lambda s: not s.faults)
+    assert not s.faults, (s.faults, s.events[-4:])
+    assert any("link fault cleared" in e for e in s.events)
+    rig.run(5.0)
+    s = rig.downstream.status()
+    assert not s.faults, s.faults   # no stall, runaway or jump invented from the gap
+    truth = rig.upstream.status()
+    assert s.az_deg == pytest.approx(truth.az_deg, abs=1.5)
+    rig.downstream.goto(150.0, 40.0)   # and it flies again
+    s = rig.run(90.0, until=settled)
+    assert not s.faults and s.az_deg == pytest.approx(150.0, abs=1.5)
