@@ -172,10 +172,12 @@ def check_state_dir(state_dir: Path) -> None:
         return  # created later; a file in its place fails there with a clear OSError
     for entry in entries:
         try:
-            mode = os.stat(entry.path).st_mode  # a symlink counts as what it points to
+            mode = os.lstat(entry.path).st_mode
         except OSError:
-            continue  # a dangling link: like a missing file
-        if not (stat.S_ISREG(mode) or stat.S_ISDIR(mode)):
+            continue  # gone meanwhile
+        # (a symlink is left alone: a pty endpoint's link to its /dev/pts device may live
+        # here; a state file reached through one is still read without blocking)
+        if not (stat.S_ISREG(mode) or stat.S_ISDIR(mode) or stat.S_ISLNK(mode)):
             raise StateFileError(f"{entry.path} is {_kind(mode)}, not a regular file: urc keeps its "
                                  "state in regular files; remove it or choose another --state-dir")
 
