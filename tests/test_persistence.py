@@ -68,3 +68,55 @@ def test_fresh_only_before_first_use(tmp_path):
     assert not store.fresh()
     store.path.unlink()
     assert not store.fresh(), "the marker remembers the directory was used"
+
+
+@pytest.mark.parametrize("value", [float("nan"), float("inf"), float("-inf")])
+@pytest.mark.parametrize("field", ["mech_deg", "uncertainty_deg", "window_deg"])
+def test_non_finite_field_with_a_valid_checksum_is_damage(tmp_path, value, field):
+    """Python's JSON reader takes NaN and Infinity, and a CRC over them is valid: such a
+    record must still be called damaged (issue 21: NaN uncertainty was trusted)."""
+    store = StateStore(tmp_path / "state.json")
+    payload = json.loads(json.dumps(PAYLOAD))
+    payload["axes"]["az"][field] = [0.0, value] if field == "window_deg" else value
+    text = json.dumps(payload, sort_keys=True, separators=(",", ":"))
+    import time
+    import zlib
+    record = {"format": "urc-state", "version": 1, "saved_unix_s": time.time(),
+              "crc32": zlib.crc32(text.encode()), "payload": payload}
+    store.path.write_text(json.dumps(record))
+    with pytest.raises(StateFileError, match=f"axes.az.{field}.* not a finite number"):
+        store.load()
+
+
+def test_non_finite_value_is_never_written(tmp_path):
+    store = StateStore(tmp_path / "state.json")
+    store.save(PAYLOAD)
+    with pytest.raises(StateFileError, match="not a finite number"):
+        store.save({"profile": "x", "axes": {"az": {"mech_deg": float("nan")}}})
+    assert store.load() == PAYLOAD, "the good record stays"
+
+
+def test_a_fifo_in_place_of_the_state_file_is_an_error_not_a_hang(tmp_path):
+    """Reading a FIFO blocks until a writer comes; the control process must not."""
+    import os
+    import threading
+
+    store = StateStore(tmp_path / "state.json")
+    os.mkfifo(store.path)
+    outcome: list[BaseException | object] = []
+
+    def load():
+        try:
+            outcome.append(store.load())
+        except BaseException as exc:  # noqa: BLE001 - recorded for the assertion
+            outcome.append(exc)
+    t = threading.Thread(target=load, daemon=True)
+    t.start()
+    t.join(timeout=10.0)  # a hang guard, not a measurement
+    if t.is_alive():
+        with open(store.path, "wb"):  # let the blocked reader go
+            pass
+        t.join()
+        pytest.fail("loading a FIFO blocked")
+    assert isinstance(outcome[0], StateFileError) and "not a regular file (a FIFO)" in str(outcome[0])
+    assert store.quarantine() is None, "nothing copied (copying a FIFO would block too)"

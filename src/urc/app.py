@@ -37,6 +37,37 @@ def bind_api_socket(host: str, port: int) -> socket.socket:
     return sock
 
 
+def check_serve_ports(entries) -> None:
+    """Every [[serve]] TCP and UDP port can be bound now (OSError naming the entry if
+    not): checked before the control process starts and before a fresh state directory
+    is marked used, so a busy port refuses the start with nothing started or written.
+    (Bound for a moment and released: the servers bind them again moments later.)"""
+    from .config import parse_host_port
+
+    for entry in entries:
+        kind, where = entry.transport
+        if kind not in ("tcp", "udp"):
+            continue
+        host, port = parse_host_port(where)
+        if port == 0:
+            continue  # any free port: nothing to check
+        sock_type = socket.SOCK_STREAM if kind == "tcp" else socket.SOCK_DGRAM
+        try:
+            infos = socket.getaddrinfo(host or None, port, type=sock_type, flags=socket.AI_PASSIVE)
+        except OSError as exc:
+            raise OSError(f"cannot serve {entry.describe()}: {exc}") from None
+        for family, type_, proto, _name, addr in infos:
+            with socket.socket(family, type_, proto) as probe:
+                try:
+                    if kind == "tcp":  # as asyncio's create_server binds it
+                        probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+                    if family == socket.AF_INET6:
+                        probe.setsockopt(socket.IPPROTO_IPV6, socket.IPV6_V6ONLY, 1)
+                    probe.bind(addr)
+                except OSError as exc:
+                    raise OSError(f"cannot serve {entry.describe()}: {exc.strerror or exc}") from None
+
+
 def _real_hardware(cfg: Config) -> bool:
     backend = cfg.hardware.backend
     return backend != "sim" and not getattr(getattr(cfg.hardware, backend, None), "emulate", False)
@@ -63,12 +94,15 @@ async def serve(cfg: Config, state_dir: Path, config_path: Path | None = None) -
     process, so a refused start writes no state. Every exit path stops the axes, waits
     for standstill (bounded), leaves every output safe and saves (in the control process).
     """
+    from .persistence import check_state_dir
     from .service.instance import lock_instance
 
+    check_state_dir(state_dir)
     locks = lock_instance(state_dir, _hardware_key(cfg), _real_hardware(cfg))
     try:
         api_socket = bind_api_socket(cfg.api.host, cfg.api.port)
         try:
+            check_serve_ports(cfg.served)
             await _serve(cfg, state_dir, config_path, api_socket, [lk.fd for lk in locks if lk.fd is not None])
         finally:
             api_socket.close()
@@ -121,7 +155,7 @@ async def _serve(cfg: Config, state_dir: Path, config_path: Path | None, api_soc
     try:
         for sig in (signal.SIGINT, signal.SIGTERM):
             loop.add_signal_handler(sig, lambda sig=sig: (asked.append(sig.name), stop.set()))
-        tracking = TrackingService(rotator, cfg)
+        tracking = TrackingService(rotator, cfg, background=True)  # planning off the event loop
         api = create_api(rotator, cfg, config_path=config_path, state_dir=state_dir,
                          tracker=tracking if tracking.station is not None or tracking.gps is not None else None)
         server = _api_server(uvicorn.Config(api, log_level="warning", lifespan="off",

@@ -11,7 +11,7 @@ from pathlib import Path
 import click
 
 from . import __version__
-from .errors import ConfigError
+from .errors import ConfigError, StateFileError
 
 DEFAULT_URL = "http://127.0.0.1:8080"
 
@@ -83,8 +83,9 @@ def run(config_path: str | None, profile: str | None, state_dir: str | None, por
                           config_path=Path(config_path) if config_path else None))
     except (ConfigError, ServiceFailed) as exc:
         raise click.ClickException(str(exc)) from None
-    except (InstanceLocked, OSError) as exc:
-        # another urc on this state dir or hardware, a port in use: nothing was started
+    except (InstanceLocked, OSError, StateFileError) as exc:
+        # another urc on this state dir or hardware, a port in use, a state dir holding
+        # something other than files: nothing was started
         raise _Busy(f"cannot start: {exc}") from None
 
 
@@ -234,7 +235,21 @@ def _remember_port(ctx: click.Context, _param: click.Parameter, value: int | Non
     ctx.meta["urc.api_port"] = value
 
 
+def _remember_timeout(ctx: click.Context, _param: click.Parameter, value: float) -> None:
+    ctx.meta["urc.timeout_s"] = value
+
+
+#: how long a client command waits for urc's answer. Generous: a loaded controller (a
+#: Pi at full CPU) answers late, and giving up early reported "cannot reach urc" while it
+#: was in fact doing what was asked. Connecting is separate and quick to fail.
+CLIENT_TIMEOUT_S = 60.0
+CONNECT_TIMEOUT_S = 5.0
+
+
 def _client_options(f):
+    f = click.option("--timeout", "timeout_s", type=click.FloatRange(min=0.1), default=CLIENT_TIMEOUT_S,
+                     envvar="URC_TIMEOUT", show_default=True, expose_value=False, callback=_remember_timeout,
+                     help="Seconds to wait for the controller's answer.")(f)
     f = click.option("--url", envvar="URC_URL", default=None,
                      help=f"Controller API address (default from --config, else {DEFAULT_URL}).")(f)
     # `urc run --port N` starts the API on N; the same --port reaches it (issue 13.8)
@@ -265,8 +280,17 @@ def _request(url: str | None, config_path: str | None, method: str, path: str, b
             url = f"http://{host}:{cfg.api.port if port is None else port}"
             token = token or cfg.api.token
     headers = {"Authorization": f"Bearer {token}"} if token else {}
+    timeout_s = (ctx.meta.get("urc.timeout_s") if ctx is not None else None) or CLIENT_TIMEOUT_S
     try:
-        resp = httpx.request(method, url.rstrip("/") + path, json=body, headers=headers, timeout=5.0)
+        resp = httpx.request(method, url.rstrip("/") + path, json=body, headers=headers,
+                             timeout=httpx.Timeout(timeout_s, connect=min(CONNECT_TIMEOUT_S, timeout_s)))
+    except (httpx.ConnectError, httpx.ConnectTimeout) as exc:
+        raise click.ClickException(f"cannot reach urc at {url}: {exc} (is `urc run` running?)") from None
+    except httpx.TimeoutException:
+        # it took the request: it may well be doing it (a refusal would have come back)
+        raise click.ClickException(f"urc at {url} took the request but gave no answer within "
+                                   f"{timeout_s:g} s (busy?); it may have done it: see `urc status` "
+                                   "(--timeout waits longer)") from None
     except httpx.HTTPError as exc:
         raise click.ClickException(f"cannot reach urc at {url}: {exc} (is `urc run` running?)") from None
     try:
@@ -422,8 +446,16 @@ def track(target: str | None, norad: int | None, point, azel, nmea_source: str |
     else:
         _request(url, config_path, "POST", "/api/track", body)
     # the command answers ok; what is being tracked, the plan and its warnings are the
-    # tracker's status (it printed "tracking  None" from the bare ok)
+    # tracker's status (it printed "tracking  None" from the bare ok). The next pass is
+    # searched and planned in the background: its plan is shown once it is there.
+    import time
+
+    ctx = click.get_current_context()
+    give_up_s = time.monotonic() + (ctx.meta.get("urc.timeout_s") or CLIENT_TIMEOUT_S)
     status = _request(url, config_path, "GET", "/api/status")
+    while (status.get("tracking") or {}).get("state") == "planning" and time.monotonic() < give_up_s:
+        time.sleep(0.25)
+        status = _request(url, config_path, "GET", "/api/status")
     click.echo(_format_tracking(status.get("tracking")))
 
 

@@ -13,8 +13,10 @@ from __future__ import annotations
 
 import json
 import logging
+import math
 import os
 import shutil
+import stat
 import time
 import zlib
 from dataclasses import dataclass
@@ -31,7 +33,34 @@ MARKER = "urc-initialised"
 
 
 def _canonical(payload: dict[str, Any]) -> bytes:
-    return json.dumps(payload, sort_keys=True, separators=(",", ":")).encode()
+    # allow_nan=False: a NaN or infinity is never written (ValueError instead)
+    return json.dumps(payload, sort_keys=True, separators=(",", ":"), allow_nan=False).encode()
+
+
+def nonfinite_field(value: Any, where: str = "payload") -> str | None:
+    """Where the first NaN or infinite number in a decoded record is, None if there is
+    none. Python's JSON reader accepts NaN and Infinity, and a checksum computed over
+    such a value is valid, so a record must be checked for them before it is trusted."""
+    if isinstance(value, float):
+        return None if math.isfinite(value) else where
+    if isinstance(value, dict):
+        items: Any = value.items()
+    elif isinstance(value, list):
+        items = enumerate(value)
+    else:
+        return None
+    for key, item in items:
+        found = nonfinite_field(item, f"{where}.{key}")
+        if found is not None:
+            return found
+    return None
+
+
+def check_finite(payload: dict[str, Any], name: Any) -> None:
+    """StateFileError if ``payload`` holds a NaN or an infinity (a damaged record)."""
+    bad = nonfinite_field(payload)
+    if bad is not None:
+        raise StateFileError(f"{name}: {bad} is not a finite number; the record is damaged")
 
 
 @dataclass
@@ -44,7 +73,7 @@ class StateStore:
     def load(self) -> dict[str, Any] | None:
         """The saved payload, None if there is none; StateFileError if it is damaged."""
         try:
-            raw = self.path.read_bytes()
+            raw = _read_regular(self.path)
         except FileNotFoundError:
             return None
         try:
@@ -58,6 +87,7 @@ class StateStore:
         payload = record.get("payload")
         if not isinstance(payload, dict):
             raise StateFileError(f"{self.path}: no payload")
+        check_finite(payload, self.path)
         crc = zlib.crc32(_canonical(payload))
         if record.get("crc32") != crc:
             raise StateFileError(f"{self.path}: checksum mismatch (stored {record.get('crc32')}, "
@@ -65,6 +95,7 @@ class StateStore:
         return payload
 
     def save(self, payload: dict[str, Any]) -> None:
+        check_finite(payload, self.path)  # never write back what load would call damaged
         record = {"format": FORMAT, "version": VERSION, "saved_unix_s": time.time(),
                   "crc32": zlib.crc32(_canonical(payload)), "payload": payload}
         self.path.parent.mkdir(parents=True, exist_ok=True)
@@ -98,8 +129,8 @@ class StateStore:
     def quarantine(self) -> Path | None:
         """Keep a copy of a damaged file for inspection. The file itself stays until the
         next save replaces it, so there is never a moment without a record to read."""
-        if not self.path.exists():
-            return None
+        if not self.path.is_file():
+            return None  # (nothing, or not a file: copying a FIFO would block)
         dest = self.path.with_name(f"{self.path.name}.corrupt-{time.time_ns()}")
         try:
             os.link(self.path, dest)
@@ -107,6 +138,48 @@ class StateStore:
             shutil.copyfile(self.path, dest)
         log.warning("damaged state file copied to %s", dest)
         return dest
+
+
+def _read_regular(path: Path) -> bytes:
+    """The bytes of a regular file; StateFileError for anything else. Opened without
+    blocking, so a FIFO or a device in its place cannot hang the control process."""
+    fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
+    try:
+        mode = os.fstat(fd).st_mode
+        if not stat.S_ISREG(mode):
+            raise StateFileError(f"{path}: not a regular file ({_kind(mode)})")
+        with os.fdopen(fd, "rb", closefd=False) as fh:
+            return fh.read()
+    finally:
+        os.close(fd)
+
+
+def _kind(mode: int) -> str:
+    for test, name in ((stat.S_ISFIFO, "a FIFO"), (stat.S_ISSOCK, "a socket"), (stat.S_ISCHR, "a character device"),
+                       (stat.S_ISBLK, "a block device"), (stat.S_ISDIR, "a directory")):
+        if test(mode):
+            return name
+    return "not a file"
+
+
+def check_state_dir(state_dir: Path) -> None:
+    """Before anything starts: StateFileError if an entry of the state directory is not
+    a regular file or a directory (a FIFO in place of state.json would block every
+    reader: the control process would hang holding the lock)."""
+    try:
+        entries = list(os.scandir(state_dir))
+    except (FileNotFoundError, NotADirectoryError):
+        return  # created later; a file in its place fails there with a clear OSError
+    for entry in entries:
+        try:
+            mode = os.lstat(entry.path).st_mode
+        except OSError:
+            continue  # gone meanwhile
+        # (a symlink is left alone: a pty endpoint's link to its /dev/pts device may live
+        # here; a state file reached through one is still read without blocking)
+        if not (stat.S_ISREG(mode) or stat.S_ISDIR(mode) or stat.S_ISLNK(mode)):
+            raise StateFileError(f"{entry.path} is {_kind(mode)}, not a regular file: urc keeps its "
+                                 "state in regular files; remove it or choose another --state-dir")
 
 
 def _fsync_dir(path: Path) -> None:

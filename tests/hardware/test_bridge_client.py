@@ -58,6 +58,12 @@ def test_every_dialect_round_trips_through_urcs_own_codec(protocol):
             self.calls.append(("goto", round(az, 2), None if el is None else round(el, 2)))
             return []
 
+        def goto_pose(self, az_m, el_m):
+            # (a protocol speaking the controller's own azimuth names the pose; the
+            # offsets here are 0, so it is the same angle)
+            self.calls.append(("goto", round(az_m, 2), round(el_m, 2)))
+            return []
+
         def stop(self, axis=None):
             self.calls.append(("stop", axis))
 

@@ -91,3 +91,19 @@ def test_restart_gets_the_position_from_the_fram(tmp_path):
     assert not rot2.position_uncertain()
     assert s2.az_deg == pytest.approx(s.az_deg, abs=0.2) and s2.el_deg == pytest.approx(s.el_deg, abs=0.2)
     assert s2.sim_truth["az"]["deg"] == pytest.approx(s2.az_deg, abs=0.3)
+
+
+def test_non_finite_slot_is_damage_and_never_written():
+    """A slot whose CRC is good but whose record holds NaN is a bad slot: the other one
+    is used (issue 21); a NaN is never written."""
+    import json
+    import struct
+    import zlib
+    s, chip, bus = store()
+    s.save({"axes": {"az": {"mech_deg": 12.5}}})
+    with pytest.raises(StateFileError, match="not a finite number"):
+        s.save({"axes": {"az": {"mech_deg": float("nan")}}})
+    body = json.dumps({"axes": {"az": {"mech_deg": float("nan")}}}).encode()
+    s._write(s.slots[1] + 16, body)
+    s._write(s.slots[1], struct.pack(">4sIII", b"URCF", 99, len(body), zlib.crc32(body)))
+    assert s.load() == {"axes": {"az": {"mech_deg": 12.5}}}

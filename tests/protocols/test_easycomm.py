@@ -411,3 +411,17 @@ def test_fuzz_garbage_never_moves_or_raises(fuzz_bench, data, cls, split):
     assert abs(b.truth("az") - before[0]) < 0.01 and abs(b.truth("el") - before[1]) < 0.01
     st_ = b.rot.status()
     assert st_.target_az_deg is None and st_.az.target_deg is None and st_.el.target_deg is None
+
+
+@pytest.mark.parametrize("cmd", [b"VL99999", b"VR10000", b"VU-1", b"VD1e9"])
+def test_velocity_off_hamlibs_scale_is_refused_and_moves_nothing(tartu, cmd):
+    """Issue 21: ``VL99999`` started a full-speed jog. Hamlib's scale is 0..9999 (it
+    writes %04d): anything else is refused like a negative one (logged, no answer), nothing moves."""
+    s = Easycomm3Session(tartu.rot)
+    s.receive(b"AZ100.0 EL45.0\n")
+    tartu.settle()
+    before = tartu.truth("az"), tartu.truth("el")
+    assert s.receive(cmd + b"\n") == s.receive(b"VL-5\n") == []  # (Easycomm answers nothing to a bad line)
+    tartu.run(3.0)
+    assert not tartu.rot.status().moving
+    assert abs(tartu.truth("az") - before[0]) < 0.5 and abs(tartu.truth("el") - before[1]) < 0.5

@@ -363,3 +363,15 @@ def test_fuzz_never_raises_or_moves(quiet, pieces, cls, split):
     assert len(replies) <= len(data) // 13
     assert len(s._buf) < 13
     assert still(quiet)
+
+
+@pytest.mark.parametrize("cls", [Rot1ProgSession, Rot2ProgSession, Md01Session])
+@pytest.mark.parametrize("az", [639, 500, -360, -181])
+def test_azimuth_outside_the_range_is_refused_not_folded(big, cls, az):
+    """Issue 21: Rot1Prog folded Hamlib's 639 to 279 and -360 to 0. Outside the
+    BIG-RAS's 0..450 (and below the -180 compass bearings) nothing moves."""
+    s = cls(big.rot)
+    frame = codec.encode_rot1_set(az) if cls is Rot1ProgSession else codec.encode_rot2_set(az, 10, 2, 2)
+    s.receive(frame)
+    assert still(big)
+    assert big.rot.status().target_az_deg is None

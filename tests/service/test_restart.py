@@ -214,3 +214,38 @@ def test_save_interval_is_bounded():
     from urc.errors import ConfigError
     with pytest.raises(ConfigError):
         Config.from_dict({"state": {"save_interval_s": 60.0}})
+
+
+def _rewrite_with_checksum(path, edit):
+    """Change a record and give it a valid checksum (what a bug or a hand edit could
+    leave), so only the content can tell it is damaged."""
+    import zlib
+    rec = json.loads(path.read_text())
+    edit(rec["payload"])
+    rec["crc32"] = zlib.crc32(json.dumps(rec["payload"], sort_keys=True, separators=(",", ":")).encode())
+    path.write_text(json.dumps(rec))
+
+
+@pytest.mark.parametrize("field", ["uncertainty_deg", "mech_deg", "window_deg"])
+def test_non_finite_field_is_damage_never_trusted_nor_written_back(bench, field):
+    """Issue 21: uncertainty_deg = NaN was trusted (moves allowed, NaN written into
+    every new record, status not JSON); mech_deg = NaN crashed the start."""
+    b = bench("tartu-urc", exact=True)
+    b.rot.goto(100.0, 30.0)
+    b.settle()
+    b.rot.shutdown()
+    b.rot.hw.close()
+    path = b.state_dir / "state.json"
+
+    def poison(payload):
+        ax = payload["axes"]["az"]
+        ax[field] = [float("nan"), 1.0] if field == "window_deg" else float("nan")
+    _rewrite_with_checksum(path, poison)
+    b = b.restart(clean=False)
+    s = b.rot.status()
+    assert not s.position_known
+    assert any("state file damaged" in e and "not a finite number" in e for e in s.events)
+    with pytest.raises(CommandRejected, match="uncertain"):
+        b.rot.goto(10.0, 10.0)
+    json.dumps(s.as_dict() if hasattr(s, "as_dict") else s.az.uncertainty_deg, allow_nan=False)
+    assert "NaN" not in path.read_text(), "the new record is finite"

@@ -152,3 +152,31 @@ def test_failing_disk_while_moving_never_restarts_known_far_away(bench):
     b.run(60.0)
     b = b.restart(clean=False)
     assert bounded(b.rot.status(), "az", slack_deg=0.5)
+
+
+@pytest.mark.parametrize("how", ["goto", "move", "park"])
+def test_moving_commands_are_refused_while_the_state_cannot_be_saved(bench, how):
+    """Issue 21: goto answered ok while the state fault (a full disk) blocked all
+    motion: with the fault cleared but the disk still full, every moving command is
+    refused (HTTP 409 / the protocol's error), not accepted and then held."""
+    b = bench("tartu-urc", exact=True)
+    store = DiskFull(b.rot.store)
+    store.full = True
+    b.rot.goto(100.0, 10.0)
+    b.run(5.0)
+    assert any(f.kind == "state" for f in b.rot.status().faults)
+    b.rot.clear_faults()
+    b.run(1.0)
+    s = b.rot.status()
+    assert not s.faults and "No space" in s.state_error
+    start = s.az.pos_deg
+    with pytest.raises(CommandRejected, match="state not saved") as refused:
+        {"goto": lambda: b.rot.goto(200.0, 10.0), "move": lambda: b.rot.move("az", +1),
+         "park": b.rot.park}[how]()
+    assert refused.value.reason == "state"
+    b.run(3.0)
+    assert abs(b.rot.status().az.pos_deg - start) < 0.5
+    store.full = False  # space again: the retried write lands and motion is allowed
+    b.run(3.0)
+    assert b.rot.status().state_error == ""
+    b.rot.goto(120.0, 10.0)

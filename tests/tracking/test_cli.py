@@ -162,3 +162,42 @@ def test_stale_elements_are_flagged_when_tracked(leo_sets, tmp_path):
     old = tr.status(iss.epoch_unix_s + 30 * 86400.0)
     assert not fresh.get("warnings")
     assert "30 days old" in old["warnings"][0]
+
+
+def test_passes_warn_of_old_elements(tmp_path):
+    """Issue 21: 60-day-old elements gave passes with no warning."""
+    cat = ["--catalog-dir", tmp_path]
+    run("tle", "import", FIXTURES / "leo.tle", *cat)
+    late = ["--start", "2024-03-01T12:00:00Z"]  # 60 days after the fixture epochs
+    res = CliRunner().invoke(cli, [str(a) for a in ("passes", "iss", *STATION_ARGS, *late, *cat)])
+    assert res.exit_code == 0, res.output
+    assert "warning: ISS (ZARYA) (NORAD 25544): elements 60 days old (epoch 2024-01-01)" in res.stderr
+    assert "urc tle update" in res.stderr
+    data = json.loads(run("passes", "iss", "--json", *STATION_ARGS, *late, *cat).stdout)
+    assert any("60 days old" in w for w in data["warnings"])
+    fresh = CliRunner().invoke(cli, [str(a) for a in ("passes", "iss", *STATION_ARGS, *START, *cat)])
+    assert "days old" not in fresh.stderr
+
+
+def test_two_line_sets_are_named_by_their_norad_id(tmp_path):
+    """A 2LE set has no name line: it showed as a blank name in the pass list."""
+    two_line = tmp_path / "iss.2le"
+    two_line.write_text("\n".join((FIXTURES / "leo.tle").read_text().splitlines()[1:3]) + "\n")
+    data = json.loads(run("passes", "--tle", two_line, "--json", *STATION_ARGS, *START).stdout)
+    assert data["passes"] and {p["name"] for p in data["passes"]} == {"NORAD 25544"}
+    table = run("passes", "--tle", two_line, *STATION_ARGS, *START).output
+    assert "NORAD 25544" in table
+    run("tle", "import", two_line, "--catalog-dir", tmp_path / "cat")
+    assert " 25544  NORAD 25544" in run("tle", "list", "--catalog-dir", tmp_path / "cat").output
+
+
+def test_a_geostationary_satellite_is_always_above_the_horizon(tmp_path):
+    """GEO was one clipped 24 h "pass" with an AOS and LOS that are not rise and set."""
+    cat = ["--catalog-dir", tmp_path]
+    run("tle", "import", FIXTURES / "deep.tle", *cat)
+    pacific = ["--lat", "20", "--lon", "175"]  # (the fixture's GEO hangs over 180 deg)
+    table = run("passes", "astra", *pacific, *START, *cat).output
+    row = next(line for line in table.splitlines() if line.startswith("ASTRA 1KR"))
+    assert "always above the horizon" in row and "<" not in row and ">" not in row
+    data = json.loads(run("passes", "astra", "--json", *pacific, *START, *cat).stdout)
+    assert [p["always_up"] for p in data["passes"]] == [True]

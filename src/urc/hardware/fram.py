@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import StateFileError
+from ..persistence import check_finite, nonfinite_field
 
 log = logging.getLogger(__name__)
 
@@ -79,7 +80,10 @@ class FramStore:
             payload = json.loads(body)
         except ValueError:
             return f"slot {'AB'[i]}: not JSON"
-        return (seq, payload) if isinstance(payload, dict) else f"slot {'AB'[i]}: no payload"
+        if not isinstance(payload, dict):
+            return f"slot {'AB'[i]}: no payload"
+        bad = nonfinite_field(payload)
+        return (seq, payload) if bad is None else f"slot {'AB'[i]}: {bad} is not a finite number"
 
     def _newest(self) -> tuple[int | None, tuple[int, dict[str, Any]] | None, list[str]]:
         best, best_i, bad = None, None, []
@@ -102,6 +106,7 @@ class FramStore:
         return best[1]
 
     def save(self, payload: dict[str, Any]) -> None:
+        check_finite(payload, self.path)
         body = json.dumps(payload, sort_keys=True, separators=(",", ":")).encode()
         if len(body) > self.slot_bytes - HEADER.size:
             raise StateFileError(f"{self.path}: record of {len(body)} bytes does not fit")

@@ -28,6 +28,9 @@ _JOG = {"ML": ("az", -1), "MR": ("az", 1), "MU": ("el", 1), "MD": ("el", -1),
 #: Easycomm III velocity: Hamlib sends (speed% - 1) * 100, i.e. 0..9900 for 1..100 %
 #: (the standard says mdeg/s, but Hamlib, the client that matters, uses this scale).
 VELOCITY_FULL_SCALE = 10000.0
+#: the largest velocity on that scale (Hamlib writes %04d and clamps its stored speed to
+#: 0..9999): more is not a speed urc understands, refused rather than run at full speed
+VELOCITY_MAX = 9999.0
 #: commands with no bearing on a rotator (radio frequencies, modes, AOS/LOS, time):
 #: accepted so a full Easycomm line is not rejected for them, otherwise ignored.
 _IGNORED = {"UP", "DN", "UM", "DM", "UR", "DR", "AO", "LO", "ST", "OP"}
@@ -128,8 +131,9 @@ class _EasycommSession:
                 axis, direction = _JOG[c.name]
                 frac = 1.0
                 if c.value is not None:  # VL/VR/VU/VD
-                    if c.value < 0:  # Hamlib sends 0..9999; more is simply full speed
-                        raise EasycommParseError(f"{c.name} with a velocity >= 0", str(c.value).encode())
+                    if not 0 <= c.value <= VELOCITY_MAX:  # a value off Hamlib's scale: not understood
+                        raise EasycommParseError(f"{c.name} with a velocity 0..{VELOCITY_MAX:.0f}",
+                                                 str(c.value).encode())
                     frac = min(1.0, (c.value + 100.0) / VELOCITY_FULL_SCALE)
                 steps.append(_silent(rot.move, axis, direction, frac))
             elif c.name == "PARK":

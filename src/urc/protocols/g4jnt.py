@@ -56,7 +56,7 @@ class G4jntSession:
         #: without a pot: this connection's constants (a 0..360 deg pot over P 0..4096)
         self._own = Constants(z=0, m=round(3600 * codec.M_SCALE / 4096), c=0, k=2048)
         self._lines = LineSplitter(MAX_PENDING_BYTES, backspace=True, log=bad_input)
-        self._targets = ExtendedTarget(rotator)
+        self._targets = ExtendedTarget(rotator, named=True)  # its own azimuth: a set names the pose
         self._next_s: float | None = None
         self._powered = False
 

@@ -25,7 +25,7 @@ from .base import RotatorPort, bad_input_log, internal_error, protocol_logger
 from .gs232_codec import (SPEED_LEVELS, STYLE_A, STYLE_B, STYLE_GENERIC, Command, Gs232ParseError,
                           format_error, format_help, format_position, parse_command)
 from .lines import LineSplitter
-from .poses import extended_pose_deg, frame_offsets_deg
+from .poses import extended_pose_deg, frame_offsets_deg, goto_extended
 from .single_axis import has_elevation
 
 #: the speed a session starts with (X4, fastest), until the client sends X1..X4.
@@ -123,12 +123,14 @@ class _Gs232Session:
             # usual; urc does too, and moves nothing (the azimuth keeps its goal). C2/B
             # read elevation 0 (single_axis.wire_status), W and AZ= EL= turn the azimuth.
             return None
+        # GS-232 speaks the controller's own azimuth (0..450 on an overlap rotator): a set
+        # names its pose, the wrap turn included (README: Angles)
         if cmd.op == "goto":
-            rot.goto(cmd.az_deg, cmd.el_deg)
+            goto_extended(rot, cmd.az_deg, cmd.el_deg)
         elif cmd.op == "goto_az":
-            rot.goto(cmd.az_deg, self._el_to_keep(rot.status()))
+            goto_extended(rot, cmd.az_deg, self._el_to_keep(rot.status()))
         elif cmd.op == "goto_el":
-            rot.goto_el(cmd.el_deg)
+            goto_extended(rot, self._az_to_keep(rot.status()), cmd.el_deg)
         elif cmd.op == "help":
             return format_help()
         elif cmd.op == "nmea":
@@ -167,6 +169,13 @@ class _Gs232Session:
         except (TargetError, ValueError) as exc:
             raise Gs232ParseError(f"a point on Earth ({exc})"[:80], sentence[:20]) from None
         return point.az_deg, point.el_deg
+
+    @staticmethod
+    def _az_to_keep(s: Status) -> float:
+        """``Beee``/``EL=eee`` turn the elevation only: azimuth keeps its turn and goal."""
+        az_m = s.az.target_deg if s.moving and s.az.target_deg is not None else s.az.pos_deg
+        lo, hi = s.limits.get("az", (az_m, az_m))
+        return min(max(az_m, lo), hi) + frame_offsets_deg(s)[0]
 
     @staticmethod
     def _el_to_keep(s: Status) -> float:

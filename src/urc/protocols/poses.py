@@ -85,6 +85,28 @@ def _is_target(asked: tuple[float, float], st: Status) -> bool:
     return abs((az - st.target_az_deg + 180.0) % 360.0 - 180.0) < 1e-6 and abs(el - st.target_el_deg) < 1e-6
 
 
+def goto_extended(rotator: RotatorPort, az_deg: float, el_deg: float) -> None:
+    """Go to (az, el) in the extended frame as a protocol that speaks the controller's
+    own azimuth means it: an azimuth within the rotator's range names that pose, the
+    wrap turn included (``W000`` from 370 unwinds to 0; ``W010`` from 360 goes back to
+    10, not on to 370), an elevation past 90 the flipped pose. Outside the range the
+    service's rule applies (a negative down to -180 is a compass bearing, anything else
+    is refused). Raises CommandRejected."""
+    st = rotator.status()
+    az_off, el_off = frame_offsets_deg(st)
+    az_m = az_deg - az_off
+    lo, hi = st.limits.get("az", (-math.inf, math.inf)) if st.limits else (-math.inf, math.inf)
+    if not (math.isfinite(az_deg) and math.isfinite(el_deg)) or not lo - 1e-6 <= az_m <= hi + 1e-6:
+        rotator.goto(az_deg, el_deg)
+        return
+    el_m = el_deg - el_off
+    el_limits = (st.limits or {}).get("el")
+    if el_limits is not None and not el_limits[0] - 1e-6 <= el_m <= el_limits[1] + 1e-6:
+        rotator.goto(az_deg, el_deg)  # the service refuses it in its own words
+        return
+    rotator.goto_pose(az_m, el_m)
+
+
 class ExtendedTarget:
     """Gotos in the extended frame where a command names one axis only (Tartu GOAZ/GOEL,
     G4JNT ``G<az>``, Rot1Prog sets): the other axis keeps its target, in that frame.
@@ -98,8 +120,11 @@ class ExtendedTarget:
     ``goto_az``: its target, or where the axes are after a stop, a move or a fault.
     """
 
-    def __init__(self, rotator: RotatorPort) -> None:
+    def __init__(self, rotator: RotatorPort, named: bool = False) -> None:
+        """``named``: the protocol speaks the controller's own azimuth, so a set names
+        its pose (:func:`goto_extended`); else 0..360 is a compass bearing."""
         self.rotator = rotator
+        self.named = named
         #: (status t_s when asked, extended (az, el) asked, or None: stopped / moved)
         self._asked: tuple[float, tuple[float, float] | None] | None = None
 
@@ -109,7 +134,10 @@ class ExtendedTarget:
         keep_az, keep_el = self._kept(st)
         az = keep_az if az is None else az
         el = keep_el if el is None else el
-        self.rotator.goto(az, el)
+        if self.named:
+            goto_extended(self.rotator, az, el)
+        else:
+            self.rotator.goto(az, el)
         self._asked = (st.t_s, (az, el))
 
     def stop(self, axis: str | None = None) -> None:
@@ -137,4 +165,10 @@ class ExtendedTarget:
             self._asked = None                      # superseded: the service decides
         if st.target_az_deg is None or st.target_el_deg is None:
             return extended_pose_deg(st)
+        if self.named:
+            # the axes' own goals, on their turn (the sky target names none: kept as
+            # a pose it would unwind an axis the command leaves alone)
+            pose = extended_pose_deg(st)
+            goals = extended_targets_deg(st)
+            return (pose[0] if goals[0] is None else goals[0], pose[1] if goals[1] is None else goals[1])
         return st.target_az_deg, st.target_el_deg

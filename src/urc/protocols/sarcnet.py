@@ -202,7 +202,7 @@ class SarcnetSession:
         self.rotator.stop()
         self.rotator.clear_faults()
         try:
-            ExtendedTarget(self.rotator).goto(0.0, 0.0)   # home, windup reset
+            ExtendedTarget(self.rotator, named=True).goto(0.0, 0.0)   # home, windup reset
         except CommandRejected as exc:
             out.append(codec.console(f"Error: {exc}"))
         out.append(codec.console("Reset complete"))

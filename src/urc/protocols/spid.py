@@ -12,8 +12,9 @@ Binary 13-byte commands, no checksum; frames in spid_codec. What each session do
 
 Positions are reported in the controller's frame: azimuth with its overturn (e.g. 400.0
 on a 450 deg rotator, -10.0 below north on a -180..540 one), in tenths of a degree; PH/PV
-report ``resolution_deg``. A set azimuth outside 0..360 names that overturn pose; if the
-rotator cannot reach that pose but the same direction within 0..360, it goes there.
+report ``resolution_deg``. A set azimuth within the rotator's range names that pose
+(overturn included); outside it the service's rule applies (a negative down to -180 is
+a compass bearing, anything else is refused: left unanswered, nothing moves).
 
 Framing: a command starts with 'W' and is accepted only when its 13th byte is 0x20 and
 its fields are well formed, so after noise or a half frame the next whole frame is found
@@ -46,7 +47,7 @@ class _SpidSession:
         res = self.default_resolution_deg if resolution_deg is None else float(resolution_deg)
         self.pulses = codec.resolution_to_pulses(res)
         self._buf = b""
-        self._targets = ExtendedTarget(rotator)   # Rot1Prog: az-only sets keep elevation
+        self._targets = ExtendedTarget(rotator, named=True)   # Rot1Prog: az-only sets keep elevation
 
     # ------------------------------------------------------------------ Session
     def receive(self, data: bytes) -> list[bytes]:
@@ -101,14 +102,10 @@ class _SpidSession:
                         "-" if cmd.el_deg is None else f"{cmd.el_deg:.1f}", exc.reason, exc)
 
     def _goto(self, az: float, el: float | None) -> None:
-        """el None (Rot1Prog): elevation keeps its target."""
-        try:
-            self._targets.goto(az, el)
-        except CommandRejected as exc:
-            # an overturn pose this rotator lacks (e.g. -10 on 0..450): the same direction
-            if exc.reason != "limit" or 0.0 <= az < 360.0:
-                raise
-            self._targets.goto(az % 360.0, el)
+        """el None (Rot1Prog): elevation keeps its target. An azimuth outside the range
+        is refused by the service (the one rule, README), never folded into 0..360:
+        Hamlib's 639 is not 279."""
+        self._targets.goto(az, el)
 
     def _move(self, direction: int) -> None:
         wanted = [(axis, sign) for bit, axis, sign in _MOVES if direction & bit]

@@ -103,7 +103,7 @@ class TartuSession:
         self.baud_request: int | None = None
         self._lines = LineSplitter(MAX_PENDING_BYTES, backspace=True, log=bad_input)
         self._echo = TerminalEcho()
-        self._targets = ExtendedTarget(rotator)
+        self._targets = ExtendedTarget(rotator, named=True)  # its own azimuth: a set names the pose
         self._faults_seen: set | None = None
 
     # ------------------------------------------------------------------ Session

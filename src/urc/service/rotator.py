@@ -137,6 +137,9 @@ class _Axis:
             cap = self.sp.speed_cap_deg_per_s
             self.positioner.move(self.posted_deg, min(1.0, cap / self.tuning.max_rate_deg_per_s), cap)
         else:
+            note = getattr(self.positioner, "note_position", None)
+            if note is not None:
+                note(self.meas_deg)  # the turn it is on: a compass protocol's report names none
             self.positioner.goto(self.posted_deg)
 
     # ---- sensing ------------------------------------------------------------------
@@ -454,6 +457,8 @@ class Rotator:
         for name, ax in self.axes.items():
             meas = ax.read(dt)
             ax.read_switches()
+            if meas is not None:
+                self._clear_link_fault(ax, meas, now)
             ax.mon, fault = faultmod.check(ax.mon, MonitorInputs(
                 now_s=now, meas_deg=meas, sensor_error=ax.sensor_error, duty=ax.out.duty,
                 min_duty=ax.tuning.min_duty if ax.tuning.drive == "pwm" else min(ax.tuning.drive_levels or (1.0,)),
@@ -484,6 +489,25 @@ class Rotator:
         self._beat()
         self._status = self._build_status(now)
         return self._status
+
+    def _clear_link_fault(self, ax: "_Axis", meas: float, now_s: float) -> None:
+        """A bridged controller answers again after its link went down (a USB-serial
+        hiccup, the controller restarted): the unreadable-sensor fault clears itself, the
+        position is the one just re-read, and the monitors start afresh from it, so the
+        gap invents no stall, runaway or jump (issue 21: an unattended station lost every
+        pass after one). Only that fault: anything else latched stays."""
+        answering = getattr(ax.positioner, "answering", None)
+        if answering is None or not any(f.kind == "sensor_dead" and f.axis == ax.name for f in self._faults):
+            return
+        if not answering():
+            return
+        self._faults = [f for f in self._faults if not (f.kind == "sensor_dead" and f.axis == ax.name)]
+        ax.mon = MonitorState(limit_min=ax.limit_min, limit_max=ax.limit_max)
+        ax.meas_deg, ax._filter_rate, ax.rate_deg_per_s = meas, 0.0, 0.0
+        ax.history.clear()
+        ax.history.append((ax._t_s, meas))
+        ax.law = replace(ax.law, ref_deg=meas, last_meas_deg=meas)
+        self._event(f"{ax.name}: the controller answers again at {meas:.1f} deg: link fault cleared")
 
     def note_lateness(self, late_s: float) -> None:
         """A stall of ``late_s`` (more than the watchdog time): the motors stop at once
@@ -629,6 +653,11 @@ class Rotator:
         if self._faults:
             raise CommandRejected("refused: fault latched (" + "; ".join(f.reason for f in self._faults)
                                   + "); clear faults first", "fault")
+        if self._save_error and any(precord.needs_record(ax) for ax in self.axes.values()):
+            # the first tick would hold the axes and latch the state fault: say so now,
+            # not "ok" for a move that cannot happen (a fault cleared on a full disk)
+            raise CommandRejected(f"refused: state not saved ({self._save_error}); motion would stop at "
+                                  "once so that the saved position stays true", "state")
         if automatic and self.position_uncertain():
             bounds = ", ".join(f"{n} ±{ax.uncertainty_deg:.2f} deg" for n, ax in self.axes.items()
                                if ax.uncertainty_deg)

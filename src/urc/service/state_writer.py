@@ -21,6 +21,7 @@ import time
 from dataclasses import dataclass
 from typing import Any, Callable
 
+from ..errors import StateFileError
 from ..persistence import StateStore
 
 log = logging.getLogger(__name__)
@@ -122,7 +123,7 @@ class StateWriter:
         try:
             assert payload is not None
             self.store.save(payload)
-        except OSError as exc:
+        except (OSError, StateFileError) as exc:
             with self._cv:
                 self._failures += 1
                 if self._error != str(exc):

@@ -23,6 +23,11 @@ __all__ = ["default_catalog_dir", "passes_command", "tle_command"]
 _PROGRESS_MIN_SATS = 100
 
 
+#: a running controller reads the catalog again within tracking.service.CATALOG_CHECK_S
+RUNNING_NOTE = ("a running urc reads the catalog again within seconds and flies the new "
+                "elements from the next pass on")
+
+
 def default_catalog_dir() -> Path:
     import platformdirs
 
@@ -161,15 +166,33 @@ def passes_command(sats: tuple[str, ...], hours: float, min_el_deg: float | None
                                 min_el_deg=min_el_deg)
     except UrcError as exc:
         raise _fail(exc) from None
+    stale = _stale_elements(chosen, t0)
     if as_json:
         click.echo(json.dumps({
             "station": {"lat_deg": lat_deg, "lon_deg": lon_deg, "alt_m": alt_m},
             "start": res.start.isoformat(), "end": res.end.isoformat(),
             "min_el_deg": min_el_deg, "satellites": len(chosen),
             "passes": [p.to_dict() for p in res.passes], "errors": {
-                str(k): v for k, v in res.errors.items()}}, indent=1))
+                str(k): v for k, v in res.errors.items()},
+            "warnings": stale}, indent=1))
         return
     _print_passes(res, len(chosen))
+    for text in stale:
+        click.echo(f"warning: {text}", err=True)
+
+
+def _stale_elements(sats: list[Any], t0: datetime) -> list[str]:
+    """A warning per satellite whose elements are older than the tracker accepts quietly
+    (tracker.STALE_ELEMENTS_DAYS) at the search start: its pass times drift."""
+    from .tracker import STALE_ELEMENTS_DAYS
+
+    out = []
+    for es in sats:
+        age_days = (t0.timestamp() - es.epoch_unix_s) / 86400.0
+        if age_days > STALE_ELEMENTS_DAYS:
+            out.append(f"{es.label} (NORAD {es.norad_id}): elements {age_days:.0f} days old (epoch "
+                       f"{es.epoch:%Y-%m-%d}); its pass times and directions drift: `urc tle update`")
+    return out
 
 
 def _print_passes(res: Any, n_sats: int) -> None:
@@ -183,12 +206,16 @@ def _print_passes(res: Any, n_sats: int) -> None:
         click.echo(head)
         click.echo("-" * len(head))
         for p in res.passes:
+            if p.always_up:  # geostationary: no rise, no set, one "pass" the window long
+                click.echo(f"{p.name[:name_w]:<{name_w}} {p.norad_id:>6}  always above the horizon "
+                           f"(el {p.max_el_deg:.1f} at most, az {p.tca_az_deg:.1f} then)")
+                continue
             aos = ("<" if p.aos_clipped else " ") + _fmt_t(p.aos)
             los = p.los.strftime("%H:%M:%S") + (">" if p.los_clipped else " ")
             click.echo(f"{p.name[:name_w]:<{name_w}} {p.norad_id:>6} {aos:<20} "
                        f"{p.tca.strftime('%H:%M:%S'):<8}  {los:<9} {p.max_el_deg:>6.1f} "
                        f"{p.aos_az_deg:>6.1f} {p.los_az_deg:>6.1f} {p.duration_s / 60:>5.1f}")
-        if any(p.aos_clipped or p.los_clipped for p in res.passes):
+        if any((p.aos_clipped or p.los_clipped) and not p.always_up for p in res.passes):
             click.echo("< already up at the start   > still up at the end")
     for norad, why in sorted(res.errors.items()):
         click.echo(f"warning: NORAD {norad}: {why}", err=True)
@@ -210,24 +237,36 @@ def tle_command() -> None:
 def tle_import(files: tuple[str, ...], no_checksum: bool, catalog_dir: str | None,
                config_path: str | None) -> None:
     """Import TLE/3LE, OMM JSON or OMM CSV files (newest epoch per satellite wins)."""
-    from .elements import Catalog, load_elements
+    from .elements import StreamingImport, iter_elements
 
     where = _resolve_dir(catalog_dir, _load_config(config_path))
+    # streaming: a 50 MB file of 350k sets is read set by set, never held whole
     try:
-        cat = Catalog.load(where)
-        for f in files:
-            sets = load_elements(f, checksum=not no_checksum)
-            for es in sets:
-                if es.sgp4_error:  # kept out: the catalog's older set, if any, stays usable
-                    click.echo(f"warning: {es.label} (NORAD {es.norad_id}) not imported: "
-                               f"{es.sgp4_error} at its epoch {es.epoch:%Y-%m-%d}", err=True)
-            r = cat.merge(es for es in sets if not es.sgp4_error)
-            click.echo(f"{f}: {len(sets)} element sets: {len(r.added)} new, "
-                       f"{len(r.updated)} newer, {len(r.kept)} not newer (kept the catalog's)")
-        cat.save(where)
+        cat = StreamingImport(where)
     except UrcError as exc:
         raise _fail(exc) from None
-    click.echo(f"catalog: {len(cat)} satellites in {where}")
+    try:
+        for f in files:
+            counted = {"n": 0}
+
+            def usable(sets):
+                for es in sets:
+                    counted["n"] += 1
+                    if es.sgp4_error:  # kept out: the catalog's older set, if any, stays usable
+                        click.echo(f"warning: {es.label} (NORAD {es.norad_id}) not imported: "
+                                   f"{es.sgp4_error} at its epoch {es.epoch:%Y-%m-%d}", err=True)
+                        continue
+                    yield es
+            r = cat.merge(usable(iter_elements(f, checksum=not no_checksum)))
+            click.echo(f"{f}: {counted['n']} element sets: {len(r.added)} new, "
+                       f"{len(r.updated)} newer, {len(r.kept)} not newer (kept the catalog's)")
+        size = len(cat)
+        cat.save()
+    except UrcError as exc:
+        cat.close()
+        raise _fail(exc) from None
+    click.echo(f"catalog: {size} satellites in {where}")
+    click.echo(RUNNING_NOTE)
 
 
 @tle_command.command("update")
@@ -278,6 +317,7 @@ def _print_update(report: Any, where: Path) -> None:
     m = report.merge
     click.echo(f"catalog: {report.catalog_size} satellites in {where} ({len(m.added)} new, "
                f"{len(m.updated)} updated)")
+    click.echo(RUNNING_NOTE)
 
 
 @tle_command.command("list")
@@ -314,6 +354,6 @@ def tle_list(pattern: str | None, as_json: bool, catalog_dir: str | None,
     for es in sets:
         age_d = (now - es.epoch_unix_s) / 86400.0
         flag = "  (old: update it)" if age_d > 14 else ""
-        click.echo(f"{es.norad_id:>6}  {es.name[:24]:<24} {_fmt_t(es.epoch):<19} "
+        click.echo(f"{es.norad_id:>6}  {es.label[:24]:<24} {_fmt_t(es.epoch):<19} "
                    f"{age_d:>6.1f}{flag}")
     click.echo(f"{len(sets)} of {len(cat)} satellites, {where}")

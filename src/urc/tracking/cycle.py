@@ -43,11 +43,12 @@ def cycle_state(status: dict[str, Any], error_deg: float | None) -> dict[str, st
         state, why = "setup", "the position is not referenced yet (zero it)"
     elif not trk:
         state, why = "process_tle", "nothing tracked: waiting for elements or a target"
-    elif trk.get("state") in ("waiting", "prepositioning") or trk.get("error") or \
+    elif trk.get("state") in ("planning", "waiting", "prepositioning") or trk.get("error") or \
             status.get("target_az_deg") is None:
         state = "predict"
-        why = trk.get("error") or ("moving to where the pass rises" if trk.get("state") == "prepositioning"
-                                   else "waiting for the pass")
+        why = trk.get("error") or {"prepositioning": "moving to where the pass rises",
+                                   "planning": "searching and planning the next pass"}.get(
+                                       trk.get("state"), "waiting for the pass")
     elif error_deg is None or error_deg > ON_TARGET_DEG:
         state, why = "track", "following the target" + ("" if error_deg is None else f", {error_deg:.2f} deg off")
     else:

@@ -158,29 +158,36 @@ def parse_tle(text: str, source: str = "<string>", *, checksum: bool = True) -> 
     Name lines may carry space-track's ``0 `` prefix; blank lines and ``#`` comments are
     skipped. ``checksum=False`` accepts lines whose checksum digit is wrong or missing.
     """
-    lines = [(i, raw.rstrip()) for i, raw in enumerate(text.splitlines(), start=1)]
-    lines = [(i, s) for i, s in lines if s.strip() and not s.lstrip().startswith("#")]
-    out: list[ElementSet] = []
+    return list(iter_tle(text.splitlines(), source, checksum=checksum))
+
+
+def iter_tle(raw_lines: Iterable[str], source: str = "<string>", *,
+             checksum: bool = True) -> Iterator[ElementSet]:
+    """:func:`parse_tle` one set at a time from an iterable of lines (a file read as it
+    goes: a 50 MB catalog is never held whole)."""
+    def numbered() -> Iterator[tuple[int, str]]:
+        for i, raw in enumerate(raw_lines, start=1):
+            line = raw.rstrip()
+            if line.strip() and not line.lstrip().startswith("#"):
+                yield i, line
+    lines = numbered()
     name: tuple[int, str] | None = None
-    k = 0
-    while k < len(lines):
-        lineno, line = lines[k]
+    for lineno, line in lines:
         if _looks_like(line, "1"):
-            if k + 1 >= len(lines):
+            nxt = next(lines, None)
+            if nxt is None:
                 raise ElementsError(
                     f"{source}:{lineno}: truncated file: TLE line 1 of "
                     f"{_who(name, line)} is not followed by its line 2",
                     path=source, line=lineno, expected="TLE line 2", found="end of file")
-            lineno2, line2 = lines[k + 1]
+            lineno2, line2 = nxt
             if not line2.startswith("2"):
                 raise ElementsError(
                     f"{source}:{lineno2}: expected line 2 of {_who(name, line)} "
                     f"(starting '2 '), found {_short(line2)}",
                     path=source, line=lineno2, column=1, expected="TLE line 2", found=line2)
-            out.append(_from_tle(name[1] if name else "", line, line2, source, lineno, lineno2,
-                                 checksum))
+            yield _from_tle(name[1] if name else "", line, line2, source, lineno, lineno2, checksum)
             name = None
-            k += 2
             continue
         if line.startswith("2 ") and len(line) > 20:
             hint = ""
@@ -196,12 +203,10 @@ def parse_tle(text: str, source: str = "<string>", *, checksum: bool = True) -> 
                 f"{name[0]} {name[1]!r}, found {_short(line)}",
                 path=source, line=lineno, column=1, expected="TLE line 1", found=line)
         name = (lineno, line[2:].strip() if line.startswith("0 ") else line.strip())
-        k += 1
     if name is not None:
         raise ElementsError(f"{source}:{name[0]}: truncated file: name line {name[1]!r} is "
                             "not followed by its two element lines", path=source,
                             line=name[0], expected="TLE line 1", found="end of file")
-    return out
 
 
 def _looks_like(line: str, number: str) -> bool:
@@ -523,14 +528,7 @@ class Catalog:
 
     def save(self, directory: str | os.PathLike[str]) -> Path:
         """Write atomically (temporary file + rename) so a crash never leaves half a file."""
-        path = self.path_in(directory)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        data = {"format": _CATALOG_FORMAT, "version": _CATALOG_VERSION,
-                "sets": [es.to_record() for es in self]}
-        tmp = path.with_name(path.name + ".tmp")
-        tmp.write_text(json.dumps(data, indent=1) + "\n", encoding="utf-8")
-        os.replace(tmp, path)
-        return path
+        return write_catalog(directory, (json.dumps(es.to_record()) for es in self))
 
     # -- contents -------------------------------------------------------------------
 
@@ -599,10 +597,157 @@ class Catalog:
         return [self.get(k) for k in keys]
 
 
+def write_catalog(directory: str | os.PathLike[str], records: Iterable[str]) -> Path:
+    """Write a catalog of JSON ``records`` (one per line, so it can be read as it goes),
+    atomically (temporary file + rename): a crash never leaves half a file."""
+    path = Catalog.path_in(directory)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(path.name + ".tmp")
+    with open(tmp, "w", encoding="utf-8") as fh:
+        fh.write(f'{{"format": "{_CATALOG_FORMAT}", "version": {_CATALOG_VERSION}, "sets": [\n')
+        first = True
+        for rec in records:
+            fh.write(("" if first else ",\n") + rec)
+            first = False
+        fh.write("\n]}\n")
+    os.replace(tmp, path)
+    return path
+
+
+def _catalog_records(directory: str | os.PathLike[str]) -> Iterator[str]:
+    """The records of the stored catalog as JSON text, one at a time (a catalog written
+    one record per line is read as it goes; an older layout is read whole)."""
+    path = Catalog.path_in(directory)
+    try:
+        fh = open(path, encoding="utf-8")
+    except FileNotFoundError:
+        return
+    with fh:
+        head = fh.readline()
+        if head.startswith('{"format": "urc-catalog", "version": 1, "sets": ['):
+            for line in fh:
+                line = line.strip().rstrip(",")
+                if line.startswith("{"):
+                    yield line
+            return
+    for es in Catalog.load(directory):  # (checks the format and says what is wrong)
+        yield json.dumps(es.to_record())
+
+
+#: NORAD catalog numbers go to 339999 (Alpha-5: A0000..Z9999 above 99999)
+_MAX_NORAD = 340000
+
+
+class StreamingImport:
+    """Merge element files into the stored catalog without holding either whole (a
+    50 MB file of 350k sets peaked at 818 MB as ElementSets): each set is read,
+    checked and written to a spill file; per NORAD id only the newest epoch and where its
+    record lies are kept (arrays, ~5 MB); the catalog is then written from the spill."""
+
+    def __init__(self, catalog_dir: str | os.PathLike[str]):
+        import tempfile
+
+        import numpy as np
+
+        self.catalog_dir = Path(catalog_dir)
+        self.catalog_dir.mkdir(parents=True, exist_ok=True)
+        self._spill = tempfile.TemporaryFile(mode="w+b", dir=self.catalog_dir, prefix=".import-")
+        self._epoch = np.full(_MAX_NORAD, np.nan)
+        self._where = np.full(_MAX_NORAD, -1, dtype=np.int64)
+        self._length = np.zeros(_MAX_NORAD, dtype=np.int32)
+        for rec in _catalog_records(self.catalog_dir):
+            data = json.loads(rec)
+            self._put(int(data["norad_id"]), datetime.fromisoformat(data["epoch"]).timestamp(), rec)
+
+    def _put(self, norad_id: int, epoch_unix_s: float, rec: str) -> str:
+        """'added', 'updated' or 'kept' (the stored one is as new)."""
+        if not 0 <= norad_id < _MAX_NORAD:
+            raise ElementsError(f"NORAD id {norad_id} outside 0..{_MAX_NORAD - 1}",
+                                expected="a NORAD id", found=norad_id)
+        old = self._epoch[norad_id]
+        if old == old and epoch_unix_s <= old:   # (old == old: not NaN, one is stored)
+            return "kept"
+        data = rec.encode("utf-8")
+        self._where[norad_id] = self._spill.seek(0, os.SEEK_END)
+        self._length[norad_id] = len(data)
+        self._spill.write(data)
+        self._epoch[norad_id] = epoch_unix_s
+        return "added" if old != old else "updated"
+
+    def merge(self, sets: Iterable[ElementSet]) -> MergeResult:
+        got: dict[str, list[int]] = {"added": [], "updated": [], "kept": []}
+        for es in sets:
+            got[self._put(es.norad_id, es.epoch_unix_s, json.dumps(es.to_record()))].append(es.norad_id)
+        return MergeResult(tuple(got["added"]), tuple(got["updated"]), tuple(got["kept"]))
+
+    def __len__(self) -> int:
+        return int((self._where >= 0).sum())
+
+    def save(self) -> Path:
+        import numpy as np
+
+        def records() -> Iterator[str]:
+            for norad_id in np.flatnonzero(self._where >= 0):
+                self._spill.seek(int(self._where[norad_id]))
+                yield self._spill.read(int(self._length[norad_id])).decode("utf-8")
+        try:
+            return write_catalog(self.catalog_dir, records())
+        finally:
+            self._spill.close()
+
+    def close(self) -> None:
+        self._spill.close()
+
+
+def iter_elements(path: str | os.PathLike[str], *, checksum: bool = True) -> Iterator[ElementSet]:
+    """The sets of an element file one at a time: TLE/3LE read as it goes (the big
+    files); OMM JSON or CSV read whole (CelesTrak's group files are small)."""
+    source = os.fspath(path)
+    try:
+        fh = open(source, "rb")
+    except FileNotFoundError:
+        raise ElementsError(f"{source}: no such file", path=source, expected="a file",
+                            found="nothing") from None
+    except OSError as exc:
+        raise ElementsError(f"{source}: cannot read: {exc.strerror or exc}", path=source,
+                            expected="a readable file", found=str(exc)) from None
+    with fh:
+        head = fh.read(4096)
+        text_head = head.decode("utf-8", errors="replace").lstrip("\ufeff \t\r\n")
+        first = text_head.split("\n", 1)[0]
+        if text_head.startswith(("[", "{", "<")) or ("," in first and ("NORAD_CAT_ID" in first
+                                                                          or "OBJECT_NAME" in first)):
+            yield from load_elements(source, checksum=checksum)
+            return
+        fh.seek(0)
+
+        def lines() -> Iterator[str]:
+            for lineno, raw in enumerate(fh, start=1):
+                try:
+                    yield raw.decode("utf-8").lstrip("\ufeff") if lineno == 1 else raw.decode("utf-8")
+                except UnicodeDecodeError as exc:
+                    raise ElementsError(f"{source}:{lineno}: expected text (ASCII/UTF-8), found byte "
+                                        f"0x{raw[exc.start]:02x}: a binary or corrupt file",
+                                        path=source, line=lineno, expected="text",
+                                        found=raw[exc.start:exc.start + 1]) from None
+        count = 0
+        for es in iter_tle(lines(), source, checksum=checksum):
+            count += 1
+            yield es
+        if not count:
+            raise ElementsError(f"{source}: expected at least one element set, found none",
+                                path=source, expected="element sets", found="none")
+
+
 def import_file(path: str | os.PathLike[str], catalog_dir: str | os.PathLike[str], *,
                 checksum: bool = True) -> MergeResult:
-    """Read an element file and merge it into the catalog stored in ``catalog_dir``."""
-    cat = Catalog.load(catalog_dir)
-    result = cat.merge(load_elements(path, checksum=checksum))
-    cat.save(catalog_dir)
+    """Read an element file and merge it into the catalog stored in ``catalog_dir``
+    (streaming: neither is held whole). Sets sgp4 cannot propagate are left out."""
+    imp = StreamingImport(catalog_dir)
+    try:
+        result = imp.merge(es for es in iter_elements(path, checksum=checksum) if not es.sgp4_error)
+    except BaseException:
+        imp.close()
+        raise
+    imp.save()
     return result

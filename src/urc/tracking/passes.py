@@ -112,6 +112,12 @@ class Pass(NamedTuple):
     def duration_s(self) -> float:
         return self.los_unix_s - self.aos_unix_s
 
+    @property
+    def always_up(self) -> bool:
+        """Above the mask for the whole search window (a geostationary satellite): not a
+        pass with a rise and a set, one clipped at both ends."""
+        return self.aos_clipped and self.los_clipped
+
     def to_dict(self) -> dict[str, Any]:
         return {"norad_id": self.norad_id, "name": self.name,
                 "aos": self.aos.isoformat(), "tca": self.tca.isoformat(),
@@ -119,7 +125,8 @@ class Pass(NamedTuple):
                 "max_el_deg": round(self.max_el_deg, 4),
                 "aos_az_deg": round(self.aos_az_deg, 4), "tca_az_deg": round(self.tca_az_deg, 4),
                 "los_az_deg": round(self.los_az_deg, 4), "aos_clipped": self.aos_clipped,
-                "los_clipped": self.los_clipped, "culminates": self.culminates}
+                "los_clipped": self.los_clipped, "culminates": self.culminates,
+                "always_up": self.always_up}
 
 
 @dataclass
@@ -617,5 +624,5 @@ def _make_pass(es: ElementSet, t0: float, cur: list, los: tuple, los_clip: bool)
         top = (aos_t, aos_az, aos_el)
     if los[2] > top[2]:
         top = los
-    return Pass(es.norad_id, es.name, t0 + aos_t, t0 + top[0], t0 + los[0], top[2], aos_az,
+    return Pass(es.norad_id, es.label, t0 + aos_t, t0 + top[0], t0 + los[0], top[2], aos_az,
                 top[1], los[1], aos_clip, los_clip, top is tca)

@@ -23,6 +23,10 @@ from .tracker import Tracker
 
 log = logging.getLogger(__name__)
 
+#: how often a running controller looks whether the element catalog changed on disk
+#: (`urc tle import` / `urc tle update` write it while urc runs): a stat, nothing more
+CATALOG_CHECK_S = 5.0
+
 
 def realtime_unix_at(now_s: float) -> float:
     """UTC seconds for a RealClock (monotonic) time."""
@@ -33,11 +37,18 @@ class TrackingService:
     """What the API and the loop talk to; None of it runs without a configured station."""
 
     def __init__(self, rotator, cfg: Config, unix_at: Callable[[float], float] = realtime_unix_at,
-                 catalog_dir: Path | None = None):
+                 catalog_dir: Path | None = None, background: bool = False):
+        """``background``: search and plan passes and reload the catalog on a worker
+        thread (``urc run``: the event loop must never go silent); else at once."""
         self.rot = rotator
         self.cfg = cfg
         self.unix_at = unix_at
         self.catalog_dir = catalog_dir or cfg.tracking.resolve_catalog_dir()
+        self._executor: Any = None
+        if background:
+            from concurrent.futures import ThreadPoolExecutor
+
+            self._executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="urc-tracking")
         st = cfg.station
         self.station: Station | None = None
         self.tracker: Tracker | None = None
@@ -45,6 +56,10 @@ class TrackingService:
             self._set_station(Station(st.lat_deg, st.lon_deg, st.alt_m, st.name))
         self.gps = NmeaStation() if st.gps else None
         self._catalog: Catalog | None = None
+        self._catalog_sig: tuple | None = None
+        self._next_catalog_check_s = -float("inf")
+        self._reloading: Any = None      # a catalog being read in the background (a Future)
+        self._scheduled = False          # run_schedule has run: a reload re-plans it
         self._schedule: list[Pass] = []
         self._tasks: list[asyncio.Task] = []
         self._target_reader: asyncio.Task | None = None
@@ -54,6 +69,7 @@ class TrackingService:
         if self.tracker is None:
             self.tracker = Tracker(self.rot, station, self.unix_at, park_after_pass=self.cfg.tracking.park_after_pass,
                                    min_el_deg=self.cfg.tracking.min_el_deg)
+            self.tracker.background = self._executor
         else:
             self.tracker.station = station
 
@@ -66,6 +82,8 @@ class TrackingService:
 
     def close(self) -> None:
         stop_pass_process()
+        if self._executor is not None:
+            self._executor.shutdown(wait=False, cancel_futures=True)
         for task in self._tasks + ([self._target_reader] if self._target_reader else []):
             task.cancel()
 
@@ -91,9 +109,87 @@ class TrackingService:
         return self.station
 
     def catalog(self, reload: bool = False) -> Catalog:
-        if self._catalog is None or reload:
-            self._catalog = Catalog.load(self.catalog_dir)
+        """The element catalog, read again when the file changed since it was read."""
+        sig = self._catalog_signature()
+        if self._catalog is None or reload or sig != self._catalog_sig:
+            had = self._catalog is not None
+            cat = Catalog.load(self.catalog_dir)
+            self._install_catalog(sig, cat, self._replanned_schedule(cat) if had else None, announce=had)
+        assert self._catalog is not None
         return self._catalog
+
+    def _catalog_signature(self) -> tuple | None:
+        try:
+            st = Catalog.path_in(self.catalog_dir).stat()
+        except OSError:
+            return None
+        return st.st_mtime_ns, st.st_size, st.st_ino
+
+    def _read_catalog(self) -> tuple[tuple | None, Catalog, list[Pass] | None]:
+        """(signature, catalog, the schedule re-planned on it): may run on the worker."""
+        sig = self._catalog_signature()
+        cat = Catalog.load(self.catalog_dir)
+        return sig, cat, self._replanned_schedule(cat)
+
+    def _replanned_schedule(self, cat: Catalog) -> list[Pass] | None:
+        if not self._scheduled or self.station is None:
+            return None
+        try:
+            return self._plan_schedule(cat)
+        except Exception as exc:  # a satellite gone from the catalog: the old plan stays
+            log.warning("schedule not re-planned on the new elements: %s", exc)
+            return None
+
+    def _install_catalog(self, sig: tuple | None, cat: Catalog, schedule: list[Pass] | None,
+                         announce: bool) -> None:
+        self._catalog, self._catalog_sig = cat, sig
+        if not announce:
+            return
+        said = [f"element catalog changed on disk: {len(cat)} sets read again; new elements are "
+                "used from the next pass (the pass being flown keeps its plan)"]
+        t = self.tracker
+        if t is not None and t.follow_satellite and t.target is not None:
+            try:
+                es = cat.get(t.target.elements.norad_id)
+            except TrackingError:
+                es = None
+            if es is not None and es.epoch != t.target.elements.epoch and t.use_elements(es):
+                said.append(f"{es.label}: elements of {es.epoch:%Y-%m-%d %H:%M}Z from its next pass")
+        if schedule is not None:
+            self._schedule = [p for p in schedule if p.los_unix_s > self.now_unix()]
+            said.append(f"schedule re-planned: {len(self._schedule)} passes")
+        text = "; ".join(said)
+        log.info("%s", text)
+        announce_fn = getattr(self.rot, "announce", None)
+        if announce_fn is not None:
+            try:
+                announce_fn(text)  # in the status' events: the operator sees it
+            except Exception:  # the control link busy or gone: the log line stands
+                log.debug("catalog reload not announced", exc_info=True)
+
+    def _watch_catalog(self, now_s: float) -> None:
+        """In the loop: a stat every CATALOG_CHECK_S; a changed catalog is read (on the
+        worker when there is one) and installed here."""
+        if self._reloading is not None:
+            if self._reloading.done():
+                future, self._reloading = self._reloading, None
+                try:
+                    self._install_catalog(*future.result(), announce=True)
+                except Exception as exc:  # a half-written or corrupt file: the old one stays
+                    log.warning("element catalog not read again: %s", exc)
+            return
+        if self._catalog is None or now_s < self._next_catalog_check_s:
+            return
+        self._next_catalog_check_s = now_s + CATALOG_CHECK_S
+        if self._catalog_signature() == self._catalog_sig:
+            return
+        if self._executor is None:
+            try:
+                self._install_catalog(*self._read_catalog(), announce=True)
+            except Exception as exc:
+                log.warning("element catalog not read again: %s", exc)
+        else:
+            self._reloading = self._executor.submit(self._read_catalog)
 
     def now_unix(self) -> float:
         return self.unix_at(self.rot.clock.now_s())
@@ -179,20 +275,26 @@ class TrackingService:
 
     def run_schedule(self, hours: float = 24.0) -> list[Pass]:
         """Plan the configured schedule's passes; the first is flown, then the next."""
+        self._require_station()
+        self._schedule = self._plan_schedule(self.catalog(), hours, log_dropped=True)
+        self._scheduled = True
+        return self._schedule
+
+    def _plan_schedule(self, cat: Catalog, hours: float = 24.0, log_dropped: bool = False) -> list[Pass]:
         station = self._require_station()
-        cat = self.catalog()
         reqs = [Request(cat.get(e.sat).norad_id, e.priority) for e in self.cfg.tracking.schedule]
         passes = find_passes([cat.get(r.norad_id) for r in reqs], station, self.now_unix(),
                              duration_s=hours * 3600.0, min_el_deg=self.cfg.tracking.min_el_deg)
-        self._schedule, dropped = build_schedule(passes, reqs)
-        for lost, winner in dropped:
+        schedule, dropped = build_schedule(passes, reqs)
+        for lost, winner in dropped if log_dropped else ():
             log.info("schedule: %s pass at %s gives way to %s", lost.name, lost.aos, winner.name)
-        return self._schedule
+        return schedule
 
     # ---------------------------------------------------------------- the loop
     def step(self, now_s: float) -> None:
         if self.tracker is None:
             return
+        self._watch_catalog(now_s)
         if self.tracker.target is None and self._schedule:
             nxt = self._schedule[0]
             if self.unix_at(now_s) < nxt.los_unix_s:

@@ -79,6 +79,14 @@ class Tracker:
         self._arc: Plan | None = None
         self._arc_goes_on = False
         self._arc_retry_u = -math.inf  # no arc could be planned: not tried again before then
+        #: where the next pass is searched and planned: None = at once, in the caller (tests
+        #: on virtual time); an executor (``urc run``) keeps that work off the event loop,
+        #: whose silence would stop the axes (issue 21: 8 s after `urc track` and at LOS)
+        self.background: Any = None
+        self._planning: Any = None  # the pending search (a Future), its result installed by step
+        self._generation = 0        # bumped by every command: a stale search is dropped
+        #: newer elements for the satellite being followed, used from its next pass
+        self._next_elements: ElementSet | None = None
 
     # ------------------------------------------------------------------ commands
     def track(self, target: Target, now_s: float) -> None:
@@ -101,6 +109,9 @@ class Tracker:
     def stop_tracking(self) -> None:
         self.target = None
         self.job = None
+        self._generation += 1
+        self._planning = None
+        self._next_elements = None
         self._arc = None
         self._arc_retry_u = -math.inf
         self.follow_satellite = False
@@ -135,29 +146,69 @@ class Tracker:
                          (st.az.pos_deg, FIXED_EL_DEG), self.unix_at(now_s))
         return replace(plan, sky_el_deg=np.asarray(la.el_deg, dtype=float))
 
+    def use_elements(self, elements: ElementSet) -> bool:
+        """Newer elements for the satellite being followed: used from its next pass (the
+        pass being flown keeps its plan). False if that satellite is not followed."""
+        if not (isinstance(self.target, SatelliteTarget) and self.follow_satellite
+                and self.target.elements.norad_id == elements.norad_id):
+            return False
+        self._next_elements = elements
+        return True
+
+    @property
+    def planning(self) -> bool:
+        """A search for the next pass is running in the background."""
+        return self._planning is not None
+
     def _plan_next(self, target: SatelliteTarget, now_s: float) -> None:
+        if self._next_elements is not None:
+            target = SatelliteTarget(self._next_elements, self.station)
+            self.target, self._next_elements = target, None
+        self.job = None
+        if self.background is None:
+            self._install(self._search_and_plan(target, now_s))
+            return
+        self._generation += 1
+        self._planning = (self._generation, self.background.submit(self._search_and_plan, target, now_s))
+
+    def _collect(self) -> None:
+        """Install a background search once it is done (on the caller's thread)."""
+        generation, future = self._planning
+        if not future.done():
+            return
+        self._planning = None
+        if generation != self._generation:
+            return  # the operator asked for something else meanwhile
+        try:
+            self._install(future.result())
+        except Exception as exc:  # a bad element set, a bug: shown, never raised into the loop
+            log.exception("planning the next pass failed")
+            self.job, self.last_error = None, f"planning the next pass failed: {exc}"
+
+    def _install(self, result: tuple[_PassJob | None, str]) -> None:
+        self.job, self.last_error = result
+
+    def _search_and_plan(self, target: SatelliteTarget, now_s: float) -> tuple[_PassJob | None, str]:
+        """The next pass of ``target`` and its plan, or (None, why not). Pure: it may run
+        on a worker thread (it reads the rotator's immutable status only)."""
         now_u = self.unix_at(now_s)
         if target.elements.sgp4_error:
-            self.job = None
-            self.last_error = f"{target.name}: {target.elements.sgp4_error} at the elements' epoch: " \
+            return None, f"{target.name}: {target.elements.sgp4_error} at the elements' epoch: " \
                 "import newer elements"
-            return
         passes = [p for p in find_passes(target.elements, self.station, now_u,
                                          duration_s=SEARCH_HOURS * 3600, min_el_deg=self.min_el_deg)
                   if p.los_unix_s > now_u + 1.0]
         if not passes:
-            self.job = None
-            self.last_error = f"{target.name}: no pass in the next {SEARCH_HOURS:g} h"
-            return
+            return None, f"{target.name}: no pass in the next {SEARCH_HOURS:g} h"
         try:
-            self.job = _PassJob(target, passes[0], self._plan(target, passes[0], now_s))
-            self.last_error = ""
+            return _PassJob(target, passes[0], self._plan(target, passes[0], now_s)), ""
         except PlanError as exc:
-            self.job = None
-            self.last_error = f"{target.name}: {exc}"
+            return None, f"{target.name}: {exc}"
 
     # ------------------------------------------------------------------ the loop
     def step(self, now_s: float) -> None:
+        if self._planning is not None:
+            self._collect()
         if now_s < self._next_update_s or self.target is None:
             return
         self._next_update_s = now_s + UPDATE_S
@@ -323,6 +374,8 @@ class Tracker:
                     and not out["error"]:
                 # said at once, not only from the next update on
                 out["error"] = f"{self.target.name} is below {self.min_el_deg:g} deg elevation"
+        if self.job is None and self._planning is not None:
+            out["state"] = "planning"  # the next pass is being searched for and planned
         if self.job is not None:
             plan, p = self.job.plan, self.job.pass_
             step = max(1, len(plan.t_s) // 200)

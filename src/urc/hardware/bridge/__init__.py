@@ -81,6 +81,14 @@ class BridgeAxis:
         if self.wake is not None:
             self.wake()
 
+    def answering(self) -> bool:
+        """The link is up and the controller has reported since (its position re-read)."""
+        return self.client.error() == ""
+
+    def note_position(self, mech_deg: float) -> None:
+        """Where the rotator has this axis, on its turn (before each goto)."""
+        self.client.note_position(self.name, mech_deg - self.offset_deg)
+
     def move(self, end_deg: float, speed_frac: float, rate_deg_per_s: float) -> None:
         self.client.post_move(self.name, end_deg - self.offset_deg, speed_frac, rate_deg_per_s)
         if self.wake is not None:

@@ -45,6 +45,12 @@ LATENCY_GAIN = 0.2
 #: between reports, the position moves on at the last reported speed for at most this
 #: many poll periods (then it waits for the next report)
 EXTRAPOLATE_PERIODS = 1.0
+#: a controller spoken to in compass azimuth (Easycomm, rotctld) takes a target in
+#: 0..360 on the turn nearest in travel (README: Angles): a goal further than this from
+#: where it is might be taken on the other turn, so it is approached through waypoints
+#: WAYPOINT_STEP_DEG apart, each unambiguous (unwinding 370 -> 0 is 250, 130, 10, 0)
+NEAREST_TURN_SAFE_DEG = 150.0
+WAYPOINT_STEP_DEG = 120.0
 #: the speed to extrapolate with is measured over the reports of this long
 SPEED_WINDOW_S = 1.0
 #: a controller's own move is handed over to a goto this long (at its speed) before
@@ -91,6 +97,10 @@ class BridgeClient:
         self._native: tuple[int, int, float] | None = None
         # what the controller was last told
         self._sent_pose: tuple[float, float] | None = None
+        self._waypoint: float | None = None   # compass azimuth on the way to a far goal
+        #: the azimuth on its turn as the rotator has it (its estimate, unwound by
+        #: continuity from the saved state): (value, the compass report it went with)
+        self._az_turn: tuple[float, float] | None = None
         self._stopped = True
         #: a stop is the last command the controller got (not merely nothing sent yet)
         self._told_stop = False
@@ -139,6 +149,23 @@ class BridgeClient:
         self._jog[i] = None
         if all(self._wanted[a] is None for a in AXES):
             self._stop_wanted = not self._stopped
+
+    def note_position(self, axis: str, mech_deg: float) -> None:
+        """The rotator's estimate of ``axis`` on its turn (a compass report names none)."""
+        if axis != "az":
+            return
+        with self._lock:
+            if self._pos is not None:
+                self._az_turn = (mech_deg, self._pos[0])
+
+    def _az_on_its_turn(self) -> float | None:
+        """The latest azimuth report on the turn the rotator has the axis on."""
+        if self._pos is None:
+            return None
+        if self._az_turn is None:
+            return self._pos[0]
+        mech, raw = self._az_turn
+        return self._near(0, self._pos[0], mech + (self._pos[0] - raw))
 
     def post_move(self, axis: str, end_deg: float, speed_frac: float, rate_deg_per_s: float) -> None:
         """A jog of one axis towards ``end_deg`` (the soft limit or a keep-out zone's
@@ -419,12 +446,31 @@ class BridgeClient:
                     return None
                 w = held
             pose.append(self.dialect.quantise(w, i))
+        pose[0] = self._via_waypoint(pose[0])
         if not self.dialect.has_el:
             pose[1] = 0.0
         if self._sent_pose is not None and not self._stopped and \
                 all(abs(p - s) < 1e-9 for p, s in zip(pose, self._sent_pose)):
             return None
         return (pose[0], pose[1])
+
+    def _via_waypoint(self, goal_deg: float) -> float:
+        """The azimuth to send for ``goal_deg`` (mechanical, on its turn): the goal, or on
+        a compass protocol a waypoint towards it while it is too far for the nearest-turn
+        rule to name its turn. A waypoint is kept until the axis is near it."""
+        p = self._az_on_its_turn() if self.dialect.az_modulo_deg else None
+        if p is None:
+            self._waypoint = None
+            return goal_deg
+        if abs(goal_deg - p) <= NEAREST_TURN_SAFE_DEG:
+            self._waypoint = None
+            return goal_deg
+        sign = 1.0 if goal_deg > p else -1.0
+        wp = self._waypoint
+        if wp is None or not (WAYPOINT_STEP_DEG / 4.0 < (wp - p) * sign <= NEAREST_TURN_SAFE_DEG):
+            wp = self.dialect.quantise(p + sign * WAYPOINT_STEP_DEG, 0)
+        self._waypoint = wp
+        return wp
 
     def _moving(self) -> bool:
         """The controller may be moving: it has not reported reaching the target it was
