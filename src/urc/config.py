@@ -190,6 +190,9 @@ class GpioAxis(_Section):
     compass: str = "lsm303d"
     declination_deg: float = _num(0.0, ge=-180.0, le=180.0)
     relay_dead_time_s: float = _num(0.5, ge=0.0, le=10.0)
+    #: relay motor without a fast relay: the slow speed pulses the direction relay at
+    #: this rate (the G4JNT controller's 2 Hz)
+    relay_pulse_hz: float = _num(2.0, gt=0.0, le=20.0)
     limit_active_low: bool = True
     #: the encoder's index (Z, pin enc_z): the axis angle of an index pulse (found at
     #: commissioning) and the axis degrees between two (360 / turns of the encoder shaft

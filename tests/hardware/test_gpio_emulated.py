@@ -280,6 +280,19 @@ def test_sarcnet_on_an_lsm303agr(tmp_path):
     assert abs(s.sim_truth["az"]["deg"] - 120.0) < 1.0 and abs(s.sim_truth["el"]["deg"] - 40.0) < 1.0
 
 
+def test_relay_slow_pulse_rate_is_a_setting(tmp_path):
+    """G4JNT: the slow speed pulses at 2 Hz unless [hardware.gpio.<axis>] relay_pulse_hz says."""
+    data = with_emulation(load_config(next(p for p in EXAMPLES if p.stem == "g4jnt"))).to_dict()
+    data["hardware"]["gpio"]["el"]["relay_pulse_hz"] = 4.0
+    rot = build_rotator(Config.from_dict(data), VirtualClock(1000.0), tmp_path, durable_state=False,
+                        fast_virtual=True)
+    assert rot.hw.az.motor.pulse_period_s == 0.5 and rot.hw.el.motor.pulse_period_s == 0.25
+    rot.hw.close()
+    data["hardware"]["gpio"]["el"]["relay_pulse_hz"] = 0
+    with pytest.raises(ConfigError, match="relay_pulse_hz"):
+        Config.from_dict(data)
+
+
 @pytest.mark.parametrize("declination_deg", [12.0, -3.5])
 def test_emulated_compass_keeps_the_configured_declination(tmp_path, declination_deg):
     """examples/sarcnet-mini.toml says 12.0: emulated, the compass keeps it (the

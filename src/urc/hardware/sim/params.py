@@ -83,7 +83,7 @@ class SimAxisParams:
     ac_noload_current_a: float = 0.0
     ac_stall_current_a: float = 0.0
     #: relay levels < 1 are produced by pulsing the relay on level x this period.
-    relay_pulse_period_s: float = 0.4
+    relay_pulse_period_s: float = 0.5       # G4JNT: the slow speed pulses at 2 Hz
     # --- friction at the axis ---
     gear_static_nm: float = 0.0
     gear_kinetic_nm: float = 0.0
@@ -189,7 +189,7 @@ def _ac_axis(ax: AxisCaps, *, gear_j_kgm2: float, load_j_kgm2: float, coast_deg:
              backlash_deg: float, sensor: SimSensorParams, hard: tuple[float, float] | None,
              noload_current_a: float, stall_current_a: float, torque_ratio: float = 6.0,
              stiction_ratio: float = 1.3, load_share: float = 0.25,
-             pulse_period_s: float = 0.4) -> SimAxisParams:
+             pulse_period_s: float = 0.5) -> SimAxisParams:
     """A relay-switched AC motor axis: constant torque up to speed, friction-only coast.
 
     Kinetic friction is chosen so that the coast from max rate is ``coast_deg``:
