@@ -248,8 +248,11 @@ def apply_sensor_calibration(rotator: Any, axis: str, values: dict[str, Any], sa
         adopt = getattr(rotator, "adopt_sensor_reading", None)
         if sensor.caps.absolute and adopt is not None:
             sensor.load_calibration(values)
+            # constants that turn bearings only (a pot's Z) leave the axis angle alone
+            turned = {k for k, v in dict(sensor.calibration()).items() if v != old.get(k)}
+            reread = not turned or not turned <= set(getattr(sensor, "pointing_keys", ()))
             try:
-                return adopt(axis, local=local)
+                return adopt(axis, local=local, reread=reread)
             except Exception:
                 sensor.load_calibration(old)
                 raise
@@ -278,10 +281,11 @@ def zero(rotator: Any, az_deg: float | None = None, el_deg: float | None = None)
 
 @in_control_process
 def pot_apply(rotator: Any, axis: str, points: Sequence[tuple[float, float]]) -> dict[str, float]:
-    """Two (bearing_deg, P) points -> M, C; load them (Z back to 0) and re-reference.
+    """Two (bearing_deg, P) points -> M, C; load them and re-reference.
 
-    Bearings are where the antenna pointed (pointing frame); the mount offset is taken
-    off, since the pot measures the mechanical angle.
+    Bearings are where the antenna pointed (pointing frame); the offsets (the mount's
+    and the pot's own Z, the bearing of its reference, which stays) are taken off,
+    since the pot measures the axis angle.
     """
     if len(points) != 2:
         raise CalibrationError(f"two-point calibration needs exactly 2 points, got {len(points)}")
@@ -294,8 +298,8 @@ def pot_apply(rotator: Any, axis: str, points: Sequence[tuple[float, float]]) ->
     if m == 0 or not math.isfinite(m):
         raise CalibrationError("the fitted slope M is not usable")
     old = dict(sensor.calibration())
-    mech = apply_sensor_calibration(rotator, axis, {"M": m, "C": c, "Z": 0.0})
-    return {"M": m, "C": c, "Z": 0.0, "old_M": float(old.get("M", math.nan)),
+    mech = apply_sensor_calibration(rotator, axis, {"M": m, "C": c})
+    return {"M": m, "C": c, "Z": float(old.get("Z", 0.0)), "old_M": float(old.get("M", math.nan)),
             "old_C": float(old.get("C", math.nan)), "position_deg": mech + off}
 
 

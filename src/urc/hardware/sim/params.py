@@ -217,6 +217,14 @@ def _ac_axis(ax: AxisCaps, *, gear_j_kgm2: float, load_j_kgm2: float, coast_deg:
         wind_gust_nm=WIND_GUST_SHARE * load_share * ts, sensor=sensor)
 
 
+#: The G4JNT document's Table 1 pot: theta = (C + M P / 16384) / 10 deg with M = -15897
+#: and C = 3758 (g4jnt_codec's units), so P = 0 at theta 375.8 and P = 4096 at -21.6:
+#: the resistance falls as the angle grows ("the gradient is negative"). A fresh
+#: simulated G4JNT therefore holds Table 1's M and C, and its stream reproduces Table 1.
+G4JNT_TABLE_1_POT = SimSensorParams(on_load=True, pot_law="ratiometric", pot_start_deg=375.8,
+                                    pot_span_deg=-15897 / 163840 * 4096, adc_noise_counts=0.4)
+
+
 def _pot(ax: AxisCaps, law: Literal["ratiometric", "linear"], noise_counts: float,
          on_load: bool) -> SimSensorParams:
     """A pot whose coarsest ADC step equals the caps resolution, centred on the range."""
@@ -267,10 +275,11 @@ def _build(caps: RotatorCaps) -> tuple[SimAxisParams, SimAxisParams]:
         return (_dc_axis(az, hard=(-10.0, 370.0), **kw),  # type: ignore[arg-type]
                 _dc_axis(el, hard=(-50.0, 230.0), **kw))  # type: ignore[arg-type]  # ~270 deg
     if name == "g4jnt":
-        # Relay-switched AC rotator (CDE/Hy-Gain style), loaded pot on the output.
+        # Relay-switched AC rotator (CDE/Hy-Gain style), loaded pot on the output: the
+        # document's own (Table 1), end stops just outside its -10..370 deg travel.
         return (_ac_axis(az, gear_j_kgm2=40.0, load_j_kgm2=15.0, coast_deg=az.overshoot_deg,
-                         backlash_deg=0.3, sensor=_pot(az, "ratiometric", 0.4, True),
-                         hard=(-5.0, 365.0), noload_current_a=0.5, stall_current_a=3.0),
+                         backlash_deg=0.3, sensor=G4JNT_TABLE_1_POT,
+                         hard=(-12.0, 372.0), noload_current_a=0.5, stall_current_a=3.0),
                 _ac_axis(el, gear_j_kgm2=40.0, load_j_kgm2=15.0, coast_deg=el.overshoot_deg,
                          backlash_deg=0.3, sensor=_pot(el, "ratiometric", 0.4, True),
                          hard=(-5.0, 95.0), noload_current_a=0.5, stall_current_a=3.0))
