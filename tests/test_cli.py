@@ -177,3 +177,29 @@ def test_track_prints_the_target_and_its_warnings(controller, tmp_path):
     out = c.cli("track", "--azel", "120", "-5").stdout  # below the horizon: said so
     assert "warning" in out and "below" in out, out
     c.cli("track", "--stop")
+
+
+def test_status_shows_a_position_in_a_reference_search_as_unknown(bench):
+    """BIG-RAS homing jogs in a search frame of its own: status printed 'az 434.00 ...
+    UNCERTAIN' for an antenna at about 62 deg. During the search the number says nothing:
+    it is shown as unknown; after it, the found position again."""
+    from urc.cli import _format_status
+    from urc.service import calibration as cal
+
+    b = bench("bigras", hardware={"sim": {"wind": False, "start_az_deg": 62.0}})
+    cal.zero(b.rot, az_deg=b.truth("az"))
+    b.run(0.2)
+    proc = cal.LimitSwitchHoming(b.rot, "az")
+    b.run(3.0, on_tick=proc.poll)
+    s = b.rot.status()
+    assert proc.state == "running" and not s.position_known
+    assert abs(s.az.pos_deg - b.truth("az")) > 100          # the search frame's number
+    text = _format_status(s.as_dict())
+    assert "pointing  az unknown  el " in text and "axes      az unknown (" in text
+    assert f"{s.az.pos_deg:.2f}" not in text and f"{s.az_deg:.2f}" not in text
+    assert "az unknown: a reference search (homing) runs" in text
+    b.run(300.0, on_tick=proc.poll, until=lambda _s: proc.finished)
+    assert proc.state == "done"
+    b.run(0.1)                                               # the end of the search is applied
+    text = _format_status(b.rot.status().as_dict())
+    assert "unknown" not in text and f"pointing  az {b.rot.status().az_deg:7.2f}" in text

@@ -261,25 +261,40 @@ def _request(url: str | None, config_path: str | None, method: str, path: str, b
     return data
 
 
+def _unknown(s: dict, name: str) -> bool:
+    """An axis whose uncertainty spans its whole travel (a reference search such as the
+    BIG-RAS homing runs in a frame of its own; no record at start-up): its number says
+    nothing about where the antenna points."""
+    lo, hi = s.get("limits", {}).get(name, (0.0, 0.0))
+    return s[name]["uncertainty_deg"] >= max(hi - lo, 1e-9) - 1e-6
+
+
 def _format_status(s: dict) -> str:
+    def deg(name: str, value: float, width: int) -> str:
+        return "unknown".rjust(width) if _unknown(s, name) else f"{value:{width}.2f}"
+
+    wrap = "?" if _unknown(s, "az") else s["wrap_turns"]
     if s.get("el") is None:  # a single-axis rotator: azimuth only, no elevation shown
         lines = [f"profile   {s['profile']} (azimuth only)",
-                 f"pointing  az {s['az_deg']:7.2f}",
-                 f"axes      az {s['az']['pos_deg']:7.2f} ({s['az']['mode']})  wrap turn {s['wrap_turns']}"]
+                 f"pointing  az {deg('az', s['az_deg'], 7)}",
+                 f"axes      az {deg('az', s['az']['pos_deg'], 7)} ({s['az']['mode']})  wrap turn {wrap}"]
         if s["target_az_deg"] is not None:
             lines.append(f"target    az {s['target_az_deg']:7.2f}")
     else:
         lines = [f"profile   {s['profile']}",
-                 f"pointing  az {s['az_deg']:7.2f}  el {s['el_deg']:6.2f}"
+                 f"pointing  az {deg('az', s['az_deg'], 7)}  el {deg('el', s['el_deg'], 6)}"
                  + ("   (flipped)" if s["flipped"] else ""),
-                 f"axes      az {s['az']['pos_deg']:7.2f} ({s['az']['mode']})  el {s['el']['pos_deg']:6.2f} "
-                 f"({s['el']['mode']})  wrap turn {s['wrap_turns']}"]
+                 f"axes      az {deg('az', s['az']['pos_deg'], 7)} ({s['az']['mode']})  "
+                 f"el {deg('el', s['el']['pos_deg'], 6)} ({s['el']['mode']})  wrap turn {wrap}"]
         if s["target_az_deg"] is not None:
             lines.append(f"target    az {s['target_az_deg']:7.2f}  el {s['target_el_deg']:6.2f}")
     state = "moving" if s["moving"] else ("parked" if s["parked"] else "stopped")
     lines.append(f"state     {state}; position {'known' if s['position_known'] else 'UNCERTAIN'}")
     for name in s.get("axes", ("az", "el")):
-        if s[name]["uncertainty_deg"]:
+        if _unknown(s, name):
+            lines.append(f"          {name} unknown: a reference search (homing) runs, or nothing "
+                         "says where the axis is; set position or home it")
+        elif s[name]["uncertainty_deg"]:
             lines.append(f"          {name} uncertain by ±{s[name]['uncertainty_deg']:.2f} deg")
     if s.get("cycle"):
         c = s["cycle"]
