@@ -41,9 +41,15 @@ def main() -> None:
 @click.option("--port", type=int, help="HTTP API port (overrides [api] port).")
 @click.option("--emulate", is_flag=True,
               help="gpio backend: run the real drivers on pins and chips emulated from the simulator.")
+@click.option("--serve", "serve_specs", multiple=True, metavar="PROTOCOL=KIND:WHERE[,KEY=VALUE]",
+              help="Serve a protocol; repeat for more. Replaces the configuration's [[serve]] for "
+                   "this run (never saved). KIND is tcp, pty, serial or udp, e.g. "
+                   "rotctld=tcp:127.0.0.1:4535, gs232b=pty:/tmp/urc-gs232b, "
+                   "rot2prog=serial:/dev/ttyUSB0,baud=600, pstrotator=udp:0.0.0.0:12000; "
+                   "other KEY=VALUE pairs are the protocol's options (urc=tcp:127.0.0.1:4540,variant=trc).")
 @click.option("-v", "--verbose", is_flag=True, help="Log debug detail.")
 def run(config_path: str | None, profile: str | None, state_dir: str | None, port: int | None,
-        emulate: bool, verbose: bool) -> None:
+        emulate: bool, serve_specs: tuple[str, ...], verbose: bool) -> None:
     """Start the controller (the simulator with no arguments)."""
     from .app import serve
     from .service.instance import InstanceLocked
@@ -57,6 +63,8 @@ def run(config_path: str | None, profile: str | None, state_dir: str | None, por
             data = cfg.to_dict()
             data.setdefault("api", {})["port"] = port
             cfg = Config.from_dict(data, source="--port")
+        if serve_specs:
+            cfg = with_serve(cfg, serve_specs)
         if emulate:
             cfg = with_emulation(cfg)
         asyncio.run(serve(cfg, cfg.state.resolve_dir(state_dir),
@@ -66,6 +74,41 @@ def run(config_path: str | None, profile: str | None, state_dir: str | None, por
     except (InstanceLocked, OSError) as exc:
         # another urc on this state dir or hardware, a port in use: nothing was started
         raise _Busy(f"cannot start: {exc}") from None
+
+
+SERVE_KINDS = ("tcp", "pty", "serial", "udp")
+
+
+def serve_entry(spec: str) -> dict:
+    """``PROTOCOL=KIND:WHERE[,KEY=VALUE...]`` (``--serve``) -> a [[serve]] table: baud and
+    reply_port are the entry's own keys, any other KEY=VALUE a protocol option."""
+    protocol, sep, rest = spec.partition("=")
+    kind, colon, where_opts = rest.partition(":")
+    where, *pairs = where_opts.split(",")
+    if not (sep and protocol.strip() and colon and kind in SERVE_KINDS and where.strip()):
+        raise ConfigError(f"--serve {spec!r}: expected PROTOCOL=KIND:WHERE with KIND one of "
+                          f"{', '.join(SERVE_KINDS)}, e.g. rotctld=tcp:127.0.0.1:4535",
+                          key="serve", expected="PROTOCOL=KIND:WHERE", found=spec)
+    entry: dict = {"protocol": protocol.strip(), kind: where.strip()}
+    for pair in pairs:
+        key, eq, text = pair.partition("=")
+        if not eq or not key.strip():
+            raise ConfigError(f"--serve {spec!r}: expected KEY=VALUE after the address, got {pair!r}",
+                              key="serve", expected="KEY=VALUE", found=pair)
+        value = _setting_value(text.strip())
+        if key.strip() in ("baud", "reply_port"):
+            entry[key.strip()] = value
+        else:
+            entry.setdefault("options", {})[key.strip()] = value
+    return entry
+
+
+def with_serve(cfg, specs: tuple[str, ...]):
+    """The configuration with ``[[serve]]`` replaced by the ``--serve`` entries."""
+    from .config import Config
+    data = cfg.to_dict()
+    data["serve"] = [serve_entry(s) for s in specs]
+    return Config.from_dict(data, source="--serve")
 
 
 def with_emulation(cfg):
@@ -341,7 +384,8 @@ def goto(az: float, el: float | None, url: str | None, config_path: str | None) 
 
 
 @main.command()
-@click.option("--axis", type=click.Choice(["az", "el"]), default=None)
+@click.option("--axis", type=click.Choice(["az", "el"]), default=None,
+              help="Stop this axis only (default: both).")
 @_client_options
 def stop(axis: str | None, url: str | None, config_path: str | None) -> None:
     """Stop the antenna."""
@@ -358,11 +402,17 @@ def park(url: str | None, config_path: str | None) -> None:
 
 
 @main.command("set-position")
-@click.option("--az", type=float, default=None)
-@click.option("--el", type=float, default=None)
+@click.option("--az", type=float, default=None, metavar="DEG",
+              help="The azimuth the antenna points at now (compass degrees, the mount offset "
+                   "included). Past 360 or below 0 it names the cable-wrap turn, e.g. 400 on a "
+                   "450 deg rotator: the overlap.")
+@click.option("--el", type=float, default=None, metavar="DEG",
+              help="The elevation the antenna points at now, degrees (past 90 on a rotator "
+                   "that flips: over the top).")
 @_client_options
 def set_position(az: float | None, el: float | None, url: str | None, config_path: str | None) -> None:
-    """Re-reference: declare where the antenna points now."""
+    """Re-reference: declare where the antenna points now (nothing moves; an axis left
+    out keeps its position). Clears that axis' uncertainty, as Tartu's WRAZ/WREL do."""
     _request(url, config_path, "POST", "/api/set-position", {"az_deg": az, "el_deg": el})
     click.echo("position set")
 
