@@ -471,8 +471,15 @@ def track(target: str | None, norad: int | None, point, azel, nmea_source: str |
 
 
 def _format_tracking(t: dict | None) -> str:
-    if not t:
-        return "not tracking"
+    from .tracking.cycle import tracking_something
+
+    gps = (t or {}).get("gps")
+    gps_line = "" if not gps else (
+        f"\ngps       {gps['source']}: " + (f"fix {gps['lat_deg']:.5f} {gps['lon_deg']:.5f} {gps['alt_m']:.0f} m"
+                                           if gps.get("lat_deg") is not None else "no fix yet")
+        + ("" if gps.get("clock_offset_s") is None else f", clock offset {gps['clock_offset_s']:+.3f} s"))
+    if not tracking_something(t):
+        return "not tracking" + gps_line
     lines = [f"tracking  {t.get('target')}" if not t.get("stopped") else
              f"NOT tracking {t.get('target')}: {t['stopped']}"]
     if t.get("az_deg") is not None:
@@ -487,7 +494,7 @@ def _format_tracking(t: dict | None) -> str:
             lines.append(f"note      {note}")
     for text in ([t["error"]] if t.get("error") else []) + list(t.get("warnings") or []):
         lines.append(f"warning   {text}")
-    return "\n".join(lines)
+    return "\n".join(lines) + gps_line
 
 
 @main.group()
