@@ -30,7 +30,7 @@ class CalibrationError(UrcError):
 
 # =========================================================================== maths
 def two_point_pot(bearing1_deg: float, p1: float, bearing2_deg: float, p2: float) -> tuple[float, float]:
-    """G4JNT: bearing = M*P + C through two known (bearing, P) points. Returns (M, C)."""
+    """G4JNT: angle = M*P + C through two known (angle, P) points. Returns (M, C)."""
     if not all(math.isfinite(v) for v in (bearing1_deg, p1, bearing2_deg, p2)):
         raise CalibrationError("two-point calibration needs finite bearings and pot readings")
     if abs(p2 - p1) < 1e-9:
