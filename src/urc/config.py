@@ -521,6 +521,18 @@ class PanelSection(_Section):
     buttons: PanelButtons = PanelButtons()
     leds: PanelLeds = PanelLeds()
     beeper: int | None = Field(None, ge=0, le=53)
+    #: BIG-RAS "Beeper type": "off" (silent), "dc" (an active beeper: on/off) or the tone
+    #: in Hz, 200..5000, for a passive one (driven with PWM at that frequency)
+    beeper_type: Literal["off", "dc"] | typing.Annotated[int, Field(ge=200, le=5000)] = "dc"
+    #: a short beep whenever a command from a protocol port gives the rotator a new
+    #: target (the BIG-RAS beeps on each serial command; off unless asked for)
+    beep_on_command: bool = False
+    #: BIG-RAS "Backlight", percent: the OLED's brightness; a PCF8574 LCD backpack
+    #: switches its backlight only, on above 0
+    backlight_pct: int = Field(100, ge=0, le=100)
+    #: BIG-RAS "Screensaver": the display goes dark this long after the last key (a
+    #: button, the IR remote) or fault; 0 = always lit. A key wakes it.
+    screensaver_s: float = _num(0.0, ge=0.0, le=86400.0)
     lcd: PanelLcd | None = None
     oled: PanelOled | None = None
     ir: PanelIr | None = None
