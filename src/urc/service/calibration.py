@@ -249,7 +249,7 @@ def apply_sensor_calibration(rotator: Any, axis: str, values: dict[str, Any], sa
         if sensor.caps.absolute and adopt is not None:
             sensor.load_calibration(values)
             # constants that turn bearings only (a pot's Z) leave the axis angle alone
-            turned = {k for k, v in dict(sensor.calibration()).items() if v != old.get(k)}
+            turned = {k for k, v in dict(sensor.calibration()).items() if not _same(v, old.get(k))}
             reread = not turned or not turned <= set(getattr(sensor, "pointing_keys", ()))
             try:
                 return adopt(axis, local=local, reread=reread)
@@ -272,6 +272,14 @@ def apply_sensor_calibration(rotator: Any, axis: str, values: dict[str, Any], sa
             sensor.load_calibration(old)
             raise
     return mech_new
+
+
+def _same(a: Any, b: Any) -> bool:
+    """One constant unchanged (a value that went through a protocol's integer units
+    comes back a last bit off)."""
+    if isinstance(a, (int, float)) and isinstance(b, (int, float)):
+        return math.isclose(a, b, rel_tol=1e-12, abs_tol=1e-12)
+    return a == b
 
 
 def zero(rotator: Any, az_deg: float | None = None, el_deg: float | None = None) -> None:
