@@ -533,6 +533,9 @@ class PanelSection(_Section):
     #: BIG-RAS "Screensaver": the display goes dark this long after the last key (a
     #: button, the IR remote) or fault; 0 = always lit. A key wakes it.
     screensaver_s: float = _num(0.0, ge=0.0, le=86400.0)
+    #: BIG-RAS "Autoturn": a jog held 5 s goes on after its button is let go, until a
+    #: button is pressed again or the axis reaches its end of travel
+    autoturn: bool = False
     lcd: PanelLcd | None = None
     oled: PanelOled | None = None
     ir: PanelIr | None = None

@@ -125,3 +125,42 @@ screensaver_s = 30
         with pytest.raises(ConfigError) as exc:
             loads_config(f"[panel]\n{text}\n", "p.toml")
         assert exc.value.key == key
+
+
+def test_autoturn_goes_on_after_a_5_s_hold_until_a_key(bench):
+    b, factory, panel = make_panel(bench, autoturn=True)
+    cw = factory.pin(BUTTONS["cw"])
+    cw.drive_low()
+    run(b, panel, 1.0)
+    cw.drive_high()                               # a short hold: stops on release
+    st = run(b, panel, 3.0)
+    assert not st.moving and not panel.controls.autoturning
+    cw.drive_low()
+    run(b, panel, 5.5)
+    cw.drive_high()                               # held 5 s: goes on by itself
+    az0 = run(b, panel, 0.1).az.pos_deg
+    st = run(b, panel, 3.0)
+    assert st.moving and st.az.pos_deg > az0 + 5 and panel.controls.autoturning == {"az": "cw"}
+    assert st.local_control == ()                 # no longer held: the ports are not locked out
+    stop = factory.pin(BUTTONS["stop"])           # a key ends it
+    stop.drive_low()
+    stop.drive_high()
+    st = b.settle()
+    assert not st.moving and not panel.controls.autoturning
+    # the same hold without autoturn stops on release
+    b2, f2, plain = make_panel(bench)
+    f2.pin(BUTTONS["cw"]).drive_low()
+    run(b2, plain, 5.5)
+    f2.pin(BUTTONS["cw"]).drive_high()
+    assert not b2.settle().moving
+
+
+def test_autoturn_runs_to_the_end_of_travel(bench):
+    b, factory, panel = make_panel(bench, autoturn=True)
+    b.rot.goto(400.0, 0.0)
+    b.settle()
+    factory.pin(BUTTONS["cw"]).drive_low()
+    run(b, panel, 5.5)
+    factory.pin(BUTTONS["cw"]).drive_high()
+    st = b.run(120.0, until=lambda s: not s.moving)
+    assert st.az.pos_deg == pytest.approx(b.rot.status().limits["az"][1], abs=1.5) and not st.faults

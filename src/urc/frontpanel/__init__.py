@@ -40,7 +40,7 @@ def build_panel(cfg, rotator, dispatch: Callable[..., None] | None = None):
                        beeper_pin=p.beeper, display=display, ir=ir, layout=p.layout, jog_speed=p.jog_speed,
                        slow_speed=p.slow_speed, bounce_time_s=None if p.emulate or not p.bounce_s else p.bounce_s,
                        dispatch=dispatch, beeper_type=p.beeper_type, beep_on_command=p.beep_on_command,
-                       backlight_pct=p.backlight_pct, screensaver_s=p.screensaver_s)
+                       backlight_pct=p.backlight_pct, screensaver_s=p.screensaver_s, autoturn=p.autoturn)
     panel.power_on()
     return panel
 

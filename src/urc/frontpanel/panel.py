@@ -37,7 +37,8 @@ class FrontPanel:
                  layout: str = "labelled", jog_speed: float = 1.0, slow_speed: float = 0.2, bounce_time_s: float | None = None,
                  dispatch: Callable[..., None] | None = None, now_s: Callable[[], float] | None = None,
                  wall_s: Callable[[], float] = time.time, beeper_type: str | int = "dc",
-                 beep_on_command: bool = False, backlight_pct: int = 100, screensaver_s: float = 0.0):
+                 beep_on_command: bool = False, backlight_pct: int = 100, screensaver_s: float = 0.0,
+                 autoturn: bool = False):
         from gpiozero import LED, Button, Buzzer, PWMOutputDevice
 
         self.rotator = rotator
@@ -55,7 +56,7 @@ class FrontPanel:
         self.beep_on_command = beep_on_command
         self.backlight_pct, self.screensaver_s = backlight_pct, screensaver_s
         self.controls = LocalControls(rotator, jog_speed=jog_speed, slow_speed=slow_speed,
-                                      on_result=self._local_result)
+                                      on_result=self._local_result, autoturn=autoturn)
         # what each button does (fixed: the axes do not change while urc runs)
         self.actions = {name: button_action(layout, name, rotator.caps.has_el) for name in (buttons or {})}
         self.buttons = {name: self._device(Button, pin, pin_factory, pull_up=True, bounce_time=bounce_time_s)
