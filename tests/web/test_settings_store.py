@@ -142,3 +142,22 @@ def test_a_crash_during_save_leaves_a_config(tmp_path, monkeypatch, crash_at):
     cfg = tomllib.loads(path.read_text())
     assert cfg["api"]["token"] == "s3cret"
     assert not list(tmp_path.glob("*.tmp")) and not list(tmp_path.glob(".*.tmp"))
+
+
+def test_dotted_keys_take_a_new_table_inline(tmp_path):
+    """A file written with dotted keys: a new table lands among them (tomlkit alone put
+    it at the top level as [gpio.az...], a different key)."""
+    path = tmp_path / "urc.toml"
+    text = ('[rotator]\nprofile = "g4jnt"\n[hardware]\nbackend = "gpio"  # the Pi\n'
+            'gpio.az.motor = "relay"\ngpio.az.pins = { cw = 5, ccw = 6 }\ngpio.az.adc = "mcp3008"\n'
+            'gpio.el.motor = "relay"\ngpio.el.pins = { cw = 20, ccw = 21 }\ngpio.el.adc = "mcp3008"\n'
+            'gpio.el.adc_channel = 1\n')
+    path.write_text(text)
+    store = store_for(path)
+    data = store.cfg.to_dict()
+    data["hardware"]["gpio"]["az"]["pins"]["cw"] = 7
+    data["panel"] = {"enabled": True, "emulate": True, "buttons": {"cw": 17}}
+    store.save(Config.from_dict(data))
+    saved = path.read_text()
+    assert saved.startswith(text.replace("cw = 5", "cw = 7"))
+    assert Config.from_dict(tomllib.loads(saved)) == store.cfg

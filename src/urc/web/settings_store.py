@@ -138,7 +138,10 @@ class SettingsStore:
             old_text = target.read_text(encoding="utf-8")
         except FileNotFoundError:
             old_mode, old_text = None, ""
-        text = toml_edit.edit(old_text, self.cfg.to_dict(), new.to_dict())
+        try:
+            text = toml_edit.edit(old_text, self.cfg.to_dict(), new.to_dict())
+        except (toml_edit.EditError, ValueError) as exc:  # (tomllib: a file broken by hand meanwhile)
+            raise OSError(f"{target}: {exc}; the file is left as it was") from exc
         _write_atomic(target, text.encode("utf-8"), 0o600 if old_mode is None else old_mode)
         self.cfg = new
         return target
