@@ -182,3 +182,89 @@ def test_track_prints_the_target_and_its_warnings(controller, tmp_path):
     out = c.cli("track", "--azel", "120", "-5").stdout  # below the horizon: said so
     assert "warning" in out and "below" in out, out
     c.cli("track", "--stop")
+
+
+def test_status_shows_a_position_in_a_reference_search_as_unknown(bench):
+    """BIG-RAS homing jogs in a search frame of its own: status printed 'az 434.00 ...
+    UNCERTAIN' for an antenna at about 62 deg. During the search the number says nothing:
+    it is shown as unknown; after it, the found position again."""
+    from urc.cli import _format_status
+    from urc.service import calibration as cal
+
+    b = bench("bigras", hardware={"sim": {"wind": False, "start_az_deg": 62.0}})
+    cal.zero(b.rot, az_deg=b.truth("az"))
+    b.run(0.2)
+    proc = cal.LimitSwitchHoming(b.rot, "az")
+    b.run(3.0, on_tick=proc.poll)
+    s = b.rot.status()
+    assert proc.state == "running" and not s.position_known
+    assert abs(s.az.pos_deg - b.truth("az")) > 100          # the search frame's number
+    text = _format_status(s.as_dict())
+    assert "pointing  az unknown  el " in text and "axes      az unknown (" in text
+    assert f"{s.az.pos_deg:.2f}" not in text and f"{s.az_deg:.2f}" not in text
+    assert "az unknown: a reference search (homing) runs" in text
+    b.run(300.0, on_tick=proc.poll, until=lambda _s: proc.finished)
+    assert proc.state == "done"
+    b.run(0.1)                                               # the end of the search is applied
+    text = _format_status(b.rot.status().as_dict())
+    assert "unknown" not in text and f"pointing  az {b.rot.status().az_deg:7.2f}" in text
+
+
+def test_serve_specs_become_serve_entries():
+    from urc.cli import serve_entry, with_serve
+    from urc.config import Config
+    from urc.errors import ConfigError
+
+    assert serve_entry("rotctld=tcp:127.0.0.1:4535") == {"protocol": "rotctld", "tcp": "127.0.0.1:4535"}
+    assert serve_entry("rot2prog=serial:/dev/ttyUSB0,baud=600") == \
+        {"protocol": "rot2prog", "serial": "/dev/ttyUSB0", "baud": 600}
+    assert serve_entry("urc=pty:/tmp/x,variant=trc,echo=true") == \
+        {"protocol": "urc", "pty": "/tmp/x", "options": {"variant": "trc", "echo": True}}
+    cfg = with_serve(Config(), ("gs232b=pty:/tmp/urc-gs", "pstrotator=udp:0.0.0.0:12000,reply_port=12002"))
+    assert [e.describe() for e in cfg.serve] == ["gs232b on pty /tmp/urc-gs", "pstrotator on udp 0.0.0.0:12000"]
+    assert cfg.serve[1].reply_port == 12002
+    for bad in ("rotctld", "rotctld=4535", "rotctld=ftp:x", "rotctld=tcp:", "=tcp:1:2", "rotctld=tcp:h:1,baud"):
+        with pytest.raises(ConfigError, match="--serve"):
+            with_serve(Config(), (bad,))
+    with pytest.raises(ConfigError, match="nosuch"):          # the configuration's own checks
+        with_serve(Config(), ("nosuch=tcp:127.0.0.1:4535",))
+
+
+def test_a_second_instance_needs_no_config_file(tmp_path):
+    """`urc run --serve rotctld=tcp:...` serves there instead of the default 4533 (which a
+    first urc holds), with no configuration file; the flag is not saved by the settings."""
+    import socket
+
+    port, rot_port = free_port(), free_port()
+    proc = subprocess.Popen(URC + ["run", "--port", str(port), "--state-dir", str(tmp_path / "state"),
+                                   "--serve", f"rotctld=tcp:127.0.0.1:{rot_port}"],
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    try:
+        url = f"http://127.0.0.1:{port}"
+        import httpx
+
+        from urc_process import wait_until
+
+        def answers():
+            try:
+                with socket.create_connection(("127.0.0.1", rot_port), timeout=2) as s:
+                    s.sendall(b"p\n")
+                    return s.recv(100)
+            except OSError:
+                assert proc.poll() is None, proc.stdout.read()
+                return None
+        reply = wait_until(answers, timeout_s=60, what="rotctld on the --serve port")
+        assert reply.decode().count("\n") == 2                      # az and el lines
+        doc = httpx.get(url + "/api/settings", timeout=5).json()
+        assert doc["config"]["serve"] == [{"protocol": "rotctld", "tcp": f"127.0.0.1:{rot_port}",
+                                           "reply_port": 12001, "options": {}}]
+    finally:
+        proc.terminate()
+        proc.wait(timeout=30)
+
+
+def test_help_texts_for_set_position_and_run():
+    out = urc("set-position", "--help").stdout
+    assert "--az DEG" in out and "azimuth the antenna points at now" in out
+    assert "--el DEG" in out and "elevation the antenna points at now" in out
+    assert "--serve PROTOCOL=KIND:WHERE" in urc("run", "--help").stdout

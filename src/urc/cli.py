@@ -59,9 +59,15 @@ def main() -> None:
 @click.option("--port", type=int, help="HTTP API port (overrides [api] port).")
 @click.option("--emulate", is_flag=True,
               help="gpio backend: run the real drivers on pins and chips emulated from the simulator.")
+@click.option("--serve", "serve_specs", multiple=True, metavar="PROTOCOL=KIND:WHERE[,KEY=VALUE]",
+              help="Serve a protocol; repeat for more. Replaces the configuration's [[serve]] for "
+                   "this run (never saved). KIND is tcp, pty, serial or udp, e.g. "
+                   "rotctld=tcp:127.0.0.1:4535, gs232b=pty:/tmp/urc-gs232b, "
+                   "rot2prog=serial:/dev/ttyUSB0,baud=600, pstrotator=udp:0.0.0.0:12000; "
+                   "other KEY=VALUE pairs are the protocol's options (urc=tcp:127.0.0.1:4540,variant=trc).")
 @click.option("-v", "--verbose", is_flag=True, help="Log debug detail.")
 def run(config_path: str | None, profile: str | None, state_dir: str | None, port: int | None,
-        emulate: bool, verbose: bool) -> None:
+        emulate: bool, serve_specs: tuple[str, ...], verbose: bool) -> None:
     """Start the controller (the simulator with no arguments)."""
     import asyncio
 
@@ -77,6 +83,8 @@ def run(config_path: str | None, profile: str | None, state_dir: str | None, por
             data = cfg.to_dict()
             data.setdefault("api", {})["port"] = port
             cfg = Config.from_dict(data, source="--port")
+        if serve_specs:
+            cfg = with_serve(cfg, serve_specs)
         if emulate:
             cfg = with_emulation(cfg)
         asyncio.run(serve(cfg, cfg.state.resolve_dir(state_dir),
@@ -87,6 +95,41 @@ def run(config_path: str | None, profile: str | None, state_dir: str | None, por
         # another urc on this state dir or hardware, a port in use, a state dir holding
         # something other than files: nothing was started
         raise _Busy(f"cannot start: {exc}") from None
+
+
+SERVE_KINDS = ("tcp", "pty", "serial", "udp")
+
+
+def serve_entry(spec: str) -> dict:
+    """``PROTOCOL=KIND:WHERE[,KEY=VALUE...]`` (``--serve``) -> a [[serve]] table: baud and
+    reply_port are the entry's own keys, any other KEY=VALUE a protocol option."""
+    protocol, sep, rest = spec.partition("=")
+    kind, colon, where_opts = rest.partition(":")
+    where, *pairs = where_opts.split(",")
+    if not (sep and protocol.strip() and colon and kind in SERVE_KINDS and where.strip()):
+        raise ConfigError(f"--serve {spec!r}: expected PROTOCOL=KIND:WHERE with KIND one of "
+                          f"{', '.join(SERVE_KINDS)}, e.g. rotctld=tcp:127.0.0.1:4535",
+                          key="serve", expected="PROTOCOL=KIND:WHERE", found=spec)
+    entry: dict = {"protocol": protocol.strip(), kind: where.strip()}
+    for pair in pairs:
+        key, eq, text = pair.partition("=")
+        if not eq or not key.strip():
+            raise ConfigError(f"--serve {spec!r}: expected KEY=VALUE after the address, got {pair!r}",
+                              key="serve", expected="KEY=VALUE", found=pair)
+        value = _setting_value(text.strip())
+        if key.strip() in ("baud", "reply_port"):
+            entry[key.strip()] = value
+        else:
+            entry.setdefault("options", {})[key.strip()] = value
+    return entry
+
+
+def with_serve(cfg, specs: tuple[str, ...]):
+    """The configuration with ``[[serve]]`` replaced by the ``--serve`` entries."""
+    from .config import Config
+    data = cfg.to_dict()
+    data["serve"] = [serve_entry(s) for s in specs]
+    return Config.from_dict(data, source="--serve")
 
 
 def with_emulation(cfg):
@@ -307,25 +350,40 @@ def _request(url: str | None, config_path: str | None, method: str, path: str, b
     return data
 
 
+def _unknown(s: dict, name: str) -> bool:
+    """An axis whose uncertainty spans its whole travel (a reference search such as the
+    BIG-RAS homing runs in a frame of its own; no record at start-up): its number says
+    nothing about where the antenna points."""
+    lo, hi = s.get("limits", {}).get(name, (0.0, 0.0))
+    return s[name]["uncertainty_deg"] >= max(hi - lo, 1e-9) - 1e-6
+
+
 def _format_status(s: dict) -> str:
+    def deg(name: str, value: float, width: int) -> str:
+        return "unknown".rjust(width) if _unknown(s, name) else f"{value:{width}.2f}"
+
+    wrap = "?" if _unknown(s, "az") else s["wrap_turns"]
     if s.get("el") is None:  # a single-axis rotator: azimuth only, no elevation shown
         lines = [f"profile   {s['profile']} (azimuth only)",
-                 f"pointing  az {s['az_deg']:7.2f}",
-                 f"axes      az {s['az']['pos_deg']:7.2f} ({s['az']['mode']})  wrap turn {s['wrap_turns']}"]
+                 f"pointing  az {deg('az', s['az_deg'], 7)}",
+                 f"axes      az {deg('az', s['az']['pos_deg'], 7)} ({s['az']['mode']})  wrap turn {wrap}"]
         if s["target_az_deg"] is not None:
             lines.append(f"target    az {s['target_az_deg']:7.2f}")
     else:
         lines = [f"profile   {s['profile']}",
-                 f"pointing  az {s['az_deg']:7.2f}  el {s['el_deg']:6.2f}"
+                 f"pointing  az {deg('az', s['az_deg'], 7)}  el {deg('el', s['el_deg'], 6)}"
                  + ("   (flipped)" if s["flipped"] else ""),
-                 f"axes      az {s['az']['pos_deg']:7.2f} ({s['az']['mode']})  el {s['el']['pos_deg']:6.2f} "
-                 f"({s['el']['mode']})  wrap turn {s['wrap_turns']}"]
+                 f"axes      az {deg('az', s['az']['pos_deg'], 7)} ({s['az']['mode']})  "
+                 f"el {deg('el', s['el']['pos_deg'], 6)} ({s['el']['mode']})  wrap turn {wrap}"]
         if s["target_az_deg"] is not None:
             lines.append(f"target    az {s['target_az_deg']:7.2f}  el {s['target_el_deg']:6.2f}")
     state = "moving" if s["moving"] else ("parked" if s["parked"] else "stopped")
     lines.append(f"state     {state}; position {'known' if s['position_known'] else 'UNCERTAIN'}")
     for name in s.get("axes", ("az", "el")):
-        if s[name]["uncertainty_deg"]:
+        if _unknown(s, name):
+            lines.append(f"          {name} unknown: a reference search (homing) runs, or nothing "
+                         "says where the axis is; set position or home it")
+        elif s[name]["uncertainty_deg"]:
             lines.append(f"          {name} uncertain by ±{s[name]['uncertainty_deg']:.2f} deg")
     if s.get("cycle"):
         c = s["cycle"]
@@ -372,7 +430,8 @@ def goto(az: float, el: float | None, url: str | None, config_path: str | None) 
 
 
 @main.command()
-@click.option("--axis", type=click.Choice(["az", "el"]), default=None)
+@click.option("--axis", type=click.Choice(["az", "el"]), default=None,
+              help="Stop this axis only (default: both).")
 @_client_options
 def stop(axis: str | None, url: str | None, config_path: str | None) -> None:
     """Stop the antenna."""
@@ -389,11 +448,17 @@ def park(url: str | None, config_path: str | None) -> None:
 
 
 @main.command("set-position")
-@click.option("--az", type=float, default=None)
-@click.option("--el", type=float, default=None)
+@click.option("--az", type=float, default=None, metavar="DEG",
+              help="The azimuth the antenna points at now (compass degrees, the mount offset "
+                   "included). Past 360 or below 0 it names the cable-wrap turn, e.g. 400 on a "
+                   "450 deg rotator: the overlap.")
+@click.option("--el", type=float, default=None, metavar="DEG",
+              help="The elevation the antenna points at now, degrees (past 90 on a rotator "
+                   "that flips: over the top).")
 @_client_options
 def set_position(az: float | None, el: float | None, url: str | None, config_path: str | None) -> None:
-    """Re-reference: declare where the antenna points now."""
+    """Re-reference: declare where the antenna points now (nothing moves; an axis left
+    out keeps its position). Clears that axis' uncertainty, as Tartu's WRAZ/WREL do."""
     _request(url, config_path, "POST", "/api/set-position", {"az_deg": az, "el_deg": el})
     click.echo("position set")
 
@@ -460,8 +525,15 @@ def track(target: str | None, norad: int | None, point, azel, nmea_source: str |
 
 
 def _format_tracking(t: dict | None) -> str:
-    if not t:
-        return "not tracking"
+    from .tracking.cycle import tracking_something
+
+    gps = (t or {}).get("gps")
+    gps_line = "" if not gps else (
+        f"\ngps       {gps['source']}: " + (f"fix {gps['lat_deg']:.5f} {gps['lon_deg']:.5f} {gps['alt_m']:.0f} m"
+                                           if gps.get("lat_deg") is not None else "no fix yet")
+        + ("" if gps.get("clock_offset_s") is None else f", clock offset {gps['clock_offset_s']:+.3f} s"))
+    if not tracking_something(t):
+        return "not tracking" + gps_line
     lines = [f"tracking  {t.get('target')}" if not t.get("stopped") else
              f"NOT tracking {t.get('target')}: {t['stopped']}"]
     if t.get("az_deg") is not None:
@@ -476,7 +548,7 @@ def _format_tracking(t: dict | None) -> str:
             lines.append(f"note      {note}")
     for text in ([t["error"]] if t.get("error") else []) + list(t.get("warnings") or []):
         lines.append(f"warning   {text}")
-    return "\n".join(lines)
+    return "\n".join(lines) + gps_line
 
 
 @main.group()

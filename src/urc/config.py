@@ -209,6 +209,9 @@ class GpioAxis(_Section):
     pulse_debounce_s: float = _num(0.005, ge=0.0, le=1.0)
     #: an encoder's x4 counts per axis degree; None = the profile's (1 / resolution)
     encoder_counts_per_deg: float | None = _num(None, gt=0.0, le=100000.0)
+    #: relay motor without a fast relay: the slow speed pulses the direction relay at
+    #: this rate (the G4JNT controller's 2 Hz)
+    relay_pulse_hz: float = _num(2.0, gt=0.0, le=20.0)
     #: the encoder's index (Z, pin enc_z): the axis angle of an index pulse (found at
     #: commissioning) and the axis degrees between two (360 / turns of the encoder shaft
     #: per axis turn); each pulse re-references the count. None = Z not used
@@ -551,6 +554,21 @@ class PanelSection(_Section):
     buttons: PanelButtons = PanelButtons()
     leds: PanelLeds = PanelLeds()
     beeper: int | None = Field(None, ge=0, le=53)
+    #: BIG-RAS "Beeper type": "off" (silent), "dc" (an active beeper: on/off) or the tone
+    #: in Hz, 200..5000, for a passive one (driven with PWM at that frequency)
+    beeper_type: Literal["off", "dc"] | typing.Annotated[int, Field(ge=200, le=5000)] = "dc"
+    #: a short beep whenever a command from a protocol port gives the rotator a new
+    #: target (the BIG-RAS beeps on each serial command; off unless asked for)
+    beep_on_command: bool = False
+    #: BIG-RAS "Backlight", percent: the OLED's brightness; a PCF8574 LCD backpack
+    #: switches its backlight only, on above 0
+    backlight_pct: int = Field(100, ge=0, le=100)
+    #: BIG-RAS "Screensaver": the display goes dark this long after the last key (a
+    #: button, the IR remote) or fault; 0 = always lit. A key wakes it.
+    screensaver_s: float = _num(0.0, ge=0.0, le=86400.0)
+    #: BIG-RAS "Autoturn": a jog held 5 s goes on after its button is let go, until a
+    #: button is pressed again or the axis reaches its end of travel
+    autoturn: bool = False
     lcd: PanelLcd | None = None
     oled: PanelOled | None = None
     ir: PanelIr | None = None

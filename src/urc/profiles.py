@@ -67,13 +67,18 @@ PROFILES: dict[str, RotatorCaps] = {
         command_sets=("gs232a", "gs232b", "spid", "rotctld", "pstrotator"),
     ),
     # G4JNT PIC controller: potentiometer read ratiometrically through a 10-bit ADC,
-    # relay-switched AC motor with slow (pulsed) and fast motion.
+    # relay-switched AC motor with slow (pulsed) and fast motion. Azimuth limits are the
+    # pot angle theta from the end-stop reference, the document's "-10 to 370 deg with
+    # overlap"; a bearing is theta + Z (the reference's bearing) modulo 360, so every
+    # bearing has a theta inside the travel and those within 10 deg of the reference two.
+    # Resolution: the coarsest ADC count inside that travel on the document's Table 1
+    # pot (M = -15897: 397.4 deg over P 0..4096; dN/dx >= 527 counts: 0.75 deg).
     "g4jnt": RotatorCaps(
         name="g4jnt",
-        description="G4JNT PIC: 10-bit ratiometric pot, relay AC motor, slow/fast",
-        az=AxisCaps(name="az", min_deg=0.0, max_deg=360.0, park_deg=0.0,
+        description="G4JNT PIC: 10-bit ratiometric pot, -10..370 deg, relay AC motor, slow/fast",
+        az=AxisCaps(name="az", min_deg=-10.0, max_deg=370.0, park_deg=0.0,
                     max_rate_deg_per_s=6.0, min_rate_deg_per_s=1.5, accel_deg_per_s2=30.0,
-                    sensor=SensorCaps(kind="pot", resolution_deg=0.9, absolute=True,
+                    sensor=SensorCaps(kind="pot", resolution_deg=0.78, absolute=True,
                                       noise_deg=0.2),
                     drive="relay", drive_levels=(0.25, 1.0),
                     tolerance_deg=0.9, restart_deg=1.8, overshoot_deg=0.3, creep_lead_deg=0.3),

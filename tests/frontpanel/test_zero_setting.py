@@ -40,7 +40,8 @@ def test_zero_setting_changes_and_stores_z(panel_rig):
     rig.panel.refresh_display()
     assert chip.text()[0] == "ZERO SET   Z    0.9 "
     sensor = rig.rot.hw.axis("az").sensor
-    bearing_before = average_reading_deg(sensor, 400)
+    theta_before = average_reading_deg(sensor, 400)
+    bearing_before = rig.rot.status().az_deg
     rig.press("slow")          # store
     rig.release("slow")
     assert not zero.active and rig.panel.beeper.played[-1] == "stored"
@@ -49,10 +50,12 @@ def test_zero_setting_changes_and_stores_z(panel_rig):
     # pot reading folded back into Z by the re-reference)
     z_stored = sensor.calibration()["Z"]
     assert z_stored == pytest.approx(0.9, abs=1e-9)
-    # and added to the bearing: the mean of many (noisy, 0.9 deg quantised) readings moves
-    # by Z exactly, within what 400 readings can tell
-    assert average_reading_deg(sensor, 400) - bearing_before == pytest.approx(0.9, abs=0.03)
-    assert st.az.pos_deg == pytest.approx(az_before + 0.9, abs=0.3), "Z is added to the bearing"
+    # and added to the bearing, exactly: Z turns bearings (bearing = theta + Z), not the
+    # pot angle theta, whose readings stay as they were (within what 400 readings tell)
+    assert abs(average_reading_deg(sensor, 400) - theta_before) < 0.05
+    assert st.offsets["az"] == pytest.approx(0.9), "Z is added to the bearing"
+    assert (st.az_deg - bearing_before) % 360.0 == pytest.approx(0.9, abs=0.3)
+    assert st.az.pos_deg == pytest.approx(az_before, abs=0.3)
     assert st.local_control == ()
     rig.rot.goto(10.0, 0.0)    # back to normal operation
     rig.panel.refresh_display()
@@ -69,13 +72,21 @@ def test_zero_setting_refused_value_stays_in_the_procedure(panel_rig):
     rig.release("ccw")
     rig.settle()
     rig.press("ccw")
-    rig.run(3.0)               # -0.1, repeats, then 1 deg steps: well below the az 0 limit
+    rig.run(3.0)               # -0.1, repeats, then 1 deg steps: a Z below 0
     rig.release("ccw")
     assert rig.panel.zero.value_deg < -5
+    rig.rot.hold_local("ir", True)      # another local control: the rotator refuses the set
     rig.press("slow")
     rig.release("slow")
     assert rig.panel.zero.active and rig.panel.beeper.played[-1] == "refused"
     assert rig.rot.hw.axis("az").sensor.calibration()["Z"] == 0.0
+    rig.rot.hold_local("ir", False)
+    # a Z below 0 is a bearing like any other (it used to be refused as 'below the az 0
+    # limit': the limits belong to the pot angle, Z only turns bearings)
+    rig.press("slow")
+    rig.release("slow")
+    assert not rig.panel.zero.active and rig.panel.beeper.played[-1] == "stored"
+    assert rig.rot.hw.axis("az").sensor.calibration()["Z"] == rig.panel.zero.value_deg
 
 
 def test_without_both_buttons_no_zero_setting(panel_rig):

@@ -94,12 +94,11 @@ def test_lmd18200_brakes_at_zero():
     assert lmd18200_state(False, d.value, False) == "brake"
 
 
-def relay(levels=(0.5, 1.0), fast=False, dead_s=0.5):
+def relay(levels=(0.5, 1.0), fast=False, dead_s=0.5, **kw):
     log, clock = Log(), VirtualClock()
     cw, ccw = Out(log, "CW"), Out(log, "CCW")
     f = Out(log, "FAST") if fast else None
-    m = RelayMotor("az", cw, ccw, clock, fast=f, levels=levels, reverse_dead_time_s=dead_s,
-                   pulse_period_s=0.4)
+    m = RelayMotor("az", cw, ccw, clock, fast=f, levels=levels, reverse_dead_time_s=dead_s, **kw)
     return m, cw, ccw, f, clock, log
 
 
@@ -132,6 +131,27 @@ def test_relay_slow_speed_is_pulsed_without_a_speed_relay():
         on += bool(cw.value)
         clock.advance(0.02)
     assert on == pytest.approx(50, abs=2)
+
+
+def _pulse_starts_s(m, cw, clock, seconds=4.0):
+    starts, was = [], False
+    for i in range(round(seconds / 0.01)):
+        m.set_drive(0.25)
+        if cw.value and not was:
+            starts.append(round(i * 0.01, 2))
+        was = bool(cw.value)
+        clock.advance(0.01)
+    return starts
+
+
+def test_relay_slow_pulses_at_the_documents_2_hz_or_as_set():
+    """G4JNT: the slow button pulses the motor at 2 Hz (it was 2.5 Hz, fixed)."""
+    m, cw, _, _, clock, _ = relay(levels=(0.25, 1.0))
+    starts = _pulse_starts_s(m, cw, clock)
+    assert len(starts) == 8 and all(b - a == pytest.approx(0.5, abs=0.011) for a, b in zip(starts, starts[1:]))
+    m, cw, _, _, clock, _ = relay(levels=(0.25, 1.0), pulse_period_s=1 / 3)
+    starts = _pulse_starts_s(m, cw, clock)
+    assert len(starts) == 12 and all(b - a == pytest.approx(1 / 3, abs=0.011) for a, b in zip(starts, starts[1:]))
 
 
 def test_relay_slow_speed_with_a_speed_relay_is_steady():

@@ -280,6 +280,38 @@ def test_sarcnet_on_an_lsm303agr(tmp_path):
     assert abs(s.sim_truth["az"]["deg"] - 120.0) < 1.0 and abs(s.sim_truth["el"]["deg"] - 40.0) < 1.0
 
 
+def test_relay_slow_pulse_rate_is_a_setting(tmp_path):
+    """G4JNT: the slow speed pulses at 2 Hz unless [hardware.gpio.<axis>] relay_pulse_hz says."""
+    data = with_emulation(load_config(next(p for p in EXAMPLES if p.stem == "g4jnt"))).to_dict()
+    data["hardware"]["gpio"]["el"]["relay_pulse_hz"] = 4.0
+    rot = build_rotator(Config.from_dict(data), VirtualClock(1000.0), tmp_path, durable_state=False,
+                        fast_virtual=True)
+    assert rot.hw.az.motor.pulse_period_s == 0.5 and rot.hw.el.motor.pulse_period_s == 0.25
+    rot.hw.close()
+    data["hardware"]["gpio"]["el"]["relay_pulse_hz"] = 0
+    with pytest.raises(ConfigError, match="relay_pulse_hz"):
+        Config.from_dict(data)
+
+
+@pytest.mark.parametrize("declination_deg", [12.0, -3.5])
+def test_emulated_compass_keeps_the_configured_declination(tmp_path, declination_deg):
+    """examples/sarcnet-mini.toml says 12.0: emulated, the compass keeps it (the
+    simulator's own 12.5 used to replace it) and the emulated site's field agrees, so
+    the antenna still goes where it is told."""
+    data = with_emulation(load_config(next(p for p in EXAMPLES if p.stem == "sarcnet-mini"))).to_dict()
+    assert data["hardware"]["gpio"]["az"]["declination_deg"] == 12.0
+    data["hardware"]["gpio"]["az"]["declination_deg"] = declination_deg
+    data["hardware"]["sim"] = {"wind": False}
+    clock = VirtualClock(1000.0)
+    rot = build_rotator(Config.from_dict(data), clock, tmp_path, durable_state=False, fast_virtual=True)
+    assert rot.hw.az.sensor.calibration()["declination_deg"] == declination_deg
+    rot.goto(200.0, 30.0)
+    s = run_virtual(rot, clock, 200.0, until=lambda s: not s.moving and abs(s.az_deg - 200) < 0.5
+                    and abs(s.el_deg - 30) < 0.5)
+    assert not s.faults and abs(s.sim_truth["az"]["deg"] - 200.0) < 1.0
+    rot.hw.close()
+
+
 @pytest.mark.parametrize("path", EXAMPLES, ids=lambda p: p.stem)
 def test_urc_run_emulate_process(path, tmp_path):
     """`urc run --config examples/<machine>.toml --emulate` on a laptop: it starts,

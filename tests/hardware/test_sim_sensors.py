@@ -84,12 +84,14 @@ def test_g4jnt_ratiometric_pot_round_trip(rig, axis):
         n = pot.adc.read_counts(noisy=False)
         assert n == min(1023, round(2048 * x / (1 + x)))
         assert pot.linearised(n) == pytest.approx(4096 * n / (2048 - n))
-        count_deg = p.pot_span_deg * (1 + x) ** 2 / 2048      # one ADC count here
+        count_deg = abs(p.pot_span_deg) * (1 + x) ** 2 / 2048  # one count here (Table 1 pot: backwards)
         assert abs(pot.read_deg() - deg) <= count_deg
         assert count_deg <= ax.sensor.resolution_deg + 1e-9
-    pot.set_reference_deg(ax.max_deg)                          # zero offset Z
+    c_before = pot.calibration()["C"]
+    pot.set_reference_deg(ax.max_deg)        # a re-reference moves the intercept C ...
     assert pot.read_deg() == pytest.approx(ax.max_deg)
-    assert pot.calibration()["Z"] != 0.0
+    assert pot.calibration()["C"] != c_before
+    assert pot.calibration()["Z"] == 0.0     # ... never Z, the bearing of the reference
 
 
 def test_g5500_linear_pot_and_noise(rig):

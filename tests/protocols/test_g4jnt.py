@@ -134,8 +134,12 @@ def test_power_on_banner_lists_the_rotators_pot_constants(g4):
     b, s = g4
     k = codec.from_sensor(b.rot.hw.az.sensor.calibration())
     assert power_on(b, s) == codec.banner(k)
-    assert k.k == 2048 and k.z == 0 and k.c == -504 and k.m == 18432     # the simulated g4jnt pot
+    assert k == codec.TABLE_1.with_value("Z", 0)        # the simulated g4jnt is Table 1's pot
     assert s.tick(b.clock.now_s() + 0.5)[0].startswith(b"b")            # then the stream only
+
+
+def turned_deg(a_deg: float, b_deg: float) -> float:
+    return (b_deg - a_deg + 180.0) % 360.0 - 180.0
 
 
 def test_constants_are_the_rotators_calibration_and_persist(g4, bench):
@@ -143,23 +147,108 @@ def test_constants_are_the_rotators_calibration_and_persist(g4, bench):
     before = b.rot.status().az_deg
     assert s.receive(b"#Z50\r") == [b"Z 50\r\n"]
     b.run(0.1)                                  # the rotator applies it at its next tick
-    # Z applied to the bearing the rotator reports (a re-reference: nothing moves)
-    assert b.rot.status().az_deg == pytest.approx(before + 5.0, abs=0.3)
+    # Z applied to the bearing the rotator reports (nothing moves)
+    assert turned_deg(before, b.rot.status().az_deg) == pytest.approx(5.0, abs=0.3)
     assert b.rot.hw.az.sensor.calibration()["Z"] == pytest.approx(5.0, abs=1e-9)  # as sent, in 0.1 deg
     # another connection, then a restart of urc: the same constants
-    assert G4jntSession(b.rot).receive(b"?\r") == [b"Z 50\r\nM 18432\r\nC -504\r\nK 2048\r\n"]
+    assert G4jntSession(b.rot).receive(b"?\r") == [b"Z 50\r\nM -15897\r\nC 3758\r\nK 2048\r\n"]
     b.run(2.0)
     b2 = b.restart()
     again = G4jntSession(b2.rot)
     assert power_on(b2, again).splitlines()[2] == b"Z 50"
-    assert b2.rot.status().az_deg == pytest.approx(before + 5.0, abs=0.3)
+    assert turned_deg(before, b2.rot.status().az_deg) == pytest.approx(5.0, abs=0.3)
+
+
+def test_z_turns_bearings_not_the_travel(g4):
+    """Z is the bearing of the end-stop reference: it moves bearings, never the limits
+    (a Z of -10.0 used to be refused as 'below the 0..360 limits')."""
+    b, s = g4
+    assert s.receive(b"#Z-100\r") == [b"Z -100\r\n"]
+    b.run(0.1)
+    st_ = b.rot.status()
+    assert st_.limits["az"] == (-10.0, 370.0) and st_.offsets["az"] == pytest.approx(-10.0)
+    assert st_.az_deg == pytest.approx((b.truth("az") - 10.0) % 360.0, abs=TRUTH_TOL_DEG)
+    assert s.receive(b"#Z3500\r") == [b"Z 3500\r\n"]          # the same bearing frame
+    b.run(0.1)
+    assert b.rot.status().offsets["az"] == pytest.approx(-10.0)
 
 
 def test_a_constant_the_rotator_refuses_changes_nothing(g4):
     b, s = g4
-    reply = s.receive(b"#Z-100\r")            # 10 deg less: below the 0..360 limits
-    assert reply[0].startswith(b"? refused (limit)")
+    b.rot.hold_local("cw", True)              # a button held at the rotator: remote sets wait
+    reply = s.receive(b"#Z50\r")
+    assert reply[0].startswith(b"? refused (local)")
+    b.rot.hold_local("cw", False)
     assert s.receive(b"?\r")[0].startswith(b"Z 0\r\n")
+
+
+def table_1_session(b: Bench) -> G4jntSession:
+    """A PC loading Table 1's constants in the document's order, one line each."""
+    s = G4jntSession(b.rot)
+    assert s.receive(b"#Z1807\r#M-15897\r#C3758\r") == [b"Z 1807\r\n", b"M -15897\r\n", b"C 3758\r\n"]
+    b.run(0.1)
+    return s
+
+
+def bearing_of(theta_deg: float) -> float:
+    return (theta_deg + 180.7) % 360.0
+
+
+def test_table_1_end_to_end(g4):
+    """The document's Table 1: Z = 180.7, M = -15897, C = 3758 on its own pot. Bearing =
+    theta + Z modulo 360, the travel -10..370 belongs to theta: G10 is reached at theta
+    189.3 (it used to drive counter-clockwise into the end stop, FAULT stall), and a
+    bearing just across the end stop from where the antenna is goes the long way round."""
+    b, _ = g4
+    s = table_1_session(b)
+    st_ = b.rot.status()
+    assert st_.limits["az"] == (-10.0, 370.0) and not st_.faults
+    assert st_.az_deg == pytest.approx(bearing_of(b.truth("az")), abs=TRUTH_TOL_DEG)
+    # from theta 0 (bearing 180.7): 170 lies 10.7 deg back across the end stop, reached
+    # the long way round; then 10 (the reported stall), Table 1's 59.3, and bearings
+    # that have two thetas (within 10 deg of the reference): the nearer is taken
+    for goal, theta in ((170.0, 349.3), (10.0, 189.3), (59.3, 238.6), (190.0, 369.3), (175.0, 354.3),
+                        (185.0, 364.3)):
+        assert s.receive(f"G{goal}\r".encode()) == [f"G{goal:g}\r\n".encode()]
+        b.settle()
+        assert not b.rot.status().faults, b.rot.status().faults
+        assert b.truth("az") == pytest.approx(theta, abs=TRUTH_TOL_DEG)
+        s._next_s = None
+        line = s.tick(b.clock.now_s())[-1]
+        bearing, p = codec.parse_stream_line(line)
+        # the stream is Table 1's arithmetic on what the pot reads, and true
+        assert line == codec.stream_line(codec.bearing_tenths(p, codec.TABLE_1), p)
+        assert bearing == pytest.approx(goal, abs=TRUTH_TOL_DEG)
+        if goal == 59.3:                      # Table 1's first line: b059.3,p1415
+            assert p == pytest.approx(1415, abs=TRUTH_TOL_DEG / 0.097)   # M: 0.097 deg per P
+
+
+def test_m_and_c_load_one_after_the_other(g4):
+    """A PC calibration routine sends M, then C. With the C in force the new M alone
+    puts theta far outside the travel: it is held, not refused (it used to be '?
+    refused (limit)'), and stored with C once the pair fits."""
+    b, s = g4
+    s.receive(b"G180\r")
+    b.settle()
+    sensor = b.rot.hw.az.sensor
+    # the controller's constants before: another pot's (theta still inside the travel)
+    from urc.service import calibration
+    old = codec.Constants(z=0, m=18432, c=-504)
+    calibration.apply_sensor_calibration(b.rot, "az", codec.to_sensor(old))
+    b.run(0.1)
+    (held,) = s.receive(b"#M-15897\r")
+    assert held.startswith(b"M -15897 held: ") and b"outside -10..370" in held
+    assert codec.from_sensor(sensor.calibration()) == old                 # nothing stored yet
+    assert s.receive(b"?\r") == [b"Z 0\r\nM 18432\r\nC -504\r\nK 2048\r\nHeld (not stored) - M -15897\r\n"]
+    assert s.receive(b"#C3758\r") == [b"C 3758\r\n"]
+    b.run(0.1)
+    assert codec.from_sensor(sensor.calibration()) == codec.TABLE_1.with_value("Z", 0)
+    assert b.rot.status().az.pos_deg == pytest.approx(b.truth("az"), abs=TRUTH_TOL_DEG)
+    assert s.receive(b"?\r") == [b"Z 0\r\nM -15897\r\nC 3758\r\nK 2048\r\n"]
+    # the pair works: a goto is reached
+    s.receive(b"G100\r")
+    b.settle()
+    assert b.truth("az") == pytest.approx(100.0, abs=TRUTH_TOL_DEG) and not b.rot.status().faults
 
 
 def test_stream_p_is_the_pot_reading_and_b_comes_from_it(g4):

@@ -67,6 +67,11 @@ def still(b: Bench) -> bool:
     (b"HLTE", Command("HLTE", ())),
     (b"LCDC", Command("LCDC", ())),
     (b"lcdc 40", Command("LCDC", (40,))),
+    # the document's syntax: the command and its parameters separated by commas
+    (b"GOAZ,10", Command("GOAZ", (10.0,))),
+    (b"goae,123.4,45", Command("GOAE", (123.4, 45.0))),
+    (b"GOEL , 5", Command("GOEL", (5.0,))),
+    (b"LCDC,40", Command("LCDC", (40,))),
 ])
 def test_parse(line, cmd):
     assert codec.parse_line(line) == cmd
@@ -77,7 +82,8 @@ def test_parse(line, cmd):
     (b"\xff\xfe\x00", codec.E_UNKNOWN),
     (b"GOAZ", codec.E_SYNTAX), (b"GOAZ nan", codec.E_SYNTAX), (b"GOAZ inf", codec.E_SYNTAX),
     (b"GOAZ 1e3", codec.E_SYNTAX), (b"GOAZ 12,3", codec.E_SYNTAX), (b"GOAE 123.4", codec.E_SYNTAX),
-    (b"GOAE 1,2,3", codec.E_SYNTAX), (b"GOAE 1,", codec.E_SYNTAX), (b"RDAZ 5", codec.E_SYNTAX),
+    (b"GOAE 1,2,3", codec.E_SYNTAX), (b"GOAE 1,", codec.E_SYNTAX), (b"GOAZ,", codec.E_SYNTAX),
+    (b"GOAZ,,10", codec.E_SYNTAX), (b"GOAE,1,2,3", codec.E_SYNTAX), (b"RDAZ 5", codec.E_SYNTAX),
     (b"BAUD 1234", codec.E_SYNTAX), (b"ECHO maybe", codec.E_SYNTAX), (b"GOAZ " + b"9" * 400, codec.E_SYNTAX),
 ])
 def test_parse_errors(line, code):
@@ -119,20 +125,29 @@ def test_vers_help_baud(tartu):
 
 
 def test_reads_at_start(tartu):
-    """The Tartu rotator parks at az 0, el 90; its encoder counters start at 0."""
+    """The Tartu rotator parks at az 0, el 90; the pulse counts are from each axis'
+    reference (0 deg), not from the pose the controller was powered up in."""
     _, s = tartu
     assert s.receive(b"RDAZ\rRDEL\r") == [b"000.0\r\n", b"090.0\r\n"]
-    assert s.receive(b"RDAP\nRDEP\n") == [b"0\r\n", b"0\r\n"]
+    assert s.receive(b"RDAP\nRDEP\n") == [b"0\r\n", b"900\r\n"]
 
 
 def test_rdap_rdep_are_the_pulse_counters(tartu):
-    """The document: RDAP/RDEP print the amount of impulses (10 per degree)."""
+    """The document: RDAP/RDEP print the amount of impulses (10 per degree), both
+    counted from the axis' reference (RDEP used to count from the power-up pose, el
+    90: -100 at el 80, -452 at el 45)."""
     b, s = tartu
     s.receive(b"GOAE 12.3,80\r")
     b.settle()
     az_pulses, el_pulses = (int(r) for r in s.receive(b"RDAP\rRDEP\r"))
-    assert az_pulses == b.rot.hw.az.sensor.counts() and el_pulses == b.rot.hw.el.sensor.counts()
-    assert az_pulses == pytest.approx(123, abs=2) and el_pulses == pytest.approx(-100, abs=2)
+    # the counters moved by what the encoders counted since the start (within the half
+    # count by which the start estimate sits inside its first count)
+    assert abs(el_pulses - 900 - b.rot.hw.el.sensor.counts()) <= 1
+    assert abs(az_pulses - b.rot.hw.az.sensor.counts()) <= 1
+    assert az_pulses == pytest.approx(123, abs=2) and el_pulses == pytest.approx(800, abs=2)
+    s.receive(b"GOEL,45\r")
+    b.settle()
+    assert int(s.receive(b"RDEP\r")[0]) == pytest.approx(10 * b.truth("el"), abs=2)
 
 
 def test_lcdc_sets_the_contrast_kept_by_the_controller(tartu):
@@ -171,6 +186,11 @@ def test_trc_turntable_knows_only_its_commands(tartu):
     for cmd in (b"GOEL 10", b"GOAE 1,2", b"RDEL", b"RDEP", b"HLTA", b"LCDC"):
         assert s.receive(cmd + b"\r")[0].startswith(b"ERR 1 unknown command"), cmd
     assert s.receive(b"GOAZ 30\rRDAZ\r") == [b"OK\r\n", b"000.0\r\n"]
+    # one motor: HALT is its emergency stop (not "both axes")
+    (halt,) = [row for row in help_.decode().splitlines() if row.startswith("HALT")]
+    assert "both" not in halt and "emergency stop of the motor" in halt
+    (urc_halt,) = [row for row in s0.receive(b"HELP\r")[0].decode().splitlines() if row.startswith("HALT")]
+    assert "both axes" in urc_halt
     with pytest.raises(ValueError):
         TartuSession(b.rot, variant="xyz")
 
@@ -265,7 +285,14 @@ def test_goae_then_read_matches_truth(tartu):
     assert az == pytest.approx(b.truth("az"), abs=TRUTH_TOL_DEG)
     assert el == pytest.approx(b.truth("el"), abs=TRUTH_TOL_DEG)
     assert (az, el) == pytest.approx((123.4, 45.0), abs=0.15)
-    assert int(s.receive(b"RDAP\r")[0]) == b.rot.hw.az.sensor.counts()
+    assert abs(int(s.receive(b"RDAP\r")[0]) - b.rot.hw.az.sensor.counts()) <= 1
+
+
+def test_the_documents_comma_form_moves(tartu):
+    b, s = tartu
+    assert s.receive(b"GOAZ,10\rGOEL,60\r") == [b"OK\r\n", b"OK\r\n"]
+    b.settle()
+    assert (b.truth("az"), b.truth("el")) == pytest.approx((10.0, 60.0), abs=TRUTH_TOL_DEG)
 
 
 def test_goaz_and_goel_in_one_chunk_both_happen(tartu):

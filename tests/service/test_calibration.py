@@ -134,11 +134,13 @@ def test_pot_two_point_calibration_fixes_scale_and_offset(bench):
     b = bench("g4jnt")
     sensor = b.rot.hw.axis("az").sensor
     good = sensor.calibration()
+    b.rot.goto(180.0, 0.0)     # mid-travel: the miscalibrated reading stays inside the limits
+    b.settle()
     # miscalibrate: 6 % scale error, 4 deg offset (kept continuous, as a fresh install)
     cal.apply_sensor_calibration(b.rot, "az", {"M": good["M"] * 1.06, "C": good["C"] + 4.0, "Z": 0.0})
     b.run(0.2)
     points = []
-    for goal in (40.0, 310.0):
+    for goal in (310.0, 40.0):     # (near 310 this miscalibration happens to read true)
         b.rot.goto(goal, 0.0)
         b.settle()
         b.run(1.0)
@@ -160,8 +162,8 @@ def test_pot_two_point_calibration_fixes_scale_and_offset(bench):
 def test_pot_calibration_persists_across_restart(bench):
     b = bench("g4jnt")
     sensor = b.rot.hw.axis("az").sensor
-    m = sensor.calibration()["M"]
-    cal.pot_apply(b.rot, "az", [(0.0, 0.0), (360.0, 360.0 / (m * 1.02))])
+    m, c = sensor.calibration()["M"], sensor.calibration()["C"]
+    cal.pot_apply(b.rot, "az", [(c + m * 1.02 * p, p) for p in (1000.0, 3000.0)])   # 2 % scale
     b.run(0.5)
     saved_m = sensor.calibration()["M"]
     b2 = b.restart()

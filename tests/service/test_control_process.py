@@ -137,12 +137,14 @@ def test_a_calibration_is_applied_in_one_piece_in_the_control_process(control):
     try:
         cal = rot.hw.axis("az").sensor.calibration()
         before = rot.status().az.pos_deg
-        mech = apply_sensor_calibration(rot, "az", {**cal, "M": cal["M"] * 1.2})
+        # (2 %: on Table 1's pot, theta = C + M P, that is 7.5 deg at theta 0, inside the
+        # travel; 20 % was 75 deg, outside it now that the travel is the document's -10..370)
+        mech = apply_sensor_calibration(rot, "az", {**cal, "M": cal["M"] * 1.02})
         assert isinstance(mech, float) and abs(mech - before) > 5  # the reading moved with M
         time.sleep(1.0)
     finally:
         busy.set()
-    assert rot.hw.axis("az").sensor.calibration()["M"] == pytest.approx(cal["M"] * 1.2)
+    assert rot.hw.axis("az").sensor.calibration()["M"] == pytest.approx(cal["M"] * 1.02)
     assert not rot.status().faults, rot.status().faults
     with pytest.raises(TypeError):
         with rot.lock:  # never a lock that does not lock

@@ -297,7 +297,7 @@ def test_parked_only_once_there(bench):
     assert not b.rot.status().parked
 
 
-@pytest.mark.parametrize("profile,sky_az,wound_az", [("g4jnt", 355.0, 355.0), ("bigras", 20.0, 380.0),
+@pytest.mark.parametrize("profile,sky_az,wound_az", [("g4jnt", 5.0, 365.0), ("bigras", 20.0, 380.0),
                                                      ("g5500", 10.0, 370.0)])
 def test_park_is_a_mechanical_pose_that_unwinds(bench, profile, sky_az, wound_az):
     """Issue 12.5: park went to the nearest sky direction (g4jnt 358.8, bigras 360.4 with

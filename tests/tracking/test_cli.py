@@ -201,3 +201,60 @@ def test_a_geostationary_satellite_is_always_above_the_horizon(tmp_path):
     assert "always above the horizon" in row and "<" not in row and ">" not in row
     data = json.loads(run("passes", "astra", "--json", *pacific, *START, *cat).stdout)
     assert [p["always_up"] for p in data["passes"]] == [True]
+def test_passes_take_the_station_from_the_running_urcs_gps(tmp_path):
+    """Issue 22 (Berkeley): with [station] gps and no lat/lon, `urc passes --config` said
+    only "no station position". The fix is the running controller's: asked for it, or
+    told how to get one."""
+    import socket
+    import subprocess
+    import threading
+
+    from urc_process import URC, free_port, wait_until
+
+    gps_port, api_port = free_port(), free_port()
+    listener = socket.create_server(("127.0.0.1", gps_port))
+    stop = threading.Event()
+
+    def receiver() -> None:                 # a GPS receiver's NMEA over TCP
+        listener.settimeout(0.2)
+        while not stop.is_set():
+            try:
+                conn, _ = listener.accept()
+            except OSError:
+                continue
+            with conn:
+                while not stop.is_set():
+                    try:
+                        conn.sendall((FIXTURES / "gps.nmea").read_bytes())
+                    except OSError:
+                        break
+                    stop.wait(1.0)
+    threading.Thread(target=receiver, daemon=True).start()
+    cfg = tmp_path / "urc.toml"
+    cfg.write_text(f'[station]\ngps = "tcp:127.0.0.1:{gps_port}"\n[api]\nport = {api_port}\n'
+                   '[hardware.sim]\nwind = false\n')
+    leo = ["--tle", FIXTURES / "leo.tle", "--config", cfg, *START, "--hours", "6"]
+    res = run("passes", *leo, ok=False)            # no urc running: says how to get one
+    assert res.exit_code == 2 and "no station position" in res.output and "urc run" in res.output
+    proc = subprocess.Popen(URC + ["run", "--config", str(cfg), "--state-dir", str(tmp_path / "state")],
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    try:
+        import httpx
+
+        def fix():
+            assert proc.poll() is None, proc.stdout.read()
+            try:
+                gps = (httpx.get(f"http://127.0.0.1:{api_port}/api/status", timeout=2).json()
+                       .get("tracking") or {}).get("gps") or {}
+            except httpx.HTTPError:
+                return None
+            return gps if gps.get("lat_deg") is not None else None
+        gps = wait_until(fix, timeout_s=60, what="a GPS fix in urc's status")
+        data = json.loads(run("passes", *leo, "--json").stdout)
+        assert data["station"] == {"lat_deg": gps["lat_deg"], "lon_deg": gps["lon_deg"], "alt_m": gps["alt_m"]}
+        assert data["satellites"] == 7
+    finally:
+        stop.set()
+        listener.close()
+        proc.terminate()
+        proc.wait(timeout=30)

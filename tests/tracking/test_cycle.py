@@ -27,6 +27,9 @@ def _status(**kw):
     (_status(position_known=False), None, "setup"),
     (_status(faults=[{"kind": "stall"}], tracking={"state": "tracking"}), 0.1, "setup"),
     (_status(), None, "process_tle"),
+    # a GPS station, nothing tracked: the tracking block holds only the receiver's state
+    # (it read "PREDICT ... waiting for the pass")
+    (_status(tracking={"gps": {"source": "/dev/ttyACM0", "fix": True}}), None, "process_tle"),
     (_status(tracking={"state": "waiting"}), None, "predict"),
     (_status(tracking={"state": "prepositioning"}, target_az_deg=10.0), 40.0, "predict"),
     (_status(tracking={"target": "sun", "error": "sun is below 0 deg elevation"}), None, "predict"),
@@ -79,3 +82,15 @@ def test_a_pass_on_the_berkeley_profile_goes_through_the_documents_states(bench,
     b.run(40.0, on_tick=on_tick)
     assert "track" in seen and "report" in seen and seen.index("track") < seen.index("report"), seen
     assert "setup" not in seen and "process_tle" not in seen
+
+
+def test_status_with_only_a_gps_says_not_tracking_and_shows_the_fix():
+    """`urc status` printed "tracking  None" for a GPS station with nothing tracked."""
+    gps = {"source": "/dev/ttyACM0", "fix": True, "clock_offset_s": 0.012, "clock_trustworthy": True,
+           "lat_deg": 37.8716, "lon_deg": -122.2727, "alt_m": 52.0}
+    from urc.cli import _format_tracking
+    text = _format_tracking({"gps": gps})
+    assert text == "not tracking\ngps       /dev/ttyACM0: fix 37.87160 -122.27270 52 m, clock offset +0.012 s"
+    assert "None" not in text
+    assert _format_tracking({"gps": {"source": "tcp:gps:2947", "fix": False, "clock_offset_s": None}}) == \
+        "not tracking\ngps       tcp:gps:2947: no fix yet"

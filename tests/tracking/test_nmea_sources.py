@@ -49,6 +49,8 @@ def test_gps_on_a_pty_sets_the_station(bench, tmp_path):
     gps = svc.gps_status()
     assert gps["clock_trustworthy"] in (True, False, None)
     assert -90 <= svc.station.lat_deg <= 90
+    # the fix is in the status (`urc passes` with [station] gps takes the station from it)
+    assert (gps["lat_deg"], gps["lon_deg"]) == pytest.approx((svc.station.lat_deg, svc.station.lon_deg))
     os.close(master)
     os.close(slave)
 

@@ -172,9 +172,9 @@ def test_settings_validation_errors_name_the_field(make_client):
     assert {"offsets.el_deg", "faults.runaway_deg"} <= keys
 
 
-def test_settings_save_to_the_started_file_keeping_token_and_a_backup(make_client, tmp_path):
+def test_settings_save_to_the_started_file_keeping_token_and_comments(make_client, tmp_path):
     cfg_file = tmp_path / "station.toml"
-    cfg_file.write_text("# my station\n")
+    cfg_file.write_text(f'# my station\n[api]\ntoken = "{TOKEN}"  # keep secret\n')
     c = make_client(config_path=cfg_file, api={"token": TOKEN})
     doc = c.get("/api/settings").json()
     assert doc["config_path"] == str(cfg_file)
@@ -190,7 +190,8 @@ def test_settings_save_to_the_started_file_keeping_token_and_a_backup(make_clien
     saved = tomllib.loads(cfg_file.read_text())
     assert saved["keepout"][0]["name"] == "tree" and saved["rotator"]["profile"] == "g4jnt"
     assert saved["api"]["token"] == TOKEN
-    assert (tmp_path / "station.toml.bak").read_text() == "# my station\n"
+    # edited in place: the person's lines first, as they were
+    assert cfg_file.read_text().startswith(f'# my station\n[api]\ntoken = "{TOKEN}"  # keep secret\n')
 
 
 def test_settings_without_a_config_file_go_to_the_state_dir(make_client):

@@ -29,8 +29,7 @@ def build_panel(cfg, rotator, dispatch: Callable[..., None] | None = None):
         from .oled import Oled, Ssd1306Bus
 
         bus = Ssd1306Bus(p.oled.address, p.oled.width, p.oled.height) if p.emulate else _smbus(p.oled.bus)
-        display = Oled(bus, p.oled.address, p.oled.width, p.oled.height)
-        display.contrast(p.oled.contrast)
+        display = Oled(bus, p.oled.address, p.oled.width, p.oled.height, contrast=p.oled.contrast)
     ir = None
     if p.ir is not None:
         source = EmulatedKeys() if p.emulate else open_device(p.ir.device)
@@ -40,7 +39,8 @@ def build_panel(cfg, rotator, dispatch: Callable[..., None] | None = None):
     panel = FrontPanel(rotator, pin_factory=pin_factory(p.emulate), buttons=buttons, leds=leds,
                        beeper_pin=p.beeper, display=display, ir=ir, layout=p.layout, jog_speed=p.jog_speed,
                        slow_speed=p.slow_speed, bounce_time_s=None if p.emulate or not p.bounce_s else p.bounce_s,
-                       dispatch=dispatch)
+                       dispatch=dispatch, beeper_type=p.beeper_type, beep_on_command=p.beep_on_command,
+                       backlight_pct=p.backlight_pct, screensaver_s=p.screensaver_s, autoturn=p.autoturn)
     panel.power_on()
     return panel
 

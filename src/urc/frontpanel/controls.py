@@ -10,6 +10,10 @@ Actions: ``cw``/``ccw``/``up``/``down`` jog while held and stop that axis on rel
 (hold to jog, like the Tartu toggle switches and the G4JNT buttons); ``slow`` held with a
 jog makes it slow (the G4JNT 'slow' button); ``stop`` stops both axes; ``park`` parks.
 
+Autoturn (BIG-RAS menu, ``[panel] autoturn = true``): a jog held for ``AUTOTURN_HOLD_S``
+(5 s) goes on after its button is let go, until a button is pressed again (that press
+only ends the autoturn) or the axis reaches its end of travel.
+
 On a rotator without elevation (``[rotator] elevation = false``) UP/DOWN have no
 function: pressing them does nothing at all (no hold over the clients, no beep), like
 the BIG-RAS's unused buttons with "Elevation: OFF". ``[panel] layout`` says how the
@@ -24,6 +28,9 @@ from typing import Callable
 from ..errors import UrcError
 
 log = logging.getLogger("urc.frontpanel")
+
+#: BIG-RAS Autoturn: how long a jog must be held to go on by itself
+AUTOTURN_HOLD_S = 5.0
 
 #: jog actions: the axis and direction each drives
 JOGS = {"cw": ("az", 1), "ccw": ("az", -1), "up": ("el", 1), "down": ("el", -1)}
@@ -53,13 +60,17 @@ class LocalControls:
     """
 
     def __init__(self, rotator, *, jog_speed: float = 1.0, slow_speed: float = 0.2,
-                 on_result: Callable[[bool, str], None] | None = None):
+                 on_result: Callable[[bool, str], None] | None = None, autoturn: bool = False):
         self.rotator = rotator
         self.jog_speed = jog_speed
         self.slow_speed = slow_speed
         self.on_result = on_result or (lambda ok, text: None)
-        #: (source, action) pairs held now
+        self.autoturn = autoturn
+        #: (source, action) pairs held now, and since when
         self._held: set[tuple[str, str]] = set()
+        self._since_s: dict[tuple[str, str], float] = {}
+        #: axes turning on by themselves (Autoturn): axis -> the jog action
+        self.autoturning: dict[str, str] = {}
         self.last_refusal = ""
 
     @staticmethod
@@ -76,7 +87,16 @@ class LocalControls:
         if not self._has_axis(action):
             log.debug("front panel %s: no such axis, no function", action)
             return False
+        if self.autoturning:
+            # a press ends the autoturn, and only that (the BIG-RAS: "until one of the
+            # buttons is pressed again")
+            for axis in list(self.autoturning):
+                self.autoturning.pop(axis)
+                self.rotator.stop(axis)
+            self.on_result(True, "autoturn ended")
+            return True
         self._held.add((source, action))
+        self._since_s[(source, action)] = self.rotator.clock.now_s()
         self.rotator.hold_local(self.hold_name(source, action), True)
         try:
             if action in JOGS:
@@ -102,13 +122,19 @@ class LocalControls:
         still jogs it that way."""
         if not self._has_axis(action):
             return
+        if (source, action) not in self._held:
+            return      # (the press that ended an autoturn)
         self._held.discard((source, action))
+        held_s = self.rotator.clock.now_s() - self._since_s.pop((source, action), 0.0)
         self.rotator.hold_local(self.hold_name(source, action), False)
         if action in JOGS and not self.held(action):
             axis = JOGS[action][0]
             other = [a for _, a in self._held if a in JOGS and JOGS[a][0] == axis]
             if other:
                 self._safe_jog(other[0])
+            elif self.autoturn and held_s >= AUTOTURN_HOLD_S:
+                self.autoturning[axis] = action      # goes on to its end of travel
+                log.info("front panel: autoturn %s", action)
             else:
                 self.rotator.stop(axis)
         elif action == "slow":

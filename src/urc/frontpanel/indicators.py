@@ -77,7 +77,22 @@ BEEPS = {
     "refused": ((0.08, 0.08),) * 3,
     "fault": ((1.0, 0.0),),
     "stored": ((0.1, 0.1),) * 2,
+    "command": ((0.02, 0.0),),       # a new target from a protocol port (beep_on_command)
 }
+
+
+class Tone:
+    """A passive beeper on a PWM output (gpiozero PWMOutputDevice at the tone's
+    frequency): on is a square wave, off is silence, for :class:`Beeper`."""
+
+    def __init__(self, pwm):
+        self.pwm = pwm
+
+    def on(self) -> None:
+        self.pwm.value = 0.5
+
+    def off(self) -> None:
+        self.pwm.value = 0.0
 
 
 class Beeper:

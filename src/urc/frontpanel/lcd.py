@@ -50,6 +50,13 @@ class CharLcd:
                 self._lcd.write_string(text)
                 self._shown[r] = text
 
+    def backlight(self, pct: int) -> None:
+        """The backpack switches its backlight (P3) only: on above 0 %; at 0 the text
+        goes too (the BIG-RAS screensaver: the display dark)."""
+        on = pct > 0
+        self._lcd.backlight_enabled = on
+        self._lcd.display_enabled = on
+
     def close(self) -> None:
         try:
             self._lcd.close(clear=True)

@@ -25,7 +25,8 @@ def load_font():
 class Oled:
     """Rows of text on an SSD1306; the frame is sent only when the text changed."""
 
-    def __init__(self, bus: Any, address: int = 0x3C, width: int = 128, height: int = 64):
+    def __init__(self, bus: Any, address: int = 0x3C, width: int = 128, height: int = 64,
+                 contrast: int = 0xCF):
         from luma.core.interface.serial import i2c
         from luma.oled.device import ssd1306
 
@@ -34,6 +35,9 @@ class Oled:
         self.cols = 21
         self.font = load_font()
         self._shown: list[str] | None = None
+        #: the configured contrast: what a backlight of 100 % gives
+        self.full_contrast = contrast
+        self.contrast(contrast)
 
     def show(self, lines: list[str]) -> None:
         if lines == self._shown:
@@ -44,6 +48,15 @@ class Oled:
     def contrast(self, level: int) -> None:
         """0..255 (the SSD1306's own contrast register)."""
         self.device.contrast(max(0, min(255, int(level))))
+
+    def backlight(self, pct: int) -> None:
+        """Brightness in percent of the configured contrast; 0 switches the panel off
+        (the BIG-RAS screensaver), more switches it on again."""
+        if pct <= 0:
+            self.device.hide()
+            return
+        self.device.show()
+        self.contrast(round(self.full_contrast * pct / 100))
 
     def close(self) -> None:
         try:

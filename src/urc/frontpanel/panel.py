@@ -20,7 +20,7 @@ from ..errors import UrcError
 from ..protocols.tartu import lcd_contrast
 from ..protocols.tartu_codec import LCD_CONTRAST_MAX
 from .controls import JOGS, LocalControls, button_action
-from .indicators import Beeper, led_states
+from .indicators import Beeper, Tone, led_states
 from .ir import IrRemote
 from .screen import status_rows, zero_rows
 from .zeroset import ZeroSetting
@@ -36,17 +36,27 @@ class FrontPanel:
                  display: Any = None, ir: tuple[Any, dict[int, str]] | None = None,
                  layout: str = "labelled", jog_speed: float = 1.0, slow_speed: float = 0.2, bounce_time_s: float | None = None,
                  dispatch: Callable[..., None] | None = None, now_s: Callable[[], float] | None = None,
-                 wall_s: Callable[[], float] = time.time):
-        from gpiozero import LED, Button, Buzzer
+                 wall_s: Callable[[], float] = time.time, beeper_type: str | int = "dc",
+                 beep_on_command: bool = False, backlight_pct: int = 100, screensaver_s: float = 0.0,
+                 autoturn: bool = False):
+        from gpiozero import LED, Button, Buzzer, PWMOutputDevice
 
         self.rotator = rotator
         self.now_s = now_s or rotator.clock.now_s
         self.wall_s = wall_s
         self.dispatch = dispatch or (lambda fn, *args: fn(*args))
         self._devices: list[Any] = []
-        self.beeper = Beeper(self._device(Buzzer, beeper_pin, pin_factory) if beeper_pin is not None else None)
+        # BIG-RAS "Beeper type": off, an active (dc) beeper, or a passive one's tone in Hz
+        out: Any = None
+        if beeper_pin is not None and beeper_type == "dc":
+            out = self._device(Buzzer, beeper_pin, pin_factory)
+        elif beeper_pin is not None and beeper_type != "off":
+            out = Tone(self._device(PWMOutputDevice, beeper_pin, pin_factory, frequency=int(beeper_type)))
+        self.beeper = Beeper(out)
+        self.beep_on_command = beep_on_command
+        self.backlight_pct, self.screensaver_s = backlight_pct, screensaver_s
         self.controls = LocalControls(rotator, jog_speed=jog_speed, slow_speed=slow_speed,
-                                      on_result=lambda ok, text: self.beeper.beep("click" if ok else "refused"))
+                                      on_result=self._local_result, autoturn=autoturn)
         # what each button does (fixed: the axes do not change while urc runs)
         self.actions = {name: button_action(layout, name, rotator.caps.has_el) for name in (buttons or {})}
         self.buttons = {name: self._device(Button, pin, pin_factory, pull_up=True, bounce_time=bounce_time_s)
@@ -57,6 +67,12 @@ class FrontPanel:
         self.zero: ZeroSetting | None = None
         self._had_fault = False
         self._contrast: int | None = None
+        #: the target a protocol port last gave (beep_on_command), and when a key was last
+        #: pressed here (the screensaver; a target set from here is not a port's command)
+        self._target: tuple | None = None
+        self._key_s = self.now_s()
+        self.asleep = False
+        self._light(self.backlight_pct)
 
     def power_on(self) -> None:
         """Start reacting to the buttons. Both turn buttons held at this moment start
@@ -80,7 +96,23 @@ class FrontPanel:
         return any(self.actions[n] == action and b.is_pressed for n, b in self.buttons.items())
 
     # ---------------------------------------------------------------- inputs
+    def _local_result(self, ok: bool, _text: str) -> None:
+        self._woken()
+        self.beeper.beep("click" if ok else "refused")
+
+    def _woken(self) -> None:
+        """A key was pressed here: the display wakes, the screensaver starts again."""
+        self._key_s = self.now_s()
+        if self.asleep:
+            self.asleep = False
+            self._light(self.backlight_pct)
+
+    def _light(self, pct: int) -> None:
+        if self.display is not None and hasattr(self.display, "backlight"):
+            self.display.backlight(pct)
+
     def _press(self, name: str) -> None:
+        self._woken()
         action = self.actions[name]
         if action is None:  # a button with no function here
             return
@@ -126,7 +158,17 @@ class FrontPanel:
         st = self.rotator.status()
         if st.faults and not self._had_fault:
             self.beeper.beep("fault")
+            self._woken()
         self._had_fault = bool(st.faults)
+        target = (st.target_az_deg, st.target_el_deg)
+        if target != self._target:
+            # a new target that no key here set: a command from a protocol port
+            if self.beep_on_command and st.target_az_deg is not None and now - self._key_s > 1.0:
+                self.beeper.beep("command")
+            self._target = target
+        if self.screensaver_s and not self.asleep and now - self._key_s >= self.screensaver_s:
+            self.asleep = True
+            self._light(0)
         states = led_states(st, now)
         for name, led in self.leds.items():
             led.value = getattr(states, name)

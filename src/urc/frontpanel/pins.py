@@ -14,11 +14,12 @@ from ..errors import HardwareError
 
 
 def pin_factory(emulate: bool) -> Any:
-    """A gpiozero pin factory: MockFactory when ``emulate``, else lgpio's."""
+    """A gpiozero pin factory: MockFactory when ``emulate`` (pins that can PWM, as a
+    passive beeper's needs), else lgpio's."""
     if emulate:
-        from gpiozero.pins.mock import MockFactory
+        from gpiozero.pins.mock import MockFactory, MockPWMPin
 
-        return MockFactory()
+        return MockFactory(pin_class=MockPWMPin)
     try:
         from gpiozero.pins.lgpio import LGPIOFactory
 

@@ -9,11 +9,19 @@ with Table 1's arithmetic.
 
 The constants Z, M, C, K are the rotator's own pot calibration, kept where urc keeps
 every sensor calibration (the rotator's state file, through
-:func:`urc.service.calibration.apply_sensor_calibration`): ``#Z1807`` changes the
-bearing the rotator itself reports (a re-reference, nothing moves), for every protocol,
-across connections and restarts, like the PIC's non-volatile memory. A set the rotator
-refuses (e.g. a Z that would put the antenna outside its limits) is answered with an
-error and nothing changes.
+:func:`urc.service.calibration.apply_sensor_calibration`), across connections and
+restarts, like the PIC's non-volatile memory. As in the document, M and C (and K) give
+the angle theta from the end-stop reference, to which the travel limits belong (-10..370
+on the g4jnt profile), and Z is the bearing of that reference: ``#Z1807`` turns the
+bearings the rotator reports and takes, for every protocol (nothing moves, no limit
+moves), and a goto reaches a bearing at the theta inside the travel that gives it.
+
+A calibration routine loads M and C one after the other: an M whose theta, with the C in
+force, would lie outside the travel is not an error but held, answered
+``M -15897 held: ...``, and stored together with the next constant(s) that make the set
+consistent (``#C3758`` -> ``C 3758``). Held constants belong to the connection and are
+listed after the stored ones by ``?``; nothing moves while they are held, the rotator
+keeps working on the constants in force.
 
 A g4jnt session on a rotator without a ratiometric pot keeps the constants for the
 connection only (nothing to calibrate) and derives P backwards from the bearing.
@@ -59,6 +67,8 @@ class G4jntSession:
         self._targets = ExtendedTarget(rotator, named=True)  # its own azimuth: a set names the pose
         self._next_s: float | None = None
         self._powered = False
+        #: constants set but not yet consistent (see the module notes): held, not stored
+        self._held: Constants | None = None
 
     @property
     def constants(self) -> Constants:
@@ -116,9 +126,13 @@ class G4jntSession:
             assert cmd.value is not None
             # (the rotator applies a re-reference at its next tick: answer with the
             # value accepted, not a read-back that may precede it)
-            return codec.constant_line(cmd.name, self._set_constant(cmd.name, cmd.value))
+            return self._set_constant(cmd.name, cmd.value)
         if cmd.kind == "all":
-            return b"".join(codec.constant_line(n, self.constants) for n in codec.CONSTANT_ORDER)
+            listing = b"".join(codec.constant_line(n, self.constants) for n in codec.CONSTANT_ORDER)
+            if self._held is not None:
+                held = [n for n in codec.CONSTANT_ORDER if self._held.get(n) != self.constants.get(n)]
+                listing += codec.line("Held (not stored) - " + " ".join(f"{n} {self._held.get(n)}" for n in held))
+            return listing
         if cmd.kind == "stop":
             self._targets.stop()
             return codec.line("S")
@@ -131,15 +145,25 @@ class G4jntSession:
         echo = f"G{cmd.az_deg:g}" + ("" if cmd.el_deg is None else f",{cmd.el_deg:g}")
         return codec.line(echo)
 
-    def _set_constant(self, name: str, value: int) -> Constants:
-        new = self.constants.with_value(name, value)
+    def _set_constant(self, name: str, value: int) -> bytes:
+        new = (self._held or self.constants).with_value(name, value)
         if self._pot is None:
             self._own = new
-            return new
+            return codec.constant_line(name, new)
         # the rotator re-references to what the new constants say, persists them with
         # its state, and refuses (CommandRejected) if that would break its limits
-        calibration.apply_sensor_calibration(self.rotator, "az", codec.to_sensor(new))
-        return new
+        try:
+            calibration.apply_sensor_calibration(self.rotator, "az", codec.to_sensor(new))
+        except CommandRejected as exc:
+            if exc.reason != "limit":
+                raise
+            # one of a pair still to come (M then C): hold it, store nothing yet
+            self._held = new
+            bad_input.info("holding %s %d: %s", name, value, exc)
+            return codec.line(f"{name} {value} held: {exc}; stored once the constants "
+                              "that follow make theta fit"[:160])
+        self._held = None
+        return codec.constant_line(name, new)
 
 
 def _ratiometric_pot(rotator: RotatorPort):

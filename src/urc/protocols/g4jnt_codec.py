@@ -156,7 +156,7 @@ def p_for_bearing(bearing_deg: float, k: Constants) -> int:
 
 # ----------------------------------------------------------- sensor calibration units
 def to_sensor(k: Constants) -> dict[str, float]:
-    """The pot driver's constants (degrees: bearing = M P + C + Z, and K)."""
+    """The pot driver's constants (degrees: theta = M P + C, bearing = theta + Z; and K)."""
     return {"M": k.m / M_SCALE / 10.0, "C": k.c / 10.0, "Z": k.z / 10.0, "K": float(k.k)}
 
 

@@ -1,6 +1,7 @@
 """The Tartu universal rotator controller's four-letter ASCII command set.
 
-Lines end CR, LF or CRLF; parameters are comma separated (``GOAE 123.4,45.0``); replies
+Lines end CR, LF or CRLF; parameters are comma separated, after a space or a comma
+(``GOAE 123.4,45.0``, or the document's ``GOAE,123.4,45.0``); replies
 are lines ending CR LF. Angles are in the controller's own (extended) frame: azimuth
 with its cable wrap (0..400 on the Tartu rotator; 380.0 is the overlap), elevation 0..180
 (past 90 = flipped over the top). Angles print as ``xxx.x``.
@@ -21,14 +22,17 @@ RDEL       present elevation → ``045.0``
 WRAZ a     declare the present azimuth is a (re-reference, no motion) → ``OK``
 WREL e     the same for elevation → ``OK``
 RDAP       the azimuth position pulse counter (the document: "amount of impulses"),
-           a signed integer: the encoder's count (10 per degree on the Tartu rotator);
-           on a sensor without a counter, the position in sensor steps
+           a signed integer: the encoder's count from the axis' reference (0 deg), 10
+           per degree on the Tartu rotator (az 12.3 -> 123, el 45 -> 450, whatever pose
+           the controller was powered up in); on a sensor without a counter, the
+           position in sensor steps
 RDEP       the same for elevation
 OVRA [x]   azimuth overshoot compensation (the on/off drive stops this far before the
            target) → ``000.3``; ``OVRA x`` sets it (0..20 deg; the rotator keeps learning
            from there; read back after its next control tick) → ``OK``
 OVRE [x]   the same for elevation
-HALT       stop both axes → ``OK``;  HLTA azimuth only;  HLTE elevation only
+HALT       stop both axes (the TRC: its one motor) → ``OK``;  HLTA azimuth only;
+           HLTE elevation only
 LCDC [c]   LCD contrast: ``LCDC`` → ``LCDC 32``; ``LCDC 40`` sets it (0..63) → ``OK``;
            the controller's state, shared by every connection to this rotator
 =========  ====================================================================
@@ -206,7 +210,9 @@ class TartuSession:
 
     def _pulses(self, axis: str) -> bytes:
         """The axis' position pulse counter: the sensor's own count where it keeps one
-        (encoder, pulse feedback), else the position in sensor steps."""
+        (encoder, pulse feedback), counted from the axis' reference as the position is
+        (the counter itself starts at 0 in whatever pose the controller powered up),
+        else the position in sensor steps."""
         sensor = None
         try:
             sensor = self.rotator.hw.axis(axis).sensor        # type: ignore[attr-defined]
@@ -214,7 +220,8 @@ class TartuSession:
             pass
         counts = getattr(sensor, "counts", None)
         if counts is not None:
-            return codec.line(str(int(counts())))
+            step = sensor.caps.resolution_deg
+            return codec.line(str(round(int(counts()) + getattr(sensor, "reference_deg", 0.0) / step)))
         pos = extended_pose_deg(self.rotator.status())[0 if axis == "az" else 1]
         step = getattr(getattr(sensor, "caps", None), "resolution_deg", 0.1) or 0.1
         return codec.line(str(round(pos / step)))

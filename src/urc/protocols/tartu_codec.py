@@ -1,7 +1,8 @@
 """Tartu URC four-letter command set: parse a line, format replies (pure functions).
 
-Line syntax: a four-letter command (case-insensitive), optionally followed by spaces and
-comma-separated parameters, e.g. ``GOAE 123.4,45.0``. Numbers are plain decimals
+Line syntax: a four-letter command (case-insensitive), then its comma-separated
+parameters after spaces or after a comma, e.g. ``GOAE 123.4,45.0`` or the document's own
+form, command and parameters all separated by commas: ``GOAE,123.4,45.0``. Numbers are plain decimals
 (``123``, ``-5.5``, ``.5``); no exponents, ``nan`` or ``inf``.
 
 Replies are lines ending CR LF. Angles print as ``xxx.x`` (0.1 deg, three integer digits,
@@ -144,6 +145,8 @@ def parse_line(raw: bytes, commands: tuple[str, ...] | None = None) -> Command:
     if rest and not rest[0].isspace() and not convs:
         raise _unknown(shown)
     rest = rest.strip()
+    if rest.startswith(","):   # the document's form: the command, a comma, the parameters
+        rest = rest[1:].strip()
     parts = [p for p in rest.split(",")] if rest else []
     if len(parts) > len(convs) or len(parts) < len(convs) - optional:
         want = f"{len(convs) - optional}" if optional == 0 else f"{len(convs) - optional}..{len(convs)}"
@@ -166,10 +169,16 @@ def error(code: int, text: str) -> bytes:
     return line(f"ERR {code} " + text.replace("\r", " ").replace("\n", " "))
 
 
+#: the turntable controller (TRC) has one motor: its own words where they differ
+TRC_HELP = {"HALT": "HALT: emergency stop of the motor"}
+
+
 def help_text(commands: tuple[str, ...] | None = None) -> bytes:
     rows = []
     for name, (_, _, h) in COMMANDS.items():
         if commands is None or name in commands:
+            if commands == TRC_COMMANDS:
+                h = TRC_HELP.get(name, h)
             usage, _, desc = h.partition(": ")
             rows.append(line(f"{usage:<14}{desc}"))
     return b"".join(rows)

@@ -30,7 +30,7 @@ class CalibrationError(UrcError):
 
 # =========================================================================== maths
 def two_point_pot(bearing1_deg: float, p1: float, bearing2_deg: float, p2: float) -> tuple[float, float]:
-    """G4JNT: bearing = M*P + C through two known (bearing, P) points. Returns (M, C)."""
+    """G4JNT: angle = M*P + C through two known (angle, P) points. Returns (M, C)."""
     if not all(math.isfinite(v) for v in (bearing1_deg, p1, bearing2_deg, p2)):
         raise CalibrationError("two-point calibration needs finite bearings and pot readings")
     if abs(p2 - p1) < 1e-9:
@@ -248,8 +248,11 @@ def apply_sensor_calibration(rotator: Any, axis: str, values: dict[str, Any], sa
         adopt = getattr(rotator, "adopt_sensor_reading", None)
         if sensor.caps.absolute and adopt is not None:
             sensor.load_calibration(values)
+            # constants that turn bearings only (a pot's Z) leave the axis angle alone
+            turned = {k for k, v in dict(sensor.calibration()).items() if not _same(v, old.get(k))}
+            reread = not turned or not turned <= set(getattr(sensor, "pointing_keys", ()))
             try:
-                return adopt(axis, local=local)
+                return adopt(axis, local=local, reread=reread)
             except Exception:
                 sensor.load_calibration(old)
                 raise
@@ -271,6 +274,14 @@ def apply_sensor_calibration(rotator: Any, axis: str, values: dict[str, Any], sa
     return mech_new
 
 
+def _same(a: Any, b: Any) -> bool:
+    """One constant unchanged (a value that went through a protocol's integer units
+    comes back a last bit off)."""
+    if isinstance(a, (int, float)) and isinstance(b, (int, float)):
+        return math.isclose(a, b, rel_tol=1e-12, abs_tol=1e-12)
+    return a == b
+
+
 def zero(rotator: Any, az_deg: float | None = None, el_deg: float | None = None) -> None:
     """Declare where the antenna points now (pointing frame, wrap side explicit)."""
     rotator.set_position(az_deg, el_deg)
@@ -278,10 +289,11 @@ def zero(rotator: Any, az_deg: float | None = None, el_deg: float | None = None)
 
 @in_control_process
 def pot_apply(rotator: Any, axis: str, points: Sequence[tuple[float, float]]) -> dict[str, float]:
-    """Two (bearing_deg, P) points -> M, C; load them (Z back to 0) and re-reference.
+    """Two (bearing_deg, P) points -> M, C; load them and re-reference.
 
-    Bearings are where the antenna pointed (pointing frame); the mount offset is taken
-    off, since the pot measures the mechanical angle.
+    Bearings are where the antenna pointed (pointing frame); the offsets (the mount's
+    and the pot's own Z, the bearing of its reference, which stays) are taken off,
+    since the pot measures the axis angle.
     """
     if len(points) != 2:
         raise CalibrationError(f"two-point calibration needs exactly 2 points, got {len(points)}")
@@ -294,8 +306,8 @@ def pot_apply(rotator: Any, axis: str, points: Sequence[tuple[float, float]]) ->
     if m == 0 or not math.isfinite(m):
         raise CalibrationError("the fitted slope M is not usable")
     old = dict(sensor.calibration())
-    mech = apply_sensor_calibration(rotator, axis, {"M": m, "C": c, "Z": 0.0})
-    return {"M": m, "C": c, "Z": 0.0, "old_M": float(old.get("M", math.nan)),
+    mech = apply_sensor_calibration(rotator, axis, {"M": m, "C": c})
+    return {"M": m, "C": c, "Z": float(old.get("Z", 0.0)), "old_M": float(old.get("M", math.nan)),
             "old_C": float(old.get("C", math.nan)), "position_deg": mech + off}
 
 

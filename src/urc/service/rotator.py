@@ -317,6 +317,8 @@ class Rotator:
         #: local controls held now (front-panel buttons, IR keys): the local operator wins
         self._local_holds: set[str] = set()
         self._restore()
+        # (after the restore: a sensor constant restored with it may turn bearings)
+        self.geometry = self._geometry_for(self.settings)
         self._status = self._build_status(clock.now_s())
 
     # ======================================================================== startup
@@ -983,12 +985,14 @@ class Rotator:
                 self._event(f"{name} re-referenced to {v:.2f} deg")
         self._submit("set_position", apply)
 
-    def adopt_sensor_reading(self, axis: str, local: bool = False) -> float:
+    def adopt_sensor_reading(self, axis: str, local: bool = False, reread: bool = True) -> float:
         """An absolute sensor's constants were just changed (a G4JNT zero offset Z, a
         declination): the axis takes what the sensor reads now as its position, at once
         (call it under ``lock`` together with the change, so no tick sees the jump as a
         fault). The sensor is not re-referenced: that would fold one noisy reading back
-        into the constant just set. Returns the new mechanical angle."""
+        into the constant just set. ``reread=False``: only a constant that turns bearings
+        changed (the G4JNT's Z): the axis angle stays as it is, without one more noisy
+        reading. Returns the new mechanical angle."""
         self._refuse_unless_local(local)
         if axis not in self.axes:
             raise CommandRejected(f"no {axis!r} axis on this rotator (it has {', '.join(self.axes)})")
@@ -996,7 +1000,8 @@ class Rotator:
         if not ax.caps.sensor.absolute:
             raise CommandRejected(f"{axis}: an incremental sensor has no reading to adopt; "
                                   "re-reference it with set_position")
-        mech_deg = ax.unwrap(ax.hw.sensor.read_deg() + ax.count_centre_deg, ax.meas_deg)
+        mech_deg = ax.unwrap(ax.hw.sensor.read_deg() + ax.count_centre_deg, ax.meas_deg) if reread \
+            else ax.meas_deg
         lo, hi = ax.limits
         slack = ax.caps.sensor.resolution_deg + 3.0 * ax.caps.sensor.noise_deg   # one noisy reading
         if not lo - slack <= mech_deg <= hi + slack:
@@ -1004,6 +1009,7 @@ class Rotator:
                                   f"outside {lo:g}..{hi:g}", "limit")
         self._searches.pop(axis, None)
         self._rereference(ax, mech_deg, set_sensor=False)
+        self.geometry = self._geometry_for(self.settings)   # a new Z turns the bearings
         off = self.geometry.az_offset_deg if axis == "az" else self.geometry.el_offset_deg
         self._event(f"{axis} re-referenced to {mech_deg + off:.2f} deg (new sensor constants)")
         return mech_deg
@@ -1085,6 +1091,19 @@ class Rotator:
             raise CommandRejected(f"no {axis} axis on this rotator (azimuth only)", "no_axis")
         return max(self.axes[axis].law.coast_deg, default=0.0)
 
+    def _geometry_for(self, settings: RotatorSettings) -> Geometry:
+        """The settings' geometry with the sensors' own pointing offsets added to the
+        mount offsets: a constant that turns bearings, not the axis (the G4JNT pot's Z,
+        the bearing of its end-stop reference; see PotSensor), kept within +-180 so the
+        extended frame stays near the axis'."""
+        extra = {}
+        for name in self.axes:
+            z = getattr(self.axes[name].hw.sensor, "pointing_offset_deg", None)
+            if isinstance(z, (int, float)) and math.isfinite(z) and z:
+                extra[f"{name}_offset_deg"] = getattr(settings, f"{name}_offset_deg") + \
+                    (float(z) + 180.0) % 360.0 - 180.0
+        return replace(settings, **extra).geometry() if extra else settings.geometry()
+
     def reconfigure(self, settings: RotatorSettings) -> None:
         """Apply new limits, keep-out zones, offsets, speeds, park and fault limits while
         running (the settings page). Motion in progress stops: its route was planned
@@ -1092,7 +1111,7 @@ class Rotator:
         settings = settings.completed()
         if settings.caps.name != self.caps.name or settings.caps.loop_hz != self.caps.loop_hz:
             raise CommandRejected("a new profile or loop rate takes effect at the next start")
-        geometry = settings.geometry()
+        geometry = self._geometry_for(settings)
         pose = self._current_pose()
         slack = max(self.caps.axis(n).tolerance_deg for n in self.axes)
         if not geometry.in_limits(*pose, slack_deg=slack):

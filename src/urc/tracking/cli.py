@@ -66,6 +66,26 @@ def _resolve_dir(catalog_dir: str | None, cfg: Any = None) -> Path:
     return default_catalog_dir()
 
 
+def _running_gps_fix(cfg: Any) -> tuple[float, float, float]:
+    """[station] gps without lat/lon: the station is where the running controller's GPS
+    receiver says (its status), else a clear error saying how to get a position."""
+    import httpx
+
+    host = "127.0.0.1" if cfg.api.host in ("0.0.0.0", "::") else cfg.api.host
+    url = f"http://{host}:{cfg.api.port}/api/status"
+    how = ("give --lat, --lon and --alt, set [station] lat_deg/lon_deg, or run `urc run` with "
+           "this configuration until its receiver has a fix (`urc status` shows it)")
+    try:
+        gps = (httpx.get(url, timeout=5.0).json().get("tracking") or {}).get("gps") or {}
+    except (httpx.HTTPError, ValueError) as exc:
+        raise click.UsageError(f"no station position: [station] gps = {cfg.station.gps!r} is read by a "
+                               f"running urc, and none answers at {url} ({exc}); {how}") from None
+    if gps.get("lat_deg") is None:
+        raise click.UsageError(f"no station position: the running urc's GPS ({cfg.station.gps}) has no "
+                               f"fix yet; {how}")
+    return float(gps["lat_deg"]), float(gps["lon_deg"]), float(gps.get("alt_m") or 0.0)
+
+
 def _fail(exc: Exception) -> click.ClickException:
     return click.ClickException(str(exc))
 
@@ -126,6 +146,9 @@ def passes_command(sats: tuple[str, ...], hours: float, min_el_deg: float | None
     if lat_deg is None and lon_deg is None and getattr(conf_st, "lat_deg", None) is not None:
         lat_deg, lon_deg = conf_st.lat_deg, conf_st.lon_deg
         alt_m = conf_st.alt_m if alt_m is None else alt_m
+    if lat_deg is None and lon_deg is None and getattr(conf_st, "gps", ""):
+        lat_deg, lon_deg, fix_alt_m = _running_gps_fix(cfg)
+        alt_m = fix_alt_m if alt_m is None else alt_m
     if lat_deg is None or lon_deg is None:
         raise click.UsageError("no station position: give --lat and --lon (degrees) and "
                                "--alt (metres), or a --config with a [station] section")

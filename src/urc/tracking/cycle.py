@@ -33,6 +33,12 @@ DOCUMENT_NAMES = {"setup": "setup", "process_tle": "PROCESS_TLE", "predict": "PR
 ON_TARGET_DEG = 0.5
 
 
+def tracking_something(trk: dict[str, Any] | None) -> bool:
+    """Whether a status' ``tracking`` names a target (with only a GPS receiver's state
+    in it, nothing is tracked)."""
+    return bool(trk) and (trk.get("target") is not None or "state" in trk)  # type: ignore[union-attr]
+
+
 def cycle_state(status: dict[str, Any], error_deg: float | None) -> dict[str, str]:
     """``{"state", "document", "why"}`` for a status dict (with its ``tracking``) and
     the pointing error between where the antenna points and where it is told to."""
@@ -41,7 +47,7 @@ def cycle_state(status: dict[str, Any], error_deg: float | None) -> dict[str, st
         state, why = "setup", "a fault stops everything until it is cleared"
     elif not status.get("position_known", True):
         state, why = "setup", "the position is not referenced yet (zero it)"
-    elif not trk:
+    elif not tracking_something(trk):
         state, why = "process_tle", "nothing tracked: waiting for elements or a target"
     elif trk.get("state") in ("planning", "waiting", "prepositioning") or trk.get("error") or \
             status.get("target_az_deg") is None:

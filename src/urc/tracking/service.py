@@ -99,8 +99,12 @@ class TrackingService:
     def gps_status(self) -> dict[str, Any] | None:
         if self.gps is None:
             return None
-        return {"source": self.cfg.station.gps, "fix": self.gps.has_fix,
-                "clock_offset_s": self.gps.clock_offset_s, "clock_trustworthy": self.gps.clock_trustworthy}
+        out = {"source": self.cfg.station.gps, "fix": self.gps.has_fix,
+               "clock_offset_s": self.gps.clock_offset_s, "clock_trustworthy": self.gps.clock_trustworthy}
+        if self.gps.last_valid_fix is not None:   # where the receiver is (`urc passes` asks)
+            st = self.gps.station()
+            out.update(lat_deg=st.lat_deg, lon_deg=st.lon_deg, alt_m=st.alt_m)
+        return out
 
     # ---------------------------------------------------------------- helpers
     def _require_station(self) -> Station:

@@ -77,7 +77,7 @@ def router(ctx: WebContext) -> APIRouter:
             responses=CONTROL_RESPONSES | {422: {"model": SettingsInvalid, "description": "each error names its key"},
                                            500: {"model": SettingsInvalid, "description": "could not save"}})
     async def save(data: Any = Body(...)) -> JSONResponse:
-        """Validate, save (previous file kept as .bak) and apply what can be applied live."""
+        """Validate, save (the changed keys only, in place) and apply what can be applied live."""
         cfg, errors = store.validate(data)
         if errors:
             return JSONResponse({"ok": False, "errors": errors}, status_code=422)

@@ -1,8 +1,10 @@
 """Settings page back end: validate with ``Config.from_dict``, save as TOML, apply.
 
 The page edits the whole configuration document and posts it back, so settings it has
-no field for survive a save. The API token is never sent to the page: a posted document
-without one keeps the present token. Sections that need a restart (profile, hardware,
+no field for survive a save. The save edits the person's file in place (:mod:`.toml_edit`):
+only the keys that changed, comments and order kept; a value that only the command line
+set (``--emulate``, ``--port``) is not a change and never reaches the file. The API
+token is never sent to the page: a posted document without one keeps the present token. Sections that need a restart (profile, hardware,
 API address, state, protocol ports) are reported as such; the others are applied live
 when the rotator can take new settings (``Rotator.reconfigure``), else at the restart.
 """
@@ -17,6 +19,7 @@ from typing import Any
 
 from ..config import DEFAULT_SERVE, Config
 from ..errors import ConfigError
+from . import toml_edit
 
 SOURCE = "settings"
 #: top-level sections whose change only takes effect when ``urc run`` restarts
@@ -126,33 +129,26 @@ class SettingsStore:
         return [k for k in keys if old_d.get(k) != new_d.get(k)]
 
     def save(self, new: Config) -> Path:
-        """Replace the file atomically: a crash leaves the old file or the new one, never
-        none. The new file keeps the old one's permissions (0600 stays 0600: it holds the
-        token); a new file is created 0600. The first save keeps the hand-written
-        original as ``<name>.bak``; later saves leave that copy alone, since the file they
-        replace is only our own earlier output."""
+        """Write the keys that changed since the last save (or the start) into the file,
+        in place, and replace it atomically: a crash leaves the old file or the new one,
+        never none. The file keeps its permissions (0600 stays 0600: it holds the
+        token); a new file is created 0600 and holds only what was changed."""
         target = self.target_path
         if target is None:
             raise OSError("no configuration file and no state directory to save to")
         target.parent.mkdir(parents=True, exist_ok=True)
         try:
             old_mode = stat.S_IMODE(target.stat().st_mode)
+            old_text = target.read_text(encoding="utf-8")
         except FileNotFoundError:
-            old_mode = None
-        text = (f"{WRITTEN_BY} (comments of an earlier file are in {target.name}.bak)\n" + new.to_toml())
-        if old_mode is not None and not _written_by_us(target):
-            _write_atomic(target.with_name(target.name + ".bak"), target.read_bytes(), old_mode)
+            old_mode, old_text = None, ""
+        try:
+            text = toml_edit.edit(old_text, self.cfg.to_dict(), new.to_dict())
+        except (toml_edit.EditError, ValueError) as exc:  # (tomllib: a file broken by hand meanwhile)
+            raise OSError(f"{target}: {exc}; the file is left as it was") from exc
         _write_atomic(target, text.encode("utf-8"), 0o600 if old_mode is None else old_mode)
         self.cfg = new
         return target
-
-
-WRITTEN_BY = "# written by the urc web settings page"
-
-
-def _written_by_us(path: Path) -> bool:
-    with open(path, "rb") as f:
-        return f.read(len(WRITTEN_BY)) == WRITTEN_BY.encode()
 
 
 def _write_atomic(path: Path, data: bytes, mode: int) -> None:

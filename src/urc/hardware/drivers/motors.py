@@ -278,6 +278,11 @@ class PwmDirMotor(HBridgeMotor):
         self.pwm_out.write_duty(abs(duty))
 
 
+#: the slow speed's pulse period: the G4JNT controller pulses its motor at 2 Hz
+#: (configurable: ``[hardware.gpio.<axis>] relay_pulse_hz``)
+SLOW_PULSE_PERIOD_S = 0.5
+
+
 class RelayMotor(DirectionTracker):
     """Relay drive (G4JNT, Yaesu G-5500 class): CW and CCW relays, optional fast relay.
 
@@ -292,7 +297,7 @@ class RelayMotor(DirectionTracker):
 
     def __init__(self, name: str, cw: DigitalOut, ccw: DigitalOut, clock: Clock, *,
                  fast: DigitalOut | None = None, levels: Sequence[float] = (1.0,),
-                 reverse_dead_time_s: float = 0.5, pulse_period_s: float = 0.4,
+                 reverse_dead_time_s: float = 0.5, pulse_period_s: float = SLOW_PULSE_PERIOD_S,
                  current: CurrentSense | None = None):
         super().__init__()
         self.name = name

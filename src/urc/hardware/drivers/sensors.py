@@ -171,8 +171,12 @@ class PotSensor(_Driver):
     """Potentiometer on an ADC channel, in 10-bit units N = 1024 x counts / reference.
 
     ``ratiometric`` (G4JNT): the pot loaded by a resistor equal to its track gives
-    N = 2048 x/(1+x); linearised P = 4096 N/(2048-N) (= 4096 x), bearing M*P + C + Z.
-    ``linear`` (G-5500 through an ADC): bearing = M*N + C + Z. Dividing by what the ADC
+    N = 2048 x/(1+x); linearised P = 4096 N/(2048-N) (= 4096 x), the axis angle
+    theta = M*P + C from the end-stop reference. ``linear`` (G-5500 through an ADC):
+    theta = M*N + C. The reading is theta: the travel limits are theta's. ``Z``, the
+    bearing of the end-stop reference, turns bearings only (bearing = theta + Z, modulo
+    360): the rotator adds :attr:`pointing_offset_deg` to its mount offset, so a new Z
+    moves no limit (the G4JNT document's arithmetic). Dividing by what the ADC
     reads on the pot's supply makes it ratiometric on any ADC (ADS1115 with the supply
     on a second channel); a reference outside ``reference_range`` of full scale
     (a broken wire, a dead supply) is an error, never a bearing.
@@ -218,17 +222,27 @@ class PotSensor(_Driver):
         """The linearised reading (P) behind the last position read."""
         return self.linearised(self._last_n)
 
-    def _bearing(self, units: float) -> float:
-        return self.m_deg_per_unit * units + self.c_deg + self.z_deg
+    def _theta(self, units: float) -> float:
+        return self.m_deg_per_unit * units + self.c_deg
+
+    #: calibration keys that turn bearings, not the reading
+    pointing_keys = ("Z",)
+
+    @property
+    def pointing_offset_deg(self) -> float:
+        """Z: what the rotator adds to the axis angle to make a bearing."""
+        return self.z_deg
 
     def read_deg(self) -> float:
         n = self.read_n()
         self._last_n, self.last_counts = n, round(n)
-        return self._wrap(self._bearing(self.linearised(n)))
+        return self._wrap(self._theta(self.linearised(n)))
 
     def set_reference_deg(self, angle_deg: float) -> None:
+        # the axis angle is re-referenced through the intercept: Z stays the bearing
+        # of the reference
         units = self.raw_units()
-        self.z_deg += float(angle_deg) - self._bearing(units)
+        self.c_deg += float(angle_deg) - self._theta(units)
 
     def calibration(self) -> dict[str, Any]:
         cal = {"M": self.m_deg_per_unit, "C": self.c_deg, "Z": self.z_deg}

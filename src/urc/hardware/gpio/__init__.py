@@ -138,7 +138,8 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
             motor = RelayMotor(name, out("cw"), out("ccw"), clock,
                                fast=out("fast") if "fast" in pins else None,
                                levels=ax_caps.drive_levels or (1.0,),
-                               reverse_dead_time_s=cfg.relay_dead_time_s)
+                               reverse_dead_time_s=cfg.relay_dead_time_s,
+                               pulse_period_s=1.0 / cfg.relay_pulse_hz)
         sensor: Any
         if sk == "encoder":
             counter = PinQuadrature(factory, pins["enc_a"], pins["enc_b"], pins.get("enc_z"))

@@ -7,6 +7,7 @@ on iron; limit switch pins follow the simulated switches."""
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from typing import Any
 
 from ..drivers import LimitSwitchInput, RelayBrake
@@ -198,6 +199,11 @@ def feed_sensor(name: str, kind: str, sensor: Any, devices: dict[int, Any], cfg:
             return
         az_view, el_view = emu.views["az"], emu.views["el"]
         az_p = world.params.axis("az").sensor
+        if name == "az":
+            # the configured declination is the emulated site's: the earth's field is
+            # turned by it, and the compass keeps it (the simulator's own 12.5 deg
+            # used to replace the configuration's value)
+            az_p = replace(az_p, declination_deg=sensor.declination_deg)
         mag = SimMagnetometer(az_view, az_p, random.Random(f"urc-emu:{world.seed}:mag"), True,
                               noise_deg=world.caps.az.sensor.noise_deg, board=world.board)
         acc = SimAccelerometer(el_view, world.params.axis("el").sensor,
@@ -232,7 +238,6 @@ def feed_sensor(name: str, kind: str, sensor: Any, devices: dict[int, Any], cfg:
             emu.parts[name] = dev
         if name == "az":   # the shipped calibration, in this field's units (gauss)
             sensor.hard_iron_x, sensor.hard_iron_y = az_p.hard_iron_x * h_gauss, az_p.hard_iron_y * h_gauss
-            sensor.declination_deg = az_p.declination_deg
     else:  # pot on an ADS1115 or an MCP3008
         adc = SimPotAdc(*part)
         ref_v = cfg.adc_reference_v

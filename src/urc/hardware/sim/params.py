@@ -83,7 +83,7 @@ class SimAxisParams:
     ac_noload_current_a: float = 0.0
     ac_stall_current_a: float = 0.0
     #: relay levels < 1 are produced by pulsing the relay on level x this period.
-    relay_pulse_period_s: float = 0.4
+    relay_pulse_period_s: float = 0.5       # G4JNT: the slow speed pulses at 2 Hz
     # --- friction at the axis ---
     gear_static_nm: float = 0.0
     gear_kinetic_nm: float = 0.0
@@ -189,7 +189,7 @@ def _ac_axis(ax: AxisCaps, *, gear_j_kgm2: float, load_j_kgm2: float, coast_deg:
              backlash_deg: float, sensor: SimSensorParams, hard: tuple[float, float] | None,
              noload_current_a: float, stall_current_a: float, torque_ratio: float = 6.0,
              stiction_ratio: float = 1.3, load_share: float = 0.25,
-             pulse_period_s: float = 0.4) -> SimAxisParams:
+             pulse_period_s: float = 0.5) -> SimAxisParams:
     """A relay-switched AC motor axis: constant torque up to speed, friction-only coast.
 
     Kinetic friction is chosen so that the coast from max rate is ``coast_deg``:
@@ -215,6 +215,14 @@ def _ac_axis(ax: AxisCaps, *, gear_j_kgm2: float, load_j_kgm2: float, coast_deg:
         has_brake=ax.brake,
         wind_mean_nm=WIND_MEAN_SHARE * load_share * ts,
         wind_gust_nm=WIND_GUST_SHARE * load_share * ts, sensor=sensor)
+
+
+#: The G4JNT document's Table 1 pot: theta = (C + M P / 16384) / 10 deg with M = -15897
+#: and C = 3758 (g4jnt_codec's units), so P = 0 at theta 375.8 and P = 4096 at -21.6:
+#: the resistance falls as the angle grows ("the gradient is negative"). A fresh
+#: simulated G4JNT therefore holds Table 1's M and C, and its stream reproduces Table 1.
+G4JNT_TABLE_1_POT = SimSensorParams(on_load=True, pot_law="ratiometric", pot_start_deg=375.8,
+                                    pot_span_deg=-15897 / 163840 * 4096, adc_noise_counts=0.4)
 
 
 def _pot(ax: AxisCaps, law: Literal["ratiometric", "linear"], noise_counts: float,
@@ -267,10 +275,11 @@ def _build(caps: RotatorCaps) -> tuple[SimAxisParams, SimAxisParams]:
         return (_dc_axis(az, hard=(-10.0, 370.0), **kw),  # type: ignore[arg-type]
                 _dc_axis(el, hard=(-50.0, 230.0), **kw))  # type: ignore[arg-type]  # ~270 deg
     if name == "g4jnt":
-        # Relay-switched AC rotator (CDE/Hy-Gain style), loaded pot on the output.
+        # Relay-switched AC rotator (CDE/Hy-Gain style), loaded pot on the output: the
+        # document's own (Table 1), end stops just outside its -10..370 deg travel.
         return (_ac_axis(az, gear_j_kgm2=40.0, load_j_kgm2=15.0, coast_deg=az.overshoot_deg,
-                         backlash_deg=0.3, sensor=_pot(az, "ratiometric", 0.4, True),
-                         hard=(-5.0, 365.0), noload_current_a=0.5, stall_current_a=3.0),
+                         backlash_deg=0.3, sensor=G4JNT_TABLE_1_POT,
+                         hard=(-12.0, 372.0), noload_current_a=0.5, stall_current_a=3.0),
                 _ac_axis(el, gear_j_kgm2=40.0, load_j_kgm2=15.0, coast_deg=el.overshoot_deg,
                          backlash_deg=0.3, sensor=_pot(el, "ratiometric", 0.4, True),
                          hard=(-5.0, 95.0), noload_current_a=0.5, stall_current_a=3.0))

@@ -1,0 +1,34 @@
+"""In-place TOML edits (the settings save): only the changed keys, checked by reading back."""
+
+import tomllib
+
+import pytest
+
+from urc.web import toml_edit
+
+
+def test_a_new_table_under_dotted_keys_stays_under_them():
+    """tomlkit alone put the new table at the top level ([gpio.az.pins]: another key)."""
+    text = '[hardware]\nbackend = "gpio"   # the Pi\ngpio.emulate = false\ngpio.az.motor = "relay"\n'
+    old = {"hardware": {"backend": "gpio", "gpio": {"emulate": False, "az": {"motor": "relay"}}}}
+    new = {"hardware": {"backend": "gpio", "gpio": {"emulate": False, "az": {"motor": "vnh5019", "pins": {"a": 1}}}}}
+    out = toml_edit.edit(text, old, new)
+    assert tomllib.loads(out) == new
+    assert out.startswith('[hardware]\nbackend = "gpio"   # the Pi\ngpio.emulate = false\n')
+
+
+def test_lists_of_tables_removed_keys_and_untouched_overrides():
+    text = "# mine\n[api]\nport = 8080 # web\n\n[[serve]]\nprotocol = \"rotctld\"\ntcp = \"127.0.0.1:4533\"\n"
+    old = {"api": {"port": 8080, "host": "127.0.0.1"}, "serve": [{"protocol": "rotctld", "tcp": "127.0.0.1:4533"}],
+           "hardware": {"gpio": {"emulate": True}}, "park": {"az_deg": 10.0}}
+    new = {"api": {"port": 8080, "host": "127.0.0.1"}, "hardware": {"gpio": {"emulate": True}},
+           "serve": [{"protocol": "gs232b", "pty": "/tmp/x", "options": {"variant": "b"}}]}
+    out = toml_edit.edit(text, old, new)
+    assert out.startswith("# mine\n[api]\nport = 8080 # web\n")
+    assert tomllib.loads(out) == {"api": {"port": 8080},
+                                  "serve": [{"protocol": "gs232b", "pty": "/tmp/x", "options": {"variant": "b"}}]}
+
+
+def test_a_broken_file_is_not_touched():
+    with pytest.raises(ValueError):
+        toml_edit.edit("[api\nport = 1\n", {"api": {"port": 1}}, {"api": {"port": 2}})
