@@ -14,6 +14,9 @@ missing=()
 for pkg in "${DEB_PACKAGES[@]}"; do
   dpkg -s "$pkg" >/dev/null 2>&1 || missing+=("$pkg")
 done
+# npm installs axe-core, the accessibility rules the browser tests run on every page
+# (tests/web/package-lock.json); any npm will do (Debian's, or one that came with node)
+command -v npm >/dev/null 2>&1 || missing+=(npm)
 if [ ${#missing[@]} -gt 0 ]; then
   SUDO=""; [ "$(id -u)" -ne 0 ] && SUDO="sudo"
   $SUDO apt-get update -qq
@@ -21,4 +24,5 @@ if [ ${#missing[@]} -gt 0 ]; then
 fi
 
 python3 -m pip install -q -e '.[test]'
+npm ci --prefix tests/web --no-audit --no-fund --silent
 exec python3 -m pytest "$@"
