@@ -73,11 +73,12 @@ export function unconfirmed(st) {
   const reasons = [];
   const axes = new Set();
   const all = axesOf(st);
+  const unreadable = all.filter((a) => st[a].sensor_ok === false);
+  // (why it does not read is the fault banner's to say, once)
+  if (unreadable.length) reasons.push(`${both(unreadable)} unreadable now: the last reading is shown`);
   for (const a of all) {
-    const ax = st[a];
-    if (ax.sensor_ok === false) reasons.push(`${a} unreadable now (${ax.sensor_error || "no reading"}): the last reading is shown`);
-    else if (ax.uncertainty_deg > 0) reasons.push(`${a} not referenced (±${fmt(ax.uncertainty_deg, 1)}°)`);
-    else continue;
+    if (st[a].sensor_ok !== false && st[a].uncertainty_deg > 0) reasons.push(`${a} not referenced (±${fmt(st[a].uncertainty_deg, 1)}°)`);
+    else if (st[a].sensor_ok !== false) continue;
     axes.add(a);
   }
   for (const f of st.faults || []) {
@@ -96,22 +97,29 @@ export function unconfirmed(st) {
   return { reasons, axes };
 }
 
+function both(axes) {
+  return axes.join(" and ");
+}
+
 // the numbers of an axis not confirmed now are dimmed, and say so to a screen reader
 const AXIS_CELLS = { az: ["now-az", "ro-az", "ro-maz"], el: ["now-el", "ro-el", "ro-mel"] };
 
-// what each latched fault's cause is doing now: will "Clear fault" work?
+// what the causes of the latched faults do now: will "Clear fault" work? (axes that
+// fail the same way are named together: a bridged controller's two axes share a link)
 function faultNow(st) {
   const out = [];
-  const seen = new Set();
-  for (const f of st.faults || []) {
-    const ax = f.axis && st[f.axis];
-    if (f.kind === "control") out.push("The control process still does not answer: clearing waits for it.");
-    if (!ax || seen.has(f.axis) || !f.kind.startsWith("sensor")) continue;
-    seen.add(f.axis);
-    out.push(ax.sensor_ok === false
-      ? `Now: ${f.axis} still unreadable (${ax.sensor_error || "no reading"}): clearing cannot help until it reads.`
-      : `Now: ${f.axis} reads again: Clear fault re-arms it.`);
+  if ((st.faults || []).some((f) => f.kind === "control")) out.push("The control process still does not answer: clearing waits for it.");
+  const sensorAxes = [...new Set((st.faults || []).filter((f) => f.kind.startsWith("sensor") && f.axis && st[f.axis]).map((f) => f.axis))];
+  const byError = new Map();
+  for (const a of sensorAxes.filter((a) => st[a].sensor_ok === false)) {
+    const err = st[a].sensor_error || "no reading";
+    byError.set(err, [...(byError.get(err) || []), a]);
   }
+  for (const [err, axes] of byError) {
+    out.push(`Now: ${both(axes)} still unreadable (${err}): clearing cannot help until ${axes.length > 1 ? "they read" : "it reads"}.`);
+  }
+  const back = sensorAxes.filter((a) => st[a].sensor_ok !== false);
+  if (back.length) out.push(`Now: ${both(back)} ${back.length > 1 ? "read" : "reads"} again: Clear fault re-arms ${back.length > 1 ? "them" : "it"}.`);
   return out.join(" ");
 }
 
@@ -124,7 +132,10 @@ function ago(seconds) {
 function whyNow(st, frame, sp) {
   const faults = st.faults || [];
   const trk = st.tracking;
-  if (faults.length) return `Stopped by a fault: ${faults[0].reason}${faults.length > 1 ? ` (and ${faults.length - 1} more)` : ""}.`;
+  if (faults.length) {
+    const kinds = [...new Set(faults.map((f) => (f.axis ? `${f.axis} ${f.kind}` : f.kind)))];
+    return `Stopped by a fault (${kinds.join(", ")}): the banner above says why; clear it to move again.`;
+  }
   if ((st.local_control || []).length) return `Held at the rotator (${st.local_control.join(", ")}): moves from here are refused.`;
   if ((frame.jogs || []).length) return `Jogging ${frame.jogs.join(" and ")} from a page (while the button is held).`;
   if (trk) {
