@@ -10,10 +10,11 @@ import os
 import re
 
 from playwright.sync_api import expect
-
 from urc_process import UrcProcess
 
 PROFILE = "berkeley"
+#: a generous bound for a urc to start listening (the machine may be loaded)
+START_S = 120.0
 
 
 def test_link_lost_then_back_the_page_says_what_clearing_will_do(tmp_path, open_page, artifacts):
@@ -21,10 +22,10 @@ def test_link_lost_then_back_the_page_says_what_clearing_will_do(tmp_path, open_
     up_dir.mkdir()
     down_dir.mkdir()
     pty_path = str(up_dir / "ctl")
-    up = UrcProcess(up_dir, profile=PROFILE, serve=[{"protocol": "gs232b", "pty": pty_path}]).start()
+    up = UrcProcess(up_dir, profile=PROFILE, serve=[{"protocol": "gs232b", "pty": pty_path}]).start(START_S)
     down = UrcProcess(down_dir, profile=PROFILE, serve=[],
                       extra=f'[hardware]\nbackend = "bridge"\n[hardware.bridge]\nprotocol = "gs232b"\n'
-                            f'serial = "{pty_path}"\n').start()
+                            f'serial = "{pty_path}"\n').start(START_S)
     try:
         page = open_page(down.url + "/", 390, 844, has_touch=True)
         expect(page.locator("#now-az")).to_have_attribute("data-confirmed", "true", timeout=10_000)
@@ -45,7 +46,7 @@ def test_link_lost_then_back_the_page_says_what_clearing_will_do(tmp_path, open_
         page.screenshot(path=str(artifacts / "bridge-link-lost-phone.png"))
 
         os.unlink(pty_path)         # (killed, it could not remove its link: urc keeps others' files)
-        up.start()                                          # back: the bridge reopens the pty
+        up.start(START_S)                                   # back: the bridge reopens the pty
         expect(page.locator("#fault-now")).to_contain_text("az and el read again: Clear fault re-arms them",
                                                            timeout=40_000)
         expect(page.locator("#now-az")).to_have_attribute("data-confirmed", "true")

@@ -12,7 +12,6 @@ from datetime import datetime
 import httpx
 import pytest
 from playwright.sync_api import expect
-
 from urc_process import UrcProcess, free_port
 
 from .fake_tracker import KEYHOLE_NOTE, FakeTracker
@@ -33,7 +32,7 @@ def remote_urc(tmp_path_factory):
     serve = [{"protocol": "rotctld", "tcp": f"127.0.0.1:{free_port()}"},
              {"protocol": "gs232b", "tcp": f"127.0.0.1:{free_port()}"}]
     u = UrcProcess(tmp_path_factory.mktemp("layout"), profile="berkeley", serve=serve,
-                   extra=f'host = "0.0.0.0"\ntoken = "{TOKEN}"\n{ZONE}').start()
+                   extra=f'host = "0.0.0.0"\ntoken = "{TOKEN}"\n{ZONE}').start(timeout_s=120)
     yield u
     u.stop()
 
@@ -183,7 +182,7 @@ def test_tracking_banner_whole_foldable_and_reopened_by_news(tmp_path, open_page
 
 # --------------------------------------------------------------- the first screen on a phone
 def test_the_first_phone_screen_says_where_what_and_why(tmp_path, open_page, artifacts):
-    u = UrcProcess(tmp_path, profile="berkeley").start()
+    u = UrcProcess(tmp_path, profile="berkeley").start(timeout_s=120)
     try:
         page = open_page(u.url + "/", 390, 844, has_touch=True, is_mobile=True)
         reset(u)
@@ -210,7 +209,7 @@ def test_the_position_is_unconfirmed_while_the_sensor_is_unreadable(tmp_path, op
     """A dead elevation sensor: its numbers are marked unconfirmed (the azimuth's are
     not), the banner says the sensor is still unreadable (clearing cannot help); repaired,
     it says clearing will work; cleared, all is confirmed again."""
-    u = UrcProcess(tmp_path, profile="berkeley").start()
+    u = UrcProcess(tmp_path, profile="berkeley").start(timeout_s=120)
     try:
         page = open_page(u.url + "/", 390, 844, has_touch=True)
         reset(u)
@@ -227,6 +226,11 @@ def test_the_position_is_unconfirmed_while_the_sensor_is_unreadable(tmp_path, op
         expect(page.locator("#confirm-line")).to_contain_text("el unreadable now")
         expect(page.locator("#fault-now")).to_contain_text("el still unreadable")
         expect(page.locator("#fault-now")).to_contain_text("clearing cannot help")
+        # read out to a screen reader once: the live region holds no changing age
+        announced = page.locator("#fault-announce").text_content()
+        assert "el: position sensor unreadable" in announced and "ago" not in announced
+        expect(page.locator("#fault-text")).to_contain_text(" s ago)")
+        assert page.locator("#fault-banner").get_attribute("role") is None
         assert in_viewport(page, "#now-badge")
         page.screenshot(path=str(artifacts / "position-unconfirmed-phone.png"))
         u.post("/api/sim/clear", {"axis": "el"})            # the wire is mended
@@ -245,7 +249,7 @@ def test_a_position_not_referenced_is_unconfirmed_on_every_axis(tmp_path, open_p
     u = UrcProcess(tmp_path, profile="tartu-urc")
     u.state_dir.mkdir(parents=True)
     (u.state_dir / "state.json").write_text("{ this is not a state file")
-    u.start()
+    u.start(timeout_s=120)
     try:
         page = open_page(u.url + "/")
         expect(page.locator("#now-badge")).to_be_visible(timeout=5000)
@@ -261,7 +265,7 @@ def test_a_position_not_referenced_is_unconfirmed_on_every_axis(tmp_path, open_p
 def test_enter_presses_a_focused_button_and_space_stops_even_there(tmp_path, open_page):
     """After "Go to" the focus stays on that button: a Space meant as a stop stops (and
     does not send the move again); Enter presses the button. The page says so."""
-    u = UrcProcess(tmp_path, profile="berkeley").start()
+    u = UrcProcess(tmp_path, profile="berkeley").start(timeout_s=120)
     try:
         page = open_page(u.url + "/")
         reset(u)

@@ -25,8 +25,8 @@ from starlette.datastructures import Headers
 from starlette.requests import HTTPConnection
 
 from ..config import Config
-from .docs_pages import DOCS_CSP
 from ..protocols.base import RateLimitedLog
+from .docs_pages import DOCS_CSP
 
 log = logging.getLogger(__name__)
 #: refusals by host name: a page retrying in a loop must not flood the log

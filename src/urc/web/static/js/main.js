@@ -247,6 +247,7 @@ function onFrame(frame) {
   const faults = st.faults || [];
   $("fault-banner").hidden = faults.length === 0;
   if (faults.length) bannerNews($("fault-banner"), faults.map((f) => `${f.kind}:${f.reason}`).join("\n"));
+  setText($("fault-announce"), faults.length ? `Fault: ${faults.map((f) => f.reason).join("; ")}` : "");
   setText($("fault-count"), faults.length > 1 ? `(${faults.length})` : "");
   // each reason with its age: a latched fault says what happened then, not now
   setText($("fault-text"), faults.map((f) => `${f.kind}: ${f.reason} (${ago(st.t_s - f.t_s)})`).join(" · "));
