@@ -18,6 +18,9 @@ missing=()
 for pkg in "${DEB_PACKAGES[@]}"; do
   dpkg -s "$pkg" >/dev/null 2>&1 || missing+=("$pkg")
 done
+# npm installs axe-core, the accessibility rules the browser tests run on every page
+# (tests/web/package-lock.json); any npm will do (Debian's, or one that came with node)
+command -v npm >/dev/null 2>&1 || missing+=(npm)
 if [ ${#missing[@]} -gt 0 ]; then
   SUDO=""; [ "$(id -u)" -ne 0 ] && SUDO="sudo"
   $SUDO apt-get update -qq
@@ -32,4 +35,6 @@ if [ "${URC_DEPS:-locked}" = latest ]; then
 else
   python3 -m pip install -q -c requirements/test.lock -e '.[test]'
 fi
+# axe-core for the browser tests' accessibility checks (a local file, no CDN)
+npm ci --prefix tests/web --no-audit --no-fund --silent
 exec python3 -m pytest "$@"

@@ -25,10 +25,11 @@ from .service.remote import StopQueued
 from .service import Rotator
 from .service.calibration import CalibrationError
 from .web import WebContext, install
+from .web.docs_pages import install_redoc
 from .web.live import FRAME_HZ, Hub
 from .web.routes_live import MoveRequest, StopRequest
 from .web.schemas import CONTROL_RESPONSES, AzDeg, ElDeg, Ok, StatusDoc, Strict, documented
-from .web.security import RequestGate, SecurityHeaders, control_guard
+from .web.security import HostGate, RequestGate, SecurityHeaders, control_guard
 from .web.settings_store import SettingsStore
 
 
@@ -63,9 +64,10 @@ def create_api(rotator: Rotator, cfg: Config, *, config_path: str | os.PathLike 
     """
     # FastAPIOffline: /docs and /redoc from assets shipped in the package, not from a CDN
     # (a station's network may have no internet)
-    app = FastAPIOffline(title="urc control API", version=__version__,
+    app = FastAPIOffline(title="urc control API", version=__version__, redoc_url=None,
                          description="Universal Rotator Controller: status, control, calibration, settings; "
                                      "the dashboard is at /")
+    install_redoc(app)  # its bundle without the one address it fetches from a CDN
     if state_dir is None and getattr(rotator, "store", None) is not None:
         state_dir = rotator.store.path.parent
     hub = Hub(rotator, tracker, frame_hz)
@@ -74,6 +76,7 @@ def create_api(rotator: Rotator, cfg: Config, *, config_path: str | os.PathLike 
                      control=control_allowed, tracker=tracker)
     app.state.web = ctx
     app.add_middleware(RequestGate, cfg=cfg)   # inner: auth and body bounds before any parsing
+    app.add_middleware(HostGate, cfg=cfg)      # every request, reads too: DNS rebinding
     app.add_middleware(SecurityHeaders, on_request=hub.ensure_started)
     try:  # inside ``urc run`` the loop runs already: record history from the start
         asyncio.get_running_loop()

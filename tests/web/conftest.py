@@ -71,6 +71,19 @@ def open_page(browser):
         ctx.close()
 
 
+class LoopbackClient(TestClient):
+    """A TestClient that asks under a loopback name, as a browser on the station does
+    (a loopback API refuses others: DNS rebinding); TestClient's own is "testserver",
+    and its WebSockets always use that unless told."""
+
+    def __init__(self, app):
+        super().__init__(app, base_url="http://127.0.0.1:8080")
+
+    def websocket_connect(self, url, subprotocols=None, **kwargs):
+        kwargs["headers"] = {"host": "127.0.0.1:8080", **(kwargs.get("headers") or {})}
+        return super().websocket_connect(url, subprotocols, **kwargs)
+
+
 @pytest.fixture
 def make_client(bench, tmp_path):
     """The control API app (in process, virtual clock) behind a TestClient."""
@@ -79,7 +92,7 @@ def make_client(bench, tmp_path):
     def make(profile="berkeley", tracker=None, config_path=None, **config):
         b = bench(profile, **config)
         app = create_api(b.rot, b.cfg, config_path=config_path, tracker=tracker)
-        c = TestClient(app)
+        c = LoopbackClient(app)
         c.__enter__()
         clients.append(c)
         c.bench = b

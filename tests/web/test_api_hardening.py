@@ -219,3 +219,43 @@ def test_docs_are_served_without_the_internet(make_client):
         for ref in refs:
             assert not re.match(r"(https?:)?//", ref), (page, ref)
             assert c.get(ref).status_code == 200, (page, ref)
+
+
+# ----------------------------------------------------------------------- issue 22: reads, token scheme
+@pytest.mark.parametrize("path", ["/", "/api/status", "/api/info", "/api/settings", "/api/history",
+                                  "/openapi.json", "/docs", "/redoc", "/static/js/main.js"])
+def test_a_loopback_api_answers_no_read_under_a_foreign_host_name(make_client, path):
+    """DNS rebinding: a page of evil.example whose name was re-pointed at 127.0.0.1 asks
+    under its own name (same origin, so no Origin header on a GET): nothing is answered.
+    Asked under a loopback name, the same read works."""
+    c = make_client(tracker=FakeTracker(), station={"lat_deg": 58.4, "lon_deg": 26.7})
+    for host in ("evil.example:8080", "rebound.example", "127.0.0.1.evil.example:8080", "10.0.0.5:8080"):
+        r = c.get(path, headers={"host": host})
+        assert r.status_code == 403, (path, host, r.status_code)
+        assert "58.4" not in r.text and "loopback only" in r.json()["detail"]
+        assert r.headers["x-frame-options"] == "DENY"           # still a response of this API
+    for host in ("127.0.0.1:8080", "localhost:8080", "[::1]:8080", "station.localhost"):
+        assert c.get(path, headers={"host": host}).status_code == 200, (path, host)
+
+
+def test_a_remote_listener_answers_reads_under_any_name(make_client):
+    """Listening beyond loopback, the station's own name is unknown: reads stay open
+    (control needs the token)."""
+    c = make_client(api={"host": "0.0.0.0", "token": TOKEN})
+    assert c.get("/api/status", headers={"host": "station.example:8080"}).status_code == 200
+
+
+@pytest.mark.parametrize("authorization,ok", [
+    (f"Bearer {TOKEN}", True),
+    (f"bearer {TOKEN}", True),                  # the scheme's name is case-insensitive (RFC 7235)
+    (f"BEARER  {TOKEN} ", True),
+    (TOKEN, False),                             # a bare token is not a bearer token
+    (f"Basic {TOKEN}", False),
+    (f"Bearer{TOKEN}", False),
+    ("Bearer ", False),
+    (f"Bearer {TOKEN}x", False),
+])
+def test_the_token_is_a_bearer_token(make_client, authorization, ok):
+    c = make_client(api={"host": "0.0.0.0", "token": TOKEN})
+    r = c.post("/api/stop", json={}, headers={"authorization": authorization})
+    assert r.status_code == (200 if ok else 401), (authorization, r.text)

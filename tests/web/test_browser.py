@@ -150,6 +150,8 @@ def test_stop_by_space_and_by_button(urc, open_page):
             page.keyboard.press("Space")
         else:
             page.click("#stop-btn")
+        # stopped, not arrived: far from the goal, its target dropped (judged by state,
+        # not by a wall-clock bound a loaded machine could miss)
         s = urc.wait(standing, 30)
         assert s["target_az_deg"] is None
         assert az_diff(s["az_deg"], goal) > 20, how
@@ -483,18 +485,16 @@ def test_map_sky_and_dial_draw_cleanly(tmp_path, open_page, artifacts):
         u.stop()
 
 
-def test_pass_list_uses_the_tracking_min_elevation_and_names_the_time_zone(tmp_path, open_page):
+def test_pass_list_uses_the_tracking_min_elevation(tmp_path, open_page):
     """Issue 12, item 19: the pass list asked for passes above 10° while a pass's plan
-    flies from tracking.min_el_deg (0°): their AOS disagreed; times had no zone."""
+    flies from tracking.min_el_deg (0°): their AOS disagreed. (Times: UTC, see
+    test_browser_layout.)"""
     trk = FakeTracker()
     with InProcessUrc(tmp_path / "state", trk) as srv:
-        page = open_page(srv.url + "/", timezone_id="Europe/Tallinn")
+        page = open_page(srv.url + "/")
         page.wait_for_selector("#passes-body tr", timeout=5000)
         assert [c for c in trk.calls if c[0] == "passes"] == [("passes", 24.0, 0.0)]
-        note = page.locator("#passes-note").text_content()
-        assert "above 0°" in note and "Europe/Tallinn" in note and "UTC+02:00" in note
-        page.locator('#passes-body tr[data-norad="25544"] button.track-pass').click()
-        expect(page.locator("#tracking-line")).to_contain_text("GMT+2")
+        assert "above 0°" in page.locator("#passes-note").text_content()
         page.problems.check()
 
 
@@ -526,14 +526,11 @@ def test_tracker_warnings_are_shown_while_tracking(tmp_path, open_page, artifact
         expect(banner).to_contain_text("NOAA 19")
         expect(banner).to_contain_text(said[0])
         page.screenshot(path=str(artifacts / "tracking-warnings.png"))
-        page.set_viewport_size({"width": 390, "height": 844})  # a phone: still on screen, one line
+        page.set_viewport_size({"width": 390, "height": 844})  # a phone: still on screen, whole
         page.mouse.wheel(0, 2000)
         page.wait_for_timeout(300)
         assert in_viewport(page, "#track-warnings li"), "the warning scrolled out of view"
-        one_line = page.locator("#track-warnings li").first.bounding_box()["height"]
-        page.click("#track-banner")  # a tap shows the warnings whole
-        page.wait_for_timeout(100)
-        assert page.locator("#track-warnings li").first.bounding_box()["height"] > 1.5 * one_line
+        assert page.locator("#track-warnings li").first.text_content() == said[0]
         page.screenshot(path=str(artifacts / "tracking-warnings-phone.png"))
         assert u.post("/api/track/stop").status_code == 200
         expect(banner).to_be_hidden(timeout=10000)

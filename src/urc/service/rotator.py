@@ -245,7 +245,8 @@ class _Axis:
             target_deg=None if self.sp is None else self.sp.target_deg, mode=self.law.mode,
             duty=self.out.duty, brake_released=self.out.brake_released,
             uncertainty_deg=self.uncertainty_deg, limit_min=self.limit_min,
-            limit_max=self.limit_max, current_a=self.current_a)
+            limit_max=self.limit_max, current_a=self.current_a,
+            sensor_ok=self.sensor_ok, sensor_error=self.sensor_error)
 
 
 @dataclass(frozen=True)

@@ -20,6 +20,10 @@ class AxisStatus:
     limit_min: bool
     limit_max: bool
     current_a: float
+    #: whether the position sensor (or the bridged controller) answered this tick:
+    #: False = pos_deg is the last reading, not confirmed now
+    sensor_ok: bool = True
+    sensor_error: str = ""      # why not ("" while it reads)
 
 
 @dataclass(frozen=True)

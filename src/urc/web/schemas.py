@@ -78,6 +78,9 @@ class AxisState(BaseModel):
     limit_min: bool
     limit_max: bool
     current_a: float
+    sensor_ok: bool = Field(description="the sensor (or bridged controller) answered this tick; "
+                                        "false: pos_deg is the last reading, unconfirmed")
+    sensor_error: str = Field(description="why the sensor does not answer (empty while it does)")
 
 
 class FaultInfo(BaseModel):

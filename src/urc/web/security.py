@@ -1,9 +1,13 @@
 """Who may control, and the headers every response carries.
 
 Viewing is open; control needs ``Authorization: Bearer <token>`` whenever the API listens
-beyond loopback (``api.control_requires_token``), and is refused to pages of other sites. The Content-Security-Policy allows only
-this origin's own scripts and styles (no inline script, no eval, nothing from elsewhere),
-so even a bug that put user text into markup could not run it.
+beyond loopback (``api.control_requires_token``), and is refused to pages of other sites.
+An API that listens on loopback answers nothing (page, reads, live feed or control) asked
+for under a host name that is not a loopback one: a page of another site whose name was
+re-pointed at 127.0.0.1 (DNS rebinding) would otherwise read the station's position and
+settings. The Content-Security-Policy allows only this origin's own scripts and styles
+(no inline script, no eval, nothing from elsewhere), so even a bug that put user text into
+markup could not run it.
 """
 
 from __future__ import annotations
@@ -21,8 +25,12 @@ from starlette.datastructures import Headers
 from starlette.requests import HTTPConnection
 
 from ..config import Config
+from ..protocols.base import RateLimitedLog
+from .docs_pages import DOCS_CSP
 
 log = logging.getLogger(__name__)
+#: refusals by host name: a page retrying in a loop must not flood the log
+refusal_log = RateLimitedLog(log)
 
 #: the largest request body accepted (the settings document is a few KiB): bigger is 413
 #: before any of it is parsed, so no POST can hold the event loop in a JSON parser
@@ -37,10 +45,12 @@ BEARER = HTTPBearer(auto_error=False, scheme_name="token",
 CSP = ("default-src 'self'; script-src 'self'; style-src 'self'; img-src 'self' data:; "
        "connect-src 'self'; font-src 'self'; object-src 'none'; base-uri 'none'; "
        "frame-ancestors 'none'; form-action 'self'")
-#: FastAPI's own API pages load Swagger/ReDoc with inline scripts: no CSP there
-NO_CSP_PATHS = ("/docs", "/redoc", "/docs/oauth2-redirect")
-HEADERS = [(b"content-security-policy", CSP.encode()), (b"x-content-type-options", b"nosniff"),
-           (b"referrer-policy", b"no-referrer"), (b"x-frame-options", b"DENY")]
+#: FastAPI's own API pages load Swagger/ReDoc with inline scripts: a policy of their own
+DOCS_PATHS = ("/docs", "/redoc", "/docs/oauth2-redirect")
+OTHER_HEADERS = [(b"x-content-type-options", b"nosniff"), (b"referrer-policy", b"no-referrer"),
+                 (b"x-frame-options", b"DENY")]
+HEADERS = [(b"content-security-policy", CSP.encode()), *OTHER_HEADERS]
+DOCS_HEADERS = [(b"content-security-policy", DOCS_CSP.encode()), *OTHER_HEADERS]
 
 
 def _loopback_name(host: str) -> bool:
@@ -57,27 +67,47 @@ def _loopback_name(host: str) -> bool:
         return False
 
 
+def check_host(cfg: Config, headers: Headers) -> None:
+    """Refuse any request to a loopback API made under a name that is not a loopback
+    one: only a page whose name was re-pointed at this machine (DNS rebinding) or a
+    proxy passing a public name on asks that way. (No Host at all: HTTP/1.0 tools.)"""
+    host = headers.get("host")
+    if cfg.api.is_loopback and host is not None and not _loopback_name(host):
+        raise HTTPException(403, f"requests through the name {host!r} refused: this API listens on "
+                                 "loopback only (use localhost or 127.0.0.1)")
+
+
 def check_browser_origin(cfg: Config, request: HTTPConnection | Headers) -> None:
     """Refuse control sent by a page of another site (CSRF: a loopback API needs no
     token, so any web page could otherwise POST to it) or by a page reached under a
     foreign name that resolves to this machine (DNS rebinding). Browsers always send
     ``Origin`` with a POST; clients without one (the CLI, scripts) are not browsers."""
     headers = request if isinstance(request, Headers) else request.headers
+    check_host(cfg, headers)
     origin = headers.get("origin")
     if origin is None:
         return
     host = headers.get("host", "")
     if urlsplit(origin).netloc.lower() != host.lower():
         raise HTTPException(403, f"control from another site ({origin}) refused")
-    if cfg.api.is_loopback and not _loopback_name(host):
-        raise HTTPException(403, f"control through the name {host!r} refused: this API listens on loopback only")
+
+
+def bearer_token(authorization: str | None) -> str | None:
+    """The credentials of ``Authorization: Bearer <token>``; the scheme's name is
+    case-insensitive (RFC 7235 section 2.1). None without that scheme: a bare token is
+    not a bearer token."""
+    scheme, _, credentials = (authorization or "").strip().partition(" ")
+    if scheme.lower() != "bearer" or not credentials.strip():
+        return None
+    return credentials.strip()
 
 
 def check_token(cfg: Config, authorization: str | None) -> None:
     if not cfg.api.control_requires_token:
         return
-    supplied = (authorization or "").removeprefix("Bearer ").strip()
-    if not cfg.api.token or not hmac.compare_digest(supplied.encode(), cfg.api.token.encode()):
+    supplied = bearer_token(authorization)
+    if supplied is None or not cfg.api.token or \
+            not hmac.compare_digest(supplied.encode(), cfg.api.token.encode()):
         raise HTTPException(401, "control needs the API token (Authorization: Bearer <token>)")
 
 
@@ -107,6 +137,28 @@ async def _send_json(send: Any, status: int, body: dict) -> None:
 
 def _no_constant(name: str) -> float:
     raise ValueError(f"{name} is not a number JSON allows (angles and values must be finite)")
+
+
+class HostGate:
+    """Pure ASGI middleware in front of everything (page, reads, live feed, control):
+    :func:`check_host`. A refused WebSocket is closed before its handshake (HTTP 403)."""
+
+    def __init__(self, app: Any, cfg: Config):
+        self.app = app
+        self.cfg = cfg
+
+    async def __call__(self, scope: dict, receive: Any, send: Any) -> None:
+        if scope["type"] in ("http", "websocket"):
+            try:
+                check_host(self.cfg, Headers(scope=scope))
+            except HTTPException as exc:
+                refusal_log.warning("refused: %s", exc.detail)
+                if scope["type"] == "http":
+                    await _send_json(send, exc.status_code, {"detail": exc.detail})
+                else:
+                    await send({"type": "websocket.close", "code": 1008, "reason": str(exc.detail)[:120]})
+                return
+        await self.app(scope, receive, send)
 
 
 class RequestGate:
@@ -187,14 +239,15 @@ class SecurityHeaders:
     async def __call__(self, scope: dict, receive: Any, send: Any) -> None:
         if self.on_request is not None and scope["type"] in ("http", "websocket"):
             self.on_request()
-        if scope["type"] != "http" or scope.get("path") in NO_CSP_PATHS:
+        if scope["type"] != "http":
             await self.app(scope, receive, send)
             return
+        extra = DOCS_HEADERS if scope.get("path") in DOCS_PATHS else HEADERS
 
         async def send_with_headers(message: dict) -> None:
             if message["type"] == "http.response.start":
                 names = {k.lower() for k, _ in message.get("headers", [])}
                 message.setdefault("headers", [])
-                message["headers"] = list(message["headers"]) + [h for h in HEADERS if h[0] not in names]
+                message["headers"] = list(message["headers"]) + [h for h in extra if h[0] not in names]
             await send(message)
         await self.app(scope, receive, send_with_headers)

@@ -1,6 +1,7 @@
 // Charts of pointing, setpoint and pointing error over time (canvas). The history comes
 // from /api/history once, then grows with every live frame.
 import { get } from "./api.js";
+import { utcTime } from "./dom.js";
 
 const WINDOW_S = 600;
 const COLORS = { pos: "#ffd24a", set: "#4eff9a", err: "#ff7a6e", grid: "#26313c", text: "#8795a3" };
@@ -61,10 +62,12 @@ function empty() {
   return { t_wall_s: [], az_deg: [], el_deg: [], target_az_deg: [], target_el_deg: [], error_deg: [] };
 }
 
-// series: [[values, color, wraps360]]; a wrapping series breaks its line at 0/360.
+// (24-hour UTC, as every time on the page)
 function clock(tWallS) {
-  return new Date(tWallS * 1000).toLocaleTimeString([], { hour: "2-digit", minute: "2-digit", second: "2-digit" });
+  return utcTime(tWallS * 1000);
 }
+
+// series: [[values, color, wraps360]]; a wrapping series breaks its line at 0/360.
 
 // minSpan: the smallest value range shown, so sensor noise does not fill the chart
 function plot(canvas, t, series, label, minSpan, fromZero = false) {

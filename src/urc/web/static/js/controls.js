@@ -1,5 +1,8 @@
 // Commands: go to, press-and-hold jog (renewed while held, so a lost page stops the
 // antenna), STOP (button, Space, Escape), park, clear fault, tracking, simulator faults.
+// Space stops also while a button has the focus (the page says so; Enter presses the
+// button): after "Go to" or "Park" the focus stays on that button, and a Space meant as
+// a stop must not send the move again.
 import { $, toast } from "./dom.js";
 import { post } from "./api.js";
 
@@ -77,6 +80,8 @@ export function setupControls() {
     if (!ev.repeat) startJog(jog[0], jog[1], "key");
   });
   document.addEventListener("keyup", (ev) => {
+    // (a browser presses a focused button when Space is released: that key was a stop)
+    if (ev.key === " " && !typing(ev.target)) ev.preventDefault();
     const jog = KEYS[ev.key];
     if (jog && held.get(jog[0])?.source === "key") stopJog(jog[0]);
   });

@@ -46,6 +46,19 @@ export function fmt(v, digits = 1) {
   return v === null || v === undefined || Number.isNaN(v) ? "—" : Number(v).toFixed(digits);
 }
 
+// Times are UTC, 24-hour, as ground stations keep them (pass times, events, the feed's
+// last frame): "19:41:07", and "25 Nov" for a day, whatever the browser's zone or locale.
+export function utcTime(t, seconds = true) {
+  const d = new Date(t);
+  if (Number.isNaN(d.getTime())) return String(t);
+  return d.toISOString().slice(11, seconds ? 19 : 16);
+}
+
+export function utcDay(t) {
+  const d = new Date(t);
+  return Number.isNaN(d.getTime()) ? "" : d.toLocaleDateString("en-GB", { timeZone: "UTC", day: "numeric", month: "short" });
+}
+
 let toastTimer = null;
 export function toast(message, isError = false) {
   const el = $("toast");

@@ -1,13 +1,10 @@
 // The live feed: one WebSocket, reconnecting with backoff; counts messages per second.
 // Offline (closed, or no frame for STALE_MS) the page says so and dims the last values:
 // nothing old is ever shown as live.
-import { $, setText } from "./dom.js";
+import { $, setText, utcTime } from "./dom.js";
 
 const STALE_MS = 2500;
 
-function clock(ms) {
-  return new Date(ms).toLocaleTimeString([], { hour: "2-digit", minute: "2-digit", second: "2-digit" });
-}
 
 export class Live {
   constructor(onFrame, onOpen = () => {}) {
@@ -81,7 +78,7 @@ export class Live {
     if (!live) {
       setText(el, "offline");
       setText($("stale-text"), this.lastFrameWallMs === null ? "waiting for the live feed: nothing shown is live."
-        : `no live data since ${clock(this.lastFrameWallMs)}: the values shown are from then, not live.`);
+        : `no live data since ${utcTime(this.lastFrameWallMs)} UTC: the values shown are from then, not live.`);
     } else if (!was) setText(el, "live");
   }
 }

@@ -1,5 +1,5 @@
 // The dashboard: wires the live feed to the plots, readouts, banners and pages.
-import { $, h, clear, setText, fmt } from "./dom.js";
+import { $, h, clear, setText, fmt, utcTime } from "./dom.js";
 import { get, setToken, token } from "./api.js";
 import { Live } from "./live.js";
 import { SkyPlot } from "./sky.js";
@@ -27,9 +27,127 @@ function setpointOf(st) {
 }
 
 function timeOf(iso) {
-  const d = new Date(iso);
-  return Number.isNaN(d.getTime()) ? String(iso)
-    : d.toLocaleTimeString([], { hour: "2-digit", minute: "2-digit", second: "2-digit", timeZoneName: "short" });
+  return `${utcTime(iso)} UTC`;
+}
+
+// ---------------------------------------------------------------- banners
+// A banner folds to its title line (its toggle) and opens again by itself when what it
+// says changes: new news is never hidden by an old "hide".
+const bannerKeys = new Map();
+
+function setBannerOpen(banner, open) {
+  const toggle = banner.querySelector(".banner-toggle");
+  if (!toggle) return;
+  toggle.setAttribute("aria-expanded", String(open));
+  setText(toggle, open ? "hide" : "show");
+  $(toggle.getAttribute("aria-controls")).hidden = !open;
+  banner.classList.toggle("folded", !open);
+}
+
+function bannerNews(banner, key) {
+  if (bannerKeys.get(banner.id) === key) return;
+  bannerKeys.set(banner.id, key);
+  setBannerOpen(banner, true);
+}
+
+function setupBanners() {
+  for (const toggle of document.querySelectorAll(".banner-toggle")) {
+    const banner = toggle.closest(".banner");
+    toggle.addEventListener("click", () => setBannerOpen(banner, toggle.getAttribute("aria-expanded") !== "true"));
+  }
+}
+
+// ---------------------------------------------------------------- is the position confirmed?
+// kinds of fault after which a reading itself is not to be trusted until cleared
+const MISREAD_FAULTS = new Set(["sensor_stuck", "sensor_jump", "sensor_range"]);
+
+function axesOf(st) {
+  return ["az", "el"].filter((a) => st[a]);
+}
+
+// why the position shown is not confirmed now: a sensor (or the bridged controller) that
+// does not answer, a position not referenced, a reading distrusted by a fault, or a
+// control process that is silent (the status is its last). {reasons, axes}: no reasons
+// = confirmed; axes = the axes whose numbers are not to be trusted
+export function unconfirmed(st) {
+  const reasons = [];
+  const axes = new Set();
+  const all = axesOf(st);
+  const unreadable = all.filter((a) => st[a].sensor_ok === false);
+  // (why it does not read is the fault banner's to say, once)
+  if (unreadable.length) reasons.push(`${both(unreadable)} unreadable now: the last reading is shown`);
+  for (const a of all) {
+    if (st[a].sensor_ok !== false && st[a].uncertainty_deg > 0) reasons.push(`${a} not referenced (±${fmt(st[a].uncertainty_deg, 1)}°)`);
+    else if (st[a].sensor_ok !== false) continue;
+    axes.add(a);
+  }
+  for (const f of st.faults || []) {
+    if (f.kind === "control") {
+      reasons.push("the control process does not answer: its last status is shown");
+      all.forEach((a) => axes.add(a));
+    } else if (MISREAD_FAULTS.has(f.kind)) {
+      reasons.push(`${f.axis || "a"} sensor misread (${f.kind}): not trusted until the fault is cleared`);
+      if (f.axis) axes.add(f.axis); else all.forEach((a) => axes.add(a));
+    }
+  }
+  if (!st.position_known && reasons.length === 0) {
+    reasons.push("the position is not referenced");
+    all.forEach((a) => axes.add(a));
+  }
+  return { reasons, axes };
+}
+
+function both(axes) {
+  return axes.join(" and ");
+}
+
+// the numbers of an axis not confirmed now are dimmed, and say so to a screen reader
+const AXIS_CELLS = { az: ["now-az", "ro-az", "ro-maz"], el: ["now-el", "ro-el", "ro-mel"] };
+
+// what the causes of the latched faults do now: will "Clear fault" work? (axes that
+// fail the same way are named together: a bridged controller's two axes share a link)
+function faultNow(st) {
+  const out = [];
+  if ((st.faults || []).some((f) => f.kind === "control")) out.push("The control process still does not answer: clearing waits for it.");
+  const sensorAxes = [...new Set((st.faults || []).filter((f) => f.kind.startsWith("sensor") && f.axis && st[f.axis]).map((f) => f.axis))];
+  const byError = new Map();
+  for (const a of sensorAxes.filter((a) => st[a].sensor_ok === false)) {
+    const err = st[a].sensor_error || "no reading";
+    byError.set(err, [...(byError.get(err) || []), a]);
+  }
+  for (const [err, axes] of byError) {
+    out.push(`Now: ${both(axes)} still unreadable (${err}): clearing cannot help until ${axes.length > 1 ? "they read" : "it reads"}.`);
+  }
+  const back = sensorAxes.filter((a) => st[a].sensor_ok !== false);
+  if (back.length) out.push(`Now: ${both(back)} ${back.length > 1 ? "read" : "reads"} again: Clear fault re-arms ${back.length > 1 ? "them" : "it"}.`);
+  return out.join(" ");
+}
+
+function ago(seconds) {
+  const s = Math.max(0, Math.round(seconds));
+  return s < 120 ? `${s} s ago` : s < 7200 ? `${Math.round(s / 60)} min ago` : `${Math.round(s / 3600)} h ago`;
+}
+
+// what the rotator does and why, in a line (the first phone screen shows it)
+function whyNow(st, frame, sp) {
+  const faults = st.faults || [];
+  const trk = st.tracking;
+  if (faults.length) {
+    const kinds = [...new Set(faults.map((f) => (f.axis ? `${f.axis} ${f.kind}` : f.kind)))];
+    return `Stopped by a fault (${kinds.join(", ")}): the banner above says why; clear it to move again.`;
+  }
+  if ((st.local_control || []).length) return `Held at the rotator (${st.local_control.join(", ")}): moves from here are refused.`;
+  if ((frame.jogs || []).length) return `Jogging ${frame.jogs.join(" and ")} from a page (while the button is held).`;
+  if (trk) {
+    if (trk.stopped) return `Not tracking ${trk.target}: ${trk.stopped}`;
+    if (trk.error) return `Tracking ${trk.target}: ${trk.error}`;
+    return `Tracking ${trk.target}: ${st.cycle ? st.cycle.why : "following"}.`;
+  }
+  if (!st.position_known) return "Position not referenced: automatic moves are refused until it is (Calibration).";
+  const where = sp ? `az ${fmt(sp[0], 1)}°` + (sp[1] === null || sp[1] === undefined || !st.el ? "" : `, el ${fmt(sp[1], 1)}°`) : "";
+  if (st.parked) return "Parked.";
+  if (st.moving) return sp ? `Going to ${where}.` : "Moving (a manual move).";
+  return sp ? `Holding at ${where}.` : "Standing: no target.";
 }
 
 function pill(text, cls = "") {
@@ -52,9 +170,11 @@ function showTrackingWarnings(trk) {
   lastTrackWarnings = key;
   $("track-banner").hidden = items.length === 0;
   setText($("track-banner-title"), trk && trk.stopped ? `NOT tracking ${trk.target}` : `Tracking ${trk ? trk.target : ""}`);
+  setText($("track-count"), items.length > 1 ? `${items.length} notes` : "");
   const ul = $("track-warnings");
   clear(ul);
-  for (const text of items) ul.append(h("li", { text, title: text }));
+  for (const text of items) ul.append(h("li", { text }));
+  if (items.length) bannerNews($("track-banner"), key);
 }
 
 function onFrame(frame) {
@@ -73,6 +193,21 @@ function onFrame(frame) {
   }
   if (!$("view-calibration").hidden) followPosition(st);
   charts.push(frame);
+
+  // where it points (with how sure urc is of it), what it does, why
+  const unsure = unconfirmed(st);
+  document.body.classList.toggle("unconfirmed", unsure.reasons.length > 0);
+  for (const [axis, ids] of Object.entries(AXIS_CELLS)) {
+    for (const id of ids) $(id).dataset.confirmed = String(!unsure.axes.has(axis));
+  }
+  $("now-pos").dataset.unconfirmedAxes = [...unsure.axes].join(" ");
+  $("now-badge").hidden = unsure.reasons.length === 0;
+  $("confirm-line").hidden = unsure.reasons.length === 0;
+  setText($("confirm-line"), unsure.reasons.length ? `Position unconfirmed: ${unsure.reasons.join("; ")}.` : "");
+  const unc = (a) => (st[a] && st[a].uncertainty_deg > 0 ? ` ±${fmt(st[a].uncertainty_deg, 1)}` : "");
+  setText($("now-az"), `az ${fmt(st.az_deg, 2)}°${unc("az")}`);
+  setText($("now-el"), `el ${fmt(st.el_deg, 2)}°${unc("el")}`);
+  setText($("why-line"), whyNow(st, frame, sp));
 
   setText($("ro-az"), fmt(st.az_deg, 2));
   // (a single-axis rotator: st.el is null; its cells are hidden, see loadInfo)
@@ -111,7 +246,12 @@ function onFrame(frame) {
   // faults: a banner with every reason; an uncertain position: a warning
   const faults = st.faults || [];
   $("fault-banner").hidden = faults.length === 0;
-  setText($("fault-text"), faults.map((f) => `${f.kind}: ${f.reason}`).join(" · "));
+  if (faults.length) bannerNews($("fault-banner"), faults.map((f) => `${f.kind}:${f.reason}`).join("\n"));
+  setText($("fault-announce"), faults.length ? `Fault: ${faults.map((f) => f.reason).join("; ")}` : "");
+  setText($("fault-count"), faults.length > 1 ? `(${faults.length})` : "");
+  // each reason with its age: a latched fault says what happened then, not now
+  setText($("fault-text"), faults.map((f) => `${f.kind}: ${f.reason} (${ago(st.t_s - f.t_s)})`).join(" · "));
+  setText($("fault-now"), faultNow(st));
   // a front-panel button (or a console procedure) held at the rotator: the local
   // operator wins, so moves from here are refused until it is released
   const local = st.local_control || [];
@@ -187,8 +327,7 @@ async function start() {
   $("token-input").value = token();
   $("token-input").addEventListener("change", (ev) => setToken(ev.target.value.trim()));
   $("token-form").addEventListener("submit", (ev) => ev.preventDefault());
-  // on a phone each warning is one line: a tap shows them whole
-  $("track-banner").addEventListener("click", () => $("track-banner").classList.toggle("open"));
+  setupBanners();
 
   charts.load("recent");
   setupControls();

@@ -1,5 +1,5 @@
 // The pass list (needs the tracker: when /api/passes is missing the tracking UI hides).
-import { $, h, clear, setText, fmt, toast } from "./dom.js";
+import { $, h, clear, setText, fmt, toast, utcTime, utcDay } from "./dom.js";
 import { get, post } from "./api.js";
 
 const REFRESH_MS = 60_000;
@@ -11,26 +11,8 @@ let minElDeg = null;
 export function setPassOptions(info) {
   const changed = info.tracking_min_el_deg !== minElDeg;
   minElDeg = info.tracking_min_el_deg ?? 0;
-  setText($("passes-note"), `(next ${HOURS} h, above ${fmt(minElDeg, 0)}°; times in ${zoneName()})`);
+  setText($("passes-note"), `(next ${HOURS} h, above ${fmt(minElDeg, 0)}°; times in UTC)`);
   if (changed && started) loadPasses();
-}
-
-// the browser's time zone, named and as an offset: "Europe/Tallinn, UTC+02:00"
-export function zoneName() {
-  const zone = Intl.DateTimeFormat().resolvedOptions().timeZone || "local time";
-  const off = -new Date().getTimezoneOffset();
-  const hh = String(Math.floor(Math.abs(off) / 60)).padStart(2, "0"), mm = String(Math.abs(off) % 60).padStart(2, "0");
-  return `${zone}, UTC${off < 0 ? "−" : "+"}${hh}:${mm}`;
-}
-
-function hhmm(iso) {
-  const d = new Date(iso);
-  return Number.isNaN(d.getTime()) ? String(iso) : d.toLocaleTimeString([], { hour: "2-digit", minute: "2-digit" });
-}
-
-function day(iso) {
-  const d = new Date(iso);
-  return Number.isNaN(d.getTime()) ? "" : d.toLocaleDateString([], { month: "short", day: "numeric" });
 }
 
 export function setTrackingAvailable(available) {
@@ -61,8 +43,8 @@ export async function loadPasses() {
     });
     body.append(h("tr", { "data-norad": p.norad },
       h("td", { text: p.name, title: `NORAD ${p.norad}` }),
-      h("td", { text: `${day(p.aos)} ${hhmm(p.aos)}` }),
-      h("td", { text: hhmm(p.los) }),
+      h("td", { class: "num", text: `${utcDay(p.aos)} ${utcTime(p.aos, false)}` }),
+      h("td", { class: "num", text: utcTime(p.los, false) }),
       h("td", { class: "num", text: `${fmt(p.max_el_deg, 0)}°` }),
       h("td", { class: "num", text: `${fmt(p.aos_az_deg, 0)}→${fmt(p.los_az_deg, 0)}` }),
       h("td", {}, btn)));

@@ -36,11 +36,16 @@ function capsHint(axis, what) {
   return c ? String(Number(c[what].toFixed(3))) : "";
 }
 
+const ZONE_COLUMNS = { name: "name", az_min_deg: "az min", az_max_deg: "az max", el_min_deg: "el min", el_max_deg: "el max" };
+
+// each input is labelled ("zone 2 az min"): the column header alone names no row; on a
+// phone the rows stack and each cell shows its column name (data-label)
 function zoneRow(z = {}, i) {
   const k = (name) => `keepout[${i}].${name}`;
-  const cell = (name, type = NUM) => h("td", {}, h("input", { type, step: type === NUM ? "any" : undefined, "data-key": k(name),
-    value: z[name] === undefined ? "" : z[name], size: type === NUM ? undefined : 10 }), h("div", { class: "field-error", "data-error-for": k(name) }));
-  const remove = h("button", { type: "button", text: "remove" });
+  const cell = (name, type = NUM) => h("td", { "data-label": ZONE_COLUMNS[name] }, h("input", { type, step: type === NUM ? "any" : undefined, "data-key": k(name),
+    value: z[name] === undefined ? "" : z[name], size: type === NUM ? undefined : 10, "aria-label": `zone ${i + 1} ${ZONE_COLUMNS[name]}` }),
+    h("div", { class: "field-error", "data-error-for": k(name) }));
+  const remove = h("button", { type: "button", text: "remove", "aria-label": `remove zone ${i + 1}` });
   const row = h("tr", { class: "zone-row", "data-key": `keepout[${i}]` }, cell("name", "text"), cell("az_min_deg"), cell("az_max_deg"),
     cell("el_min_deg"), cell("el_max_deg"), h("td", {}, remove));
   remove.addEventListener("click", () => { row.remove(); renumber("zone-row", "keepout"); });
@@ -51,18 +56,22 @@ function serveRow(e = {}, i) {
   const k = (name) => `serve[${i}].${name}`;
   const kinds = ["tcp", "udp", "pty", "serial"];
   const kind = kinds.find((t) => e[t] !== undefined) || "tcp";
-  const proto = h("select", { "data-key": k("protocol") });
+  const n = i + 1;
+  const proto = h("select", { "data-key": k("protocol"), "aria-label": `port ${n} protocol` });
   for (const p of (info && info.protocols) || [e.protocol]) proto.append(h("option", { value: p, text: p, selected: p === e.protocol }));
-  const transport = h("select", { class: "serve-kind" });
+  const transport = h("select", { class: "serve-kind", "aria-label": `port ${n} transport` });
   for (const t of kinds) transport.append(h("option", { value: t, text: t, selected: t === kind }));
   const where = h("input", { type: "text", class: "serve-where", "data-key": k(kind), value: e[kind] || "", size: 18,
-    placeholder: "127.0.0.1:4533 or /dev/ttyUSB0" });
+    placeholder: "127.0.0.1:4533 or /dev/ttyUSB0", "aria-label": `port ${n} address or device` });
   transport.addEventListener("change", () => { where.dataset.key = k(transport.value); });
-  const baud = h("input", { type: NUM, step: 1, "data-key": k("baud"), value: e.baud === undefined ? "" : e.baud, placeholder: "9600" });
-  const remove = h("button", { type: "button", text: "remove" });
+  const baud = h("input", { type: NUM, step: 1, "data-key": k("baud"), value: e.baud === undefined ? "" : e.baud, placeholder: "9600",
+    "aria-label": `port ${n} baud` });
+  const remove = h("button", { type: "button", text: "remove", "aria-label": `remove port ${n}` });
   const errs = h("div", { class: "field-error", "data-error-for": `serve[${i}]` });
-  const row = h("tr", { class: "serve-row", "data-key": `serve[${i}]` }, h("td", {}, proto), h("td", {}, transport),
-    h("td", {}, where, h("div", { class: "field-error", "data-error-for": k(kind) })), h("td", {}, baud), h("td", {}, remove, errs));
+  const row = h("tr", { class: "serve-row", "data-key": `serve[${i}]` }, h("td", { "data-label": "protocol" }, proto),
+    h("td", { "data-label": "transport" }, transport),
+    h("td", { "data-label": "address / device" }, where, h("div", { class: "field-error", "data-error-for": k(kind) })),
+    h("td", { "data-label": "baud" }, baud), h("td", {}, remove, errs));
   remove.addEventListener("click", () => { row.remove(); serveDirty = true; renumber("serve-row", "serve"); });
   for (const el of [proto, transport, where, baud]) el.addEventListener("change", () => { serveDirty = true; });
   return row;
@@ -76,6 +85,9 @@ function renumber(cls, name) {
         const v = el.getAttribute(attr);
         if (v) el.setAttribute(attr, v.replace(new RegExp(`^${name}\\[\\d+\\]`), `${name}[${i}]`));
       }
+    }
+    for (const el of row.querySelectorAll("[aria-label]")) {
+      el.setAttribute("aria-label", el.getAttribute("aria-label").replace(/\b(zone|port) \d+/, `$1 ${i + 1}`));
     }
     row.setAttribute("data-key", `${name}[${i}]`);
   });
@@ -121,7 +133,8 @@ function build() {
   const addZone = h("button", { type: "button", id: "add-zone", text: "add zone" });
   addZone.addEventListener("click", () => zones.append(zoneRow({}, zones.children.length)));
   form.append(h("fieldset", {}, h("legend", { text: "Keep-out zones (compass az sector, may cross north; el range)" }),
-    h("table", { class: "rows" }, h("thead", {}, h("tr", {}, ...["name", "az min", "az max", "el min", "el max", ""].map((t) => h("th", { text: t })))), zones),
+    h("table", { class: "rows" }, h("thead", {}, h("tr", {}, ...["name", "az min", "az max", "el min", "el max"].map((t) => h("th", { text: t })),
+      h("th", {}, h("span", { class: "sr-only", text: "remove" })))), zones),
     addZone));
 
   const usingDefault = c.serve === undefined;
@@ -133,7 +146,8 @@ function build() {
   form.append(h("fieldset", {}, h("legend", { text: "Protocol ports, [[serve]] (restart needed)" }),
     usingDefault ? h("p", { class: "muted small", text: "No [[serve]] in the configuration: the default below is served." }) : null,
     !usingDefault && c.serve.length === 0 ? h("p", { class: "muted small", text: "serve = []: no protocol is served (only this API)." }) : null,
-    h("table", { class: "rows" }, h("thead", {}, h("tr", {}, ...["protocol", "transport", "address / device", "baud", ""].map((t) => h("th", { text: t })))), serve),
+    h("table", { class: "rows" }, h("thead", {}, h("tr", {}, ...["protocol", "transport", "address / device", "baud"].map((t) => h("th", { text: t })),
+      h("th", {}, h("span", { class: "sr-only", text: "remove" })))), serve),
     addServe));
 
   form.append(h("fieldset", {}, h("legend", { text: "Control API (restart needed)" }),

@@ -1,0 +1,116 @@
+"""Accessibility and self-containment of the pages, in Debian's chromium: axe-core's rules
+(the npm package, installed by scripts/test.sh from tests/web/package-lock.json and loaded
+from that file, never from the network) find nothing on any view of the dashboard, with
+every card, banner and table shown; the API's own documentation pages fetch nothing
+from another origin (issue 22)."""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import httpx
+import pytest
+from playwright.sync_api import expect
+
+from .fake_tracker import FakeTracker
+from .test_browser import InProcessUrc
+
+AXE = Path(__file__).resolve().parent / "node_modules" / "axe-core" / "axe.min.js"
+if not AXE.exists():  # scripts/test.sh installs it: missing is a failure, not a skip
+    pytest.fail(f"axe-core not found at {AXE}: run `npm ci --prefix tests/web` (scripts/test.sh does)",
+                pytrace=False)
+
+VIEWS = ("dashboard", "settings", "calibration")
+
+
+def axe_violations(page) -> list[dict]:
+    """axe.run over the whole document; each violation with the nodes it names."""
+    page.add_script_tag(path=str(AXE))
+    result = page.evaluate("() => axe.run(document, { resultTypes: ['violations'] })")
+    return [{"id": v["id"], "impact": v["impact"], "help": v["help"],
+             "nodes": [n["target"] for n in v["nodes"]][:5]} for v in result["violations"]]
+
+
+@pytest.fixture(scope="module")
+def busy_urc(tmp_path_factory):
+    """A urc with everything on screen: a tracker with passes, a pass planned (the track
+    banner and its notes), a keep-out zone, and a latched fault (the fault banner)."""
+    trk = FakeTracker()
+    with InProcessUrc(tmp_path_factory.mktemp("a11y") / "state", trk) as srv:
+        srv.trk = trk
+        yield srv
+
+
+@pytest.mark.parametrize("width,height", [(390, 844), (1366, 768)], ids=["phone", "desktop"])
+def test_axe_finds_no_violation_on_any_view(busy_urc, open_page, width, height):
+    srv = busy_urc
+    # bypass_csp: the page's policy forbids inline scripts, and axe is injected as one
+    page = open_page(srv.url + "/", width, height, bypass_csp=True)
+    page.wait_for_selector("#passes-body tr", timeout=5000)
+    page.locator('#passes-body tr[data-norad="25544"] button.track-pass').click()
+    expect(page.locator("#track-banner")).to_be_visible(timeout=5000)
+    assert httpx.post(srv.url + "/api/sim/fault", json={"axis": "el", "kind": "sensor_dead"}).status_code == 200
+    try:
+        expect(page.locator("#fault-banner")).to_be_visible(timeout=5000)
+        found = {}
+        for view in VIEWS:
+            page.click(f'nav a[data-view="{view}"]')
+            expect(page.locator(f"#view-{view}")).to_be_visible()
+            if view == "settings":
+                page.locator(".zone-row").first.wait_for()
+                rows = page.locator(".serve-row").count()  # (the default [[serve]] list)
+                page.click("#add-serve")                   # one more, with its selects
+                expect(page.locator(".serve-row")).to_have_count(rows + 1)
+            page.wait_for_timeout(500)
+            found[view] = axe_violations(page)
+        assert found == {v: [] for v in VIEWS}, json.dumps(found, indent=1)
+    finally:
+        httpx.post(srv.url + "/api/sim/clear", json={"axis": "el"})
+        httpx.post(srv.url + "/api/clear-faults", json={})
+    page.problems.check()
+
+
+@pytest.mark.parametrize("path,shows", [("/redoc", "urc control API"), ("/docs", "urc control API")])
+def test_api_docs_fetch_nothing_from_elsewhere(busy_urc, open_page, path, shows):
+    """/redoc's bundle loaded Redocly's logo from cdn.redoc.ly; nothing may leave."""
+    srv = busy_urc
+    page = open_page(srv.url + "/")                       # (the fixture's page waits for the feed)
+    asked: list[str] = []
+    page.on("request", lambda r: asked.append(r.url))
+    page.goto(srv.url + path)
+    # (the bundles are large: on a loaded machine drawing takes a while)
+    expect(page.get_by_role("heading", name=re.compile(shows)).first).to_be_visible(timeout=90_000)
+    page.wait_for_timeout(2000)                            # ReDoc draws its side menu (and the logo) late
+    foreign = [u for u in asked if not (u.startswith(srv.url) or u.startswith(("data:", "blob:")))]
+    assert foreign == [], foreign
+    assert any(u.endswith("/openapi.json") for u in asked), asked
+    page.problems.check()
+
+
+@pytest.mark.parametrize("profile", ["g4jnt", "sarcnet-mini", "bigras"])
+def test_axe_finds_no_violation_on_each_calibration_card(tmp_path, open_page, profile):
+    """Each seed machine's own calibration card (two-point pot, magnetometer, homing);
+    with a state record that cannot be read, the BIG-RAS pulse counter's position is
+    uncertain: its banner is shown too (the pot and the compass read absolutely)."""
+    from urc_process import UrcProcess
+
+    u = UrcProcess(tmp_path, profile=profile)
+    u.state_dir.mkdir(parents=True)
+    (u.state_dir / "state.json").write_text("{ not a state record")
+    u.start(timeout_s=120)
+    try:
+        page = open_page(u.url + "/#calibration", bypass_csp=True)
+        card = {"g4jnt": "#pot-card", "sarcnet-mini": "#mag-card", "bigras": "#home-card"}[profile]
+        expect(page.locator(card)).to_be_visible(timeout=5000)
+        if profile == "bigras":
+            expect(page.locator("#warn-banner")).to_be_visible(timeout=5000)
+        page.wait_for_timeout(300)
+        assert axe_violations(page) == []
+        page.click('nav a[data-view="dashboard"]')
+        page.wait_for_timeout(300)
+        assert axe_violations(page) == []
+        page.problems.check()
+    finally:
+        u.stop()
