@@ -280,7 +280,7 @@ def test_systemd_notify_ready_and_watchdog_pings_only_while_on_time(urc, tmp_pat
     with socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM) as sock:
         sock.bind(path)
         sock.settimeout(0.2)
-        u = urc()
+        u = urc(extra=NO_TAKEOVER)  # (a control process stopped this long would be taken over)
         env = dict(os.environ, NOTIFY_SOCKET=path, WATCHDOG_USEC="400000")  # pings every 0.1 s
         u.proc = subprocess.Popen(URC + ["run", "--config", str(u.config), "--state-dir", str(u.state_dir)],
                                   stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env,

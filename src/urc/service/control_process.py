@@ -425,10 +425,17 @@ class ControlProcess:
 
         def run() -> None:
             assert self.link is not None and self.proc is not None
+            awake_since_s = last_s = time.monotonic()
             while True:
                 stopping = self.stopping.wait(WATCH_S)
+                now_s = time.monotonic()
+                if now_s - last_s > WATCH_S + 0.25:  # this process was held up itself (SIGSTOP,
+                    awake_since_s = now_s            # swapped out): its reader must catch up first
+                last_s = now_s
                 status = self.link.status
-                age_s = time.monotonic() - status.t_s if status is not None else 0.0
+                age_s = now_s - status.t_s if status is not None else 0.0
+                # (stale for takeover_s, all of it seen by this process while it ran)
+                age_s = min(age_s, now_s - awake_since_s)
                 if self.link.lost:
                     try:  # (a loop that died still stops in order, saves and says so)
                         self.proc.wait(5.0)
