@@ -151,7 +151,7 @@ def test_example_parses_to_defaults(tmp_path):
 def test_example_mentions_every_key():
     """Every key of the schema appears in the example, set or commented out."""
     def keys(model, prefix=""):
-        for name, info in type(model).model_fields.items():
+        for name in type(model).model_fields:
             value = getattr(model, name)
             if isinstance(value, BaseModel):
                 yield from keys(value, f"{prefix}{name}.")
@@ -539,7 +539,6 @@ def _valid_docs():
     def for_profile(name):
         caps = PROFILES[name]
         fl = lambda lo, hi: st.floats(lo, hi, allow_nan=False, allow_infinity=False)  # noqa: E731
-        opt = lambda s: st.one_of(st.none(), s)  # noqa: E731
         axis_lim = lambda a: st.fixed_dictionaries({}, optional={  # noqa: E731
             "min_deg": fl(a.min_deg, a.min_deg + a.span_deg / 4),
             "max_deg": fl(a.max_deg - a.span_deg / 4, a.max_deg)})

@@ -15,7 +15,7 @@ from urc.clock import VirtualClock
 from urc.config import Config, load_config
 from urc.hardware.drivers.motors import (BTS7960_FAULT_V, LMD18200_TRUTH_TABLE, SENSE_V_PER_A,
                                          VNH5019_TRUTH_TABLE, SenseCurrent, lmd18200_state)
-from urc.hardware.gpio.pins import PinIn, PinOut, PinPulseCounter
+from urc.hardware.gpio.pins import PinIn, PinOut
 from urc.hardware.gpio.pwm import detect_pwm_chip
 from urc.service.loop import run_virtual
 

@@ -364,7 +364,7 @@ def test_query_while_moving_reports_where_it_is_now(g5500):
 
 @pytest.mark.parametrize("cls", SESSIONS)
 def test_stop_all_and_single_axis(g5500, cls):
-    s, style = cls(g5500.rot), STYLE[cls]
+    s = cls(g5500.rot)
     s.receive(b"W300 150\r")
     g5500.run(3.0)
     s.receive(b"A\r")              # stop azimuth only: elevation goes on

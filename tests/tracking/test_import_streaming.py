@@ -4,7 +4,6 @@ and ran a 1 GB Pi out of memory)."""
 from __future__ import annotations
 
 import json
-import resource
 import subprocess
 import sys
 

@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import threading
 
-import pytest
 from sgp4.api import WGS72, Satrec
 from sgp4.exporter import export_tle
 

@@ -67,7 +67,7 @@ def open_page(browser):
         pages.append((ctx, page))
         return page
     yield open_
-    for ctx, page in pages:
+    for ctx, _page in pages:
         ctx.close()
 
 

@@ -101,7 +101,7 @@ def test_stop_is_on_screen_in_every_view_at_every_scroll_position(remote_urc, op
             # the last [[serve]] entry's "remove": reachable without a sideways swipe
             remove = page.locator(".serve-row").nth(1).locator("button", has_text="remove")
             remove.scroll_into_view_if_needed()
-            assert in_viewport(page, f".serve-row:nth-child(2) button") and in_viewport(page, "#stop-btn")
+            assert in_viewport(page, ".serve-row:nth-child(2) button") and in_viewport(page, "#stop-btn")
             page.screenshot(path=str(artifacts / f"settings-{width}.png"))
     page.problems.check()
 
