@@ -21,7 +21,9 @@ TIMEOUT_S = 0.22
 
 
 def start(tmp_path, part: bool) -> UrcProcess:
-    p = UrcProcess(tmp_path, profile=PROFILE)
+    # the external part alone: without the I/O process's takeover of a frozen control
+    # process (tests/test_app.py tests that layer)
+    p = UrcProcess(tmp_path, profile=PROFILE, extra="[faults]\ncontrol_takeover_s = 0\n")
     if part:
         p.config.write_text(p.config.read_text().replace(
             "wind = false\n", f"wind = false\nmotor_enable_timeout_s = {TIMEOUT_S}\n", 1))
