@@ -437,17 +437,21 @@ def parse_elements(text: str, source: str = "<string>", *,
     return parse_tle(text, source, checksum=checksum)
 
 
+def _unreadable(source: str, exc: OSError) -> ElementsError:
+    """The error for an element file that cannot be opened or read."""
+    if isinstance(exc, FileNotFoundError):
+        return ElementsError(f"{source}: no such file", path=source, expected="a file", found="nothing")
+    return ElementsError(f"{source}: cannot read: {exc.strerror or exc}", path=source,
+                         expected="a readable file", found=str(exc))
+
+
 def load_elements(path: str | os.PathLike[str], *, checksum: bool = True) -> list[ElementSet]:
     """Read a TLE/3LE, OMM JSON or OMM CSV file."""
     source = os.fspath(path)
     try:
         raw = Path(source).read_bytes()
-    except FileNotFoundError:
-        raise ElementsError(f"{source}: no such file", path=source, expected="a file",
-                            found="nothing") from None
     except OSError as exc:
-        raise ElementsError(f"{source}: cannot read: {exc.strerror or exc}", path=source,
-                            expected="a readable file", found=str(exc)) from None
+        raise _unreadable(source, exc) from None
     try:
         text = raw.decode("utf-8")
     except UnicodeDecodeError as exc:
@@ -705,12 +709,8 @@ def iter_elements(path: str | os.PathLike[str], *, checksum: bool = True) -> Ite
     source = os.fspath(path)
     try:
         fh = open(source, "rb")
-    except FileNotFoundError:
-        raise ElementsError(f"{source}: no such file", path=source, expected="a file",
-                            found="nothing") from None
     except OSError as exc:
-        raise ElementsError(f"{source}: cannot read: {exc.strerror or exc}", path=source,
-                            expected="a readable file", found=str(exc)) from None
+        raise _unreadable(source, exc) from None
     with fh:
         head = fh.read(4096)
         text_head = head.decode("utf-8", errors="replace").lstrip("\ufeff \t\r\n")
