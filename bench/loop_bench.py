@@ -44,20 +44,12 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
 sys.path.insert(0, str(ROOT / "bench"))
-from bench_report import write_json  # noqa: E402
+from bench_report import cpu_s, write_json  # noqa: E402
 from urc_process import UrcProcess, free_port  # noqa: E402
 from web_abuse_bench import leo_catalog  # noqa: E402
 from web_bench import STATION  # noqa: E402
 
 from urc.profiles import get_profile  # noqa: E402
-
-CLK_TCK = os.sysconf("SC_CLK_TCK")
-
-
-def cpu_s(pid: int) -> float:
-    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
-    return (int(fields[11]) + int(fields[12])) / CLK_TCK
-
 
 def urc_cpu_s(urc: UrcProcess) -> tuple[float, float]:
     """CPU seconds of urc's I/O process and of its control process (the loop); a urc

@@ -38,26 +38,12 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
 sys.path.insert(0, str(ROOT / "src"))
 import httpx  # noqa: E402
-from bench_report import write_json  # noqa: E402
+from bench_report import cpu_s, pct, write_json  # noqa: E402
 from mqtt.broker import Client, Mosquitto, overhead_station  # noqa: E402
 from urc_process import UrcProcess, free_port, wait_until  # noqa: E402
 
-HZ = os.sysconf("SC_CLK_TCK")
-
-
-def cpu_s(pid: int) -> float:
-    """User + system CPU seconds of a process and its threads."""
-    f = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
-    return (int(f[11]) + int(f[12])) / HZ
-
-
 def urc_pids(u: UrcProcess) -> list[int]:
     return [u.proc.pid, u.control_pid()]
-
-
-def pct(xs: list[float], q: float) -> float:
-    xs = sorted(xs)
-    return xs[min(len(xs) - 1, int(round(q * (len(xs) - 1))))]
 
 
 def catalog(work: Path) -> tuple[str, Path]:

@@ -85,6 +85,24 @@ def bench(tmp_path):
     return make
 
 
+@pytest.fixture
+def urc_processes(tmp_path):
+    """``urc_processes(workdir=None, **kw)``: a ``UrcProcess`` (not started) in ``workdir``
+    (default: the test's tmp_path); every one made is stopped when the test ends, its
+    whole process group, passed or failed."""
+    from urc_process import UrcProcess
+
+    made: list[UrcProcess] = []
+
+    def make(workdir: Path | None = None, **kw) -> UrcProcess:
+        u = UrcProcess(workdir or tmp_path, **kw)
+        made.append(u)
+        return u
+    yield make
+    for u in made:
+        u.stop()
+
+
 @pytest.fixture(autouse=True)
 def no_session_bugs():
     """Every test: bad-input logging starts fresh, and no protocol session may hit an

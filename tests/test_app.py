@@ -20,16 +20,8 @@ from urc_process import URC, UrcProcess, free_port, wait_until
 
 
 @pytest.fixture
-def urc(tmp_path):
-    made: list[UrcProcess] = []
-
-    def make(**kw) -> UrcProcess:
-        u = UrcProcess(tmp_path, **kw)
-        made.append(u)
-        return u
-    yield make
-    for u in made:
-        u.stop()
+def urc(urc_processes):
+    return urc_processes
 
 
 #: the I/O process never takes the outputs over (the control process's own contract alone)

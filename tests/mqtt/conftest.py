@@ -35,19 +35,12 @@ def mqtt_section(url: str, **keys) -> str:
 
 
 @pytest.fixture
-def station(tmp_path):
+def station(tmp_path, urc_processes):
     """``station(name, url, **mqtt_keys)``: a started ``urc run`` named ``name`` whose
     [mqtt] points at ``url`` (``station_extra``: more config, e.g. a [station] position)."""
-    made: list[UrcProcess] = []
-
     def make(name: str, url: str, station_extra: str = "", start: bool = True, **mqtt_keys) -> UrcProcess:
         work = tmp_path / name
         work.mkdir()
-        u = UrcProcess(work, extra=f'[station]\nname = "{name}"\n{station_extra}' + mqtt_section(url, **mqtt_keys))
-        made.append(u)
-        return u.start(timeout_s=90.0) if start else u  # (generous: a busy CI host starts slowly)
-    yield make
-    for u in made:
-        if u.proc is not None and u.proc.poll() is None:
-            u.proc.kill()
-            u.proc.wait()
+        u = urc_processes(work, extra=f'[station]\nname = "{name}"\n{station_extra}' + mqtt_section(url, **mqtt_keys))
+        return u.start() if start else u
+    return make
