@@ -12,7 +12,7 @@ the document's figures:
 * the same averages from the controller's reported position (its "encoder readings");
 * the same averages from the simulator's truth (where the antenna really points: the
   encoder cannot see the 1.5 deg gear play);
-* urc's own measure (DESIGN.md): RMS / p95 / max great-circle pointing error at every tick.
+* urc's own measure (docs/ARCHITECTURE.md): RMS / p95 / max great-circle pointing error at every tick.
 
 The same pass driven the Gpredict way (5 deg threshold, a command per 0.8 s) runs in the
 same table for comparison. Prints a table, writes JSON (bench/results/berkeley_accuracy.json).

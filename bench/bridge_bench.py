@@ -4,7 +4,7 @@ The controller a station owns is urc's simulator (one profile, default g5500: a
 G-5500 class rotator) behind urc's own device emulation of each protocol; the wire is
 simulated at the protocol's usual baud rate with Hamlib's post-write delays
 (urc.hardware.bridge.simlink). For each protocol the same pass is flown three ways and
-judged by the controller's simulator truth (DESIGN.md pointing error):
+judged by the controller's simulator truth (docs/ARCHITECTURE.md pointing error):
 
 * ``bridge``: urc with the bridge backend plans and tracks the pass;
 * ``gpredict``: Gpredict-style driving of the same controller over the same wire (a

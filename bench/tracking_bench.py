@@ -1,4 +1,4 @@
-"""Pointing-error benchmark (DESIGN.md definition) on the simulated profiles.
+"""Pointing-error benchmark (docs/ARCHITECTURE.md, measures) on the simulated profiles.
 
 Standard passes from the shipped fixture TLEs: a low pass, a pass crossing north (cable
 wrap), passes through ~89 and ~88 deg elevation (keyholes), and a 30-minute Sun track. For each

@@ -1,6 +1,6 @@
 """Frozen capabilities: what the controller knows about a rotator model.
 
-One value per profile (DESIGN.md convention 4). A variant is a new caps value, never an
+One value per profile (docs/ARCHITECTURE.md, convention 4). A variant is a new caps value, never an
 ``if model ==`` branch. Per-instance overrides (offsets, user limits, keep-out zones)
 live in the rotator's state/settings, never here.
 

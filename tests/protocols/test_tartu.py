@@ -1,4 +1,4 @@
-"""Tartu URC four-letter command set (DESIGN.md's first seed machine).
+"""Tartu URC four-letter command set (the first seed machine).
 
 Codec tests the h11 way, line splitting, session transcripts, and end-to-end runs on the
 tartu-urc profile (400 deg azimuth, 0..180 elevation, 10 pulses/degree encoders) judged

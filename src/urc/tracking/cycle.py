@@ -29,7 +29,7 @@ STATES = ("setup", "process_tle", "predict", "track", "report")
 DOCUMENT_NAMES = {"setup": "setup", "process_tle": "PROCESS_TLE", "predict": "PREDICT",
                   "track": "TRACK_MOTOR", "report": "UPDATE_SERVER"}
 #: "within an acceptable range": the document's band was 4 deg (bang-bang); urc's
-#: pointing is judged at 0.5 deg (DESIGN.md's measures)
+#: pointing is judged at 0.5 deg (docs/ARCHITECTURE.md, measures)
 ON_TARGET_DEG = 0.5
 
 
