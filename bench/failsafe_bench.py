@@ -238,7 +238,7 @@ def one_run(machine: str, part: bool, event: str, workdir: Path) -> dict:
                 p.sock.close()
     row["urc_said"] = [ln for ln in out.splitlines() if "urc:" in ln or "rror" in ln][-4:]
     row.update(analyse(log_path, u.state_dir / "simulator-truth.json", t_event))
-    row["p"] = [judge_probe(p.result, log_path) for p in probes]
+    row["p"] = [judge_probe(p.result, log_path, t_event, row) for p in probes]
     return row
 
 
@@ -283,7 +283,13 @@ def analyse(log_path: Path, truth_file: Path, t_event: float) -> dict:
             "at_event_az_deg": at_event["az"], "final_az_deg": final["az"]["load_deg"]}
 
 
-def judge_probe(result: dict, log_path: Path) -> dict:
+def judge_probe(result: dict, log_path: Path, t_event: float, row: dict) -> dict:
+    """A numeric answer against the truth when it was asked. While a world ran (the
+    control process alive) that is its sample; while none ran (the control process
+    frozen or dead, its world with it) the iron is rebuilt from what came after: it
+    drove on at the rate of its last sample until the motors went off, then coasted to
+    where the next world found it at rest; in the coast the answer is judged against the
+    nearest point of it (the error is then at least what is shown)."""
     if not result:
         return {"answer": "probe did not run"}
     out = dict(result)
@@ -294,9 +300,23 @@ def judge_probe(result: dict, log_path: Path) -> dict:
     except (IndexError, ValueError):
         out["verdict"] = "no position (truthful)"
         return out
-    truth = truth_at(read_log(log_path), result["sent_wall_s"])
-    err = abs((az - truth + 180.0) % 360.0 - 180.0)
-    out.update(truth_az_deg=truth, error_deg=err, verdict="STALE" if err > STALE_DEG else "current")
+    t = result["sent_wall_s"]
+    entries = read_log(log_path)
+    live = [e for e in _samples(entries) if t_event < e["wall_s"] <= t and t - e["wall_s"] < 0.1]
+    if live or row["off_ms"] is None:
+        lo = hi = truth_at(entries, t)
+    else:
+        last = [e for e in _samples(entries) if e["wall_s"] <= t_event][-1]
+        deg, rate = last["axes"]["az"]["deg"], last["axes"]["az"]["rate"]
+        off_s = t_event + row["off_ms"] / 1000.0
+        if t <= off_s:
+            lo = hi = deg + rate * (t - last["wall_s"])
+        else:
+            at_off = deg + rate * (off_s - last["wall_s"])
+            lo, hi = sorted((at_off, row["final_az_deg"]))
+    nearest = min(max(az, lo), hi)
+    err = abs((az - nearest + 180.0) % 360.0 - 180.0)
+    out.update(truth_az_deg=[lo, hi], error_deg=err, verdict="STALE" if err > STALE_DEG else "current")
     return out
 
 
@@ -344,6 +364,7 @@ def main() -> None:
     ap.add_argument("--events", default=",".join(EVENTS))
     ap.add_argument("--parts", default="with,without")
     ap.add_argument("--json", default="bench/results/failsafe.json")
+    ap.add_argument("--keep", metavar="DIR", help="keep each run's config, state and truth log here")
     args = ap.parse_args()
     machines = args.machines.split(",")
     events = args.events.split(",")
@@ -351,6 +372,8 @@ def main() -> None:
     coasts = {m: coast_deg(m) for m in machines}
     rows = []
     with tempfile.TemporaryDirectory(prefix="urc-failsafe-") as tmp:
+        if args.keep:
+            tmp = args.keep
         n = 0
         for m in machines:
             for part in parts:

@@ -126,3 +126,27 @@ def test_a_dead_or_frozen_control_processs_lines_drive_until_the_relay_or_the_ta
         assert run_on_s > 0.0
     final = json.loads((tmp_path / "state" / "simulator-truth.json").read_text())["axes"]["az"]
     assert final["load_deg"] == pytest.approx(az["to_deg"], abs=0.5)   # and it stood there
+
+
+def test_the_io_process_has_what_a_takeover_needs_imported_before_it_is_needed(tmp_path):
+    """A takeover opens the hardware in the I/O process: done cold, its imports cost
+    0.3-0.4 s of a dead process's motor still driving (no part). prepare_takeover
+    imports them beforehand, and opens nothing."""
+    import subprocess
+    import sys
+
+    examples = __import__("pathlib").Path(__file__).resolve().parents[2] / "examples"
+    code = (
+        "import sys\n"
+        "from urc.config import load_config\n"
+        "from urc.cli import with_emulation\n"
+        "from urc.assembly import prepare_takeover\n"
+        f"cfg = with_emulation(load_config({str(examples / 'tartu-urc.toml')!r}))\n"
+        "assert 'gpiozero.pins.mock' not in sys.modules and 'urc.hardware.gpio.emulate' not in sys.modules\n"
+        "assert prepare_takeover(cfg) == []\n"
+        "assert 'gpiozero.pins.mock' in sys.modules and 'urc.hardware.gpio.emulate' in sys.modules\n"
+        "import os; assert not os.listdir('.'), os.listdir('.')\n"
+        "print('ok')\n")
+    out = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True,
+                         env={**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}, timeout=120)
+    assert out.returncode == 0 and out.stdout.strip() == "ok", out.stderr
