@@ -9,6 +9,7 @@ import contextlib
 import logging
 import signal
 import socket
+import threading
 from pathlib import Path
 
 from .assembly import STATE_FILE, bridged_caps, build_rotator, hardware_options, settings_from_config  # noqa: F401
@@ -151,6 +152,9 @@ async def _serve(cfg: Config, state_dir: Path, config_path: Path | None, api_soc
         print(f"urc: {why}: killed it, every output driven safe by this process", flush=True)
         loop.call_soon_threadsafe(stop.set)
     control.watch(cfg.faults.control_takeover_s, take_over)
+    if cfg.faults.control_takeover_s > 0:  # (a takeover then opens the hardware at once)
+        from .assembly import prepare_takeover
+        threading.Thread(target=prepare_takeover, args=(cfg,), name="urc-takeover-imports", daemon=True).start()
     server = web = stopper = None
     try:
         for sig in (signal.SIGINT, signal.SIGTERM):

@@ -82,3 +82,71 @@ def test_a_frozen_or_killed_control_process_runs_on_only_until_the_relay_drops(t
     assert run_on_s <= TIMEOUT_S + 0.1                # the record is fresh: at most a tick old
     assert 0.0 < travel <= top * (TIMEOUT_S + 0.1) + 1.0, travel
 
+
+
+@pytest.mark.parametrize("part", [True, False], ids=["part", "no-part"])
+@pytest.mark.parametrize("how", ["SIGSTOP", "SIGKILL"])
+def test_a_dead_or_frozen_control_processs_lines_drive_until_the_relay_or_the_takeover(tmp_path, part, how):
+    """With the I/O process's takeover (default 1 s): the dead or frozen process's lines
+    hold their level, as on a Pi, so the motor runs on until the safety relay drops out
+    (with the part) or, without it, until the I/O process has killed it and taken the
+    lines (a frozen one after control_takeover_s). The simulator's truth log (written by
+    the worlds, not urc) shows the run-on; a model whose outputs drop by themselves when
+    the process dies shows none."""
+    from urc.hardware.sim.truthlog import ENV, read_log
+
+    log = tmp_path / "truth.log"
+    p = UrcProcess(tmp_path, profile=PROFILE)
+    if part:
+        p.config.write_text(p.config.read_text().replace(
+            "wind = false\n", f"wind = false\nmotor_enable_timeout_s = {TIMEOUT_S}\n", 1))
+    p.start(env={**os.environ, ENV: str(log)})
+    try:
+        moving_fast(p)
+        t_event = time.time()
+        os.kill(p.control_pid(), getattr(signal, how))
+        out, _ = p.proc.communicate(timeout=60)
+        assert "every output driven safe by this process" in out, out
+    finally:
+        p.stop()
+    entries = read_log(log)
+    before = [e for e in entries if e["t"] == "s" and e["wall_s"] <= t_event][-1]["axes"]["az"]
+    restore = [e for e in entries if e["t"] == "restore" and e["wall_s"] > t_event]
+    assert len(restore) == 1, entries[-5:]              # the I/O process's world, on moving iron
+    az = restore[0]["axes"]["az"]
+    assert az["drive"] != 0.0 and abs(before["rate"]) > 0.5
+    top = get_profile(PROFILE).az.max_rate_deg_per_s
+    run_on_s = restore[0]["run_on_s"]
+    if part:
+        assert 0.0 < run_on_s <= TIMEOUT_S + 0.1
+    elif how == "SIGSTOP":
+        assert run_on_s >= 1.0                         # the takeover waits that long
+        assert abs(az["to_deg"] - before["deg"]) >= 0.8 * top * 1.0
+    else:
+        assert run_on_s > 0.0
+    final = json.loads((tmp_path / "state" / "simulator-truth.json").read_text())["axes"]["az"]
+    assert final["load_deg"] == pytest.approx(az["to_deg"], abs=0.5)   # and it stood there
+
+
+def test_the_io_process_has_what_a_takeover_needs_imported_before_it_is_needed(tmp_path):
+    """A takeover opens the hardware in the I/O process: done cold, its imports cost
+    0.3-0.4 s of a dead process's motor still driving (no part). prepare_takeover
+    imports them beforehand, and opens nothing."""
+    import subprocess
+    import sys
+
+    examples = __import__("pathlib").Path(__file__).resolve().parents[2] / "examples"
+    code = (
+        "import sys\n"
+        "from urc.config import load_config\n"
+        "from urc.cli import with_emulation\n"
+        "from urc.assembly import prepare_takeover\n"
+        f"cfg = with_emulation(load_config({str(examples / 'tartu-urc.toml')!r}))\n"
+        "assert 'gpiozero.pins.mock' not in sys.modules and 'urc.hardware.gpio.emulate' not in sys.modules\n"
+        "assert prepare_takeover(cfg) == []\n"
+        "assert 'gpiozero.pins.mock' in sys.modules and 'urc.hardware.gpio.emulate' in sys.modules\n"
+        "import os; assert not os.listdir('.'), os.listdir('.')\n"
+        "print('ok')\n")
+    out = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True,
+                         env={**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}, timeout=120)
+    assert out.returncode == 0 and out.stdout.strip() == "ok", out.stderr

@@ -5,6 +5,7 @@ relay would drop out on iron; without the part the motors run on."""
 from __future__ import annotations
 
 import json
+import time
 
 import pytest
 
@@ -154,6 +155,106 @@ def test_a_killed_controller_runs_on_until_the_relay_drops(tmp_path, monkeypatch
     assert 0.0 < coast_only < with_part
     # half a second more at about the top speed, no more
     assert with_part - coast_only == pytest.approx(0.5 * profile.az.max_rate_deg_per_s, rel=0.3)
+
+
+def test_without_the_part_a_dead_controllers_lines_drive_until_the_next_process_takes_them(tmp_path, monkeypatch):
+    """On a Pi a killed process's lines keep their last level: without the safety part
+    nothing cuts the motor until the next process (the I/O process's takeover, or the
+    next start) opens the hardware and drives it safe. A model in which the outputs
+    drop by themselves when the process dies gives the coast alone here."""
+    import urc.hardware.sim.world as world_mod
+
+    profile = get_profile("tartu-urc")
+    truth_file = tmp_path / "truth.json"
+    monkeypatch.setattr(world_mod.time, "time", lambda: 1000.0)
+    moving = {"gear_deg": 100.0, "gear_deg_per_s": 6.0, "load_deg": 100.0, "load_deg_per_s": 6.0,
+              "brake_released": True, "drive": 1.0}
+    standing = {"gear_deg": 10.0, "gear_deg_per_s": 0.0, "load_deg": 10.0, "load_deg_per_s": 0.0,
+                "brake_released": False, "drive": 0.0}
+
+    def restart(wall_s):
+        rec = {"version": world_mod.TRUTH_VERSION, "profile": "tartu-urc", "axes": {"az": moving, "el": standing}}
+        if wall_s is not None:
+            rec["wall_s"] = wall_s                       # no power_cut_at_wall_s: no part
+        truth_file.write_text(json.dumps(rec))
+        w = world_mod.SimWorld(profile, _params(), _RealClock(), truth_path=truth_file, wind=False)
+        return w.truth()["az"]["deg"] - 100.0
+
+    coast_only = restart(None)                           # (a record with no wall time)
+    one_s, three_s = restart(999.0), restart(997.0)
+    top = profile.az.max_rate_deg_per_s
+    assert one_s - coast_only == pytest.approx(1.0 * top, rel=0.3)
+    assert three_s - one_s == pytest.approx(2.0 * top, rel=0.2)
+
+
+def test_an_orderly_close_lets_go_of_the_motors(tmp_path):
+    """Only a process that dies leaves its lines driving: a world closed in order (the
+    control process's shutdown) records no drive for the next one to run on."""
+    truth_file = tmp_path / "truth.json"
+    clock = _RealClock()
+    hw = build_hardware("sim", get_profile("tartu-urc"), clock, tmp_path, {"wind": False, "truth_file": truth_file})
+    hw.poll(0.0)
+    hw.az.brake.set_released(True)
+    hw.az.motor.set_drive(1.0)
+    hw.close()
+    rec = json.loads(truth_file.read_text())
+    assert rec["wall_s"] > 0 and "power_cut_at_wall_s" not in rec
+    assert rec["axes"]["az"]["drive"] == 0.0
+
+
+def test_the_truth_log_keeps_the_history_the_cut_and_the_run_on_of_a_restart(tmp_path):
+    """URC_SIM_TRUTH_LOG / truth_log: samples while the iron moves, the relay's cut at
+    the time it happened (found late, after a freeze), and a restart's run-on."""
+    from urc.hardware.sim.truthlog import read_log
+
+    log_file, truth_file = tmp_path / "truth.log", tmp_path / "truth.json"
+    clock = _StepClock()
+    opts = {"wind": False, "truth_file": truth_file, "truth_log": log_file, "motor_enable_timeout_s": TIMEOUT_S}
+    hw = build_hardware("sim", get_profile("tartu-urc"), clock, tmp_path, opts)
+    hw.poll(0.0)
+    hw.az.brake.set_released(True)
+    for i in range(100):                          # 2 s of heartbeat, motor full on
+        clock.t = 0.02 * (i + 1)
+        hw.heartbeat.write(i % 2 == 0)
+        hw.az.motor.set_drive(1.0)
+        hw.poll(clock.t)
+    last_edge_s = 0.02 * 99
+    clock.t += 1.0                                # frozen a second: no edge, then caught up
+    hw.poll(clock.t)
+    world = hw.extra["world"]
+    world._write_truth()
+    world.log.close()
+    entries = read_log(log_file)
+    samples = [e for e in entries if e["t"] == "s"]
+    # (a drive or power change is logged at once; mere motion at most every SAMPLE_S)
+    assert len(samples) >= 3 and samples[0]["axes"]["az"]["powered"] is False   # (no edge yet)
+    assert any(e["axes"]["az"]["drive"] > 0.5 and e["axes"]["az"]["powered"] for e in samples)
+    assert samples[-1]["axes"]["az"]["drive"] == 0.0 and samples[-1]["axes"]["az"]["powered"] is False
+    cut = [e for e in entries if e["t"] == "cut"]
+    assert len(cut) == 1
+    # logged 1 s after the cut, dated when it happened: the timeout after the last edge
+    assert cut[0]["wall_s"] == pytest.approx(samples[-1]["wall_s"] - (clock.t - last_edge_s - TIMEOUT_S), abs=0.05)
+    # a restart from a record of moving iron logs its run-on and coast
+    rec = json.loads(truth_file.read_text())
+    rec["axes"]["az"].update(drive=1.0, load_deg_per_s=6.0, gear_deg_per_s=6.0, brake_released=True)
+    rec.pop("power_cut_at_wall_s")                # (as if no part: runs on until the restart)
+    rec["wall_s"] = time.time() - 0.5
+    truth_file.write_text(json.dumps(rec))
+    build_hardware("sim", get_profile("tartu-urc"), _StepClock(), tmp_path, opts).extra["world"].log.close()
+    restore = [e for e in read_log(log_file) if e["t"] == "restore"]
+    assert len(restore) == 1 and restore[0]["run_on_s"] == pytest.approx(0.5, abs=0.1)
+    az = restore[0]["axes"]["az"]
+    assert az["drive"] == 1.0 and az["to_deg"] - az["from_deg"] > 0.4 * 6.0
+    assert restore[0]["off_wall_s"] == pytest.approx(rec["wall_s"] + restore[0]["run_on_s"])
+
+
+class _StepClock:
+    """A clock set by hand that is not a VirtualClock (a real clock's truth and log)."""
+
+    t = 0.0
+
+    def now_s(self) -> float:
+        return self.t
 
 
 class _RealClock:

@@ -17,12 +17,15 @@ writes, so a fast virtual clock is not slowed by file writes; 0 = exactly repeat
 (path, default ``state_dir/"heartbeat"`` on a real clock, none on a virtual one; ``None``: no file): the simulated heartbeat output's level and
 toggle count, also in the truth as ``heartbeat``; ``motor_enable_timeout_s`` (float, None =
 not wired): the external safety chain (:mod:`.safety`), motor power held only while the
-heartbeat's rising edges come at most this far apart, in the truth as ``motor_enable``.
+heartbeat's rising edges come at most this far apart, in the truth as ``motor_enable``;
+``truth_log`` (path, default the environment variable ``URC_SIM_TRUTH_LOG``, else none): the
+iron's history appended as JSON lines (:mod:`.truthlog`), for benchmarks.
 """
 
 from __future__ import annotations
 
 import logging
+import os
 from pathlib import Path
 from typing import Any
 
@@ -33,13 +36,14 @@ from ..interfaces import AxisHardware, Hardware
 from .outputs import SimDigitalOutput
 from .params import (PHYSICS, SimAxisParams, SimRotatorParams, SimSensorParams, params_for_caps,
                      physics_for)
+from .truthlog import ENV as TRUTH_LOG_ENV
 from .world import FAULT_KINDS, SimWorld
 
 log = logging.getLogger(__name__)
 
 _OPTIONS = {"seed", "wind", "truth_file", "start_az_deg", "start_el_deg", "fault_injection",
             "sensor_noise", "truth_interval_s", "truth_wall_interval_s", "heartbeat_file",
-            "motor_enable_timeout_s"}
+            "motor_enable_timeout_s", "truth_log"}
 
 
 def build_sim_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
@@ -96,7 +100,8 @@ def make_world(caps: RotatorCaps, clock: Clock, state_dir: Path,
                          start_deg=start, sensor_noise=bool(options.get("sensor_noise", True)),
                          truth_interval_s=float(options.get("truth_interval_s", 0.02)),
                          truth_wall_interval_s=float(options.get("truth_wall_interval_s", 0.02)),
-                         motor_enable_timeout_s=_timeout(options.get("motor_enable_timeout_s")))
+                         motor_enable_timeout_s=_timeout(options.get("motor_enable_timeout_s")),
+                         truth_log=options.get("truth_log", os.environ.get(TRUTH_LOG_ENV) or None))
     except (TypeError, ValueError) as exc:
         raise ConfigError(f"simulator options: {exc}", key="hardware.options") from exc
     for axis, kind, kw in _fault_list(options.get("fault_injection")):

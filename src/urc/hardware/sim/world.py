@@ -4,7 +4,11 @@ The world advances its physics to a clock time in fixed substeps (``advance_to``
 the result does not depend on how often it is polled. Its true mechanical state is
 "real iron": written atomically to a truth file (at most every ``truth_interval_s`` of
 clock time, only when it changed, and on ``close``) and read back by the next world, as
-if the controller had been restarted on the same rotator.
+if the controller had been restarted on the same rotator. A process that dies without
+``close`` leaves its motor lines at their last level, as a Pi does: the next world runs
+the motors on from the last record until the safety relay cut them (when the part is
+wired) or, without it, until that next world opened (the process that takes the lines
+over and drives them safe). ``truth_log`` keeps the history as well (:mod:`.truthlog`).
 """
 
 from __future__ import annotations
@@ -26,6 +30,7 @@ from .params import SimRotatorParams
 from .physics import AxisPhysics
 from .safety import MotorPowerEnable
 from .sensors import FaultySensor, SensorBoard, make_sensor
+from .truthlog import TruthLog
 
 log = logging.getLogger(__name__)
 
@@ -35,6 +40,9 @@ FAULT_KINDS = ("sensor_stuck", "sensor_jump", "sensor_dead", "jam", "runaway",
                "limit_switch", "reverse_wiring", "slow_read")
 #: a coast-down after a restart is simulated for at most this long.
 _MAX_COAST_S = 120.0
+#: a dead process's motor run-on is simulated for at most this long (longer than any
+#: seed machine takes from one end stop to the other: the motor stalls there)
+_MAX_RUN_ON_S = 120.0
 
 
 class SimWorld:
@@ -42,7 +50,7 @@ class SimWorld:
                  truth_path: Path | None, seed: int = 1, wind: bool = True,
                  start_deg: dict[str, float] | None = None, sensor_noise: bool = True,
                  truth_interval_s: float = 0.02, truth_wall_interval_s: float = 0.02,
-                 motor_enable_timeout_s: float | None = None):
+                 motor_enable_timeout_s: float | None = None, truth_log: Path | str | None = None):
         self.caps = caps
         self.params = params
         self.clock = clock
@@ -58,6 +66,10 @@ class SimWorld:
         #: the external safety chain (heartbeat -> motor power enable), None = not wired
         self.enable = MotorPowerEnable(motor_enable_timeout_s, clock.now_s) \
             if motor_enable_timeout_s is not None else None
+        #: the history of the iron, for benchmarks (None: not kept)
+        self.log = TruthLog(truth_log) if truth_log else None
+        #: (record wall time, run-on) of the record this world started from
+        self._restored_from: tuple[float | None, float] = (None, 0.0)
         saved = self._load_truth()
 
         self.axes: dict[str, AxisPhysics] = {}
@@ -73,6 +85,8 @@ class SimWorld:
             if saved is not None:
                 self._restore(phys, saved[name], ax_caps.brake_engage_s)
             self.axes[name] = phys
+        if saved is not None and self.log is not None:
+            self._log_restore(saved)
 
         # Devices. Incremental sensors start counting from 0 now (power-on); on a fresh
         # rotator (no truth file) they start referenced to the true angle.
@@ -151,6 +165,8 @@ class SimWorld:
                     phys.brake_engaged = not ev[1]
                     del self._brake_events[name]
             self.sensors[name].after_advance()
+        if self.log is not None:
+            self.log.sample(time.time(), self._log_axes())
         if (self.truth_path is not None
                 and now_s - self._last_write_s + 1e-6 >= self.truth_interval_s
                 and time.monotonic() - self._last_write_wall_s >= self.truth_wall_interval_s):
@@ -207,6 +223,8 @@ class SimWorld:
         phys._apply_drive()
         if name == "az" and self.enable is not None:
             self.enable.trips += 1
+            if self.log is not None:  # (found late after a freeze: when it happened)
+                self.log.event("cut", time.time() - (self.clock.now_s() - at_s))
             log.warning("simulator: no heartbeat edge for %.3f s: the safety relay cut motor power",
                         self.enable.timeout_s)
         if phys.p.has_brake:
@@ -258,11 +276,13 @@ class SimWorld:
                    "load_deg": a.load_deg, "load_deg_per_s": a.load_deg_per_s,
                    "brake_released": not a.brake_engaged, "drive": a.effective_duty()}
             for name, a in self.axes.items()}}
-        if self.enable is not None and not isinstance(self.clock, VirtualClock):
-            # a process killed now leaves the motors driving until the safety relay
-            # drops out: the next world runs them until then (wall time)
+        if not isinstance(self.clock, VirtualClock):
+            # a process killed now leaves the motors driving (its lines hold their
+            # level): the next world runs them on from this wall time, until the safety
+            # relay drops out when the part is wired, else until it opens
             rec["wall_s"] = time.time()
-            rec["power_cut_at_wall_s"] = self.enable.cut_at_wall_s()
+            if self.enable is not None:
+                rec["power_cut_at_wall_s"] = self.enable.cut_at_wall_s()
         return rec
 
     def _write_truth(self, data: dict[str, Any] | None = None) -> None:
@@ -300,6 +320,9 @@ class SimWorld:
                 vals["run_on_s"] = self._run_on_s(data) if math.isfinite(float(a.get("drive", 0.0))) else 0.0
                 vals["drive"] = float(a.get("drive", 0.0)) if vals["run_on_s"] > 0 else 0.0
                 out[name] = vals
+            wall_s = data.get("wall_s")
+            self._restored_from = (float(wall_s) if isinstance(wall_s, (int, float)) else None,
+                                   max(v["run_on_s"] for v in out.values()))
             return out
         except (OSError, ValueError, KeyError, TypeError, AttributeError) as exc:
             log.warning("simulator: truth file %s is unusable (%s); starting from defaults",
@@ -308,17 +331,25 @@ class SimWorld:
 
     @staticmethod
     def _run_on_s(data: dict[str, Any]) -> float:
-        """How long the motors kept their drive after the last record: until the safety
-        relay dropped out (the record's heartbeat deadline), 0 without the part (a process
-        death is then simulated as a power cut: the drive ends with the record)."""
+        """How long the motors kept their drive after the last record of a process that
+        died (its lines held their last level, as on a Pi): until the safety relay dropped
+        out (the record's heartbeat deadline; none yet: the power was off) when the part
+        is wired; without it until now, when this world's process takes the lines over.
+        0 for a record with no wall time (a virtual clock's)."""
         try:
-            wall_s, cut_s = data.get("wall_s"), data.get("power_cut_at_wall_s")
-            if wall_s is None or cut_s is None:
+            wall_s = data.get("wall_s")
+            if wall_s is None:
                 return 0.0
-            run_s = min(float(cut_s), time.time()) - float(wall_s)
+            end_s = time.time()
+            if "power_cut_at_wall_s" in data:
+                cut_s = data["power_cut_at_wall_s"]
+                if cut_s is None:
+                    return 0.0
+                end_s = min(float(cut_s), end_s)
+            run_s = end_s - float(wall_s)
         except (TypeError, ValueError):
             return 0.0
-        return max(0.0, min(10.0, run_s)) if math.isfinite(run_s) else 0.0
+        return max(0.0, min(_MAX_RUN_ON_S, run_s)) if math.isfinite(run_s) else 0.0
 
     def _restore(self, phys: AxisPhysics, s: dict[str, float], brake_engage_s: float) -> None:
         """Put the saved state back; if it was moving, coast down with the power cut
@@ -366,11 +397,32 @@ class SimWorld:
             # a brake whose coil was just switched off engages after its delay, powered
             # or not: the truth saved is the iron after that, not before
             self.advance_to(max([self.clock.now_s(), *(ev[0] + self.dt_s for ev in self._brake_events.values())]))
+        if not self._closed:
+            # an orderly end lets go of the motors (only a process that dies holds them:
+            # the next world runs on only what a record without this close left driving)
+            for phys in self.axes.values():
+                phys.set_command(0.0)
         if self._truth_writer is not None:
             self._truth_writer.close()
         if self.truth_path is not None:
             self._write_truth()
+        if self.log is not None and not self._closed:
+            self.log.sample(time.time(), self._log_axes())
+            self.log.close()
         self._closed = True
+
+    # ------------------------------------------------------------------ truth log
+    def _log_axes(self) -> dict[str, dict[str, Any]]:
+        return {name: {"deg": a.load_deg, "rate": a.load_deg_per_s, "drive": a.effective_duty(),
+                       "powered": a.powered} for name, a in self.axes.items()}
+
+    def _log_restore(self, saved: dict[str, dict[str, float]]) -> None:
+        assert self.log is not None
+        record_wall_s, run_on_s = self._restored_from
+        self.log.event("restore", time.time(), record_wall_s=record_wall_s, run_on_s=run_on_s,
+                       off_wall_s=None if record_wall_s is None else record_wall_s + run_on_s,
+                       axes={name: {"from_deg": saved[name]["load_deg"], "drive": saved[name]["drive"],
+                                    "to_deg": self.axes[name].load_deg} for name in self.axes})
 
     # ------------------------------------------------------------------ faults
     def inject(self, axis: str, kind: str, **kw: Any) -> None:
