@@ -51,11 +51,13 @@ log = logging.getLogger(__name__)
 #: real-time priority (SCHED_FIFO) of this process's threads; the loop thread raises
 #: itself to loop.RT_PRIORITY, above them
 PROCESS_RT_PRIORITY = 5
-#: how often the I/O process says it is alive
-PING_S = 0.5
-#: the I/O process silent this long (hung, stopped): the axes stop (more than a command
-#: may take: remote.CALL_TIMEOUT_S, which the event loop may spend waiting)
-IO_SILENT_S = 8.0
+#: how often the I/O process says it is alive (from its event loop: a loop that can no
+#: longer serve a STOP is as good as hung)
+PING_S = 0.2
+#: the I/O process silent this long (hung, stopped, its event loop blocked): the axes stop,
+#: since no client could stop them any more (issue 20: motors off within 1.5 s). Nothing on
+#: the event loop waits for this process, so only a real stall lasts this long.
+IO_SILENT_S = 1.0
 #: how often the main thread looks for a hung tick at least (a hung tick's motors are
 #: cut within [faults] watchdog_s plus this; state records reach save_interval_s / 2 of
 #: travel, plus the coast, ahead of a moving axis)
