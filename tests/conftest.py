@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import os
 import uuid
 from pathlib import Path
@@ -132,6 +133,28 @@ def pytest_configure(config):
     # a round trip to the control process that would block the event loop raises
     # (in every urc run the suite starts) instead of being logged
     os.environ[STRICT_ENV] = "1"
+
+
+# -- longest first ------------------------------------------------------------------
+# The suite's time goes to files that start real processes (urc run, Chromium, Mosquitto,
+# Hamlib's rotctld) and wait on real clocks. Run with ``--dist loadfile
+# --no-loadscope-reorder`` (.ci/run), xdist hands files out in this order: the heavy ones
+# first, so the two workers finish together instead of one running the last long file
+# while the other idles.
+
+#: what a test file does that costs seconds of wall time per use
+PROCESS_MARKS = ("UrcProcess(", "urc_processes(", "station(", "open_page", "Mosquitto(", "subprocess.",
+                 "rotctld(", "stress(")
+
+
+@functools.cache
+def _file_weight(path: Path) -> int:
+    text = path.read_text(errors="replace")
+    return sum(text.count(mark) for mark in PROCESS_MARKS)
+
+
+def pytest_collection_modifyitems(session, config, items):
+    items.sort(key=lambda item: -_file_weight(Path(str(item.fspath))))   # (stable: file order kept)
 
 
 @pytest.fixture(autouse=True, scope="module")
