@@ -86,7 +86,7 @@ def test_tick_does_not_wait_for_a_stuck_disk(tmp_path):
     rot = build_rotator(cfg, RealClock(), tmp_path / "state", durable_state=False)
     store = GatedStore(rot.store.path)
     rot.store = store
-    rot._writer = StateWriter(store, background=True)
+    rot._records.writer = StateWriter(store, background=True)
     rot.goto(90.0, 20.0)
     rot.tick()  # the goto starts: a record is handed to the writer thread
     assert store.entered.wait(5.0), "a record is being written"

@@ -1,0 +1,79 @@
+"""What every part of the rotator shares: its settings and geometry, its axes, and what
+it is doing now (the route being flown, a track, a park, the target), the latched faults
+and the recent events.
+
+One :class:`Core` per :class:`~urc.service.rotator.Rotator`; its parts (commands,
+planning, guard, records, status) each hold it and change only what their concern is
+about. It holds state and the few readings of it that every part needs; no decisions.
+"""
+
+from __future__ import annotations
+
+import collections
+import logging
+from typing import Any
+
+from ..clock import Clock
+from ..control.faults import Fault
+from ..control.geometry import Geometry
+from .axis import Axis
+from .settings import FIXED_EL_DEG, RotatorSettings
+
+log = logging.getLogger("urc.service.rotator")
+
+
+class Core:
+    def __init__(self, settings: RotatorSettings, hw: Any, clock: Clock, axes: dict[str, Axis]):
+        self.settings = settings
+        self.caps = settings.caps
+        self.hw = hw
+        self.clock = clock
+        # (replaced once the state is restored: a sensor constant restored with it may
+        # turn bearings; see Planner.geometry_for)
+        self.geometry: Geometry = settings.geometry()
+        #: a single-axis rotator has no elevation Axis at all: its beam stays at
+        #: FIXED_EL_DEG, which the pose maths stand in for
+        self.axes = axes
+        self.faults: list[Fault] = []
+        self.events: collections.deque[str] = collections.deque(maxlen=20)
+        #: the waypoints of the route being flown (the first is the one aimed at now)
+        self.route: list[tuple[float, float]] = []
+        self.tracking = False
+        self.parked = False
+        #: a park accepted and under way: parked once both axes hold at the park pose
+        self.parking = False
+        self.target_sky: tuple[float, float] | None = None
+        self.seq = 0
+        self.last_command_t_s = clock.now_s()
+
+    def event(self, text: str) -> None:
+        """Logged, and kept among status' recent events."""
+        log.warning("%s", text)
+        self.events.append(text)
+
+    def next_seq(self) -> int:
+        self.seq += 1
+        return self.seq
+
+    def abandon_motion(self) -> None:
+        """No route, track, park or target any more (a fault, a zone ahead)."""
+        self.route = []
+        self.tracking = False
+        self.parking = False
+        self.target_sky = None
+
+    def rates(self) -> tuple[float, float]:
+        el = self.axes.get("el")  # (no elevation axis: its pose never changes; any rate)
+        return (self.axes["az"].tuning.max_rate_deg_per_s, el.tuning.max_rate_deg_per_s if el else 1.0)
+
+    def current_pose(self) -> tuple[float, float]:
+        el = self.axes.get("el")
+        return (self.axes["az"].meas_deg, el.meas_deg if el else FIXED_EL_DEG)
+
+    def position_uncertain(self) -> bool:
+        return any(ax.uncertainty_deg > 0 for ax in self.axes.values())
+
+    def moving(self) -> bool:
+        # coasting counts as moving; sensor noise on a standing axis does not
+        return any(ax.law.mode in ("driving", "releasing") or abs(ax.rate_deg_per_s) > ax.still_rate_deg_per_s
+                   for ax in self.axes.values())
