@@ -172,7 +172,7 @@ async def _serve(cfg: Config, state_dir: Path, config_path: Path | None, api_soc
         for ep in endpoints:
             print(f"urc: serving {ep.description}", flush=True)
         tracking.start()
-        _announce_tracking(tracking, cfg)
+        await _announce_tracking(tracking, cfg)
 
         notify = sd_notifier()
         web = asyncio.create_task(server.serve(sockets=[api_socket]), name="api")
@@ -227,14 +227,16 @@ async def _serve(cfg: Config, state_dir: Path, config_path: Path | None, api_soc
           "(the next start treats the position as uncertain)", flush=True)
 
 
-def _announce_tracking(tracking, cfg: Config) -> None:
+async def _announce_tracking(tracking, cfg: Config) -> None:
     if tracking.station is None and tracking.gps is None:
         print("urc: tracking off: no [station] configured", flush=True)
     elif tracking.station is None:
         print(f"urc: station position will come from the GPS on {cfg.station.gps}", flush=True)
     elif cfg.tracking.schedule:
         try:
-            for p in tracking.run_schedule():
+            # planned on a thread: the protocol ports serve meanwhile (nothing else
+            # touches the tracker before the API and the tracker's steps start)
+            for p in await asyncio.to_thread(tracking.run_schedule):
                 print(f"urc: scheduled {p.name} {p.aos:%Y-%m-%d %H:%M:%S}Z max el {p.max_el_deg:.0f}", flush=True)
         except Exception as exc:  # a bad catalog must not keep the controller from running
             print(f"urc: schedule not run: {exc}", flush=True)
