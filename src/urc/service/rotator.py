@@ -29,6 +29,7 @@ from ..control.profile import stopping_distance_deg
 from ..errors import CommandRejected, SensorError, StateFileError
 from ..hardware.interfaces import AxisHardware, Hardware
 from ..persistence import StateStore
+from . import guard_resume
 from . import position_record as precord
 from .settings import FIXED_EL_DEG, RotatorSettings
 from .snapshot import AxisStatus, Status
@@ -290,6 +291,7 @@ class Rotator:
         self._faults: list[Fault] = []
         self._events: collections.deque[str] = collections.deque(maxlen=20)
         self._seq = 0
+        self._guard_retry = guard_resume.GuardRetry()
         self._target_sky: tuple[float, float] | None = None
         self._parked = False
         #: a park accepted and under way: parked once both axes hold at the park pose
@@ -476,6 +478,7 @@ class Rotator:
         while self._commands:
             self._commands.popleft().apply()
         self._advance_route()
+        self._retry_after_guard(now)
         self._check_parked()
         self._maybe_idle_park(now)
         held = self.timing.held(now)
@@ -492,6 +495,15 @@ class Rotator:
         self._beat()
         self._status = self._build_status(now)
         return self._status
+
+    def _retry_after_guard(self, now_s: float) -> None:
+        """A target the guard cut short on a prediction, approached again from rest."""
+        for ax in self.axes.values():
+            target = self._guard_retry.due(ax.name, ax.sp, ax.law, abs(ax.rate_deg_per_s) <= ax.still_rate_deg_per_s)
+            if target is not None:
+                ax.sp = law.Setpoint(target, 0.0, now_s, seq=self._next_seq())
+                self._guard_retry.retrying(ax.name, ax.sp.seq)
+                self._event(f"{ax.name}: approaching {target:.2f} deg again after the guard's stop")
 
     def _clear_link_fault(self, ax: "_Axis", meas: float, now_s: float) -> None:
         """A bridged controller answers again after its link went down (a USB-serial
@@ -577,14 +589,17 @@ class Rotator:
             heading_deg = ax.sp.target_deg if ax.sp is not None else ax.meas_deg
             to_max = ax.limit_max and heading_deg >= ax.meas_deg
             to_min = ax.limit_min and heading_deg <= ax.meas_deg
-            if (d > 0 and (to_max or ax.meas_deg > hi + slack or rest > hi + margin)) or \
-               (d < 0 and (to_min or ax.meas_deg < lo - slack or rest < lo - margin)):
+            switch_or_over = (to_max or ax.meas_deg > hi + slack) if d > 0 else (to_min or ax.meas_deg < lo - slack)
+            if switch_or_over or (d > 0 and rest > hi + margin) or (d < 0 and rest < lo - margin):
                 ax.out = replace(ax.out, duty=0.0)
                 # hold here, or come back inside if it overran: a standing target within
                 # the limits (a park or goto to the limit then still ends at the limit)
+                cut_sp = ax.sp
                 ax.sp = law.Setpoint(min(max(ax.meas_deg, lo), hi), 0.0, self.clock.now_s(),
                                      seq=self._next_seq())
-                self._event(f"guard: {ax.name} stopped at {ax.meas_deg:.2f} deg before its limit")
+                again = self._guard_retry.cut(ax.name, cut_sp, ax.sp.seq, (lo, hi), predicted_only=not switch_or_over)
+                self._event(f"guard: {ax.name} stopped at {ax.meas_deg:.2f} deg before its limit"
+                            + ("; its target is approached again once it rests" if again else ""))
         if not self.geometry.zones:
             return
         present = list(self.axes.values())
