@@ -130,7 +130,8 @@ async def _serve(cfg: Config, state_dir: Path, config_path: Path | None, api_soc
 
     from .api import create_api
     from .servers import start_endpoints
-    from .servers.limits import MAX_HTTP_CONNECTIONS, bound_library_logs, raise_open_file_limit
+    from .servers.limits import (MAX_HTTP_CONNECTIONS, bound_library_logs, capped_http_protocol,
+                                 raise_open_file_limit)
     from .service.control_process import ControlProcess
     from .service.loop import sd_notifier
     from .tracking.service import TrackingService
@@ -158,8 +159,13 @@ async def _serve(cfg: Config, state_dir: Path, config_path: Path | None, api_soc
         tracking = TrackingService(rotator, cfg, background=True)  # planning off the event loop
         api = create_api(rotator, cfg, config_path=config_path, state_dir=state_dir,
                          tracker=tracking if tracking.station is not None or tracking.gps is not None else None)
+        from uvicorn.protocols.http.auto import AutoHTTPProtocol
+
         server = _api_server(uvicorn.Config(api, log_level="warning", lifespan="off",
-                                            limit_concurrency=MAX_HTTP_CONNECTIONS))
+                                            http=capped_http_protocol(AutoHTTPProtocol, MAX_HTTP_CONNECTIONS),
+                                            # (counts the connection asking: one more, so every
+                                            # admitted connection is served)
+                                            limit_concurrency=MAX_HTTP_CONNECTIONS + 1))
         # every protocol port or none (the API port is bound already)
         endpoints = await start_endpoints(cfg.served, rotator.for_sessions())
         caps = rotator.caps
