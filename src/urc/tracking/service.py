@@ -261,6 +261,7 @@ class TrackingService:
         aos_unix_s = aos.timestamp() if hasattr(aos, "timestamp") else float(aos)
         es = self.catalog().get(norad)
         tracker = self.tracker
+        assert tracker is not None  # (made with the station)
         generation = tracker.generation
         job = self._off_loop(self._find_and_plan_pass, es, station, aos_unix_s, self.rot.clock.now_s())
         if tracker.generation != generation:  # a stop or another target meanwhile: it wins
@@ -276,6 +277,7 @@ class TrackingService:
                  if abs(p.aos_unix_s - aos_unix_s) < 300.0]
         if not found:
             raise TrackingError(f"no pass of {es.label} with AOS near the time given")
+        assert self.tracker is not None
         return self.tracker.plan_pass(es, found[0], now_s)
 
     def _off_loop(self, fn: Callable[..., Any], *args: Any) -> Any:
