@@ -26,7 +26,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from bench_report import write_json  # noqa: E402
-from urc_process import UrcProcess, free_port  # noqa: E402
+from urc_process import START_TIMEOUT_S, URC, UrcProcess, free_port, stop_process_group  # noqa: E402
 
 POLL_PERIOD_S = 0.02
 
@@ -146,8 +146,7 @@ def main() -> None:
                 time.sleep(1.0)
                 results.append(run_case(urc, log_path, ports, protocol, junk))
             finally:
-                urc.proc.terminate()
-                urc.proc.wait(10)
+                stop_process_group(urc.proc)
     print(f"{'protocol':9} {'junk':>7} {'worst p RTT ms':>15} {'log bytes':>10} {'reply bytes':>12} "
           f"{'consumed s':>11} {'late p99 ms':>12}  faults")
     for r in results:
@@ -158,22 +157,25 @@ def main() -> None:
 
 
 def _start(urc: UrcProcess, log_path: Path) -> None:
-    """``urc run`` with its log (stderr and stdout) going to a file we can measure."""
+    """``urc run`` with its log (stderr and stdout) going to a file we can measure, in a
+    process group of its own (a stop reaches its control process too); a start that
+    fails leaves nothing running."""
     import subprocess
-    from urc_process import URC
     import httpx
 
-    log = open(log_path, "wb")
-    urc.proc = subprocess.Popen(URC + ["run", "--config", str(urc.config), "--state-dir", str(urc.state_dir)],
-                                stdout=log, stderr=subprocess.STDOUT, env=dict(os.environ))
-    deadline = time.monotonic() + 30
-    while time.monotonic() < deadline:
+    with open(log_path, "wb") as log:
+        urc.proc = subprocess.Popen(URC + ["run", "--config", str(urc.config), "--state-dir", str(urc.state_dir)],
+                                    stdout=log, stderr=subprocess.STDOUT, env=dict(os.environ),
+                                    start_new_session=True)
+    deadline = time.monotonic() + START_TIMEOUT_S   # a loaded machine starts slowly
+    while time.monotonic() < deadline and urc.proc.poll() is None:
         try:
             httpx.get(urc.url + "/api/status", timeout=0.5)
             return
         except httpx.HTTPError:
             time.sleep(0.1)
-    raise RuntimeError("urc did not start")
+    stop_process_group(urc.proc)
+    raise RuntimeError(f"urc did not start: {log_path.read_text()[-2000:]}")
 
 
 if __name__ == "__main__":

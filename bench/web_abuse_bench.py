@@ -3,11 +3,11 @@
 Against a real ``urc run`` (simulator, a station and a catalog of 60 LEO satellites):
 * a flood of pass searches: ``--clients`` unauthenticated clients asking
   /api/passes with random look-aheads and elevations for ``--window-s`` seconds;
-* a 40 MB POST from a foreign Origin (``--big-mb``).
+* then a 40 MB POST from a foreign Origin (``--big-mb``).
 Meanwhile /api/status is polled every 50 ms. Reported: status latency (p50/p99/max),
 the control loop's own late-tick p99 (``tick_late_p99_ms``), faults latched, the
-server's resident memory before/after, how the searches were answered, and how long
-the big POST took to be refused.
+server's resident memory before/after, how the searches were answered, how long
+the big POST took to be refused, and the bytes urc logged during each of the two.
 
 Prints a table, writes JSON (default bench/results/web-abuse.json). Never gates CI.
 Compare trees by running it with PYTHONPATH set to each ``src``.
@@ -34,7 +34,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
 sys.path.insert(0, str(ROOT / "bench"))
 from bench_report import write_json  # noqa: E402
-from urc_process import UrcProcess  # noqa: E402
+from urc_process import URC, UrcProcess, stop_process_group, wait_until  # noqa: E402
 from web_bench import STATION, synthetic_tle  # noqa: E402
 
 
@@ -52,8 +52,11 @@ def rss_mb(pid: int) -> float:
     return math.nan
 
 
-async def flood(url: str, clients: int, window_s: float, big_mb: int) -> dict:
-    stop = asyncio.Event()
+async def flood(url: str, clients: int, window_s: float, big_mb: int, log_path: Path) -> dict:
+    stop = asyncio.Event()          # the status poller's
+    stop_search = asyncio.Event()   # the searchers'
+    log_bytes: dict[str, int] = {}
+    log0 = log_path.stat().st_size
     latencies: list[float] = []
     answers: Counter = Counter()
     big: dict = {}
@@ -69,7 +72,7 @@ async def flood(url: str, clients: int, window_s: float, big_mb: int) -> dict:
             await asyncio.sleep(0.05)
 
     async def searcher(http: httpx.AsyncClient, rng: random.Random) -> None:
-        while not stop.is_set():
+        while not stop_search.is_set():
             q = f"/api/passes?hours={rng.uniform(1, 72):.3f}&min_el={rng.uniform(0, 60):.3f}"
             try:
                 r = await http.get(url + q, timeout=120)
@@ -78,7 +81,6 @@ async def flood(url: str, clients: int, window_s: float, big_mb: int) -> dict:
                 answers[type(exc).__name__] += 1
 
     async def big_post(http: httpx.AsyncClient) -> None:
-        await asyncio.sleep(window_s / 2)
         body = b'{"az_deg": 1, "el_deg": 1, "pad": "' + b"x" * (big_mb * 2**20) + b'"}'
         t0 = time.monotonic()
         try:
@@ -92,17 +94,26 @@ async def flood(url: str, clients: int, window_s: float, big_mb: int) -> dict:
     limits = httpx.Limits(max_connections=clients + 4)
     async with httpx.AsyncClient(limits=limits) as http:
         rng = random.Random(1)
-        tasks = [asyncio.create_task(poll(http)), asyncio.create_task(big_post(http))]
-        tasks += [asyncio.create_task(searcher(http, random.Random(rng.random()))) for _ in range(clients)]
+        poller = asyncio.create_task(poll(http))
+        # one scenario after the other, so each one's log bytes are its own
+        tasks = [asyncio.create_task(searcher(http, random.Random(rng.random()))) for _ in range(clients)]
         await asyncio.sleep(window_s)
-        stop.set()
+        stop_search.set()
         await asyncio.wait(tasks, timeout=130)
         for t in tasks:
             t.cancel()
+        log_bytes["pass_search_flood"] = log_path.stat().st_size - log0
+        log1 = log_path.stat().st_size
+        await big_post(http)
+        await asyncio.sleep(1.0)  # what the refusal logs after the answer
+        log_bytes["big_post"] = log_path.stat().st_size - log1
+        stop.set()
+        await asyncio.wait([poller], timeout=60)
+        poller.cancel()
     lat = sorted(latencies)
     return {"status_latency_ms": {"p50": 1000 * lat[len(lat) // 2], "p99": 1000 * lat[int(0.99 * (len(lat) - 1))],
                                   "max": 1000 * lat[-1], "n": len(lat)},
-            "pass_answers": {str(k): v for k, v in answers.items()}, "big_post": big}
+            "pass_answers": {str(k): v for k, v in answers.items()}, "big_post": big, "log_bytes": log_bytes}
 
 
 def main() -> None:
@@ -121,16 +132,20 @@ def main() -> None:
         urc = UrcProcess(work, profile="berkeley", extra=STATION + f"[tracking]\ncatalog_dir = '{work / 'cat'}'\n")
         subprocess.run([sys.executable, "-m", "urc", "tle", "import", str(tle), "--config", str(urc.config)],
                        check=True, capture_output=True)
-        urc.start()
+        log_path = work / "urc.log"
+        with open(log_path, "wb") as log:  # urc's log in a file, to count its bytes
+            urc.proc = subprocess.Popen(URC + ["run", "--config", str(urc.config), "--state-dir", str(urc.state_dir)],
+                                        stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
         try:
+            wait_until(lambda: urc.proc.poll() is None and _answers(urc.url), 120, "urc run answers")
             time.sleep(2.0)
             before = {"rss_mb": rss_mb(urc.proc.pid), "tick_late_p99_ms": urc.status().get("tick_late_p99_ms")}
-            result = asyncio.run(flood(urc.url, args.clients, args.window_s, args.big_mb))
+            result = asyncio.run(flood(urc.url, args.clients, args.window_s, args.big_mb, log_path))
             s = urc.status()
             after = {"rss_mb": rss_mb(urc.proc.pid), "tick_late_p99_ms": s.get("tick_late_p99_ms"),
                      "faults": [f"{f['kind']}: {f['reason']}" for f in s["faults"]]}
         finally:
-            urc.stop()
+            stop_process_group(urc.proc)
     result.update(before=before, after=after, clients=args.clients, window_s=args.window_s,
                   satellites=args.satellites)
     lat = result["status_latency_ms"]
@@ -142,13 +157,22 @@ def main() -> None:
             ("server memory (RSS)", f"{before['rss_mb']:.0f} MB before, {after['rss_mb']:.0f} MB after"),
             ("pass search answers", ", ".join(f"{k}: {v}" for k, v in sorted(result["pass_answers"].items()))),
             (f"{args.big_mb} MB POST, foreign Origin", f"{result['big_post'].get('status')} after "
-                                                        f"{result['big_post'].get('seconds', math.nan):.2f} s")]
+                                                        f"{result['big_post'].get('seconds', math.nan):.2f} s"),
+            ("log bytes written", f"{result['log_bytes']['pass_search_flood']} during the search flood, "
+                                  f"{result['log_bytes']['big_post']} for the big POST")]
     width = max(len(r[0]) for r in rows)
     print(f"abuse of an exposed urc run ({args.clients} unauthenticated pass-search clients, "
           f"{args.satellites} satellites, {args.window_s:g} s)")
     for name, value in rows:
         print(f"  {name:<{width}}  {value}")
     write_json(result, args.json)
+
+
+def _answers(url: str) -> bool:
+    try:
+        return httpx.get(url + "/api/status", timeout=2.0).status_code == 200
+    except httpx.HTTPError:
+        return False
 
 
 if __name__ == "__main__":

@@ -131,7 +131,8 @@ async def _serve(cfg: Config, state_dir: Path, config_path: Path | None, api_soc
 
     from .api import create_api
     from .servers import start_endpoints
-    from .servers.limits import MAX_HTTP_CONNECTIONS, bound_library_logs, raise_open_file_limit
+    from .servers.limits import (MAX_HTTP_CONNECTIONS, bound_library_logs, capped_http_protocol,
+                                 raise_open_file_limit)
     from .service.control_process import ControlProcess
     from .service.loop import sd_notifier
     from .tracking.service import TrackingService
@@ -162,8 +163,13 @@ async def _serve(cfg: Config, state_dir: Path, config_path: Path | None, api_soc
         tracking = TrackingService(rotator, cfg, background=True)  # planning off the event loop
         api = create_api(rotator, cfg, config_path=config_path, state_dir=state_dir,
                          tracker=tracking if tracking.station is not None or tracking.gps is not None else None)
+        from uvicorn.protocols.http.auto import AutoHTTPProtocol
+
         server = _api_server(uvicorn.Config(api, log_level="warning", lifespan="off",
-                                            limit_concurrency=MAX_HTTP_CONNECTIONS))
+                                            http=capped_http_protocol(AutoHTTPProtocol, MAX_HTTP_CONNECTIONS),
+                                            # (counts the connection asking: one more, so every
+                                            # admitted connection is served)
+                                            limit_concurrency=MAX_HTTP_CONNECTIONS + 1))
         # every protocol port or none (the API port is bound already)
         endpoints = await start_endpoints(cfg.served, rotator.for_sessions())
         caps = rotator.caps
@@ -176,7 +182,7 @@ async def _serve(cfg: Config, state_dir: Path, config_path: Path | None, api_soc
         for ep in endpoints:
             print(f"urc: serving {ep.description}", flush=True)
         tracking.start()
-        _announce_tracking(tracking, cfg)
+        await _announce_tracking(tracking, cfg)
 
         notify = sd_notifier()
         web = asyncio.create_task(server.serve(sockets=[api_socket]), name="api")
@@ -231,14 +237,16 @@ async def _serve(cfg: Config, state_dir: Path, config_path: Path | None, api_soc
           "(the next start treats the position as uncertain)", flush=True)
 
 
-def _announce_tracking(tracking, cfg: Config) -> None:
+async def _announce_tracking(tracking, cfg: Config) -> None:
     if tracking.station is None and tracking.gps is None:
         print("urc: tracking off: no [station] configured", flush=True)
     elif tracking.station is None:
         print(f"urc: station position will come from the GPS on {cfg.station.gps}", flush=True)
     elif cfg.tracking.schedule:
         try:
-            for p in tracking.run_schedule():
+            # planned on a thread: the protocol ports serve meanwhile (nothing else
+            # touches the tracker before the API and the tracker's steps start)
+            for p in await asyncio.to_thread(tracking.run_schedule):
                 print(f"urc: scheduled {p.name} {p.aos:%Y-%m-%d %H:%M:%S}Z max el {p.max_el_deg:.0f}", flush=True)
         except Exception as exc:  # a bad catalog must not keep the controller from running
             print(f"urc: schedule not run: {exc}", flush=True)

@@ -127,6 +127,26 @@ def test_link_loss_faults_then_stops_on_reconnect(tmp_path):
     assert rig.link.sent[n][1] == b"SA SE\n", rig.link.sent[n:n + 3]
 
 
+def test_during_a_link_outage_status_does_not_say_moving(tmp_path):
+    """Cut mid-move: the last measured speed stays in the axis (issue 21: status said
+    `moving: true` over a frozen position for the whole outage). Status shows the link
+    fault and no motion it cannot see; the state record still keeps the speed (a
+    restart must not trust the frozen position as a rest)."""
+    rig = rig_for("easycomm3", tmp_path)
+    rig.downstream.goto(200.0, 50.0)
+    s = rig.run(2.0)
+    assert s.moving, s
+    rig.link.cut("cable pulled", rig.clock.now_s())
+    s = rig.run(3.0, until=lambda s: bool(s.faults))
+    assert any(f.kind == "sensor_dead" for f in s.faults), s.faults
+    frozen = s.az.pos_deg
+    for _ in range(4):
+        s = rig.run(0.5)
+        assert s.az.pos_deg == frozen and not s.az.sensor_ok
+        assert not s.moving, (s.az, s.el)
+    assert any(ax["moving"] for ax in rig.downstream._record["axes"].values()), rig.downstream._record
+
+
 # ------------------------------------------------------------------ a whole pass
 FIXTURES = Path(__file__).resolve().parents[1] / "tracking" / "fixtures"
 T0_UNIX_S = 1704110400.0  # 2024-01-01 12:00 UTC, hours after the fixture epochs

@@ -11,6 +11,7 @@ and asyncio's own repeated messages are logged at a bounded rate.
 
 from __future__ import annotations
 
+import asyncio
 import logging
 import resource
 import time
@@ -24,8 +25,13 @@ log = logging.getLogger("urc.servers")
 #: thread each; a station has a handful: tracker, logger, SDR software, a dashboard)
 MAX_CLIENTS_PER_PORT = 64
 #: HTTP connections at once (the dashboard holds one WebSocket per open page): beyond
-#: this uvicorn answers 503
+#: this a connection is closed as it arrives (``capped_http_protocol``), and a request
+#: while this many are open is answered 503 (uvicorn's ``limit_concurrency``)
 MAX_HTTP_CONNECTIONS = 256
+#: an HTTP connection that has sent nothing for this long is closed (a browser sends its
+#: request at once; nginx's client_header_timeout is 60 s): idle connections cannot
+#: hold the places of the clients that would use them
+FIRST_REQUEST_S = 10.0
 #: one line per kind of repeated message per this many seconds
 LOG_INTERVAL_S = 10.0
 
@@ -103,3 +109,54 @@ def bound_library_logs(names: tuple[str, ...] = ("asyncio", "uvicorn.error")) ->
         if not any(isinstance(f, RepeatFilter) for f in logger.filters):
             logger.addFilter(flt)
     return flt
+
+
+def capped_http_protocol(base: type, limit: int = MAX_HTTP_CONNECTIONS,
+                         first_request_s: float = FIRST_REQUEST_S) -> type:
+    """uvicorn's HTTP protocol class ``base`` closing every connection beyond ``limit``
+    as it arrives, and one that sends nothing for ``first_request_s`` (for
+    uvicorn.Config(http=...)). uvicorn's ``limit_concurrency`` only answers 503 to a
+    request: connections that never sent one were all accepted and held for good, and
+    1500 of them under a file limit of 1024 took every descriptor of the I/O process
+    (the API answered 2 requests in 12 under that flood, rotctld ~1 s late)."""
+
+    class Capped(base):  # type: ignore[misc, valid-type]
+        _refused = False
+        _silence: asyncio.TimerHandle | None = None
+
+        def connection_made(self, transport) -> None:  # type: ignore[no-untyped-def]
+            if len(self.connections) >= limit:  # (uvicorn's set of open connections)
+                self._refused = True
+                _refusals.warning("%s: %d clients already; further connections are closed at once",
+                                  "HTTP", limit)
+                transport.abort()
+                return
+            super().connection_made(transport)
+            self._silence = asyncio.get_running_loop().call_later(first_request_s, self._silent, transport)
+
+        def _silent(self, transport) -> None:  # type: ignore[no-untyped-def]
+            self._silence = None
+            _refusals.warning("HTTP: connections that sent nothing for %g s are closed", first_request_s)
+            transport.close()
+
+        def data_received(self, data: bytes) -> None:
+            if self._refused:
+                return
+            if self._silence is not None:
+                self._silence.cancel()
+                self._silence = None
+            super().data_received(data)
+
+        def connection_lost(self, exc: Exception | None) -> None:
+            if self._refused:
+                return
+            if self._silence is not None:
+                self._silence.cancel()
+                self._silence = None
+            super().connection_lost(exc)
+
+        def eof_received(self):  # type: ignore[no-untyped-def]
+            return None if self._refused else super().eof_received()
+
+    Capped.__name__ = Capped.__qualname__ = f"Capped{base.__name__}"
+    return Capped

@@ -19,6 +19,7 @@ from ..control import law
 from ..control.faults import Fault, MonitorInputs
 from .axis import Axis
 from .core import Core
+from .guard_resume import GuardRetry
 from .settings import FIXED_EL_DEG, RotatorSettings
 from .timing import LoopTiming
 
@@ -42,6 +43,8 @@ class Guard:
     def __init__(self, core: Core, timing: LoopTiming):
         self.core = core
         self.timing = timing
+        #: a standing target the limit guard cut short on a prediction alone
+        self.retry = GuardRetry()
 
     def set_stall_rule(self, settings: RotatorSettings) -> None:
         t = self.timing
@@ -127,6 +130,16 @@ class Guard:
         return True
 
     # ---------------------------------------------------------------- the guard
+    def retry_after_cut(self, now_s: float) -> None:
+        """A target the guard cut short on a prediction, approached again from rest."""
+        core = self.core
+        for ax in core.axes.values():
+            target = self.retry.due(ax.name, ax.sp, ax.law, abs(ax.rate_deg_per_s) <= ax.still_rate_deg_per_s)
+            if target is not None:
+                ax.sp = law.Setpoint(target, 0.0, now_s, seq=core.next_seq())
+                self.retry.retrying(ax.name, ax.sp.seq)
+                core.event(f"{ax.name}: approaching {target:.2f} deg again after the guard's stop")
+
     def limit(self) -> None:
         """Last line of defence: no drive beyond a soft limit, an active limit switch or
         into a keep-out zone, whatever the law asked for."""
@@ -148,14 +161,17 @@ class Guard:
             heading_deg = ax.sp.target_deg if ax.sp is not None else ax.meas_deg
             to_max = ax.limit_max and heading_deg >= ax.meas_deg
             to_min = ax.limit_min and heading_deg <= ax.meas_deg
-            if (d > 0 and (to_max or ax.meas_deg > hi + slack or rest > hi + margin)) or \
-               (d < 0 and (to_min or ax.meas_deg < lo - slack or rest < lo - margin)):
+            switch_or_over = (to_max or ax.meas_deg > hi + slack) if d > 0 else (to_min or ax.meas_deg < lo - slack)
+            if switch_or_over or (d > 0 and rest > hi + margin) or (d < 0 and rest < lo - margin):
                 ax.out = replace(ax.out, duty=0.0)
                 # hold here, or come back inside if it overran: a standing target within
                 # the limits (a park or goto to the limit then still ends at the limit)
+                cut_sp = ax.sp
                 ax.sp = law.Setpoint(min(max(ax.meas_deg, lo), hi), 0.0, core.clock.now_s(),
                                      seq=core.next_seq())
-                core.event(f"guard: {ax.name} stopped at {ax.meas_deg:.2f} deg before its limit")
+                again = self.retry.cut(ax.name, cut_sp, ax.sp.seq, (lo, hi), predicted_only=not switch_or_over)
+                core.event(f"guard: {ax.name} stopped at {ax.meas_deg:.2f} deg before its limit"
+                           + ("; its target is approached again once it rests" if again else ""))
         if not core.geometry.zones:
             return
         present = list(core.axes.values())

@@ -139,6 +139,7 @@ class Rotator:
         self._guard.sense(now, dt)
         commands.run_queued()
         commands.advance_route()
+        self._guard.retry_after_cut(now)
         commands.check_parked()
         commands.maybe_idle_park(now)
         held = self.timing.held(now)

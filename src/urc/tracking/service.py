@@ -9,7 +9,8 @@ from pathlib import Path
 from typing import Any, Callable
 
 from ..config import Config
-from .elements import Catalog
+from ..ipc import bridge
+from .elements import Catalog, ElementSet
 from .errors import TrackingError
 from .pass_process import find_passes_isolated
 from .pass_process import shutdown as stop_pass_process
@@ -259,13 +260,37 @@ class TrackingService:
         station = self._require_station()
         aos_unix_s = aos.timestamp() if hasattr(aos, "timestamp") else float(aos)
         es = self.catalog().get(norad)
+        tracker = self.tracker
+        assert tracker is not None  # (made with the station)
+        generation = tracker.generation
+        job = self._off_loop(self._find_and_plan_pass, es, station, aos_unix_s, self.rot.clock.now_s())
+        if tracker.generation != generation:  # a stop or another target meanwhile: it wins
+            raise TrackingError(f"the pass of {es.label} was not flown: another tracking command came "
+                                "while it was being planned")
+        tracker.fly(job)
+        return self.status() or {}
+
+    def _find_and_plan_pass(self, es: ElementSet, station: Station, aos_unix_s: float, now_s: float):
+        """The pass of ``es`` whose AOS is near ``aos_unix_s``, planned (pure: a worker may run it)."""
         found = [p for p in find_passes(es, station, aos_unix_s - 600.0, duration_s=1800.0,
                                         min_el_deg=self.cfg.tracking.min_el_deg)
                  if abs(p.aos_unix_s - aos_unix_s) < 300.0]
         if not found:
             raise TrackingError(f"no pass of {es.label} with AOS near the time given")
-        self.tracker.track_pass(es, found[0], self.rot.clock.now_s())
-        return self.status() or {}
+        assert self.tracker is not None
+        return self.tracker.plan_pass(es, found[0], now_s)
+
+    def _off_loop(self, fn: Callable[..., Any], *args: Any) -> Any:
+        """``fn(*args)`` on the worker when there is one (``urc run``). A caller on the
+        event loop (a web route's bridged call) is suspended meanwhile, never the loop:
+        a pass search and plan cost seconds of CPU under load, and the loop's silence
+        stops the axes (issue 21)."""
+        if self._executor is None:
+            return fn(*args)
+        future = self._executor.submit(fn, *args)
+        if bridge.in_bridge():
+            return bridge.wait(asyncio.wrap_future(future))
+        return future.result()
 
     def _stop_reader(self) -> None:
         if self._target_reader is not None:
@@ -302,7 +327,10 @@ class TrackingService:
         if self.tracker.target is None and self._schedule:
             nxt = self._schedule[0]
             if self.unix_at(now_s) < nxt.los_unix_s:
-                self.tracker.track_pass(self.catalog().get(nxt.norad_id), nxt, now_s)
+                # the catalog as installed (a changed file is read by _watch_catalog, on
+                # the worker); the plan is made there too
+                cat = self._catalog if self._catalog is not None else self.catalog()
+                self.tracker.start_pass(cat.get(nxt.norad_id), nxt, now_s)
             self._schedule.pop(0)
         self.tracker.step(now_s)
 

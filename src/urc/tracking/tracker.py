@@ -99,12 +99,39 @@ class Tracker:
         self._next_update_s = -math.inf
 
     def track_pass(self, elements: ElementSet, p: Pass, now_s: float) -> Plan:
-        """Fly one given pass (the web page's "track this pass")."""
+        """Fly one given pass (the web page's "track this pass"), planned here."""
+        return self.fly(self.plan_pass(elements, p, now_s))
+
+    def plan_pass(self, elements: ElementSet, p: Pass, now_s: float) -> _PassJob:
+        """One given pass and its plan; pure like ``_search_and_plan`` (a worker may run it)."""
+        target = SatelliteTarget(elements, self.station)
+        return _PassJob(target, p, self._plan(target, p, now_s))
+
+    def fly(self, job: _PassJob) -> Plan:
+        """Fly a pass planned by ``plan_pass``."""
+        self.stop_tracking()
+        self.target, self.job = job.target, job
+        return job.plan
+
+    def start_pass(self, elements: ElementSet, p: Pass, now_s: float) -> None:
+        """Fly one given pass (a scheduled one), planned on ``background`` when there is
+        one: planning a pass costs up to seconds of CPU, and on the event loop its
+        silence stopped the axes mid-pre-positioning (issue 21). Status says "planning"
+        until ``step`` installs the plan."""
+        if self.background is None:
+            self.track_pass(elements, p, now_s)
+            return
         self.stop_tracking()
         target = SatelliteTarget(elements, self.station)
         self.target = target
-        self.job = _PassJob(target, p, self._plan(target, p, now_s))
-        return self.job.plan
+        self._generation += 1
+        self._planning = (self._generation, self.background.submit(self._plan_or_why, target, p, now_s))
+
+    def _plan_or_why(self, target: SatelliteTarget, p: Pass, now_s: float) -> tuple[_PassJob | None, str]:
+        try:
+            return _PassJob(target, p, self._plan(target, p, now_s)), ""
+        except PlanError as exc:
+            return None, f"{target.name}: {exc}"
 
     def stop_tracking(self) -> None:
         self.target = None
@@ -156,6 +183,11 @@ class Tracker:
         return True
 
     @property
+    def generation(self) -> int:
+        """Bumped by every tracking command: work planned meanwhile is stale."""
+        return self._generation
+
+    @property
     def planning(self) -> bool:
         """A search for the next pass is running in the background."""
         return self._planning is not None
@@ -180,13 +212,18 @@ class Tracker:
         if generation != self._generation:
             return  # the operator asked for something else meanwhile
         try:
-            self._install(future.result())
+            result = future.result()
         except Exception as exc:  # a bad element set, a bug: shown, never raised into the loop
             log.exception("planning the next pass failed")
-            self.job, self.last_error = None, f"planning the next pass failed: {exc}"
+            result = None, f"planning the next pass failed: {exc}"
+        self._install(result)
 
     def _install(self, result: tuple[_PassJob | None, str]) -> None:
         self.job, self.last_error = result
+        if self.job is None and not self.follow_satellite and self.target is not None:
+            # one given pass (scheduled) that cannot be flown: said, and the schedule goes on
+            log.warning("pass not flown: %s", self.last_error)
+            self.target = None
 
     def _search_and_plan(self, target: SatelliteTarget, now_s: float) -> tuple[_PassJob | None, str]:
         """The next pass of ``target`` and its plan, or (None, why not). Pure: it may run
