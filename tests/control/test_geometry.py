@@ -1,5 +1,6 @@
 """Cable wrap, flip, keep-out zones and path planning."""
 
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -103,3 +104,16 @@ def test_starting_in_the_margin_band_may_not_enter_the_zone():
     roof = KeepOut("roof", 330, 20, 0, 8)
     g = Geometry(0, 450, 0, 90, zones=(roof,), zone_margin_deg=1.3)
     assert g.segment_clear((21.0, 0.0), (0.0, 9.0), RATES) is not None
+
+
+def test_a_fixed_elevation_on_a_zone_band_edge_measures_depth_along_azimuth():
+    """A single-axis rotator's beam at el 0 in a zone from the horizon: only the azimuth
+    can take it out, so the depth is the azimuth's (it was 0 at any azimuth)."""
+    roof = KeepOut("roof", 330.0, 20.0, 0.0, 8.0)
+    assert roof.depth_deg(10.0, 0.0) == 0.0
+    assert roof.depth_deg(10.0, 0.0, el_fixed=True) == pytest.approx(10.0)
+    assert roof.depth_deg(18.0, 0.0, el_fixed=True) == pytest.approx(2.0)
+    assert roof.depth_deg(25.0, 0.0, el_fixed=True) == pytest.approx(-5.0)
+    turntable = Geometry(-180.0, 540.0, 0.0, 0.0, zones=(roof,))
+    assert turntable.deeper_into_zone((19.4, 0.0), (18.9, 0.0), margin_deg=0.1) == roof
+    assert turntable.deeper_into_zone((18.9, 0.0), (19.4, 0.0), margin_deg=0.1) is None

@@ -54,6 +54,17 @@ EXAMPLES = {p.stem: p for p in (Path(__file__).resolve().parents[2] / "examples"
 @given(steps=st.lists(step, min_size=1, max_size=4))
 def test_no_command_sequence_leaves_limits_or_enters_a_zone_on_emulated_gpio(example, steps):
     """The same property through the gpio backend's real drivers on emulated parts."""
+    check_example_sequence(example, steps)
+
+
+def test_a_turntable_standing_in_a_zone_is_not_let_deeper_into_it():
+    """Found by the property above: the turntable's beam (el 0) stands on the edge of the
+    roof's elevation band, where the zone's depth was 0 at any azimuth, so a track that
+    turned back inside the roof was never seen going deeper."""
+    check_example_sequence("trc-turntable", [(("track", 30.229261152447787, 0.0, -2.0, 0.0), 5.641910441665534)])
+
+
+def check_example_sequence(example: str, steps) -> None:
     from urc.config import load_config
     cfg = load_config(EXAMPLES[example])
     hardware = cfg.to_dict()["hardware"]

@@ -47,13 +47,19 @@ class KeepOut:
             return True
         return (wrap360(az_deg) - lo) % 360.0 <= width
 
-    def depth_deg(self, az_deg: float, el_deg: float) -> float:
+    def depth_deg(self, az_deg: float, el_deg: float, el_fixed: bool = False) -> float:
         """How far inside the zone a direction is (degrees to its nearest edge, along
-        az or el); negative outside (minus the distance to the zone)."""
+        az or el); negative outside (minus the distance to the zone). ``el_fixed``: the
+        elevation cannot move (a single-axis rotator), so only the azimuth can take the
+        beam out of a zone whose elevation band holds it, and only it measures depth
+        (on the band's edge, el 0 of a zone from the horizon, the depth was 0 whatever
+        the azimuth: a turntable was let on deeper into a zone it stood in)."""
         width = self.az_width_deg
         rel = (wrap360(az_deg) - self.az_min_deg) % 360.0
         d_az = min(rel, width - rel) if rel <= width else -min(rel - width, 360.0 - rel)
         if self.el_min_deg <= el_deg <= self.el_max_deg:
+            if el_fixed:
+                return d_az
             d_el = min(el_deg - self.el_min_deg, self.el_max_deg - el_deg)
         else:
             d_el = -min(abs(el_deg - self.el_min_deg), abs(el_deg - self.el_max_deg))
@@ -106,8 +112,9 @@ class Geometry:
         """The zone that moving from pose ``now`` to pose ``ahead`` goes into: from
         outside into the zone grown by ``margin_deg``, or deeper into it from within."""
         sky_now, sky_ahead = self.to_sky(*now), self.to_sky(*ahead)
+        el_fixed = self.el_min_deg == self.el_max_deg
         for z in self.zones:
-            d_now, d_ahead = z.depth_deg(*sky_now), z.depth_deg(*sky_ahead)
+            d_now, d_ahead = z.depth_deg(*sky_now, el_fixed), z.depth_deg(*sky_ahead, el_fixed)
             if d_ahead > -margin_deg and d_ahead > d_now + 1e-3:
                 return z
         return None
