@@ -12,7 +12,7 @@ _MODEL_CONFIG = ConfigDict(strict=True, frozen=True, extra="forbid", validate_de
 def num(default: Any = None, *, ge: float | None = None, le: float | None = None,
         gt: float | None = None, lt: float | None = None, description: str = "") -> Any:
     """A finite number field (ints accepted)."""
-    return Field(default, ge=ge, le=le, gt=gt, lt=lt, allow_inf_nan=False,
+    return Field(default=default, ge=ge, le=le, gt=gt, lt=lt, allow_inf_nan=False,
                  description=description)
 
 

@@ -66,7 +66,7 @@ def _range_text(info: Any) -> str:
     lo = parts.get("ge", parts.get("gt"))
     hi = parts.get("le", parts.get("lt"))
     if "ge" in parts and "le" in parts:
-        return f" in {fmt(lo)}..{fmt(hi)}"
+        return f" in {fmt(parts['ge'])}..{fmt(parts['le'])}"
     bits = []
     if lo is not None:
         bits.append(f"{'>=' if 'ge' in parts else '>'} {fmt(lo)}")

@@ -15,44 +15,44 @@ class PanelButtons(Section):
     """GPIO (BCM) numbers of the front-panel push-buttons, wired to ground (pull-up);
     omitted = not fitted."""
 
-    cw: int | None = Field(None, ge=0, le=53)
-    ccw: int | None = Field(None, ge=0, le=53)
-    up: int | None = Field(None, ge=0, le=53)
-    down: int | None = Field(None, ge=0, le=53)
-    stop: int | None = Field(None, ge=0, le=53)
-    park: int | None = Field(None, ge=0, le=53)
+    cw: int | None = Field(default=None, ge=0, le=53)
+    ccw: int | None = Field(default=None, ge=0, le=53)
+    up: int | None = Field(default=None, ge=0, le=53)
+    down: int | None = Field(default=None, ge=0, le=53)
+    stop: int | None = Field(default=None, ge=0, le=53)
+    park: int | None = Field(default=None, ge=0, le=53)
     #: held with a turn button: jog slowly (G4JNT); stores Z in its zero setting
-    slow: int | None = Field(None, ge=0, le=53)
+    slow: int | None = Field(default=None, ge=0, le=53)
 
 
 class PanelLeds(Section):
     """GPIO (BCM) numbers of the status LEDs (Tartu: one per direction, one for errors)."""
 
-    cw: int | None = Field(None, ge=0, le=53)
-    ccw: int | None = Field(None, ge=0, le=53)
-    up: int | None = Field(None, ge=0, le=53)
-    down: int | None = Field(None, ge=0, le=53)
+    cw: int | None = Field(default=None, ge=0, le=53)
+    ccw: int | None = Field(default=None, ge=0, le=53)
+    up: int | None = Field(default=None, ge=0, le=53)
+    down: int | None = Field(default=None, ge=0, le=53)
     #: error LED: blink codes (see urc.frontpanel.indicators)
-    fault: int | None = Field(None, ge=0, le=53)
+    fault: int | None = Field(default=None, ge=0, le=53)
 
 
 class PanelLcd(Section):
     """An HD44780 character LCD on a PCF8574 I2C backpack."""
 
-    bus: int = Field(1, ge=0, le=31)
-    address: int = Field(0x27, ge=0x03, le=0x77)
-    cols: int = Field(20, ge=16, le=20)
-    rows: int = Field(2, ge=2, le=4)
+    bus: int = Field(default=1, ge=0, le=31)
+    address: int = Field(default=0x27, ge=0x03, le=0x77)
+    cols: int = Field(default=20, ge=16, le=20)
+    rows: int = Field(default=2, ge=2, le=4)
 
 
 class PanelOled(Section):
     """An SSD1306 OLED on I2C (Berkeley-style boards)."""
 
-    bus: int = Field(1, ge=0, le=31)
-    address: int = Field(0x3C, ge=0x03, le=0x77)
-    width: int = Field(128, ge=128, le=128)
-    height: int = Field(64, ge=32, le=64)
-    contrast: int = Field(0xCF, ge=0, le=255)
+    bus: int = Field(default=1, ge=0, le=31)
+    address: int = Field(default=0x3C, ge=0x03, le=0x77)
+    width: int = Field(default=128, ge=128, le=128)
+    height: int = Field(default=64, ge=32, le=64)
+    contrast: int = Field(default=0xCF, ge=0, le=255)
 
 
 class PanelIr(Section):
@@ -83,7 +83,7 @@ class PanelSection(Section):
     bounce_s: float = num(0.02, ge=0.0, le=0.5)
     buttons: PanelButtons = PanelButtons()
     leds: PanelLeds = PanelLeds()
-    beeper: int | None = Field(None, ge=0, le=53)
+    beeper: int | None = Field(default=None, ge=0, le=53)
     #: BIG-RAS "Beeper type": "off" (silent), "dc" (an active beeper: on/off) or the tone
     #: in Hz, 200..5000, for a passive one (driven with PWM at that frequency)
     beeper_type: Literal["off", "dc"] | typing.Annotated[int, Field(ge=200, le=5000)] = "dc"
@@ -92,7 +92,7 @@ class PanelSection(Section):
     beep_on_command: bool = False
     #: BIG-RAS "Backlight", percent: the OLED's brightness; a PCF8574 LCD backpack
     #: switches its backlight only, on above 0
-    backlight_pct: int = Field(100, ge=0, le=100)
+    backlight_pct: int = Field(default=100, ge=0, le=100)
     #: BIG-RAS "Screensaver": the display goes dark this long after the last key (a
     #: button, the IR remote) or fault; 0 = always lit. A key wakes it.
     screensaver_s: float = num(0.0, ge=0.0, le=86400.0)

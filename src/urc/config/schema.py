@@ -31,7 +31,7 @@ class Config(Section):
     offsets: OffsetsSection = OffsetsSection()
     #: ``cfg.park.az_deg`` is the setting; ``cfg.park(caps)`` the resolved position.
     park: ParkSection = ParkSection()
-    keepout: tuple[KeepoutZone, ...] = Field((), strict=False)
+    keepout: tuple[KeepoutZone, ...] = Field(default=(), strict=False)
     control: ControlSection = ControlSection()
     faults: FaultsSection = FaultsSection()
     api: ApiSection = ApiSection()
@@ -39,7 +39,7 @@ class Config(Section):
     station: StationSection = StationSection()
     tracking: TrackingSection = TrackingSection()
     #: protocols served and where; None (no [[serve]] at all) = rotctld on 127.0.0.1:4533
-    serve: tuple[ServeEntry, ...] | None = Field(None, strict=False)
+    serve: tuple[ServeEntry, ...] | None = Field(default=None, strict=False)
     panel: PanelSection = PanelSection()
     #: None (no [mqtt]) = no broker (urc.mqtt)
     mqtt: MqttSection | None = None

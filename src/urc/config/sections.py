@@ -12,7 +12,7 @@ from typing import Literal
 
 from pydantic import Field
 
-from ..caps import RotatorCaps
+from ..caps import AxisCaps, RotatorCaps
 from ..control.geometry import KeepOut
 from ..profiles import DEFAULT_PROFILE
 from .base import Section, num
@@ -39,7 +39,7 @@ class RotatorSection(Section):
     max_el_deg: float | None = num(None)
     #: BIG-RAS "Pulse/degree": pulses the rotator's pulse sensor gives per degree (both
     #: axes; profiles with pulse feedback only); None = the profile's
-    pulses_per_deg: int | None = Field(None, ge=1, le=100)
+    pulses_per_deg: int | None = Field(default=None, ge=1, le=100)
     #: BIG-RAS "Zero point": where the rotator's mechanical zero points, "north" or
     #: "south". South: the mechanical frame (limits, park, the pulse count) starts at
     #: south, compass azimuth = mechanical + 180 (+ offsets.az_deg). Protocols, status
@@ -58,8 +58,13 @@ class RotatorSection(Section):
                                             park_deg=min(caps.el.park_deg, float(self.max_el_deg))))
         if self.pulses_per_deg is not None:
             step_deg = 1.0 / self.pulses_per_deg
-            caps = replace(caps, **{n: replace(caps.axis(n), sensor=replace(caps.axis(n).sensor, resolution_deg=step_deg))
-                                    for n in ("az", "el") if caps.axis(n).sensor.kind == "pulse"})
+
+            def stepped(axis: AxisCaps) -> AxisCaps:
+                if axis.sensor.kind != "pulse":
+                    return axis
+                return replace(axis, sensor=replace(axis.sensor, resolution_deg=step_deg))
+
+            caps = replace(caps, az=stepped(caps.az), el=stepped(caps.el))
         return caps if self.elevation else caps.single_axis()
 
     @property
@@ -158,7 +163,7 @@ class FaultsSection(Section):
     watchdog_recover_s: float = num(1.0, ge=0.0, le=60.0)
     #: this many stalls within watchdog_latch_window_s latch a watchdog fault (cleared
     #: only by an operator); fewer are ridden out
-    watchdog_latch_stalls: int = Field(3, ge=1, le=1000)
+    watchdog_latch_stalls: int = Field(default=3, ge=1, le=1000)
     watchdog_latch_window_s: float = num(600.0, gt=0.0, le=86400.0)
     #: urc run's I/O process takes the outputs over from a control process that is dead
     #: or has published no status for this long (frozen): it kills it, drives every
@@ -168,8 +173,8 @@ class FaultsSection(Section):
 
 
 class ApiSection(Section):
-    host: str = Field("127.0.0.1", min_length=1)
-    port: int = Field(8080, ge=0, le=65535)
+    host: str = Field(default="127.0.0.1", min_length=1)
+    port: int = Field(default=8080, ge=0, le=65535)
     token: str = ""
 
     @property
@@ -221,7 +226,7 @@ class StationSection(Section):
     #: a GPS receiver's NMEA stream: a device path or "tcp:HOST:PORT"; its fix sets the
     #: station when lat/lon are not given, and tells whether the system clock is right
     gps: str = ""
-    gps_baud: int = Field(9600, ge=50, le=4_000_000)
+    gps_baud: int = Field(default=9600, ge=50, le=4_000_000)
 
     @property
     def configured(self) -> bool:
@@ -243,9 +248,9 @@ class TrackingSection(Section):
     #: park when a pass ends
     park_after_pass: bool = True
     #: CelesTrak groups `urc tle update` downloads
-    groups: tuple[str, ...] = Field(("stations", "amateur", "cubesat", "weather"), strict=False)
+    groups: tuple[str, ...] = Field(default=("stations", "amateur", "cubesat", "weather"), strict=False)
     #: satellites to track automatically, pass by pass, by priority
-    schedule: tuple[ScheduleEntry, ...] = Field((), strict=False)
+    schedule: tuple[ScheduleEntry, ...] = Field(default=(), strict=False)
 
     def resolve_catalog_dir(self) -> Path:
         if self.catalog_dir:
@@ -267,11 +272,11 @@ class ServeEntry(Section):
     #: a real serial device, e.g. "/dev/ttyUSB0"
     serial: str | None = None
     #: serial rate; None = the protocol's own default (Tartu 115200, GS-232 9600 ...)
-    baud: int | None = Field(None, ge=50, le=4_000_000)
+    baud: int | None = Field(default=None, ge=50, le=4_000_000)
     #: "host:port" to listen on for datagrams (PstRotator)
     udp: str | None = None
     #: UDP replies go to the sender's host on this port (PstRotator listens on 12001)
-    reply_port: int = Field(12001, ge=1, le=65535)
+    reply_port: int = Field(default=12001, ge=1, le=65535)
     #: protocol-specific options, e.g. { hamlib_version = "4.6" }
     options: dict[str, str | int | float | bool] = Field(default_factory=dict, strict=False)
 

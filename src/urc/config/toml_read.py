@@ -37,15 +37,16 @@ def load_config(path: str | os.PathLike[str] | None) -> Config:
 def loads_config(text: str | bytes, source: str = "<string>") -> Config:
     """Parse TOML text (str or UTF-8 bytes) into a Config."""
     if isinstance(text, bytes):
+        raw = text
         try:
-            text = text.decode("utf-8")
+            text = raw.decode("utf-8")
         except UnicodeDecodeError as exc:
-            line = text[:exc.start].count(b"\n") + 1
-            col = exc.start - (text.rfind(b"\n", 0, exc.start) + 1) + 1
+            line = raw[:exc.start].count(b"\n") + 1
+            col = exc.start - (raw.rfind(b"\n", 0, exc.start) + 1) + 1
             raise ConfigError(
                 f"{source}:{line}:{col}: expected UTF-8 text, found byte "
-                f"0x{text[exc.start]:02x} at line {line}, column {col}",
-                path=source, expected="UTF-8 text", found=text[exc.start:exc.end]) from None
+                f"0x{raw[exc.start]:02x} at line {line}, column {col}",
+                path=source, expected="UTF-8 text", found=raw[exc.start:exc.end]) from None
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:

@@ -144,16 +144,16 @@ def gpio_issues(cfg: Config, caps: RotatorCaps) -> list[Issue]:
     bus_users = bool(i2c) or cfg.panel.lcd is not None or cfg.panel.oled is not None
     if bus_users:
         for pin, what in ((2, "I2C1 SDA"), (3, "I2C1 SCL")):
-            for key, p in list(used.items()):
-                if key == pin:
-                    issues.append((p, f"a pin not used by the I2C bus (GPIO{pin} is {what})", pin, ""))
+            if pin in used:
+                issues.append((used[pin], f"a pin not used by the I2C bus (GPIO{pin} is {what})", pin, ""))
             used.setdefault(pin, what)
     p = cfg.panel
     panel = [(f"panel.buttons.{k}", v) for k, v in p.buttons.model_dump().items()] + \
         [(f"panel.leds.{k}", v) for k, v in p.leds.model_dump().items()] + [("panel.beeper", p.beeper)]
-    for key, pin in panel:
-        if pin is not None and pin in used:
-            issues.append((key, f"a GPIO not already used (GPIO{pin} is {used[pin]})", pin, ""))
+    for panel_key, panel_pin in panel:
+        if panel_pin is not None and panel_pin in used:
+            issues.append((panel_key, f"a GPIO not already used (GPIO{panel_pin} is {used[panel_pin]})",
+                           panel_pin, ""))
     return issues
 
 
