@@ -151,14 +151,14 @@ def _as5600(w: AxisWiring, motor: Any) -> Any:
 
 
 def _magnetometer(w: AxisWiring, motor: Any) -> Any:
-    cfg, chip_bus = w.cfg, w.buses.chip_bus(w.bus_n, w.mux_ch)
+    cfg = w.cfg
     chip: Any
     if cfg.compass == "lsm303agr":
         key = (w.bus_n, w.mux_ch, Lsm303agrChip.MAG)
-        chip = w.lsm.get(key) or w.lsm.setdefault(key, Lsm303agrChip(chip_bus))
+        chip = w.lsm.get(key) or w.lsm.setdefault(key, Lsm303agrChip(w.buses.chip_bus(w.bus_n, w.mux_ch)))
     else:
         key = (w.bus_n, w.mux_ch, cfg.i2c_address or Lsm303dChip.ADDRESS)
-        chip = w.lsm.get(key) or w.lsm.setdefault(key, Lsm303dChip(chip_bus, key[2]))
+        chip = w.lsm.get(key) or w.lsm.setdefault(key, Lsm303dChip(w.buses.chip_bus(w.bus_n, w.mux_ch), key[2]))
     w.parts.append((f"{w.name} {cfg.compass.upper()} ({w.on_bus})", chip))
     if w.name == "az":
         return CompassSensor(w.ax_caps.sensor, w.name, Lsm303Mag(chip), Lsm303Accel(chip),
