@@ -43,7 +43,7 @@ class Bench:
         self.state_dir = state_dir
         self.exact = exact
         self.rot = self._build()
-        self.world = self.rot.hw.extra["world"]
+        self.world = self.rot.hw.world
 
     def _build(self):
         return build_rotator(self.cfg, self.clock, self.state_dir, durable_state=False, fast_virtual=not self.exact)
@@ -67,7 +67,7 @@ class Bench:
         nxt = Bench.__new__(Bench)
         nxt.cfg, nxt.clock, nxt.state_dir, nxt.exact = self.cfg, self.clock, self.state_dir, self.exact
         nxt.rot = nxt._build()
-        nxt.world = nxt.rot.hw.extra["world"]
+        nxt.world = nxt.rot.hw.world
         return nxt
 
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from dataclasses import replace
 from pathlib import Path
+from typing import cast
 
 from .clock import Clock
 from .config import Config
@@ -138,15 +139,17 @@ def build_rotator(cfg: Config, clock: Clock, state_dir: Path, durable_state: boo
     hardware = build_hardware(cfg.hardware.backend, settings.caps, clock, state_dir, options)
     if cfg.faults.overcurrent_a == 0:
         # 0 = the backend knows its motors best
-        default_a = hardware.extra.get("overcurrent_a")
+        default_a = hardware.overcurrent_a
         if default_a:
                 settings = replace(settings,
                                az_faults=replace(settings.az_faults, overcurrent_a=default_a.get("az", 0.0)),
                                el_faults=replace(settings.el_faults, overcurrent_a=default_a.get("el", 0.0)))
-    # a backend may keep the state itself (the gpio backend's FRAM)
-    store = hardware.extra.get("state_store") or StateStore(state_dir / STATE_FILE, durable=durable_state)
+    # a backend may keep the state itself: the gpio backend's FRAM store (StateStore's
+    # interface, not derived from it)
+    store = cast(StateStore, hardware.state_store) if hardware.state_store is not None else \
+        StateStore(state_dir / STATE_FILE, durable=durable_state)
     rotator = Rotator(settings, hardware, clock, store)
-    power_fail = hardware.extra.get("power_fail")
+    power_fail = hardware.power_fail
     if power_fail is not None:
         # BIG-RAS saves its position on a power-fail interrupt: urc also stops at once
         power_fail.on_fail, power_fail.save = rotator.power_fail, rotator.save_now

@@ -219,9 +219,8 @@ def config_check(path: str) -> None:
     except ConfigError as exc:
         raise click.ClickException(str(exc)) from None
     click.echo(f"{path}: ok (profile {cfg.rotator.profile})")
+    from .hardware.gpio.checks import gpio_warnings
     from .hardware.gpio.pwm import pwm_advice
-
-    from .config import gpio_warnings
 
     for note in pwm_advice(cfg.hardware.gpio) + gpio_warnings(cfg):
         click.echo(f"warning: {note}")

@@ -25,7 +25,7 @@ class Rig:
         options.setdefault("wind", False)
         options.setdefault("truth_file", None)
         self.hw: Hardware = build_sim_hardware(self.caps, self.clock, state_dir, options)
-        self.world: SimWorld = self.hw.extra["world"]
+        self.world: SimWorld = self.hw.world
         self.hw.poll(self.clock.now_s())
 
     def run(self, seconds: float, step_s: float = 0.02) -> None:

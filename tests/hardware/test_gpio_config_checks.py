@@ -7,8 +7,9 @@ from pathlib import Path
 
 import pytest
 
-from urc.config import BOOT_HIGH_PINS, Config, gpio_warnings, load_config
+from urc.config import Config, load_config
 from urc.errors import ConfigError
+from urc.hardware.gpio.checks import BOOT_HIGH_PINS, gpio_warnings
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 GPIO_EXAMPLES = sorted(EXAMPLES.glob("*.toml"))

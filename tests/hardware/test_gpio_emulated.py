@@ -42,7 +42,7 @@ def _a_goto(s) -> tuple[float, float]:
 @pytest.mark.parametrize("path", EXAMPLES, ids=lambda p: p.stem)
 def test_example_goes_where_it_is_told(path, tmp_path):
     rot, clock = emulated(path, tmp_path)
-    assert rot.hw.backend == "gpio" and rot.hw.extra["emulated"]
+    assert rot.hw.backend == "gpio" and rot.hw.gpio.emulated
     s = rot.status()
     assert s.sim_truth is not None and not s.faults
     az, el = _a_goto(s)
@@ -159,7 +159,7 @@ def test_two_as5600_on_one_bus_and_adc_channel_range():
 def test_i2c_nack_is_a_sensor_fault_that_never_moves(tmp_path):
     rot, clock = emulated(next(p for p in EXAMPLES if p.stem == "berkeley"), tmp_path)
     run_virtual(rot, clock, 0.5)
-    bus = rot.hw.extra["buses"][1]
+    bus = rot.hw.gpio.i2c_buses[1]
     bus.mux_channel(0x70, 0)[0x36].nack = True
     s = run_virtual(rot, clock, 1.0)
     assert any("I2C" in f.reason for f in s.faults), s.faults
@@ -176,7 +176,7 @@ def test_magnet_too_weak_is_a_fault(tmp_path):
     from urc.hardware.parts import MagnetStatus
     rot, clock = emulated(next(p for p in EXAMPLES if p.stem == "berkeley"), tmp_path)
     run_virtual(rot, clock, 0.5)
-    rot.hw.extra["buses"][1].mux_channel(0x70, 1)[0x36].status = MagnetStatus(True, too_weak=True)
+    rot.hw.gpio.i2c_buses[1].mux_channel(0x70, 1)[0x36].status = MagnetStatus(True, too_weak=True)
     s = run_virtual(rot, clock, 1.0)
     assert any("too weak" in f.reason for f in s.faults), s.faults
 
@@ -210,7 +210,7 @@ def test_power_fail_edge_stops_the_motors_brakes_saves_and_shows_a_fault(tmp_pat
     before = store.load()["axes"]["az"]["mech_deg"]
     pos = rot.status().az.pos_deg
     assert abs(before - pos) > 1.0
-    pf = rot.hw.extra["power_fail"]
+    pf = rot.hw.power_fail
     pf.emulate_power_fail()
     # at once, on the edge's callback, before any further tick: every motor pin off,
     # brake coils off (engaged); the state write follows on a thread of its own
@@ -221,7 +221,7 @@ def test_power_fail_edge_stops_the_motors_brakes_saves_and_shows_a_fault(tmp_pat
     pf.saver.join(5.0)
     assert not pf.saver.is_alive()
     after = store.load()["axes"]["az"]["mech_deg"]
-    assert after == pytest.approx(pos, abs=0.6) and rot.hw.extra["power_fail"].events == 1
+    assert after == pytest.approx(pos, abs=0.6) and rot.hw.power_fail.events == 1
     s = rot.status()
     assert [f.kind for f in s.faults] == ["power_fail"] and "motors stopped" in s.faults[0].reason
     # the loop does not drive again, and motion is refused until the fault is cleared
@@ -230,7 +230,7 @@ def test_power_fail_edge_stops_the_motors_brakes_saves_and_shows_a_fault(tmp_pat
     assert s.sim_truth["az"]["deg"] == pytest.approx(t0, abs=0.05) and s.az.duty == 0.0
     with pytest.raises(Exception, match="fault"):
         rot.goto(10.0, 10.0)
-    rot.hw.extra["power_fail"].emulate_power_back()
+    rot.hw.power_fail.emulate_power_back()
     rot.clear_faults()
     rot.goto(100.0, 30.0)
     s = run_virtual(rot, clock, 2.0)
@@ -272,7 +272,7 @@ def test_sarcnet_on_an_lsm303agr(tmp_path):
     data["hardware"]["sim"] = {"wind": False}
     clock = VirtualClock(1000.0)
     rot = build_rotator(Config.from_dict(data), clock, tmp_path, durable_state=False, fast_virtual=True)
-    assert set(rot.hw.extra["buses"][1].devices) == {0x19, 0x1E}
+    assert set(rot.hw.gpio.i2c_buses[1].devices) == {0x19, 0x1E}
     rot.goto(120.0, 40.0)
     s = run_virtual(rot, clock, 120.0, until=lambda s: not s.moving and abs(s.az_deg - 120) < 0.5
                     and abs(s.el_deg - 40) < 0.5)
@@ -350,7 +350,7 @@ def test_current_sense_through_the_adc_trips_overcurrent(tmp_path):
     sees comes through the ADC (cut the CS wire and it reads 0 while the motor runs);
     a jam trips the overcurrent fault before the stall detector would."""
     rot, clock = emulated(next(p for p in EXAMPLES if p.stem == "tartu-urc"), tmp_path)
-    fake = rot.hw.extra["fake_spi"][0]
+    fake = rot.hw.gpio.fake_spi[0]
     rot.goto(150.0, 60.0)
     s = run_virtual(rot, clock, 3.0)
     truth_a = abs(s.sim_truth["az"]["current_a"])
@@ -362,7 +362,7 @@ def test_current_sense_through_the_adc_trips_overcurrent(tmp_path):
     s = run_virtual(rot, clock, 0.1)
     assert s.az.current_a == 0.0 and abs(s.sim_truth["az"]["current_a"]) > 0.3
     fake.inputs[0] = cs
-    rot.hw.extra["world"].inject("az", "jam")
+    rot.hw.world.inject("az", "jam")
     s = run_virtual(rot, clock, 0.6)               # overcurrent holds 0.25 s; a stall takes > 1.5 s
     assert [(f.kind, f.axis) for f in s.faults] == [("overcurrent", "az")], s.faults
     assert s.az.duty == 0.0 and s.el.duty == 0.0
@@ -386,7 +386,7 @@ def test_encoder_index_rereferences_in_an_emulated_run(tmp_path):
     az["encoder_index_deg"] = 100.0
     clock = VirtualClock(1000.0)
     rot = build_rotator(Config.from_dict(data), clock, tmp_path, durable_state=False, fast_virtual=True)
-    enc, quad = rot.hw.az.sensor, rot.hw.extra["emulation"]["az"]
+    enc, quad = rot.hw.az.sensor, rot.hw.gpio.emulation["az"]
 
     def go(az_deg):
         rot.goto(az_deg, 30.0)
@@ -429,7 +429,7 @@ DEAD_SENSOR_FAULTS = {"tartu-urc": {"sensor_stuck"}, "bigras": {"stall"}, "berke
 @pytest.mark.parametrize("path", EXAMPLES, ids=lambda p: p.stem)
 def test_simulator_sensor_dead_reaches_the_emulated_part(path, tmp_path):
     rot, clock = emulated(path, tmp_path)
-    world = rot.hw.extra["world"]
+    world = rot.hw.world
     lo, hi = rot.status().limits["az"]
     rot.goto_az(min(hi - 5.0, 150.0))
     run_virtual(rot, clock, 2.0)
@@ -448,7 +448,7 @@ def test_power_fail_edge_does_not_wait_for_the_disk(tmp_path):
     counts the encoder edges while the axes coast) returns while the disk is still busy."""
     import threading
     rot, clock = _power_fail_rig(tmp_path, "tartu-urc")
-    pf, disk_free, saved = rot.hw.extra["power_fail"], threading.Event(), []
+    pf, disk_free, saved = rot.hw.power_fail, threading.Event(), []
 
     def slow_save():
         disk_free.wait(5.0)                       # an SD card that takes its time
@@ -481,7 +481,7 @@ def test_slow_read_stalls_an_emulated_bus_and_the_watchdog_sees_it(tmp_path):
     try:
         time.sleep(0.3)
         assert rot.status().loop["stalls"] == 0
-        rot.hw.extra["world"].inject("az", "slow_read", delay_s=0.7)
+        rot.hw.world.inject("az", "slow_read", delay_s=0.7)
         deadline = time.monotonic() + 10.0
         while time.monotonic() < deadline and rot.status().loop["stalls"] < 1:
             time.sleep(0.05)
@@ -497,7 +497,7 @@ def _ticks_of_a_goto(path: Path, state_dir: Path, seconds: float = 6.0) -> list[
     """Every tick of a goto on the emulated example: each output pin's level, what the
     controller reads and the simulator's truth (compared bit for bit)."""
     rot, clock = emulated(path, state_dir)
-    factory = rot.hw.extra["pin_factory"]
+    factory = rot.hw.gpio.pin_factory
     outputs = sorted((p for p in factory.pins.values() if p.function == "output"), key=lambda p: p.info.name)
     s = rot.status()
     rot.goto(*_a_goto(s))
@@ -551,6 +551,6 @@ def test_emulated_pins_keep_no_growing_history(path, tmp_path):
     rot, clock = emulated(path, tmp_path)
     rot.goto(*_a_goto(rot.status()))
     run_virtual(rot, clock, 10.0)
-    pins = rot.hw.extra["pin_factory"].pins.values()
+    pins = rot.hw.gpio.pin_factory.pins.values()
     assert max(len(p.states) for p in pins) <= 4, {p.info.name: len(p.states) for p in pins}
     rot.hw.close()

@@ -120,7 +120,7 @@ def test_iron_uses_hardware_pwm_where_the_pin_has_a_channel(iron, tmp_path):
     az.set_drive(-0.4)                                                         # unchanged: no write
     assert len(FakeHardwarePWM.made[1].calls) == 2
     assert el.rpwm.pin.state == pytest.approx(0.7) and el.lpwm.pin.state == 0.0
-    labels = [label for label, _ in hw.extra["parts"]]
+    labels = [label for label, _ in hw.parts]
     assert "az rpwm" in labels and "el rpwm" not in labels
     hw.close()
     assert all(f.calls[-1] == ("stop",) for f in FakeHardwarePWM.made)

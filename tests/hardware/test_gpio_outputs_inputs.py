@@ -65,7 +65,7 @@ def emulated(name: str, tmp_path: Path, **changes):
 def test_close_holds_every_output_at_its_safe_level(tmp_path):
     """gpiozero's close would float the outputs (inputs); urc releases the inputs only."""
     rot, clock = emulated("g5500", tmp_path, az={"active_low": ["cw", "ccw"]})
-    factory = rot.hw.extra["pin_factory"]
+    factory = rot.hw.gpio.pin_factory
     rot.goto_az(rot.status().az_deg + 30.0)
     run_virtual(rot, clock, 3.0)
     rot.hw.drive_safe()
@@ -94,7 +94,7 @@ def test_pulse_debounce_rejects_bounce_in_an_emulated_run(tmp_path):
     """A bouncing reed (two extra closures 0.2 ms after each pulse) counts as many
     pulses as a clean one: the BIG-RAS antenna still ends where the counter says."""
     rot, clock = emulated("bigras", tmp_path)
-    drv = rot.hw.extra["emulation"]["az"]
+    drv = rot.hw.gpio.emulation["az"]
     drv.bounce = 2
     start = rot.status().az_deg
     rot.goto_az(start + 40.0)
@@ -130,7 +130,7 @@ def test_emulated_lmd18200_coasts_further_than_it_brakes(tmp_path):
         m = rot.hw.az
         rot.goto_az(rot.status().az_deg + 60.0)
         run_virtual(rot, clock, 8.0)
-        world = rot.hw.extra["world"]
+        world = rot.hw.world
         x0 = world.truth()["az"]["deg"]
         assert abs(world.truth()["az"]["rate_deg_per_s"]) > 1.0
         m.motor.set_drive(0.0)                      # BRAKE high, PWM high

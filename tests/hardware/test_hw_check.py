@@ -40,7 +40,7 @@ def run_check(cfg, caps, clock, hw, move):
 
 def test_reversed_motor_is_found_and_the_fix_printed(tmp_path):
     cfg, caps, clock, hw = emulated_hw("tartu-urc", tmp_path)
-    hw.extra["world"].inject("az", "reverse_wiring")
+    hw.world.inject("az", "reverse_wiring")
     n, text = run_check(cfg, caps, clock, hw, move=True)
     assert n == 1, text
     assert "az" in text and "counted DOWN" in text and "[hardware.gpio.az] swap ina and inb" in text
@@ -51,15 +51,15 @@ def test_reversed_motor_is_found_and_the_fix_printed(tmp_path):
 
 def test_relay_machine_reversed_fix_names_its_pins(tmp_path):
     cfg, caps, clock, hw = emulated_hw("g5500", tmp_path, start_el_deg=45.0)
-    hw.extra["world"].inject("el", "reverse_wiring")
+    hw.world.inject("el", "reverse_wiring")
     n, text = run_check(cfg, caps, clock, hw, move=True)
     assert "[hardware.gpio.el] swap cw and ccw" in text, text
 
 
 def test_magnet_and_i2c_problems_are_reported(tmp_path):
     cfg, caps, clock, hw = emulated_hw("berkeley", tmp_path)
-    hw.extra["buses"][1].mux_channel(0x70, 0)[0x36].status = MagnetStatus(True, too_strong=True)
-    hw.extra["buses"][1].mux_channel(0x70, 1)[0x36].nack = True
+    hw.gpio.i2c_buses[1].mux_channel(0x70, 0)[0x36].status = MagnetStatus(True, too_strong=True)
+    hw.gpio.i2c_buses[1].mux_channel(0x70, 1)[0x36].nack = True
     n, text = run_check(cfg, caps, clock, hw, move=False)
     assert n >= 2
     assert "too strong" in text and "I2C failed" in text

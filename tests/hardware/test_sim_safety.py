@@ -40,7 +40,7 @@ def _freeze(rot, clock, profile: str, freeze_s: float, timeout_s: float | None) 
     edge: the clock goes on) for ``freeze_s``; returns (az travel until it thaws, the
     top speed, the truth then)."""
     hw = rot.hw
-    world = hw.extra["world"]
+    world = hw.world
     start = world.truth()["az"]["deg"]
     rot.goto_az(start + 150.0)
     _ticks(rot, clock, 12.0)                     # well into the move, at full speed
@@ -77,7 +77,7 @@ def test_power_comes_back_with_the_heartbeat_and_brakes_follow_the_supply(tmp_pa
     """The relay drops the brake coil's supply too (the brake engages), and both come
     back once rising edges come again."""
     rot, clock, hw = _rotator(tmp_path, "tartu-urc", TIMEOUT_S)
-    world = hw.extra["world"]
+    world = hw.world
     rot.goto_az(world.truth()["az"]["deg"] + 100.0)
     _ticks(rot, clock, 5.0)
     assert world.truth()["az"]["brake_released"] is True and world.motor_power()
@@ -96,7 +96,7 @@ def test_no_power_before_the_first_heartbeat(tmp_path):
     clock = VirtualClock(0.0)
     hw = build_hardware("sim", get_profile("tartu-urc"), clock, tmp_path,
                         {"wind": False, "truth_file": None, "motor_enable_timeout_s": TIMEOUT_S})
-    world = hw.extra["world"]
+    world = hw.world
     hw.poll(0.0)
     hw.az.motor.set_drive(1.0)
     hw.az.brake.set_released(True)
@@ -221,7 +221,7 @@ def test_the_truth_log_keeps_the_history_the_cut_and_the_run_on_of_a_restart(tmp
     last_edge_s = 0.02 * 99
     clock.t += 1.0                                # frozen a second: no edge, then caught up
     hw.poll(clock.t)
-    world = hw.extra["world"]
+    world = hw.world
     world._write_truth()
     world.log.close()
     entries = read_log(log_file)
@@ -240,7 +240,7 @@ def test_the_truth_log_keeps_the_history_the_cut_and_the_run_on_of_a_restart(tmp
     rec.pop("power_cut_at_wall_s")                # (as if no part: runs on until the restart)
     rec["wall_s"] = time.time() - 0.5
     truth_file.write_text(json.dumps(rec))
-    build_hardware("sim", get_profile("tartu-urc"), _StepClock(), tmp_path, opts).extra["world"].log.close()
+    build_hardware("sim", get_profile("tartu-urc"), _StepClock(), tmp_path, opts).world.log.close()
     restore = [e for e in read_log(log_file) if e["t"] == "restore"]
     assert len(restore) == 1 and restore[0]["run_on_s"] == pytest.approx(0.5, abs=0.1)
     az = restore[0]["axes"]["az"]
@@ -282,7 +282,7 @@ def test_emulated_examples_wire_the_part_and_a_freeze_cuts_the_motors(path, tmp_
     from urc.service.loop import run_virtual
 
     rot, clock = emulated(path, tmp_path)
-    world = rot.hw.extra["world"]
+    world = rot.hw.world
     assert world.enable is not None and world.enable.timeout_s <= 0.25
     top = rot.caps.az.max_rate_deg_per_s
     start = world.truth()["az"]["deg"]

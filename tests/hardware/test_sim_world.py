@@ -231,7 +231,7 @@ def test_unknown_caps_get_generic_physics(tmp_path):
     caps = replace(PROFILES["tartu-urc"], name="tartu-fast",
                    az=replace(PROFILES["tartu-urc"].az, max_rate_deg_per_s=12.0))
     hw = build_hardware("sim", caps, VirtualClock(), tmp_path, {"wind": False, "truth_file": None})
-    w = hw.extra["world"]
+    w = hw.world
     assert not math.isclose(w.params.az.kt_nm_per_a, physics_for("tartu-urc").az.kt_nm_per_a)
 
 
@@ -244,7 +244,7 @@ def test_a_freeze_runs_on_with_the_drive_the_hardware_last_had(tmp_path, profile
     clock = VirtualClock()
     hw = build_hardware("sim", PROFILES[profile], clock, tmp_path, {"wind": False, "start_az_deg": 10.0,
                                                                     "start_el_deg": 5.0})
-    world = hw.extra["world"]
+    world = hw.world
     hw.poll(clock.now_s())
     ax = hw.axis(axis)
     if ax.brake is not None:

@@ -181,7 +181,7 @@ def test_calibration_on_the_emulated_lsm303d(tmp_path):
     data["hardware"]["sim"] = {"wind": False}
     clock = VirtualClock(1000.0)
     rot = build_rotator(Config.from_dict(data), clock, tmp_path, durable_state=False, fast_virtual=True)
-    world = rot.hw.extra["world"]
+    world = rot.hw.world
     disturb(world)
     s = SarcnetSession(rot)
     s.receive(b"c\r")

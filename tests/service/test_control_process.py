@@ -67,8 +67,8 @@ def test_the_hardware_stays_in_the_control_process_and_is_reached_by_path(contro
     assert "sensor" in repr(sensor)                  # a reference, not a copy
     assert isinstance(sensor.calibration(), dict)    # calls run over there
     assert sensor.caps.kind == "encoder"             # values that can travel come back
-    assert "world" in rot.hw.extra
-    rot.hw.extra.get("world").inject("az", "sensor_stuck")
+    assert rot.hw.world is not None
+    rot.hw.world.inject("az", "sensor_stuck")
     rot.goto(60.0, 20.0)
     s = wait_until(lambda: (lambda s: s if s.faults else None)(rot.status()))
     assert s.faults[0].axis == "az"
@@ -98,7 +98,7 @@ def test_a_hung_tick_gets_the_outputs_made_safe_without_it(control):
     rot.goto(300.0, 20.0)
     wait_until(lambda: abs(rot.status().az.rate_deg_per_s) > 3)
     assert rot.hw.az.motor.duty != 0.0
-    rot.hw.extra.get("world").inject("az", "slow_read", delay_s=4.0, reads=1)
+    rot.hw.world.inject("az", "slow_read", delay_s=4.0, reads=1)
     time.sleep(1.5)  # watchdog_s (0.5 s) and the watch thread's look (50 ms) later
     assert rot.hw.az.motor.duty == 0.0 and rot.hw.el.motor.duty == 0.0
 
@@ -110,7 +110,7 @@ def test_a_tick_that_hangs_as_the_stop_begins_is_cut_too(control, tmp_path):
     rot.goto(300.0, 20.0)
     wait_until(lambda: abs(rot.status().az.rate_deg_per_s) > 3)
     az0_deg = rot.status().az.pos_deg
-    rot.hw.extra.get("world").inject("az", "slow_read", delay_s=4.0, reads=1)
+    rot.hw.world.inject("az", "slow_read", delay_s=4.0, reads=1)
     time.sleep(0.05)
     result = proc.stop()
     truth = json.loads((tmp_path / "state" / "simulator-truth.json").read_text())["axes"]["az"]

@@ -249,10 +249,10 @@ def test_sim_fault_injection_latches_a_fault(make_client):
 def test_sim_fault_refused_off_the_simulator(make_client):
     c = make_client()
     c.bench.rot.hw.backend = "gpio"          # real iron: no simulated world behind the parts
-    world = c.bench.rot.hw.extra.pop("world")
+    world, c.bench.rot.hw.world = c.bench.rot.hw.world, None
     r = c.post("/api/sim/fault", json={"axis": "az", "kind": "jam"})
     assert r.status_code == 403 and "simulator" in r.json()["detail"]
-    c.bench.rot.hw.extra["world"] = world
+    c.bench.rot.hw.world = world
 
 
 def test_sim_fault_not_possible_on_this_profile_is_409(make_client):

@@ -54,7 +54,7 @@ def check(hw: Any, caps: Any, *, gpio: Any = None, move: bool = False, jog_duty:
         from .gpio.pwm import pwm_plan
         for where, (pin, ch) in pwm_plan(gpio).items():
             out(f"  {where} GPIO{pin}: " + (f"hardware PWM{ch}" if ch is not None else "software PWM"))
-    for label, part in hw.extra.get("parts", []):
+    for label, part in hw.parts:
         ident = getattr(part, "identify", None)
         if ident is None:
             out(f"  {label}: {type(part).__name__}")

@@ -10,9 +10,16 @@ from __future__ import annotations
 
 import logging
 from dataclasses import dataclass, field
-from typing import Any, Callable, Protocol, runtime_checkable
+from typing import TYPE_CHECKING, Any, Callable, Protocol, runtime_checkable
 
 from ..caps import SensorCaps
+
+if TYPE_CHECKING:  # the backends' own types, named for readers and mypy only
+    from ..persistence import StateStore
+    from .bridge import BridgeLink
+    from .fram import FramStore
+    from .gpio import GpioParts, PowerFailInput
+    from .sim.world import SimWorld
 
 log = logging.getLogger(__name__)
 
@@ -125,10 +132,26 @@ class Hardware:
     #: simulator only: returns the true mechanical state; None for real iron.
     truth_hook: Any = None
     close_hook: Any = None
-    extra: dict[str, Any] = field(default_factory=dict)
     #: toggled by every control tick (a square wave) for an external watchdog or charge
     #: pump that removes motor power when urc dies or hangs; None = not wired
     heartbeat: DigitalOutput | None = None
+    #: the physics simulator under the sim backend and the emulated gpio backend (fault
+    #: injection, truth); None on real iron and the bridge
+    world: SimWorld | None = None
+    #: per axis, the trip a motor driver's over-current detection would be set to, used
+    #: when ``faults.overcurrent_a = 0``; None = the backend has no figure
+    overcurrent_a: dict[str, float] | None = None
+    #: (label, part) for ``urc hw check`` to identify, in wiring order
+    parts: list[tuple[str, Any]] = field(default_factory=list)
+    #: the backend keeps the position state itself (the gpio backend's FRAM); None = the
+    #: state file
+    state_store: StateStore | FramStore | None = None
+    #: the supply monitor's power-fail input (gpio ``power_fail_pin``); None = not wired
+    power_fail: PowerFailInput | None = None
+    #: the gpio backend's pin factory, buses and emulated parts
+    gpio: GpioParts | None = None
+    #: the bridge backend's client and link to the controller
+    bridge: BridgeLink | None = None
 
     def axis(self, name: str) -> AxisHardware:
         if name == "az":

@@ -74,7 +74,7 @@ def router(ctx: WebContext) -> APIRouter:
         station = ({"lat_deg": st.lat_deg, "lon_deg": st.lon_deg, "alt_m": st.alt_m, "name": st.name}
                    if st.lat_deg is not None and st.lon_deg is not None else None)
         return {"version": __version__, "profile": caps.name, "description": caps.description,
-                "backend": rot.hw.backend, "simulator": "world" in rot.hw.extra,
+                "backend": rot.hw.backend, "simulator": rot.hw.world is not None,
                 "control_requires_token": ctx.cfg.api.control_requires_token,
                 "token_configured": bool(ctx.cfg.api.token),
                 "can_flip": caps.can_flip, "caps": {n: axis(n) for n in caps.axes},

@@ -40,7 +40,7 @@ def router(ctx: WebContext) -> APIRouter:
 
     def world():
         # the simulator, or the gpio backend on emulated parts (the faults reach them)
-        w = ctx.rotator.hw.extra.get("world")
+        w = ctx.rotator.hw.world
         if w is None:
             raise HTTPException(403, "fault injection exists only on the simulator (sim, or gpio emulated)")
         return w

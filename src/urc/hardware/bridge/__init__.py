@@ -126,6 +126,14 @@ def bridge_axes(client: BridgeClient, clock: Clock, wake=None) -> tuple[AxisHard
     return axes[0], axes[1]
 
 
+@dataclass
+class BridgeLink:
+    """What the bridge backend built besides the axes (``Hardware.bridge``)."""
+
+    client: BridgeClient
+    runner: LinkRunner
+
+
 def build_bridge_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path, options: dict[str, Any]) -> Hardware:
     """``options["bridge"]``: the ``[hardware.bridge]`` section (urc.config.BridgeSection)."""
     cfg = options["bridge"]
@@ -142,4 +150,4 @@ def build_bridge_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path, opti
     client.wait_report(client.timeout_s + 1.0)
     # a single-axis rotator: the controller's elevation is neither driven nor read
     return Hardware(backend="bridge", az=az, el=el if caps.has_el else None, close_hook=runner.close,
-                    extra={"bridge_client": client, "bridge_runner": runner})
+                    bridge=BridgeLink(client, runner))

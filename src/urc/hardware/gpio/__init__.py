@@ -12,41 +12,43 @@ section), ``emulate`` (bool) plus the simulator's options when emulated.
 
 from __future__ import annotations
 
-import dataclasses
 import logging
 import threading
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from ...caps import RotatorCaps
 from ...clock import Clock
+from ...config.issues import error_from_issues
 from ...errors import ConfigError
+from ..drivers import LimitSwitchInput, RelayBrake, SenseCurrent
 from ..drivers.motors import BTS7960_FAULT_V, sense_v_per_a
-from ..drivers import (As5600Sensor, Bts7960Motor, CompassSensor, LimitSwitchInput, Lmd18200Motor,
-                       PotSensor, PwmDirMotor, QuadratureEncoder, RelayBrake, RelayMotor,
-                       SenseCurrent, SpidPulseSensor, TiltSensor, Vnh5019Motor)
 from ..interfaces import AxisHardware, Hardware
-from ..sim.params import PHYSICS, physics_for
 from .buses import Buses
-from .feed import (EmulatedBrake, EmulatedHeartbeat, EmulatedMotor, Emulation, ads_reference, feed_current_sense, feed_sensor,
+from .feed import (EmulatedBrake, EmulatedHeartbeat, EmulatedMotor, Emulation, feed_current_sense, feed_sensor,
                    forget_output_history, limit_sync)
-from .i2c import AdcInput, Ads1115Channel, As5600Chip, Lsm303Accel, Lsm303agrChip, Lsm303dChip, Lsm303Mag
-from .pins import PinIn, PinOut, PinPulseCounter, PinQuadrature, release_inputs
+from .i2c import AdcInput, Lsm303dChip
+from .kinds import MOTORS, SENSORS, AxisWiring, motor_kind_issue, sensor_kind_issue
+from .pins import PinIn, PinOut, release_inputs
 from .pwm import HardwarePwm, detect_pwm_chip, make_pwm, pwm_advice, pwm_plan
-from .spi import Mcp3008Channel
 
 log = logging.getLogger(__name__)
 
-#: pins each motor driver needs (besides brake / limit_min / limit_max)
-MOTOR_PINS = {"vnh5019": ("ina", "inb", "pwm"), "lmd18200": ("pwm", "dir", "bridge_brake"),
-              "bts7960": ("rpwm", "lpwm"), "pwm_dir": ("pwm", "dir"), "relay": ("cw", "ccw")}
-OPTIONAL_PINS = {"relay": ("fast",), "encoder": ("enc_z",), "vnh5019": ("diag",),
-                 "lmd18200": ("thermal_flag",), "bts7960": ("en",)}
-#: optional pins that are inputs (a bridge's fault output, active low)
-FAULT_INPUT_PINS = ("diag", "thermal_flag")
 
+@dataclass
+class GpioParts:
+    """What the gpio backend built besides the axes (``Hardware.gpio``)."""
 
-SENSOR_PINS = {"encoder": ("enc_a", "enc_b"), "pulse": ("pulse",)}
+    #: gpiozero's pin factory the pins were made on (emulated: a MockFactory)
+    pin_factory: Any
+    #: I2C bus number -> the open bus (smbus2.SMBus; emulated: FakeSMBus)
+    i2c_buses: dict[int, Any]
+    emulated: bool
+    #: emulated only: SPI0 chip select -> the fake MCP3008 behind it
+    fake_spi: dict[int, Any] = field(default_factory=dict)
+    #: emulated only: axis -> the emulated sensor part the simulator feeds
+    emulation: dict[str, Any] = field(default_factory=dict)
 
 
 def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
@@ -56,6 +58,12 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
         raise ConfigError("backend \"gpio\" needs a [hardware.gpio] section with the pin map",
                           key="hardware.gpio", expected="[hardware.gpio.az] and [hardware.gpio.el]",
                           found=None)
+    # every kind known before anything is claimed (the configuration check says the same)
+    unknown = [i for name in caps.axes if getattr(gpio, name) is not None
+               for i in (motor_kind_issue(name, getattr(gpio, name).motor),
+                         sensor_kind_issue(name, caps.axis(name).sensor.kind)) if i is not None]
+    if unknown:
+        raise error_from_issues(unknown, "<config>")
     emulate = bool(options.get("emulate", gpio.emulate))
     world = None
     if emulate:
@@ -93,15 +101,14 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
         ax_caps = caps.axis(name)
         cfg = getattr(gpio, name)
         pins = cfg.pins
-        pwm_hz = cfg.pwm_frequency_hz
 
-        def out(key: str) -> PinOut:
+        def out(key: str, pins: dict[str, int] = pins, cfg: Any = cfg) -> PinOut:
             return PinOut(factory, pins[key], active_low=key in cfg.active_low)
 
-        def fault_in(key: str) -> PinIn | None:
+        def fault_in(key: str, pins: dict[str, int] = pins) -> PinIn | None:
             return PinIn(factory, pins[key], now_s=clock.now_s) if key in pins else None
 
-        def pwm(key: str) -> Any:
+        def pwm(key: str, name: str = name, pins: dict[str, int] = pins, pwm_hz: float = cfg.pwm_frequency_hz) -> Any:
             part = make_pwm(factory, pins[key], plan[f"{name}.{key}"][1], pwm_hz, emulated=emulate,
                             chip=pwm_chip)
             if isinstance(part, HardwarePwm):
@@ -122,67 +129,12 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
             where = f"SPI0 CE{cfg.spi_device}" if cfg.adc == "mcp3008" else on_bus
             parts_list.append((f"{name} current sense {cfg.adc.upper()} ch{cfg.current_sense_channel} "
                                f"({where})", cs_chip))
+        wiring = AxisWiring(name=name, caps=caps, ax_caps=ax_caps, cfg=cfg, clock=clock, factory=factory,
+                            buses=buses, bus_n=bus_n, mux_ch=mux_ch, on_bus=on_bus, parts=parts_list, lsm=lsm,
+                            current=cs, out=out, fault_in=fault_in, pwm=pwm)
         kind = cfg.motor
-        if kind == "vnh5019":
-            motor: Any = Vnh5019Motor(name, out("ina"), out("inb"), pwm("pwm"), current=cs,
-                                      diag=fault_in("diag"))
-        elif kind == "lmd18200":
-            motor = Lmd18200Motor(name, pwm("pwm"), out("dir"), out("bridge_brake"), current=cs,
-                                  thermal_flag=fault_in("thermal_flag"))
-        elif kind == "bts7960":
-            motor = Bts7960Motor(name, pwm("rpwm"), pwm("lpwm"), enable=out("en") if "en" in pins else None,
-                                 current=cs)
-        elif kind == "pwm_dir":
-            motor = PwmDirMotor(name, pwm("pwm"), out("dir"))
-        else:
-            motor = RelayMotor(name, out("cw"), out("ccw"), clock,
-                               fast=out("fast") if "fast" in pins else None,
-                               levels=ax_caps.drive_levels or (1.0,),
-                               reverse_dead_time_s=cfg.relay_dead_time_s,
-                               pulse_period_s=1.0 / cfg.relay_pulse_hz)
-        sensor: Any
-        if sk == "encoder":
-            counter = PinQuadrature(factory, pins["enc_a"], pins["enc_b"], pins.get("enc_z"))
-            enc_caps = ax_caps.sensor if cfg.encoder_counts_per_deg is None else \
-                dataclasses.replace(ax_caps.sensor, resolution_deg=1.0 / cfg.encoder_counts_per_deg)
-            sensor = QuadratureEncoder(enc_caps, name, counter, motor=motor,
-                                       index_deg=cfg.encoder_index_deg,
-                                       index_period_deg=cfg.encoder_index_period_deg,
-                                       drift_counts=cfg.encoder_drift_counts, clock=clock)
-            parts_list.append((f"{name} encoder", counter))
-        elif sk == "pulse":
-            counter = PinPulseCounter(factory, pins["pulse"], debounce_s=cfg.pulse_debounce_s)
-            sensor = SpidPulseSensor(ax_caps.sensor, name, counter, motor)
-            parts_list.append((f"{name} pulse counter", counter))
-        elif sk == "as5600":
-            chip = As5600Chip(buses.chip_bus(bus_n, mux_ch), cfg.i2c_address or As5600Chip.ADDRESS,
-                              f"{name} AS5600")
-            sensor = As5600Sensor(ax_caps.sensor, name, chip, zero_deg=cfg.zero_deg)
-            parts_list.append((f"{name} AS5600 ({on_bus})", chip))
-        elif sk == "magnetometer":
-            if cfg.compass == "lsm303agr":
-                key = (bus_n, mux_ch, Lsm303agrChip.MAG)
-                chip = lsm.get(key) or lsm.setdefault(key, Lsm303agrChip(buses.chip_bus(bus_n, mux_ch)))
-            else:
-                key = (bus_n, mux_ch, cfg.i2c_address or Lsm303dChip.ADDRESS)
-                chip = lsm.get(key) or lsm.setdefault(key, Lsm303dChip(buses.chip_bus(bus_n, mux_ch), key[2]))
-            if name == "az":
-                sensor = CompassSensor(ax_caps.sensor, name, Lsm303Mag(chip), Lsm303Accel(chip),
-                                       declination_deg=cfg.declination_deg)
-            else:
-                sensor = TiltSensor(ax_caps.sensor, name, Lsm303Accel(chip))
-            parts_list.append((f"{name} {cfg.compass.upper()} ({on_bus})", chip))
-        else:  # a pot on an ADC
-            chip = buses.adc(name, cfg, bus_n, pot_vref=pot_vref)
-            if cfg.adc == "mcp3008":
-                adc: Any = Mcp3008Channel(chip, cfg.adc_channel, cfg.adc_reference_channel,
-                                          reference_v=cfg.adc_reference_v)
-                where = f"SPI0 CE{cfg.spi_device}"
-            else:
-                adc = Ads1115Channel(chip, cfg.adc_channel, ads_reference(cfg), reference_v=cfg.adc_reference_v)
-                where = on_bus
-            sensor = _pot_sensor(caps, name, ax_caps, cfg, adc)
-            parts_list.append((f"{name} {cfg.adc.upper()} ch{cfg.adc_channel} ({where})", chip))
+        motor = MOTORS[kind].build(wiring)
+        sensor = SENSORS[sk].build(wiring, motor)
         brake = RelayBrake(name, out("brake"), clock, release_s=ax_caps.brake_release_s) \
             if "brake" in pins else None
         lims = [LimitSwitchInput(f"{name} {side}", PinIn(factory, pins[f"limit_{side}"],
@@ -209,24 +161,23 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
     heartbeat: Any = PinOut(factory, gpio.heartbeat_pin) if gpio.heartbeat_pin is not None else None
     if heartbeat is not None and world is not None and world.enable is not None:
         heartbeat = EmulatedHeartbeat(heartbeat, world.enable)
-    extra: dict[str, Any] = {"parts": parts_list, "buses": buses.i2c, "pin_factory": factory,
-                             "emulated": emulate}
+    hw = Hardware(backend="gpio", az=axes["az"], el=axes.get("el"), heartbeat=heartbeat, parts=parts_list,
+                  gpio=GpioParts(pin_factory=factory, i2c_buses=buses.i2c, emulated=emulate))
     if gpio.fram_address is not None:
         from ..fram import FramStore
         fram_bus = buses.bus(gpio.i2c_bus)
         if emulate:
             from .emulate import FakeFram
             fram_bus.devices[gpio.fram_address] = FakeFram(path=Path(state_dir) / "fram-emulated.bin")
-        extra["state_store"] = FramStore(fram_bus, gpio.fram_address, state_dir=Path(state_dir))
-        parts_list.append((f"FRAM 0x{gpio.fram_address:02x} (bus {gpio.i2c_bus})", extra["state_store"]))
+        hw.state_store = FramStore(fram_bus, gpio.fram_address, state_dir=Path(state_dir))
+        parts_list.append((f"FRAM 0x{gpio.fram_address:02x} (bus {gpio.i2c_bus})", hw.state_store))
     if gpio.power_fail_pin is not None:
-        pf = PowerFailInput(factory, gpio.power_fail_pin)
-        extra["power_fail"] = pf
-        parts_list.append(("power-fail input", pf))
+        hw.power_fail = PowerFailInput(factory, gpio.power_fail_pin)
+        parts_list.append(("power-fail input", hw.power_fail))
     if world is not None:
-        assert emu is not None
-        extra["world"], extra["fake_spi"], extra["emulation"] = world, buses.fake_spi, emu.parts
-        extra["overcurrent_a"] = {n: 0.8 * params.axis(n).stall_current_a for n in ("az", "el")}
+        assert emu is not None and hw.gpio is not None
+        hw.world, hw.gpio.fake_spi, hw.gpio.emulation = world, buses.fake_spi, emu.parts
+        hw.overcurrent_a = {n: 0.8 * params.axis(n).stall_current_a for n in ("az", "el")}
         syncs.append(forget_output_history(factory))
 
         def poll(now_s: float) -> None:
@@ -248,8 +199,8 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
         # inputs follow the start position before the first read
         for s in syncs:
             s()
-        return Hardware(backend="gpio", az=axes["az"], el=axes.get("el"), poll_hook=poll,
-                        truth_hook=truth, close_hook=close, heartbeat=heartbeat, extra=extra)
+        hw.poll_hook, hw.truth_hook, hw.close_hook = poll, truth, close
+        return hw
 
     def close_real() -> None:
         for ax in axes.values():
@@ -271,19 +222,8 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
             p.close()                  # duty 0 and the channel disabled
         release_inputs(factory)        # outputs stay driven at their safe level, never floated
 
-    return Hardware(backend="gpio", az=axes["az"], el=axes.get("el"), close_hook=close_real,
-                    heartbeat=heartbeat, extra=extra)
-
-
-def _pot_sensor(caps: RotatorCaps, name: str, ax_caps: Any, cfg: Any, adc: Any) -> PotSensor:
-    """The pot driver on an ADC channel; M and C from the config, else from the
-    profile's simulated pot (its span over the law's full scale, its start)."""
-    sp = physics_for(caps.name).axis(name).sensor if caps.name in PHYSICS else None
-    law = sp.pot_law if sp is not None else "linear"
-    full = 4096.0 if law == "ratiometric" else 1023.0
-    m = cfg.pot_m if cfg.pot_m is not None else (sp.pot_span_deg / full if sp else ax_caps.span_deg / full)
-    c = cfg.pot_c if cfg.pot_c is not None else (sp.pot_start_deg if sp else ax_caps.min_deg)
-    return PotSensor(ax_caps.sensor, name, adc, law=cfg.pot_law or law, m=m, c=c)
+    hw.close_hook = close_real
+    return hw
 
 
 class PowerFailInput:

@@ -25,6 +25,8 @@ import logging
 from pathlib import Path
 from typing import Any
 
+from .kinds import MOTORS
+
 log = logging.getLogger(__name__)
 
 #: ``[hardware.gpio] hardware_pwm`` -> {BCM pin: PWM channel}
@@ -33,9 +35,6 @@ HARDWARE_PWM = {"2chan": {12: 0, 18: 0, 13: 1, 19: 1},
                 "off": {}}
 #: lgpio's software PWM (tx_pwm) frequency limit
 SOFTWARE_PWM_MAX_HZ = 10_000.0
-#: the pins each motor driver runs PWM on
-PWM_PINS = {"vnh5019": ("pwm",), "lmd18200": ("pwm",), "bts7960": ("rpwm", "lpwm"),
-            "pwm_dir": ("pwm",), "relay": ()}
 
 
 #: the PWM peripheral's platform device, by model (the pwmchip's ``device`` link)
@@ -85,7 +84,8 @@ def pwm_plan(gpio: Any, table_name: str | None = None) -> dict[str, tuple[int, i
         ax = getattr(gpio, name)
         if ax is None:
             continue
-        for key in PWM_PINS.get(ax.motor, ()):
+        kind = MOTORS.get(ax.motor)
+        for key in kind.pwm_pins if kind is not None else ():
             pin = ax.pins.get(key)
             if pin is None:
                 continue

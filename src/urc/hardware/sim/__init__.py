@@ -4,7 +4,7 @@
 :class:`~urc.hardware.interfaces.Hardware` whose devices sit on a :class:`SimWorld`:
 DC or relay/AC motors through a gearbox with backlash, stiction, end stops, brakes,
 limit switches, wind, and each profile's sensor (encoder, pulse counter, pot, AS5600,
-magnetometer). ``hardware.extra["world"]`` is the world, for fault injection and truth.
+magnetometer). ``hardware.world`` is the world, for fault injection and truth.
 
 Options (all optional): ``seed`` (int, 1), ``wind`` (bool, True), ``truth_file`` (path,
 default ``state_dir/"simulator-truth.json"``; ``None`` disables persistence),
@@ -79,8 +79,7 @@ def build_sim_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
                     close_hook=lambda: (heartbeat.close(), world.close()),
                     # what a motor driver's over-current trip would be set to: well above
                     # running current, below the stall current a jam draws
-                    extra={"world": world,
-                           "overcurrent_a": {n: 0.8 * params.axis(n).stall_current_a for n in ("az", "el")}})
+                    world=world, overcurrent_a={n: 0.8 * params.axis(n).stall_current_a for n in ("az", "el")})
 
 
 def make_world(caps: RotatorCaps, clock: Clock, state_dir: Path,

@@ -1,0 +1,268 @@
+"""``[hardware.gpio]`` checks beside the gpio builder (registered with the backend, run
+whenever a configuration is validated): every pin the profile's parts need (the kinds'
+table, :mod:`.kinds`), each pin once (the front panel's and the buses' too), one device
+per I2C address, ADC inputs that exist; and the warnings ``urc config check`` prints
+without refusing the configuration (:func:`gpio_warnings`)."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+from ...caps import RotatorCaps
+from ...config.issues import Issue, suggest
+from .kinds import AXIS_PINS, MOTORS, SENSORS, motor_kind_issue, sensor_kind_issue
+from .pwm import HARDWARE_PWM
+from .spi import SPI0_CE, SPI0_PINS
+
+if TYPE_CHECKING:
+    from ...config import Config
+
+#: ADC inputs per converter
+_ADC_CHANNELS = {"ads1115": 4, "mcp3008": 8}
+
+
+def gpio_issues(cfg: Config, caps: RotatorCaps) -> list[Issue]:
+    """[hardware.gpio]: every pin the profile's parts need, each pin once, one device
+    per I2C address, ADC inputs that exist."""
+    g = cfg.hardware.gpio
+    if g is None:
+        if cfg.hardware.backend == "gpio":
+            return [("hardware.gpio", "[hardware.gpio] with [hardware.gpio.az] and [hardware.gpio.el] "
+                     '(backend "gpio"; see examples/)', None, "")]
+        return []
+    issues: list[Issue] = []
+    if g.hardware_pwm not in HARDWARE_PWM:
+        issues.append(("hardware.gpio.hardware_pwm", "one of " + ", ".join(HARDWARE_PWM), g.hardware_pwm,
+                       suggest(g.hardware_pwm, list(HARDWARE_PWM))))
+    used: dict[int, str] = {}
+    for key, pin in (("heartbeat_pin", g.heartbeat_pin), ("power_fail_pin", g.power_fail_pin)):
+        if pin is not None:
+            used[pin] = f"hardware.gpio.{key}"
+    #: (bus, mux channel or None, address) -> (key, chip)
+    i2c: dict[tuple[int, int | None, int], tuple[str, str]] = {}
+    if g.fram_address is not None:
+        i2c[(g.i2c_bus, None, g.fram_address)] = ("hardware.gpio.fram_address", "fram")
+    muxed_buses: set[int] = set()
+    spi_vref: dict[int, tuple[str, float]] = {}
+    adc_inputs: dict[tuple, str] = {}
+    for name in caps.axes:  # single-axis: no [hardware.gpio.el] needed (nor allowed)
+        ax = getattr(g, name)
+        pre = f"hardware.gpio.{name}"
+        if ax is None:
+            issues.append((pre, f"[{pre}] with motor and pins", None, ""))
+            continue
+        axc = caps.axis(name)
+        kind = axc.sensor.kind
+        unknown = [i for i in (motor_kind_issue(name, ax.motor), sensor_kind_issue(name, kind)) if i is not None]
+        if unknown:
+            issues += unknown
+            continue
+        motor, sensor = MOTORS[ax.motor], SENSORS[kind]
+        if motor.drive != axc.drive:
+            issues.append((f"{pre}.motor", f"a {'relay' if axc.drive == 'relay' else 'PWM'} drive "
+                           f"(profile {caps.name!r} {name} is {axc.drive})", ax.motor, ""))
+        need = list(motor.pins) + list(sensor.pins)
+        if axc.brake:
+            need.append("brake")
+        allowed = set(need) | set(motor.optional) | set(motor.fault_inputs) | set(sensor.optional) | set(AXIS_PINS)
+        for pin_name in need:
+            if pin_name not in ax.pins:
+                issues.append((f"{pre}.pins.{pin_name}", f"a BCM pin number (needed by {ax.motor} / "
+                               f"{kind})", None, ""))
+        for pin_name, pin in ax.pins.items():
+            if pin_name not in allowed:
+                issues.append((f"{pre}.pins.{pin_name}", "one of " + ", ".join(sorted(allowed)), pin_name,
+                               suggest(pin_name, sorted(allowed))))
+            elif not 0 <= pin <= 27:
+                issues.append((f"{pre}.pins.{pin_name}", "a BCM pin 0..27", pin, ""))
+            elif pin in used:
+                issues.append((f"{pre}.pins.{pin_name}", f"a pin not already used (GPIO{pin} is "
+                               f"{used[pin]})", pin, ""))
+            else:
+                used[pin] = f"{pre}.pins.{pin_name}"
+        if ax.encoder_index_deg is not None and (kind != "encoder" or "enc_z" not in ax.pins):
+            issues.append((f"{pre}.encoder_index_deg", "an encoder with its index on pins.enc_z",
+                           ax.encoder_index_deg, ""))
+        if kind == "magnetometer" and ax.compass not in ("lsm303d", "lsm303agr"):
+            issues.append((f"{pre}.compass", "lsm303d or lsm303agr", ax.compass, ""))
+        if ax.adc not in _ADC_CHANNELS:
+            issues.append((f"{pre}.adc", "one of " + ", ".join(_ADC_CHANNELS), ax.adc,
+                           suggest(ax.adc, list(_ADC_CHANNELS))))
+            continue
+        if ax.current_sense_channel is not None and ax.current_sense_v_per_a is None and ax.motor == "lmd18200":
+            issues.append((f"{pre}.current_sense_v_per_a", "volts per motor ampere for the LMD18200's sense "
+                           "output (377e-6 x your sense resistor in ohms)", None, ""))
+        uses_adc = kind == "pot" or ax.current_sense_channel is not None
+        if uses_adc:
+            issues += _adc_issues(pre, ax, kind, used, spi_vref, adc_inputs,
+                                  g.i2c_bus if ax.i2c_bus is None else ax.i2c_bus)
+        chips = {"as5600": [("as5600", 0x36)],
+                 "magnetometer": [("lsm303agr", 0x19), ("lsm303agr", 0x1E)] if ax.compass == "lsm303agr"
+                 else [("lsm303d", 0x1D)]}.get(kind, [])
+        if uses_adc and ax.adc == "ads1115":
+            chips = chips + [("ads1115", 0x48)]
+        bus = g.i2c_bus if ax.i2c_bus is None else ax.i2c_bus
+        ch = ax.i2c_mux_channel
+        if ch is not None:
+            muxed_buses.add(bus)
+            if not chips:
+                issues.append((f"{pre}.i2c_mux_channel", f"no mux channel (the {kind} sensor has no "
+                               "I2C chip)", ch, ""))
+        where = f"I2C bus {bus}" + ("" if ch is None else f" mux channel {ch}")
+        for dev in chips:
+            addr = (ax.i2c_address or dev[1]) if len(chips) == 1 else dev[1]
+            # a chip on the bus itself meets every mux channel's chips at its address
+            for (b, c, a), other in i2c.items():
+                if b != bus or a != addr or (c is not None and ch is not None and c != ch):
+                    continue
+                # one LSM303 serves both axes (compass and tilt), one ADS1115 both pots
+                if c != ch or other[1] != dev[0] or dev[0] == "as5600":
+                    issues.append((f"{pre}.i2c_address", f"an address free on {where} (0x{addr:02x} is "
+                                   f"{other[0]}'s; two AS5600 need two buses or two channels of a "
+                                   "TCA9548A mux: i2c_mux_channel)", hex(addr), ""))
+                    break
+            i2c[(bus, ch, addr)] = (pre, dev[0])
+    for bus in sorted(muxed_buses):
+        for (b, _c, a), other in i2c.items():
+            if b == bus and a == g.i2c_mux_address:
+                issues.append(("hardware.gpio.i2c_mux_address", f"an address free on I2C bus {bus} for "
+                               f"the TCA9548A (0x{a:02x} is {other[0]}'s)", hex(a), ""))
+    if g.motor_enable_timeout_s is not None and g.heartbeat_pin is None:
+        issues.append(("hardware.gpio.motor_enable_timeout_s", "a heartbeat_pin for the safety chain to watch",
+                       g.motor_enable_timeout_s, ""))
+    for name in caps.axes:
+        ax = getattr(g, name)
+        if ax is None:
+            continue
+        outputs = _outputs(ax.motor)
+        for key in ax.active_low:
+            if key not in outputs or key not in ax.pins:
+                issues.append((f"hardware.gpio.{name}.active_low", "names of this axis' output pins "
+                               f"({', '.join(sorted(k for k in ax.pins if k in outputs))})", key, ""))
+    # every pin against every other: the panel's too, and the buses' (I2C1 is GPIO2/3
+    # whenever a chip, the FRAM or a panel display sits on it)
+    bus_users = bool(i2c) or cfg.panel.lcd is not None or cfg.panel.oled is not None
+    if bus_users:
+        for pin, what in ((2, "I2C1 SDA"), (3, "I2C1 SCL")):
+            if pin in used:
+                issues.append((used[pin], f"a pin not used by the I2C bus (GPIO{pin} is {what})", pin, ""))
+            used.setdefault(pin, what)
+    p = cfg.panel
+    panel = [(f"panel.buttons.{k}", v) for k, v in p.buttons.model_dump().items()] + \
+        [(f"panel.leds.{k}", v) for k, v in p.leds.model_dump().items()] + [("panel.beeper", p.beeper)]
+    for panel_key, panel_pin in panel:
+        if panel_pin is not None and panel_pin in used:
+            issues.append((panel_key, f"a GPIO not already used (GPIO{panel_pin} is {used[panel_pin]})",
+                           panel_pin, ""))
+    return issues
+
+
+#: BCM2711/BCM2835 default pulls at power-on: GPIO0-8 up, 9-27 down (BCM2711 ARM
+#: Peripherals, "Alternative Function Assignments", the pull column)
+BOOT_HIGH_PINS = frozenset(range(0, 9))
+
+
+def gpio_warnings(cfg: Config) -> list[str]:
+    """What ``urc config check`` warns about in [hardware.gpio] without refusing it: a
+    motor, relay or brake output that is high from power-on until urc claims it (or,
+    active low, low from power-on), and current sensed with no overcurrent trip."""
+    g = cfg.hardware.gpio
+    if g is None:
+        return []
+    notes = []
+    for name in ("az", "el"):
+        ax = getattr(g, name)
+        if ax is None:
+            continue
+        outputs = _outputs(ax.motor)
+        for key, pin in sorted(ax.pins.items()):
+            if key not in outputs or pin in g.pulled_down:
+                continue
+            high_at_boot = pin in BOOT_HIGH_PINS
+            low_active = key in ax.active_low
+            if high_at_boot == low_active:     # off at boot: high for active low, low otherwise
+                continue
+            if high_at_boot:
+                notes.append(f"hardware.gpio.{name}.pins.{key}: GPIO{pin} is pulled HIGH from power-on until "
+                             "urc starts: the output is on during boot. Use a pin from GPIO9-27, or fit a "
+                             f"10 kOhm pull-down and list it in hardware.gpio.pulled_down")
+            else:
+                notes.append(f"hardware.gpio.{name}.pins.{key}: active low on GPIO{pin}, which is pulled LOW "
+                             "from power-on until urc starts: the load is on during boot. Use a pin from "
+                             "GPIO0-8 for an active-low output, or fit a pull-up")
+        if ax.current_sense_channel is not None and cfg.faults.overcurrent_a == 0 and not g.emulate:
+            notes.append(f"hardware.gpio.{name}.current_sense_channel: the motor current is sensed but "
+                         "faults.overcurrent_a is 0: no overcurrent trip. Set it (about twice the running "
+                         "current, below the stall current)")
+    if g.heartbeat_pin is not None and g.heartbeat_pin in BOOT_HIGH_PINS and g.heartbeat_pin not in g.pulled_down:
+        notes.append(f"hardware.gpio.heartbeat_pin: GPIO{g.heartbeat_pin} is pulled high at power-on: that rising "
+                     "edge can hold the safety chain's relay in for one timeout while the Pi boots. Use a "
+                     "pin from GPIO9-27")
+    if g.heartbeat_pin is not None and g.motor_enable_timeout_s is None:
+        notes.append("hardware.gpio.motor_enable_timeout_s: no safety chain declared: if urc freezes or dies "
+                     "nothing but urc stops the motors (docs/hardware.md, \"Safety chain\")")
+    return notes
+
+
+def _outputs(motor_kind: str) -> set[str]:
+    """The output pins an axis with this motor driver may have (a brake's included)."""
+    m = MOTORS.get(motor_kind)
+    return ({"brake"} | set(m.pins) | set(m.optional)) if m is not None else {"brake"}
+
+
+def _adc_issues(pre: str, ax: Any, kind: str, used: dict[int, str], spi_vref: dict[int, tuple[str, float]],
+                adc_inputs: dict[tuple, str], bus: int) -> list[Issue]:
+    """An axis' ADC (its pot and/or its bridge's current sense): inputs that exist, each
+    used once per chip (the pots' shared supply input aside), SPI0's pins, one VREF per
+    MCP3008."""
+    issues: list[Issue] = []
+    n = _ADC_CHANNELS[ax.adc]
+    if ax.adc == "mcp3008":
+        issues += _spi_issues(pre, ax.spi_device, used)
+        chip: tuple = ("MCP3008", ax.spi_device)
+    else:
+        chip = ("ADS1115", ax.i2c_address or 0x48, bus, ax.i2c_mux_channel)
+    inputs = []
+    if kind == "pot":
+        inputs.append(("adc_channel", ax.adc_channel))
+        ref = 3 if ax.adc_reference_channel is None and ax.adc == "ads1115" else ax.adc_reference_channel
+        if ref is not None and not 0 <= ref < n:
+            issues.append((f"{pre}.adc_reference_channel", f"an {ax.adc.upper()} input 0..{n - 1}", ref, ""))
+        elif ax.adc_channel == ref:
+            issues.append((f"{pre}.adc_reference_channel", "an input other than adc_channel "
+                           "(the pot supply)", ref, ""))
+    if ax.current_sense_channel is not None:
+        inputs.append(("current_sense_channel", ax.current_sense_channel))
+        sensing = [k for k, m in MOTORS.items() if m.current_sense]
+        if ax.motor not in sensing:
+            issues.append((f"{pre}.current_sense_channel", "a bridge with a current-sense output ("
+                           + ", ".join(sensing) + ")", ax.motor, ""))
+    for key, v in inputs:
+        if not 0 <= v < n:
+            issues.append((f"{pre}.{key}", f"an {ax.adc.upper()} input 0..{n - 1}", v, ""))
+        elif (chip, v) in adc_inputs:
+            issues.append((f"{pre}.{key}", f"an input not already used ({ax.adc.upper()} input {v} is "
+                           f"{adc_inputs[(chip, v)]})", v, ""))
+        else:
+            adc_inputs[(chip, v)] = f"{pre}.{key}"
+    if ax.adc == "mcp3008":
+        # one chip, one VREF: the pot supply (a pot with no reference input) or the 3.3 V rail
+        vref = ax.adc_reference_v if kind == "pot" and ax.adc_reference_channel is None else 3.3
+        other_vref = spi_vref.setdefault(ax.spi_device, (pre, vref))
+        if other_vref[1] != vref:
+            issues.append((f"{pre}.adc_reference_channel", f"the same VREF as {other_vref[0]} on "
+                           f"this MCP3008 ({other_vref[1]:g} V)", ax.adc_reference_channel, ""))
+    return issues
+
+
+def _spi_issues(pre: str, device: int, used: dict[int, str]) -> list[Issue]:
+    """SPI0's pins for a chip on chip select ``device``: taken by SPI0 (shared by its
+    chips), by nothing else."""
+    issues: list[Issue] = []
+    for what, pin in [*SPI0_PINS.items(), (f"ce{device}", SPI0_CE[device])]:
+        owner = f"SPI0 {what.upper()}"
+        if pin in used and used[pin] != owner:
+            issues.append((f"{pre}.spi_device", f"SPI0's GPIO{pin} ({owner}) free for the MCP3008 "
+                           f"(it is {used[pin]})", device, ""))
+        used.setdefault(pin, owner)
+    return issues
