@@ -39,6 +39,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 from .caps import AxisCaps, RotatorCaps
 from .control.geometry import KeepOut
 from .errors import ConfigError
+from .frontpanel.settings import PanelPresets, presets_issues, timezone_issues
 from .mqtt.config import MqttSection, mqtt_issues
 from .profiles import DEFAULT_PROFILE, PROFILES
 
@@ -493,6 +494,11 @@ class PanelButtons(_Section):
     park: int | None = Field(None, ge=0, le=53)
     #: held with a turn button: jog slowly (G4JNT); stores Z in its zero setting
     slow: int | None = Field(None, ge=0, le=53)
+    #: BIG-RAS SW7 / SW8: turn the azimuth / elevation to the preset knobs' direction;
+    #: SW10 held: the display shows that direction ([panel.presets])
+    preset_az: int | None = Field(None, ge=0, le=53)
+    preset_el: int | None = Field(None, ge=0, le=53)
+    show_preset: int | None = Field(None, ge=0, le=53)
 
 
 class PanelLeds(_Section):
@@ -569,6 +575,13 @@ class PanelSection(_Section):
     #: BIG-RAS "Autoturn": a jog held 5 s goes on after its button is let go, until a
     #: button is pressed again or the axis reaches its end of travel
     autoturn: bool = False
+    #: the time on the display's lower rows (BIG-RAS; a 4-row LCD, the OLED always),
+    #: from the system clock (NTP), in ``timezone``: "UTC" or an IANA name such as
+    #: "Europe/Budapest" (summer time follows by itself, as the BIG-RAS's does)
+    clock: bool = False
+    timezone: str = Field("UTC", min_length=1)
+    #: the BIG-RAS preset knobs P1/P2 on an ADC (urc.frontpanel.settings)
+    presets: PanelPresets | None = None
     lcd: PanelLcd | None = None
     oled: PanelOled | None = None
     ir: PanelIr | None = None
@@ -591,6 +604,7 @@ def _panel_issues(cfg: Config) -> list[_Issue]:
         used.setdefault(pin, key)
     if p.lcd is not None and p.oled is not None:
         issues.append(("panel.oled", "one display: [panel.lcd] or [panel.oled], not both", "both", ""))
+    issues += presets_issues(p.presets, p.buttons.model_dump()) + timezone_issues(p.timezone)
     if p.ir is not None:
         for name, action in p.ir.keys.items():
             if action not in ACTIONS:
@@ -1066,7 +1080,8 @@ def _gpio_issues(cfg: Config, caps: RotatorCaps) -> list[_Issue]:
                                f"({', '.join(sorted(k for k in ax.pins if k in outputs))})", key, ""))
     # every pin against every other: the panel's too, and the buses' (I2C1 is GPIO2/3
     # whenever a chip, the FRAM or a panel display sits on it)
-    bus_users = bool(i2c) or cfg.panel.lcd is not None or cfg.panel.oled is not None
+    bus_users = bool(i2c) or cfg.panel.lcd is not None or cfg.panel.oled is not None or \
+        (cfg.panel.presets is not None and cfg.panel.presets.adc == "ads1115")
     if bus_users:
         for pin, what in ((2, "I2C1 SDA"), (3, "I2C1 SCL")):
             for key, p in list(used.items()):
