@@ -37,6 +37,8 @@ def message(st: Status) -> str:
         return f"E{fault_code(f.kind)} {f.kind}" + (f" {f.axis}" if f.axis else "")
     if st.local_control:
         return "LOCAL " + ", ".join(st.local_control)
+    if getattr(st, "procedures", None):     # the BIG-RAS homing: a search frame
+        return "HOMING " + " ".join(st.procedures)
     if not st.position_known:
         return "POSITION UNKNOWN"
     return ""

@@ -1377,7 +1377,8 @@ class Rotator:
             sim_truth=self.hw.sim_truth(),
             limits={n: ax.limits for n, ax in self.axes.items()},
             offsets={"az": self.geometry.az_offset_deg, "el": self.geometry.el_offset_deg},
-            state_error=self._save_error, axes=tuple(self.axes))
+            state_error=self._save_error, axes=tuple(self.axes),
+            procedures={n: "reference search" for n in self._searches})
 
 
 def _holding_lock(method: Callable) -> Callable:
