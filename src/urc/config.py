@@ -496,9 +496,9 @@ class PanelButtons(_Section):
     slow: int | None = Field(None, ge=0, le=53)
     #: BIG-RAS SW7 / SW8: turn the azimuth / elevation to the preset knobs' direction;
     #: SW10 held: the display shows that direction ([panel.presets])
-    preset_az: int | None = Field(None, ge=0, le=53)
-    preset_el: int | None = Field(None, ge=0, le=53)
-    show_preset: int | None = Field(None, ge=0, le=53)
+    preset_az: int | None = Field(default=None, ge=0, le=53)
+    preset_el: int | None = Field(default=None, ge=0, le=53)
+    show_preset: int | None = Field(default=None, ge=0, le=53)
 
 
 class PanelLeds(_Section):
@@ -579,7 +579,7 @@ class PanelSection(_Section):
     #: from the system clock (NTP), in ``timezone``: "UTC" or an IANA name such as
     #: "Europe/Budapest" (summer time follows by itself, as the BIG-RAS's does)
     clock: bool = False
-    timezone: str = Field("UTC", min_length=1)
+    timezone: str = Field(default="UTC", min_length=1)
     #: the BIG-RAS preset knobs P1/P2 on an ADC (urc.frontpanel.settings)
     presets: PanelPresets | None = None
     lcd: PanelLcd | None = None
