@@ -13,7 +13,7 @@ from urc.hardware.drivers import (As5600Sensor, Bts7960Motor, CompassSensor, Lim
                                   Lmd18200Motor, PotSensor, QuadratureEncoder, RelayBrake,
                                   RelayMotor, SpidPulseSensor, TiltSensor, Vnh5019Motor)
 from urc.hardware.drivers.motors import DirectionTracker, lmd18200_state
-from urc.hardware.drivers.sensors import tilt_compensate
+from urc.hardware.drivers.sensors import chip_horizontal, tilt_compensate
 from urc.hardware.parts import MagnetStatus
 
 
@@ -342,6 +342,12 @@ class Vec:
         return self.v
 
 
+def on_chip(v):
+    """A vector on the heading formulas' axes (x boresight, y right, z up) as the LSM303
+    mounted as seed 001 says reads it (X right, Y boresight, Z up)."""
+    return (v[1], v[0], v[2])
+
+
 @pytest.mark.parametrize("pitch_deg, roll_deg", [(0, 0), (30, 0), (-20, 10), (60, -15)])
 def test_tilt_compensation_recovers_the_heading(pitch_deg, roll_deg):
     psi, dip = math.radians(123.0), math.radians(70.0)     # heading, field inclination
@@ -359,7 +365,7 @@ def test_tilt_compensation_recovers_the_heading(pitch_deg, roll_deg):
     bx, by = tilt_compensate(m, a)
     assert math.degrees(math.atan2(-by, bx)) % 360 == pytest.approx(123.0, abs=1e-6)
     caps = SensorCaps(kind="magnetometer", resolution_deg=0.1, absolute=True, modulo_deg=360.0)
-    c = CompassSensor(caps, "az", Vec(m), Vec(a), declination_deg=5.0)
+    c = CompassSensor(caps, "az", Vec(on_chip(m)), Vec(on_chip(a)), declination_deg=5.0)
     assert c.read_deg() == pytest.approx(128.0, abs=0.05)
 
 
@@ -368,7 +374,8 @@ def test_compass_hard_and_soft_iron():
     psi = math.radians(200.0)
     # soft iron stretches x by 1.2 after a hard-iron offset of (0.1, -0.05)
     raw = (1.2 * math.cos(psi) + 0.1, -math.sin(psi) - 0.05, 0.0)
-    c = CompassSensor(caps, "az", Vec(raw), hard_iron=(0.1, -0.05), soft_iron=(1 / 1.2, 0, 0, 1))
+    # (the hard iron on the chip's own axes)
+    c = CompassSensor(caps, "az", Vec(on_chip(raw)), hard_iron=(-0.05, 0.1), soft_iron=(1 / 1.2, 0, 0, 1))
     assert c.read_deg() == pytest.approx(200.0, abs=0.05)
     c.load_calibration({"soft_iron": [1, 0, 0, 1]})
     assert abs(c.read_deg() - 200.0) > 1.0
@@ -377,7 +384,7 @@ def test_compass_hard_and_soft_iron():
 def test_tilt_sensor():
     caps = SensorCaps(kind="magnetometer", resolution_deg=0.1, absolute=True)
     el = math.radians(33.3)
-    t = TiltSensor(caps, "el", Vec((math.sin(el), 0.0, math.cos(el))))
+    t = TiltSensor(caps, "el", Vec(on_chip((math.sin(el), 0.0, math.cos(el)))))
     assert t.read_deg() == pytest.approx(33.3)
     t.set_reference_deg(30.0)
     assert t.read_deg() == pytest.approx(30.0)
@@ -398,7 +405,8 @@ def test_soft_iron_fit_makes_the_compass_true():
     assert fit_hard_iron(samples).rms_rel > 0.05      # a circle fit would be refused
     errs = []
     for psi in range(0, 360, 7):
-        c = CompassSensor(caps, "az", Vec(raw(psi)), hard_iron=(fit.x, fit.y), soft_iron=fit.matrix)
+        c = CompassSensor(caps, "az", Vec(on_chip(raw(psi))), hard_iron=chip_horizontal(fit.x, fit.y),
+                          soft_iron=fit.matrix)
         errs.append((c.read_deg() - psi + 180) % 360 - 180)
     # a symmetric correction leaves at most a constant rotation (taken out by the offset)
     mean = sum(errs) / len(errs)

@@ -401,7 +401,8 @@ def test_elevation_0_to_180_and_a_reading_below_zero(sarc):
     assert s.receive(b"m\r")[0].startswith(b"Monitoring")
     for deg in range(0, 46):                      # tilt the sensor down slowly
         a = math.radians(deg)
-        b.world.board.hold(rotation_taking((0, 0, 1), (-math.sin(a), 0, math.cos(a))))
+        # the board's Y (the boresight, seed 001's mounting) tilted down
+        b.world.board.hold(rotation_taking((0, 0, 1), (0, -math.sin(a), math.cos(a))))
         rows = ticks(b, s, 0.2, step_s=0.1)
     assert int(rows[-1].split(b",")[1]) == -45
     st = b.rot.status()

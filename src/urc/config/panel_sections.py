@@ -8,6 +8,7 @@ from typing import Literal
 
 from pydantic import Field
 
+from ..frontpanel.settings import PanelPresets
 from .base import Section, num
 
 
@@ -23,6 +24,11 @@ class PanelButtons(Section):
     park: int | None = Field(default=None, ge=0, le=53)
     #: held with a turn button: jog slowly (G4JNT); stores Z in its zero setting
     slow: int | None = Field(default=None, ge=0, le=53)
+    #: BIG-RAS SW7 / SW8: turn the azimuth / elevation to the preset knobs' direction;
+    #: SW10 held: the display shows that direction ([panel.presets])
+    preset_az: int | None = Field(default=None, ge=0, le=53)
+    preset_el: int | None = Field(default=None, ge=0, le=53)
+    show_preset: int | None = Field(default=None, ge=0, le=53)
 
 
 class PanelLeds(Section):
@@ -99,6 +105,13 @@ class PanelSection(Section):
     #: BIG-RAS "Autoturn": a jog held 5 s goes on after its button is let go, until a
     #: button is pressed again or the axis reaches its end of travel
     autoturn: bool = False
+    #: the time on the display's lower rows (BIG-RAS; a 4-row LCD, the OLED always),
+    #: from the system clock (NTP), in ``timezone``: "UTC" or an IANA name such as
+    #: "Europe/Budapest" (summer time follows by itself, as the BIG-RAS's does)
+    clock: bool = False
+    timezone: str = Field(default="UTC", min_length=1)
+    #: the BIG-RAS preset knobs P1/P2 on an ADC (urc.frontpanel.settings)
+    presets: PanelPresets | None = None
     lcd: PanelLcd | None = None
     oled: PanelOled | None = None
     ir: PanelIr | None = None

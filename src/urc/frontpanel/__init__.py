@@ -34,13 +34,21 @@ def build_panel(cfg, rotator, dispatch: Callable[..., None] | None = None):
     if p.ir is not None:
         source = EmulatedKeys() if p.emulate else open_device(p.ir.device)
         ir = (source, key_codes(p.ir.keys or DEFAULT_KEYS))
+    presets = None
+    if p.presets is not None:
+        from .presets import build_knobs
+
+        presets, presets_bus = build_knobs(p.presets, p.emulate)
     buttons = {k: v for k, v in p.buttons.model_dump().items() if v is not None}
     leds = {k: v for k, v in p.leds.model_dump().items() if v is not None}
     panel = FrontPanel(rotator, pin_factory=pin_factory(p.emulate), buttons=buttons, leds=leds,
                        beeper_pin=p.beeper, display=display, ir=ir, layout=p.layout, jog_speed=p.jog_speed,
                        slow_speed=p.slow_speed, bounce_time_s=None if p.emulate or not p.bounce_s else p.bounce_s,
                        dispatch=dispatch, beeper_type=p.beeper_type, beep_on_command=p.beep_on_command,
-                       backlight_pct=p.backlight_pct, screensaver_s=p.screensaver_s, autoturn=p.autoturn)
+                       backlight_pct=p.backlight_pct, screensaver_s=p.screensaver_s, autoturn=p.autoturn,
+                       presets=presets, clock=p.clock, timezone=p.timezone)
+    if presets is not None:
+        panel.presets_bus = presets_bus      # closed with the panel; emulated: the knobs' chip
     panel.power_on()
     return panel
 

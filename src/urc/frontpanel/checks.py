@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING
 
 from ..config.issues import Issue, suggest
 from .controls import ACTIONS
+from .settings import presets_issues, timezone_issues
 
 if TYPE_CHECKING:
     from ..config import Config
@@ -30,6 +31,7 @@ def panel_issues(cfg: Config) -> list[Issue]:
         used.setdefault(pin, key)
     if p.lcd is not None and p.oled is not None:
         issues.append(("panel.oled", "one display: [panel.lcd] or [panel.oled], not both", "both", ""))
+    issues += presets_issues(p.presets, p.buttons.model_dump()) + timezone_issues(p.timezone)
     if p.ir is not None:
         for name, action in p.ir.keys.items():
             if action not in ACTIONS:

@@ -22,12 +22,14 @@ from ..protocols.tartu_codec import LCD_CONTRAST_MAX
 from .controls import JOGS, LocalControls, button_action
 from .indicators import Beeper, Tone, led_states
 from .ir import IrRemote
-from .screen import status_rows, zero_rows
+from .screen import preset_rows, status_rows, zero_rows
 from .zeroset import ZeroSetting
 
 log = logging.getLogger("urc.frontpanel")
 
 UPDATE_PERIOD_S = 0.05
+#: BIG-RAS SW7 / SW8 / SW10: buttons the panel handles itself (the preset knobs)
+PRESET_ACTIONS = {"preset_az": "az", "preset_el": "el", "show_preset": None}
 
 
 class FrontPanel:
@@ -38,7 +40,7 @@ class FrontPanel:
                  dispatch: Callable[..., None] | None = None, now_s: Callable[[], float] | None = None,
                  wall_s: Callable[[], float] = time.time, beeper_type: str | int = "dc",
                  beep_on_command: bool = False, backlight_pct: int = 100, screensaver_s: float = 0.0,
-                 autoturn: bool = False):
+                 autoturn: bool = False, presets: Any = None, clock: bool = False, timezone: str = "UTC"):
         from gpiozero import LED, Button, Buzzer, PWMOutputDevice
 
         self.rotator = rotator
@@ -63,6 +65,11 @@ class FrontPanel:
                         for name, pin in (buttons or {}).items()}
         self.leds = {name: self._device(LED, pin, pin_factory) for name, pin in (leds or {}).items()}
         self.display = display
+        #: the BIG-RAS preset knobs (frontpanel.presets.PresetKnobs), and whether SW10 is held
+        self.presets = presets
+        self.presets_bus: Any = None
+        self.showing_preset = False
+        self.clock, self.timezone = clock, timezone
         self.ir = IrRemote(ir[0], ir[1], self.controls) if ir is not None else None
         self.zero: ZeroSetting | None = None
         self._had_fault = False
@@ -119,6 +126,9 @@ class FrontPanel:
         if self.zero is not None and self.zero.active:
             self._zero_press(action)
             return
+        if action in PRESET_ACTIONS:
+            self._preset_press(action)
+            return
         self.controls.press(action, "button")
 
     def _release(self, name: str) -> None:
@@ -129,7 +139,31 @@ class FrontPanel:
             if action in ("cw", "ccw"):
                 self.zero.release(JOGS[action][1])
             return
+        if action in PRESET_ACTIONS:
+            if action == "show_preset":
+                self.showing_preset = False
+            return
         self.controls.release(action, "button")
+
+    def _preset_press(self, action: str) -> None:
+        """SW7 / SW8: that axis to the knob's direction, through the same gate as any
+        command (refused: a beep, nothing moves); SW10: show the knobs' direction."""
+        if action == "show_preset":
+            self.showing_preset = self.presets is not None
+            return
+        axis = PRESET_ACTIONS[action]
+        if self.presets is None or axis not in self.rotator.caps.axes:
+            return                       # no knobs wired, or no elevation: no function
+        try:
+            target = self.presets.preset_deg(axis, self.rotator.status())
+            (self.rotator.goto_az if axis == "az" else self.rotator.goto_el)(target)
+        except UrcError as exc:          # CommandRejected, an unreadable knob
+            self.controls.last_refusal = f"{action}: {exc}"
+            log.info("front panel %s refused: %s", action, exc)
+            self.beeper.beep("refused")
+            return
+        log.info("front panel: %s to the preset %.0f deg", axis, target)
+        self.beeper.beep("click")
 
     def _zero_press(self, name: str) -> None:
         if name in ("cw", "ccw"):
@@ -179,7 +213,20 @@ class FrontPanel:
         cols, rows = self.display.cols, self.display.rows
         if self.zero is not None and self.zero.active:
             return zero_rows(self.zero.label, self.zero.value_deg, cols, rows)
-        return status_rows(self.rotator.status(), now, cols, rows, self.wall_s())
+        st = self.rotator.status()
+        if self.showing_preset:
+            return self._preset_screen(st, cols, rows)
+        return status_rows(st, now, cols, rows, self.wall_s(), self.timezone, self.clock)
+
+    def _preset_screen(self, st: Any, cols: int, rows: int) -> list[str]:
+        shown: dict[str, float | None] = {}
+        why = ""
+        for axis in st.axes:
+            try:
+                shown[axis] = self.presets.preset_deg(axis, st)
+            except UrcError as exc:
+                shown[axis], why = None, str(exc)
+        return preset_rows(shown.get("az"), shown.get("el"), st.el is not None, cols, rows, why)
 
     def refresh_display(self, now_s: float | None = None) -> None:
         if self.display is not None:
@@ -200,6 +247,8 @@ class FrontPanel:
             self.zero.cancel()
         for dev in self._devices:
             dev.close()
+        if self.presets_bus is not None:
+            self.presets_bus.close()
         if self.display is not None:
             self.display.close()
 

@@ -11,11 +11,17 @@ position unknown). A 2-row display alternates its second row every 2 s between t
 elevation and that message while there is one. A rotator without elevation shows no
 elevation row at all (no fake 0): that row carries the summary instead. During the G4JNT zero-setting procedure
 the display shows Z and how to change and store it.
+
+The clock (BIG-RAS: the time in the screen's lower section, UTC or local by its time
+zone setting): the OLED's fifth row always, a 4-row LCD's third row with ``clock`` on
+while no fault or hold needs that row. While SW10 is held the BIG-RAS shows the preset
+knobs' direction instead of the position (:func:`preset_rows`).
 """
 
 from __future__ import annotations
 
-import time
+import datetime
+from zoneinfo import ZoneInfo
 
 from ..protocols.tartu_codec import lcd_rows
 from ..service.snapshot import Status
@@ -31,6 +37,8 @@ def message(st: Status) -> str:
         return f"E{fault_code(f.kind)} {f.kind}" + (f" {f.axis}" if f.axis else "")
     if st.local_control:
         return "LOCAL " + ", ".join(st.local_control)
+    if getattr(st, "procedures", None):     # the BIG-RAS homing: a search frame
+        return "HOMING " + " ".join(st.procedures)
     if not st.position_known:
         return "POSITION UNKNOWN"
     return ""
@@ -46,22 +54,45 @@ def summary(st: Status) -> str:
     return "MOVING" if st.moving else "READY"
 
 
+def clock_text(utc_unix_s: float, timezone: str = "UTC") -> str:
+    """``UTC 14:03:27``, or the local time with its zone's abbreviation (``CEST 16:03:27``:
+    summer time by the zone's own rules)."""
+    local = datetime.datetime.fromtimestamp(utc_unix_s, ZoneInfo(timezone))
+    return f"{local.tzname()} {local:%H:%M:%S}"
+
+
 def status_rows(st: Status, t_s: float, cols: int = 20, rows: int = 2,
-                utc_unix_s: float | None = None) -> list[str]:
+                utc_unix_s: float | None = None, timezone: str = "UTC", clock: bool = False) -> list[str]:
     """The display's rows, each exactly ``cols`` characters. A fifth row (the OLED's)
-    shows the UTC time, as the Berkeley rotor's OLED does beside encoder and target."""
+    shows the time, as the Berkeley rotor's OLED does beside encoder and target; with
+    ``clock`` a 4-row display shows it on its third row while that row has no message."""
     out = lcd_rows(st)
     msg = message(st)
     extra = [msg, summary(st)]
     if st.el is None:  # the (blank) elevation row shows the summary instead
         out[1] = extra.pop()
+    if rows == 4 and clock and not msg and utc_unix_s is not None:
+        extra[0] = clock_text(utc_unix_s, timezone)
     if rows >= 4:
         out += extra
     if rows >= 5 and utc_unix_s is not None:
-        out.append(time.strftime("UTC %H:%M:%S", time.gmtime(utc_unix_s)))
+        out.append(clock_text(utc_unix_s, timezone))
     elif msg and int(t_s // ALTERNATE_S) % 2 == 1:
         out[1] = msg
     return fit(out[:rows], cols, rows)
+
+
+def preset_rows(az_deg: float | None, el_deg: float | None, has_el: bool, cols: int = 20,
+                rows: int = 2, why: str = "") -> list[str]:
+    """SW10 held: where SW7 / SW8 would turn the antenna (None: the knob cannot be read,
+    ``why``)."""
+    def deg(v: float | None) -> str:
+        return "---" if v is None else f"{v:03.0f}"
+    out = [f"PRESET AZ {deg(az_deg)}"]
+    out.append(f"PRESET EL {deg(el_deg)}" if has_el else "SW7 turns there")
+    if why:
+        out.append(why)
+    return fit(out, cols, rows)
 
 
 def zero_rows(label: str, value_deg: float, cols: int = 20, rows: int = 2) -> list[str]:

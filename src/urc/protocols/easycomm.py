@@ -21,6 +21,7 @@ from .base import RotatorPort, bad_input_log, internal_error, protocol_logger
 from .easycomm_codec import (COMMANDS_II, COMMANDS_III, Command, EasycommParseError, format_axis,
                              format_az_el, format_value, parse_line)
 from .lines import LineSplitter
+from .poses import require_known
 from .single_axis import has_elevation
 
 _JOG = {"ML": ("az", -1), "MR": ("az", 1), "MU": ("el", 1), "MD": ("el", -1),
@@ -188,7 +189,7 @@ class _EasycommSession:
         return []
 
     def _position(self, queries: list[str]) -> list[bytes]:
-        s = self.rotator.status()  # never cached: a query while moving says where it is now
+        s = require_known(self.rotator.status())  # never cached: a query while moving says where it is now
         if len(queries) == 2:
             return [format_az_el(s.az_deg, s.el_deg)]
         return [format_axis("AZ", s.az_deg) if queries[0] == "az" else format_axis("EL", s.el_deg)]

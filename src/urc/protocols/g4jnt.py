@@ -39,7 +39,7 @@ from .base import MAX_PENDING_BYTES, RotatorPort, bad_input_log, internal_error,
 from . import g4jnt_codec as codec
 from .g4jnt_codec import Constants, G4jntCommand, G4jntSyntaxError
 from .lines import LineSplitter, next_due_s
-from .poses import ExtendedTarget, extended_pose_deg
+from .poses import ExtendedTarget, PositionUnknown, extended_pose_deg, require_known
 
 log = protocol_logger("g4jnt")
 bad_input = bad_input_log("g4jnt")
@@ -109,11 +109,15 @@ class G4jntSession:
         nxt = next_due_s(self._next_s, now_s, self.interval_s)
         if nxt is not None:
             self._next_s = nxt
-            out.append(self.stream_line())
+            try:
+                out.append(self.stream_line())
+            except PositionUnknown as exc:    # homing: no bearing to stream, say why
+                out.append(codec.line(f"? {exc}"))
         return out
 
     def stream_line(self) -> bytes:
         k = self.constants
+        require_known(self.rotator.status())
         if self._pot is not None:
             p = codec.linearise(self._pot.last_counts, k.k)
         else:

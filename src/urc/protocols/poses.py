@@ -16,8 +16,26 @@ from __future__ import annotations
 
 import math
 
+from ..errors import CommandRejected
 from ..service.snapshot import Status
 from .base import RotatorPort
+
+
+class PositionUnknown(CommandRejected):
+    """A position query while a procedure (the BIG-RAS homing) runs: the axis counts
+    in the procedure's own frame, so no number may be given as where it points. Each
+    protocol answers it in its own error form."""
+
+    def __init__(self, st: Status):
+        what = ", ".join(f"{axis} ({name})" for axis, name in st.procedures.items())
+        super().__init__(f"position unknown: {what} running", "uncertain")
+
+
+def require_known(st: Status) -> Status:
+    """``st``, or :class:`PositionUnknown` while a procedure runs on any axis."""
+    if getattr(st, "procedures", None):
+        raise PositionUnknown(st)
+    return st
 
 
 def frame_offsets_deg(st: Status) -> tuple[float, float]:
@@ -43,7 +61,14 @@ def frame_offsets_deg(st: Status) -> tuple[float, float]:
 def extended_pose_deg(st: Status) -> tuple[float, float]:
     """Where the axes are, in the frame a controller shows: azimuth including the wrap
     (e.g. 400.0, or -10.0 on a -180..540 rotator), elevation past 90 when flipped.
-    Equals (st.az_deg, st.el_deg) for a rotator sitting in its first turn, unflipped."""
+    Equals (st.az_deg, st.el_deg) for a rotator sitting in its first turn, unflipped.
+    PositionUnknown while a procedure runs (:func:`require_known`)."""
+    return shown_pose_deg(require_known(st))
+
+
+def shown_pose_deg(st: Status) -> tuple[float, float]:
+    """:func:`extended_pose_deg` unchecked: for a display that marks an unknown axis
+    itself (:meth:`Status.position_unknown`)."""
     az_off, el_off = frame_offsets_deg(st)
     return st.az.pos_deg + az_off, st.el.pos_deg + el_off
 
@@ -56,6 +81,7 @@ def readback_pose_deg(st: Status) -> tuple[float, float]:
     elevation past 90. Hamlib's own dummy rotator reads back what was set, and Gpredict
     with flip compares ``p`` with what it sent: the sky direction, 180 deg away, made it
     re-send ``P`` every cycle."""
+    require_known(st)
     if not st.flipped:
         return st.az_deg, st.el_deg
     az, el = extended_pose_deg(st)

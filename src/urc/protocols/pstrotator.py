@@ -27,6 +27,7 @@ from .base import (MAX_PENDING_BYTES, RotatorPort, bad_input_log, goto_named_axe
                    protocol_logger)
 from . import pstrotator_codec as codec
 from .numbers import compass_tenths
+from .poses import require_known
 from .pstrotator_codec import PstItem
 
 log = protocol_logger("pstrotator")
@@ -115,7 +116,7 @@ class PstRotatorSession:
         return []
 
     def _query(self, name: str) -> list[bytes]:
-        st = self.rotator.status()
+        st = require_known(self.rotator.status())
         if name == "AZ":
             return [codec.format_reply("AZ", compass_tenths(st.az_deg))]
         if name == "EL":

@@ -58,7 +58,7 @@ from .base import (MAX_PENDING_BYTES, RotatorPort, bad_input_log, goto_named_axe
                    protocol_logger)
 from . import sarcnet_codec as codec
 from .lines import LineSplitter, next_due_s
-from .poses import ExtendedTarget, extended_pose_deg
+from .poses import ExtendedTarget, extended_pose_deg, require_known
 from .sarcnet_codec import SarcnetCommand, SarcnetSyntaxError, signed180
 
 log = protocol_logger("sarcnet")
@@ -160,7 +160,7 @@ class SarcnetSession:
                 return [codec.console(f"Error: {exc}")]
             return []
         if cmd.kind == "ec_query":
-            st = self.rotator.status()
+            st = require_known(self.rotator.status())
             return [codec.easycomm_position(cmd.axes, st.az_deg, st.el_deg)]
         if cmd.kind == "ec_set":
             try:

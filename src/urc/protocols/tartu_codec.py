@@ -20,7 +20,7 @@ from typing import Callable
 from .base import ProtocolError
 from .lines import crlf_line as line
 from .numbers import DECIMAL, format_deg
-from .poses import extended_pose_deg, extended_targets_deg
+from .poses import extended_targets_deg, shown_pose_deg
 from .single_axis import wire_status
 
 # error codes (ERR <code> <text>)
@@ -201,10 +201,11 @@ def axis_state(st, axis: str) -> str:
     return _MODE_STATE.get(ax.mode, ax.mode[:3].upper())
 
 
-def lcd_line(axis_label: str, pos_deg: float, target_deg: float | None, state: str) -> str:
-    """One 20-character LCD row: 'AZ 123.4>130.0  RUN'."""
+def lcd_line(axis_label: str, pos_deg: float | None, target_deg: float | None, state: str) -> str:
+    """One 20-character LCD row: 'AZ 123.4>130.0  RUN'; 'AZ ---.-          UNK' while a
+    procedure runs (None: the position is unknown)."""
     tgt = ">" + format_deg(target_deg) if target_deg is not None else ""
-    body = f"{axis_label} {format_deg(pos_deg)}{tgt}"
+    body = f"{axis_label} {'---.-' if pos_deg is None else format_deg(pos_deg)}{tgt}"
     return body[:LCD_WIDTH - 4].ljust(LCD_WIDTH - 4) + " " + state[:3].rjust(3)
 
 
@@ -213,7 +214,9 @@ def lcd_rows(st) -> list[str]:
     azimuth and elevation in the extended frame, each axis' setpoint and state."""
     single = st.el is None  # the TRC turntable: the azimuth row only, the other left blank
     st = wire_status(st)
-    pos, tgt = extended_pose_deg(st), extended_targets_deg(st)
-    rows = [lcd_line(label, pos[i], tgt[i], axis_state(st, axis))
+    pos, tgt = shown_pose_deg(st), extended_targets_deg(st)
+    # an axis in a procedure (homing) counts in a frame of its own: no number for it
+    rows = [lcd_line(label, None, None, axis_state(st, axis)) if st.position_unknown(axis) else
+            lcd_line(label, pos[i], tgt[i], axis_state(st, axis))
             for i, (label, axis) in enumerate((("AZ", "az"), ("EL", "el")))]
     return rows[:1] + [""] if single else rows

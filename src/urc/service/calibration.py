@@ -20,6 +20,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from ..errors import CommandRejected, UrcError
+from ..hardware.drivers.sensors import chip_horizontal
 from .remote import in_control_process
 from .snapshot import Status
 
@@ -467,19 +468,21 @@ class MagnetometerCalibration(Procedure):
                                    "the antenna did not turn all the way round")
         sensor = _sensor(self.rotator, self.axis)
         old = dict(sensor.calibration())
-        constants: dict[str, Any] = {"hard_iron_x": fit.x, "hard_iron_y": fit.y}
+        # the centre is on the boom's axes; the hard iron is taken off on the chip's
+        hx, hy = chip_horizontal(fit.x, fit.y)
+        constants: dict[str, Any] = {"hard_iron_x": hx, "hard_iron_y": hy}
         if "soft_iron" in old:
             constants["soft_iron"] = list(soft.matrix) if soft is not None else [1.0, 0.0, 0.0, 1.0]
         if "mag_matrix" in old:   # fitted on the raw field: replaces the hand-held 3-D one
             constants["mag_matrix"] = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]
         mech = apply_sensor_calibration(self.rotator, self.axis, constants)
-        self.result = {"hard_iron_x": fit.x, "hard_iron_y": fit.y, "field_radius": fit.radius,
+        self.result = {"hard_iron_x": hx, "hard_iron_y": hy, "field_radius": fit.radius,
                        "rms_rel": fit.rms_rel, "max_gap_deg": fit.max_gap_deg,
                        "old_hard_iron_x": old.get("hard_iron_x"), "old_hard_iron_y": old.get("hard_iron_y"),
                        "soft_iron": list(soft.matrix) if soft is not None else None,
                        "samples": [list(s) for s in self.samples], "position_deg": mech}
         self.progress, self.state = 1.0, "done"
-        self.step = f"done: hard iron ({fit.x:+.4f}, {fit.y:+.4f}), scatter {fit.rms_rel * 100:.2f}%"
+        self.step = f"done: hard iron ({hx:+.4f}, {hy:+.4f}), scatter {fit.rms_rel * 100:.2f}%"
 
 
 class LimitSwitchHoming(Procedure):

@@ -332,4 +332,4 @@ class Rotator:
 
     def _build_status(self, now_s: float) -> Status:
         return build_status(self._core, now_s, self.timing.health(now_s), self._records.save_error,
-                            self._commands.local_controls())
+                            self._commands.local_controls(), searches=tuple(self._records.searches))

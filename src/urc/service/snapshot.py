@@ -61,6 +61,14 @@ class Status:
     local_control: tuple[str, ...] = ()
     #: the axes the rotator has: ("az",) for a single-axis one (turntable, HF beam)
     axes: tuple[str, ...] = ("az", "el")
+    #: procedures running per axis ("reference search": the BIG-RAS homing). The axis
+    #: then counts in a frame of the procedure's own: its number says nothing about
+    #: where the antenna points, and every client is told its position is unknown
+    procedures: dict[str, str] = field(default_factory=dict)
+
+    def position_unknown(self, axis: str | None = None) -> bool:
+        """Is the position of ``axis`` (None: any axis) unknown (a procedure runs)?"""
+        return bool(self.procedures) if axis is None else axis in self.procedures
 
     @property
     def has_el(self) -> bool:

@@ -16,7 +16,9 @@ from .timing import LoopHealth
 
 
 def build_status(core: Core, now_s: float, loop: LoopHealth, save_error: str,
-                 local_control: tuple[str, ...]) -> Status:
+                 local_control: tuple[str, ...], searches: tuple[str, ...] = ()) -> Status:
+    """``searches``: the axes in a reference search (homing): their position is no number
+    a client may be given (Status.procedures)."""
     az, el = core.axes["az"], core.axes.get("el")
     g = core.geometry
     tgt = core.target_sky
@@ -44,5 +46,6 @@ def build_status(core: Core, now_s: float, loop: LoopHealth, save_error: str,
         sim_truth=core.hw.sim_truth(),
         limits={n: ax.limits for n, ax in core.axes.items()},
         offsets={"az": g.az_offset_deg, "el": g.el_offset_deg},
-        state_error=save_error, axes=tuple(core.axes))
+        state_error=save_error, axes=tuple(core.axes),
+        procedures={n: "reference search" for n in searches})
 

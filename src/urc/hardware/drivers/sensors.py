@@ -342,6 +342,22 @@ class AccelCalibration:
         self.accel_offset, self.accel_scale = offset, scale
 
 
+def boom_frame(v: Sequence[float]) -> tuple[float, float, float]:
+    """A vector from the LSM303's own axes, as seed 001 mounts the board (flat side on
+    top of the boom: Y along the boresight; pointing north, level, X east and Z up; the
+    chip's right-handed frame, the accelerometer reading +1 g on Z at rest) into the
+    frame the heading and tilt below work in (x along the boresight, y to its right, z
+    up). The irons and the accelerometer's offsets are the chip's: they are taken off
+    before this turn, in the chip's frame."""
+    return (float(v[1]), float(v[0]), float(v[2]))
+
+
+def chip_horizontal(x: float, y: float) -> tuple[float, float]:
+    """A horizontal vector of :func:`boom_frame` (a hard-iron centre fitted on
+    :meth:`CompassSensor.read_field`) back on the chip's X and Y."""
+    return float(y), float(x)
+
+
 def tilt_compensate(m: Sequence[float], a: Sequence[float]) -> tuple[float, float]:
     """Horizontal field (x forward, y) of body-frame field ``m`` given gravity ``a``.
 
@@ -365,7 +381,9 @@ class CompassSensor(_Driver, AccelCalibration):
     Two soft-iron corrections, each set by its own procedure (which resets the other):
     ``mag_matrix`` (3x3, in the sensor's frame, from the hand-held 12-direction
     calibration) and ``soft_iron`` (2x2 on the horizontal field, from turning the antenna
-    round on its mount). Field convention: heading psi gives (bx, by) = (cos psi, -sin psi).
+    round on its mount). The chip is read on its own axes (irons, accelerometer offsets),
+    then turned onto the boom's (:func:`boom_frame`): there heading psi gives the
+    horizontal field (bx, by) = (cos psi, -sin psi), psi increasing clockwise.
     """
 
     def __init__(self, caps: SensorCaps, name: str, mag: Vector3, accel: Vector3 | None = None, *,
@@ -384,10 +402,10 @@ class CompassSensor(_Driver, AccelCalibration):
 
     def read_field(self) -> tuple[float, float]:
         """The raw horizontal field (bx, by): tilt-compensated, irons not removed."""
-        m = self.mag.read_vector()
+        m = boom_frame(self.mag.read_vector())
         if self.accel is None:
             return (m[0], m[1])
-        return tilt_compensate(m, self.corrected_accel(self.accel.read_vector()))
+        return tilt_compensate(m, boom_frame(self.corrected_accel(self.accel.read_vector())))
 
     def _corrected(self) -> tuple[float, float]:
         """Hard iron off (in the sensor's own frame, where it sits) and the sensor-frame
@@ -399,8 +417,9 @@ class CompassSensor(_Driver, AccelCalibration):
         if k != IDENTITY3:
             m = (k[0] * m[0] + k[1] * m[1] + k[2] * m[2], k[3] * m[0] + k[4] * m[1] + k[5] * m[2],
                  k[6] * m[0] + k[7] * m[1] + k[8] * m[2])
+        m = boom_frame(m)
         x, y = (m[0], m[1]) if self.accel is None else \
-            tilt_compensate(m, self.corrected_accel(self.accel.read_vector()))
+            tilt_compensate(m, boom_frame(self.corrected_accel(self.accel.read_vector())))
         s = self.soft_iron
         if s != (1.0, 0.0, 0.0, 1.0):
             x, y = s[0] * x + s[1] * y, s[2] * x + s[3] * y
@@ -448,7 +467,7 @@ class TiltSensor(_Driver, AccelCalibration):
     def _tilt(self) -> float:
         """Tilt in -90..270: straight down to over the top and on (the SARCNET
         reads -90..180; atan2's -180..180 would call 180 -180)."""
-        ax, _, az = self.corrected_accel(self.accel.read_vector())
+        ax, _, az = boom_frame(self.corrected_accel(self.accel.read_vector()))
         t = math.degrees(math.atan2(ax, az))
         return t + 360.0 if t < -90.0 else t
 

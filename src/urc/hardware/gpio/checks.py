@@ -141,7 +141,8 @@ def gpio_issues(cfg: Config, caps: RotatorCaps) -> list[Issue]:
                                f"({', '.join(sorted(k for k in ax.pins if k in outputs))})", key, ""))
     # every pin against every other: the panel's too, and the buses' (I2C1 is GPIO2/3
     # whenever a chip, the FRAM or a panel display sits on it)
-    bus_users = bool(i2c) or cfg.panel.lcd is not None or cfg.panel.oled is not None
+    bus_users = bool(i2c) or cfg.panel.lcd is not None or cfg.panel.oled is not None or \
+        (cfg.panel.presets is not None and cfg.panel.presets.adc == "ads1115")
     if bus_users:
         for pin, what in ((2, "I2C1 SDA"), (3, "I2C1 SCL")):
             if pin in used:

@@ -311,10 +311,12 @@ class PulseDriver:
 
 
 def tilted(v: tuple[float, float, float], el_deg: float) -> tuple[float, float, float]:
-    """A level-frame vector seen by a sensor on a boom raised by ``el_deg`` (pitch)."""
-    p = math.radians(-el_deg)
+    """A vector on the level chip's axes (seed 001's mounting: X right of the
+    boresight, Y along it, Z up) as the chip sees it on a boom raised by ``el_deg``:
+    the chip turned about its X axis, Y (the boresight) up."""
+    e = math.radians(el_deg)
     x, y, z = v
-    return (x * math.cos(p) - z * math.sin(p), y, x * math.sin(p) + z * math.cos(p))
+    return (x, y * math.cos(e) + z * math.sin(e), -y * math.sin(e) + z * math.cos(e))
 
 
 class FakeFram:

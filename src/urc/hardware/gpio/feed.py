@@ -210,7 +210,9 @@ def feed_sensor(name: str, kind: str, sensor: Any, devices: dict[int, Any], cfg:
                                random.Random(f"urc-emu:{world.seed}:acc"), True,
                                noise_deg=world.caps.el.sensor.noise_deg, board=world.board)
         dip = math.radians(az_p.dip_deg)
-        h_gauss, z_gauss = 0.2, 0.2 * math.tan(dip)
+        # the field dips below the horizon by dip_deg (north of the magnetic equator):
+        # down, against the chip's Z
+        h_gauss, z_gauss = 0.2, -0.2 * math.tan(dip)
 
         def gravity() -> tuple[float, float, float]:
             el_view.bus_wait()

@@ -237,9 +237,10 @@ class SensorBoard:
 
 
 class SimMagnetometer(_SimPart):
-    """Body-frame field for magnetic heading psi (horizontal strength 1, level):
-    (cos psi + hx, -sin psi + hy, 0) with hard iron hx, hy, plus noise; off the boom,
-    what its :class:`SensorBoard` is held to see."""
+    """The chip's field for magnetic heading psi (horizontal strength 1, level), on its
+    own axes as seed 001 mounts it: (-sin psi + hx, cos psi + hy, 0) with hard iron hx,
+    hy, plus noise (turning clockwise, the field swings from Y towards -X); off the
+    boom, what its :class:`SensorBoard` is held to see."""
 
     def __init__(self, *args: Any, noise_deg: float, board: SensorBoard | None = None):
         super().__init__(*args)
@@ -249,14 +250,17 @@ class SimMagnetometer(_SimPart):
     def read_vector(self) -> tuple[float, float, float]:
         psi = math.radians(self._angle() - self._p.declination_deg)
         sigma = math.radians(self.noise_deg)
-        x, y, z = self.board.magnetic((math.cos(psi), -math.sin(psi), 0.0))
+        # on the boom as seed 001 mounts the board: X to the right of the boresight
+        # (east when pointing north), Y along it, Z up (the chip's own axes)
+        x, y, z = self.board.magnetic((-math.sin(psi), math.cos(psi), 0.0))
         return (x + self._gauss(sigma), y + self._gauss(sigma),
                 z + self._gauss(sigma) if self.board.held else z)
 
 
 class SimAccelerometer(_SimPart):
-    """Gravity on the boom tilted to elevation el: (sin el, 0, cos el) g, plus noise;
-    off the boom, what its :class:`SensorBoard` is held to see."""
+    """The chip's accelerometer on the boom raised to elevation el: (0, sin el, cos el)
+    g (at rest it reads +1 g up its Z), plus noise; off the boom, what its
+    :class:`SensorBoard` is held to see."""
 
     def __init__(self, *args: Any, noise_deg: float, board: SensorBoard | None = None):
         super().__init__(*args)
@@ -266,8 +270,9 @@ class SimAccelerometer(_SimPart):
     def read_vector(self) -> tuple[float, float, float]:
         el = math.radians(self._angle())
         sigma = math.radians(self.noise_deg)
-        gx, gy, gz = self.board.gravity((math.sin(el), 0.0, math.cos(el)))
-        return (gx + self._gauss(sigma), gy + self._gauss(sigma) if self.board.held else gy,
+        # the boom raised by el turns the chip about its X axis: Y (the boresight) up
+        gx, gy, gz = self.board.gravity((0.0, math.sin(el), math.cos(el)))
+        return (gx + self._gauss(sigma) if self.board.held else gx, gy + self._gauss(sigma),
                 gz + self._gauss(sigma))
 
 
