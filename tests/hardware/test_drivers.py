@@ -12,7 +12,7 @@ from urc.errors import SensorError
 from urc.hardware.drivers import (As5600Sensor, Bts7960Motor, CompassSensor, LimitSwitchInput,
                                   Lmd18200Motor, PotSensor, QuadratureEncoder, RelayBrake,
                                   RelayMotor, SpidPulseSensor, TiltSensor, Vnh5019Motor)
-from urc.hardware.drivers.motors import DirectionTracker, lmd18200_state
+from urc.hardware.drivers.motors import DirectionTracker, lmd18200_state, vnh5019_state
 from urc.hardware.drivers.sensors import tilt_compensate
 from urc.hardware.parts import MagnetStatus
 
@@ -38,19 +38,45 @@ def test_vnh5019_directions_change_only_with_pwm_off():
     log = Log()
     ina, inb, pwm = Out(log, "INA"), Out(log, "INB"), Out(log, "PWM")
     m = Vnh5019Motor("az", ina, inb, pwm)
-    assert (ina.value, inb.value, pwm.value) == (False, False, 0.0)     # safe at build
+    assert (ina.value, inb.value, pwm.value) == (False, False, 1.0)     # braked at build
     log.events.clear()
     m.set_drive(0.5)
     assert log.events == [("PWM", 0.0), ("INA", True), ("INB", False), ("PWM", 0.5)]
     log.events.clear()
     m.set_drive(-0.25)
     assert log.events == [("PWM", 0.0), ("INA", False), ("INB", True), ("PWM", 0.25)]
+    log.events.clear()
     m.set_drive(0.0)
-    assert (ina.value, inb.value, pwm.value) == (False, False, 0.0)      # brake to ground
+    # brake to GND: INA = INB = 0 needs PWM high (ST VNH5019A-E §2.4); PWM falls first
+    assert log.events == [("PWM", 0.0), ("INA", False), ("INB", False), ("PWM", 1.0)]
     m.set_drive(7.0)
     assert pwm.value == 1.0 and m.direction == 1
     with pytest.raises(Exception):
         m.set_drive(math.nan)
+
+
+def test_vnh5019_off_is_the_datasheets_brake_to_gnd_row_not_coast():
+    """ST VNH5019A-E Rev 7 §2.4, truth table in normal operating conditions, and its
+    note: "in all cases, a '0' on the PWM pin turns off both LSA and LSB switches"."""
+    # (INA, INB, PWM) -> what the bridge does, written out from the datasheet
+    rows = {(1, 0, 1): "forward", (0, 1, 1): "reverse", (1, 1, 1): "brake", (1, 1, 0): "brake",
+            (0, 0, 1): "brake", (0, 0, 0): "coast"}
+    for (a, b, p), want in rows.items():
+        assert vnh5019_state(bool(a), bool(b), bool(p)) == want, (a, b, p)
+    log = Log()
+    ina, inb, pwm = Out(log, "INA"), Out(log, "INB"), Out(log, "PWM")
+    m = Vnh5019Motor("az", ina, inb, pwm)
+    for duty in (0.0, 0.7, 0.0, -0.3, 0.0):
+        m.set_drive(duty)
+        state = vnh5019_state(ina.value, inb.value, pwm.value > 0.0)
+        assert state == ("brake" if duty == 0.0 else "forward" if duty > 0 else "reverse")
+        assert pwm.value == (1.0 if duty == 0.0 else abs(duty))
+    # at exit the PWM stops (idles low): the brake is held by the row that needs no PWM
+    m.before_pwm_close()
+    assert (ina.value, inb.value, pwm.value) == (True, True, 0.0)
+    assert vnh5019_state(ina.value, inb.value, False) == "brake"
+    m.set_drive(0.5)                 # a drive after it rewrites both direction pins
+    assert (ina.value, inb.value, pwm.value) == (True, False, 0.5)
 
 
 def test_bts7960_never_drives_both_sides():

@@ -15,6 +15,7 @@ from urc.clock import VirtualClock
 from urc.config import Config, load_config
 from urc.hardware.drivers.motors import (BTS7960_FAULT_V, LMD18200_TRUTH_TABLE, SENSE_V_PER_A,
                                          VNH5019_TRUTH_TABLE, SenseCurrent, lmd18200_state)
+from urc.hardware.gpio.feed import emulated_bridge_open
 from urc.hardware.gpio.pins import PinIn, PinOut
 from urc.hardware.gpio.pwm import detect_pwm_chip
 from urc.service.loop import run_virtual
@@ -140,6 +141,35 @@ def test_emulated_lmd18200_coasts_further_than_it_brakes(tmp_path):
         assert world.axes["az"].bridge_open == (mode == "coast")
         for _ in range(200):
             clock.advance(0.02)
+            rot.hw.poll(clock.now_s())
+        travel[mode] = abs(world.truth()["az"]["deg"] - x0)
+    assert travel["coast"] > travel["brake"]
+
+
+def test_emulated_vnh5019_brakes_at_off_and_coasts_with_pwm_low(tmp_path):
+    """ST VNH5019A-E §2.4: INA = INB = 0 brakes to GND only with PWM high; a '0' on PWM
+    turns both low sides off (every switch off: coast). The emulated bridge follows the
+    datasheet: urc's off brakes, PWM low coasts further."""
+    travel = {}
+    for mode in ("brake", "coast"):
+        rot, clock = emulated("tartu-urc", tmp_path / mode)
+        m = rot.hw.az
+        rot.goto_az(rot.status().az_deg + 60.0)
+        run_virtual(rot, clock, 8.0)
+        world = rot.hw.extra["world"]
+        x0 = world.truth()["az"]["deg"]
+        assert abs(world.truth()["az"]["rate_deg_per_s"]) > 1.0
+        m.motor.set_drive(0.0)                      # urc's off
+        assert world.axes["az"].bridge_open is False
+        if mode == "coast":
+            m.motor.driver.pwm.write_duty(0.0)      # INA = INB = 0, PWM low
+            # the pins read back into the bridge (as EmulatedMotor does after a drive)
+            world.axes["az"].bridge_open = emulated_bridge_open("vnh5019", m.motor.driver)
+            world.axes["az"].set_command(0.0)
+            assert world.axes["az"].bridge_open is True
+        for k in range(200):
+            clock.advance(0.02)
+            rot.hw.heartbeat.write(k % 2 == 0)       # the safety relay keeps the bridge powered
             rot.hw.poll(clock.now_s())
         travel[mode] = abs(world.truth()["az"]["deg"] - x0)
     assert travel["coast"] > travel["brake"]

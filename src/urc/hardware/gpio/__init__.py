@@ -261,7 +261,7 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
                 log.exception("gpio: could not make %s safe", ax)
         for ax in axes.values():       # a bridge whose off needs PWM high brakes another way
             hold = getattr(ax.motor, "before_pwm_close", None)
-            if hold is not None and pwm_parts:
+            if hold is not None:       # software PWM too: its lgpio thread ends at exit
                 try:
                     hold()
                 except Exception:  # pragma: no cover - closing must go on

@@ -39,7 +39,13 @@ def emulated_motor_duty(kind: str, motor: Any, levels: tuple[float, ...]) -> flo
 
 def emulated_bridge_open(kind: str, motor: Any) -> bool:
     """Whether the bridge has every switch off (the winding open: the motor coasts):
-    the LMD18200 with BRAKE high and its PWM input low (LMD18200_TRUTH_TABLE)."""
+    the LMD18200 with BRAKE high and its PWM input low (LMD18200_TRUTH_TABLE), the
+    VNH5019 with INA = INB = 0 and its PWM input low (ST VNH5019A-E §2.4: PWM low turns
+    both low sides off). A PWM input partly high in those rows brakes in its high time:
+    read as braked."""
+    if kind == "vnh5019":
+        from ..drivers.motors import vnh5019_state
+        return vnh5019_state(motor.ina.read_back(), motor.inb.read_back(), motor.pwm.read_back() > 0.0) == "coast"
     if kind != "lmd18200" or not motor.brake_out.read_back():
         return False
     from ..drivers.motors import lmd18200_state

@@ -140,6 +140,11 @@ class PinPwm:
     def read_back(self) -> float:
         return float(self.pin.state)
 
+    def stop(self) -> None:
+        """End lgpio's PWM on the pin (``tx_pwm`` 0, 0), then hold it low."""
+        self.pin.frequency = None
+        self.pin.state = False
+
 
 class PinIn:
     """Digital input with pull-up and edge timing (limit switch, power-fail line).

@@ -156,6 +156,9 @@ class HardwarePwm:
     def identify(self) -> str:
         return f"GPIO{self.pin}: hardware PWM{self.channel} (pwmchip{self.chip}) at {self.frequency_hz:g} Hz"
 
+    def stop(self) -> None:
+        self.close()
+
     def close(self) -> None:
         """Duty 0 and the channel disabled (the pin idles low)."""
         self.pwm.stop()
