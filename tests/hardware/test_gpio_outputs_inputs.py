@@ -91,6 +91,44 @@ def test_limit_input_counts_a_level_once_it_held_the_debounce(factory):
     assert pin.read() is True and pin.edges() == 4
 
 
+def _noisy(pin, t, level: bool, until_s: float, spike_every_s: float = 0.005):
+    """The line at ``level`` with a spike to the other level every ``spike_every_s``
+    (PWM pickup on a limit cable next to the motor leads); reads after each spike."""
+    reads = []
+    while t[0] < until_s - 1e-9:
+        t[0] += spike_every_s
+        (pin.pin.drive_low if level else pin.pin.drive_high)()
+        (pin.pin.drive_high if level else pin.pin.drive_low)()
+        reads.append(pin.read())
+    return reads
+
+
+def test_a_noisy_limit_line_shows_the_limit_at_once_and_clears_only_when_quiet(tmp_path):
+    """BIG-RAS's normally-closed limit (active high): the switch opens at the limit
+    while noise spikes the line every 5 ms. A symmetric debounce never saw a quiet
+    0.02 s and hid the limit for as long as the noise lasted; the limit's active level
+    counts at once, and only the way back waits for the debounce."""
+    rot, clock = emulated("bigras", tmp_path)
+    lim = rot.hw.az.limit_max
+    assert lim is not None and lim.active_low is False
+    pin, t = lim.pin, [0.0]
+    pin._now_s = lambda: t[0]
+    pin.pin.drive_low()                              # switch closed: not at the limit
+    assert lim.is_active() is False
+    pin.pin.drive_high()                             # the switch opens ...
+    assert all(r == pin.urgent_level for r in _noisy(pin, t, True, 1.0))   # ... and the noise goes on
+    assert lim.is_active() is True
+    # back off the limit: noisy low stays "active" while the noise lasts (safe side) ...
+    pin.pin.drive_low()
+    assert set(_noisy(pin, t, False, 1.5)) == {True}
+    t[0] += 0.021                                    # ... and clears once quiet for the debounce
+    assert lim.is_active() is False
+    # one spike to the active level seen only as an edge report, gone before the read
+    pin.pin.drive_high()
+    pin.pin.drive_low()
+    assert lim.is_active() is True
+
+
 def test_pulse_debounce_rejects_bounce_in_an_emulated_run(tmp_path):
     """A bouncing reed (two extra closures 0.2 ms after each pulse) counts as many
     pulses as a clean one: the BIG-RAS antenna still ends where the counter says."""

@@ -186,7 +186,8 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
         brake = RelayBrake(name, out("brake"), clock, release_s=ax_caps.brake_release_s) \
             if "brake" in pins else None
         lims = [LimitSwitchInput(f"{name} {side}", PinIn(factory, pins[f"limit_{side}"],
-                                                         debounce_s=cfg.limit_debounce_s, now_s=clock.now_s),
+                                                         debounce_s=cfg.limit_debounce_s, now_s=clock.now_s,
+                                                         urgent_level=not cfg.limit_active_low),
                                  active_low=cfg.limit_active_low) if f"limit_{side}" in pins else None
                 for side in ("min", "max")]
         if world is not None:

@@ -151,31 +151,50 @@ class PinIn:
 
     ``debounce_s``: :meth:`read` returns a new level only once no edge has come for that
     long (a bouncing contact, pickup on a long cable); ``now_s`` is the clock it is
-    timed on (the control loop's)."""
+    timed on (the control loop's). ``urgent_level`` (a limit's active level): that level
+    is reported at once — whenever the live level or any edge report since the last read
+    has it — and only the way back to the other level waits for ``debounce_s`` of quiet.
+    Noise on the cable can then hold a limit active a little longer, never hide it (a
+    symmetric debounce held the old level for as long as the noise lasted)."""
 
     def __init__(self, factory: Any, pin: int, *, pull: str = "up", on_edge: Any = None,
-                 debounce_s: float = 0.0, now_s: Callable[[], float] = time.monotonic):
+                 debounce_s: float = 0.0, now_s: Callable[[], float] = time.monotonic,
+                 urgent_level: bool | None = None):
         self.number = pin
         self.pin = factory.pin(pin)
         self.pin.function = "input"
         self.pin.pull = pull
         self.debounce_s = float(debounce_s)
+        self.urgent_level = urgent_level
         self._now_s = now_s
         self._edges = 0
         self._last_edge_s: float | None = None
         self._on_edge = on_edge
         self._stable: bool | None = None       # the first read takes the live level
+        # reports of the urgent level: written on lgpio's thread, read by read()
+        self._urgent_reports = 0
+        self._urgent_seen = 0
         self.pin.edges = "both"
         self.pin.when_changed = guarded(self, self._changed)
 
     def _changed(self, ticks: Any = None, state: Any = None) -> None:
         self._edges += 1
         self._last_edge_s = self._now_s()
+        level = _event_level(self.pin, state)
+        if self.urgent_level is not None and level == self.urgent_level:
+            self._urgent_reports += 1
         if self._on_edge is not None:
-            self._on_edge(_event_level(self.pin, state))
+            self._on_edge(level)
 
     def read(self) -> bool:
         live = bool(self.pin.state)
+        if self.urgent_level is not None:
+            reports = self._urgent_reports
+            urgent = live == self.urgent_level or reports != self._urgent_seen
+            self._urgent_seen = reports
+            if urgent:
+                self._stable = self.urgent_level
+                return self._stable
         if self._stable is None or self.debounce_s <= 0.0 or self._last_edge_s is None or \
                 self._now_s() - self._last_edge_s >= self.debounce_s - 1e-9:
             self._stable = live
