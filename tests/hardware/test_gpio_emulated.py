@@ -191,10 +191,11 @@ def _power_fail_rig(tmp_path, machine: str):
 
 
 def _pin_drives(ax) -> list[float]:
-    """What the motor driver's output pins put on the bridge now (read back from the pins)."""
-    m = ax.motor.driver
-    pins = [getattr(m, n) for n in ("pwm", "rpwm", "lpwm", "pwm_out") if hasattr(m, n)]
-    return [p.read_back() for p in pins]
+    """What the motor driver's output pins put on the motor now: read back from the pins
+    and decoded as the bridge's truth table does (a VNH5019's off has PWM at 100 %
+    with INA = INB = 0: a brake, no drive)."""
+    from urc.hardware.gpio.feed import emulated_motor_duty
+    return [abs(emulated_motor_duty(ax.motor.kind, ax.motor.driver, ax.motor.levels))]
 
 
 @pytest.mark.parametrize("machine", ["bigras", "tartu-urc"])
@@ -459,7 +460,7 @@ def test_power_fail_edge_does_not_wait_for_the_disk(tmp_path):
     run_virtual(rot, clock, 3.0)
     pf.emulate_power_fail()                       # returns although the write has not begun
     assert pf.saver.is_alive() and not saved
-    assert [f.kind for f in rot.status().faults] == ["power_fail"] and rot.hw.az.motor.driver.pwm.read_back() == 0.0
+    assert [f.kind for f in rot.status().faults] == ["power_fail"] and _pin_drives(rot.hw.az) == [0.0]
     disk_free.set()
     pf.saver.join(5.0)
     assert saved == [True]
