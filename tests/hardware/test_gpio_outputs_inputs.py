@@ -143,6 +143,21 @@ def test_pulse_debounce_rejects_bounce_in_an_emulated_run(tmp_path):
     assert abs(s.sim_truth["az"]["deg"] - s.az_deg) <= 1.5
 
 
+def test_pulse_debounce_rejects_bounce_on_opening_in_an_emulated_run(tmp_path):
+    """A reed that re-closes twice as it opens (0.2 ms apart, half a pulse period after
+    the closure) still counts one pulse per closure: the counter counts a falling edge
+    only after the line was high for the debounce, and the emulated pulses have a width."""
+    rot, clock = emulated("bigras", tmp_path)
+    drv = rot.hw.extra["emulation"]["az"]
+    drv.bounce_open = 2
+    start = rot.status().az_deg
+    rot.goto_az(start + 40.0)
+    s = run_virtual(rot, clock, 60.0, until=lambda s: not s.moving and abs(s.az_deg - start - 40.0) < 1.5)
+    counter = rot.hw.az.sensor.counter
+    assert counter.rejected >= 2 * 30                # the re-closures, rejected
+    assert abs(s.sim_truth["az"]["deg"] - s.az_deg) <= 1.5
+
+
 def test_encoder_counts_per_degree_are_configurable(tmp_path):
     """A 4096-count encoder geared 1:1 (x4: 11.378 counts/deg) on tartu-urc's pins."""
     rot, clock = emulated("tartu-urc", tmp_path, az={"encoder_counts_per_deg": 4096 * 4 / 360})

@@ -278,12 +278,17 @@ class PinQuadrature:
 
 
 class PinPulseCounter:
-    """SPID reed contact to ground: one count per falling edge (pin pulled up).
+    """SPID reed contact to ground: one count per closure (falling edge, pin pulled up).
 
-    ``debounce_s``: a falling edge within that long of the last counted one is contact
-    bounce (or pickup), not a pulse: rejected and counted in ``rejected``. Timed on the
+    ``debounce_s``: a falling edge counts only when the line had been high (the contact
+    open) for at least that long before it. Both edges are requested, so bounce on
+    closing (the contact re-opens for a moment) and on opening (it re-closes for a
+    moment) both make short high or low spells and are rejected (counted in
+    ``rejected``); a symmetric "time since the last counted pulse" rule counted the
+    re-closures of an opening contact, half a period after the pulse. Timed on the
     reports' own timestamps (``factory.ticks_diff``), so late or bunched callbacks do
-    not change what is counted."""
+    not change what is counted. A falling report with no rising one before it (a lost
+    report) counts if it is at least ``debounce_s`` after the previous report."""
 
     def __init__(self, factory: Any, pin: int, *, debounce_s: float = 0.0):
         self.number = pin
@@ -293,20 +298,31 @@ class PinPulseCounter:
         self.pin.pull = "up"
         self.debounce_s = float(debounce_s)
         self._count = 0
-        self._last_ticks: Any = None
+        self._high = bool(self.pin.state)      # the level of the last report
+        self._high_since: Any = None           # ticks of the last rising report (None: long ago)
+        self._last_ticks: Any = None           # ticks of the last report
         #: falling edges rejected as bounce
         self.rejected = 0
-        self.pin.edges = "falling"
+        self.pin.edges = "both"
         self.pin.when_changed = guarded(self, self._edge)
 
+    def _held_s(self, ticks: Any, since: Any) -> float | None:
+        if ticks is None or since is None:
+            return None
+        return float(self.factory.ticks_diff(ticks, since))
+
     def _edge(self, ticks: Any = None, state: Any = None) -> None:
-        if state is not None and bool(state):
-            return                           # a rising report (edges not filtered): not a pulse
-        if self.debounce_s > 0.0 and ticks is not None and self._last_ticks is not None and \
-                self.factory.ticks_diff(ticks, self._last_ticks) < self.debounce_s:
-            self.rejected += 1
+        level = _event_level(self.pin, state)
+        was_high, last = self._high, self._last_ticks
+        self._high, self._last_ticks = level, ticks
+        if level:
+            self._high_since = ticks
             return
-        self._last_ticks = ticks
+        if self.debounce_s > 0.0:
+            held = self._held_s(ticks, self._high_since if was_high else last)
+            if held is not None and held < self.debounce_s - 1e-9:
+                self.rejected += 1
+                return
         self._count += 1
 
     def count(self) -> int:
