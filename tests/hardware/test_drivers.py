@@ -235,7 +235,32 @@ class Counter:
         return self.idx
 
     def errors(self):
-        return 0
+        return getattr(self, "err", 0)
+
+
+def test_lost_encoder_edges_bound_the_position_and_fault_past_the_limit():
+    """Review 20 #3: each lost report (a report of a level the channel already had) may
+    cost 4 counts (test_gpio_emulated.py measures 4); the bound grows with them, and past
+    max_lost_deg the position is a sensor error until re-referenced, not a known angle."""
+    from urc.hardware.parts import PartError
+    cnt = Counter()
+    enc = QuadratureEncoder(ENC, "az", cnt, max_lost_deg=1.0)
+    enc.set_reference_deg(10.0)
+    cnt.c, cnt.err = 100, 2
+    assert enc.read_deg() == pytest.approx(20.0)
+    assert enc.lost_edges() == 2 and enc.uncertainty_deg() == pytest.approx(0.8)
+    cnt.err = 3                                # 3 x 4 counts x 0.1 deg = 1.2 deg > 1.0
+    with pytest.raises(PartError, match="lost 3 edge"):
+        enc.read_deg()
+    with pytest.raises(PartError):             # it stays an error ...
+        enc.read_deg()
+    enc.set_reference_deg(20.0)                # ... until re-referenced
+    assert enc.read_deg() == pytest.approx(20.0) and enc.uncertainty_deg() == 0.0
+    cnt.err = 9                                # an index pass wipes the bound too
+    enc2 = QuadratureEncoder(ENC, "az", cnt, index_deg=180.0)
+    enc2.set_reference_deg(100.0)
+    cnt.err, cnt.c, cnt.idx = 20, 805, 805
+    assert enc2.read_deg() == pytest.approx(180.0) and enc2.lost_edges() == 0
 
 
 def test_encoder_reference_and_index_rereference():

@@ -378,7 +378,7 @@ def test_no_current_sense_reads_zero_as_on_iron(tmp_path):
 
 def test_encoder_index_rereferences_in_an_emulated_run(tmp_path):
     """tartu-urc with its Track N wired: the emulated shaft pulses Z at 100 deg; edges
-    lost on the way (A and B changing together) leave the reading 1.4 deg off, and the
+    lost on the way leave the reading 0.8 deg off, and the
     next pass over the index puts it right."""
     data = with_emulation(load_config(next(p for p in EXAMPLES if p.stem == "tartu-urc"))).to_dict()
     data["hardware"]["sim"] = {"wind": False}
@@ -397,19 +397,21 @@ def test_encoder_index_rereferences_in_an_emulated_run(tmp_path):
     go(80.0)
     assert enc.index_rereferences == 0 and not enc.index_seen()
     errors0 = enc.counter.errors()
-    # 7 lost reports of A on the way: each loses the double step (2 counts) and, decoding
+    # 2 lost reports of A on the way: each loses the double step (2 counts) and, decoding
     # from the reports' levels, B's next two reports count +1 -1 until A's next report
-    # (an error: A already had that level) brings the decoder back: 4 counts each
-    quad.miss = 7
+    # (an error: A already had that level) brings the decoder back: 4 counts each (the
+    # encoder's bound, 0.8 deg, stays under its 1 deg fault limit)
+    quad.miss = 2
     s = go(90.0)
-    assert enc.counter.errors() - errors0 == 7
-    assert s.sim_truth["az"]["deg"] - s.az_deg == pytest.approx(2.8, abs=0.2)
+    assert enc.counter.errors() - errors0 == 2 and enc.uncertainty_deg() == pytest.approx(0.8)
+    assert s.sim_truth["az"]["deg"] - s.az_deg == pytest.approx(0.8, abs=0.2)
     corrections = []
     rot.goto(130.0, 30.0)                           # over the index at 100 deg
     s = run_virtual(rot, clock, 60.0, on_tick=lambda _s: corrections.append(enc.last_index_correction_deg),
                     until=lambda s: not s.moving and abs(s.az_deg - 130.0) < 0.3 and s.az.mode in ("holding", "idle"))
     assert not s.faults, s.faults
-    assert enc.index_rereferences >= 1 and max(corrections) == pytest.approx(2.8, abs=0.15)
+    assert enc.index_rereferences >= 1 and max(corrections) == pytest.approx(0.8, abs=0.15)
+    assert enc.lost_edges() == 0                    # the mark wiped the bound
     assert abs(s.sim_truth["az"]["deg"] - s.az_deg) < 0.25
     # back over it the other way: the reading was right, the index only confirms it
     pulses, n = enc.counter.index_pulses, enc.index_rereferences
@@ -417,6 +419,21 @@ def test_encoder_index_rereferences_in_an_emulated_run(tmp_path):
     assert enc.counter.index_pulses > pulses
     assert enc.index_rereferences == n or abs(enc.last_index_correction_deg) <= 0.1 + 1e-9
     assert abs(s.sim_truth["az"]["deg"] - s.az_deg) < 0.25
+
+
+def test_lost_encoder_edges_past_the_bound_are_a_sensor_fault(tmp_path):
+    """Review 20 #3: 7 lost reports of A leave tartu-urc's reading 2.8 deg off; the
+    encoder's bound (4 counts per lost report) passes its 1 deg limit, so the axis
+    reports a sensor fault instead of calling that position known."""
+    data = with_emulation(load_config(next(p for p in EXAMPLES if p.stem == "tartu-urc"))).to_dict()
+    data["hardware"]["sim"] = {"wind": False}
+    clock = VirtualClock(1000.0)
+    rot = build_rotator(Config.from_dict(data), clock, tmp_path, durable_state=False, fast_virtual=True)
+    rot.hw.extra["emulation"]["az"].miss = 7
+    rot.goto(80.0, 30.0)
+    s = run_virtual(rot, clock, 60.0, until=lambda s: any(f.axis == "az" for f in s.faults))
+    (f,) = [f for f in s.faults if f.axis == "az"]
+    assert "encoder lost" in f.reason and "re-reference" in f.reason, f
 
 
 #: what a dead az sensor looks like through each machine's parts: a chip that NACKs is
