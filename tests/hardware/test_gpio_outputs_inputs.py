@@ -273,3 +273,51 @@ def test_the_pwm_chip_is_found_pi4_and_pi5_before_and_after_6_12(tmp_path):
     assert detect_pwm_chip(gpio, pi5) == (2, "4chan")
     assert detect_pwm_chip(gpio, _sysfs(tmp_path / "c", {0: ("1f00098000.pwm", 4)})) == (0, "4chan")
     assert detect_pwm_chip(gpio, tmp_path / "none") == (0, None)
+
+
+def test_relay_dead_time_below_a_relays_release_time_is_refused():
+    """Review 20 #6: a relay opens 5-15 ms after its coil goes off; a reversal dead time
+    under 50 ms can close CW and CCW at once (the phase capacitor shorted)."""
+    from urc.errors import ConfigError
+    from urc.hardware.drivers import RelayMotor
+    data = load_config(EXAMPLES / "g5500.toml").to_dict()
+    data["hardware"]["gpio"]["az"]["relay_dead_time_s"] = 0.0
+    with pytest.raises(ConfigError, match=r"hardware.gpio.az.relay_dead_time_s.*0.05"):
+        Config.from_dict(data)
+    f = MockFactory(pin_class=MockPWMPin)
+    try:
+        with pytest.raises(ConfigError, match="CW and CCW at once"):
+            RelayMotor("az", PinOut(f, 20), PinOut(f, 21), VirtualClock(0.0), reverse_dead_time_s=0.01)
+    finally:
+        f.close()
+
+
+def test_emulated_relays_both_closed_is_a_fault(tmp_path):
+    """The emulated contacts release 15 ms after their coil (not at once): a reversal
+    with no dead time closes both, and the emulation says so instead of reading 0."""
+    from urc.errors import HardwareError
+    from urc.hardware.gpio.feed import RelayContacts
+    c = RelayContacts("az")
+    assert c.update(False, True, 0.0) is None
+    assert c.update(False, False, 1.0) is None              # CCW's coil off at 1.0 s ...
+    assert "phase capacitor" in c.update(True, False, 1.01)  # ... its contact still closed
+    c = RelayContacts("az")
+    c.update(False, True, 0.0)
+    c.update(False, False, 1.0)
+    assert c.update(True, False, 1.05) is None               # after the 50 ms minimum
+    rot, clock = emulated("g5500", tmp_path)
+    m = rot.hw.az.motor
+    m.set_drive(-1.0)                                        # CCW
+    clock.advance(0.1)
+    m.driver.reverse_dead_time_s = 0.0                       # what config now refuses
+    with pytest.raises(HardwareError, match="CW and CCW contacts closed at once"):
+        m.set_drive(1.0)
+    m.driver.reverse_dead_time_s = 0.5
+    clock.advance(0.02)                                      # (the contacts settle)
+    m.set_drive(0.0)
+    clock.advance(0.6)
+    m.set_drive(-1.0)
+    clock.advance(0.1)
+    m.set_drive(1.0)                                         # off first: waits the dead time
+    assert m.driver.energised() == 0
+

@@ -314,6 +314,11 @@ class PwmDirMotor(HBridgeMotor):
         self.pwm_out.write_duty(abs(duty))
 
 
+#: the shortest reversal dead time allowed: a relay's contact opens 5-15 ms after its
+#: coil is switched off, so a shorter wait can have the CW and CCW contacts closed at
+#: once (the phase capacitor shorted); 50 ms covers that with margin
+RELAY_MIN_DEAD_TIME_S = 0.05
+
 #: the slow speed's pulse period: the G4JNT controller pulses its motor at 2 Hz
 #: (configurable: ``[hardware.gpio.<axis>] relay_pulse_hz``)
 SLOW_PULSE_PERIOD_S = 0.5
@@ -340,6 +345,11 @@ class RelayMotor(DirectionTracker):
         self.cw, self.ccw, self.fast = cw, ccw, fast
         self.clock = clock
         self.levels = tuple(sorted(float(v) for v in levels)) or (1.0,)
+        if not reverse_dead_time_s >= RELAY_MIN_DEAD_TIME_S:
+            raise ConfigError(f"{name} relays: a reversal dead time of {reverse_dead_time_s!r} s can close "
+                              "CW and CCW at once (a relay opens 5-15 ms after its coil goes off)",
+                              key="hardware.gpio.relay_dead_time_s",
+                              expected=f"at least {RELAY_MIN_DEAD_TIME_S:g} s", found=reverse_dead_time_s)
         self.reverse_dead_time_s = float(reverse_dead_time_s)
         self.pulse_period_s = float(pulse_period_s)
         self._current = current

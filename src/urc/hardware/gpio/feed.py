@@ -10,6 +10,7 @@ import math
 from dataclasses import replace
 from typing import Any
 
+from ...errors import HardwareError
 from ..drivers import LimitSwitchInput, RelayBrake
 from .i2c import Lsm303agrChip
 
@@ -52,18 +53,52 @@ def emulated_bridge_open(kind: str, motor: Any) -> bool:
     return lmd18200_state(motor.pwm_out.read_back() > 0.0, motor.dir_out.read_back(), True) == "coast"
 
 
+class RelayContacts:
+    """The CW and CCW relays' contacts as iron has them: a contact opens ``RELEASE_S``
+    after its coil is switched off (the relay's release time, 5-15 ms), so a coil
+    energised sooner after the other one's went off closes both contacts at once — the
+    phase capacitor shorted: :meth:`update` returns that as a fault."""
+
+    RELEASE_S = 0.015
+
+    def __init__(self, name: str):
+        self.name = name
+        self._on = {"CW": False, "CCW": False}
+        self._off_at_s = {"CW": -math.inf, "CCW": -math.inf}
+
+    def update(self, cw_on: bool, ccw_on: bool, now_s: float) -> str | None:
+        for coil, on in (("CW", cw_on), ("CCW", ccw_on)):
+            if self._on[coil] and not on:
+                self._off_at_s[coil] = now_s
+            self._on[coil] = on
+        closed = [c for c in ("CW", "CCW") if self._on[c] or now_s - self._off_at_s[c] < self.RELEASE_S - 1e-12]
+        if len(closed) < 2:
+            return None
+        return (f"{self.name} relays: CW and CCW contacts closed at once (a coil energised within "
+                f"{self.RELEASE_S * 1e3:.0f} ms of the other's release): the phase capacitor is shorted")
+
+
 class EmulatedMotor:
     """The driver on mock pins; after each drive the pins are decoded into the
-    simulated motor (after the world has caught up with the present)."""
+    simulated motor (after the world has caught up with the present). Relay drives: both
+    direction contacts closed at once (:class:`RelayContacts`) is a fault, not a drive
+    of 0."""
 
     def __init__(self, driver: Any, kind: str, world: Any, axis: str, levels: tuple[float, ...]):
         self.driver, self.kind, self.world, self.axis, self.levels = driver, kind, world, axis, levels
+        self.contacts = RelayContacts(axis) if kind == "relay" else None
 
     def set_drive(self, duty: float) -> None:
         self.world.catch_up()
         self.driver.set_drive(duty)
         phys = self.world.axes[self.axis]
         phys.bridge_open = emulated_bridge_open(self.kind, self.driver)
+        if self.contacts is not None:
+            shorted = self.contacts.update(self.driver.cw.read_back(), self.driver.ccw.read_back(),
+                                           self.world.clock.now_s())
+            if shorted is not None:
+                phys.set_command(0.0)
+                raise HardwareError(shorted)
         phys.set_command(emulated_motor_duty(self.kind, self.driver, self.levels))
 
     def read_current_a(self) -> float:
