@@ -275,6 +275,19 @@ def test_the_pwm_chip_is_found_pi4_and_pi5_before_and_after_6_12(tmp_path):
     assert detect_pwm_chip(gpio, tmp_path / "none") == (0, None)
 
 
+def test_a_pi5s_fan_pwm_is_never_taken_for_the_motor_pwm(tmp_path):
+    """Review 20 #11: the RP1's PWM1 (the fan's, 1f0009c000.pwm) has 4 channels too and
+    is numbered first before kernel 6.12; only PWM0's base address (1f00098000) counts,
+    and chips sort by number (pwmchip10 after pwmchip2)."""
+    gpio = load_config(EXAMPLES / "bigras.toml").hardware.gpio
+    fan_first = _sysfs(tmp_path / "a", {0: ("1f0009c000.pwm", 4), 3: ("1f00098000.pwm", 4)})
+    assert detect_pwm_chip(gpio, fan_first) == (3, "4chan")
+    only_fan = _sysfs(tmp_path / "b", {0: ("1f0009c000.pwm", 4)})
+    assert detect_pwm_chip(gpio, only_fan) == (0, None)          # none found: as configured
+    numeric = _sysfs(tmp_path / "c", {10: ("fe20c000.pwm", 2), 2: ("1f00098000.pwm", 4)})
+    assert detect_pwm_chip(gpio, numeric) == (2, "4chan")
+
+
 def test_relay_dead_time_below_a_relays_release_time_is_refused():
     """Review 20 #6: a relay opens 5-15 ms after its coil goes off; a reversal dead time
     under 50 ms can close CW and CCW at once (the phase capacitor shorted)."""

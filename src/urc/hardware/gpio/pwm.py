@@ -52,16 +52,15 @@ def detect_pwm_chip(gpio: Any, sys_pwm: Path = Path("/sys/class/pwm")) -> tuple[
         return 0, None
     found: list[tuple[int, str]] = []
     try:
-        for chip in sorted(sys_pwm.glob("pwmchip*")):
+        # by the PWM peripheral's base address only: the RP1's PWM1 (the fan's,
+        # 1f0009c000.pwm) also has 4 channels and is numbered first before 6.12; in
+        # number order (a text sort puts pwmchip10 before pwmchip2)
+        for number, chip in sorted((int(c.name[len("pwmchip"):]), c) for c in sys_pwm.glob("pwmchip*")
+                                   if c.name[len("pwmchip"):].isdigit()):
             dev = (chip / "device").resolve().name
             model = next((m for d, m in PWM_DEVICES.items() if dev.endswith(d)), None)
-            if model is None:
-                try:
-                    model = "pi5" if int((chip / "npwm").read_text()) == 4 else None
-                except (OSError, ValueError):
-                    model = None
             if model is not None:
-                found.append((int(chip.name[len("pwmchip"):]), model))
+                found.append((number, model))
     except OSError:
         found = []
     if gpio.pwm_chip is not None:
