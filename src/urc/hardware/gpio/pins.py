@@ -16,11 +16,16 @@ What lgpio does that shapes this module (lgpio 0.2.2 ``lgpio.py``, gpiozero 2.0.
 * Reports arrive late and in bursts (the thread is a Python thread); each carries the
   level the line went to. The live level (``pin.state``) may have changed many times
   since, so the decoders count from the levels in the reports, never from a read.
-* ``factory.pin(n)`` claims the line as an input; ``function = "output"`` then claims it
-  as an output at level 0, and a pin's ``close()`` makes it an input again (floating).
+* ``factory.pin(n)`` claims the line as an input with its bias disabled (SET_PULL_NONE:
+  the boot pull is gone from then on); ``function = "output"`` then claims it as an
+  output at level 0, and a pin's ``close()`` makes it an input again (floating).
   Outputs are therefore claimed at their safe level in one call (:func:`claim_output`)
-  and never closed: at exit they stay driven at the safe level until the process ends
-  (after that only the external pull resistors and the safety chain hold them).
+  and never closed: at exit they stay driven at the safe level until the process ends.
+  After that, on Raspberry Pi OS, a released output keeps its last level
+  (``persist_gpio_outputs``, on by default) — so a killed process's outputs go on
+  driving until the takeover or the safety chain stops them; with
+  ``dtparam=strict_gpiod`` the lines float instead (no boot pull: gpiozero disabled
+  it), and only the external pull resistors hold them.
 """
 
 from __future__ import annotations
