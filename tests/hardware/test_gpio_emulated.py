@@ -438,9 +438,11 @@ def test_lost_encoder_edges_past_the_bound_are_a_sensor_fault(tmp_path):
 
 #: what a dead az sensor looks like through each machine's parts: a chip that NACKs is
 #: unreadable; encoder or reed lines that carry nothing read as an axis that does not
-#: turn (with current sense: at running current); an open pot wiper reads 0 V
+#: turn (with current sense: at running current); an open pot wiper reads 0 V: on an
+#: MCP3008 with no reference input 0 counts is what a missing chip reads too, so it is
+#: unreadable (review 20 #9), elsewhere a jump or out of range
 DEAD_SENSOR_FAULTS = {"tartu-urc": {"sensor_stuck"}, "bigras": {"stall"}, "berkeley": {"sensor_dead"},
-                      "sarcnet-mini": {"sensor_dead"}, "g4jnt": {"sensor_jump", "sensor_range"},
+                      "sarcnet-mini": {"sensor_dead"}, "g4jnt": {"sensor_dead"},
                       "g5500": {"sensor_jump", "sensor_range"}, "trc-turntable": {"stall"}}
 
 

@@ -416,11 +416,13 @@ class FakeMcp3008:
     CS falls, leading zeros, a start bit, SGL/DIFF, D2 D1 D0; then one sample clock, a
     null bit and the 10-bit result MSB first on MISO (MISO low before). ``inputs[ch]()``
     gives CHch in volts; differential pairs as the datasheet: code 0 = CH0-CH1, 1 =
-    CH1-CH0, ... (clamped at 0). ``dead``: no chip, MISO floats high."""
+    CH1-CH0, ... (clamped at 0). ``dead``: no chip, MISO reads low (a Pi pulls GPIO9
+    down); ``miso_floating``: no chip and no pull-down, MISO high."""
 
     def __init__(self, inputs: dict[int, Callable[[], float]], vref_v: float = 3.3):
         self.inputs, self.vref_v = inputs, vref_v
         self.dead = False
+        self.miso_floating = False
         self.fail: OSError | None = None          # tests: the transfer fails (ioctl error)
         #: the last conversions as (single-ended, channel, code)
         self.transactions: collections.deque[tuple[bool, int, int]] = collections.deque(maxlen=64)
@@ -444,7 +446,7 @@ class FakeMcp3008:
         if self.fail is not None:
             raise self.fail
         mosi = [b >> (7 - i) & 1 for b in data for i in range(8)]
-        miso = [1] * len(mosi) if self.dead else [0] * len(mosi)
+        miso = [1 if self.dead and self.miso_floating else 0] * len(mosi)
         if not self.dead and 1 in mosi:
             start = mosi.index(1)
             cmd = mosi[start + 1:start + 5]
