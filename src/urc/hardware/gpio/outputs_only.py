@@ -109,7 +109,7 @@ def _pwm_channels_off(gpio: Any) -> None:
     from .pwm import detect_pwm_chip, pwm_plan, sysfs_pwm_off
     try:
         chip, table = detect_pwm_chip(gpio)
-        for where, (_pin, channel) in pwm_plan(gpio, table).items():
+        for _pin, channel in pwm_plan(gpio, table).values():
             if channel is not None:
                 sysfs_pwm_off(chip, channel)
     except Exception:  # best effort: the pins are claimed already
