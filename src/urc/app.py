@@ -150,7 +150,9 @@ async def _serve(cfg: Config, state_dir: Path, config_path: Path | None, api_soc
         from .assembly import take_outputs
 
         held.append(take_outputs(cfg, state_dir))
-        print(f"urc: {why}: killed it, every output driven safe by this process", flush=True)
+        failed = getattr(held[-1], "failed", [])   # (lines the takeover could not claim)
+        print(f"urc: {why}: killed it, " + ("every output driven safe by this process" if not failed else
+              "NOT made safe: " + "; ".join(f"{what} ({err})" for what, err in failed)), flush=True)
         loop.call_soon_threadsafe(stop.set)
     control.watch(cfg.faults.control_takeover_s, take_over)
     if cfg.faults.control_takeover_s > 0:  # (a takeover then opens the hardware at once)

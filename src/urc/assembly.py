@@ -93,6 +93,11 @@ def take_outputs(cfg: Config, state_dir: Path) -> Hardware:
     process that had them is dead. Close it to let go."""
     from .clock import RealClock
 
+    gpio = cfg.hardware.gpio
+    if cfg.hardware.backend == "gpio" and gpio is not None and not gpio.emulate:
+        # on iron: the outputs only, no bus I/O (a bus error must not keep them driving)
+        from .hardware.gpio.outputs_only import take_gpio_outputs
+        return take_gpio_outputs(gpio, settings_from_config(cfg).caps.axes)  # type: ignore[return-value]
     hardware = build_hardware(cfg.hardware.backend, settings_from_config(cfg).caps, RealClock(), state_dir,
                               hardware_options(cfg))
     hardware.drive_safe()
@@ -113,7 +118,8 @@ def prepare_takeover(cfg: Config) -> list[str]:
     modules = []
     gpio = cfg.hardware.gpio
     if cfg.hardware.backend == "gpio" and gpio is not None:
-        modules = ["urc.hardware.gpio.emulate"] if gpio.emulate else ["gpiozero.pins.lgpio"]
+        modules = ["urc.hardware.gpio.emulate"] if gpio.emulate else \
+            ["gpiozero.pins.lgpio", "urc.hardware.gpio.outputs_only"]
     missing = []
     for name in modules:
         try:

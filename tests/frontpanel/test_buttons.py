@@ -28,6 +28,40 @@ def test_cw_held_jogs_and_release_stops(panel_rig):
     assert stopped_at < st.limits["az"][1] - 10.0
 
 
+def test_a_lost_release_stops_the_jog_when_the_button_reads_up(panel_rig):
+    """Review 20 #7: the release's callback never comes (a report lgpio dropped, a
+    failed callback); the panel's update sees the button up and releases the jog
+    instead of jogging on to the end of travel."""
+    rig = panel_rig()
+    rig.settle()
+    rig.press("cw")
+    assert rig.run(2.0).az.rate_deg_per_s > 1.0
+    real = rig.panel.dispatch
+    rig.panel.dispatch = lambda fn, *args: None      # the release report is lost
+    rig.release("cw")
+    rig.panel.dispatch = real
+    rig.run(0.05)
+    assert rig.panel.controls.held("cw")              # not cut at once (a bounce would be)
+    st = rig.settle()
+    stopped_at = st.az.pos_deg
+    assert not rig.panel.controls.held("cw")
+    st = rig.run(3.0)
+    assert abs(st.az.pos_deg - stopped_at) < 0.5 and stopped_at < st.limits["az"][1] - 10.0
+
+
+def test_a_raising_button_callback_never_reaches_the_pin_thread(panel_rig):
+    """Review 20 #7: dispatch raises once the event loop is closed; on a Pi the callback
+    runs on lgpio's one notification thread, which an exception would end."""
+    rig = panel_rig()
+
+    def closed_loop(fn, *args):
+        raise RuntimeError("Event loop is closed")
+    rig.panel.dispatch = closed_loop
+    rig.press("cw")                                   # the mock pin calls back right here
+    rig.release("cw")
+    assert rig.panel.callback_errors == 2
+
+
 def test_up_down_jog_elevation(panel_rig):
     rig = panel_rig()
     rig.settle()

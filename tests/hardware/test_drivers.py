@@ -12,7 +12,7 @@ from urc.errors import SensorError
 from urc.hardware.drivers import (As5600Sensor, Bts7960Motor, CompassSensor, LimitSwitchInput,
                                   Lmd18200Motor, PotSensor, QuadratureEncoder, RelayBrake,
                                   RelayMotor, SpidPulseSensor, TiltSensor, Vnh5019Motor)
-from urc.hardware.drivers.motors import DirectionTracker, lmd18200_state
+from urc.hardware.drivers.motors import DirectionTracker, lmd18200_state, vnh5019_state
 from urc.hardware.drivers.sensors import chip_horizontal, tilt_compensate
 from urc.hardware.parts import MagnetStatus
 
@@ -38,19 +38,45 @@ def test_vnh5019_directions_change_only_with_pwm_off():
     log = Log()
     ina, inb, pwm = Out(log, "INA"), Out(log, "INB"), Out(log, "PWM")
     m = Vnh5019Motor("az", ina, inb, pwm)
-    assert (ina.value, inb.value, pwm.value) == (False, False, 0.0)     # safe at build
+    assert (ina.value, inb.value, pwm.value) == (False, False, 1.0)     # braked at build
     log.events.clear()
     m.set_drive(0.5)
     assert log.events == [("PWM", 0.0), ("INA", True), ("INB", False), ("PWM", 0.5)]
     log.events.clear()
     m.set_drive(-0.25)
     assert log.events == [("PWM", 0.0), ("INA", False), ("INB", True), ("PWM", 0.25)]
+    log.events.clear()
     m.set_drive(0.0)
-    assert (ina.value, inb.value, pwm.value) == (False, False, 0.0)      # brake to ground
+    # brake to GND: INA = INB = 0 needs PWM high (ST VNH5019A-E §2.4); PWM falls first
+    assert log.events == [("PWM", 0.0), ("INA", False), ("INB", False), ("PWM", 1.0)]
     m.set_drive(7.0)
     assert pwm.value == 1.0 and m.direction == 1
     with pytest.raises(Exception):
         m.set_drive(math.nan)
+
+
+def test_vnh5019_off_is_the_datasheets_brake_to_gnd_row_not_coast():
+    """ST VNH5019A-E Rev 7 §2.4, truth table in normal operating conditions, and its
+    note: "in all cases, a '0' on the PWM pin turns off both LSA and LSB switches"."""
+    # (INA, INB, PWM) -> what the bridge does, written out from the datasheet
+    rows = {(1, 0, 1): "forward", (0, 1, 1): "reverse", (1, 1, 1): "brake", (1, 1, 0): "brake",
+            (0, 0, 1): "brake", (0, 0, 0): "coast"}
+    for (a, b, p), want in rows.items():
+        assert vnh5019_state(bool(a), bool(b), bool(p)) == want, (a, b, p)
+    log = Log()
+    ina, inb, pwm = Out(log, "INA"), Out(log, "INB"), Out(log, "PWM")
+    m = Vnh5019Motor("az", ina, inb, pwm)
+    for duty in (0.0, 0.7, 0.0, -0.3, 0.0):
+        m.set_drive(duty)
+        state = vnh5019_state(ina.value, inb.value, pwm.value > 0.0)
+        assert state == ("brake" if duty == 0.0 else "forward" if duty > 0 else "reverse")
+        assert pwm.value == (1.0 if duty == 0.0 else abs(duty))
+    # at exit the PWM stops (idles low): the brake is held by the row that needs no PWM
+    m.before_pwm_close()
+    assert (ina.value, inb.value, pwm.value) == (True, True, 0.0)
+    assert vnh5019_state(ina.value, inb.value, False) == "brake"
+    m.set_drive(0.5)                 # a drive after it rewrites both direction pins
+    assert (ina.value, inb.value, pwm.value) == (True, False, 0.5)
 
 
 def test_bts7960_never_drives_both_sides():
@@ -209,7 +235,32 @@ class Counter:
         return self.idx
 
     def errors(self):
-        return 0
+        return getattr(self, "err", 0)
+
+
+def test_lost_encoder_edges_bound_the_position_and_fault_past_the_limit():
+    """Review 20 #3: each lost report (a report of a level the channel already had) may
+    cost 4 counts (test_gpio_emulated.py measures 4); the bound grows with them, and past
+    max_lost_deg the position is a sensor error until re-referenced, not a known angle."""
+    from urc.hardware.parts import PartError
+    cnt = Counter()
+    enc = QuadratureEncoder(ENC, "az", cnt, max_lost_deg=1.0)
+    enc.set_reference_deg(10.0)
+    cnt.c, cnt.err = 100, 2
+    assert enc.read_deg() == pytest.approx(20.0)
+    assert enc.lost_edges() == 2 and enc.uncertainty_deg() == pytest.approx(0.8)
+    cnt.err = 3                                # 3 x 4 counts x 0.1 deg = 1.2 deg > 1.0
+    with pytest.raises(PartError, match="lost 3 edge"):
+        enc.read_deg()
+    with pytest.raises(PartError):             # it stays an error ...
+        enc.read_deg()
+    enc.set_reference_deg(20.0)                # ... until re-referenced
+    assert enc.read_deg() == pytest.approx(20.0) and enc.uncertainty_deg() == 0.0
+    cnt.err = 9                                # an index pass wipes the bound too
+    enc2 = QuadratureEncoder(ENC, "az", cnt, index_deg=180.0)
+    enc2.set_reference_deg(100.0)
+    cnt.err, cnt.c, cnt.idx = 20, 805, 805
+    assert enc2.read_deg() == pytest.approx(180.0) and enc2.lost_edges() == 0
 
 
 def test_encoder_reference_and_index_rereference():

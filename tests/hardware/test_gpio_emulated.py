@@ -191,10 +191,11 @@ def _power_fail_rig(tmp_path, machine: str):
 
 
 def _pin_drives(ax) -> list[float]:
-    """What the motor driver's output pins put on the bridge now (read back from the pins)."""
-    m = ax.motor.driver
-    pins = [getattr(m, n) for n in ("pwm", "rpwm", "lpwm", "pwm_out") if hasattr(m, n)]
-    return [p.read_back() for p in pins]
+    """What the motor driver's output pins put on the motor now: read back from the pins
+    and decoded as the bridge's truth table does (a VNH5019's off has PWM at 100 %
+    with INA = INB = 0: a brake, no drive)."""
+    from urc.hardware.gpio.feed import emulated_motor_duty
+    return [abs(emulated_motor_duty(ax.motor.kind, ax.motor.driver, ax.motor.levels))]
 
 
 @pytest.mark.parametrize("machine", ["bigras", "tartu-urc"])
@@ -377,7 +378,7 @@ def test_no_current_sense_reads_zero_as_on_iron(tmp_path):
 
 def test_encoder_index_rereferences_in_an_emulated_run(tmp_path):
     """tartu-urc with its Track N wired: the emulated shaft pulses Z at 100 deg; edges
-    lost on the way (A and B changing together) leave the reading 1.4 deg off, and the
+    lost on the way leave the reading 0.8 deg off, and the
     next pass over the index puts it right."""
     data = with_emulation(load_config(next(p for p in EXAMPLES if p.stem == "tartu-urc"))).to_dict()
     data["hardware"]["sim"] = {"wind": False}
@@ -396,19 +397,21 @@ def test_encoder_index_rereferences_in_an_emulated_run(tmp_path):
     go(80.0)
     assert enc.index_rereferences == 0 and not enc.index_seen()
     errors0 = enc.counter.errors()
-    # 7 lost reports of A on the way: each loses the double step (2 counts) and, decoding
+    # 2 lost reports of A on the way: each loses the double step (2 counts) and, decoding
     # from the reports' levels, B's next two reports count +1 -1 until A's next report
-    # (an error: A already had that level) brings the decoder back: 4 counts each
-    quad.miss = 7
+    # (an error: A already had that level) brings the decoder back: 4 counts each (the
+    # encoder's bound, 0.8 deg, stays under its 1 deg fault limit)
+    quad.miss = 2
     s = go(90.0)
-    assert enc.counter.errors() - errors0 == 7
-    assert s.sim_truth["az"]["deg"] - s.az_deg == pytest.approx(2.8, abs=0.2)
+    assert enc.counter.errors() - errors0 == 2 and enc.uncertainty_deg() == pytest.approx(0.8)
+    assert s.sim_truth["az"]["deg"] - s.az_deg == pytest.approx(0.8, abs=0.2)
     corrections = []
     rot.goto(130.0, 30.0)                           # over the index at 100 deg
     s = run_virtual(rot, clock, 60.0, on_tick=lambda _s: corrections.append(enc.last_index_correction_deg),
                     until=lambda s: not s.moving and abs(s.az_deg - 130.0) < 0.3 and s.az.mode in ("holding", "idle"))
     assert not s.faults, s.faults
-    assert enc.index_rereferences >= 1 and max(corrections) == pytest.approx(2.8, abs=0.15)
+    assert enc.index_rereferences >= 1 and max(corrections) == pytest.approx(0.8, abs=0.15)
+    assert enc.lost_edges() == 0                    # the mark wiped the bound
     assert abs(s.sim_truth["az"]["deg"] - s.az_deg) < 0.25
     # back over it the other way: the reading was right, the index only confirms it
     pulses, n = enc.counter.index_pulses, enc.index_rereferences
@@ -418,11 +421,28 @@ def test_encoder_index_rereferences_in_an_emulated_run(tmp_path):
     assert abs(s.sim_truth["az"]["deg"] - s.az_deg) < 0.25
 
 
+def test_lost_encoder_edges_past_the_bound_are_a_sensor_fault(tmp_path):
+    """Review 20 #3: 7 lost reports of A leave tartu-urc's reading 2.8 deg off; the
+    encoder's bound (4 counts per lost report) passes its 1 deg limit, so the axis
+    reports a sensor fault instead of calling that position known."""
+    data = with_emulation(load_config(next(p for p in EXAMPLES if p.stem == "tartu-urc"))).to_dict()
+    data["hardware"]["sim"] = {"wind": False}
+    clock = VirtualClock(1000.0)
+    rot = build_rotator(Config.from_dict(data), clock, tmp_path, durable_state=False, fast_virtual=True)
+    rot.hw.gpio.emulation["az"].miss = 7
+    rot.goto(80.0, 30.0)
+    s = run_virtual(rot, clock, 60.0, until=lambda s: any(f.axis == "az" for f in s.faults))
+    (f,) = [f for f in s.faults if f.axis == "az"]
+    assert "encoder lost" in f.reason and "re-reference" in f.reason, f
+
+
 #: what a dead az sensor looks like through each machine's parts: a chip that NACKs is
 #: unreadable; encoder or reed lines that carry nothing read as an axis that does not
-#: turn (with current sense: at running current); an open pot wiper reads 0 V
+#: turn (with current sense: at running current); an open pot wiper reads 0 V: on an
+#: MCP3008 with no reference input 0 counts is what a missing chip reads too, so it is
+#: unreadable (review 20 #9), elsewhere a jump or out of range
 DEAD_SENSOR_FAULTS = {"tartu-urc": {"sensor_stuck"}, "bigras": {"stall"}, "berkeley": {"sensor_dead"},
-                      "sarcnet-mini": {"sensor_dead"}, "g4jnt": {"sensor_jump", "sensor_range"},
+                      "sarcnet-mini": {"sensor_dead"}, "g4jnt": {"sensor_dead"},
                       "g5500": {"sensor_jump", "sensor_range"}, "trc-turntable": {"stall"}}
 
 
@@ -459,7 +479,7 @@ def test_power_fail_edge_does_not_wait_for_the_disk(tmp_path):
     run_virtual(rot, clock, 3.0)
     pf.emulate_power_fail()                       # returns although the write has not begun
     assert pf.saver.is_alive() and not saved
-    assert [f.kind for f in rot.status().faults] == ["power_fail"] and rot.hw.az.motor.driver.pwm.read_back() == 0.0
+    assert [f.kind for f in rot.status().faults] == ["power_fail"] and _pin_drives(rot.hw.az) == [0.0]
     disk_free.set()
     pf.saver.join(5.0)
     assert saved == [True]

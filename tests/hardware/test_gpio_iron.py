@@ -197,3 +197,32 @@ def test_iron_opens_spi0_and_the_i2c_mux_through_their_libraries(iron, tmp_path,
     assert hw.az.sensor.read_deg() == pytest.approx(90.0) and hw.el.sensor.read_deg() == pytest.approx(45.0)
     assert SharedFakeSMBus.buses[1].devices[0x70].control == 0x02      # el read last: channel 1
     hw.close()
+
+
+def test_exit_holds_the_brake_without_pwm_also_on_software_pwm(iron, tmp_path, monkeypatch):
+    """Review 20 #12: the exit step ran only when some output had hardware PWM, so a
+    software-PWM LMD18200 exited with lgpio's tx_pwm at 100 % and BRAKE high (its level
+    undefined once the thread stops). Now the PWM is stopped and BRAKE written low with
+    PWM low: the table's other braking row (TI Table 1), whatever PWM the pin had."""
+    from urc.hardware.drivers.motors import lmd18200_state, vnh5019_state
+    monkeypatch.setitem(sys.modules, "spidev", types.SimpleNamespace(SpiDev=FakeSpiDev))
+    data = load_config(EXAMPLES / "tartu-urc.toml").to_dict()
+    data["hardware"]["gpio"]["hardware_pwm"] = "off"
+    data["hardware"]["gpio"]["az"].update(motor="lmd18200", pins={
+        "pwm": 12, "dir": 24, "bridge_brake": 25, "enc_a": 17, "enc_b": 27, "brake": 16},
+        current_sense_v_per_a=377e-6 * 2200)
+    cfg = Config.from_dict(data)
+    hw = build_hardware("gpio", settings_from_config(cfg).caps, VirtualClock(1000.0), tmp_path,
+                        hardware_options(cfg))
+    m = hw.az.motor
+    assert isinstance(m.pwm_out, PinPwm) and m.pwm_out.pin.frequency is not None
+    hw.close()
+    assert m.pwm_out.pin.frequency is None and m.pwm_out.pin.state == 0     # tx_pwm stopped, low
+    assert lmd18200_state(False, m.dir_out.read_back(), m.brake_out.read_back()) == "brake"
+    assert m.brake_out.read_back() is False
+    # the VNH5019 (hardware PWM, idling low once disabled): INA = INB = 1, brake to VCC
+    hw = iron("tartu-urc", tmp_path / "t")
+    m = hw.el.motor
+    hw.close()
+    assert FakeHardwarePWM.made[-1].calls[-1] == ("stop",)
+    assert vnh5019_state(m.ina.read_back(), m.inb.read_back(), False) == "brake"

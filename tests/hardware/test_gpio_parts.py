@@ -6,7 +6,9 @@ from __future__ import annotations
 import pytest
 from gpiozero.pins.mock import MockFactory, MockPWMPin
 
+from urc.caps import SensorCaps
 from urc.errors import SensorError
+from urc.hardware.drivers import PotSensor
 from urc.hardware.gpio.emulate import FakeAds1115, FakeAs5600, FakeLsm303d, FakeSMBus
 from urc.hardware.gpio.i2c import ATTEMPTS, Ads1115Channel, Ads1115Chip, As5600Chip, Lsm303dChip
 from urc.hardware.gpio.pins import PinPulseCounter, PinPwm, PinQuadrature, quad_decode
@@ -256,9 +258,16 @@ def test_mcp3008_differential_vref_reference_and_failures():
     pot = Mcp3008Channel(chip, 6, None)
     assert pot.read_reference_counts() == pot.full_scale_counts == 1024
     assert pot.read_counts() == int(1024 * 3.0 / 3.3)
-    fake.dead = True                       # MISO floating high: the null bit is 1
+    fake.dead = fake.miso_floating = True  # no chip, MISO floating high: the null bit is 1
     with pytest.raises(SensorError, match="no valid answer"):
         pot.read_counts()
+    fake.miso_floating = False             # no chip on a Pi: GPIO9 pulled low, all zeros
+    with pytest.raises(SensorError, match="reads 0 counts.*adc_reference_channel"):
+        pot.read_counts()
+    referenced = Mcp3008Channel(chip, 6, 7)
+    with pytest.raises(SensorError, match="reference"):   # the reference reads 0: out of range
+        PotSensor(SensorCaps(kind="pot", resolution_deg=0.5, absolute=True), "az", referenced,
+                  law="linear", m=1.0, c=0.0).read_n()
     fake.dead, fake.fail = False, OSError(5, "Input/output error")
     with pytest.raises(SensorError, match=f"failed {ATTEMPTS} times"):
         pot.read_counts()

@@ -87,6 +87,19 @@ def test_a_broken_limit_circuit_is_shown(tmp_path):
     assert hw.el.limit_min.is_active() and not hw.az.limit_min.is_active()
 
 
+def test_lost_encoder_edges_are_shown(tmp_path):
+    """urc hw check shows the encoder's lost edges and the bound they put on the position."""
+    cfg, caps, clock, hw = emulated_hw("tartu-urc", tmp_path)
+    n, text = run_check(cfg, caps, clock, hw, move=False)
+    assert n == 0 and "az:" in text and "encoder lost edges: 0 since the last reference" in text, text
+    counter = hw.az.sensor.counter
+    level = counter.a.state
+    counter._edge(2, counter.a, not level)       # a report of A's new level ...
+    counter._edge(2, counter.a, not level)       # ... and the same again: an edge was lost
+    n, text = run_check(cfg, caps, clock, hw, move=False)
+    assert "encoder lost edges: 1 since the last reference (position uncertain by up to 0.40 deg)" in text, text
+
+
 def test_encoder_index_is_shown(tmp_path):
     cfg = with_emulation(load_config(EXAMPLES / "tartu-urc.toml"))
     data = cfg.to_dict()

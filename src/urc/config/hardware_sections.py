@@ -87,7 +87,9 @@ class GpioAxis(Section):
     #: the compass chip of a magnetometer profile: lsm303d (0x1D) or lsm303agr (0x19 + 0x1E)
     compass: str = "lsm303d"
     declination_deg: float = num(0.0, ge=-180.0, le=180.0)
-    relay_dead_time_s: float = num(0.5, ge=0.0, le=10.0)
+    #: reversal wait with both relays off; >= 0.05 s: a relay opens 5-15 ms after its coil
+    #: goes off, so less can close CW and CCW at once (motors.RELAY_MIN_DEAD_TIME_S)
+    relay_dead_time_s: float = num(0.5, ge=0.05, le=10.0)
     #: False (default): normally-closed limit switches to ground, the pin pulled up: it
     #: reads high (active) when the switch opens OR its wire breaks. True: normally-open
     #: switches closing to ground (a broken wire never shows a limit)

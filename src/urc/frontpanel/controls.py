@@ -80,6 +80,10 @@ class LocalControls:
     def held(self, action: str) -> bool:
         return any(a == action for _, a in self._held)
 
+    def held_by(self, source: str) -> list[str]:
+        """The actions ``source`` holds now."""
+        return sorted(a for s, a in self._held if s == source)
+
     def press(self, action: str, source: str = "button") -> bool:
         """An action's control went down. Returns whether the rotator accepted it."""
         if action not in ACTIONS:

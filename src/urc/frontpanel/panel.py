@@ -30,6 +30,9 @@ log = logging.getLogger("urc.frontpanel")
 UPDATE_PERIOD_S = 0.05
 #: BIG-RAS SW7 / SW8 / SW10: buttons the panel handles itself (the preset knobs)
 PRESET_ACTIONS = {"preset_az": "az", "preset_el": "el", "show_preset": None}
+#: a held button that reads up this long without its release arriving is released by
+#: :meth:`FrontPanel.update` (longer than a bounce, so a bouncing press is not cut)
+LOST_RELEASE_S = 0.1
 
 
 class FrontPanel:
@@ -74,6 +77,8 @@ class FrontPanel:
         self.zero: ZeroSetting | None = None
         self._had_fault = False
         self._contrast: int | None = None
+        self.callback_errors = 0
+        self._up_since_s: dict[str, float] = {}
         #: the target a protocol port last gave (beep_on_command), and when a key was last
         #: pressed here (the screensaver; a target set from here is not a port's command)
         self._target: tuple | None = None
@@ -90,8 +95,36 @@ class FrontPanel:
             log.warning("front panel: zero setting (%s %.1f): L/R change, SLOW stores", self.zero.label,
                         self.zero.value_deg)
         for name, button in self.buttons.items():
-            button.when_pressed = lambda _dev=None, n=name: self.dispatch(self._press, n)
-            button.when_released = lambda _dev=None, n=name: self.dispatch(self._release, n)
+            button.when_pressed = self._guarded(lambda _dev=None, n=name: self.dispatch(self._press, n))
+            button.when_released = self._guarded(lambda _dev=None, n=name: self.dispatch(self._release, n))
+
+    def _guarded(self, fn: Callable[..., None]) -> Callable[..., None]:
+        """A button callback that never raises into the pin library's thread: on a Pi
+        that is lgpio's one notification thread, which an exception ends for every edge
+        of the process (``dispatch`` raises once the event loop is closed). Counted in
+        ``callback_errors`` and logged (the first, then every 100th)."""
+        def handler(*args: Any) -> None:
+            try:
+                fn(*args)
+            except Exception:
+                self.callback_errors += 1
+                if self.callback_errors == 1 or self.callback_errors % 100 == 0:
+                    log.exception("front panel: button callback failed (%d so far)", self.callback_errors)
+        return handler
+
+    def _release_lost(self, now: float) -> None:
+        """Release what a button holds while no button doing it reads down: its release
+        was lost (a report lgpio dropped, a callback that failed), and hold-to-jog must
+        not jog on to the end of travel."""
+        for action in self.controls.held_by("button"):
+            if self._pressed(action):
+                self._up_since_s.pop(action, None)
+                continue
+            since = self._up_since_s.setdefault(action, now)
+            if now - since >= LOST_RELEASE_S - 1e-9:
+                self._up_since_s.pop(action, None)
+                log.warning("front panel: the %s button reads up but its release never came: released", action)
+                self.controls.release(action, "button")
 
     def _device(self, cls, pin, factory, **kwargs):
         dev = cls(pin, pin_factory=factory, **kwargs)
@@ -189,6 +222,7 @@ class FrontPanel:
             self.ir.poll()
         if self.zero is not None and self.zero.active:
             self.zero.update(now)
+        self._release_lost(now)
         st = self.rotator.status()
         if st.faults and not self._had_fault:
             self.beeper.beep("fault")

@@ -82,7 +82,12 @@ def check(hw: Any, caps: Any, *, gpio: Any = None, move: bool = False, jog_duty:
         gpio_ax = getattr(gpio, name, None) if gpio is not None else None
         if gpio_ax is not None and gpio_ax.current_sense_channel is not None:
             out(f"  motor current: {ax.motor.read_current_a():.2f} A (current sense)")
-        counter = getattr(getattr(ax.sensor, "driver", ax.sensor), "counter", None)
+        sensor = getattr(ax.sensor, "driver", ax.sensor)
+        counter = getattr(sensor, "counter", None)
+        if hasattr(sensor, "lost_edges"):
+            lost = sensor.lost_edges()
+            out(f"  encoder lost edges: {lost} since the last reference" + (
+                f" (position uncertain by up to {sensor.uncertainty_deg():.2f} deg)" if lost else ""))
         if gpio_ax is not None and getattr(counter, "z", None) is not None:
             idx = counter.index_count()
             out("  encoder index: " + ("not seen yet (jog over it: its count gives encoder_index_deg)"

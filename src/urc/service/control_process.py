@@ -62,6 +62,9 @@ IO_SILENT_S = 1.0
 #: cut within [faults] watchdog_s plus this; state records reach save_interval_s / 2 of
 #: travel, plus the coast, ahead of a moving axis)
 WATCH_S = 0.05
+#: how long the watch waits for a killed control process to go before it claims the
+#: outputs anyway (one stuck in the kernel ignores SIGKILL, and its lines stay held)
+KILL_WAIT_S = 2.0
 #: how long building the hardware may take (imports, a bridge's first contact)
 START_TIMEOUT_S = 60.0
 #: how long the I/O process waits for an orderly stop: standstill (loop.STANDSTILL_TIMEOUT_S,
@@ -453,7 +456,11 @@ class ControlProcess:
                 else:
                     continue
                 self.proc.kill()  # (a stopped process dies too: its lines are free after this)
-                self.proc.wait()
+                try:  # (one stuck in the kernel, D state, ignores SIGKILL: take what is free)
+                    self.proc.wait(KILL_WAIT_S)
+                except subprocess.TimeoutExpired:
+                    log.error("the control process did not die within %.0f s of SIGKILL (stuck in the kernel?): "
+                              "claiming the outputs it does not hold", KILL_WAIT_S)
                 self.taken_over = why
                 try:
                     take_over(why)

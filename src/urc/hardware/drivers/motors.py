@@ -57,11 +57,33 @@ def lmd18200_state(pwm_high: bool, dir_high: bool, brake_high: bool) -> str:
     return "forward" if on == "source1 sink2" else "reverse"
 
 
-#: ST VNH5019A-E datasheet, "Truth table in normal operating conditions": (INA, INB) ->
-#: outputs (EN/DIAGA = EN/DIAGB = 1). Both high: brake to VCC; both low: brake to GND.
+#: ST VNH5019A-E datasheet (Rev 7) §2.4, "Truth table in normal operating conditions":
+#: (INA, INB) -> outputs (EN/DIAGA = EN/DIAGB = 1). Both high: brake to VCC (the high
+#: sides, whatever PWM does); both low: brake to GND through the low sides — but "in all
+#: cases, a '0' on the PWM pin turns off both LSA and LSB switches", so brake to GND
+#: needs PWM high: INA = INB = 0 with PWM low has every switch off (the motor coasts).
 #: A fault (overtemperature, short, undervoltage...) pulls EN/DIAG low ("Truth table in
 #: fault conditions").
 VNH5019_TRUTH_TABLE = {(1, 0): "forward", (0, 1): "reverse", (1, 1): "brake to VCC", (0, 0): "brake to GND"}
+
+
+def vnh5019_state(ina: bool, inb: bool, pwm_high: bool) -> str:
+    """``"forward"``, ``"reverse"``, ``"brake"`` or ``"coast"`` (§2.4: PWM low turns
+    both low sides off; INA = INB = 0 then leaves every switch off)."""
+    row = VNH5019_TRUTH_TABLE[(int(ina), int(inb))]
+    if row == "brake to GND" and not pwm_high:
+        return "coast"
+    return row if row in ("forward", "reverse") else "brake"
+
+
+def stop_pwm(pwm: PwmOut) -> None:
+    """Duty 0 and the PWM stopped (``stop`` where the part has it: lgpio's software PWM
+    thread ended, a hardware channel disabled), so the pin sits low, not mid-period."""
+    stop = getattr(pwm, "stop", None)
+    if stop is not None:
+        stop()
+    else:
+        pwm.write_duty(0.0)
 
 
 def clamp_duty(duty: float, name: str) -> float:
@@ -162,10 +184,12 @@ class HBridgeMotor(DirectionTracker):
 class Vnh5019Motor(HBridgeMotor):
     """VNH5019 (Tartu board): INA/INB set the direction, PWM the speed, CS the current.
 
-    :data:`VNH5019_TRUTH_TABLE`: INA=1 INB=0 forward, INA=0 INB=1 reverse, both 0:
-    brake to ground. The direction pins change only with PWM at 0, so the bridge never
-    sees a reversal under drive. ``diag``: EN/DIAG (carrier pull-up to logic supply),
-    pulled low by the chip on a fault.
+    :data:`VNH5019_TRUTH_TABLE`: INA=1 INB=0 forward, INA=0 INB=1 reverse. Off is
+    INA = INB = 0 with PWM at 100 %: brake to GND (both low sides on; with PWM low they
+    would be off too and the motor would coast). The direction pins change only with
+    PWM at 0 (a moment of coast, never of drive), so the bridge never sees a reversal
+    under drive. ``diag``: EN/DIAG (carrier pull-up to logic supply), pulled low by the
+    chip on a fault.
     """
 
     FAULT_TEXT = "EN/DIAG pulled low: the bridge shut down (overtemperature, short circuit or undervoltage)"
@@ -178,6 +202,7 @@ class Vnh5019Motor(HBridgeMotor):
         pwm.write_duty(0.0)
         ina.write(False)
         inb.write(False)
+        pwm.write_duty(1.0)      # brake to GND
 
     def _apply(self, duty: float) -> None:
         d = 0 if duty == 0.0 else (1 if duty > 0 else -1)
@@ -186,7 +211,17 @@ class Vnh5019Motor(HBridgeMotor):
             self.ina.write(d > 0)
             self.inb.write(d < 0)
             self._dir = d
-        self.pwm.write_duty(abs(duty))
+        self.pwm.write_duty(abs(duty) if d else 1.0)
+
+    def before_pwm_close(self) -> None:
+        """At exit the PWM output stops (a disabled hardware channel idles low, which
+        with INA = INB = 0 would coast): hold the brake through the row that needs no
+        PWM, INA = INB = 1 (brake to VCC, §2.4). The lines keep these levels after the
+        process ends on Raspberry Pi OS (``persist_gpio_outputs``)."""
+        stop_pwm(self.pwm)
+        self.ina.write(True)
+        self.inb.write(True)
+        self._dir = 2            # neither direction: the next drive rewrites INA/INB
 
 
 class Lmd18200Motor(HBridgeMotor):
@@ -217,11 +252,12 @@ class Lmd18200Motor(HBridgeMotor):
         self._braking = True
 
     def before_pwm_close(self) -> None:
-        """At exit the PWM channel is disabled (its pin then idles low): hold the brake
-        through the other braking row of the table, BRAKE low with PWM low (both
-        sourcing switches on) — also what the lines fall to once the process is gone
-        (GPIO9-27 pulled low)."""
-        self.pwm_out.write_duty(0.0)
+        """At exit the PWM output stops (a disabled hardware channel idles low; lgpio's
+        software PWM is stopped first, or its level when the thread ends is undefined):
+        hold the brake through the other braking row of the table, BRAKE low with PWM
+        low (both sourcing switches on). The lines keep these levels after the process
+        ends on Raspberry Pi OS (``persist_gpio_outputs``)."""
+        stop_pwm(self.pwm_out)
         self.brake_out.write(False)
         self._braking = False
 
@@ -278,6 +314,11 @@ class PwmDirMotor(HBridgeMotor):
         self.pwm_out.write_duty(abs(duty))
 
 
+#: the shortest reversal dead time allowed: a relay's contact opens 5-15 ms after its
+#: coil is switched off, so a shorter wait can have the CW and CCW contacts closed at
+#: once (the phase capacitor shorted); 50 ms covers that with margin
+RELAY_MIN_DEAD_TIME_S = 0.05
+
 #: the slow speed's pulse period: the G4JNT controller pulses its motor at 2 Hz
 #: (configurable: ``[hardware.gpio.<axis>] relay_pulse_hz``)
 SLOW_PULSE_PERIOD_S = 0.5
@@ -304,6 +345,11 @@ class RelayMotor(DirectionTracker):
         self.cw, self.ccw, self.fast = cw, ccw, fast
         self.clock = clock
         self.levels = tuple(sorted(float(v) for v in levels)) or (1.0,)
+        if not reverse_dead_time_s >= RELAY_MIN_DEAD_TIME_S:
+            raise ConfigError(f"{name} relays: a reversal dead time of {reverse_dead_time_s!r} s can close "
+                              "CW and CCW at once (a relay opens 5-15 ms after its coil goes off)",
+                              key="hardware.gpio.relay_dead_time_s",
+                              expected=f"at least {RELAY_MIN_DEAD_TIME_S:g} s", found=reverse_dead_time_s)
         self.reverse_dead_time_s = float(reverse_dead_time_s)
         self.pulse_period_s = float(pulse_period_s)
         self._current = current

@@ -71,13 +71,27 @@ class QuadratureEncoder(_Incremental):
     ``motor``/``drift_counts``: with the motor off for ``still_after_s`` the count must
     not move by more than ``drift_counts`` (noise on A/B counts a motor that stands);
     past that the driver reports an error until re-referenced.
+
+    Lost edges (``counter.errors()``: a report of a level its channel already had) each
+    cost up to 4 counts in an unknown direction (the channel's two edges, and the other
+    channel's edges decoded the wrong way until this one's next report): :meth:`uncertainty_deg` is that bound
+    since the last reference (a reference or an index pulse wipes it); past
+    ``max_lost_deg`` the reading is a sensor error until re-referenced, so the position
+    is never called known when it may be off by more.
     """
+
+    #: counts one lost report may cost: its channel's double step, and the other
+    #: channel's two reports decoded against the stale level (+1 -1 instead of +1 +1)
+    LOST_EDGE_COUNTS = 4
 
     def __init__(self, caps: SensorCaps, name: str, counter: QuadratureCounter, *,
                  index_deg: float | None = None, index_period_deg: float = 360.0, motor: Any = None,
-                 drift_counts: int | None = None, still_after_s: float = 2.0, clock: Any = None):
+                 drift_counts: int | None = None, still_after_s: float = 2.0, clock: Any = None,
+                 max_lost_deg: float = 1.0):
         super().__init__(caps, name)
         self.counter = counter
+        self.max_lost_deg = float(max_lost_deg)
+        self._errors_at_ref = self._errors()
         self.counts_per_deg = round(1.0 / caps.resolution_deg)
         self.index_deg, self.index_period_deg = index_deg, float(index_period_deg)
         self._index_count = counter.index_count()
@@ -92,8 +106,21 @@ class QuadratureEncoder(_Incremental):
     def counts(self) -> int:
         return self.counter.count()
 
+    def _errors(self) -> int:
+        errors = getattr(self.counter, "errors", None)
+        return int(errors()) if errors is not None else 0
+
+    def lost_edges(self) -> int:
+        """Edges the counter knows it lost since the last reference."""
+        return self._errors() - self._errors_at_ref
+
+    def uncertainty_deg(self) -> float:
+        """How far the count may be off from lost edges since the last reference."""
+        return self.lost_edges() * self.LOST_EDGE_COUNTS * self.caps.resolution_deg
+
     def read_deg(self) -> float:
         c = self.counts()
+        errors = self._errors()
         if self.index_deg is not None:
             idx = self.counter.index_count()
             if idx is not None and idx != self._index_count:
@@ -104,6 +131,13 @@ class QuadratureEncoder(_Incremental):
                 self.last_index_correction_deg = mark - read_at_idx
                 self.index_rereferences += 1
                 self.reference_deg += self.last_index_correction_deg
+                self._errors_at_ref = errors      # the mark wiped what the lost edges cost
+        lost_deg = (errors - self._errors_at_ref) * self.LOST_EDGE_COUNTS * self.caps.resolution_deg
+        if lost_deg > self.max_lost_deg + 1e-9:
+            raise PartError(f"{self.name} encoder lost {errors - self._errors_at_ref} edge(s) since it was "
+                            f"referenced: the position may be off by up to {lost_deg:.2f} deg (more than "
+                            f"{self.max_lost_deg:g}); re-reference it (noise on A/B, or edges faster than "
+                            "the pins report them)")
         self._check_drift(c)
         return self._wrap(c * self.caps.resolution_deg + self.reference_deg)
 
@@ -132,6 +166,7 @@ class QuadratureEncoder(_Incremental):
 
     def set_reference_deg(self, angle_deg: float) -> None:
         super().set_reference_deg(angle_deg)
+        self._errors_at_ref = self._errors()
         self._drift_error = ""
         self._off_since = None
 

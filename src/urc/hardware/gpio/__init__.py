@@ -138,7 +138,8 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
         brake = RelayBrake(name, out("brake"), clock, release_s=ax_caps.brake_release_s) \
             if "brake" in pins else None
         lims = [LimitSwitchInput(f"{name} {side}", PinIn(factory, pins[f"limit_{side}"],
-                                                         debounce_s=cfg.limit_debounce_s, now_s=clock.now_s),
+                                                         debounce_s=cfg.limit_debounce_s, now_s=clock.now_s,
+                                                         urgent_level=not cfg.limit_active_low),
                                  active_low=cfg.limit_active_low) if f"limit_{side}" in pins else None
                 for side in ("min", "max")]
         if world is not None:
@@ -212,7 +213,7 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
                 log.exception("gpio: could not make %s safe", ax)
         for ax in axes.values():       # a bridge whose off needs PWM high brakes another way
             hold = getattr(ax.motor, "before_pwm_close", None)
-            if hold is not None and pwm_parts:
+            if hold is not None:       # software PWM too: its lgpio thread ends at exit
                 try:
                     hold()
                 except Exception:  # pragma: no cover - closing must go on

@@ -277,35 +277,49 @@ class QuadDriver:
 
 
 class PulseDriver:
-    """One low-high pulse on a mock pin per new edge of the simulated reed contact,
-    stamped evenly over the time since the last sync (the reports' timestamps are what
-    the counter's debounce judges). ``bounce``: each of the next pulses comes with that
-    many extra closures right after it (a bouncing reed), 0.2 ms apart."""
+    """One closure of the simulated reed contact per new pulse, on a mock pin: low for
+    half the time between pulses, stamped evenly over the time since the last sync (the
+    reports' timestamps are what the counter's debounce judges). ``bounce``: each
+    closure comes with that many extra openings and re-closures right after it;
+    ``bounce_open``: each opening with that many re-closures right after it (a reed
+    bounces both ways), 0.2 ms apart."""
+
+    BOUNCE_S = 0.0002
 
     def __init__(self, pin: Any, edges: Callable[[], int]):
         self.pin, self.edges = pin, edges
         self.seen = edges()
         self.bounce = 0
+        self.bounce_open = 0
         factory = pin.factory
         self._now_s = factory.ticks if isinstance(factory, EmulatedFactory) else None
         self._last_s = self._now_s() if self._now_s is not None else 0.0
         pin.drive_high()
 
+    def _edge(self, level: bool, t_s: float) -> None:
+        if isinstance(self.pin.factory, EmulatedFactory):
+            self.pin.factory.event_s = t_s
+        (self.pin.drive_high if level else self.pin.drive_low)()
+
+    def _settle(self, level: bool, t_s: float, bounces: int) -> None:
+        """The line to ``level`` at ``t_s``, with ``bounces`` returns to the other level."""
+        self._edge(level, t_s)
+        for j in range(bounces):
+            self._edge(not level, t_s + (2 * j + 1) * self.BOUNCE_S)
+            self._edge(level, t_s + (2 * j + 2) * self.BOUNCE_S)
+
     def sync(self) -> None:
         target = self.edges()
-        factory = self.pin.factory
         now_s = self._now_s() if self._now_s is not None else 0.0
         n = target - self.seen
         for k in range(max(0, n)):
-            t_s = self._last_s + (k + 1) * (now_s - self._last_s) / n
-            for j in range(1 + self.bounce):
-                if isinstance(factory, EmulatedFactory):
-                    factory.event_s = t_s + j * 0.0002
-                self.pin.drive_low()
-                self.pin.drive_high()
+            period_s = (now_s - self._last_s) / n
+            close_s = self._last_s + (k + 0.25) * period_s
+            self._settle(False, close_s, self.bounce)
+            self._settle(True, close_s + 0.5 * period_s, self.bounce_open)
             self.seen += 1
-        if isinstance(factory, EmulatedFactory):
-            factory.event_s = None
+        if isinstance(self.pin.factory, EmulatedFactory):
+            self.pin.factory.event_s = None
         self._last_s = now_s
         self.pin.clear_states()
 
@@ -404,11 +418,13 @@ class FakeMcp3008:
     CS falls, leading zeros, a start bit, SGL/DIFF, D2 D1 D0; then one sample clock, a
     null bit and the 10-bit result MSB first on MISO (MISO low before). ``inputs[ch]()``
     gives CHch in volts; differential pairs as the datasheet: code 0 = CH0-CH1, 1 =
-    CH1-CH0, ... (clamped at 0). ``dead``: no chip, MISO floats high."""
+    CH1-CH0, ... (clamped at 0). ``dead``: no chip, MISO reads low (a Pi pulls GPIO9
+    down); ``miso_floating``: no chip and no pull-down, MISO high."""
 
     def __init__(self, inputs: dict[int, Callable[[], float]], vref_v: float = 3.3):
         self.inputs, self.vref_v = inputs, vref_v
         self.dead = False
+        self.miso_floating = False
         self.fail: OSError | None = None          # tests: the transfer fails (ioctl error)
         #: the last conversions as (single-ended, channel, code)
         self.transactions: collections.deque[tuple[bool, int, int]] = collections.deque(maxlen=64)
@@ -432,7 +448,7 @@ class FakeMcp3008:
         if self.fail is not None:
             raise self.fail
         mosi = [b >> (7 - i) & 1 for b in data for i in range(8)]
-        miso = [1] * len(mosi) if self.dead else [0] * len(mosi)
+        miso = [1 if self.dead and self.miso_floating else 0] * len(mosi)
         if not self.dead and 1 in mosi:
             start = mosi.index(1)
             cmd = mosi[start + 1:start + 5]

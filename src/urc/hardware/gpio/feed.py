@@ -10,6 +10,7 @@ import math
 from dataclasses import replace
 from typing import Any
 
+from ...errors import HardwareError
 from ..drivers import LimitSwitchInput, RelayBrake
 from .i2c import Lsm303agrChip
 
@@ -39,25 +40,65 @@ def emulated_motor_duty(kind: str, motor: Any, levels: tuple[float, ...]) -> flo
 
 def emulated_bridge_open(kind: str, motor: Any) -> bool:
     """Whether the bridge has every switch off (the winding open: the motor coasts):
-    the LMD18200 with BRAKE high and its PWM input low (LMD18200_TRUTH_TABLE)."""
+    the LMD18200 with BRAKE high and its PWM input low (LMD18200_TRUTH_TABLE), the
+    VNH5019 with INA = INB = 0 and its PWM input low (ST VNH5019A-E §2.4: PWM low turns
+    both low sides off). A PWM input partly high in those rows brakes in its high time:
+    read as braked."""
+    if kind == "vnh5019":
+        from ..drivers.motors import vnh5019_state
+        return vnh5019_state(motor.ina.read_back(), motor.inb.read_back(), motor.pwm.read_back() > 0.0) == "coast"
     if kind != "lmd18200" or not motor.brake_out.read_back():
         return False
     from ..drivers.motors import lmd18200_state
     return lmd18200_state(motor.pwm_out.read_back() > 0.0, motor.dir_out.read_back(), True) == "coast"
 
 
+class RelayContacts:
+    """The CW and CCW relays' contacts as iron has them: a contact opens ``RELEASE_S``
+    after its coil is switched off (the relay's release time, 5-15 ms), so a coil
+    energised sooner after the other one's went off closes both contacts at once — the
+    phase capacitor shorted: :meth:`update` returns that as a fault."""
+
+    RELEASE_S = 0.015
+
+    def __init__(self, name: str):
+        self.name = name
+        self._on = {"CW": False, "CCW": False}
+        self._off_at_s = {"CW": -math.inf, "CCW": -math.inf}
+
+    def update(self, cw_on: bool, ccw_on: bool, now_s: float) -> str | None:
+        for coil, on in (("CW", cw_on), ("CCW", ccw_on)):
+            if self._on[coil] and not on:
+                self._off_at_s[coil] = now_s
+            self._on[coil] = on
+        closed = [c for c in ("CW", "CCW") if self._on[c] or now_s - self._off_at_s[c] < self.RELEASE_S - 1e-12]
+        if len(closed) < 2:
+            return None
+        return (f"{self.name} relays: CW and CCW contacts closed at once (a coil energised within "
+                f"{self.RELEASE_S * 1e3:.0f} ms of the other's release): the phase capacitor is shorted")
+
+
 class EmulatedMotor:
     """The driver on mock pins; after each drive the pins are decoded into the
-    simulated motor (after the world has caught up with the present)."""
+    simulated motor (after the world has caught up with the present). Relay drives: both
+    direction contacts closed at once (:class:`RelayContacts`) is a fault, not a drive
+    of 0."""
 
     def __init__(self, driver: Any, kind: str, world: Any, axis: str, levels: tuple[float, ...]):
         self.driver, self.kind, self.world, self.axis, self.levels = driver, kind, world, axis, levels
+        self.contacts = RelayContacts(axis) if kind == "relay" else None
 
     def set_drive(self, duty: float) -> None:
         self.world.catch_up()
         self.driver.set_drive(duty)
         phys = self.world.axes[self.axis]
         phys.bridge_open = emulated_bridge_open(self.kind, self.driver)
+        if self.contacts is not None:
+            shorted = self.contacts.update(self.driver.cw.read_back(), self.driver.ccw.read_back(),
+                                           self.world.clock.now_s())
+            if shorted is not None:
+                phys.set_command(0.0)
+                raise HardwareError(shorted)
         phys.set_command(emulated_motor_duty(self.kind, self.driver, self.levels))
 
     def read_current_a(self) -> float:

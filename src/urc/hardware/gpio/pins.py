@@ -16,11 +16,16 @@ What lgpio does that shapes this module (lgpio 0.2.2 ``lgpio.py``, gpiozero 2.0.
 * Reports arrive late and in bursts (the thread is a Python thread); each carries the
   level the line went to. The live level (``pin.state``) may have changed many times
   since, so the decoders count from the levels in the reports, never from a read.
-* ``factory.pin(n)`` claims the line as an input; ``function = "output"`` then claims it
-  as an output at level 0, and a pin's ``close()`` makes it an input again (floating).
+* ``factory.pin(n)`` claims the line as an input with its bias disabled (SET_PULL_NONE:
+  the boot pull is gone from then on); ``function = "output"`` then claims it as an
+  output at level 0, and a pin's ``close()`` makes it an input again (floating).
   Outputs are therefore claimed at their safe level in one call (:func:`claim_output`)
-  and never closed: at exit they stay driven at the safe level until the process ends
-  (after that only the external pull resistors and the safety chain hold them).
+  and never closed: at exit they stay driven at the safe level until the process ends.
+  After that, on Raspberry Pi OS, a released output keeps its last level
+  (``persist_gpio_outputs``, on by default) — so a killed process's outputs go on
+  driving until the takeover or the safety chain stops them; with
+  ``dtparam=strict_gpiod`` the lines float instead (no boot pull: gpiozero disabled
+  it), and only the external pull resistors hold them.
 """
 
 from __future__ import annotations
@@ -140,37 +145,61 @@ class PinPwm:
     def read_back(self) -> float:
         return float(self.pin.state)
 
+    def stop(self) -> None:
+        """End lgpio's PWM on the pin (``tx_pwm`` 0, 0), then hold it low."""
+        self.pin.frequency = None
+        self.pin.state = False
+
 
 class PinIn:
     """Digital input with pull-up and edge timing (limit switch, power-fail line).
 
     ``debounce_s``: :meth:`read` returns a new level only once no edge has come for that
     long (a bouncing contact, pickup on a long cable); ``now_s`` is the clock it is
-    timed on (the control loop's)."""
+    timed on (the control loop's). ``urgent_level`` (a limit's active level): that level
+    is reported at once — whenever the live level or any edge report since the last read
+    has it — and only the way back to the other level waits for ``debounce_s`` of quiet.
+    Noise on the cable can then hold a limit active a little longer, never hide it (a
+    symmetric debounce held the old level for as long as the noise lasted)."""
 
     def __init__(self, factory: Any, pin: int, *, pull: str = "up", on_edge: Any = None,
-                 debounce_s: float = 0.0, now_s: Callable[[], float] = time.monotonic):
+                 debounce_s: float = 0.0, now_s: Callable[[], float] = time.monotonic,
+                 urgent_level: bool | None = None):
         self.number = pin
         self.pin = factory.pin(pin)
         self.pin.function = "input"
         self.pin.pull = pull
         self.debounce_s = float(debounce_s)
+        self.urgent_level = urgent_level
         self._now_s = now_s
         self._edges = 0
         self._last_edge_s: float | None = None
         self._on_edge = on_edge
         self._stable: bool | None = None       # the first read takes the live level
+        # reports of the urgent level: written on lgpio's thread, read by read()
+        self._urgent_reports = 0
+        self._urgent_seen = 0
         self.pin.edges = "both"
         self.pin.when_changed = guarded(self, self._changed)
 
     def _changed(self, ticks: Any = None, state: Any = None) -> None:
         self._edges += 1
         self._last_edge_s = self._now_s()
+        level = _event_level(self.pin, state)
+        if self.urgent_level is not None and level == self.urgent_level:
+            self._urgent_reports += 1
         if self._on_edge is not None:
-            self._on_edge(_event_level(self.pin, state))
+            self._on_edge(level)
 
     def read(self) -> bool:
         live = bool(self.pin.state)
+        if self.urgent_level is not None:
+            reports = self._urgent_reports
+            urgent = live == self.urgent_level or reports != self._urgent_seen
+            self._urgent_seen = reports
+            if urgent:
+                self._stable = self.urgent_level
+                return self._stable
         if self._stable is None or self.debounce_s <= 0.0 or self._last_edge_s is None or \
                 self._now_s() - self._last_edge_s >= self.debounce_s - 1e-9:
             self._stable = live
@@ -254,12 +283,17 @@ class PinQuadrature:
 
 
 class PinPulseCounter:
-    """SPID reed contact to ground: one count per falling edge (pin pulled up).
+    """SPID reed contact to ground: one count per closure (falling edge, pin pulled up).
 
-    ``debounce_s``: a falling edge within that long of the last counted one is contact
-    bounce (or pickup), not a pulse: rejected and counted in ``rejected``. Timed on the
+    ``debounce_s``: a falling edge counts only when the line had been high (the contact
+    open) for at least that long before it. Both edges are requested, so bounce on
+    closing (the contact re-opens for a moment) and on opening (it re-closes for a
+    moment) both make short high or low spells and are rejected (counted in
+    ``rejected``); a symmetric "time since the last counted pulse" rule counted the
+    re-closures of an opening contact, half a period after the pulse. Timed on the
     reports' own timestamps (``factory.ticks_diff``), so late or bunched callbacks do
-    not change what is counted."""
+    not change what is counted. A falling report with no rising one before it (a lost
+    report) counts if it is at least ``debounce_s`` after the previous report."""
 
     def __init__(self, factory: Any, pin: int, *, debounce_s: float = 0.0):
         self.number = pin
@@ -269,20 +303,31 @@ class PinPulseCounter:
         self.pin.pull = "up"
         self.debounce_s = float(debounce_s)
         self._count = 0
-        self._last_ticks: Any = None
+        self._high = bool(self.pin.state)      # the level of the last report
+        self._high_since: Any = None           # ticks of the last rising report (None: long ago)
+        self._last_ticks: Any = None           # ticks of the last report
         #: falling edges rejected as bounce
         self.rejected = 0
-        self.pin.edges = "falling"
+        self.pin.edges = "both"
         self.pin.when_changed = guarded(self, self._edge)
 
+    def _held_s(self, ticks: Any, since: Any) -> float | None:
+        if ticks is None or since is None:
+            return None
+        return float(self.factory.ticks_diff(ticks, since))
+
     def _edge(self, ticks: Any = None, state: Any = None) -> None:
-        if state is not None and bool(state):
-            return                           # a rising report (edges not filtered): not a pulse
-        if self.debounce_s > 0.0 and ticks is not None and self._last_ticks is not None and \
-                self.factory.ticks_diff(ticks, self._last_ticks) < self.debounce_s:
-            self.rejected += 1
+        level = _event_level(self.pin, state)
+        was_high, last = self._high, self._last_ticks
+        self._high, self._last_ticks = level, ticks
+        if level:
+            self._high_since = ticks
             return
-        self._last_ticks = ticks
+        if self.debounce_s > 0.0:
+            held = self._held_s(ticks, self._high_since if was_high else last)
+            if held is not None and held < self.debounce_s - 1e-9:
+                self.rejected += 1
+                return
         self._count += 1
 
     def count(self) -> int:

@@ -14,9 +14,11 @@ before kernel 6.12 and pwmchip0 after (rpi-hardware-pwm's notes), and its channe
 GPIO12/13/18/19 to 0/1/2/3 whatever overlay is loaded: :func:`detect_pwm_chip`.
 
 rpi-hardware-pwm 0.3.1 exports the channel and writes its period and a duty of 0, but
-leaves ``enable`` as it found it: a channel a killed urc left enabled stays enabled.
-:class:`HardwarePwm` therefore disables it at once (``stop``: duty 0, enable 0), enables
-it only for the first non-zero duty, and disables it again at close.
+leaves ``enable`` as it found it: a channel a killed urc left enabled stays enabled, and
+its period write fails (EINVAL) when the duty it left is longer than the new period.
+:class:`HardwarePwm` therefore first writes duty 0 and enable 0 straight to sysfs
+(:func:`sysfs_pwm_off`), disables it again through the library (``stop``), enables it
+only for the first non-zero duty, and disables it again at close.
 """
 
 from __future__ import annotations
@@ -49,16 +51,15 @@ def detect_pwm_chip(gpio: Any, sys_pwm: Path = Path("/sys/class/pwm")) -> tuple[
         return 0, None
     found: list[tuple[int, str]] = []
     try:
-        for chip in sorted(sys_pwm.glob("pwmchip*")):
+        # by the PWM peripheral's base address only: the RP1's PWM1 (the fan's,
+        # 1f0009c000.pwm) also has 4 channels and is numbered first before 6.12; in
+        # number order (a text sort puts pwmchip10 before pwmchip2)
+        for number, chip in sorted((int(c.name[len("pwmchip"):]), c) for c in sys_pwm.glob("pwmchip*")
+                                   if c.name[len("pwmchip"):].isdigit()):
             dev = (chip / "device").resolve().name
             model = next((m for d, m in PWM_DEVICES.items() if dev.endswith(d)), None)
-            if model is None:
-                try:
-                    model = "pi5" if int((chip / "npwm").read_text()) == 4 else None
-                except (OSError, ValueError):
-                    model = None
             if model is not None:
-                found.append((int(chip.name[len("pwmchip"):]), model))
+                found.append((number, model))
     except OSError:
         found = []
     if gpio.pwm_chip is not None:
@@ -125,15 +126,32 @@ def pwm_advice(gpio: Any) -> list[str]:
     return notes
 
 
+def sysfs_pwm_off(chip: int, channel: int, sys_pwm: Path = Path("/sys/class/pwm")) -> bool:
+    """Duty 0, then disabled, written straight to the channel's sysfs files (where it is
+    exported; returns whether it was). No period write: rpi-hardware-pwm writes the
+    period before the duty, and a duty a dead urc left longer than the new period makes
+    that write fail (EINVAL), leaving the channel enabled at the dead duty."""
+    ch = sys_pwm / f"pwmchip{chip}" / f"pwm{channel}"
+    if not ch.is_dir():
+        return False
+    for name in ("duty_cycle", "enable"):
+        try:
+            (ch / name).write_text("0")
+        except OSError as exc:
+            log.warning("pwmchip%d/pwm%d: could not write %s 0: %s", chip, channel, name, exc)
+    return True
+
+
 class HardwarePwm:
     """A motor PWM output on the PWM peripheral (rpi-hardware-pwm over sysfs); duty in
     [0, 1] like :class:`.pins.PinPwm`."""
 
     def __init__(self, pin: int, channel: int, *, frequency_hz: float, pwm_class: Any = None,
-                 chip: int = 0):
+                 chip: int = 0, sys_pwm: Path = Path("/sys/class/pwm")):
         if pwm_class is None:
             from rpi_hardware_pwm import HardwarePWM as pwm_class
         self.pin, self.channel, self.frequency_hz, self.chip = pin, channel, frequency_hz, chip
+        sysfs_pwm_off(chip, channel, sys_pwm)   # before the library's period write
         self.pwm = pwm_class(pwm_channel=channel, hz=frequency_hz, chip=chip)
         self.duty = 0.0
         self.enabled = True            # not known: a dead urc may have left it running
@@ -155,6 +173,9 @@ class HardwarePwm:
 
     def identify(self) -> str:
         return f"GPIO{self.pin}: hardware PWM{self.channel} (pwmchip{self.chip}) at {self.frequency_hz:g} Hz"
+
+    def stop(self) -> None:
+        self.close()
 
     def close(self) -> None:
         """Duty 0 and the channel disabled (the pin idles low)."""

@@ -51,7 +51,9 @@ class Mcp3008Chip:
 
     def convert(self, channel: int, single: bool = True) -> int:
         rx = with_retries(self.name, lambda: self.spi.xfer2(self.frame(channel, single)))
-        if len(rx) != 3 or rx[1] & 0x04:   # the null bit must be 0: no chip (MISO high) or noise
+        # the null bit must be 0: MISO floating high (no chip, no pull-down) or noise. A
+        # Pi pulls MISO low, so a missing chip there reads 0: Mcp3008Channel, the reference
+        if len(rx) != 3 or rx[1] & 0x04:
             raise PartError(f"{self.name} (SPI0 CE{self.device}): no valid answer {list(rx)} "
                             "(chip missing, MISO floating or wiring)")
         return (rx[1] & 0x03) << 8 | rx[2]
@@ -82,7 +84,15 @@ class Mcp3008Channel:
             round(reference_v / chip.vref_v * Mcp3008Chip.COUNTS)
 
     def read_counts(self) -> int:
-        return self.chip.convert(self.channel)
+        counts = self.chip.convert(self.channel)
+        if counts == 0 and self.reference_channel is None:
+            # a Pi pulls MISO (GPIO9) low: with no chip every frame reads 0 with a valid
+            # null bit, and 0 is also a pot at its end. Without a reference input that
+            # cannot be told apart, so it is never taken for an angle
+            raise PartError(f"{self.chip.name} (SPI0 CE{self.chip.device}) CH{self.channel} reads 0 counts: "
+                            "no chip answers like that too (MISO pulled low); if the pot really sits at its "
+                            "end, wire its supply to a spare input and set adc_reference_channel")
+        return counts
 
     def read_reference_counts(self) -> int:
         if self.reference_channel is None:
