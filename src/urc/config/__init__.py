@@ -14,7 +14,7 @@ integers are accepted where a float is expected.
 Cross-checks that need the rotator profile (user limits inside the profile's range, park
 inside the limits, control overrides within the profile's capabilities ...) run whenever a
 :class:`Config` is built. The per-instance values here never go into the frozen caps
-(DESIGN.md convention 4); use :meth:`Config.effective_limits`, :meth:`Config.park` and
+(docs/ARCHITECTURE.md, convention 4); use :meth:`Config.effective_limits`, :meth:`Config.park` and
 :meth:`Config.effective_control` to combine the two.
 
 The package, by concern:
