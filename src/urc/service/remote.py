@@ -61,8 +61,12 @@ CALL_TIMEOUT_S = 6.0
 #: how long a stop waits for its confirmation (it is applied however late it arrives,
 #: so a longer wait would only keep its caller from telling the operator)
 STOP_ACK_S = 1.0
-#: a status older than this means the control process has stopped publishing
+#: a status older than this means the control process has stopped publishing (it
+#: publishes every tick)
 STATUS_STALE_S = 1.0
+#: ... and sooner while the axes moved: a position that old may already be degrees off
+#: (at 6 deg/s, 1 s was 3 deg given as current by rotctld's ``p``; issue 20)
+MOVING_STATUS_STALE_S = 0.3
 
 #: a path step that calls what the previous steps named: ("()", args, kwargs)
 CALL = "()"
@@ -437,7 +441,7 @@ class RemoteRotator:
         if self._link.lost:
             return Fault("control", None, f"control process gone: {self._link.lost}", s.t_s)
         age_s = self.clock.now_s() - s.t_s
-        if age_s > STATUS_STALE_S:
+        if age_s > (MOVING_STATUS_STALE_S if s.moving else STATUS_STALE_S):
             return Fault("control", None, f"control process silent for {age_s:.1f} s", s.t_s)
         return None
 
