@@ -23,7 +23,6 @@ import numpy as np
 
 from ..errors import CommandRejected, UrcError
 from ..ipc.messages import ApplyCalibration, CompassField, DescribeSensors, SensorCalibrations
-from .queries import ask
 from .snapshot import Status
 
 
@@ -322,6 +321,14 @@ def pot_apply(rotator: Any, axis: str, points: Sequence[tuple[float, float]]) ->
 
 
 # =============================================================== long procedures
+def _ask(rotator: Any, query: Any, here: Any) -> Any:
+    """A long procedure's query: one round trip when ``rotator`` stands in for the
+    control process's (RemoteRotator.ask), else ``here()`` on this one. (Not
+    urc.service.queries.ask: its handlers call this module.)"""
+    remote = getattr(rotator, "ask", None)
+    return remote(query) if remote is not None else here()
+
+
 class Procedure:
     """A calibration that takes time. Call :meth:`poll` with each new status."""
 
@@ -408,7 +415,8 @@ class MagnetometerCalibration(Procedure):
 
     def __init__(self, rotator: Any, axis: str = "az"):
         super().__init__(rotator, axis)
-        if axis != "az" or "magnetometer" not in ask(rotator, DescribeSensors())[axis]["procedures"]:
+        described = _ask(rotator, DescribeSensors(), lambda: describe_sensors(rotator))
+        if axis != "az" or "magnetometer" not in described[axis]["procedures"]:
             raise CalibrationError("magnetometer calibration needs a compass on the azimuth axis")
         self.samples: list[tuple[float, float]] = []
         self._start_az_deg = 0.0
@@ -441,7 +449,8 @@ class MagnetometerCalibration(Procedure):
             if not self._still(status):
                 self._goto_phase("moving", status)
             elif self._elapsed_s(status) >= self.DWELL_S:
-                self.samples.append(tuple(ask(self.rotator, CompassField(self.axis))))
+                self.samples.append(tuple(_ask(self.rotator, CompassField(self.axis),
+                                               lambda: compass_field(sensor_of(self.rotator, self.axis)))))
                 self.progress = len(self.samples) / (n + 1)
                 if len(self.samples) < n:
                     self._move(status)
@@ -475,13 +484,15 @@ class MagnetometerCalibration(Procedure):
         if fit.max_gap_deg > 120.0:
             raise CalibrationError(f"the samples leave a {fit.max_gap_deg:.0f} deg gap; "
                                    "the antenna did not turn all the way round")
-        old = ask(self.rotator, SensorCalibrations())[self.axis]
+        old = _ask(self.rotator, SensorCalibrations(),
+                   lambda: {self.axis: dict(sensor_of(self.rotator, self.axis).calibration())})[self.axis]
         constants: dict[str, Any] = {"hard_iron_x": fit.x, "hard_iron_y": fit.y}
         if "soft_iron" in old:
             constants["soft_iron"] = list(soft.matrix) if soft is not None else [1.0, 0.0, 0.0, 1.0]
         if "mag_matrix" in old:   # fitted on the raw field: replaces the hand-held 3-D one
             constants["mag_matrix"] = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]
-        mech = ask(self.rotator, ApplyCalibration(self.axis, constants))
+        mech = _ask(self.rotator, ApplyCalibration(self.axis, constants),
+                    lambda: apply_sensor_calibration(self.rotator, self.axis, constants))
         self.result = {"hard_iron_x": fit.x, "hard_iron_y": fit.y, "field_radius": fit.radius,
                        "rms_rel": fit.rms_rel, "max_gap_deg": fit.max_gap_deg,
                        "old_hard_iron_x": old.get("hard_iron_x"), "old_hard_iron_y": old.get("hard_iron_y"),
@@ -512,7 +523,7 @@ class LimitSwitchHoming(Procedure):
     def __init__(self, rotator: Any, axis: str, speed_frac: float | None = None,
                  switch_deg: float | None = None):
         super().__init__(rotator, axis)
-        if "homing" not in ask(rotator, DescribeSensors())[axis]["procedures"]:
+        if "homing" not in _ask(rotator, DescribeSensors(), lambda: describe_sensors(rotator))[axis]["procedures"]:
             raise CalibrationError(f"{axis}: no lower limit switch to home on")
         caps = rotator.caps.axis(axis)
         self.lo_deg, self.hi_deg = rotator.status().limits[axis]
