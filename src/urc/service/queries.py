@@ -163,8 +163,16 @@ def _twelve(rot: Any, q: ApplyTwelveDirection) -> bool:
 def _hardware_info(rot: Any, _q: HardwareInfo) -> HardwareSummary:
     hw = getattr(rot, "hw", None)
     path = getattr(getattr(rot, "store", None), "path", None)
-    return HardwareSummary(str(getattr(hw, "backend", "")), "world" in getattr(hw, "extra", {}),
+    return HardwareSummary(str(getattr(hw, "backend", "")), _sim_world(hw) is not None,
                            "" if path is None else str(path.parent))
+
+
+def _sim_world(hw: Any) -> Any:
+    """The simulated world behind the hardware, None on real hardware: ``Hardware.world``
+    (typed, since the config split on main), or ``extra["world"]`` before it (drop this
+    fallback once both are merged)."""
+    world = getattr(hw, "world", None)
+    return world if world is not None else getattr(hw, "extra", {}).get("world")
 
 
 def _motor_duties(rot: Any, _q: MotorDuties) -> dict[str, float]:
@@ -173,7 +181,7 @@ def _motor_duties(rot: Any, _q: MotorDuties) -> dict[str, float]:
 
 def _world(rot: Any) -> Any:
     # the simulator, or the gpio backend on emulated parts (the faults reach them)
-    world = rot.hw.extra.get("world")
+    world = _sim_world(rot.hw)
     if world is None:
         raise PermissionError("fault injection exists only on the simulator (sim, or gpio emulated)")
     return world
