@@ -31,7 +31,7 @@ from skyfield.api import EarthSatellite, wgs84
 from bench_report import write_json
 from urc.tracking import sky
 from urc.tracking.elements import load_elements
-from urc.tracking.evaluate import fly_pass_on_sim
+from urc.testing.evaluate import fly_pass_on_sim
 from urc.tracking.passes import find_passes
 from urc.tracking.station import Station
 

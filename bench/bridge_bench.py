@@ -3,7 +3,7 @@
 The controller a station owns is urc's simulator (one profile, default g5500: a
 G-5500 class rotator) behind urc's own device emulation of each protocol; the wire is
 simulated at the protocol's usual baud rate with Hamlib's post-write delays
-(urc.hardware.bridge.simlink). For each protocol the same pass is flown three ways and
+(urc.testing.bridged_rig). For each protocol the same pass is flown three ways and
 judged by the controller's simulator truth (docs/ARCHITECTURE.md pointing error):
 
 * ``bridge``: urc with the bridge backend plans and tracks the pass;
@@ -34,8 +34,8 @@ import numpy as np
 from bench_report import write_json
 from tracking_bench import FLIP_RULES, flip_text, scenarios
 from urc.hardware.bridge import BRIDGE_PROTOCOLS
-from urc.hardware.bridge.simlink import BridgedRig
-from urc.tracking.evaluate import (GpredictDriver, PointingStats, fly_pass_on_sim, gpredict_flips_pass,
+from urc.testing.bridged_rig import BridgedRig
+from urc.testing.evaluate import (GpredictDriver, PointingStats, fly_pass_on_sim, gpredict_flips_pass,
                                    great_circle_deg)
 from urc.tracking.propagate import look_angles
 from urc.tracking.targets import SatelliteTarget

@@ -17,7 +17,7 @@ from bench_report import write_json
 
 from urc.config import load_config
 from urc.tracking.elements import load_elements
-from urc.tracking.evaluate import fly_pass_on_sim
+from urc.testing.evaluate import fly_pass_on_sim
 from urc.tracking.passes import find_passes
 from urc.tracking.station import Station
 

@@ -25,7 +25,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_report import write_json  # noqa: E402
 from tracking_bench import scenarios  # noqa: E402
 from urc.profiles import PROFILES  # noqa: E402
-from urc.tracking.evaluate import PointingStats, fly_pass_on_sim  # noqa: E402
+from urc.testing.evaluate import PointingStats, fly_pass_on_sim  # noqa: E402
 from urc.tracking.propagate import look_angles  # noqa: E402
 
 

@@ -31,7 +31,7 @@ from urc.config import Config
 from urc.profiles import PROFILES
 from urc.tracking import sky
 from urc.tracking.elements import load_elements
-from urc.tracking.evaluate import PointingStats, fly, fly_pass_on_sim, great_circle_deg
+from urc.testing.evaluate import PointingStats, fly, fly_pass_on_sim, great_circle_deg
 from urc.tracking.passes import find_passes
 from urc.tracking.propagate import look_angles, sun_look_angles
 from urc.tracking.station import Station

@@ -103,3 +103,13 @@ def test_no_import_cycles_counting_imports_inside_functions():
 
 def test_the_checker_sees_a_cycle():
     assert cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
+
+
+def test_the_library_imports_no_test_harness():
+    """Harnesses (passes flown and judged on the simulator, a bridged rig on the virtual
+    clock) live in urc.testing for tests and bench/; urc itself never imports them."""
+    edges = graph()
+    harness = {m for m in edges if m == "urc.testing" or m.startswith("urc.testing.")}
+    assert {"urc.testing.evaluate", "urc.testing.bridged_rig"} <= harness
+    importers = sorted(m for m, deps in edges.items() if m not in harness and deps & harness)
+    assert not importers, importers

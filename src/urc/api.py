@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import asyncio
 import os
+from pathlib import Path
 from typing import Any
 
 from fastapi import APIRouter, Depends, FastAPI
@@ -21,9 +22,11 @@ from . import __version__
 from .config import Config
 from .errors import CommandRejected, UrcError
 from .ipc import bridge
+from .ipc.messages import HardwareInfo
 from .service.remote import StopQueued
 from .service import Rotator
 from .service.calibration import CalibrationError
+from .service.queries import ask
 from .web import WebContext, install
 from .web.docs_pages import install_redoc
 from .web.live import FRAME_HZ, Hub
@@ -68,8 +71,9 @@ def create_api(rotator: Rotator, cfg: Config, *, config_path: str | os.PathLike 
                          description="Universal Rotator Controller: status, control, calibration, settings; "
                                      "the dashboard is at /")
     install_redoc(app)  # its bundle without the one address it fetches from a CDN
-    if state_dir is None and getattr(rotator, "store", None) is not None:
-        state_dir = rotator.store.path.parent
+    if state_dir is None:
+        kept_in = ask(rotator, HardwareInfo()).state_dir  # (no round trip: sent once at start)
+        state_dir = Path(kept_in) if kept_in else None
     hub = Hub(rotator, tracker, frame_hz)
     control_allowed = control_guard(cfg)
     ctx = WebContext(rotator=rotator, cfg=cfg, hub=hub, settings=SettingsStore(cfg, config_path, state_dir),

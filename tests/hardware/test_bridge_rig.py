@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from urc.hardware.bridge import BRIDGE_PROTOCOLS
-from urc.hardware.bridge.simlink import BridgedRig
+from urc.testing.bridged_rig import BridgedRig
 from urc.protocols import spid_codec as spid
 from urc.tracking.elements import load_elements
 from urc.angles import great_circle_deg

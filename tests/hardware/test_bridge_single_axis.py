@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import pytest
 
-from urc.hardware.bridge.simlink import BridgedRig
+from urc.testing.bridged_rig import BridgedRig
 
 
 @pytest.mark.parametrize("protocol", ["rot1prog", "gs232b", "rotctld"])

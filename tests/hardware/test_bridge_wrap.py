@@ -7,7 +7,7 @@ from __future__ import annotations
 import pytest
 
 from urc.hardware.bridge import BRIDGE_PROTOCOLS
-from urc.hardware.bridge.simlink import BridgedRig
+from urc.testing.bridged_rig import BridgedRig
 
 #: tartu-urc: 0..400 deg of azimuth, park at 0
 PROFILE = "tartu-urc"

@@ -10,7 +10,7 @@ import pytest
 
 from urc.config import load_config
 from urc.tracking.elements import load_elements
-from urc.tracking.evaluate import fly_pass_on_sim
+from urc.testing.evaluate import fly_pass_on_sim
 from urc.tracking.passes import find_passes
 from urc.tracking.station import Station
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from urc.tracking.evaluate import gpredict_flips
+from urc.testing.evaluate import gpredict_flips
 
 
 def test_gpredict_flips_a_pass_across_north_only_on_a_180_deg_elevation_rotator():

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from urc.tracking.evaluate import fly_pass_on_sim
+from urc.testing.evaluate import fly_pass_on_sim
 from urc.tracking.passes import find_passes
 from urc.tracking.propagate import look_angles
 

@@ -12,7 +12,7 @@ from skyfield.api import EarthSatellite, wgs84
 
 from urc.profiles import PROFILES
 from urc.tracking import sky
-from urc.tracking.evaluate import fly_pass_on_sim
+from urc.testing.evaluate import fly_pass_on_sim
 from urc.tracking.passes import find_passes
 from urc.tracking.planner import AxisLimits, plan_pass
 from urc.tracking.station import Station

@@ -7,6 +7,7 @@ controller runs normally with the new Z.
 
 On urc: Z is the azimuth sensor's own ``Z`` constant when it has one (a ratiometric pot,
 as on the G4JNT), stored exactly as set through :func:`calibration.apply_sensor_calibration`
+(an ApplyCalibration query)
 (the axis adopts the new bearing; the state file keeps Z across restarts; nothing moves).
 Precision is the document's unit, 0.1 deg: Z is kept to the step it was set in, and the
 bearing moves by exactly Z; a single reading is still quantised by the 10-bit pot. A sensor without
@@ -20,7 +21,8 @@ from __future__ import annotations
 
 from ..protocols.poses import extended_pose_deg
 from ..protocols.single_axis import wire_status
-from ..service import calibration
+from ..ipc.messages import ApplyCalibration, SensorCalibrations
+from ..service.queries import ask
 
 HOLD_NAME = "ZERO SET"
 REPEAT_AFTER_S = 0.5
@@ -46,7 +48,7 @@ class ZeroSetting:
 
     def _sensor_calibration(self) -> dict | None:
         try:
-            cal = dict(self.rotator.hw.axis("az").sensor.calibration())
+            cal = ask(self.rotator, SensorCalibrations())["az"]
         except Exception:  # no such sensor interface (a bridged controller)
             return None
         return cal if "Z" in cal else None
@@ -77,7 +79,7 @@ class ZeroSetting:
         self.rotator.hold_local(HOLD_NAME, False)   # the re-reference must not be refused
         try:
             if self.cal is not None:
-                calibration.apply_sensor_calibration(self.rotator, "az", {**self.cal, "Z": self.value_deg})
+                ask(self.rotator, ApplyCalibration("az", {**self.cal, "Z": self.value_deg}))
             else:
                 self.rotator.set_position(az_deg=self.value_deg, local=True)
         except Exception:

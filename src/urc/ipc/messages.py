@@ -184,27 +184,154 @@ class PositionUncertain(Request):
     METHOD: ClassVar[str] = "position_uncertain"
 
 
-# ------------------------------------------------------------------ procedures and hardware
+# ------------------------------------------------------------------ hardware queries and procedures
 @dataclass(frozen=True)
-class Procedure(Request):
-    """A function marked ``@in_control_process`` run whole on the real rotator (steps that
-    no tick may split: a calibration's read-compute-apply). Only marked functions run."""
-
-    module: str
-    qualname: str
-    args: tuple = ()
-    kwargs: dict = field(default_factory=dict)
+class Query(Request):
+    """A hardware query or a calibration procedure: run in the control process by the
+    handler :data:`urc.service.queries.HANDLERS` holds for its type (not a Rotator
+    method), whole, in one round trip: every protocol command costs at most one."""
 
 
 @dataclass(frozen=True)
-class HardwareCall(Request):
-    """A hardware query or setting reached from the rotator by a path of public
-    attribute names and call steps (``hw.axis("az").sensor.calibration()``)."""
-
-    path: tuple
+class SensorCount(Query):
+    """The axis sensor's own count (Tartu RDAP/RDEP) -> :class:`CountReading`."""
+    axis: str
 
 
-#: request type -> the Rotator method that runs it (procedures and hardware apart)
+@dataclass(frozen=True)
+class CountReading:
+    #: the sensor's count from the axis' reference (0 deg); None: the sensor keeps none
+    count: int | None
+    #: one count (or sensor step), degrees; None: no sensor on that axis
+    resolution_deg: float | None
+
+
+@dataclass(frozen=True)
+class SensorCalibrations(Query):
+    """Every axis sensor's constants -> ``{axis: {name: value}}`` ({} for a sensor
+    without constants)."""
+
+
+@dataclass(frozen=True)
+class RawVectors(Query):
+    """SARCNET's raw magnetometer and accelerometer vectors, before any calibration ->
+    ``((mx, my, mz), (gx, gy, gz))``, or None when the rotator has no such parts."""
+
+
+@dataclass(frozen=True)
+class BeginHandCalibration(Query):
+    """SARCNET ``c``: the sensor board comes off the boom: stop, and take the local hold
+    ``hold`` (nothing drives on its readings meanwhile) -> False, and nothing done, when
+    the rotator has no raw magnetometer/accelerometer."""
+    hold: str
+
+
+@dataclass(frozen=True)
+class Reset(Query):
+    """SARCNET ``r``: list the sensors' constants, stop, clear the faults, then go
+    ``home`` (a Goto or GotoPose) -> :class:`ResetOutcome`."""
+    home: Goto | GotoPose
+
+
+@dataclass(frozen=True)
+class ResetOutcome:
+    calibrations: dict   # as SensorCalibrations answers, read first
+    refused: str | None  # why the rotator refused ``home`` (nothing moves), None: on its way
+
+
+@dataclass(frozen=True)
+class PotState(Query):
+    """G4JNT: the azimuth's ratiometric pot -> :class:`PotReading`, or None when the
+    azimuth sensor is not one."""
+
+
+@dataclass(frozen=True)
+class PotReading:
+    calibration: dict  # the pot's constants (M, C, Z, K)
+    last_counts: int   # the ADC count N behind its last reading
+
+
+@dataclass(frozen=True)
+class PotUnits(Query):
+    """A pot's linearised reading P, averaged over ``samples`` reads -> float."""
+    axis: str
+    samples: int = 32
+
+
+@dataclass(frozen=True)
+class CompassField(Query):
+    """A compass's raw horizontal field, averaged -> ``(bx, by)``."""
+    axis: str
+    samples: int = 16
+
+
+@dataclass(frozen=True)
+class DescribeSensors(Query):
+    """Per axis: sensor kind, constants, procedures that apply -> dict."""
+
+
+@dataclass(frozen=True)
+class ApplyCalibration(Query):
+    """Load sensor constants and re-reference the axis (calibration.apply_sensor_calibration)
+    -> the new mechanical angle."""
+    axis: str
+    values: dict
+    local: bool = False
+    #: constants the sensor must have already, else NoSuchConstant and nothing is loaded
+    #: (a protocol's constants meant for one kind of sensor: G4JNT's pot)
+    require: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class PotApply(Query):
+    """Two-point pot calibration from (bearing_deg, P) points -> its result dict."""
+    axis: str
+    points: tuple
+
+
+@dataclass(frozen=True)
+class ApplyTwelveDirection(Query):
+    """Load a SARCNET 12-direction result and save the state -> whether it reached disk;
+    once loaded, the local hold ``release`` (if any) is released."""
+    result: dict
+    release: str | None = None
+
+
+@dataclass(frozen=True)
+class HardwareInfo(Query):
+    """What the hardware is -> :class:`HardwareSummary` (sent once at start: asking costs
+    no round trip)."""
+
+
+@dataclass(frozen=True)
+class HardwareSummary:
+    backend: str     # sim | gpio | bridge
+    simulator: bool  # a simulated world behind it (sim, or gpio emulated): faults can be injected
+    state_dir: str   # where the state record is kept
+
+
+@dataclass(frozen=True)
+class MotorDuties(Query):
+    """Each axis motor's drive as its driver holds it now -> ``{axis: duty}``: read even
+    while a tick hangs (the status is the last tick's)."""
+
+
+@dataclass(frozen=True)
+class SimFault(Query):
+    """Make the simulated hardware fail (``World.inject``)."""
+    axis: str
+    kind: str
+    params: dict = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class SimClear(Query):
+    """Repair the simulated hardware (``World.clear``)."""
+    axis: str
+    kind: str | None = None
+
+
+#: request type -> the Rotator method that runs it (queries apart: urc.service.queries)
 COMMANDS: dict[type[Request], str] = {cls: cls.METHOD for cls in (
     Goto, GotoAz, GotoEl, GotoPose, Park, Track, TrackPose, Move, Stop, SetPosition, AdoptSensorReading,
     SearchFrame, EndSearch, SetOvershoot, Reconfigure, ClearFaults, HoldLocal, Announce, PowerFail, SaveNow,
@@ -224,9 +351,9 @@ class Envelope:
 
 @dataclass(frozen=True)
 class Reply:
-    """The answer to one request: ``outcome`` is "value", "ref" (something that stays in
-    the control process; ``value`` is None) or "error" (``value`` is the exception as
-    exception_to_wire made it), with the status the command left (read-your-writes)."""
+    """The answer to one request: ``outcome`` is "value" or "error" (``value`` is the
+    exception as exception_to_wire made it), with the status the command left
+    (read-your-writes)."""
 
     rid: int
     outcome: str

@@ -34,7 +34,9 @@ Commands: ``#`` + Z/C/K/M + signed integer; ``L``/``R`` go-left/go-right pulses 
 from __future__ import annotations
 
 from ..errors import CommandRejected, UrcError
+from ..ipc.messages import ApplyCalibration, PotReading, PotState
 from ..service import calibration
+from ..service.queries import ask
 from .base import MAX_PENDING_BYTES, RotatorPort, bad_input_log, internal_error, protocol_logger
 from . import g4jnt_codec as codec
 from .g4jnt_codec import Constants, G4jntCommand, G4jntSyntaxError
@@ -60,7 +62,6 @@ class G4jntSession:
         self.rotator = rotator
         self.closed = False
         self.interval_s = float(interval_s)
-        self._pot = _ratiometric_pot(rotator)
         #: without a pot: this connection's constants (a 0..360 deg pot over P 0..4096)
         self._own = Constants(z=0, m=round(3600 * codec.M_SCALE / 4096), c=0, k=2048)
         self._lines = LineSplitter(MAX_PENDING_BYTES, backspace=True, log=bad_input)
@@ -68,13 +69,19 @@ class G4jntSession:
         self._next_s: float | None = None
         self._powered = False
         #: constants set but not yet consistent (see the module notes): held, not stored
-        self._held: Constants | None = None
+        self._held: dict[str, int] = {}
+
+    def _pot(self) -> PotReading | None:
+        """The azimuth's ratiometric pot: its constants and last ADC count (one query, one
+        round trip: each command and each stream line asks once), None without one."""
+        return ask(self.rotator, PotState())
+
+    def _constants(self, pot: PotReading | None) -> Constants:
+        return self._own if pot is None else codec.from_sensor(pot.calibration)
 
     @property
     def constants(self) -> Constants:
-        if self._pot is None:
-            return self._own
-        return codec.from_sensor(self._pot.calibration())
+        return self._constants(self._pot())
 
     # ------------------------------------------------------------------ Session
     def receive(self, data: bytes) -> list[bytes]:
@@ -103,23 +110,27 @@ class G4jntSession:
 
     def tick(self, now_s: float) -> list[bytes]:
         out = []
+        nxt = next_due_s(self._next_s, now_s, self.interval_s)
+        pot = self._pot() if nxt is not None or not self._powered else None
         if not self._powered:
             self._powered = True
-            out.append(codec.banner(self.constants))
-        nxt = next_due_s(self._next_s, now_s, self.interval_s)
+            out.append(codec.banner(self._constants(pot)))
         if nxt is not None:
             self._next_s = nxt
             try:
-                out.append(self.stream_line())
+                out.append(self.stream_line(pot))
             except PositionUnknown as exc:    # homing: no bearing to stream, say why
                 out.append(codec.line(f"? {exc}"))
         return out
 
-    def stream_line(self) -> bytes:
-        k = self.constants
+    def stream_line(self, pot: PotReading | None = None) -> bytes:
+        """One stream line from ``pot`` (asked for when not given)."""
+        if pot is None:
+            pot = self._pot()
+        k = self._constants(pot)
         require_known(self.rotator.status())
-        if self._pot is not None:
-            p = codec.linearise(self._pot.last_counts, k.k)
+        if pot is not None:
+            p = codec.linearise(pot.last_counts, k.k)
         else:
             p = codec.p_for_bearing(extended_pose_deg(self.rotator.status())[0], k)
         return codec.stream_line(codec.bearing_tenths(p, k), p)
@@ -132,10 +143,11 @@ class G4jntSession:
             # value accepted, not a read-back that may precede it)
             return self._set_constant(cmd.name, cmd.value)
         if cmd.kind == "all":
-            listing = b"".join(codec.constant_line(n, self.constants) for n in codec.CONSTANT_ORDER)
-            if self._held is not None:
-                held = [n for n in codec.CONSTANT_ORDER if self._held.get(n) != self.constants.get(n)]
-                listing += codec.line("Held (not stored) - " + " ".join(f"{n} {self._held.get(n)}" for n in held))
+            constants = self.constants
+            listing = b"".join(codec.constant_line(n, constants) for n in codec.CONSTANT_ORDER)
+            held = [n for n in codec.CONSTANT_ORDER if n in self._held and self._held[n] != constants.get(n)]
+            if held:
+                listing += codec.line("Held (not stored) - " + " ".join(f"{n} {self._held[n]}" for n in held))
             return listing
         if cmd.kind == "stop":
             self._targets.stop()
@@ -150,32 +162,28 @@ class G4jntSession:
         return codec.line(echo)
 
     def _set_constant(self, name: str, value: int) -> bytes:
-        new = (self._held or self.constants).with_value(name, value)
-        if self._pot is None:
-            self._own = new
-            return codec.constant_line(name, new)
+        """One round trip: the new constant, with those held, goes to the pot (the rotator
+        keeps the others in force); a rotator without a ratiometric pot refuses it and the
+        connection keeps its own."""
+        changes = {**self._held, name: value}
         # the rotator re-references to what the new constants say, persists them with
         # its state, and refuses (CommandRejected) if that would break its limits
         try:
-            calibration.apply_sensor_calibration(self.rotator, "az", codec.to_sensor(new))
+            ask(self.rotator, ApplyCalibration("az", codec.sensor_values(changes), require=POT_CONSTANTS))
+        except calibration.NoSuchConstant:
+            self._own = self._own.with_value(name, value)
+            return codec.line(f"{name} {value}")
         except CommandRejected as exc:
             if exc.reason != "limit":
                 raise
             # one of a pair still to come (M then C): hold it, store nothing yet
-            self._held = new
+            self._held = changes
             bad_input.info("holding %s %d: %s", name, value, exc)
             return codec.line(f"{name} {value} held: {exc}; stored once the constants "
                               "that follow make theta fit"[:160])
-        self._held = None
-        return codec.constant_line(name, new)
+        self._held = {}
+        return codec.line(f"{name} {value}")
 
 
-def _ratiometric_pot(rotator: RotatorPort):
-    """The azimuth sensor if it is a G4JNT-style ratiometric pot (its constants include
-    K and it reports the ADC count behind each reading), else None."""
-    try:
-        sensor = rotator.hw.axis("az").sensor          # type: ignore[attr-defined]
-        cal = sensor.calibration()
-    except (AttributeError, UrcError):
-        return None
-    return sensor if "K" in cal and "M" in cal and hasattr(sensor, "last_counts") else None
+#: the constants that make the azimuth sensor a G4JNT-style ratiometric pot
+POT_CONSTANTS = ("K", "M")

@@ -160,6 +160,13 @@ def to_sensor(k: Constants) -> dict[str, float]:
     return {"M": k.m / M_SCALE / 10.0, "C": k.c / 10.0, "Z": k.z / 10.0, "K": float(k.k)}
 
 
+def sensor_values(changes: dict[str, int]) -> dict[str, float]:
+    """Only the named constants (Z, M, C, K in the controller's units) in the pot driver's
+    units, as :func:`to_sensor` converts them."""
+    every = to_sensor(Constants(**{n.lower(): v for n, v in changes.items()}))
+    return {n: every[n] for n in changes}
+
+
 def from_sensor(cal: dict) -> Constants:
     return Constants(z=round(float(cal.get("Z", 0.0)) * 10), m=round(float(cal["M"]) * 10 * M_SCALE),
                      c=round(float(cal.get("C", 0.0)) * 10), k=round(float(cal.get("K", 2048))))

@@ -17,6 +17,7 @@ from __future__ import annotations
 import math
 
 from ..errors import CommandRejected
+from ..ipc.messages import Goto, GotoPose
 from ..service.snapshot import Status
 from .base import RotatorPort
 
@@ -118,19 +119,26 @@ def goto_extended(rotator: RotatorPort, az_deg: float, el_deg: float) -> None:
     10, not on to 370), an elevation past 90 the flipped pose. Outside the range the
     service's rule applies (a negative down to -180 is a compass bearing, anything else
     is refused). Raises CommandRejected."""
-    st = rotator.status()
+    request = extended_goto(rotator.status(), az_deg, el_deg)
+    if isinstance(request, GotoPose):
+        rotator.goto_pose(request.az_m_deg, request.el_m_deg)
+    else:
+        rotator.goto(request.az_deg, request.el_deg)
+
+
+def extended_goto(st: Status, az_deg: float, el_deg: float) -> Goto | GotoPose:
+    """The command :func:`goto_extended` gives, from the status ``st`` (for a protocol
+    command that sends it with others in one round trip)."""
     az_off, el_off = frame_offsets_deg(st)
     az_m = az_deg - az_off
     lo, hi = st.limits.get("az", (-math.inf, math.inf)) if st.limits else (-math.inf, math.inf)
     if not (math.isfinite(az_deg) and math.isfinite(el_deg)) or not lo - 1e-6 <= az_m <= hi + 1e-6:
-        rotator.goto(az_deg, el_deg)
-        return
+        return Goto(az_deg, el_deg)
     el_m = el_deg - el_off
     el_limits = (st.limits or {}).get("el")
     if el_limits is not None and not el_limits[0] - 1e-6 <= el_m <= el_limits[1] + 1e-6:
-        rotator.goto(az_deg, el_deg)  # the service refuses it in its own words
-        return
-    rotator.goto_pose(az_m, el_m)
+        return Goto(az_deg, el_deg)  # the service refuses it in its own words
+    return GotoPose(az_m, el_m)
 
 
 class ExtendedTarget:

@@ -52,13 +52,16 @@ Arduino's 100 ms timer); they are emitted from ``tick(now_s)``.
 from __future__ import annotations
 
 from ..errors import CommandRejected, UrcError
+from ..ipc.messages import (ApplyCalibration, ApplyTwelveDirection, BeginHandCalibration, RawVectors, Reset,
+                            SensorCalibrations)
 from ..service import calibration
+from ..service.queries import ask
 from ..service.snapshot import Status
 from .base import (MAX_PENDING_BYTES, RotatorPort, bad_input_log, goto_named_axes, internal_error,
                    protocol_logger)
 from . import sarcnet_codec as codec
 from .lines import LineSplitter, next_due_s
-from .poses import ExtendedTarget, extended_pose_deg, require_known
+from .poses import extended_goto, extended_pose_deg, require_known
 from .sarcnet_codec import SarcnetCommand, SarcnetSyntaxError, signed180
 
 log = protocol_logger("sarcnet")
@@ -197,48 +200,28 @@ class SarcnetSession:
 
     def _letter_r(self, cmd: SarcnetCommand) -> list[bytes]:
         out = [codec.console("Reset in progress")]
-        out += [codec.console(f"{name}: {value}") for name, value in self._calibration_rows()]
+        # the constants listed, stop, clear, home (windup reset): one step over there
+        home = extended_goto(self.rotator.status(), 0.0, 0.0)
+        outcome = ask(self.rotator, Reset(home))
+        out += [codec.console(f"{name}: {value}") for name, value in calibration_rows(outcome.calibrations)]
         self.mode, self._held = "tracking", None
-        self.rotator.stop()
-        self.rotator.clear_faults()
-        try:
-            ExtendedTarget(self.rotator, named=True).goto(0.0, 0.0)   # home, windup reset
-        except CommandRejected as exc:
-            out.append(codec.console(f"Error: {exc}"))
+        if outcome.refused is not None:
+            out.append(codec.console(f"Error: {outcome.refused}"))
         out.append(codec.console("Reset complete"))
         return out
 
-    def _calibration_rows(self) -> list[tuple[str, str]]:
-        """(name, value text) of each sensor's calibration constants (numbers with %g,
-        a matrix as its numbers comma separated)."""
-        rows: list[tuple[str, str]] = []
-        for axis in ("az", "el"):
-            sensor = self._sensor(axis)
-            cal = sensor.calibration() if sensor is not None else {}
-            for key, value in sorted(cal.items()):
-                values = value if isinstance(value, (list, tuple)) else [value]
-                rows.append((f"{axis} {key}", ",".join(f"{float(v):g}" for v in values)))
-        return rows
-
-    def _sensor(self, axis: str):
-        try:
-            return self.rotator.hw.axis(axis).sensor           # type: ignore[attr-defined]
-        except (AttributeError, ValueError):  # (ValueError: a single-axis rotator's elevation)
-            return None
-
-    def _raw_parts(self):
-        """(magnetometer, accelerometer) parts: the compass driver's and the tilt
-        driver's (or the compass's own), None where there is none."""
-        mag = getattr(self._sensor("az"), "mag", None)
-        acc = getattr(self._sensor("el"), "accel", None) or getattr(self._sensor("az"), "accel", None)
-        return mag, acc
+    def _raw_vectors(self) -> tuple[tuple[float, ...], tuple[float, ...]] | None:
+        """(magnetometer, accelerometer) vectors from the compass driver's and the tilt
+        driver's (or the compass's own) parts, before any calibration; None where the
+        rotator has no such parts. One query: one round trip."""
+        return ask(self.rotator, RawVectors())
 
     def _raw_row(self) -> bytes:
         """Mx,My,Mz,Gx,Gy,Gz straight from the parts, before any calibration."""
-        mag, acc = self._raw_parts()
-        if mag is None or acc is None:
+        vectors = self._raw_vectors()
+        if vectors is None:
             return codec.console("Error: no raw magnetometer/accelerometer on this rotator")
-        return codec.console(",".join(f"{v:.3f}" for v in (*mag.read_vector(), *acc.read_vector())))
+        return codec.console(",".join(f"{v:.3f}" for v in (*vectors[0], *vectors[1])))
 
     def _letter_b(self, cmd: SarcnetCommand) -> list[bytes]:
         self._enter("debugging")
@@ -250,13 +233,11 @@ class SarcnetSession:
 
     # ------------------------------------------------------ 12-direction calibration
     def _letter_c(self, cmd: SarcnetCommand) -> list[bytes]:
-        mag, acc = self._raw_parts()
-        if mag is None or acc is None:
-            return [codec.console("Error: no raw magnetometer/accelerometer on this rotator")]
         # the board is off the boom: nothing may drive on its readings meanwhile (the
         # document has the motor supply disconnected); the hold says why everywhere
-        self.rotator.stop()
-        self._hold(True)
+        # (stop and hold: one step where the rotator is, one round trip)
+        if not ask(self.rotator, BeginHandCalibration(CALIBRATION_HOLD)):
+            return [codec.console("Error: no raw magnetometer/accelerometer on this rotator")]
         self._enter("calibrating")
         self._cal = calibration.TwelveDirectionCalibration()
         self._cal_shown = None
@@ -272,10 +253,12 @@ class SarcnetSession:
                              f"({len(self._cal.done)} of 12 done)")
 
     def _calibration_step(self) -> list[bytes]:
-        mag, acc = self._raw_parts()
         out: list[bytes] = []
         try:
-            got = self._cal.feed(mag.read_vector(), acc.read_vector())   # type: ignore[union-attr]
+            vectors = self._raw_vectors()
+            if vectors is None:
+                raise UrcError("the magnetometer/accelerometer is gone")
+            got = self._cal.feed(*vectors)
         except UrcError as exc:            # the sensor stopped answering
             return self._end_calibration(f"Calibration aborted: {exc}; nothing changed")
         if got is None:
@@ -296,11 +279,11 @@ class SarcnetSession:
 
     def _save_calibration(self) -> list[bytes]:
         try:
-            on_disk = calibration.apply_twelve_direction(self.rotator, self._cal.result())
+            # (loaded, the hold is released with it: one round trip)
+            on_disk = ask(self.rotator, ApplyTwelveDirection(self._cal.result(), release=CALIBRATION_HOLD))
         except (calibration.CalibrationError, UrcError, ValueError) as exc:
             bad_input.info("calibration not saved: %s", exc)
             return [codec.console(f"Error: calibration not saved: {exc}; nothing changed")]
-        self._hold(False)
         self.mode = "tracking"
         rows = codec.calibration_rows(*self._cal.fits())
         if not on_disk:
@@ -344,18 +327,21 @@ class SarcnetSession:
         return [codec.console("Function aborted")]
 
     def _letter_e(self, cmd: SarcnetCommand) -> list[bytes]:
-        sensor = self._sensor("az")
-        cal = sensor.calibration() if sensor is not None else {}
-        if "declination_deg" not in cal:
-            return [codec.console("Error: this rotator has no magnetic compass")]
+        no_compass = [codec.console("Error: this rotator has no magnetic compass")]
         if not cmd.text:
+            cal = ask(self.rotator, SensorCalibrations())["az"]
+            if "declination_deg" not in cal:
+                return no_compass
             return [codec.console(f"Magnetic declination: {cal['declination_deg']:.1f}")]
         value = float(cmd.text)
         if not -90.0 <= value <= 90.0:
             return [codec.console(f"Error: declination {cmd.text} outside -90..90")]
         # the compass driver's setting, persisted with the rotator's calibration; the
         # rotator re-references by the change (refused if that breaks its limits)
-        calibration.apply_sensor_calibration(self.rotator, "az", {"declination_deg": value})
+        try:
+            ask(self.rotator, ApplyCalibration("az", {"declination_deg": value}, require=("declination_deg",)))
+        except calibration.NoSuchConstant:
+            return no_compass
         return [codec.console(f"Magnetic declination: {value:.1f}")]
 
     def _letter_s(self, cmd: SarcnetCommand) -> list[bytes]:
@@ -412,3 +398,14 @@ class SarcnetSession:
                 self.mode = "tracking"
                 out.append(codec.console(f"Demo stopped: {exc}"))
         return out
+
+
+def calibration_rows(calibrations: dict[str, dict]) -> list[tuple[str, str]]:
+    """(name, value text) of each sensor's calibration constants (numbers with %g, a
+    matrix as its numbers comma separated)."""
+    rows: list[tuple[str, str]] = []
+    for axis, cal in calibrations.items():
+        for key, value in sorted(cal.items()):
+            values = value if isinstance(value, (list, tuple)) else [value]
+            rows.append((f"{axis} {key}", ",".join(f"{float(v):g}" for v in values)))
+    return rows

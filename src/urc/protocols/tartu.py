@@ -58,6 +58,8 @@ import weakref
 
 from .. import __version__
 from ..errors import CommandRejected, UrcError
+from ..ipc.messages import SensorCount
+from ..service.queries import ask
 from .base import MAX_PENDING_BYTES, RotatorPort, bad_input_log, internal_error, protocol_logger
 from . import tartu_codec as codec
 from .lines import LineSplitter, TerminalEcho
@@ -212,19 +214,12 @@ class TartuSession:
         """The axis' position pulse counter: the sensor's own count where it keeps one
         (encoder, pulse feedback), counted from the axis' reference as the position is
         (the counter itself starts at 0 in whatever pose the controller powered up),
-        else the position in sensor steps."""
-        sensor = None
-        try:
-            sensor = self.rotator.hw.axis(axis).sensor        # type: ignore[attr-defined]
-        except (AttributeError, ValueError):  # (ValueError: no elevation axis: its count reads 0)
-            pass
-        counts = getattr(sensor, "counts", None)
-        if counts is not None:
-            step = sensor.caps.resolution_deg
-            return codec.line(str(round(int(counts()) + getattr(sensor, "reference_deg", 0.0) / step)))
+        else the position in sensor steps. One query: one round trip at most."""
+        reading = ask(self.rotator, SensorCount(axis))
+        if reading.count is not None:
+            return codec.line(str(reading.count))
         pos = extended_pose_deg(self.rotator.status())[0 if axis == "az" else 1]
-        step = getattr(getattr(sensor, "caps", None), "resolution_deg", 0.1) or 0.1
-        return codec.line(str(round(pos / step)))
+        return codec.line(str(round(pos / (reading.resolution_deg or 0.1))))
 
     def _cmd_rdap(self) -> bytes:
         return self._pulses("az")

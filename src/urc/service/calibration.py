@@ -1,7 +1,9 @@
 """Calibration procedures: zero, two-point pot (G4JNT), magnetometer (SARCNET), homing (BIG-RAS).
 
-Pure maths first (testable with numbers), then steps that use only the rotator's public
-commands and the axis' sensor (``rotator.hw.axis(name).sensor``). Long procedures are
+Pure maths first (testable with numbers), then one-shot steps run where the hardware is
+(each the handler of a typed query, urc.service.queries: the control process runs it whole,
+under the rotator's lock where it needs it), then long procedures that use only the
+rotator's public commands and those queries. Long procedures are
 small state machines: :meth:`Procedure.poll` is called with each new status (after every
 control tick in tests on virtual time, every few tens of ms by the web server), issues
 rotator commands and reports progress. They never touch axis state directly; a
@@ -21,12 +23,16 @@ import numpy as np
 
 from ..errors import CommandRejected, UrcError
 from ..hardware.drivers.sensors import chip_horizontal
-from .remote import in_control_process
+from ..ipc.messages import ApplyCalibration, CompassField, DescribeSensors, SensorCalibrations
 from .snapshot import Status
 
 
 class CalibrationError(UrcError):
     """A calibration cannot be done or its result is not trustworthy."""
+
+
+class NoSuchConstant(CalibrationError):
+    """The sensor has no such constant (it is not the kind of sensor a command is for)."""
 
 
 # =========================================================================== maths
@@ -168,11 +174,17 @@ def circular_mean_deg(values: Sequence[float]) -> float:
 
 
 # ================================================================= sensor access
-def _sensor(rotator: Any, axis: str) -> Any:
+def _check_axis(rotator: Any, axis: str) -> None:
     if axis not in ("az", "el"):
         raise CalibrationError(f"axis must be az or el, got {axis!r}")
     if axis not in rotator.caps.axes:
         raise CalibrationError("this rotator has no elevation axis (azimuth only)")
+
+
+def sensor_of(rotator: Any, axis: str) -> Any:
+    """The axis' sensor, on a rotator in this process (a query handler's: from the I/O
+    process the sensor is reached through urc.service.queries)."""
+    _check_axis(rotator, axis)
     return rotator.hw.axis(axis).sensor
 
 
@@ -201,7 +213,6 @@ def compass_field(sensor: Any, samples: int = 16) -> tuple[float, float]:
     return float(pts[:, 0].mean()), float(pts[:, 1].mean())
 
 
-@in_control_process
 def describe_sensors(rotator: Any) -> dict[str, Any]:
     """Per axis: sensor kind, present constants and which procedures apply."""
     out = {}
@@ -226,7 +237,6 @@ def describe_sensors(rotator: Any) -> dict[str, Any]:
 
 
 # ================================================================= one-shot steps
-@in_control_process
 def apply_sensor_calibration(rotator: Any, axis: str, values: dict[str, Any], samples: int = 16,
                              local: bool = False) -> float:
     """Load new constants into the sensor and re-reference the axis to what they say.
@@ -240,7 +250,7 @@ def apply_sensor_calibration(rotator: Any, axis: str, values: dict[str, Any], sa
     then ``set_position`` moves the axis by the change its constants make. Either way
     the state save persists the new constants. Returns the new mechanical angle.
     """
-    sensor = _sensor(rotator, axis)
+    sensor = sensor_of(rotator, axis)
     # the control loop runs on its own thread: hold its lock so that no tick reads the
     # sensor between the new constants and the re-reference (in urc run this runs in
     # the control process, where the lock is)
@@ -288,7 +298,6 @@ def zero(rotator: Any, az_deg: float | None = None, el_deg: float | None = None)
     rotator.set_position(az_deg, el_deg)
 
 
-@in_control_process
 def pot_apply(rotator: Any, axis: str, points: Sequence[tuple[float, float]]) -> dict[str, float]:
     """Two (bearing_deg, P) points -> M, C; load them and re-reference.
 
@@ -298,7 +307,7 @@ def pot_apply(rotator: Any, axis: str, points: Sequence[tuple[float, float]]) ->
     """
     if len(points) != 2:
         raise CalibrationError(f"two-point calibration needs exactly 2 points, got {len(points)}")
-    sensor = _sensor(rotator, axis)
+    sensor = sensor_of(rotator, axis)
     if "pot" not in describe_sensors(rotator)[axis]["procedures"]:
         raise CalibrationError(f"{axis}: the {sensor.caps.kind} sensor is not a potentiometer")
     off = rotator.status().offsets.get(axis, 0.0)
@@ -313,13 +322,21 @@ def pot_apply(rotator: Any, axis: str, points: Sequence[tuple[float, float]]) ->
 
 
 # =============================================================== long procedures
+def _ask(rotator: Any, query: Any, here: Any) -> Any:
+    """A long procedure's query: one round trip when ``rotator`` stands in for the
+    control process's (RemoteRotator.ask), else ``here()`` on this one. (Not
+    urc.service.queries.ask: its handlers call this module.)"""
+    remote = getattr(rotator, "ask", None)
+    return remote(query) if remote is not None else here()
+
+
 class Procedure:
     """A calibration that takes time. Call :meth:`poll` with each new status."""
 
     kind = "procedure"
 
     def __init__(self, rotator: Any, axis: str):
-        _sensor(rotator, axis)
+        _check_axis(rotator, axis)
         self.rotator = rotator
         self.axis = axis
         self.state = "running"          # running | done | failed | cancelled
@@ -399,7 +416,8 @@ class MagnetometerCalibration(Procedure):
 
     def __init__(self, rotator: Any, axis: str = "az"):
         super().__init__(rotator, axis)
-        if axis != "az" or "magnetometer" not in describe_sensors(rotator)[axis]["procedures"]:
+        described = _ask(rotator, DescribeSensors(), lambda: describe_sensors(rotator))
+        if axis != "az" or "magnetometer" not in described[axis]["procedures"]:
             raise CalibrationError("magnetometer calibration needs a compass on the azimuth axis")
         self.samples: list[tuple[float, float]] = []
         self._start_az_deg = 0.0
@@ -432,7 +450,8 @@ class MagnetometerCalibration(Procedure):
             if not self._still(status):
                 self._goto_phase("moving", status)
             elif self._elapsed_s(status) >= self.DWELL_S:
-                self.samples.append(compass_field(_sensor(self.rotator, self.axis)))
+                self.samples.append(tuple(_ask(self.rotator, CompassField(self.axis),
+                                               lambda: compass_field(sensor_of(self.rotator, self.axis)))))
                 self.progress = len(self.samples) / (n + 1)
                 if len(self.samples) < n:
                     self._move(status)
@@ -466,8 +485,8 @@ class MagnetometerCalibration(Procedure):
         if fit.max_gap_deg > 120.0:
             raise CalibrationError(f"the samples leave a {fit.max_gap_deg:.0f} deg gap; "
                                    "the antenna did not turn all the way round")
-        sensor = _sensor(self.rotator, self.axis)
-        old = dict(sensor.calibration())
+        old = _ask(self.rotator, SensorCalibrations(),
+                   lambda: {self.axis: dict(sensor_of(self.rotator, self.axis).calibration())})[self.axis]
         # the centre is on the boom's axes; the hard iron is taken off on the chip's
         hx, hy = chip_horizontal(fit.x, fit.y)
         constants: dict[str, Any] = {"hard_iron_x": hx, "hard_iron_y": hy}
@@ -475,7 +494,8 @@ class MagnetometerCalibration(Procedure):
             constants["soft_iron"] = list(soft.matrix) if soft is not None else [1.0, 0.0, 0.0, 1.0]
         if "mag_matrix" in old:   # fitted on the raw field: replaces the hand-held 3-D one
             constants["mag_matrix"] = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]
-        mech = apply_sensor_calibration(self.rotator, self.axis, constants)
+        mech = _ask(self.rotator, ApplyCalibration(self.axis, constants),
+                    lambda: apply_sensor_calibration(self.rotator, self.axis, constants))
         self.result = {"hard_iron_x": hx, "hard_iron_y": hy, "field_radius": fit.radius,
                        "rms_rel": fit.rms_rel, "max_gap_deg": fit.max_gap_deg,
                        "old_hard_iron_x": old.get("hard_iron_x"), "old_hard_iron_y": old.get("hard_iron_y"),
@@ -506,8 +526,7 @@ class LimitSwitchHoming(Procedure):
     def __init__(self, rotator: Any, axis: str, speed_frac: float | None = None,
                  switch_deg: float | None = None):
         super().__init__(rotator, axis)
-        hw = rotator.hw.axis(axis)
-        if hw.limit_min is None:
+        if "homing" not in _ask(rotator, DescribeSensors(), lambda: describe_sensors(rotator))[axis]["procedures"]:
             raise CalibrationError(f"{axis}: no lower limit switch to home on")
         caps = rotator.caps.axis(axis)
         self.lo_deg, self.hi_deg = rotator.status().limits[axis]
@@ -735,7 +754,6 @@ class TwelveDirectionCalibration:
                 "accel_scale": list(acc.half_extent), "accel_rms_rel": acc.rms_rel}
 
 
-@in_control_process
 def apply_twelve_direction(rotator: Any, result: dict[str, Any]) -> bool:
     """Load a :class:`TwelveDirectionCalibration` result into the compass (azimuth) and
     the tilt sensor (elevation) and write the state record at once (the constants live
@@ -750,11 +768,11 @@ def apply_twelve_direction(rotator: Any, result: dict[str, Any]) -> bool:
     accel = {"accel_offset": result["accel_offset"], "accel_scale": result["accel_scale"]}
     hx, hy, hz = result["mag_offset"]
     steps: list[tuple[Any, dict[str, Any]]] = [
-        (_sensor(rotator, "az"), {"hard_iron_x": hx, "hard_iron_y": hy, "hard_iron_z": hz,
+        (sensor_of(rotator, "az"), {"hard_iron_x": hx, "hard_iron_y": hy, "hard_iron_z": hz,
                                   "mag_matrix": result["mag_matrix"], "soft_iron": [1.0, 0.0, 0.0, 1.0],
                                   **accel})]
     # azimuth only: no tilt sensor, the compass carries its own accelerometer
-    el_sensor = _sensor(rotator, "el") if "el" in rotator.caps.axes else None
+    el_sensor = sensor_of(rotator, "el") if "el" in rotator.caps.axes else None
     if el_sensor is not None and "accel_offset" in el_sensor.calibration():
         steps.append((el_sensor, accel))
     with getattr(rotator, "lock", contextlib.nullcontext()):

@@ -19,10 +19,10 @@ This module is the I/O side of the wire between the two, over one Unix socket
   own class, so each protocol still answers in its own error form). It never blocks the
   event loop: protocol sessions and web routes run in bridged greenlets
   (:mod:`urc.ipc.bridge`) that suspend while they wait;
-* data comes back as a copy (:func:`travels`); objects with behaviour (the hardware, a
-  sensor) stay where they are and come back as :class:`RemoteRef` paths that the
-  control process resolves again on use, e.g. ``rotator.hw.axis("az").sensor.calibration()``.
-  Only public names resolve.
+* the hardware stays over there: what a protocol or route needs of it (a sensor's count
+  or constants, a calibration step) is one typed query (:class:`urc.ipc.messages.Query`,
+  :meth:`RemoteRotator.ask`, answered by :mod:`.queries`), one round trip each; only data
+  comes back (:func:`travels`).
 """
 
 from __future__ import annotations
@@ -31,8 +31,6 @@ import asyncio
 import dataclasses
 import datetime
 import enum
-import functools
-import importlib
 import itertools
 import logging
 import os
@@ -48,8 +46,8 @@ from ..control.faults import Fault
 from ..errors import CommandRejected, UrcError
 from ..ipc import bridge, codec
 from ..ipc.messages import (AdoptSensorReading, Announce, ClearFaults, EndSearch, Envelope, Goto, GotoAz, GotoEl,
-                            GotoPose, HardwareCall, HoldLocal, LocalControls, Move, OvershootQuery, Park,
-                            PositionUncertain, PowerFail, Procedure, Reconfigure, Reply, Request, SaveNow,
+                            GotoPose, HardwareInfo, HoldLocal, LocalControls, Move, OvershootQuery, Park,
+                            PositionUncertain, PowerFail, Query, Reconfigure, Reply, Request, SaveNow,
                             SearchFrame, SetOvershoot, SetPosition, Stop, Track, TrackPose)
 from .snapshot import Status
 
@@ -68,11 +66,6 @@ STATUS_STALE_S = 1.0
 #: (at 6 deg/s, 1 s was 3 deg given as current by rotctld's ``p``; issue 20)
 MOVING_STATUS_STALE_S = 0.3
 
-#: a path step that calls what the previous steps named: ("()", args, kwargs)
-CALL = "()"
-#: dunder methods a RemoteRef forwards (every other private name is refused)
-FORWARDED_DUNDERS = ("__contains__",)
-
 
 class ControlUnavailable(CommandRejected):
     """The control process does not answer (hung, dead or stopping)."""
@@ -87,29 +80,15 @@ class StopQueued(ControlUnavailable):
 
 
 # ------------------------------------------------------------------ the wire format
-def resolve(root: Any, path: tuple) -> Any:
-    """Follow ``path`` (attribute names and call steps) from ``root``; public names only."""
-    obj = root
-    for step in path:
-        if isinstance(step, str):
-            if step.startswith("_") and step not in FORWARDED_DUNDERS:
-                raise AttributeError(f"{step!r} is not reachable from the I/O process")
-            obj = getattr(obj, step)
-        else:
-            _, args, kwargs = step
-            obj = obj(*args, **kwargs)
-    return obj
-
-
 _PLAIN_TYPES = (type(None), bool, int, float, complex, str, bytes, enum.Enum, datetime.date, datetime.time,
                 datetime.timedelta, PurePath)
 
 
 def travels(value: Any, depth: int = 0) -> bool:
-    """Data travels as a copy; objects with behaviour (a sensor, the hardware) stay in the
-    control process and are reached through a RemoteRef, so calling a method on what
-    came back can never act on a copy. Data: numbers, text, enums, times, paths,
-    containers and dataclasses of those, numpy arrays."""
+    """Only data travels, as a copy; objects with behaviour (a sensor, the hardware) stay
+    in the control process, so calling a method on what came back can never act on a
+    copy. Data: numbers, text, enums, times, paths, containers and dataclasses of those,
+    numpy arrays."""
     if depth > 8:
         return False
     if isinstance(value, _PLAIN_TYPES) or type(value).__module__ == "numpy":
@@ -141,14 +120,6 @@ def exception_to_wire(exc: BaseException) -> tuple:
         args = (*args, exc.filename)  # (not in args: the device or file that failed)
     attrs = {k: v for k, v in vars(exc).items() if _picklable(v)}
     return cls.__module__, cls.__qualname__, args, attrs, str(exc)
-
-
-def _named(module: str, qualname: str) -> Any:
-    """What ``module.qualname`` names (a class or function, by the name it travelled as)."""
-    obj: Any = importlib.import_module(module)
-    for part in qualname.split("."):
-        obj = getattr(obj, part)
-    return obj
 
 
 def exception_from_wire(wire: tuple) -> BaseException:
@@ -242,8 +213,7 @@ class ControlLink:
             self.conn.send_bytes(data)
 
     def call(self, request: Request, timeout_s: float = CALL_TIMEOUT_S) -> Any:
-        """Run ``request`` in the control process; its value (a RemoteRef for what cannot
-        leave the control process), or the exception raised there. A stop is always
+        """Run ``request`` in the control process; its value, or the exception raised there. A stop is always
         applied, however late it arrives; anything else that is not answered within
         ``timeout_s`` is refused over there too (it carries that deadline)."""
         if bridge.in_bridge():
@@ -303,10 +273,6 @@ class ControlLink:
         self.offer_status(reply.status)
         if reply.outcome == "error":
             raise exception_from_wire(reply.value)
-        if reply.outcome == "ref":
-            if not isinstance(request, HardwareCall):
-                raise UrcError(f"{type(request).__name__} returned something that cannot leave the control process")
-            return RemoteRef(self, request.path)
         return reply.value
 
     def offer_status(self, status: Status | None) -> None:
@@ -357,32 +323,6 @@ def _lost_reply(rid: int, reason: str) -> Reply:
     return Reply(rid, "lost", reason, None)
 
 
-class RemoteRef:
-    """Something that stays in the control process (the hardware, a sensor), named by
-    the path that reaches it from the rotator. Attributes come back as values when they
-    can travel and are not callable; calls run over there (HardwareCall)."""
-
-    __slots__ = ("_link", "_path")
-
-    def __init__(self, link: ControlLink, path: tuple):
-        self._link = link
-        self._path = path
-
-    def __getattr__(self, name: str) -> Any:
-        if name.startswith("_"):
-            raise AttributeError(name)
-        return self._link.call(HardwareCall(self._path + (name,)))
-
-    def __call__(self, *args: Any, **kwargs: Any) -> Any:
-        return self._link.call(HardwareCall(self._path + ((CALL, args, kwargs),)))
-
-    def __contains__(self, item: Any) -> bool:
-        return bool(self._link.call(HardwareCall(self._path + ("__contains__", (CALL, (item,), {})))))
-
-    def __repr__(self) -> str:
-        return f"<RemoteRef {'.'.join(s if isinstance(s, str) else '()' for s in self._path)}>"
-
-
 class _Shared:
     """What every view of one remote rotator shares: the settings it runs with."""
 
@@ -405,8 +345,8 @@ class RemoteRotator:
         self.pid: int = info["pid"]
         self.priority: str = info.get("priority", "")
         self.clock = RealClock()  # CLOCK_MONOTONIC: the same time base in both processes
-        self.hw = RemoteRef(link, ("hw",))
-        self.store = RemoteRef(link, ("store",))
+        #: what the hardware is (sent with "ready": asking costs no round trip)
+        self.hardware = info["hardware"]
         self._info = info
         link.offer_status(info["status"])
 
@@ -423,7 +363,7 @@ class RemoteRotator:
     @property
     def lock(self) -> Any:
         raise TypeError("the rotator's lock is in the control process: steps that must not be split by "
-                        "a tick run there (urc.service.remote.in_control_process)")
+                        "a tick run there whole (a query: urc.service.queries)")
 
     def status(self) -> Status:
         s = self._link.status
@@ -445,9 +385,12 @@ class RemoteRotator:
             return Fault("control", None, f"control process silent for {age_s:.1f} s", s.t_s)
         return None
 
-    def run(self, fn: Callable[..., Any], *args: Any, **kwargs: Any) -> Any:
-        """``fn(rotator, *args, **kwargs)`` in the control process (see in_control_process)."""
-        return self._link.call(Procedure(fn.__module__, fn.__qualname__, args, kwargs))
+    def ask(self, query: Query) -> Any:
+        """A hardware query or calibration procedure, answered by the control process in
+        one round trip (urc.service.queries); what the hardware is needs none."""
+        if isinstance(query, HardwareInfo):
+            return self.hardware
+        return self._link.call(query)
 
     def reconfigure(self, settings: Any) -> None:
         self._link.call(Reconfigure(settings))
@@ -524,27 +467,3 @@ class RemoteRotator:
 
     def position_uncertain(self) -> bool:
         return self._link.call(PositionUncertain())
-
-
-def in_control_process(fn: Callable[..., Any]) -> Callable[..., Any]:
-    """For ``fn(rotator, ...)``: given a RemoteRotator, the whole call runs in the control
-    process on the real rotator (by name: the function must be importable there), so
-    steps that hold the rotator's lock stay together, no tick in between, and its
-    sensor reads cost no round trips. Arguments and result must be data."""
-    @functools.wraps(fn)
-    def where_the_rotator_is(rotator: Any, *args: Any, **kwargs: Any) -> Any:
-        if isinstance(rotator, RemoteRotator):
-            return rotator.run(fn, *args, **kwargs)
-        return fn(rotator, *args, **kwargs)
-    where_the_rotator_is.in_control_process = True  # type: ignore[attr-defined]
-    return where_the_rotator_is
-
-
-def control_side_function(module: str, qualname: str) -> Callable[..., Any]:
-    """The function a Procedure names (only those marked in_control_process may run)."""
-    if not (module == "urc" or module.startswith("urc.")):
-        raise AttributeError(f"{module}.{qualname} is not meant to run in the control process")
-    fn = _named(module, qualname)
-    if not getattr(fn, "in_control_process", False):
-        raise AttributeError(f"{module}.{qualname} is not meant to run in the control process")
-    return fn

@@ -13,7 +13,9 @@ from fastapi import APIRouter, Depends
 from pydantic import Field
 
 from ..ipc import bridge
+from ..ipc.messages import DescribeSensors, PotApply, PotUnits
 from ..service import calibration as cal
+from ..service.queries import ask
 from .context import WebContext
 from .schemas import CONTROL_RESPONSES, AzDeg, Deg, ElDeg, Ok, Strict
 
@@ -65,7 +67,7 @@ def router(ctx: WebContext) -> APIRouter:
     @r.get("")
     async def overview() -> dict:
         """Per axis: sensor, constants, procedures that apply; the running procedure."""
-        return {"axes": await bridge.run(cal.describe_sensors, rot), "procedure": ctx.hub.procedure_dict()}
+        return {"axes": await bridge.run(ask, rot, DescribeSensors()), "procedure": ctx.hub.procedure_dict()}
 
     @r.post("/zero", **control)
     async def zero(req: ZeroRequest) -> Ok:
@@ -77,16 +79,16 @@ def router(ctx: WebContext) -> APIRouter:
     async def pot_read(req: AxisRequest) -> PotReading:
         """The pot's linearised reading P here (averaged), for a two-point calibration."""
         def read() -> dict:
-            sensor = rot.hw.axis(req.axis).sensor
-            status = rot.status()
-            return {"ok": True, "axis": req.axis, "p": cal.pot_units(sensor),
+            p = ask(rot, PotUnits(req.axis))
+            status = rot.status()  # (the reply's: read with P)
+            return {"ok": True, "axis": req.axis, "p": p,
                     "reading_deg": getattr(status, req.axis).pos_deg + status.offsets.get(req.axis, 0.0)}
         return await bridge.run(read)
 
     @r.post("/pot/apply", **control)
     async def pot_apply(req: PotApplyRequest) -> PotApplied:
         """Compute M and C from two (bearing, P) points and load them."""
-        result = await bridge.run(cal.pot_apply, rot, req.axis, [(p.bearing_deg, p.p) for p in req.points])
+        result = await bridge.run(ask, rot, PotApply(req.axis, tuple((p.bearing_deg, p.p) for p in req.points)))
         # JSON has no NaN (an old constant that was never set): null
         return PotApplied(result={k: v if math.isfinite(v) else None for k, v in result.items()})
 

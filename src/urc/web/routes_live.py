@@ -11,6 +11,8 @@ from fastapi import APIRouter, Depends, HTTPException, Query, WebSocket
 from pydantic import Field
 
 from ..ipc import bridge
+from ..ipc.messages import HardwareInfo
+from ..service.queries import ask
 from .. import __version__
 from ..profiles import PROFILES
 from ..protocols.registry import PROTOCOLS
@@ -63,6 +65,7 @@ def router(ctx: WebContext) -> APIRouter:
         rot = ctx.rotator
         caps = rot.caps
         status = rot.status()
+        hardware = ask(rot, HardwareInfo())  # (no round trip: sent once at start)
 
         def axis(name: str) -> dict:
             a = caps.axis(name)
@@ -74,7 +77,7 @@ def router(ctx: WebContext) -> APIRouter:
         station = ({"lat_deg": st.lat_deg, "lon_deg": st.lon_deg, "alt_m": st.alt_m, "name": st.name}
                    if st.lat_deg is not None and st.lon_deg is not None else None)
         return {"version": __version__, "profile": caps.name, "description": caps.description,
-                "backend": rot.hw.backend, "simulator": rot.hw.world is not None,
+                "backend": hardware.backend, "simulator": hardware.simulator,
                 "control_requires_token": ctx.cfg.api.control_requires_token,
                 "token_configured": bool(ctx.cfg.api.token),
                 "can_flip": caps.can_flip, "caps": {n: axis(n) for n in caps.axes},

@@ -11,6 +11,10 @@ from fastapi import APIRouter, Depends, HTTPException
 from pydantic import Field
 
 from ..ipc import bridge
+from ..ipc.messages import HardwareInfo
+from ..ipc.messages import SimClear as ClearQuery
+from ..ipc.messages import SimFault as FaultQuery
+from ..service.queries import ask
 from .context import WebContext
 from .schemas import CONTROL_RESPONSES, Deg, Ok, Strict
 
@@ -38,12 +42,10 @@ class SimClear(Strict):
 def router(ctx: WebContext) -> APIRouter:
     r = APIRouter(prefix="/api/sim", dependencies=[Depends(ctx.control)], responses=CONTROL_RESPONSES)
 
-    def world():
+    def simulated() -> None:
         # the simulator, or the gpio backend on emulated parts (the faults reach them)
-        w = ctx.rotator.hw.world
-        if w is None:
+        if not ask(ctx.rotator, HardwareInfo()).simulator:
             raise HTTPException(403, "fault injection exists only on the simulator (sim, or gpio emulated)")
-        return w
 
     @r.post("/fault")
     async def inject(req: SimFault) -> Ok:
@@ -51,7 +53,8 @@ def router(ctx: WebContext) -> APIRouter:
         kw = {k: v for k, v in (("deg", req.deg), ("duty", req.duty), ("which", req.which),
                                 ("delay_s", req.delay_s), ("reads", req.reads)) if v is not None}
         try:
-            await bridge.run(lambda: world().inject(req.axis, req.kind, **kw))
+            simulated()
+            await bridge.run(ask, ctx.rotator, FaultQuery(req.axis, req.kind, kw))
         except ValueError as exc:
             raise HTTPException(409, str(exc)) from None
         return Ok()
@@ -59,7 +62,8 @@ def router(ctx: WebContext) -> APIRouter:
     @r.post("/clear")
     async def clear(req: SimClear) -> Ok:
         """Simulator only: repair the simulated hardware (latched faults still need clearing)."""
-        await bridge.run(lambda: world().clear(req.axis, req.kind))
+        simulated()
+        await bridge.run(ask, ctx.rotator, ClearQuery(req.axis, req.kind))
         return Ok()
 
     return r

@@ -1,11 +1,11 @@
-"""Developer tool (not used at run time): make ``static/world-110m.geojson``.
+"""Developer tool (not used at run time): make ``src/urc/web/static/world-110m.geojson``.
 
 Source: Natural Earth 1:110m land (public domain) as TopoJSON, from the npm package
 ``world-atlas@2`` (``npm pack world-atlas@2.0.2``; file ``package/land-110m.json``).
 The arcs are decoded (delta + quantisation), stitched into rings and rounded to 0.1 deg,
 which keeps the shipped file well under 100 kB while the outline still reads at a glance.
 
-Usage: python -m urc.web.coastline_tool path/to/land-110m.json [out.geojson]
+Usage: python scripts/coastline_tool.py path/to/land-110m.json [out.geojson]
 """
 
 from __future__ import annotations
@@ -63,7 +63,8 @@ def convert(topo: dict) -> dict:
 
 def main(argv: list[str]) -> None:
     src = Path(argv[1])
-    out = Path(argv[2]) if len(argv) > 2 else Path(__file__).with_name("static") / "world-110m.geojson"
+    out = Path(argv[2]) if len(argv) > 2 else (Path(__file__).resolve().parents[1] / "src" / "urc" / "web" / "static"
+                                                   / "world-110m.geojson")
     out.write_text(json.dumps(convert(json.loads(src.read_text())), separators=(",", ":")))
     print(f"{out}: {out.stat().st_size} bytes")
 

@@ -2,9 +2,8 @@
 session (urc's own GS-232, Easycomm, SPID or rotctld emulation) in the same process,
 with the wire's timing simulated: every byte takes 10 bits at the link's baud rate, the
 device answers at once when the request has arrived, and the controller's post-write
-delay is kept. Ships in the package (like gpiozero's mock pins) so that tests and the
-bridge benchmark can fly whole passes through a bridge in seconds, judged by the
-upstream simulator's truth.
+delay is kept. A harness (urc.testing): tests and the bridge benchmark fly whole passes
+through a bridge in seconds with it, judged by the upstream simulator's truth.
 
 Call :meth:`SimLink.step` once per control tick with the virtual time.
 """
@@ -13,8 +12,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from .client import BridgeClient
-from .dialects import Exchange
+from ..hardware.bridge.client import BridgeClient
+from ..hardware.bridge.dialects import Exchange
 
 BITS_PER_BYTE = 10  # 8N1: start + 8 data + stop
 
@@ -108,11 +107,11 @@ class BridgedRig:
     def __init__(self, protocol: str, profile: str, state_dir, *, baud: int | None = None,
                  upstream_config: dict | None = None, downstream_config: dict | None = None,
                  client_options=None, start_s: float = 0.0):
-        from ...assembly import build_rotator, settings_from_config
-        from ...clock import VirtualClock
-        from ...config import Config
-        from .client import ClientOptions
-        from .dialects import make_dialect
+        from ..assembly import build_rotator, settings_from_config
+        from ..clock import VirtualClock
+        from ..config import Config
+        from ..hardware.bridge.client import ClientOptions
+        from ..hardware.bridge.dialects import make_dialect
 
         self.clock = VirtualClock(start_s)
         up = {"rotator": {"profile": profile}, "hardware": {"sim": {"wind": False}}, **(upstream_config or {})}
@@ -129,11 +128,11 @@ class BridgedRig:
         self._start_downstream()
 
     def _start_downstream(self) -> None:
-        from ...persistence import StateStore
-        from ...protocols.registry import make_session
-        from ...service import Rotator
-        from ..interfaces import Hardware
-        from . import bridge_axes
+        from ..persistence import StateStore
+        from ..protocols.registry import make_session
+        from ..service import Rotator
+        from ..hardware.interfaces import Hardware
+        from ..hardware.bridge import bridge_axes
 
         self.client = BridgeClient(self.dialect, self._client_options)
         self.session = make_session(self._protocol, self.upstream)
