@@ -89,6 +89,15 @@ def stop_process_group(proc: subprocess.Popen, timeout_s: float = 30.0) -> str:
     return out or ""
 
 
+def _term_with_parent() -> None:
+    """In the child before exec: SIGTERM (an orderly stop) when the test process that
+    started it dies, even by SIGKILL or a CI timeout, where no finalizer or session-end
+    check runs (Linux PR_SET_PDEATHSIG; a new session alone leaves it running)."""
+    import ctypes
+
+    ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGTERM)
+
+
 def _kill_group(pgid: int) -> None:
     try:
         os.killpg(pgid, signal.SIGKILL)
@@ -147,7 +156,7 @@ class UrcProcess:
         running."""
         self.proc = subprocess.Popen(URC + ["run", "--config", str(self.config), "--state-dir", str(self.state_dir)],
                                      stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-                                     start_new_session=True, env=env)
+                                     start_new_session=True, env=env, preexec_fn=_term_with_parent)
         try:
             wait_until(self._answers, timeout_s, "urc run answers on its API port", poll_s=0.1)
         except BaseException:
