@@ -1,6 +1,7 @@
 """Calibration procedures: zero, two-point pot (G4JNT), magnetometer (SARCNET), homing (BIG-RAS).
 
-Pure maths first (testable with numbers), then one-shot steps run where the hardware is
+The pure maths is in :mod:`calibration_maths` and SARCNET's hand-held 12-direction state
+machine in :mod:`calibration_twelve` (both re-exported here). Here: one-shot steps run where the hardware is
 (each the handler of a typed query, urc.service.queries: the control process runs it whole,
 under the rotator's lock where it needs it), then long procedures that use only the
 rotator's public commands and those queries. Long procedures are
@@ -16,161 +17,19 @@ from __future__ import annotations
 
 import contextlib
 import math
-from dataclasses import dataclass
 from typing import Any, Sequence
 
 import numpy as np
 
-from ..errors import CommandRejected, UrcError
+from ..errors import CommandRejected
 from ..hardware.drivers.sensors import chip_horizontal
 from ..ipc.messages import ApplyCalibration, CompassField, DescribeSensors, SensorCalibrations
+# (re-exported: callers name them as calibration.<name>)
+from .calibration_maths import (CalibrationError, EllipsoidFit, HardIronFit, NoSuchConstant,  # noqa: F401
+                                SoftIronFit, circular_mean_deg, fit_ellipsoid, fit_hard_iron,
+                                fit_soft_iron, two_point_pot)
+from .calibration_twelve import TwelveDirectionCalibration  # noqa: F401 (re-exported)
 from .snapshot import Status
-
-
-class CalibrationError(UrcError):
-    """A calibration cannot be done or its result is not trustworthy."""
-
-
-class NoSuchConstant(CalibrationError):
-    """The sensor has no such constant (it is not the kind of sensor a command is for)."""
-
-
-# =========================================================================== maths
-def two_point_pot(bearing1_deg: float, p1: float, bearing2_deg: float, p2: float) -> tuple[float, float]:
-    """G4JNT: angle = M*P + C through two known (angle, P) points. Returns (M, C)."""
-    if not all(math.isfinite(v) for v in (bearing1_deg, p1, bearing2_deg, p2)):
-        raise CalibrationError("two-point calibration needs finite bearings and pot readings")
-    if abs(p2 - p1) < 1e-9:
-        raise CalibrationError(f"both points read the same pot value P={p1:g}: move further apart")
-    if abs(bearing2_deg - bearing1_deg) < 1e-9:
-        raise CalibrationError("both points have the same bearing: use two different directions")
-    m = (bearing2_deg - bearing1_deg) / (p2 - p1)
-    return m, bearing1_deg - m * p1
-
-
-@dataclass(frozen=True)
-class HardIronFit:
-    x: float
-    y: float
-    radius: float
-    #: RMS distance of the samples from the fitted circle, in units of the radius
-    rms_rel: float
-    #: largest angular gap between samples around the centre, degrees
-    max_gap_deg: float
-
-
-def fit_hard_iron(samples: Sequence[tuple[float, float]]) -> HardIronFit:
-    """Centre of the circle the horizontal field draws as the antenna turns (Kasa fit).
-
-    Solves x^2 + y^2 = 2a x + 2b y + c by least squares; (a, b) is the hard-iron offset.
-    """
-    pts = np.asarray(samples, dtype=float)
-    if pts.ndim != 2 or pts.shape[1] != 2 or len(pts) < 3:
-        raise CalibrationError("the hard-iron fit needs at least 3 field samples (bx, by)")
-    if not np.all(np.isfinite(pts)):
-        raise CalibrationError("field samples must be finite")
-    x, y = pts[:, 0], pts[:, 1]
-    design = np.column_stack([2 * x, 2 * y, np.ones_like(x)])
-    sol, *_ = np.linalg.lstsq(design, x * x + y * y, rcond=None)
-    a, b, c = (float(v) for v in sol)
-    r2 = c + a * a + b * b
-    if not r2 > 0:
-        raise CalibrationError("field samples do not lie on a circle (all in one direction?)")
-    radius = math.sqrt(r2)
-    dist = np.hypot(x - a, y - b)
-    rms_rel = float(np.sqrt(np.mean((dist - radius) ** 2)) / radius)
-    ang = np.sort(np.degrees(np.arctan2(y - b, x - a)) % 360.0)
-    gaps = np.diff(np.concatenate([ang, [ang[0] + 360.0]]))
-    return HardIronFit(a, b, radius, rms_rel, float(gaps.max()))
-
-
-@dataclass(frozen=True)
-class SoftIronFit:
-    x: float
-    y: float
-    #: row-major 2x2 matrix that turns the centred ellipse into a circle (same area)
-    matrix: tuple[float, float, float, float]
-    #: long axis / short axis of the ellipse (1 = no soft iron)
-    axis_ratio: float
-    #: RMS distance of the corrected samples from their circle, in units of its radius
-    rms_rel: float
-
-
-@dataclass(frozen=True)
-class EllipsoidFit:
-    """An ellipse (2-D) or ellipsoid (3-D) fitted to field samples."""
-    centre: tuple[float, ...]
-    #: symmetric matrix (row-major) that maps the centred ellipsoid onto the unit sphere
-    to_sphere: tuple[float, ...]
-    #: half extent along each sensor axis ((max - min)/2 of that component on the surface)
-    half_extent: tuple[float, ...]
-    #: longest / shortest axis (1 = a sphere: no soft iron)
-    axis_ratio: float
-    #: RMS distance of the corrected samples from their sphere, in units of its radius
-    rms_rel: float
-
-    @property
-    def dim(self) -> int:
-        return len(self.centre)
-
-
-def fit_ellipsoid(samples: Sequence[Sequence[float]]) -> EllipsoidFit:
-    """Hard and soft iron together: the ellipse (x, y) or ellipsoid (x, y, z) the field
-    draws as the sensor turns.
-
-    Least squares on the general quadric sum(Q_ij x_i x_j) + sum(d_i x_i) = 1; its centre is
-    the hard iron, and the symmetric square root of the shape matrix normalised at the
-    centre maps the ellipsoid onto the unit sphere: that is the soft-iron correction.
-    """
-    pts = np.asarray(samples, dtype=float)
-    if pts.ndim != 2 or pts.shape[1] not in (2, 3):
-        raise CalibrationError("field samples must be (x, y) or (x, y, z) vectors")
-    n = pts.shape[1]
-    pairs = [(i, j) for i in range(n) for j in range(i, n)]
-    if len(pts) < len(pairs) + n:
-        raise CalibrationError(f"the {'ellipse' if n == 2 else 'ellipsoid'} fit needs at least "
-                               f"{len(pairs) + n} field samples, got {len(pts)}")
-    if not np.all(np.isfinite(pts)):
-        raise CalibrationError("field samples must be finite")
-    design = np.column_stack([pts[:, i] * pts[:, j] for i, j in pairs] + [pts[:, i] for i in range(n)])
-    sol, _, rank, _ = np.linalg.lstsq(design, np.ones(len(pts)), rcond=None)
-    if rank < design.shape[1]:
-        raise CalibrationError("field samples do not span an ellipsoid (too few distinct directions)")
-    q = np.zeros((n, n))
-    for (i, j), v in zip(pairs, sol[:len(pairs)]):
-        q[i, j] = q[j, i] = v if i == j else v / 2
-    try:
-        centre = np.linalg.solve(2 * q, -sol[len(pairs):])
-    except np.linalg.LinAlgError:
-        raise CalibrationError("field samples do not lie on an ellipsoid") from None
-    k = 1.0 + centre @ q @ centre
-    qn = q / k
-    w, v = np.linalg.eigh(qn)
-    if not (w > 0).all():
-        raise CalibrationError("field samples do not lie on an ellipsoid (all in one direction?)")
-    sq = v @ np.diag(np.sqrt(w)) @ v.T
-    r = np.linalg.norm((pts - centre) @ sq.T, axis=1)
-    return EllipsoidFit(tuple(float(c) for c in centre), tuple(float(t) for t in sq.ravel()),
-                        tuple(float(math.sqrt(d)) for d in np.diag(np.linalg.inv(qn))),
-                        float(math.sqrt(w.max() / w.min())), float(np.std(r) / np.mean(r)))
-
-
-def fit_soft_iron(samples: Sequence[tuple[float, float]]) -> SoftIronFit:
-    """The horizontal field's ellipse (:func:`fit_ellipsoid` in 2-D), its correction
-    scaled to keep the area (the compass driver's 2x2 ``soft_iron``)."""
-    pts = np.asarray(samples, dtype=float)
-    if pts.ndim != 2 or pts.shape[1] != 2 or len(pts) < 5:
-        raise CalibrationError("the soft-iron fit needs at least 5 field samples (bx, by)")
-    fit = fit_ellipsoid(pts)
-    sq = np.asarray(fit.to_sphere).reshape(2, 2)
-    m = sq / math.sqrt(abs(np.linalg.det(sq)))
-    return SoftIronFit(fit.centre[0], fit.centre[1], tuple(float(t) for t in m.ravel()),
-                       fit.axis_ratio, fit.rms_rel)
-
-
-def circular_mean_deg(values: Sequence[float]) -> float:
-    rad = np.radians(np.asarray(values, dtype=float))
-    return float(np.degrees(np.arctan2(np.sin(rad).mean(), np.cos(rad).mean())) % 360.0)
 
 
 # ================================================================= sensor access
@@ -652,106 +511,6 @@ class LimitSwitchHoming(Procedure):
         self.progress, self.state = 1.0, "done"
         self.step = (f"done: re-referenced to {true_deg + self.offset_deg:.2f} deg "
                      f"(the count was off by {before_deg - true_deg:+.2f} deg)")
-
-
-class TwelveDirectionCalibration:
-    """SARCNET hand-held calibration (seed 001): the sensor board, off the boom, is
-    pointed with each of its six faces along the earth's magnetic field and along gravity,
-    12 directions; the magnetometer's and accelerometer's offsets and scales (and the
-    magnetometer's soft iron) come from ellipsoids fitted to the readings.
-
-    Pure state: :meth:`feed` takes one raw reading pair at a time. A direction counts as
-    done once the board has been held within ``TOLERANCE_DEG`` of it, still, for
-    ``HOLD_SAMPLES`` readings in a row; only still readings enter the fits (the original
-    warns that a bump upsets the accelerometer calibration).
-    """
-
-    FACES = ("+X", "-X", "+Y", "-Y", "+Z", "-Z")
-    #: the order the console asks for them: gravity first (lay the board on each face),
-    #: then the field (each face to the north and down the dip)
-    DIRECTIONS = tuple((face, "gravity") for face in FACES) + tuple((face, "field") for face in FACES)
-    TOLERANCE_DEG = 15.0
-    HOLD_SAMPLES = 5
-    #: readings that differ by more than this share of the vector's length are "moving"
-    STILL_FRACTION = 0.03
-    MAX_SAMPLES = 1200
-    #: a fit whose corrected samples scatter more than this off their sphere is refused
-    MAX_RMS_REL = 0.05
-
-    def __init__(self) -> None:
-        self.done: list[tuple[str, str]] = []
-        self.mag: list[tuple[float, float, float]] = []
-        self.acc: list[tuple[float, float, float]] = []
-        self._prev: tuple[np.ndarray, np.ndarray] | None = None
-        self._streak: tuple[tuple[str, str] | None, int] = (None, 0)
-
-    @property
-    def remaining(self) -> list[tuple[str, str]]:
-        return [d for d in self.DIRECTIONS if d not in self.done]
-
-    @classmethod
-    def _facing(cls, v: np.ndarray) -> str | None:
-        """The face (+X..-Z) a vector points out of, within the tolerance."""
-        n = float(np.linalg.norm(v))
-        if not n > 0:
-            return None
-        i = int(np.argmax(np.abs(v)))
-        if abs(v[i]) / n < math.cos(math.radians(cls.TOLERANCE_DEG)):
-            return None
-        return ("+" if v[i] > 0 else "-") + "XYZ"[i]
-
-    def feed(self, mag: Sequence[float], acc: Sequence[float]) -> tuple[str, str] | None:
-        """One raw reading pair. Returns the direction it completed, if any."""
-        m, a = np.asarray(mag, dtype=float), np.asarray(acc, dtype=float)
-        if m.shape != (3,) or a.shape != (3,) or not (np.all(np.isfinite(m)) and np.all(np.isfinite(a))):
-            self._prev, self._streak = None, (None, 0)
-            return None
-        prev, self._prev = self._prev, (m, a)
-        still = prev is not None and all(
-            np.linalg.norm(v - p) <= self.STILL_FRACTION * max(np.linalg.norm(v), 1e-12)
-            for v, p in zip((m, a), prev))
-        if not still:
-            self._streak = (None, 0)
-            return None
-        if len(self.mag) >= self.MAX_SAMPLES:      # keep every other: the spread stays
-            self.mag, self.acc = self.mag[::2], self.acc[::2]
-        self.mag.append(tuple(float(c) for c in m))   # type: ignore[arg-type]
-        self.acc.append(tuple(float(c) for c in a))   # type: ignore[arg-type]
-        here = next((d for d in ((self._facing(a), "gravity"), (self._facing(m), "field"))
-                     if d[0] is not None and d not in self.done), None)
-        count = self._streak[1] + 1 if here is not None and here == self._streak[0] else 1
-        self._streak = (here, count)
-        if here is not None and count >= self.HOLD_SAMPLES:
-            self.done.append(here)     # type: ignore[arg-type]
-            self._streak = (None, 0)
-            return here                # type: ignore[return-value]
-        return None
-
-    def fits(self) -> tuple[EllipsoidFit, EllipsoidFit]:
-        """(magnetometer, accelerometer) ellipsoids; CalibrationError when the readings
-        do not span enough directions yet."""
-        return fit_ellipsoid(self.mag), fit_ellipsoid(self.acc)
-
-    def result(self) -> dict[str, Any]:
-        """The constants to save: only once all 12 directions are done and both fits are
-        good. Raises CalibrationError saying what is missing."""
-        if self.remaining:
-            missing = ", ".join(f"{f} along {w}" for f, w in self.remaining)
-            raise CalibrationError(f"{len(self.done)} of {len(self.DIRECTIONS)} directions done "
-                                   f"(missing: {missing})")
-        mag, acc = self.fits()
-        for name, fit in (("magnetometer", mag), ("accelerometer", acc)):
-            if fit.rms_rel > self.MAX_RMS_REL:
-                raise CalibrationError(f"{name} readings scatter {fit.rms_rel * 100:.1f}% off their "
-                                       "sphere (bumped, or a magnet nearby?)")
-        # the magnetometer: centre = hard iron, the sphere map (scaled to keep the mean
-        # radius 1 in the sensor's units' ratio) = soft iron; heading needs directions only
-        sq = np.asarray(mag.to_sphere).reshape(3, 3)
-        sq = sq / np.linalg.det(sq) ** (1.0 / 3.0)
-        return {"mag_offset": list(mag.centre), "mag_scale": list(mag.half_extent),
-                "mag_matrix": [float(v) for v in sq.ravel()], "mag_axis_ratio": mag.axis_ratio,
-                "mag_rms_rel": mag.rms_rel, "accel_offset": list(acc.centre),
-                "accel_scale": list(acc.half_extent), "accel_rms_rel": acc.rms_rel}
 
 
 def apply_twelve_direction(rotator: Any, result: dict[str, Any]) -> bool:
