@@ -77,7 +77,7 @@ def gpredict_flips(sky_az_deg: np.ndarray, el_max_deg: float) -> bool:
 def gpredict_flips_pass(elements, station, p, geometry) -> bool:
     """``gpredict_flips`` for pass ``p`` on a rotator of ``geometry`` (its user sets the
     elevation range Gpredict is told to the rotator's own)."""
-    from .propagate import look_angles
+    from ..tracking.propagate import look_angles
 
     track = look_angles(elements, station, np.arange(p.aos_unix_s, p.los_unix_s, 1.0))
     return gpredict_flips(track.az_deg, geometry.el_max_deg + geometry.el_offset_deg)
@@ -140,10 +140,10 @@ def fly_pass_on_sim(profile: str, elements, station, p, state_dir, *, flip: bool
     """Fly pass ``p`` on a fresh simulated rotator (``flip`` as ``[rotator] flip``)."""
     from ..assembly import build_rotator
     from ..config import Config
-    from .planner import pointing_error_deg
-    from .propagate import look_angles
-    from .targets import SatelliteTarget
-    from .tracker import Tracker
+    from ..tracking.planner import pointing_error_deg
+    from ..tracking.propagate import look_angles
+    from ..tracking.targets import SatelliteTarget
+    from ..tracking.tracker import Tracker
 
     cfg = {"rotator": {"profile": profile, "flip": flip}, "hardware": {"sim": {"wind": False}}}
     for k, v in (config or {}).items():  # sections merge; lists (keepout) replace
