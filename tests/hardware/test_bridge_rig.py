@@ -144,7 +144,7 @@ def test_during_a_link_outage_status_does_not_say_moving(tmp_path):
         s = rig.run(0.5)
         assert s.az.pos_deg == frozen and not s.az.sensor_ok
         assert not s.moving, (s.az, s.el)
-    assert any(ax["moving"] for ax in rig.downstream._record["axes"].values()), rig.downstream._record
+    assert any(ax["moving"] for ax in rig.downstream._records.record["axes"].values()), rig.downstream._records.record
 
 
 # ------------------------------------------------------------------ a whole pass
