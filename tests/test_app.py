@@ -247,8 +247,10 @@ def test_start_up_warnings_are_printed_once(urc):
 
 def test_a_stall_inside_a_tick_is_seen_and_recovered_from(urc):
     """Issue 9.7: a 700 ms stall inside the tick (here a sensor read that hangs) was
-    invisible to the watchdog and to tick_late_p99_ms."""
-    u = urc(profile="tartu-urc").start()
+    invisible to the watchdog and to tick_late_p99_ms. (Without the I/O process's
+    takeover: on a loaded machine a 0.7 s stall plus a late status passes its 1 s, and a
+    control process taken over is another test's subject.)"""
+    u = urc(profile="tartu-urc", extra=NO_TAKEOVER).start()
     assert u.post("/api/goto", {"az_deg": 100, "el_deg": 30}).status_code == 200
     u.wait(lambda s: s["moving"])
     assert u.post("/api/sim/fault", {"axis": "az", "kind": "slow_read", "delay_s": 0.7}).status_code == 200
