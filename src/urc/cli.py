@@ -1,4 +1,9 @@
-"""The ``urc`` command line."""
+"""The ``urc`` command line.
+
+(Over 600 lines on purpose: one thin click command per verb, each only parsing options
+and printing; the work is in the packages they call. ``passes``, ``tle`` and ``fleet``
+live in their own modules, loaded on use.)
+"""
 
 from __future__ import annotations
 

@@ -6,6 +6,9 @@ same calls skyfield makes, so propagation here and in skyfield agree exactly. Th
 column-by-column TLE check below is ours because sgp4's fast C++ parser accepts corrupt
 lines silently (``5x.6416`` reads as an inclination of 5 degrees); every error names the
 file, the line, the columns and what was expected there.
+
+(Over 600 lines on purpose: the TLE column check, the OMM fields and the catalog's
+newest-set rule are one format's rules, read together when a file is refused.)
 """
 
 from __future__ import annotations

@@ -1,5 +1,9 @@
 """Pass search: AOS, TCA, LOS for one satellite or a whole catalog.
 
+(Over 600 lines on purpose: the scan, its step bound and the root refinement share one
+set of grids and one proof of why no pass is missed; split, each half would need the
+other to be read.)
+
 How (vectorised over the catalog):
 
 1. **Coarse scan.** ``SatrecArray`` propagates every satellite on one time grid, step
