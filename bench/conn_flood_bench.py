@@ -30,7 +30,6 @@ import os
 import resource
 import select
 import socket
-import subprocess
 import sys
 import tempfile
 import threading
@@ -42,7 +41,7 @@ import httpx
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
 from bench_report import write_json  # noqa: E402
-from urc_process import URC, UrcProcess, free_port, stop_process_group, wait_until  # noqa: E402
+from urc_process import UrcProcess, free_port, stop_process_group  # noqa: E402
 
 PROBE_PERIOD_S = 0.1
 PROBE_TIMEOUT_S = 5.0
@@ -176,13 +175,9 @@ def run_case(target: str, conns: int, hold_s: float, nofile: int, work: Path) ->
     urc = UrcProcess(work, serve=[{"protocol": "rotctld", "tcp": f"127.0.0.1:{rotctld_port}"}])
     log_path = work / "urc.log"
     limit = ["prlimit", f"--nofile={nofile}:{nofile}"] if nofile else []
-    with open(log_path, "wb") as log:
-        urc.proc = subprocess.Popen(limit + URC + ["run", "--config", str(urc.config), "--state-dir",
-                                                    str(urc.state_dir)],
-                                    stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
+    urc.start_logged(log_path, prefix=limit)
     socks: list[socket.socket] = []
     try:
-        wait_until(lambda: urc.proc.poll() is None and _answers(urc.url), 120, "urc run answers")
         probes = make_probes(urc.url, rotctld_port)
         for p in probes:
             p.start()
@@ -219,12 +214,6 @@ def run_case(target: str, conns: int, hold_s: float, nofile: int, work: Path) ->
             s.close()
         stop_process_group(urc.proc)
 
-
-def _answers(url: str) -> bool:
-    try:
-        return httpx.get(url + "/api/status", timeout=2.0).status_code == 200
-    except httpx.HTTPError:
-        return False
 
 
 def main() -> None:

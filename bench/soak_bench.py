@@ -25,7 +25,6 @@ import math
 import os
 import random
 import statistics
-import subprocess
 import sys
 import time
 from pathlib import Path
@@ -35,7 +34,7 @@ import websockets
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
 from bench_report import write_json  # noqa: E402
-from urc_process import URC, UrcProcess, free_port, stop_process_group, wait_until  # noqa: E402
+from urc_process import UrcProcess, free_port, stop_process_group  # noqa: E402
 
 POLLERS = 8
 POLL_PERIOD_S = 0.5
@@ -226,11 +225,8 @@ def main() -> None:
     rotctld_port = free_port()
     urc = UrcProcess(work, serve=[{"protocol": "rotctld", "tcp": f"127.0.0.1:{rotctld_port}"}])
     log_path = work / "urc.log"
-    with open(log_path, "wb") as log:
-        urc.proc = subprocess.Popen(URC + ["run", "--config", str(urc.config), "--state-dir", str(urc.state_dir)],
-                                    stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
+    urc.start_logged(log_path)
     try:
-        wait_until(lambda: urc.proc.poll() is None and _answers(urc), 120, "urc run answers")
         io_pid, control_pid = urc.proc.pid, urc.control_pid()
         print(f"urc run pid {io_pid}, control process pid {control_pid}; log {log_path}; "
               f"JSON {args.json}", flush=True)
@@ -251,13 +247,6 @@ def main() -> None:
           f"log bytes {last['log_bytes']}, client errors {last['client_errors'] or '-'}")
     write_json(result, args.json)
 
-
-def _answers(urc: UrcProcess) -> bool:
-    import httpx
-    try:
-        return httpx.get(urc.url + "/api/status", timeout=2.0).status_code == 200
-    except httpx.HTTPError:
-        return False
 
 
 if __name__ == "__main__":

@@ -33,7 +33,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
 sys.path.insert(0, str(ROOT / "bench"))
 from bench_report import write_json  # noqa: E402
-from urc_process import URC, UrcProcess, stop_process_group, wait_until  # noqa: E402
+from urc_process import URC, UrcProcess, stop_process_group  # noqa: E402
 from web_bench import STATION, synthetic_tle  # noqa: E402
 
 from urc.angles import great_circle_deg  # noqa: E402
@@ -84,12 +84,9 @@ def main() -> None:
         subprocess.run(URC + ["tle", "import", str(tle), "--config", str(urc.config)], check=True,
                        capture_output=True)
         log_path = work / "urc.log"
-        with open(log_path, "wb") as log:
-            urc.proc = subprocess.Popen(URC + ["run", "--config", str(urc.config), "--state-dir", str(urc.state_dir)],
-                                        stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
+        urc.start_logged(log_path)
         stress = None
         try:
-            wait_until(lambda: urc.proc.poll() is None and _answers(urc.url), 120, "urc run answers")
             if args.cpu:
                 stress = subprocess.Popen(["stress-ng", "--cpu", str(args.cpu), "--timeout",
                                            f"{int(p.los_unix_s - time.time() + 60)}s", "--quiet"],
@@ -158,12 +155,6 @@ def poll_until(url: str, end_unix_s: float) -> tuple[list[tuple[float, float, fl
             time.sleep(max(0.0, t0 + POLL_S - time.time()))
     return samples, events, faults
 
-
-def _answers(url: str) -> bool:
-    try:
-        return httpx.get(url + "/api/status", timeout=2.0).status_code == 200
-    except httpx.HTTPError:
-        return False
 
 
 if __name__ == "__main__":

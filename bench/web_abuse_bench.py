@@ -34,7 +34,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
 sys.path.insert(0, str(ROOT / "bench"))
 from bench_report import write_json  # noqa: E402
-from urc_process import URC, UrcProcess, stop_process_group, wait_until  # noqa: E402
+from urc_process import UrcProcess, stop_process_group  # noqa: E402
 from web_bench import STATION, synthetic_tle  # noqa: E402
 
 
@@ -133,11 +133,8 @@ def main() -> None:
         subprocess.run([sys.executable, "-m", "urc", "tle", "import", str(tle), "--config", str(urc.config)],
                        check=True, capture_output=True)
         log_path = work / "urc.log"
-        with open(log_path, "wb") as log:  # urc's log in a file, to count its bytes
-            urc.proc = subprocess.Popen(URC + ["run", "--config", str(urc.config), "--state-dir", str(urc.state_dir)],
-                                        stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
+        urc.start_logged(log_path)  # urc's log in a file, to count its bytes
         try:
-            wait_until(lambda: urc.proc.poll() is None and _answers(urc.url), 120, "urc run answers")
             time.sleep(2.0)
             before = {"rss_mb": rss_mb(urc.proc.pid), "tick_late_p99_ms": urc.status().get("tick_late_p99_ms")}
             result = asyncio.run(flood(urc.url, args.clients, args.window_s, args.big_mb, log_path))
@@ -167,12 +164,6 @@ def main() -> None:
         print(f"  {name:<{width}}  {value}")
     write_json(result, args.json)
 
-
-def _answers(url: str) -> bool:
-    try:
-        return httpx.get(url + "/api/status", timeout=2.0).status_code == 200
-    except httpx.HTTPError:
-        return False
 
 
 if __name__ == "__main__":

@@ -124,6 +124,14 @@ def toml_serve(entries: list[dict]) -> str:
     return "\n".join(out) + "\n"
 
 
+def api_answers(url: str) -> bool:
+    """True once urc's API at ``url`` answers a status read."""
+    try:
+        return httpx.get(url + "/api/status", timeout=2.0).status_code == 200
+    except httpx.HTTPError:
+        return False
+
+
 def wait_until(pred, timeout_s: float = 30.0, what: str = "condition", poll_s: float = 0.05):
     """Poll ``pred`` until it returns something true (returned), or fail after ``timeout_s``."""
     deadline = time.monotonic() + timeout_s
@@ -164,11 +172,28 @@ class UrcProcess:
             raise AssertionError(f"urc run did not start listening:\n{out}") from None
         return self
 
+    def start_logged(self, log_path: Path, prefix: list[str] | None = None,
+                     timeout_s: float = START_TIMEOUT_S) -> "UrcProcess":
+        """Start ``urc run`` with its output in ``log_path`` (a benchmark counts its log
+        bytes) behind an optional command ``prefix`` (``prlimit ...``), and wait until
+        its API answers. The caller stops it (:meth:`stop`)."""
+        with open(log_path, "wb") as log:
+            self.proc = subprocess.Popen((prefix or []) + URC + ["run", "--config", str(self.config),
+                                                                 "--state-dir", str(self.state_dir)],
+                                         stdout=log, stderr=subprocess.STDOUT, start_new_session=True,
+                                         preexec_fn=_term_with_parent)
+        try:
+            wait_until(lambda: self.proc.poll() is None and api_answers(self.url), timeout_s, "urc run answers")
+        except BaseException:
+            stop_process_group(self.proc, timeout_s=10)
+            raise
+        return self
+
     def _answers(self) -> bool:
         if self.proc.poll() is not None:
             raise AssertionError(f"urc run exited: {self.proc.stdout.read()}")
         try:
-            httpx.get(self.url + "/api/status", timeout=2.0)
+            httpx.get(self.url + "/api/status", timeout=2.0)   # (any answer: the API is up)
             return True
         except httpx.HTTPError:
             return False
