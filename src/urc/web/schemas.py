@@ -115,6 +115,8 @@ class StatusDoc(BaseModel):
                                    "whole tick), tick_p99_ms, stalls, recent_stalls, held (motors held off "
                                    "after a stall, resuming when on time), last_stall_ms")
     local_control: list[str] = Field(description="front-panel controls held now: motion from here is refused")
+    procedures: dict[str, str] = Field(description="per axis, a procedure running now (\"reference search\": "
+                                                   "homing); its position is no number to give a client")
     simulator_truth: dict | None = Field(description="the simulator's true state (None on hardware)")
     tracking: dict | None = Field(description="the tracker's status (target, az/el, plan, ground track)")
     cycle: dict = Field(description="the Berkeley state machine's name for what urc does now: state "
