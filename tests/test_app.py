@@ -255,9 +255,9 @@ def test_a_stall_inside_a_tick_is_seen_and_recovered_from(urc):
     u.wait(lambda s: s["moving"])
     assert u.post("/api/sim/fault", {"axis": "az", "kind": "slow_read", "delay_s": 0.7}).status_code == 200
     s = u.wait(lambda s: s["loop"]["stalls"] >= 1, timeout_s=20)
-    assert s["loop"]["last_stall_ms"] >= 700
-    s = u.wait(lambda s: s["tick_late_p99_ms"] >= 700, timeout_s=20)
-    assert not s["faults"]
+    assert s["loop"]["last_stall_ms"] >= 700 and not s["faults"]
+    # (tick_late_p99_ms is a p99 over 500 ticks: one stall among them is the status'
+    # loop.last_stall_ms, not the p99; under stress-ng the p99 never showed it)
     s = u.wait(lambda s: not s["moving"] and abs(s["az_deg"] - 100) < 0.3, timeout_s=90)
     assert not s["faults"] and not s["loop"]["held"]
     for _ in range(2):  # stalls that keep happening latch
