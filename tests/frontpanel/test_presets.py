@@ -49,6 +49,11 @@ def release(panel, name):
     panel.buttons[name].pin.drive_high()
 
 
+def tap(panel, name):
+    press(panel, name)
+    release(panel, name)
+
+
 def settle(b, panel, seconds=200.0):
     return b.run(seconds, until=lambda s: not s.moving and s.az.mode in ("holding", "idle")
                  and (s.el is None or s.el.mode in ("holding", "idle")),
@@ -62,13 +67,11 @@ def test_sw7_turns_the_azimuth_to_p1_and_sw8_the_elevation_to_p2(bench, adc):
         el_before = b.truth("el")
         knobs.turn("P1", 0.25)            # a quarter of the knob: east
         knobs.turn("P2", 0.5)             # half: 45 of 0..90
-        press(panel, "preset_az")
-        release(panel, "preset_az")
+        tap(panel, "preset_az")
         st = settle(b, panel)
         assert st.az_deg == pytest.approx(90.0, abs=0.6)
         assert b.truth("el") == pytest.approx(el_before, abs=0.5)    # SW7: azimuth only
-        press(panel, "preset_el")
-        release(panel, "preset_el")
+        tap(panel, "preset_el")
         st = settle(b, panel)
         assert st.el_deg == pytest.approx(45.0, abs=0.6)
         assert st.az_deg == pytest.approx(90.0, abs=0.6)
@@ -82,8 +85,7 @@ def test_one_common_knob_sets_both_axes_each_over_its_own_span(bench):
     try:
         knobs.turn("P1", 0.5)
         for name in ("preset_az", "preset_el"):
-            press(panel, name)
-            release(panel, name)
+            tap(panel, name)
             settle(b, panel)
         st = b.rot.status()
         assert st.az_deg == pytest.approx(180.0, abs=0.6) and st.el_deg == pytest.approx(45.0, abs=0.6)
@@ -114,8 +116,7 @@ def test_a_preset_while_the_position_is_unknown_is_refused_and_moves_nothing(ben
         b.rot.search_frame("az", 434.0)                  # a homing runs: position unknown
         b.run(0.1)
         knobs.turn("P1", 0.75)
-        press(panel, "preset_az")
-        release(panel, "preset_az")
+        tap(panel, "preset_az")
         b.run(2.0, on_tick=lambda st: panel.update(st.t_s))
         st = b.rot.status()
         assert not st.moving and st.az.duty == 0.0 and st.target_az_deg is None
@@ -129,8 +130,7 @@ def test_an_unreadable_knob_supply_is_refused_never_a_direction(bench):
     try:
         knobs.turn("P1", 0.5)
         knobs.chip.inputs[3] = lambda: 0.4            # the knobs' supply wire broken
-        press(panel, "preset_az")
-        release(panel, "preset_az")
+        tap(panel, "preset_az")
         b.run(1.0, on_tick=lambda st: panel.update(st.t_s))
         assert not b.rot.status().moving and b.rot.status().target_az_deg is None
         assert panel.beeper.played[-1] == "refused" and "supply" in panel.controls.last_refusal

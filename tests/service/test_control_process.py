@@ -11,9 +11,7 @@ import time
 
 import pytest
 
-from urc.config import Config
 from urc.errors import CommandRejected, ConfigError, UrcError
-from urc.service.control_process import PING_S, ControlProcess
 from urc.ipc.messages import (ApplyCalibration, HardwareInfo, MotorDuties, SensorCalibrations, SensorCount, SimClear,
                               SimFault)
 from urc.service.remote import ControlUnavailable, exception_from_wire, exception_to_wire
@@ -21,23 +19,10 @@ from urc_process import wait_until
 
 
 @pytest.fixture
-def control(tmp_path, request):
-    profile = getattr(request, "param", "tartu-urc")
-    cfg = Config.from_dict({"rotator": {"profile": profile}, "hardware": {"sim": {"wind": False}}})
+def control(start_control, request):
     lost: list[str] = []
-    proc = ControlProcess(cfg, tmp_path / "state", [], on_lost=lost.append)
-    rot = proc.start()
-    done = threading.Event()
-
-    def ping() -> None:  # what urc run's event loop does (silent: the axes stop)
-        while not done.wait(PING_S):
-            proc.ping()
-    threading.Thread(target=ping, daemon=True).start()
-    yield proc, rot, lost
-    done.set()
-    if proc.proc is not None and proc.proc.poll() is None:
-        proc.proc.kill()
-        proc.proc.wait()
+    proc, rot = start_control(getattr(request, "param", "tartu-urc"), on_lost=lost.append)
+    return proc, rot, lost
 
 
 def test_commands_status_and_errors_cross_the_process_boundary(control):

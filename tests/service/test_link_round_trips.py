@@ -8,13 +8,10 @@ is one typed query now (they were 2-5 round trips of attribute paths).
 
 from __future__ import annotations
 
-import threading
 
 import pytest
 
-from urc.config import Config
 from urc.protocols.registry import make_session
-from urc.service.control_process import PING_S, ControlProcess
 
 #: (profile, protocol, commands): every command of the session, each sent alone
 CASES = {
@@ -31,17 +28,9 @@ CASES = {
 
 
 @pytest.fixture(params=sorted(CASES))
-def counted(tmp_path, request):
+def counted(start_control, request):
     profile, protocol, commands = CASES[request.param]
-    cfg = Config.from_dict({"rotator": {"profile": profile}, "hardware": {"sim": {"wind": False}}})
-    proc = ControlProcess(cfg, tmp_path / "state", [])
-    rot = proc.start()
-    done = threading.Event()
-
-    def ping() -> None:
-        while not done.wait(PING_S):
-            proc.ping()
-    threading.Thread(target=ping, daemon=True).start()
+    _proc, rot = start_control(profile)
     sent: list[str] = []
     link = rot._link
     real_send = link.send
@@ -51,14 +40,7 @@ def counted(tmp_path, request):
             sent.append(type(msg[1].request).__name__)
         real_send(msg)
     link.send = send
-    try:
-        yield make_session(protocol, rot.for_sessions()), commands, sent
-    finally:
-        done.set()
-        proc.stop()
-        if proc.proc is not None and proc.proc.poll() is None:
-            proc.proc.kill()
-            proc.proc.wait()
+    return make_session(protocol, rot.for_sessions()), commands, sent
 
 
 def test_each_protocol_command_costs_at_most_one_round_trip(counted):
