@@ -1,6 +1,7 @@
 """rotctld protocol benchmark: urc against Hamlib's own ``rotctld -m 1`` in the same run.
 
-For each server: ``P`` (set_pos) round trip with one client; ``p`` (get_pos) round trip (median, p99) and throughput with 1, 8 and 32
+For each server: ``P`` (set_pos) round trip with one client (also for the floor under it:
+bench/link_floor.py, two Python processes and nothing else); ``p`` (get_pos) round trip (median, p99) and throughput with 1, 8 and 32
 concurrent clients each sending ``p`` and waiting for the reply, and a burst of 64
 simultaneous connections (how many were accepted and answered). For urc also the control
 loop's tick lateness p99 idle and under the 32-client load (from its status).
@@ -167,6 +168,15 @@ def main() -> None:
     finally:
         hamlib.terminate()
         hamlib.wait()
+    for mode in ("thread", "loop"):
+        fport = free_port()
+        floor = subprocess.Popen([sys.executable, str(Path(__file__).with_name("link_floor.py")), str(fport), mode])
+        try:
+            wait_port(fport)
+            results[f"floor_{mode}"] = {"set": set_round_trip(fport)}
+        finally:
+            floor.terminate()
+            floor.wait()
     with tempfile.TemporaryDirectory() as tmp:
         uport = free_port()
         urc = UrcProcess(Path(tmp), serve=[{"protocol": "rotctld", "tcp": f"127.0.0.1:{uport}"}]).start()
@@ -194,6 +204,10 @@ def main() -> None:
     us, hs = results["urc"]["set"], results["hamlib"]["set"]
     print(f"`P` (set) round trip, 1 client: urc median {us['median_ms']:.3f} ms p99 {us['p99_ms']:.3f} | hamlib "
           f"median {hs['median_ms']:.3f} ms p99 {hs['p99_ms']:.3f} | ratio {us['median_ms'] / hs['median_ms']:.2f}")
+    for mode in ("thread", "loop"):
+        fs = results[f"floor_{mode}"]["set"]
+        print(f"  floor (two Python processes, reply taken by {mode:6s}): median {fs['median_ms']:.3f} ms "
+              f"p99 {fs['p99_ms']:.3f} | ratio to hamlib {fs['median_ms'] / hs['median_ms']:.2f}")
     ub, hb = results["urc"]["burst"], results["hamlib"]["burst"]
     print(f"burst of {BURST}: urc answered {ub['answered']}/{BURST}, hamlib answered {hb['answered']}/{BURST}")
     print(f"urc control tick lateness p99: idle {results['urc']['tick_late_p99_ms_idle']:.2f} ms, "
