@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import asyncio
 import logging
+import time
 from collections import deque
 from typing import Any, Callable
 
@@ -16,6 +17,16 @@ log = logging.getLogger("urc.servers")
 #: how often sessions are asked for unsolicited output (G4JNT stream, monitor modes)
 TICK_PERIOD_S = 0.1
 READ_CHUNK = 4096
+#: a stream's bytes go to its session this many at a time, and one session gets the event
+#: loop for at most DRAIN_BUDGET_S before everyone else is served again: a client flooding
+#: 60 kB of junk (30,000 error replies, ~1-3 s of work) stalled every other client's ``p``
+#: for as long (issue 21). Sessions parse streams, so any split of the bytes is a valid one.
+SLICE_BYTES = 512
+DRAIN_BUDGET_S = 0.002
+#: beyond this many unprocessed bytes the transport stops reading (TCP's flow control then
+#: holds the flooding client back, not urc's memory); it reads again below the low mark
+PAUSE_ABOVE_BYTES = 64 * 1024
+RESUME_BELOW_BYTES = 16 * 1024
 
 SessionFactory = Callable[[], Session]
 
@@ -53,17 +64,28 @@ class SessionRunner:
     is served; input arriving meanwhile queues behind it, so the session still sees its
     bytes in order and answers in order. ``write(reply)`` gets each reply whole;
     ``after()`` runs once the replies of an input are written (a serial port applies a
-    requested line rate then)."""
+    requested line rate then).
+
+    A stream (``stream=True``) is fed in slices, and no session holds the loop longer
+    than DRAIN_BUDGET_S at a time; ``pause(True)`` / ``pause(False)`` is asked of the
+    transport when unprocessed input passes PAUSE_ABOVE_BYTES / falls below
+    RESUME_BELOW_BYTES. (Datagrams are messages: each stays whole.)"""
 
     def __init__(self, session: Session, write: Callable[[bytes], None], where: str,
-                 after: Callable[[], None] | None = None):
+                 after: Callable[[], None] | None = None, stream: bool = True,
+                 pause: Callable[[bool], None] | None = None):
         self.session = session
         self.write = write
         self.where = where
         self.after = after
+        self.stream = stream
+        self.pause = pause
         self._queue: deque[tuple[str, Any, Callable[[bytes], None]]] = deque()
         self._busy = False
         self._draining = False
+        self._resume_scheduled = False
+        self._queued_bytes = 0
+        self._paused = False
 
     @property
     def busy(self) -> bool:
@@ -71,7 +93,24 @@ class SessionRunner:
         return self._busy
 
     def feed(self, data: bytes, write: Callable[[bytes], None] | None = None) -> None:
-        self._enqueue("data", data, write or self.write)
+        write = write or self.write
+        step = SLICE_BYTES if self.stream else max(len(data), 1)
+        for i in range(0, max(len(data), 1), step):
+            self._queue.append(("data", data[i:i + step], write))
+        if self.stream:
+            self._account(len(data))
+        self._kick()
+
+    def _account(self, delta_bytes: int) -> None:
+        self._queued_bytes += delta_bytes
+        if self.pause is None:
+            return
+        if not self._paused and self._queued_bytes > PAUSE_ABOVE_BYTES:
+            self._paused = True
+            self.pause(True)
+        elif self._paused and self._queued_bytes < RESUME_BELOW_BYTES:
+            self._paused = False
+            self.pause(False)
 
     def tick(self, now_s: float) -> None:
         if not self._busy and not self._queue:  # (a stream skips a beat rather than queue up)
@@ -82,19 +121,38 @@ class SessionRunner:
 
     def _enqueue(self, kind: str, arg: Any, write: Callable[[bytes], None]) -> None:
         self._queue.append((kind, arg, write))
-        if not self._draining:
+        self._kick()
+
+    def _kick(self) -> None:
+        if not self._draining and not self._resume_scheduled:
             self._drain()
 
     def _drain(self) -> None:
-        # (a loop, not recursion: inputs that finish at once are taken one after another)
+        # (a loop, not recursion: inputs that finish at once are taken one after another,
+        # until this session's share of the loop is used; then everyone else's turn)
         self._draining = True
+        self._resume_scheduled = False
+        give_back_s = time.perf_counter() + DRAIN_BUDGET_S
         try:
             while self._queue and not self._busy:
+                if time.perf_counter() > give_back_s and self._resume_later():
+                    return
                 kind, arg, write = self._queue.popleft()
+                if kind == "data" and self.stream:
+                    self._account(-len(arg))
                 self._busy = True
                 bridge.start(self._work, (kind, arg), lambda replies, error, w=write: self._done(replies, error, w))
         finally:
             self._draining = False
+
+    def _resume_later(self) -> bool:
+        try:
+            loop = asyncio.get_running_loop()
+        except RuntimeError:  # (fed from a test without an event loop: nobody to share with)
+            return False
+        self._resume_scheduled = True
+        loop.call_soon(self._drain)
+        return True
 
     def _work(self, kind: str, arg: Any) -> list[bytes]:
         if kind == "data":
@@ -115,8 +173,7 @@ class SessionRunner:
             write(reply)
         if self.after is not None:
             self.after()
-        if not self._draining:
-            self._drain()
+        self._kick()
 
 
 async def tick_loop(runner: SessionRunner, clock_now: Callable[[], float]) -> None:

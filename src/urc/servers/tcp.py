@@ -40,13 +40,22 @@ class _Connection(asyncio.Protocol):
         sock = transport.get_extra_info("socket")
         if sock is not None:
             sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-        self.runner = SessionRunner(self.factory(), self.write, self.where, after=self._close_if_asked)
+        self.runner = SessionRunner(self.factory(), self.write, self.where, after=self._close_if_asked,
+                                    pause=self._pause)
         if needs_tick(self.runner.session):
             self.ticker = asyncio.get_running_loop().create_task(tick_loop(self.runner, time.monotonic))
 
     def write(self, reply: bytes) -> None:
         if not self.transport.is_closing() and self.transport.get_write_buffer_size() < MAX_WRITE_BUFFER:
             self.transport.write(reply)  # one write per complete reply (gpredict needs it whole)
+
+    def _pause(self, paused: bool) -> None:
+        if self.transport.is_closing():
+            return
+        if paused:
+            self.transport.pause_reading()
+        else:
+            self.transport.resume_reading()
 
     def _close_if_asked(self) -> None:
         if self.runner.session.closed:

@@ -9,7 +9,7 @@ from .common import SessionFactory, SessionRunner
 
 class _Datagrams(asyncio.DatagramProtocol):
     def __init__(self, factory: SessionFactory, reply_port: int, name: str):
-        self.runner = SessionRunner(factory(), self._drop, name)
+        self.runner = SessionRunner(factory(), self._drop, name, stream=False)
         self.reply_port = reply_port
         self.name = name
         self.transport: asyncio.DatagramTransport | None = None
