@@ -27,10 +27,11 @@ class _Connection(asyncio.Protocol):
         self.name = name
         self.cap = cap
         self.admitted = False
-        self.transport: asyncio.Transport | None = None
+        self.transport: asyncio.Transport  # (from connection_made on: every other call comes after it)
         self.ticker: asyncio.Task | None = None
 
-    def connection_made(self, transport: asyncio.Transport) -> None:
+    def connection_made(self, transport: asyncio.BaseTransport) -> None:
+        assert isinstance(transport, asyncio.Transport)
         self.transport = transport
         self.admitted = self.cap.admit()
         if not self.admitted:  # (its descriptor is freed now, not when the client gives up)
