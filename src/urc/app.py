@@ -127,23 +127,29 @@ def _api_server(config):
 
 async def _serve(cfg: Config, state_dir: Path, config_path: Path | None, api_socket: socket.socket,
                  lock_fds: list[int]) -> None:
-    import uvicorn
-
-    from .api import create_api
-    from .servers import start_endpoints
-    from .servers.limits import (MAX_HTTP_CONNECTIONS, bound_library_logs, capped_http_protocol,
-                                 raise_open_file_limit)
     from .service.control_process import ControlProcess
-    from .service.loop import sd_notifier
-    from .tracking.service import TrackingService
 
-    raise_open_file_limit()
-    bound_library_logs()
     stop = asyncio.Event()
     loop = asyncio.get_running_loop()
     asked: list[str] = []  # why this process stops, when it was asked to (a signal)
     control = ControlProcess(cfg, state_dir, lock_fds, on_lost=lambda _why: loop.call_soon_threadsafe(stop.set))
-    rotator = control.start()
+    control.spawn()  # (it builds the rotator while this process imports the web stack)
+    try:
+        import uvicorn
+
+        from .api import create_api
+        from .servers import start_endpoints
+        from .servers.limits import (MAX_HTTP_CONNECTIONS, bound_library_logs, capped_http_protocol,
+                                     raise_open_file_limit)
+        from .service.loop import sd_notifier
+        from .tracking.service import TrackingService
+
+        raise_open_file_limit()
+        bound_library_logs()
+    except BaseException:
+        control.abandon()
+        raise
+    rotator = control.wait_ready()
     held: list = []  # the outputs, once this process has taken them over
 
     def take_over(why: str) -> None:

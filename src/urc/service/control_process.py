@@ -376,6 +376,7 @@ class ControlProcess:
         self.on_lost = on_lost
         self.proc: subprocess.Popen | None = None
         self.link: ControlLink | None = None
+        self._conn: Connection | None = None
         #: set when the orderly stop begins (a silent process is then not a frozen one)
         self.stopping = threading.Event()
         #: why the I/O process took the outputs over ("" if it did not)
@@ -385,6 +386,13 @@ class ControlProcess:
     def start(self, timeout_s: float = START_TIMEOUT_S) -> RemoteRotator:
         """Spawn it and wait until its rotator is built (its start-up errors are raised
         here, as building the rotator in this process raised them)."""
+        self.spawn()
+        return self.wait_ready(timeout_s)
+
+    def spawn(self) -> None:
+        """Start the process and hand it its configuration; it imports and builds the
+        rotator while the caller goes on (``urc run`` imports its web stack meanwhile:
+        on two cores the two starts overlap)."""
         ours, theirs = socket.socketpair()
         try:
             # a fresh interpreter, not a fork: this process may already run threads
@@ -393,26 +401,39 @@ class ControlProcess:
                                          pass_fds=(theirs.fileno(), *self.lock_fds), start_new_session=True)
         finally:
             theirs.close()
-        conn = Connection(ours.detach())
-        conn.send_bytes(codec.dumps(("init", self.cfg, str(self.state_dir), self.lock_fds,
-                                     logging.getLogger().getEffectiveLevel())))
+        self._conn = Connection(ours.detach())
+        self._conn.send_bytes(codec.dumps(("init", self.cfg, str(self.state_dir), self.lock_fds,
+                                           logging.getLogger().getEffectiveLevel())))
+
+    def wait_ready(self, timeout_s: float = START_TIMEOUT_S) -> RemoteRotator:
+        """Wait for the spawned process's rotator (its start-up errors are raised here);
+        a process that failed or did not answer in time is gone when this raises."""
+        conn, proc = self._conn, self.proc
+        assert conn is not None and proc is not None, "spawn() first"
         try:
             if not conn.poll(timeout_s):
                 raise ControlUnavailable(f"the control process did not start within {timeout_s:g} s")
             kind, payload = codec.loads(conn.recv_bytes())
         except (EOFError, OSError):
-            code = self.proc.wait(5)
+            code = proc.wait(5)
             raise ControlUnavailable(f"the control process exited while starting (exit code {code})") from None
         except BaseException:
-            self.proc.kill()
-            conn.close()
+            self.abandon()
             raise
         if kind == "failed":
-            self.proc.wait(5)
+            proc.wait(5)
             conn.close()
             raise exception_from_wire(payload)
         self.link = ControlLink(conn, self.on_lost).start()
         return RemoteRotator(self.link, payload)
+
+    def abandon(self) -> None:
+        """A spawned process that will not be used (its starter failed first): killed."""
+        if self.proc is not None and self.proc.poll() is None:
+            self.proc.kill()
+            self.proc.wait()
+        if self._conn is not None:
+            self._conn.close()
 
     def ping(self) -> None:
         assert self.link is not None
