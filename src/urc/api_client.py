@@ -55,7 +55,8 @@ def http(method: str, url: str, body: dict | None, headers: dict[str, str], time
         port = parts.port or (443 if parts.scheme == "https" else 80)
     except ValueError:  # a port that is not a number or out of range
         port = 0
-    if parts.scheme not in ("http", "https") or not parts.hostname or not port:
+    name = parts.hostname
+    if parts.scheme not in ("http", "https") or not name or not port:
         raise OSError(f"not an http(s) address: {url!r}")
     target = (parts.path or "/") + (f"?{parts.query}" if parts.query else "")
     if not (target.isascii() and target.isprintable()) or " " in target:
@@ -72,12 +73,12 @@ def http(method: str, url: str, body: dict | None, headers: dict[str, str], time
     except UnicodeEncodeError as exc:
         raise OSError(f"a header is not latin-1 text: {exc}") from None
     # (OSError: nothing listens, no route, no answer to connect)
-    sock = socket.create_connection((parts.hostname, port), timeout=min(CONNECT_TIMEOUT_S, timeout_s))
+    sock = socket.create_connection((name, port), timeout=min(CONNECT_TIMEOUT_S, timeout_s))
     try:
         if parts.scheme == "https":
             import ssl
 
-            sock = ssl.create_default_context().wrap_socket(sock, server_hostname=parts.hostname)
+            sock = ssl.create_default_context().wrap_socket(sock, server_hostname=name)
         sock.settimeout(timeout_s)
         try:
             sock.sendall(request)
