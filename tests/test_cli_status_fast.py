@@ -91,6 +91,20 @@ def test_status_imports_nothing_heavy(api, snapshot):
     assert not heavy, f"urc status imported {heavy}"
 
 
+def test_status_on_a_bare_interpreter_loads_no_typing(api, snapshot):
+    """Without site (-S: no .pth hook loading certifi, as on a plain Pi) nothing has
+    loaded ``typing`` either; `urc status` must not be the one to (~5 ms)."""
+    import urc
+
+    FakeApi.body = json.dumps({**snapshot, "events": []}).encode()
+    src = os.path.dirname(os.path.dirname(urc.__file__))
+    res = run([sys.executable, "-S", "-X", "importtime", "-m", "urc"], "status", "--port", str(api),
+              env={"PYTHONPATH": src})
+    assert res.returncode == 0 and "pointing  az" in res.stdout, res.stderr
+    mods = imported(res.stderr)
+    assert "urc.status_text" in mods and not mods & {"typing", "http.client", "ssl", "email", *HEAVY}
+
+
 def test_any_other_command_line_still_goes_to_click(api):
     res = run([sys.executable, "-X", "importtime", "-m", "urc"], "status", "--config", "/nonexistent/urc.toml")
     assert "click" in imported(res.stderr) and res.returncode != 0

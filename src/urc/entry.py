@@ -27,7 +27,7 @@ _VALUED = {"--port": None, "--url": "URC_URL", "--timeout": "URC_TIMEOUT"}
 def main() -> None:
     args = sys.argv[1:]
     if args[:1] == ["status"]:
-        options = status_options(args[1:], os.environ)
+        options = status_options(args[1:], dict(os.environ))
         if options is not None:
             sys.exit(run_status(*options))
     from .cli import main as click_main
@@ -35,7 +35,7 @@ def main() -> None:
     click_main()
 
 
-def status_options(args: list[str], env: os._Environ | dict[str, str]) -> tuple[str, bool, float] | None:
+def status_options(args: list[str], env: dict[str, str]) -> tuple[str, bool, float] | None:
     """(API address, --json, timeout in s) of a ``urc status`` command line, or None
     when click must read it."""
     if any(k.startswith("_") and k.endswith("_COMPLETE") for k in env):

@@ -1,16 +1,16 @@
 """A status snapshot (the dict ``GET /api/status`` answers) as text for a terminal.
 
-Standard library only: ``urc status`` prints through here without loading click or
-anything of the controller (issue 19), and the click command does the same.
+Standard library only, and not even ``typing`` (a Pi's interpreter need not have loaded
+it): ``urc status`` prints through here without loading click or anything of the
+controller (issue 19), and the click command does the same.
 """
 
 from __future__ import annotations
 
 import json
-from typing import Any
 
 
-def tracking_something(trk: dict[str, Any] | None) -> bool:
+def tracking_something(trk: dict | None) -> bool:
     """Whether a status' ``tracking`` names a target (with only a GPS receiver's state
     in it, nothing is tracked)."""
     if not trk:
