@@ -6,8 +6,8 @@ runs of each client as a new process would be run by a user or a script: `python
 status --port P` (what `urc status` runs), `rotctl -m 2 -r 127.0.0.1:PORT p` (Hamlib's
 client against urc's rotctld port) and `python3 -c pass` (the interpreter's own start,
 the floor under any Python CLI). Prints a table (wall median, p90, min, max and CPU
-median in ms, the ratio of the medians, the load average) and writes JSON (default
-bench/results/cli.json).
+median in ms, the ratios of the medians to rotctl's and to the interpreter's start, the
+load average) and writes JSON (default bench/results/cli.json).
 Usage: python bench/cli_bench.py [--runs 20] [--json PATH]
 """
 
@@ -82,8 +82,16 @@ def main() -> None:
     for name, s in results["clients"].items():
         print(f"{name:<16} | {s['median_ms']:9.1f} {s['p90_ms']:8.1f} {s['min_ms']:8.1f} {s['max_ms']:8.1f} | "
               f"{s['cpu_median_ms']:10.1f}")
+    urc_s, floor = results["clients"]["urc status"], results["clients"]["python3 -c pass"]
+    # what urc adds to the interpreter's own start (its site hooks included)
+    results["ratio_to_floor"] = {"wall_median": urc_s["median_ms"] / floor["median_ms"],
+                                 "cpu_median": urc_s["cpu_median_ms"] / floor["cpu_median_ms"]}
+    print(f"urc status / python3 -c pass: wall median {results['ratio_to_floor']['wall_median']:.2f}, "
+          f"CPU median {results['ratio_to_floor']['cpu_median']:.2f} "
+          f"(+{urc_s['median_ms'] - floor['median_ms']:.1f} ms wall, "
+          f"+{urc_s['cpu_median_ms'] - floor['cpu_median_ms']:.1f} ms CPU)")
     if "rotctl -m 2 p" in results["clients"]:
-        ratio = results["clients"]["urc status"]["median_ms"] / results["clients"]["rotctl -m 2 p"]["median_ms"]
+        ratio = urc_s["median_ms"] / results["clients"]["rotctl -m 2 p"]["median_ms"]
         results["ratio_median"] = ratio
         print(f"urc status / rotctl p (median): {ratio:.2f}")
     else:

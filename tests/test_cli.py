@@ -188,7 +188,7 @@ def test_status_shows_a_position_in_a_reference_search_as_unknown(bench):
     """BIG-RAS homing jogs in a search frame of its own: status printed 'az 434.00 ...
     UNCERTAIN' for an antenna at about 62 deg. During the search the number says nothing:
     it is shown as unknown; after it, the found position again."""
-    from urc.cli import _format_status
+    from urc.status_text import format_status as _format_status
     from urc.service import calibration as cal
 
     b = bench("bigras", hardware={"sim": {"wind": False, "start_az_deg": 62.0}})

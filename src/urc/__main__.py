@@ -1,5 +1,5 @@
 """``python -m urc`` is the ``urc`` command."""
 
-from .cli import main
+from .entry import main
 
 main()

@@ -7,7 +7,6 @@ live in their own modules, loaded on use.)
 
 from __future__ import annotations
 
-import json
 import os
 import sys
 from pathlib import Path
@@ -15,10 +14,10 @@ from pathlib import Path
 import click
 
 from . import __version__
+from .api_client import CLIENT_TIMEOUT_S, DEFAULT_URL, ClientError, base_url
+from .api_client import request as api_request
 from .errors import ConfigError, StateFileError
-
-DEFAULT_URL = "http://127.0.0.1:8080"
-
+from .status_text import format_tracking, render
 
 def _load(config_path: str | None, profile: str | None = None):
     from .config import Config, load_config
@@ -286,13 +285,6 @@ def _remember_timeout(ctx: click.Context, _param: click.Parameter, value: float)
     ctx.meta["urc.timeout_s"] = value
 
 
-#: how long a client command waits for urc's answer. Generous: a loaded controller (a
-#: Pi at full CPU) answers late, and giving up early reported "cannot reach urc" while it
-#: was in fact doing what was asked. Connecting is separate and quick to fail.
-CLIENT_TIMEOUT_S = 60.0
-CONNECT_TIMEOUT_S = 5.0
-
-
 def _client_options(f):
     f = click.option("--timeout", "timeout_s", type=click.FloatRange(min=0.1), default=CLIENT_TIMEOUT_S,
                      envvar="URC_TIMEOUT", show_default=True, expose_value=False, callback=_remember_timeout,
@@ -308,140 +300,25 @@ def _client_options(f):
     return f
 
 
-class _NoAnswer(Exception):
-    """Connected and sent, but no answer in time: urc may be doing it."""
-
-
-def _http(method: str, url: str, body: dict | None, headers: dict[str, str], timeout_s: float) -> tuple[int, bytes]:
-    """One request with the standard library: ``urc status`` and friends start in a
-    fraction of what an HTTP client library's imports take (httpx: trio, rich and
-    certifi, 0.1-1 s; a Pi Zero is ~10x slower). Raises OSError when urc cannot be
-    reached, _NoAnswer when it took the request and did not answer in ``timeout_s``."""
-    import http.client
-    from urllib.parse import urlsplit
-
-    parts = urlsplit(url)
-    if parts.scheme not in ("http", "https") or not parts.hostname:
-        raise OSError(f"not an http(s) address: {url!r}")
-    kind = http.client.HTTPSConnection if parts.scheme == "https" else http.client.HTTPConnection
-    conn = kind(parts.hostname, parts.port, timeout=min(CONNECT_TIMEOUT_S, timeout_s))
-    try:
-        conn.connect()  # (OSError: nothing listens, no route, no answer to connect)
-        assert conn.sock is not None
-        conn.sock.settimeout(timeout_s)
-        data = None if body is None else json.dumps(body).encode()
-        if data is not None:
-            headers = {**headers, "Content-Type": "application/json"}
-        try:
-            conn.request(method, (parts.path or "/") + (f"?{parts.query}" if parts.query else ""), body=data,
-                         headers=headers)
-            resp = conn.getresponse()
-            return resp.status, resp.read()
-        except TimeoutError:
-            raise _NoAnswer() from None
-        except http.client.HTTPException as exc:
-            raise OSError(f"bad answer: {exc!r}") from None
-    finally:
-        conn.close()
-
-
 def _request(url: str | None, config_path: str | None, method: str, path: str, body: dict | None = None) -> dict:
     token = os.environ.get("URC_TOKEN", "")
     ctx = click.get_current_context(silent=True)
     port = ctx.meta.get("urc.api_port") if ctx is not None else None
     if url is not None and port is not None:
         raise click.UsageError("give --url or --port, not both")
-    if url is None:
-        url = DEFAULT_URL if port is None else f"http://127.0.0.1:{port}"
-        if config_path:
-            try:
-                cfg = _load(config_path)
-            except ConfigError as exc:
-                raise click.ClickException(str(exc)) from None
-            host = "127.0.0.1" if cfg.api.host in ("0.0.0.0", "::") else cfg.api.host
-            url = f"http://{host}:{cfg.api.port if port is None else port}"
-            token = token or cfg.api.token
-    headers = {"Authorization": f"Bearer {token}"} if token else {}
+    if url is None and config_path:
+        try:
+            cfg = _load(config_path)
+        except ConfigError as exc:
+            raise click.ClickException(str(exc)) from None
+        host = "127.0.0.1" if cfg.api.host in ("0.0.0.0", "::") else cfg.api.host
+        url = f"http://{host}:{cfg.api.port if port is None else port}"
+        token = token or cfg.api.token
     timeout_s = (ctx.meta.get("urc.timeout_s") if ctx is not None else None) or CLIENT_TIMEOUT_S
     try:
-        code, raw = _http(method, url.rstrip("/") + path, body, headers, timeout_s)
-    except _NoAnswer:
-        # it took the request: it may well be doing it (a refusal would have come back)
-        raise click.ClickException(f"urc at {url} took the request but gave no answer within "
-                                   f"{timeout_s:g} s (busy?); it may have done it: see `urc status` "
-                                   "(--timeout waits longer)") from None
-    except OSError as exc:
-        raise click.ClickException(f"cannot reach urc at {url}: {exc} (is `urc run` running?)") from None
-    text = raw.decode("utf-8", "replace")
-    try:
-        data = json.loads(text)
-    except ValueError:
-        data = {"error": text}
-    if code >= 400:
-        errors = data.get("errors") if isinstance(data, dict) else None
-        if errors:  # the settings' checks: one problem per key
-            detail = "; ".join(f"{e.get('key') or '-'}: {e.get('message')}" for e in errors)
-        else:
-            detail = data.get("error") or data.get("detail") or data
-        raise click.ClickException(f"refused ({code}): {detail}")
-    return data
-
-
-def _unknown(s: dict, name: str) -> bool:
-    """An axis whose uncertainty spans its whole travel (a reference search such as the
-    BIG-RAS homing runs in a frame of its own; no record at start-up): its number says
-    nothing about where the antenna points."""
-    lo, hi = s.get("limits", {}).get(name, (0.0, 0.0))
-    return s[name]["uncertainty_deg"] >= max(hi - lo, 1e-9) - 1e-6
-
-
-def _format_status(s: dict) -> str:
-    def deg(name: str, value: float, width: int) -> str:
-        return "unknown".rjust(width) if _unknown(s, name) else f"{value:{width}.2f}"
-
-    wrap = "?" if _unknown(s, "az") else s["wrap_turns"]
-    if s.get("el") is None:  # a single-axis rotator: azimuth only, no elevation shown
-        lines = [f"profile   {s['profile']} (azimuth only)",
-                 f"pointing  az {deg('az', s['az_deg'], 7)}",
-                 f"axes      az {deg('az', s['az']['pos_deg'], 7)} ({s['az']['mode']})  wrap turn {wrap}"]
-        if s["target_az_deg"] is not None:
-            lines.append(f"target    az {s['target_az_deg']:7.2f}")
-    else:
-        lines = [f"profile   {s['profile']}",
-                 f"pointing  az {deg('az', s['az_deg'], 7)}  el {deg('el', s['el_deg'], 6)}"
-                 + ("   (flipped)" if s["flipped"] else ""),
-                 f"axes      az {deg('az', s['az']['pos_deg'], 7)} ({s['az']['mode']})  "
-                 f"el {deg('el', s['el']['pos_deg'], 6)} ({s['el']['mode']})  wrap turn {wrap}"]
-        if s["target_az_deg"] is not None:
-            lines.append(f"target    az {s['target_az_deg']:7.2f}  el {s['target_el_deg']:6.2f}")
-    state = "moving" if s["moving"] else ("parked" if s["parked"] else "stopped")
-    lines.append(f"state     {state}; position {'known' if s['position_known'] else 'UNCERTAIN'}")
-    for name in s.get("axes", ("az", "el")):
-        if _unknown(s, name):
-            lines.append(f"          {name} unknown: a reference search (homing) runs, or nothing "
-                         "says where the axis is; set position or home it")
-        elif s[name]["uncertainty_deg"]:
-            lines.append(f"          {name} uncertain by ±{s[name]['uncertainty_deg']:.2f} deg")
-    if s.get("cycle"):
-        c = s["cycle"]
-        lines.append(f"cycle     {c['document']} ({c['state']}): {c['why']}")
-    for f in s["faults"]:
-        lines.append(f"FAULT     {f['kind']}: {f['reason']}")
-    if s.get("local_control"):
-        lines.append(f"LOCAL     {', '.join(s['local_control'])} held at the rotator: "
-                     "only stop is accepted from here")
-    if s.get("state_error"):
-        lines.append(f"STATE     not saved: {s['state_error']} (retrying; motion stops before the "
-                     "saved position stops being true)")
-    truth = s.get("simulator_truth")
-    if truth:
-        el = f"  el {truth['el']['deg']:6.2f}" if s.get("el") is not None else ""
-        lines.append(f"sim truth az {truth['az']['deg']:7.2f}{el}  (simulator only)")
-    for e in s["events"][-3:]:
-        lines.append(f"event     {e}")
-    if s.get("tracking"):
-        lines.append(_format_tracking(s["tracking"]))
-    return "\n".join(lines)
+        return api_request(base_url(url, port), method, path, body, token=token, timeout_s=timeout_s)
+    except ClientError as exc:
+        raise click.ClickException(str(exc)) from None
 
 
 @main.command()
@@ -450,7 +327,7 @@ def _format_status(s: dict) -> str:
 def status(as_json: bool, url: str | None, config_path: str | None) -> None:
     """Show the running controller's status."""
     data = _request(url, config_path, "GET", "/api/status")
-    click.echo(json.dumps(data, indent=2) if as_json else _format_status(data))
+    click.echo(render(data, as_json))
 
 
 @main.command()
@@ -558,34 +435,7 @@ def track(target: str | None, norad: int | None, point, azel, nmea_source: str |
     while (status.get("tracking") or {}).get("state") == "planning" and time.monotonic() < give_up_s:
         time.sleep(0.25)
         status = _request(url, config_path, "GET", "/api/status")
-    click.echo(_format_tracking(status.get("tracking")))
-
-
-def _format_tracking(t: dict | None) -> str:
-    from .tracking.cycle import tracking_something
-
-    gps = (t or {}).get("gps")
-    gps_line = "" if not gps else (
-        f"\ngps       {gps['source']}: " + (f"fix {gps['lat_deg']:.5f} {gps['lon_deg']:.5f} {gps['alt_m']:.0f} m"
-                                           if gps.get("lat_deg") is not None else "no fix yet")
-        + ("" if gps.get("clock_offset_s") is None else f", clock offset {gps['clock_offset_s']:+.3f} s"))
-    if not tracking_something(t):
-        return "not tracking" + gps_line
-    lines = [f"tracking  {t.get('target')}" if not t.get("stopped") else
-             f"NOT tracking {t.get('target')}: {t['stopped']}"]
-    if t.get("az_deg") is not None:
-        lines.append(f"target    az {t['az_deg']:7.2f}  el {t['el_deg']:6.2f}")
-    plan = t.get("plan")
-    if plan:
-        lines.append(f"pass      AOS {plan['aos']}  LOS {plan['los']}  max el {plan['max_el_deg']:.1f}")
-        lines.append(f"plan      {'flip (over the top)' if plan['flip'] else 'no flip'}, wrap turn "
-                     f"{plan['wrap_turns']}, AOS pose az {plan['aos_pose'][0]:.1f} el {plan['aos_pose'][1]:.1f}, "
-                     f"peak az rate {plan['peak_az_rate_deg_per_s']:.2f} deg/s; state {t.get('state')}")
-        for note in plan.get("notes", []):
-            lines.append(f"note      {note}")
-    for text in ([t["error"]] if t.get("error") else []) + list(t.get("warnings") or []):
-        lines.append(f"warning   {text}")
-    return "\n".join(lines) + gps_line
+    click.echo(format_tracking(status.get("tracking")))
 
 
 @main.group()

@@ -223,7 +223,7 @@ def test_run_panel_carries_pin_callbacks_onto_the_event_loop(bench):
 
 
 def test_urc_status_says_which_local_control_is_held(panel_rig):
-    from urc.cli import _format_status
+    from urc.status_text import format_status as _format_status
 
     rig = panel_rig()
     rig.press("stop")

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import pytest
 
-from urc.cli import _format_status
+from urc.status_text import format_status as _format_status
 from urc.tracking.cycle import cycle_state
 from urc.tracking.passes import find_passes
 from urc.tracking.station import Station
@@ -88,7 +88,7 @@ def test_status_with_only_a_gps_says_not_tracking_and_shows_the_fix():
     """`urc status` printed "tracking  None" for a GPS station with nothing tracked."""
     gps = {"source": "/dev/ttyACM0", "fix": True, "clock_offset_s": 0.012, "clock_trustworthy": True,
            "lat_deg": 37.8716, "lon_deg": -122.2727, "alt_m": 52.0}
-    from urc.cli import _format_tracking
+    from urc.status_text import format_tracking as _format_tracking
     text = _format_tracking({"gps": gps})
     assert text == "not tracking\ngps       /dev/ttyACM0: fix 37.87160 -122.27270 52 m, clock offset +0.012 s"
     assert "None" not in text

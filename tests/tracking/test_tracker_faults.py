@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import pytest
 
-from urc.cli import _format_tracking
+from urc.status_text import format_tracking as _format_tracking
 from urc.tracking.station import Station
 from urc.tracking.targets import FixedTarget
 from urc.tracking.tracker import Tracker

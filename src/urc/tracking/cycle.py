@@ -25,18 +25,15 @@ from __future__ import annotations
 
 from typing import Any
 
+# (beside the status text: `urc status` prints it without loading the tracking package)
+from ..status_text import tracking_something
+
 STATES = ("setup", "process_tle", "predict", "track", "report")
 DOCUMENT_NAMES = {"setup": "setup", "process_tle": "PROCESS_TLE", "predict": "PREDICT",
                   "track": "TRACK_MOTOR", "report": "UPDATE_SERVER"}
 #: "within an acceptable range": the document's band was 4 deg (bang-bang); urc's
 #: pointing is judged at 0.5 deg (docs/ARCHITECTURE.md, measures)
 ON_TARGET_DEG = 0.5
-
-
-def tracking_something(trk: dict[str, Any] | None) -> bool:
-    """Whether a status' ``tracking`` names a target (with only a GPS receiver's state
-    in it, nothing is tracked)."""
-    return bool(trk) and (trk.get("target") is not None or "state" in trk)  # type: ignore[union-attr]
 
 
 def cycle_state(status: dict[str, Any], error_deg: float | None) -> dict[str, str]:
