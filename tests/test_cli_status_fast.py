@@ -102,7 +102,7 @@ def test_status_on_a_bare_interpreter_loads_no_typing(api, snapshot):
               env={"PYTHONPATH": src})
     assert res.returncode == 0 and "pointing  az" in res.stdout, res.stderr
     mods = imported(res.stderr)
-    assert "urc.status_text" in mods and not mods & {"typing", "http.client", "ssl", "email", *HEAVY}
+    assert "urc.status_text" in mods and not mods & {"typing", *HEAVY}
 
 
 def test_any_other_command_line_still_goes_to_click(api):

@@ -35,100 +35,35 @@ def base_url(url: str | None, port: int | None) -> str:
     return DEFAULT_URL if port is None else f"http://127.0.0.1:{port}"
 
 
-#: an answer longer than this is not urc's (a status is a few kB)
-MAX_ANSWER_BYTES = 16 * 1024 * 1024
-
-
 def http(method: str, url: str, body: dict | None, headers: dict[str, str], timeout_s: float) -> tuple[int, bytes]:
     """(status code, body) of one request. Raises OSError when urc cannot be reached,
-    NoAnswer when it took the request and did not answer in ``timeout_s``.
-
-    One HTTP/1.0 exchange on a socket rather than http.client: importing http.client
-    (email's parser and ssl come with it) took 33-55 ms, more than everything else
-    `urc status` does after the interpreter has started. HTTP/1.0 keeps the answer simple
-    to read: the server closes the connection after it, and never sends it in chunks."""
-    import socket
+    NoAnswer when it took the request and did not answer in ``timeout_s``."""
+    import http.client
     from urllib.parse import urlsplit
 
     parts = urlsplit(url)
-    try:
-        port = parts.port or (443 if parts.scheme == "https" else 80)
-    except ValueError:  # a port that is not a number or out of range
-        port = 0
-    name = parts.hostname
-    if parts.scheme not in ("http", "https") or not name or not port:
+    if parts.scheme not in ("http", "https") or not parts.hostname:
         raise OSError(f"not an http(s) address: {url!r}")
-    target = (parts.path or "/") + (f"?{parts.query}" if parts.query else "")
-    if not (target.isascii() and target.isprintable()) or " " in target:
-        raise OSError(f"not an http(s) address: {url!r}")
-    data = b"" if body is None else json.dumps(body).encode()
-    lines = [f"{method} {target} HTTP/1.0", f"Host: {parts.netloc.rpartition('@')[2]}",
-             "Accept: application/json", *(f"{k}: {v}" for k, v in headers.items())]
-    if body is not None:
-        lines += ["Content-Type: application/json", f"Content-Length: {len(data)}"]
-    if any(not line.isprintable() for line in lines):  # (a line break in a token: a forged header)
-        raise OSError("a header holds a control character (URC_TOKEN?)")
+    kind = http.client.HTTPSConnection if parts.scheme == "https" else http.client.HTTPConnection
+    conn = kind(parts.hostname, parts.port, timeout=min(CONNECT_TIMEOUT_S, timeout_s))
     try:
-        request = "\r\n".join(lines).encode("latin-1") + b"\r\n\r\n" + data
-    except UnicodeEncodeError as exc:
-        raise OSError(f"a header is not latin-1 text: {exc}") from None
-    # (OSError: nothing listens, no route, no answer to connect)
-    sock = socket.create_connection((name, port), timeout=min(CONNECT_TIMEOUT_S, timeout_s))
-    try:
-        if parts.scheme == "https":
-            import ssl
-
-            sock = ssl.create_default_context().wrap_socket(sock, server_hostname=name)
-        sock.settimeout(timeout_s)
+        conn.connect()  # (OSError: nothing listens, no route, no answer to connect)
+        assert conn.sock is not None
+        conn.sock.settimeout(timeout_s)
+        data = None if body is None else json.dumps(body).encode()
+        if data is not None:
+            headers = {**headers, "Content-Type": "application/json"}
         try:
-            sock.sendall(request)
-            answer = bytearray()
-            while not _whole(answer) and (chunk := sock.recv(65536)):
-                answer += chunk
-                if len(answer) > MAX_ANSWER_BYTES:
-                    raise OSError(f"bad answer: longer than {MAX_ANSWER_BYTES} bytes")
+            conn.request(method, (parts.path or "/") + (f"?{parts.query}" if parts.query else ""), body=data,
+                         headers=headers)
+            resp = conn.getresponse()
+            return resp.status, resp.read()
         except TimeoutError:
             raise NoAnswer() from None
+        except http.client.HTTPException as exc:
+            raise OSError(f"bad answer: {exc!r}") from None
     finally:
-        sock.close()
-    return _parse_answer(bytes(answer))
-
-
-def _whole(answer: bytearray) -> bool:
-    """Whether the answer so far is all its Content-Length says (a server that keeps the
-    connection open after it need not be waited for); without one, the close ends it."""
-    head, sep, rest = bytes(answer).partition(b"\r\n\r\n")
-    if not sep:
-        return False
-    length = _headers(head).get(b"content-length", b"").strip()
-    return length.isdigit() and len(rest) >= int(length)
-
-
-def _headers(head: bytes) -> dict[bytes, bytes]:
-    """The header fields of an answer's head, by lower-case name."""
-    fields = {}
-    for line in head.split(b"\r\n")[1:]:
-        name, _, value = line.partition(b":")
-        fields[name.strip().lower()] = value.strip()
-    return fields
-
-
-def _parse_answer(answer: bytes) -> tuple[int, bytes]:
-    """(status code, body) of a whole HTTP/1.x answer; OSError if it is not one."""
-    head, sep, rest = answer.partition(b"\r\n\r\n")
-    version, _, code = head.split(b"\r\n", 1)[0].partition(b" ")
-    code = code[:3]
-    if not (sep and version.startswith(b"HTTP/1.") and code.isdigit() and len(code) == 3):
-        raise OSError(f"bad answer: {answer[:80]!r}")
-    fields = _headers(head)
-    if fields.get(b"transfer-encoding", b"identity").lower() != b"identity":
-        raise OSError("bad answer: sent in chunks to an HTTP/1.0 request")
-    if b"content-length" not in fields:
-        return int(code), rest  # (ended by the close)
-    length = fields[b"content-length"]
-    if not (length.isdigit() and int(length) <= len(rest)):
-        raise OSError(f"bad answer: {len(rest)} bytes of Content-Length {length.decode('latin-1')}")
-    return int(code), rest[: int(length)]
+        conn.close()
 
 
 def request(url: str, method: str, path: str, body: dict | None = None, *, token: str = "",
