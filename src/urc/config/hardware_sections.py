@@ -86,6 +86,10 @@ class GpioAxis(Section):
     pot_m: float | None = num(None)
     pot_c: float | None = num(None)
     zero_deg: float = num(0.0)
+    #: an AS5600 whose count falls as the axis angle rises (its DIR pin tied to VDD, or
+    #: the chip on the other side of the magnet): urc counts it the other way. DIR must be
+    #: tied to GND or VDD; left floating, the direction is undefined
+    as5600_reversed: bool = False
     #: the compass chip of a magnetometer profile: lsm303d (0x1D) or lsm303agr (0x19 + 0x1E)
     compass: str = "lsm303d"
     declination_deg: float = num(0.0, ge=-180.0, le=180.0)

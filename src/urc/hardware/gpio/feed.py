@@ -226,10 +226,13 @@ def feed_sensor(name: str, kind: str, sensor: Any, devices: dict[int, Any], cfg:
     elif kind == "as5600":
         chip = sensor.part
         raw = SimAs5600(*part).read_raw_angle
+        # as5600_reversed: the emulated chip's DIR is tied to VDD (it counts the other way)
+        flip = cfg.as5600_reversed
 
         def raw_angle() -> int:
             phys.bus_wait()
-            return raw()
+            r = raw()
+            return -r & 0x0FFF if flip else r
         dev = devices[chip.address] = FakeAs5600(raw_angle)
         emu.parts[name] = dev
         emu.dead_chip(dev, name)

@@ -147,7 +147,7 @@ def _as5600(w: AxisWiring, motor: Any) -> Any:
     chip = As5600Chip(w.buses.chip_bus(w.bus_n, w.mux_ch), w.cfg.i2c_address or As5600Chip.ADDRESS,
                       f"{w.name} AS5600")
     w.parts.append((f"{w.name} AS5600 ({w.on_bus})", chip))
-    return As5600Sensor(w.ax_caps.sensor, w.name, chip, zero_deg=w.cfg.zero_deg)
+    return As5600Sensor(w.ax_caps.sensor, w.name, chip, zero_deg=w.cfg.zero_deg, reversed=w.cfg.as5600_reversed)
 
 
 def _magnetometer(w: AxisWiring, motor: Any) -> Any:
