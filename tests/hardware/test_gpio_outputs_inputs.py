@@ -158,6 +158,19 @@ def test_pulse_debounce_rejects_bounce_on_opening_in_an_emulated_run(tmp_path):
     assert abs(s.sim_truth["az"]["deg"] - s.az_deg) <= 1.5
 
 
+def test_an_as5600_with_dir_to_vdd_counts_down_and_as5600_reversed_reads_it_up(tmp_path):
+    """The emulated chip counts the other way with as5600_reversed (its DIR tied to VDD:
+    counterclockwise counts up, AS5600 datasheet "Direction"); urc still goes where told."""
+    rot, clock = emulated("berkeley", tmp_path, az={"as5600_reversed": True})
+    chip = rot.hw.az.sensor.part
+    raw0 = chip.read_raw_angle()
+    rot.goto_az(rot.status().az_deg + 50.0)
+    s = run_virtual(rot, clock, 60.0, until=lambda s: not s.moving and abs(s.az_deg - 50.0) < 0.3)
+    assert abs(s.sim_truth["az"]["deg"] - 50.0) < 0.5 and not s.faults
+    counted = (chip.read_raw_angle() - raw0 + 2048) % 4096 - 2048
+    assert counted == pytest.approx(-50.0 * 4096 / 360, abs=8)     # the raw count went down
+
+
 def test_encoder_counts_per_degree_are_configurable(tmp_path):
     """A 4096-count encoder geared 1:1 (x4: 11.378 counts/deg) on tartu-urc's pins."""
     rot, clock = emulated("tartu-urc", tmp_path, az={"encoder_counts_per_deg": 4096 * 4 / 360})
