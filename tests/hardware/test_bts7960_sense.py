@@ -174,6 +174,33 @@ def test_a_starting_current_passes_but_a_held_fault_level_does_not():
         assert (cs.fault is not None) == (0.02 * k >= 0.25)
 
 
+class WholePercentPwm(Pwm):
+    """gpiozero 2.0.1's LGPIOPin: lgpio gets int(duty x 100), and reads that back."""
+
+    def write_duty(self, duty):
+        self.duty = int(duty * 100) / 100
+
+
+def test_the_sense_divides_by_the_duty_the_pwm_really_makes():
+    """On software PWM a 1.9 % drive runs at 1 %; divided by 1.9 % the fault current
+    (4 mA, the lowest I_IS(lim)) would read 2.1 mA, under the 3.2 mA fault level."""
+    from urc.hardware.drivers import Bts7960Motor
+    clock = Clock()
+    rp, lp = WholePercentPwm(), WholePercentPwm()
+    p = EmulatedBts7960Is(rp, lp, lambda: 3.0, lim_grade="min")
+    cs = sensed(p, clock)
+    motor = Bts7960Motor("az", rp, lp, current=cs)
+    motor.set_drive(0.019)
+    assert rp.duty == 0.01
+    clock.t = 1.0
+    assert motor.read_current_a() == pytest.approx(3.0)
+    p.fault = True
+    motor.read_current_a()
+    clock.t = 1.3
+    motor.read_current_a()
+    assert "signals a fault" in motor.driver_fault()
+
+
 def emulated_bigras(tmp_path: Path):
     data = with_emulation(load_config(EXAMPLES / "bigras.toml")).to_dict()
     data["hardware"]["sim"] = {"wind": False}

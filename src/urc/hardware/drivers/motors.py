@@ -290,7 +290,10 @@ class Bts7960Motor(HBridgeMotor):
             self.lpwm.write_duty(-duty)
         note_duty = getattr(self._current, "note_duty", None)
         if note_duty is not None:
-            note_duty(duty)
+            # the duty the PWM really makes: lgpio's software PWM truncates to whole
+            # percent (a 1.9 % drive runs at 1 %), and the IS reading is divided by it
+            read_back = getattr(self.rpwm if duty >= 0.0 else self.lpwm, "read_back", None)
+            note_duty(read_back() if read_back is not None else abs(duty))
 
 
 class PwmDirMotor(HBridgeMotor):
