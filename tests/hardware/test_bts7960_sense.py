@@ -205,6 +205,7 @@ def emulated_bigras(tmp_path: Path):
     data = with_emulation(load_config(EXAMPLES / "bigras.toml")).to_dict()
     data["hardware"]["sim"] = {"wind": False}
     data["hardware"]["gpio"]["az"]["current_sense_channel"] = 0
+    data["hardware"]["gpio"]["el"]["current_sense_channel"] = 1     # the same ADS1115
     # no overcurrent rule in reach (as on iron with faults.overcurrent_a unset): the fault
     # signal alone must stop the axes (emulated, the rule would trip at 80 % of stall)
     data.setdefault("faults", {})["overcurrent_a"] = 1000.0
@@ -239,3 +240,19 @@ def test_emulated_bigras_reads_its_is_and_stops_on_the_fault_signal_at_low_duty(
     is_part.fault = True
     s = run_virtual(rot, clock, 0.5)
     assert [f.axis for f in s.faults if f.kind == "driver"] == ["az"]
+
+
+def test_least_favourable_chips_fly_a_whole_goto_without_a_false_fault(tmp_path):
+    """k_ILIS at its minimum and I_ISH at its maximum on both axes (the highest IS for a
+    given current), through starts, reversals and stops of the real loop."""
+    rot, clock = emulated_bigras(tmp_path)
+    for axis in ("az", "el"):
+        is_part = rot.hw.gpio.emulation[f"{axis} current sense"]
+        is_part.grade, is_part.offset_a = "min", 200e-6
+    rot.goto(60.0, 40.0)
+    s = run_virtual(rot, clock, 120.0, until=lambda s: not s.moving)
+    assert not s.faults
+    assert abs(s.sim_truth["az"]["deg"] - 60.0) < 1.0 and abs(s.sim_truth["el"]["deg"] - 40.0) < 1.0
+    rot.goto(10.0, 5.0)                                  # and back: the other side of each bridge
+    s = run_virtual(rot, clock, 120.0, until=lambda s: not s.moving)
+    assert not s.faults and abs(s.sim_truth["az"]["deg"] - 10.0) < 1.0
