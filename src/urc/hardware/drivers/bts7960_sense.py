@@ -47,8 +47,9 @@ IBT2_IS_OHMS = 1000.0
 IS_NODE_OHMS = IBT2_IS_OHMS / 2.0
 #: the default volts per motor ampere (typical k_ILIS into the tied pins' 500 Ohm)
 V_PER_A = IS_NODE_OHMS / K_ILIS_TYP
-#: the RC filter's settling: 5 time constants of 10 kOhm x 1 uF
-FILTER_SETTLE_S = 0.05
+#: how long the RC filter (10 kOhm x 1 uF = 10 ms) remembers a duty: 10 time constants,
+#: after which a 100:1 duty drop leaves under 0.5 % of the reading (5 left 6 % after 10:1)
+FILTER_SETTLE_S = 0.1
 #: an on-time IS current at or above this is the fault signal: 0.8 x I_IS(lim) min. The
 #: largest normal one at a rotator's currents (5 A at k_ILIS min, plus I_ISH) is
 #: 5/3000 + 0.2 mA = 1.9 mA; reaching 3.2 mA without a fault takes (3.2 - 0.2) mA x 3000

@@ -151,7 +151,8 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
             devices = buses.fake_devices(bus_n, mux_ch)
             feed_sensor(name, sk, sensor, devices, cfg, emu)
             if cs is not None:
-                is_part = feed_current_sense(world.axes[name], cfg, devices, buses.fake_spi, motor)
+                is_part = feed_current_sense(world.axes[name], cfg, devices, buses.fake_spi, motor,
+                                             world.clock.now_s)
                 if is_part is not None:
                     emu.parts[f"{name} current sense"] = is_part
             for side, sw in zip(("min", "max"), lims):

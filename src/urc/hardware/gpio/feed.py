@@ -305,7 +305,7 @@ def feed_sensor(name: str, kind: str, sensor: Any, devices: dict[int, Any], cfg:
 
 
 def feed_current_sense(phys: Any, cfg: Any, devices: dict[int, Any], fake_spi: dict[int, Any],
-                       motor: Any = None) -> Any:
+                       motor: Any = None, now_s: Any = None) -> Any:
     """Emulation: the bridge's current-sense output (magnitude only, clipped at the
     ADC's range) from the simulated motor current, on the configured ADC input. A
     BTS7960's is its IS pins as the data sheet has them (:mod:`.emulate_bts7960`),
@@ -318,7 +318,7 @@ def feed_current_sense(phys: Any, cfg: Any, devices: dict[int, Any], fake_spi: d
         dev = devices.get(addr) or devices.setdefault(addr, FakeAds1115({}))
     if cfg.motor == "bts7960" and motor is not None:
         from .emulate_bts7960 import EmulatedBts7960Is
-        part = EmulatedBts7960Is(motor.rpwm, motor.lpwm, phys.current_a)
+        part = EmulatedBts7960Is(motor.rpwm, motor.lpwm, phys.current_a, now_s=now_s)
         dev.inputs[cfg.current_sense_channel] = part.volts
         return part
     from ..drivers.motors import sense_v_per_a
