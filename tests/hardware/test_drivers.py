@@ -385,6 +385,21 @@ def test_as5600_zero_unwrap_and_magnet_errors():
         s.read_deg()
 
 
+def test_as5600_reversed_counts_the_other_way_and_unwraps_the_other_way():
+    """DIR to VDD (or the chip on the other side of the magnet): the raw count falls as
+    the axis turns up; ``reversed`` reads 4096 - raw, so the angle still rises."""
+    caps = SensorCaps(kind="as5600", resolution_deg=360 / 4096, absolute=True, modulo_deg=360.0)
+    part = FakeAs5600()
+    s = As5600Sensor(caps, "az", part, reversed=True)
+    part.raw = 1024                               # 90 deg counted the other way: 270 deg
+    assert s.read_deg() == pytest.approx(270.0)
+    part.raw = 0                                  # up 90 deg, across 0/360
+    assert s.read_deg() == pytest.approx(0.0) and s.turns == 1
+    part.raw = 4000                               # up another 96 counts
+    assert s.read_deg() == pytest.approx(96 * 360 / 4096)
+    assert s.turns == 1 and s.unwrapped_deg() == pytest.approx(360.0 + 96 * 360 / 4096)
+
+
 class Vec:
     def __init__(self, v):
         self.v = v

@@ -53,6 +53,20 @@ def test_panel_pins_are_checked_against_the_motor_and_bus_pins(section, pin, tak
     assert taken_by in str(exc.value)
 
 
+@pytest.mark.parametrize("name", ["tartu-urc", "bigras"])
+def test_an_ir_receiver_pin_is_checked_against_every_other_pin(name):
+    """The docs used to put the gpio-ir receiver on GPIO17: tartu-urc's az encoder A and
+    bigras' az reed input. The pin the docs give now (14) is free in every example."""
+    ir = {"device": "/dev/input/by-path/platform-ir-receiver@11-event"}
+    with pytest.raises(ConfigError, match=r"panel\.ir\.gpio_pin") as exc:
+        Config.from_dict(example(name, **{"panel.ir": {**ir, "gpio_pin": 17}}))
+    assert "az.pins." in str(exc.value)
+    with pytest.raises(ConfigError, match=r"panel\.ir\.gpio_pin"):        # a panel LED on it too
+        Config.from_dict(example(name, **{"panel.ir": {**ir, "gpio_pin": 14}, "panel.leds.fault": 14}))
+    for path in GPIO_EXAMPLES:
+        Config.from_dict(example(path.stem, **{"panel.ir": {**ir, "gpio_pin": 14}}))
+
+
 def test_i2c_pins_are_reserved_while_a_chip_is_on_the_bus():
     with pytest.raises(ConfigError, match=r"panel\.leds\.fault.*I2C1 SCL"):
         Config.from_dict(example("berkeley", **{"panel.leds.fault": 3}))

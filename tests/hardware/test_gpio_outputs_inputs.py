@@ -13,8 +13,8 @@ from urc.app import build_rotator
 from urc.cli import with_emulation
 from urc.clock import VirtualClock
 from urc.config import Config, load_config
-from urc.hardware.drivers.motors import (BTS7960_FAULT_V, LMD18200_TRUTH_TABLE, SENSE_V_PER_A,
-                                         VNH5019_TRUTH_TABLE, SenseCurrent, lmd18200_state)
+from urc.hardware.drivers.motors import (LMD18200_TRUTH_TABLE, SENSE_V_PER_A, VNH5019_TRUTH_TABLE,
+                                         lmd18200_state)
 from urc.hardware.gpio.feed import emulated_bridge_open
 from urc.hardware.gpio.pins import PinIn, PinOut
 from urc.hardware.gpio.pwm import detect_pwm_chip
@@ -158,6 +158,19 @@ def test_pulse_debounce_rejects_bounce_on_opening_in_an_emulated_run(tmp_path):
     assert abs(s.sim_truth["az"]["deg"] - s.az_deg) <= 1.5
 
 
+def test_an_as5600_with_dir_to_vdd_counts_down_and_as5600_reversed_reads_it_up(tmp_path):
+    """The emulated chip counts the other way with as5600_reversed (its DIR tied to VDD:
+    counterclockwise counts up, AS5600 datasheet "Direction"); urc still goes where told."""
+    rot, clock = emulated("berkeley", tmp_path, az={"as5600_reversed": True})
+    chip = rot.hw.az.sensor.part
+    raw0 = chip.read_raw_angle()
+    rot.goto_az(rot.status().az_deg + 50.0)
+    s = run_virtual(rot, clock, 60.0, until=lambda s: not s.moving and abs(s.az_deg - 50.0) < 0.3)
+    assert abs(s.sim_truth["az"]["deg"] - 50.0) < 0.5 and not s.faults
+    counted = (chip.read_raw_angle() - raw0 + 2048) % 4096 - 2048
+    assert counted == pytest.approx(-50.0 * 4096 / 360, abs=8)     # the raw count went down
+
+
 def test_encoder_counts_per_degree_are_configurable(tmp_path):
     """A 4096-count encoder geared 1:1 (x4: 11.378 counts/deg) on tartu-urc's pins."""
     rot, clock = emulated("tartu-urc", tmp_path, az={"encoder_counts_per_deg": 4096 * 4 / 360})
@@ -172,7 +185,8 @@ def test_lmd18200_table_and_the_emulation_coast_against_brake():
     assert [lmd18200_state(*k) for k in sorted(LMD18200_TRUTH_TABLE)] == [
         "brake", "coast", "brake", "coast", "reverse", "brake", "forward", "brake"]
     assert VNH5019_TRUTH_TABLE[(0, 0)] == "brake to GND"
-    assert SENSE_V_PER_A["bts7960"] == pytest.approx(0.1176, abs=1e-4)
+    # BTS7960 k_ILIS typ 8500 (4.4.6) into the IBT-2's two 1 kOhm IS resistors, tied
+    assert SENSE_V_PER_A["bts7960"] == pytest.approx(0.0588, abs=1e-4)
 
 
 def test_emulated_lmd18200_coasts_further_than_it_brakes(tmp_path):
@@ -237,20 +251,6 @@ def test_a_bridge_fault_output_stops_the_axes_with_a_driver_fault(tmp_path):
     s = run_virtual(rot, clock, 0.5)
     (f,) = [f for f in s.faults if f.kind == "driver"]
     assert f.axis == "az" and "EN/DIAG pulled low" in f.reason
-
-
-def test_bts7960_fault_current_on_is_reads_as_a_fault():
-    class Volts:
-        v = 0.5
-
-        def read_volts(self):
-            return self.v
-    src = Volts()
-    cs = SenseCurrent(src, SENSE_V_PER_A["bts7960"], fault_v=BTS7960_FAULT_V)
-    assert cs.read_current_a() == pytest.approx(0.5 * 8.5) and cs.fault is None
-    src.v = 3.3                                       # 4.5 mA into 1 kOhm, clipped by the ADC
-    cs.read_current_a()
-    assert cs.fault and "signals a fault" in cs.fault
 
 
 def _sysfs(tmp_path: Path, chips: dict[int, tuple[str, int]]) -> Path:

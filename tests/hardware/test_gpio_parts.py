@@ -156,6 +156,27 @@ def test_ads1115_single_shot_byte_exact():
     assert bus.log[3] == ("w", 0x48, 0x01, (0xF3, 0xE3))       # MUX=111: AIN3
 
 
+@pytest.mark.parametrize("pga, fs_v", [(0b000, 6.144), (0b001, 4.096), (0b010, 2.048), (0b011, 1.024),
+                                       (0b100, 0.512), (0b101, 0.256), (0b110, 0.256), (0b111, 0.256)])
+def test_fake_ads1115_converts_at_the_full_scale_its_pga_bits_select(pga, fs_v):
+    """TI ADS1115 datasheet, Config register PGA[2:0] and the full-scale-range table
+    (values typed here): the code is volts / FSR x 32768, clipped at 7FFFh / 8000h."""
+    bus = FakeSMBus()
+    volts = {"v": 0.2}
+    bus.devices[0x48] = FakeAds1115({1: lambda: volts["v"]})
+
+    def convert() -> int:
+        word = 0x8000 | (4 + 1) << 12 | pga << 9 | 1 << 8 | 0x83   # OS, AIN1 vs GND, single shot
+        bus.write_i2c_block_data(0x48, 0x01, [word >> 8, word & 0xFF])
+        hi, lo = bus.read_i2c_block_data(0x48, 0x00, 2)
+        return int.from_bytes(bytes((hi, lo)), "big", signed=True)
+    assert convert() == round(0.2 / fs_v * 32768)
+    volts["v"] = 7.0                                   # beyond every range: the top code
+    assert convert() == 0x7FFF
+    volts["v"] = -7.0
+    assert convert() == -0x8000
+
+
 def test_nack_retries_are_bounded_then_an_error():
     bus = FakeSMBus()
     calls = []

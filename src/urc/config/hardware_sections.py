@@ -69,8 +69,10 @@ class GpioAxis(Section):
     #: resistor) on this input of the axis' ADC (``adc``): the overcurrent fault and the
     #: stall / stuck-sensor verdict then see the motor current; None = not wired
     current_sense_channel: int | None = Field(default=None, ge=-100, le=100)
-    #: None = the bridge's own figure (VNH5019 carrier 0.14, IBT-2/BTS7960 0.118); the
-    #: LMD18200 needs it (377 uA/A into your resistor)
+    #: None = the bridge's own figure (VNH5019 carrier 0.14; IBT-2/BTS7960 with its R_IS
+    #: and L_IS tied, 500 Ohm: 500/8500 = 0.0588, docs/hardware.md); the LMD18200 needs it
+    #: (377 uA/A into your resistor). Calibrate it with a meter: the BTS7960's k_ILIS
+    #: spreads 3000-14000 at 5 A
     current_sense_v_per_a: float | None = num(None, gt=0.0, le=10.0)
     #: output pins (by name: ina, cw, brake, ...) whose load is on when the pin is LOW
     #: (most relay modules); urc then drives them high to keep them off
@@ -84,6 +86,10 @@ class GpioAxis(Section):
     pot_m: float | None = num(None)
     pot_c: float | None = num(None)
     zero_deg: float = num(0.0)
+    #: an AS5600 whose count falls as the axis angle rises (its DIR pin tied to VDD, or
+    #: the chip on the other side of the magnet): urc counts it the other way. DIR must be
+    #: tied to GND or VDD; left floating, the direction is undefined
+    as5600_reversed: bool = False
     #: the compass chip of a magnetometer profile: lsm303d (0x1D) or lsm303agr (0x19 + 0x1E)
     compass: str = "lsm303d"
     declination_deg: float = num(0.0, ge=-180.0, le=180.0)

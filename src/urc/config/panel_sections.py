@@ -66,6 +66,9 @@ class PanelIr(Section):
 
     #: e.g. "/dev/input/by-path/platform-ir-receiver@12-event"
     device: str = Field(min_length=1)
+    #: the GPIO the receiver is wired to (config.txt ``dtoverlay=gpio-ir,gpio_pin=N``):
+    #: the kernel holds it, so urc only checks that no other part is given it too
+    gpio_pin: int | None = Field(default=None, ge=0, le=27)
     #: evdev key name -> action (cw ccw up down stop park slow); {} = the default map
     keys: dict[str, str] = Field(default_factory=dict, strict=False)
 

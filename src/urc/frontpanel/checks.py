@@ -23,6 +23,8 @@ def panel_issues(cfg: Config) -> list[Issue]:
     used: dict[int, str] = {}
     pins = [(f"panel.buttons.{k}", v) for k, v in p.buttons.model_dump().items()] + \
         [(f"panel.leds.{k}", v) for k, v in p.leds.model_dump().items()] + [("panel.beeper", p.beeper)]
+    if p.ir is not None:
+        pins.append(("panel.ir.gpio_pin", p.ir.gpio_pin))
     for key, pin in pins:
         if pin is None:
             continue

@@ -170,9 +170,11 @@ def _jog(hw: Any, name: str, ax: Any, ax_caps: Any, gpio: Any, duty: float, jog_
     if delta < 0:
         kind = getattr(getattr(gpio, name, None), "motor", None) if gpio is not None else None
         fix = REVERSE_FIX.get(kind or "", "swap the motor's two wires")
+        sensor_fix = {"encoder": " (or the encoder's enc_a and enc_b)",
+                      "as5600": " (or, if the antenna turned the right way, set as5600_reversed = true: "
+                                "the AS5600's DIR pin decides which way it counts)"}
         out(f"  jog up: the sensor counted DOWN ({delta:+.2f} deg): reversed wiring. Fix: in "
-            f"[hardware.gpio.{name}] {fix}" + (" (or the encoder's enc_a and enc_b)"
-                                                if ax_caps.sensor.kind == "encoder" else ""))
+            f"[hardware.gpio.{name}] {fix}" + sensor_fix.get(ax_caps.sensor.kind, ""))
         return 1
     note = ""
     if ax_caps.sensor.kind == "pulse":

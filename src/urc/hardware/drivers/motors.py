@@ -17,19 +17,16 @@ from typing import Callable, Sequence
 from ...clock import Clock
 from ...errors import ConfigError, HardwareError
 from ..parts import CurrentSense, DigitalIn, DigitalOut, PwmOut, VoltageIn
+from .bts7960_sense import V_PER_A as BTS7960_V_PER_A
 
 #: current-sense volts per motor ampere, per bridge as its datasheet and board give it:
 #: VNH5019: K = I_OUT/I_SENSE typ. 7000 (ST VNH5019A-E datasheet, electrical
 #: characteristics, current sense) into the Pololu carrier's 1 kOhm-class CS resistor:
-#: 140 mV/A as Pololu states; BTS7960: k_ILIS = I_L/I_IS typ. 8500 (Infineon BTS7960
-#: datasheet, table "Electrical characteristics - current sense") into the IBT-2 board's
-#: 1 kOhm R_IS: 1000/8500 = 0.118 V/A. LMD18200: 377 uA/A (TI LMD18200 datasheet,
-#: "current sense output") into a resistor of your choosing: no default, set it.
-SENSE_V_PER_A = {"vnh5019": 0.14, "bts7960": 1000.0 / 8500.0}
-#: BTS7960: on overtemperature, current limitation or undervoltage the IS pin sources
-#: I_IS(lim) typ. 4.5 mA (datasheet, "Current sense" / fault signal): into 1 kOhm that
-#: is 4.5 V, clipped at the ADC's range; anything above this reads as that fault
-BTS7960_FAULT_V = 3.0
+#: 140 mV/A as Pololu states; BTS7960: k_ILIS typ. 8500 (Infineon BTS7960 datasheet
+#: 4.4.6) into the IBT-2's two 1 kOhm IS resistors, the pins tied: 500/8500 = 0.0588 V/A
+#: (:mod:`.bts7960_sense`). LMD18200: 377 uA/A (TI LMD18200 datasheet, "current sense
+#: output") into a resistor of your choosing: no default, set it.
+SENSE_V_PER_A = {"vnh5019": 0.14, "bts7960": BTS7960_V_PER_A}
 
 #: TI LMD18200 datasheet, Table 1 "Logic Truth Table": (PWM, DIR, BRAKE) -> outputs on.
 #: PWM high with BRAKE high shorts the winding through two switches (brake); PWM low
@@ -104,20 +101,15 @@ def quantise_relay(duty: float, levels: tuple[float, ...]) -> float:
 
 class SenseCurrent:
     """A bridge's current-sense output on an ADC input: amperes = volts / ``v_per_a``
-    (:data:`SENSE_V_PER_A`; the output gives the magnitude, not the sign).
-    ``fault_v``: a reading at or above it is the bridge's fault signal (BTS7960), kept
-    in ``fault`` until the next reading below it."""
+    (:data:`SENSE_V_PER_A`; the output gives the magnitude, not the sign). The
+    BTS7960's IS, which senses only during the PWM on-time and carries a fault signal,
+    has its own reader (:class:`.bts7960_sense.Bts7960Sense`)."""
 
-    def __init__(self, volts: VoltageIn, v_per_a: float, fault_v: float | None = None):
-        self.volts, self.v_per_a, self.fault_v = volts, float(v_per_a), fault_v
-        self.fault: str | None = None
+    def __init__(self, volts: VoltageIn, v_per_a: float):
+        self.volts, self.v_per_a = volts, float(v_per_a)
 
     def read_current_a(self) -> float:
-        v = self.volts.read_volts()
-        if self.fault_v is not None:
-            self.fault = (f"current-sense output at {v:.2f} V: the bridge signals a fault "
-                          "(overtemperature, current limitation or undervoltage)") if v >= self.fault_v else None
-        return v / self.v_per_a
+        return self.volts.read_volts() / self.v_per_a
 
 
 class DirectionTracker:
@@ -276,11 +268,13 @@ class Lmd18200Motor(HBridgeMotor):
 
 class Bts7960Motor(HBridgeMotor):
     """IBT-2 / BTS7960 (BIG-RAS): RPWM drives forward, LPWM reverse; at most one is
-    ever non-zero (the other side is written to 0 first: no shoot-through)."""
+    ever non-zero (the other side is written to 0 first: no shoot-through). Its fault
+    signal comes on IS (:class:`.bts7960_sense.Bts7960Sense`, told each duty: IS senses
+    only during the driven side's on-time)."""
 
     def __init__(self, name: str, rpwm: PwmOut, lpwm: PwmOut, enable: DigitalOut | None = None,
                  current: CurrentSense | None = None):
-        super().__init__(name, current)   # its fault signal comes on IS (SenseCurrent.fault_v)
+        super().__init__(name, current)
         self.rpwm, self.lpwm, self.enable = rpwm, lpwm, enable
         rpwm.write_duty(0.0)
         lpwm.write_duty(0.0)
@@ -294,6 +288,12 @@ class Bts7960Motor(HBridgeMotor):
         else:
             self.rpwm.write_duty(0.0)
             self.lpwm.write_duty(-duty)
+        note_duty = getattr(self._current, "note_duty", None)
+        if note_duty is not None:
+            # the duty the PWM really makes: lgpio's software PWM truncates to whole
+            # percent (a 1.9 % drive runs at 1 %), and the IS reading is divided by it
+            read_back = getattr(self.rpwm if duty >= 0.0 else self.lpwm, "read_back", None)
+            note_duty(read_back() if read_back is not None else abs(duty))
 
 
 class PwmDirMotor(HBridgeMotor):

@@ -300,14 +300,19 @@ class As5600Sensor(_Driver):
     The magnet status is checked on every read: no magnet, too weak or too strong is an
     error, never an angle. ``turns`` counts crossings of 0/360 (the unwrapped angle is
     ``unwrapped_deg()``), for a sensor geared to more than one turn per axis travel.
+    ``reversed``: the chip counts up as the axis angle falls (AS5600 datasheet, "Direction":
+    DIR to GND counts up turning clockwise seen from above the chip, DIR to VDD
+    counterclockwise); its count is taken as 4096 - raw.
     """
 
     COUNTS = 4096
 
-    def __init__(self, caps: SensorCaps, name: str, part: As5600Part, *, zero_deg: float = 0.0):
+    def __init__(self, caps: SensorCaps, name: str, part: As5600Part, *, zero_deg: float = 0.0,
+                 reversed: bool = False):
         super().__init__(caps, name)
         self.part = part
         self.zero_deg = float(zero_deg)
+        self.reversed = bool(reversed)
         self.last_raw: int | None = None
         self.turns = 0
 
@@ -317,6 +322,8 @@ class As5600Sensor(_Driver):
             what = "too weak" if st.too_weak else "too strong" if st.too_strong else "not detected"
             raise PartError(f"{self.name} AS5600: magnet {what} (check the magnet gap)")
         raw = int(self.part.read_raw_angle()) & 0x0FFF
+        if self.reversed:
+            raw = -raw & 0x0FFF
         if self.last_raw is not None:
             jump = raw - self.last_raw
             if jump < -self.COUNTS // 2:

@@ -23,7 +23,8 @@ from ...clock import Clock
 from ...config.issues import error_from_issues
 from ...errors import ConfigError
 from ..drivers import LimitSwitchInput, RelayBrake, SenseCurrent
-from ..drivers.motors import BTS7960_FAULT_V, sense_v_per_a
+from ..drivers.bts7960_sense import Bts7960Sense
+from ..drivers.motors import sense_v_per_a
 from ..interfaces import AxisHardware, Hardware
 from .buses import Buses
 from .feed import (EmulatedBrake, EmulatedHeartbeat, EmulatedMotor, Emulation, feed_current_sense, feed_sensor,
@@ -121,11 +122,12 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
         mux_ch = cfg.i2c_mux_channel
         on_bus = f"bus {bus_n}" + ("" if mux_ch is None else f" mux ch{mux_ch}")
         pot_vref = sk == "pot" and cfg.adc_reference_channel is None
-        cs = None
+        cs: SenseCurrent | Bts7960Sense | None = None
         if cfg.current_sense_channel is not None:
             cs_chip = buses.adc(name, cfg, bus_n, pot_vref=pot_vref)
-            cs = SenseCurrent(AdcInput(cs_chip, cfg.current_sense_channel), sense_v_per_a(cfg),
-                              fault_v=BTS7960_FAULT_V if cfg.motor == "bts7960" else None)
+            cs_in = AdcInput(cs_chip, cfg.current_sense_channel)
+            cs = Bts7960Sense(cs_in, sense_v_per_a(cfg), clock.now_s) if cfg.motor == "bts7960" \
+                else SenseCurrent(cs_in, sense_v_per_a(cfg))
             where = f"SPI0 CE{cfg.spi_device}" if cfg.adc == "mcp3008" else on_bus
             parts_list.append((f"{name} current sense {cfg.adc.upper()} ch{cfg.current_sense_channel} "
                                f"({where})", cs_chip))
@@ -149,7 +151,10 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
             devices = buses.fake_devices(bus_n, mux_ch)
             feed_sensor(name, sk, sensor, devices, cfg, emu)
             if cs is not None:
-                feed_current_sense(world.axes[name], cfg, devices, buses.fake_spi)
+                is_part = feed_current_sense(world.axes[name], cfg, devices, buses.fake_spi, motor,
+                                             world.clock.now_s)
+                if is_part is not None:
+                    emu.parts[f"{name} current sense"] = is_part
             for side, sw in zip(("min", "max"), lims):
                 sim_sw = world.limits[name][0 if side == "min" else 1]
                 if sw is not None and sim_sw is not None:

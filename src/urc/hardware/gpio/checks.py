@@ -151,6 +151,8 @@ def gpio_issues(cfg: Config, caps: RotatorCaps) -> list[Issue]:
     p = cfg.panel
     panel = [(f"panel.buttons.{k}", v) for k, v in p.buttons.model_dump().items()] + \
         [(f"panel.leds.{k}", v) for k, v in p.leds.model_dump().items()] + [("panel.beeper", p.beeper)]
+    if p.ir is not None:
+        panel.append(("panel.ir.gpio_pin", p.ir.gpio_pin))
     for panel_key, panel_pin in panel:
         if panel_pin is not None and panel_pin in used:
             issues.append((panel_key, f"a GPIO not already used (GPIO{panel_pin} is {used[panel_pin]})",

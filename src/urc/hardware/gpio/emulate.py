@@ -205,12 +205,20 @@ class FakeLsm303d:
             self.regs[(reg & 0x7F) + i] = v
 
 
+#: TI ADS1115 datasheet (SBAS444), Config register, PGA[2:0] (bits 11:9): the full-scale
+#: range, +- volts, by code (101, 110 and 111 are all +-0.256 V); 010 at reset
+ADS1115_PGA_FS_V = {0: 6.144, 1: 4.096, 2: 2.048, 3: 1.024, 4: 0.512, 5: 0.256, 6: 0.256, 7: 0.256}
+
+
 class FakeAds1115:
-    """Single-shot conversions; ``inputs[ch]()`` gives the input in volts."""
+    """Single-shot conversions; ``inputs[ch]()`` gives the input in volts. MUX 100-111
+    (AINx against GND) converts that input, at the full-scale range the PGA bits select
+    (:data:`ADS1115_PGA_FS_V`); beyond it the code clips at 7FFFh / 8000h, as the
+    datasheet's output-code table has it."""
 
     def __init__(self, inputs: dict[int, Callable[[], float]]):
         self.inputs = inputs
-        self.config = 0x8583
+        self.config = 0x8583                 # the reset value: PGA 010, +-2.048 V
         self.conv = 0
         self.nack = False
 
@@ -220,7 +228,8 @@ class FakeAds1115:
             if self.config & 0x8000:
                 ch = (self.config >> 12 & 7) - 4
                 v = self.inputs.get(ch, lambda: 0.0)() if ch >= 0 else 0.0
-                self.conv = max(-32768, min(32767, round(v / 4.096 * 32768)))
+                fs_v = ADS1115_PGA_FS_V[self.config >> 9 & 7]
+                self.conv = max(-32768, min(32767, round(v / fs_v * 32768)))
                 self.config |= 0x8000        # conversion done at once
 
     def read(self, reg: int, n: int) -> list[int]:

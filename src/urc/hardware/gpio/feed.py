@@ -226,10 +226,13 @@ def feed_sensor(name: str, kind: str, sensor: Any, devices: dict[int, Any], cfg:
     elif kind == "as5600":
         chip = sensor.part
         raw = SimAs5600(*part).read_raw_angle
+        # as5600_reversed: the emulated chip's DIR is tied to VDD (it counts the other way)
+        flip = cfg.as5600_reversed
 
         def raw_angle() -> int:
             phys.bus_wait()
-            return raw()
+            r = raw()
+            return -r & 0x0FFF if flip else r
         dev = devices[chip.address] = FakeAs5600(raw_angle)
         emu.parts[name] = dev
         emu.dead_chip(dev, name)
@@ -301,18 +304,27 @@ def feed_sensor(name: str, kind: str, sensor: Any, devices: dict[int, Any], cfg:
         emu.parts[name] = dev
 
 
-def feed_current_sense(phys: Any, cfg: Any, devices: dict[int, Any], fake_spi: dict[int, Any]) -> None:
+def feed_current_sense(phys: Any, cfg: Any, devices: dict[int, Any], fake_spi: dict[int, Any],
+                       motor: Any = None, now_s: Any = None) -> Any:
     """Emulation: the bridge's current-sense output (magnitude only, clipped at the
-    ADC's range) from the simulated motor current, on the configured ADC input."""
+    ADC's range) from the simulated motor current, on the configured ADC input. A
+    BTS7960's is its IS pins as the data sheet has them (:mod:`.emulate_bts7960`),
+    returned so a test can set its grade or a fault."""
     from .emulate import FakeAds1115
     if cfg.adc == "mcp3008":
         dev = fake_spi[cfg.spi_device]
     else:
         addr = cfg.i2c_address or 0x48
         dev = devices.get(addr) or devices.setdefault(addr, FakeAds1115({}))
+    if cfg.motor == "bts7960" and motor is not None:
+        from .emulate_bts7960 import EmulatedBts7960Is
+        part = EmulatedBts7960Is(motor.rpwm, motor.lpwm, phys.current_a, now_s=now_s)
+        dev.inputs[cfg.current_sense_channel] = part.volts
+        return part
     from ..drivers.motors import sense_v_per_a
     v_per_a = sense_v_per_a(cfg)
     dev.inputs[cfg.current_sense_channel] = lambda: abs(phys.current_a()) * v_per_a
+    return None
 
 
 def ads_reference(cfg: Any) -> int:

@@ -18,7 +18,8 @@ from ...caps import AxisCaps, RotatorCaps
 from ...clock import Clock
 from ...config.issues import Issue, one_of
 from ..drivers import (As5600Sensor, Bts7960Motor, CompassSensor, Lmd18200Motor, PotSensor, PwmDirMotor,
-                       QuadratureEncoder, RelayMotor, SenseCurrent, SpidPulseSensor, TiltSensor, Vnh5019Motor)
+                       QuadratureEncoder, RelayMotor, SpidPulseSensor, TiltSensor, Vnh5019Motor)
+from ..parts import CurrentSense
 from ..sim.params import PHYSICS, physics_for
 from .feed import ads_reference
 from .i2c import Ads1115Channel, As5600Chip, Lsm303Accel, Lsm303agrChip, Lsm303dChip, Lsm303Mag
@@ -47,7 +48,7 @@ class AxisWiring:
     #: LSM303 chips already opened, by (bus, mux channel, address): one serves both axes
     lsm: dict[tuple[int, int | None, int], Any]
     #: the bridge's current sense, or None
-    current: SenseCurrent | None
+    current: CurrentSense | None
     out: Callable[[str], PinOut]
     fault_in: Callable[[str], PinIn | None]
     pwm: Callable[[str], Any]
@@ -147,7 +148,7 @@ def _as5600(w: AxisWiring, motor: Any) -> Any:
     chip = As5600Chip(w.buses.chip_bus(w.bus_n, w.mux_ch), w.cfg.i2c_address or As5600Chip.ADDRESS,
                       f"{w.name} AS5600")
     w.parts.append((f"{w.name} AS5600 ({w.on_bus})", chip))
-    return As5600Sensor(w.ax_caps.sensor, w.name, chip, zero_deg=w.cfg.zero_deg)
+    return As5600Sensor(w.ax_caps.sensor, w.name, chip, zero_deg=w.cfg.zero_deg, reversed=w.cfg.as5600_reversed)
 
 
 def _magnetometer(w: AxisWiring, motor: Any) -> Any:
