@@ -411,3 +411,34 @@ def test_an_unknown_current_neither_starts_nor_clears_the_overcurrent_hold():
         assert fault is None
         t += 0.02
     assert st.running_a is not None and not math.isnan(st.running_a)
+
+
+def test_the_emulated_is_does_not_sense_a_reverse_current():
+    """IS senses the driven high side's forward current only: a motor generating
+    (back-EMF above the applied voltage) pushes current back through it, which IS
+    does not show, on either side."""
+    for duties, load_a in (((0.4, 0.0), -3.0), ((0.0, 0.4), -3.0)):
+        p, *_ = part(load_a, *duties, grade="min", offset_a=200e-6)
+        assert p.volts() == pytest.approx(0.4 * 200e-6 * NODE_OHMS)     # I_ISH alone
+
+
+def test_a_decelerating_bigras_motor_generates_and_its_is_reads_no_current(tmp_path):
+    """Just after the drive drops the motor still turns faster than the new duty
+    drives it: its current flows back through the driven high side (the simulator's
+    signed current); the emulated IS reads none of it (it read its magnitude)."""
+    rot, clock = emulated_bigras(tmp_path)
+    phys, is_part, motor = rot.hw.world.axes["az"], rot.hw.gpio.emulation["az current sense"], rot.hw.az.motor
+
+    def run(seconds, step_s=0.02):
+        for k in range(round(seconds / step_s)):
+            clock.advance(step_s)
+            rot.hw.heartbeat.write(k % 2 == 0)
+            rot.hw.poll(clock.now_s())
+    for duty in (0.9, -0.9):                 # RPWM's side, then LPWM's
+        motor.set_drive(duty)
+        run(1.0)
+        assert phys.driven_side_current_a() > 0.0 and is_part.node_volts() > 0.0
+        motor.set_drive(duty / 4.5)          # the motor still turns at 90 % speed
+        run(0.002, step_s=0.001)
+        assert phys.driven_side_current_a() < -0.5 and phys.current_a() > 0.5
+        assert is_part.node_volts() == 0.0
