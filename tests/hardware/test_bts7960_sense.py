@@ -442,3 +442,21 @@ def test_a_decelerating_bigras_motor_generates_and_its_is_reads_no_current(tmp_p
         run(0.002, step_s=0.001)
         assert phys.driven_side_current_a() < -0.5 and phys.current_a() > 0.5
         assert is_part.node_volts() == 0.0
+
+
+def test_a_current_sense_that_cannot_be_read_stops_the_axis(tmp_path):
+    """The IS input is the BTS7960's only fault channel and the overcurrent rule's
+    input: an ADC that fails every read must not leave them blind (it read 0 A)."""
+    rot, clock = emulated_bigras(tmp_path)
+    rot.goto_az(rot.status().az_deg + 40.0)
+    run_virtual(rot, clock, 1.0)
+    assert rot.status().moving and not rot.status().faults
+
+    class DeadAdc:
+        def read_volts(self):
+            raise OSError("I2C NACK")
+    rot.hw.az.motor._current.volts = DeadAdc()
+    s = run_virtual(rot, clock, 0.5)
+    assert [(f.kind, f.axis) for f in s.faults] == [("driver", "az")]
+    assert "current sense unreadable" in s.faults[0].reason and "I2C NACK" in s.faults[0].reason
+    assert s.az.duty == 0.0 and s.az.target_deg is None          # stopped, the goto abandoned
