@@ -116,9 +116,9 @@ class Bts7960Sense:
 
     The fault signal is counted, not timed as an unbroken run (one low reading, a burst's
     gap, must not restart it): each reading at the fault level adds the time since the
-    last reading, each one below takes it off, one below the duty floor (or with nothing
-    driven) does neither; a count of ``hold_s`` is a fault. With no high side on the current is 0 and any
-    reading at fault level means the wiring is wrong.
+    last reading, each one below takes it off, one below the duty floor (or a low one
+    with nothing driven) does neither; a count of ``hold_s`` is a fault. With no high
+    side on the current is 0 and a reading at fault level means the wiring is wrong.
     """
 
     def __init__(self, volts: VoltageIn, v_per_a: float, now_s: Callable[[], float], *,
