@@ -9,6 +9,7 @@ file, not taken from urc's table:
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import pytest
@@ -91,7 +92,16 @@ def sensed(p, clock):
     return Bts7960Sense(type("V", (), {"read_volts": lambda self: p.volts()})(), 500 / 8500, clock.now_s)
 
 
-@pytest.mark.parametrize("duty", [0.05, 0.1, 0.3, 0.5, 0.66, 1.0])
+def read_every(cs, clock, seconds, tick_s=0.02):
+    """Read as the loop does, once per tick; the readings."""
+    out = []
+    for _ in range(round(seconds / tick_s)):
+        clock.t += tick_s
+        out.append(cs.read_current_a())
+    return out
+
+
+@pytest.mark.parametrize("duty", [0.1, 0.3, 0.5, 0.66, 1.0])
 def test_the_driver_sees_the_fault_and_the_current_at_any_duty(duty):
     clock = Clock()
     # the least favourable chip for a false fault: k_ILIS min, I_ISH max, 5 A
@@ -105,10 +115,9 @@ def test_the_driver_sees_the_fault_and_the_current_at_any_duty(duty):
     assert amps == pytest.approx((5.0 / 3000 + 200e-6) * 8500)   # the same at every duty
     # the least favourable chip for a missed fault: I_IS(lim) min, 4 mA
     p.lim_a, p.fault = 4e-3, True
-    cs.read_current_a()
+    read_every(cs, clock, 0.24)
     assert cs.fault is None                       # not yet: it must last 0.25 s
-    clock.t = 1.3
-    cs.read_current_a()
+    read_every(cs, clock, 0.02)
     assert cs.fault and "signals a fault" in cs.fault
     # a typical chip at 5 A reads 5 A
     p2, rp2, _, _ = part(5.0, r=duty)
@@ -118,35 +127,92 @@ def test_the_driver_sees_the_fault_and_the_current_at_any_duty(duty):
     assert cs2.read_current_a() == pytest.approx(5.0)
 
 
-def test_a_falling_duty_is_not_read_through_the_filters_memory():
-    """The RC filter (10 kOhm, 1 uF) still holds the last duty's reading for several
-    time constants after the duty falls; dividing it by the new duty would read ten
-    times the current (a false fault or overcurrent). The divisor is the largest duty
-    of the settling window."""
+def test_below_the_duty_floor_the_current_is_unknown_and_no_fault_is_called():
+    """At 5 % duty the reading is 5 % of the on-time value: an offset of a few mV the
+    zero missed would read as amperes. The current is NaN (unknown), and a fault level
+    neither counts towards a fault nor drains the count."""
     clock = Clock()
-    held = {"v": 20.0 / 8500 * NODE_OHMS}            # 20 A at full duty: 1.18 V, no fault
-
-    class Filtered:
-        def read_volts(self):
-            return held["v"]
-    cs = Bts7960Sense(Filtered(), 500 / 8500, clock.now_s)
+    p, rp, _, _ = part(5.0, grade="min", offset_a=200e-6, lim_grade="min")
+    cs = sensed(p, clock)
+    rp.duty = 1.0
     cs.note_duty(1.0)
-    clock.t = 1.0
-    assert cs.read_current_a() == pytest.approx(20.0)
-    cs.note_duty(0.1)                                  # the motor current stays 20 A
-    clock.t = 1.01                                     # one time constant later: still 1.18 V
-    assert cs.read_current_a() == pytest.approx(20.0) and cs.fault is None
-    clock.t = 1.2                                      # ten time constants: 0.1 x 1.18 V
-    held["v"] *= 0.1
-    assert cs.read_current_a() == pytest.approx(20.0) and cs.fault is None
+    cs.read_current_a()
+    p.fault = True
+    read_every(cs, clock, 0.2)                 # 0.2 s of the 0.25 s at fault level
+    assert cs.fault is None and cs.fault_count_s == pytest.approx(0.2)
+    rp.duty = 0.05
+    cs.note_duty(0.05)
+    readings = read_every(cs, clock, 1.0)
+    assert all(math.isnan(a) for a in readings[2:]) and cs.fault is None
+    # the first reading after the fall is divided by the filter's memory of 100 %: low,
+    # it drains one tick; the 49 unknown ones after it leave the count alone
+    assert cs.fault_count_s == pytest.approx(0.18)
+    rp.duty = 1.0
+    cs.note_duty(1.0)
+    read_every(cs, clock, 0.06)
+    assert cs.fault is None
+    read_every(cs, clock, 0.02)
+    assert cs.fault and "signals a fault" in cs.fault
+
+
+def test_a_fixed_offset_is_zeroed_while_nothing_is_driven_not_divided_by_the_duty():
+    """16 mV at the ADC input whatever the drive (ADC offset, clamp leakage, I_ISL):
+    divided by 1 % duty it read 1.6 V, a fault and 27 A. urc learns it with both sides
+    off and takes it off every reading."""
+    clock = Clock()
+    state = {"on_a": 3.0 / 8500, "duty": 0.0}           # 3 A on a typical chip
+
+    class Input:
+        def read_volts(self):
+            return 0.016 + state["duty"] * state["on_a"] * NODE_OHMS
+    cs = Bts7960Sense(Input(), 500 / 8500, clock.now_s)
     cs.note_duty(0.0)
-    clock.t = 1.4                                      # nothing driven: no current at all
-    held["v"] = 1e-6 * NODE_OHMS
-    assert cs.read_current_a() == 0.0 and cs.fault is None
-    held["v"] = 2.5                                    # at fault level with no IN high: the wiring
-    cs.read_current_a()
-    clock.t = 1.7
-    cs.read_current_a()
+    assert read_every(cs, clock, 0.6)[-1] == 0.0          # nothing driven: 0 A
+    for duty in (0.12, 0.3, 1.0):
+        state["duty"] = duty
+        cs.note_duty(duty)
+        assert read_every(cs, clock, 0.3)[-1] == pytest.approx(3.0, rel=2e-3)
+    state["duty"] = 0.01
+    cs.note_duty(0.01)
+    readings = read_every(cs, clock, 0.5)
+    assert math.isnan(readings[-1]) and cs.fault is None
+    assert cs.zero_v == pytest.approx(0.016, rel=1e-2)
+
+
+def test_a_falling_duty_is_not_read_through_the_filters_memory():
+    """The RC filter (10.5 kOhm, 1 uF) still holds the last duty's reading for several
+    time constants after the duty falls; dividing it by the new duty would read up to
+    ten times the current (a false fault or overcurrent). The divisor is the filtered
+    duty modelled at both ends of the filter's tolerance, the larger: whichever end the
+    real filter sits at, the reading is never high, and right once it settles."""
+    for tau_s in (0.75 * 10.5e-3, 1.25 * 10.5e-3):
+        clock = Clock()
+        on_v = 20.0 / 8500 * NODE_OHMS                  # 20 A at full duty: 1.18 V, no fault
+        filt = {"v": 0.0, "duty": 0.0, "t": 0.0}
+
+        class Filtered:
+            def read_volts(self):
+                dt = clock.t - filt["t"]
+                filt["v"] += (filt["duty"] * on_v - filt["v"]) * (1.0 - math.exp(-dt / tau_s))
+                filt["t"] = clock.t
+                return filt["v"]
+        cs = Bts7960Sense(Filtered(), 500 / 8500, clock.now_s)
+        readings = []
+        for duty in (1.0, 0.1, 0.7, 0.12, 1.0):
+            cs.read_current_a()                      # the filter's input held until now
+            filt["duty"] = duty
+            cs.note_duty(duty)
+            got = read_every(cs, clock, 0.2, tick_s=0.002)
+            readings += got
+            assert got[-1] == pytest.approx(20.0, rel=1e-3)
+        assert max(readings) <= 20.0 * (1 + 1e-9) and cs.fault is None
+    filt["duty"] = 0.0
+    cs.note_duty(0.0)
+    assert read_every(cs, clock, 0.2)[-1] == 0.0 and cs.fault is None   # nothing driven: no current
+    cs.volts = type("Stuck", (), {"read_volts": lambda self: 2.5})()     # fault level, no IN high
+    read_every(cs, clock, 0.24)
+    assert cs.fault is None
+    read_every(cs, clock, 0.02)
     assert cs.fault and "IS wiring" in cs.fault
 
 
@@ -163,15 +229,14 @@ def test_a_starting_current_passes_but_a_held_fault_level_does_not():
         clock.t = 1.0 + 0.02 * k
         cs.read_current_a()
         assert cs.fault is None
-    load["a"] = 3.0                                   # running
-    clock.t = 1.3
-    cs.read_current_a()
-    assert cs.fault is None
+    load["a"] = 3.0                                   # running: the count drains
+    read_every(cs, clock, 0.2)
+    assert cs.fault is None and cs.fault_count_s == 0.0
     p.fault = True                                    # overtemperature from now on
     for k in range(14):
-        clock.t = 1.4 + 0.02 * k
+        clock.t += 0.02
         cs.read_current_a()
-        assert (cs.fault is not None) == (0.02 * k >= 0.25)
+        assert (cs.fault is not None) == (0.02 * (k + 1) >= 0.25)
 
 
 class WholePercentPwm(Pwm):
@@ -182,23 +247,25 @@ class WholePercentPwm(Pwm):
 
 
 def test_the_sense_divides_by_the_duty_the_pwm_really_makes():
-    """On software PWM a 1.9 % drive runs at 1 %; divided by 1.9 % the fault current
-    (4 mA, the lowest I_IS(lim)) would read 2.1 mA, under the 3.2 mA fault level."""
+    """On software PWM a 15.9 % drive runs at 15 %; divided by 15.9 % the current would
+    read 6 % low (and a fault nearer its level). At 1.9 % (runs at 1 %) it is unknown."""
     from urc.hardware.drivers import Bts7960Motor
     clock = Clock()
     rp, lp = WholePercentPwm(), WholePercentPwm()
     p = EmulatedBts7960Is(rp, lp, lambda: 3.0, lim_grade="min")
     cs = sensed(p, clock)
     motor = Bts7960Motor("az", rp, lp, current=cs)
-    motor.set_drive(0.019)
-    assert rp.duty == 0.01
+    motor.set_drive(0.159)
+    assert rp.duty == 0.15
     clock.t = 1.0
     assert motor.read_current_a() == pytest.approx(3.0)
     p.fault = True
-    motor.read_current_a()
-    clock.t = 1.3
-    motor.read_current_a()
+    read_every(motor, clock, 0.26)
     assert "signals a fault" in motor.driver_fault()
+    motor.set_drive(0.019)
+    assert rp.duty == 0.01
+    read_every(motor, clock, 0.1)
+    assert math.isnan(motor.read_current_a())
 
 
 def test_the_emulated_filter_lags_and_a_duty_drop_is_not_read_as_a_current_spike():
@@ -282,3 +349,114 @@ def test_least_favourable_chips_fly_a_whole_goto_without_a_false_fault(tmp_path)
     rot.goto(10.0, 5.0)                                  # and back: the other side of each bridge
     s = run_virtual(rot, clock, 120.0, until=lambda s: not s.moving)
     assert not s.faults and abs(s.sim_truth["az"]["deg"] - 10.0) < 1.0
+
+
+def drive_emulated(duty_at, seconds, *, tick_s=0.02, fault=True, load_a=3.0, **kw):
+    """The emulated part (filter lag on) behind a Bts7960Motor, the drive set each tick
+    to ``duty_at(t)`` and the current read once per tick, as the loop does. Returns the
+    sense, the readings and the time of the first fault (None: never)."""
+    from urc.hardware.drivers import Bts7960Motor
+    clock = Clock()
+    rp, lp = WholePercentPwm(), WholePercentPwm()
+    p = EmulatedBts7960Is(rp, lp, lambda: load_a, now_s=clock.now_s, **kw)
+    p.fault = fault
+    cs = sensed(p, clock)
+    motor = Bts7960Motor("az", rp, lp, current=cs)
+    readings, first_fault_s = [], None
+    for k in range(round(seconds / tick_s)):
+        clock.t = k * tick_s
+        readings.append(motor.read_current_a())
+        if cs.fault and first_fault_s is None:
+            first_fault_s = clock.t
+        motor.set_drive(duty_at(clock.t))
+    return cs, readings, first_fault_s
+
+
+def test_a_fault_in_short_drive_bursts_is_called():
+    """0.2 s bursts at 23 % duty, 0.3 s off: each burst holds IS at I_IS(lim) (4 mA, the
+    lowest) for less than the 0.25 s hold, and the gaps must not wipe what was seen."""
+    _, _, first = drive_emulated(lambda t: 0.23 if (t % 0.5) < 0.2 else 0.0, 10.0, lim_grade="min")
+    assert first is not None and first < 2.0
+    # and the same bursts without a fault, on the chip that reads highest: none
+    cs, readings, first = drive_emulated(lambda t: 0.23 if (t % 0.5) < 0.2 else 0.0, 10.0,
+                                         fault=False, load_a=5.0, grade="min", offset_a=200e-6)
+    assert first is None and max(r for r in readings if r == r) < 5.0 / 3000 * 8500 * 1.2
+
+
+def test_a_fault_under_a_jittering_duty_is_called():
+    """The duty alternating 50 % / 38 % every tick: the filter follows within a tick,
+    so the window's largest duty as the divisor read the fault below its level."""
+    _, _, first = drive_emulated(lambda t: 0.5 if round(t / 0.02) % 2 else 0.38, 3.0, lim_grade="min")
+    assert first is not None and first < 0.5
+    cs, readings, first = drive_emulated(lambda t: 0.5 if round(t / 0.02) % 2 else 0.38, 3.0,
+                                         fault=False, load_a=3.0)
+    assert first is None
+    assert max(readings[10:]) <= 3.0 * 1.001 and min(readings[10:]) > 3.0 * 0.9    # never high, near the truth
+
+
+def test_an_unknown_current_neither_starts_nor_clears_the_overcurrent_hold():
+    """NaN (a BTS7960 below its duty floor) is not a low, safe reading: the overcurrent
+    rule keeps its hold across it, and the running current learnt is not poisoned."""
+    from urc.control.faults import OVERCURRENT_HOLD_S, FaultLimits, MonitorInputs, MonitorState, check
+    lim = FaultLimits("az", 0.0, 360.0, 6.0, 1.0, 0.1, 0.01, overcurrent_a=5.0)
+    st, t = MonitorState(), 0.0
+    for amps in [10.0] + [math.nan] * 13 + [10.0]:
+        st, fault = check(st, MonitorInputs(t, 100.0 + 2.0 * t, duty=0.5, current_a=amps), lim)
+        t += 0.02
+    assert t - 0.02 >= OVERCURRENT_HOLD_S            # the last reading: 0.28 s after the first
+    assert fault is not None and fault.kind == "overcurrent"
+    st, t = MonitorState(), 0.0
+    for amps in [10.0] + [3.0] + [10.0] * 10:          # a known low reading does clear it
+        st, fault = check(st, MonitorInputs(t, 100.0 + 2.0 * t, duty=0.5, current_a=amps), lim)
+        assert fault is None
+        t += 0.02
+    assert st.running_a is not None and not math.isnan(st.running_a)
+
+
+def test_the_emulated_is_does_not_sense_a_reverse_current():
+    """IS senses the driven high side's forward current only: a motor generating
+    (back-EMF above the applied voltage) pushes current back through it, which IS
+    does not show, on either side."""
+    for duties, load_a in (((0.4, 0.0), -3.0), ((0.0, 0.4), -3.0)):
+        p, *_ = part(load_a, *duties, grade="min", offset_a=200e-6)
+        assert p.volts() == pytest.approx(0.4 * 200e-6 * NODE_OHMS)     # I_ISH alone
+
+
+def test_a_decelerating_bigras_motor_generates_and_its_is_reads_no_current(tmp_path):
+    """Just after the drive drops the motor still turns faster than the new duty
+    drives it: its current flows back through the driven high side (the simulator's
+    signed current); the emulated IS reads none of it (it read its magnitude)."""
+    rot, clock = emulated_bigras(tmp_path)
+    phys, is_part, motor = rot.hw.world.axes["az"], rot.hw.gpio.emulation["az current sense"], rot.hw.az.motor
+
+    def run(seconds, step_s=0.02):
+        for k in range(round(seconds / step_s)):
+            clock.advance(step_s)
+            rot.hw.heartbeat.write(k % 2 == 0)
+            rot.hw.poll(clock.now_s())
+    for duty in (0.9, -0.9):                 # RPWM's side, then LPWM's
+        motor.set_drive(duty)
+        run(1.0)
+        assert phys.driven_side_current_a() > 0.0 and is_part.node_volts() > 0.0
+        motor.set_drive(duty / 4.5)          # the motor still turns at 90 % speed
+        run(0.002, step_s=0.001)
+        assert phys.driven_side_current_a() < -0.5 and phys.current_a() > 0.5
+        assert is_part.node_volts() == 0.0
+
+
+def test_a_current_sense_that_cannot_be_read_stops_the_axis(tmp_path):
+    """The IS input is the BTS7960's only fault channel and the overcurrent rule's
+    input: an ADC that fails every read must not leave them blind (it read 0 A)."""
+    rot, clock = emulated_bigras(tmp_path)
+    rot.goto_az(rot.status().az_deg + 40.0)
+    run_virtual(rot, clock, 1.0)
+    assert rot.status().moving and not rot.status().faults
+
+    class DeadAdc:
+        def read_volts(self):
+            raise OSError("I2C NACK")
+    rot.hw.az.motor._current.volts = DeadAdc()
+    s = run_virtual(rot, clock, 0.5)
+    assert [(f.kind, f.axis) for f in s.faults] == [("driver", "az")]
+    assert "current sense unreadable" in s.faults[0].reason and "I2C NACK" in s.faults[0].reason
+    assert s.az.duty == 0.0 and s.az.target_deg is None          # stopped, the goto abandoned

@@ -102,3 +102,14 @@ def test_a_heartbeat_pulled_up_at_boot_is_warned_about():
     cfg = Config.from_dict(example("g5500", **{"hardware.gpio.heartbeat_pin": 4}))
     assert any(n.startswith("hardware.gpio.heartbeat_pin: GPIO4 is pulled high at power-on")
                for n in gpio_warnings(cfg))
+
+
+def test_a_bts7960_current_sense_warns_of_a_pwm_frequency_its_filter_does_not_suit():
+    sensed = {"hardware.gpio.az.current_sense_channel": 0}
+    for hz, warned in ((1000.0, False), (500.0, False), (5000.0, False), (100.0, True), (20000.0, True)):
+        cfg = Config.from_dict(example("bigras", **sensed, **{"hardware.gpio.az.pwm_frequency_hz": hz}))
+        notes = [n for n in gpio_warnings(cfg) if n.startswith("hardware.gpio.az.pwm_frequency_hz")]
+        assert bool(notes) == warned, (hz, notes)
+    # no current sense: no filter to suit
+    cfg = Config.from_dict(example("bigras", **{"hardware.gpio.az.pwm_frequency_hz": 100.0}))
+    assert not [n for n in gpio_warnings(cfg) if "pwm_frequency_hz" in n and "BTS7960" in n]

@@ -7,6 +7,8 @@ an explicit clear.
 
 from __future__ import annotations
 
+import math
+
 from dataclasses import dataclass, replace
 
 #: consecutive unreadable ticks tolerated before the sensor counts as dead (one I2C
@@ -79,7 +81,7 @@ class MonitorInputs:
     sensor_error: str = ""
     duty: float = 0.0           # what the law asked for this tick
     min_duty: float = 0.0
-    current_a: float = 0.0
+    current_a: float = 0.0      # NaN: unknown this tick
     limit_min: bool = False
     limit_max: bool = False
     #: the position estimate the law will act on (filtered); None = the reading itself
@@ -108,7 +110,9 @@ def _check(st: MonitorState, x: MonitorInputs, lim: FaultLimits, ch: dict) -> Fa
         if x.limit_max and not st.limit_max:
             return fault("limit_switch", "upper limit switch hit")
 
-    if lim.overcurrent_a > 0 and x.current_a > lim.overcurrent_a:
+    if math.isnan(x.current_a):
+        pass    # unknown (a BTS7960 below its duty floor): not seen as safe, so the hold is kept
+    elif lim.overcurrent_a > 0 and x.current_a > lim.overcurrent_a:
         since = st.overcurrent_since_s if st.overcurrent_since_s is not None else x.now_s
         ch["overcurrent_since_s"] = since
         if x.now_s - since >= OVERCURRENT_HOLD_S:
@@ -159,7 +163,7 @@ def _check(st: MonitorState, x: MonitorInputs, lim: FaultLimits, ch: dict) -> Fa
         return fault("runaway", f"moving the wrong way: {meas - anchor:+.2f} deg while driven "
                                 f"{'up/cw' if sign > 0 else 'down/ccw'}")
     if progress is None or abs(meas - progress) >= lim.progress_deg:
-        if progress is not None:  # turning: learn what running current looks like
+        if progress is not None and not math.isnan(x.current_a):  # turning: learn its running current
             run = abs(x.current_a) if st.running_a is None else 0.8 * st.running_a + 0.2 * abs(x.current_a)
             ch["running_a"] = run
         ch.update(progress_deg=meas, progress_t_s=x.now_s)

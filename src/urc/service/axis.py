@@ -59,7 +59,14 @@ class Axis:
         self.sp: law.Setpoint | None = None
         self.out = law.OFF
         self.uncertainty_deg = 0.0
+        #: the motor current this tick for the fault monitor (NaN: unknown, e.g. a
+        #: BTS7960 below its duty floor), and the last known one, which status shows
         self.current_a = 0.0
+        self.shown_current_a = 0.0
+        #: consecutive current-sense reads that raised, and the last error (the guard
+        #: stops the axis after a few: its overcurrent rule and fault signal are blind)
+        self.current_failures = 0
+        self.current_error = ""
         self.limit_min = self.limit_max = False
         # Speed of a quantised sensor: the slope over a window ten counts long at
         # full speed (differencing tick to tick gives spikes of one count per tick).
@@ -200,8 +207,13 @@ class Axis:
         self.limit_max = bool(self.hw.limit_max and self.hw.limit_max.is_active())
         try:
             self.current_a = float(self.hw.motor.read_current_a())
-        except Exception:  # a current sense failure must not stop the loop
-            self.current_a = 0.0
+            self.current_failures = 0
+        except Exception as exc:  # must not stop the loop: unknown this tick, the guard counts
+            self.current_a = math.nan
+            self.current_failures += 1
+            self.current_error = f"{type(exc).__name__}: {exc}"
+        if not math.isnan(self.current_a):
+            self.shown_current_a = self.current_a
 
     def heading_deg(self, count_deg: float) -> float:
         """Where the drive takes the axis within GUARD_LOOKAHEAD_S. A drive that has
@@ -246,7 +258,7 @@ class Axis:
             target_deg=None if self.sp is None else self.sp.target_deg, mode=self.law.mode,
             duty=self.out.duty, brake_released=self.out.brake_released,
             uncertainty_deg=self.uncertainty_deg, limit_min=self.limit_min,
-            limit_max=self.limit_max, current_a=self.current_a,
+            limit_max=self.limit_max, current_a=self.shown_current_a,
             sensor_ok=self.sensor_ok, sensor_error=self.sensor_error)
 
     # ---- re-starting the estimate ---------------------------------------------------

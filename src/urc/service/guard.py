@@ -92,6 +92,10 @@ class Guard:
                 estimate_deg=ax.meas_deg if meas is not None else None), ax.flim)
             if fault is None:
                 fault = driver_fault(name, ax.hw.motor, now_s)
+            if fault is None and ax.current_failures >= faultmod.SENSOR_DEAD_TICKS:
+                fault = Fault("driver", name, f"{name} motor: current sense unreadable {ax.current_failures} "
+                              f"times running ({ax.current_error}): no overcurrent or bridge fault signal "
+                              "can be seen", now_s)
             if fault is not None:
                 if fault.kind == "sensor_range" and meas is not None:
                     ax.show_reading(meas)  # the reading, not the wild estimate

@@ -165,10 +165,17 @@ def gpio_issues(cfg: Config, caps: RotatorCaps) -> list[Issue]:
 BOOT_HIGH_PINS = frozenset(range(0, 9))
 
 
+#: the PWM frequencies the BTS7960 current sense is read well at: the filter (10.5 ms)
+#: leaves a ripple of duty x (1 - duty) x period / tau, 5 % of the reading at 500 Hz; above
+#: some kHz IS spends much of a low duty's on-time settling (Infineon BTS7960 Rev 1.1 §4.4)
+BTS7960_SENSE_PWM_HZ = (500.0, 5000.0)
+
+
 def gpio_warnings(cfg: Config) -> list[str]:
     """What ``urc config check`` warns about in [hardware.gpio] without refusing it: a
     motor, relay or brake output that is high from power-on until urc claims it (or,
-    active low, low from power-on), and current sensed with no overcurrent trip."""
+    active low, low from power-on), current sensed with no overcurrent trip, and a
+    BTS7960's current sensed at a PWM frequency its filter does not suit."""
     g = cfg.hardware.gpio
     if g is None:
         return []
@@ -193,6 +200,13 @@ def gpio_warnings(cfg: Config) -> list[str]:
                 notes.append(f"hardware.gpio.{name}.pins.{key}: active low on GPIO{pin}, which is pulled LOW "
                              "from power-on until urc starts: the load is on during boot. Use a pin from "
                              "GPIO0-8 for an active-low output, or fit a pull-up")
+        lo_hz, hi_hz = BTS7960_SENSE_PWM_HZ
+        if ax.motor == "bts7960" and ax.current_sense_channel is not None \
+                and not lo_hz <= ax.pwm_frequency_hz <= hi_hz:
+            notes.append(f"hardware.gpio.{name}.pwm_frequency_hz: {ax.pwm_frequency_hz:g} Hz with BTS7960 "
+                         f"current sense: keep it within {lo_hz:g}-{hi_hz:g} Hz (docs/hardware.md, bigras): "
+                         "slower, the 10.5 ms IS filter passes the PWM ripple into the reading; faster, "
+                         "IS has little of each short on-time to settle in")
         if ax.current_sense_channel is not None and cfg.faults.overcurrent_a == 0 and not g.emulate:
             notes.append(f"hardware.gpio.{name}.current_sense_channel: the motor current is sensed but "
                          "faults.overcurrent_a is 0: no overcurrent trip. Set it (about twice the running "

@@ -10,9 +10,10 @@ current sense rows (the numbers are in :mod:`..drivers.bts7960_sense`):
 * 4.4.9 I_ISH <= 200 uA with the high side on at no load (``offset_a``).
 
 Each half's IS gives its high side's forward current over k_ILIS (plus I_ISH) while
-its IN is high and its leakage while IN is low; the 10 ms RC filter passes the average
-over the PWM period, so the ADC sees duty x on-time current plus (1 - duty) x leakage,
-summed over both halves, into 500 Ohm, held below the input clamp. Given a clock, the
+its IN is high (nothing of a reverse current: a generating motor's) and its leakage
+while IN is low; the 10 ms RC filter passes the average over the PWM period, so the
+ADC sees duty x on-time current plus (1 - duty) x leakage, summed over both halves,
+into 500 Ohm, held below the input clamp. Given a clock, the
 filter's lag is modelled too (first order, ``filter_tau_s``; the input taken as held
 since the last read, which it is when the loop reads once per tick before it drives).
 """
@@ -45,8 +46,9 @@ def k_ilis(load_a: float, grade: str = "typ") -> float:
 
 
 class EmulatedBts7960Is:
-    """The IS node of one IBT-2 from its RPWM/LPWM levels and the simulated motor
-    current (a magnitude: taken as the driven side's forward current). ``fault``:
+    """The IS node of one IBT-2 from its RPWM/LPWM levels and the simulated current
+    through the driven high side (``current_a``: positive forward, negative while the
+    motor generates and pushes it back, which IS does not sense). ``fault``:
     overtemperature or current limitation, IS at I_IS(lim) while its IN is high."""
 
     def __init__(self, rpwm: Any, lpwm: Any, current_a: Callable[[], float], *, grade: str = "typ",
@@ -70,7 +72,7 @@ class EmulatedBts7960Is:
 
     def node_volts(self) -> float:
         """The PWM average at the tied IS pins (the filter settled)."""
-        load_a = abs(self.current_a())
+        load_a = max(self.current_a(), 0.0)   # forward only: a reverse current reads no more than 0 A
         total_a = 0.0
         for duty in (self.rpwm.read_back(), self.lpwm.read_back()):
             total_a += duty * self.on_time_a(load_a if duty > 0.0 else 0.0) + (1.0 - duty) * self.leak_a

@@ -318,7 +318,7 @@ def feed_current_sense(phys: Any, cfg: Any, devices: dict[int, Any], fake_spi: d
         dev = devices.get(addr) or devices.setdefault(addr, FakeAds1115({}))
     if cfg.motor == "bts7960" and motor is not None:
         from .emulate_bts7960 import EmulatedBts7960Is
-        part = EmulatedBts7960Is(motor.rpwm, motor.lpwm, phys.current_a, now_s=now_s)
+        part = EmulatedBts7960Is(motor.rpwm, motor.lpwm, phys.driven_side_current_a, now_s=now_s)
         dev.inputs[cfg.current_sense_channel] = part.volts
         return part
     from ..drivers.motors import sense_v_per_a

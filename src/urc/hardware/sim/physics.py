@@ -175,11 +175,29 @@ class AxisPhysics:
             tm = p.ac_torque_nm if self.held else min(abs(self._ta - self._tb * vg), self._cap)
             frac = min(1.0, tm / self._cap) if self._cap > 0 else 1.0
             return p.ac_noload_current_a + (p.ac_stall_current_a - p.ac_noload_current_a) * frac
+        return abs(self.dc_current_a())
+
+    def dc_current_a(self) -> float:
+        """A DC motor's current with its sign, amperes: positive flows the way a positive
+        drive pushes it, negative while the motor generates (back-EMF above the applied
+        voltage, e.g. decelerating or overhauled). A bridge's high-side sense (BTS7960
+        IS) sees only the positive part."""
+        if self.relay:
+            return self.current_a()          # an AC motor's: no sign to give
+        p = self.p
         if not self.powered or self.bridge_open:
             return 0.0
+        vg = 0.0 if self.held else self.gear_deg_per_s
         volts = self.effective_duty() * p.supply_v
         w_motor_rad = vg * DEG2RAD * p.gear_ratio
-        return abs((volts - p.kt_nm_per_a * w_motor_rad) / p.r_ohm)
+        return (volts - p.kt_nm_per_a * w_motor_rad) / p.r_ohm
+
+    def driven_side_current_a(self) -> float:
+        """The current through the bridge's driven high side, positive the way it drives
+        (whichever way the motor is wired): negative while the motor generates and
+        pushes current back through it; 0 with nothing driven."""
+        duty = self.effective_duty()
+        return 0.0 if duty == 0.0 else math.copysign(1.0, duty) * self.dc_current_a()
 
     # ------------------------------------------------------------------ integration
     def step_n(self, n: int) -> None:
