@@ -8,7 +8,6 @@ an explicit clear.
 from __future__ import annotations
 
 import math
-
 from dataclasses import dataclass, replace
 
 #: consecutive unreadable ticks tolerated before the sensor counts as dead (one I2C
