@@ -8,7 +8,9 @@ an explicit clear.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
+
+from .evolve import evolve
 
 #: consecutive unreadable ticks tolerated before the sensor counts as dead (one I2C
 #: glitch must not stop a pass; three in a row is a broken wire).
@@ -91,11 +93,11 @@ def check(st: MonitorState, x: MonitorInputs, lim: FaultLimits) -> tuple[Monitor
     """One tick of fault detection. At most one new fault per tick, the most basic first."""
     changes: dict = {}
     fault = _check(st, x, lim, changes)
-    return (replace(st, **changes) if changes else st), fault
+    return (evolve(st, **changes) if changes else st), fault
 
 
 def _check(st: MonitorState, x: MonitorInputs, lim: FaultLimits, ch: dict) -> Fault | None:
-    """Detect; record state changes in ``ch`` (one ``replace`` per tick, this runs at 50 Hz)."""
+    """Detect; record state changes in ``ch`` (one ``evolve`` per tick, this runs at 50 Hz)."""
     ax = lim.axis
 
     def fault(kind: str, reason: str) -> Fault:

@@ -21,6 +21,7 @@ import math
 from dataclasses import dataclass, field, replace
 from typing import Literal
 
+from .evolve import evolve
 from .profile import ProfileLimits, advance
 
 Mode = Literal["idle", "releasing", "driving", "holding"]
@@ -156,7 +157,7 @@ def step(st: AxisState, sp: Setpoint | None, meas_deg: float, now_s: float, dt_s
     """Advance one tick. ``sp=None`` means motor off, brake on, forget the target."""
     st, out = _step(st, sp, meas_deg, now_s, dt_s, tun, meas_rate_deg_per_s)
     if out.duty == 0.0 and st.relay_off_s == math.inf:
-        st = replace(st, relay_off_s=now_s)  # the relay just opened: the reverse pause starts
+        st = evolve(st, relay_off_s=now_s)  # the relay just opened: the reverse pause starts
     return st, out
 
 
@@ -164,7 +165,7 @@ def _step(st: AxisState, sp: Setpoint | None, meas_deg: float, now_s: float, dt_
           tun: AxisTuning, meas_rate_deg_per_s: float) -> tuple[AxisState, AxisOutput]:
     st = _learn_coast(st, meas_deg, now_s, tun)
     if sp is None:
-        return replace(st, mode="idle", ref_deg=meas_deg, ref_rate_deg_per_s=0.0,
+        return evolve(st, mode="idle", ref_deg=meas_deg, ref_rate_deg_per_s=0.0,
                        integral_deg_s=0.0, arrived=False), OFF
     sp = sp.bounded(now_s)
 
@@ -188,11 +189,11 @@ def _step(st: AxisState, sp: Setpoint | None, meas_deg: float, now_s: float, dt_
     if sp.seq != st.seq:
         # A new command: plan afresh from where the axis really is.
         restart = st.mode in ("idle", "holding") or abs(st.ref_deg - meas_deg) > tun.restart_deg
-        st = replace(st, seq=sp.seq, arrived=False, reversals=0,
+        st = evolve(st, seq=sp.seq, arrived=False, reversals=0,
                      approach_sign=math.copysign(1.0, error_deg) if error_deg else 0.0,
                      mode="driving" if st.mode == "holding" else st.mode)
         if restart:
-            st = replace(st, ref_deg=meas_deg, ref_rate_deg_per_s=0.0, integral_deg_s=0.0,
+            st = evolve(st, ref_deg=meas_deg, ref_rate_deg_per_s=0.0, integral_deg_s=0.0,
                          kick_anchor_deg=meas_deg, kick_since_s=now_s)
         if st.mode != "releasing" and abs(error_deg) <= tun.tolerance_deg and not tracking:
             return _hold(st, meas_deg, now_s, tun, brake_released=st.mode == "driving")
@@ -210,18 +211,18 @@ def _step(st: AxisState, sp: Setpoint | None, meas_deg: float, now_s: float, dt_
             return _hold(st, meas_deg, now_s, tun,
                          brake_released=_keep_brake_off(st, now_s, tun, tracking or creeping))
         # (the stiction clock starts now: the time spent holding is not time stuck)
-        st = replace(st, mode="driving", ref_deg=meas_deg, ref_rate_deg_per_s=0.0,
+        st = evolve(st, mode="driving", ref_deg=meas_deg, ref_rate_deg_per_s=0.0,
                      integral_deg_s=0.0, arrived=False,
                      approach_sign=math.copysign(1.0, error_deg),
                      kick_anchor_deg=meas_deg, kick_since_s=now_s)
 
     if tun.brake and st.mode == "driving" and st.phase_until_s == 0.0:
         # The brake needs voltage (and time) to release before the motor may pull.
-        st = replace(st, mode="releasing", phase_until_s=now_s + tun.brake_release_s)
+        st = evolve(st, mode="releasing", phase_until_s=now_s + tun.brake_release_s)
     if st.mode == "releasing":
         if now_s < st.phase_until_s:
-            return replace(st, ref_deg=meas_deg, ref_rate_deg_per_s=0.0), AxisOutput(0.0, True, True)
-        st = replace(st, mode="driving", phase_until_s=-1.0)
+            return evolve(st, ref_deg=meas_deg, ref_rate_deg_per_s=0.0), AxisOutput(0.0, True, True)
+        st = evolve(st, mode="driving", phase_until_s=-1.0)
 
     if tun.drive == "relay":
         return _relay(st, target_deg, sp.rate_deg_per_s, error_deg, meas_deg, now_s, tun, creeping)
@@ -238,8 +239,8 @@ def _keep_brake_off(st: AxisState, now_s: float, tun: AxisTuning, tracking: bool
 def _hold(st: AxisState, meas_deg: float, now_s: float, tun: AxisTuning,
           brake_released: bool) -> tuple[AxisState, AxisOutput]:
     if st.mode != "holding":
-        st = replace(st, mode="holding", hold_since_s=now_s)
-    st = replace(st, ref_deg=meas_deg, ref_rate_deg_per_s=0.0, integral_deg_s=0.0, arrived=True,
+        st = evolve(st, mode="holding", hold_since_s=now_s)
+    st = evolve(st, ref_deg=meas_deg, ref_rate_deg_per_s=0.0, integral_deg_s=0.0, arrived=True,
                  phase_until_s=0.0 if not brake_released else st.phase_until_s)
     return st, AxisOutput(0.0, brake_released and tun.brake, False)
 
@@ -265,7 +266,7 @@ def _pwm(st: AxisState, sp: Setpoint, target_deg: float, error_deg: float, meas_
         if _crossed(st, error_deg):
             if st.reversals >= MAX_REVERSALS and abs(error_deg) < tun.restart_deg:
                 return _hold(st, meas_deg, now_s, tun, brake_released=False)
-            st = replace(st, approach_sign=-st.approach_sign, reversals=st.reversals + 1,
+            st = evolve(st, approach_sign=-st.approach_sign, reversals=st.reversals + 1,
                          integral_deg_s=0.0)
     follow_err = ref - meas_deg
     integral = st.integral_deg_s
@@ -292,7 +293,7 @@ def _pwm(st: AxisState, sp: Setpoint, target_deg: float, error_deg: float, meas_
         # a burst after a slow target never drives back (a count flickering ahead of the
         # reference would otherwise make it hunt, the SPID counter's own direction with it)
         duty = 0.0
-    st = replace(st, mode="driving", ref_deg=ref, ref_rate_deg_per_s=ref_rate, integral_deg_s=integral,
+    st = evolve(st, mode="driving", ref_deg=ref, ref_rate_deg_per_s=ref_rate, integral_deg_s=integral,
                  arrived=arrived, kick_duty=kick, kick_anchor_deg=anchor, kick_since_s=since)
     return st, AxisOutput(duty, tun.brake, True)
 
@@ -318,16 +319,16 @@ def _relay(st: AxisState, target_deg: float, target_rate: float, error_deg: floa
         cut = (abs(error_deg) <= tun.tolerance_deg or _crossed(st, error_deg)
                or remaining <= st.coast_deg[level] + 0.5 * tun.tolerance_deg)
     if cut:
-        st = replace(st, cut_deg=meas_deg, cut_level=level, still_since_s=now_s, last_meas_deg=meas_deg)
+        st = evolve(st, cut_deg=meas_deg, cut_level=level, still_since_s=now_s, last_meas_deg=meas_deg)
         return _hold(st, meas_deg, now_s, tun, brake_released=False)
     # a burst never reverses: the way back, if any, starts from holding, past the
     # restart band (a relay flipping direction tick by tick is the hunting that wears it)
     direction = 1 if st.approach_sign > 0 else -1
     if st.relay_dir == -direction and now_s - st.relay_off_s < RELAY_REVERSE_PAUSE_S:
         # the other way than it last ran: off first, let it run down, then reverse
-        return replace(st, mode="driving"), AxisOutput(0.0, tun.brake, True)
+        return evolve(st, mode="driving"), AxisOutput(0.0, tun.brake, True)
     duty = math.copysign(levels[level], direction)
-    st = replace(st, mode="driving", ref_deg=target_deg, ref_rate_deg_per_s=0.0, cut_deg=None,
+    st = evolve(st, mode="driving", ref_deg=target_deg, ref_rate_deg_per_s=0.0, cut_deg=None,
                  relay_dir=direction, relay_off_s=math.inf)
     return st, AxisOutput(duty, tun.brake, True)
 
@@ -337,10 +338,10 @@ def _learn_coast(st: AxisState, meas_deg: float, now_s: float, tun: AxisTuning) 
     if st.cut_deg is None:
         return st
     if abs(meas_deg - st.last_meas_deg) > 0.5 * tun.tolerance_deg:  # still coasting
-        return replace(st, last_meas_deg=meas_deg, still_since_s=now_s)
+        return evolve(st, last_meas_deg=meas_deg, still_since_s=now_s)
     if now_s - st.still_since_s < COAST_SETTLE_S:
         return st
     coast = max(0.0, (meas_deg - st.cut_deg) * st.approach_sign)
     coasts = list(st.coast_deg)
     coasts[st.cut_level] += COAST_LEARN_GAIN * (coast - coasts[st.cut_level])
-    return replace(st, coast_deg=tuple(coasts), cut_deg=None, last_meas_deg=meas_deg)
+    return evolve(st, coast_deg=tuple(coasts), cut_deg=None, last_meas_deg=meas_deg)

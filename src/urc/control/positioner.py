@@ -21,8 +21,8 @@ Pure: state in, state out.
 from __future__ import annotations
 
 import math
-from dataclasses import replace
 
+from .evolve import evolve
 from .law import OFF, AxisOutput, AxisState, AxisTuning, Setpoint
 
 
@@ -39,7 +39,7 @@ def step(st: AxisState, sp: Setpoint | None, meas_deg: float, rate_deg_per_s: fl
     if sp is None:
         # told to stop: it still counts as driven while the controller brings it to rest
         duty = math.copysign(1.0, rate_deg_per_s) if turning else 0.0
-        st = replace(st, mode="driving" if turning else "idle", ref_deg=meas_deg,
+        st = evolve(st, mode="driving" if turning else "idle", ref_deg=meas_deg,
                      ref_rate_deg_per_s=rate_deg_per_s, arrived=False)
         return st, (AxisOutput(duty, False, True) if duty else OFF), None
     lo, hi = limits_deg
@@ -53,14 +53,14 @@ def step(st: AxisState, sp: Setpoint | None, meas_deg: float, rate_deg_per_s: fl
     settle_band_deg = max(tun.restart_deg, band_deg + 2.0 * (band_deg - tun.tolerance_deg))
     there = abs(error_deg) <= (band_deg if turning else max(band_deg, settle_band_deg))
     if st.seq != sp.seq:
-        st = replace(st, seq=sp.seq, arrived=False, hold_since_s=now_s)
+        st = evolve(st, seq=sp.seq, arrived=False, hold_since_s=now_s)
     if there and sp.rate_deg_per_s == 0.0:
         if st.mode != "holding":
-            st = replace(st, hold_since_s=now_s)
-        st = replace(st, mode="holding", arrived=True, ref_deg=meas_deg, ref_rate_deg_per_s=0.0)
+            st = evolve(st, hold_since_s=now_s)
+        st = evolve(st, mode="holding", arrived=True, ref_deg=meas_deg, ref_rate_deg_per_s=0.0)
         return st, OFF, aim
     direction = rate_deg_per_s if turning else (error_deg or sp.rate_deg_per_s)
-    st = replace(st, mode="driving", ref_deg=meas_deg, ref_rate_deg_per_s=rate_deg_per_s)
+    st = evolve(st, mode="driving", ref_deg=meas_deg, ref_rate_deg_per_s=rate_deg_per_s)
     if there:  # following a moving target within the band: on its way, not pushing
         return st, AxisOutput(math.copysign(1.0, direction) if turning else 0.0, False, turning), aim
     return st, AxisOutput(math.copysign(1.0, direction) if direction else 0.0, False, True), aim

@@ -135,9 +135,21 @@ class FlownPass(NamedTuple):
     flipped: bool = False
 
 
+#: how long before AOS a Gpredict-style run starts (it commands from AOS - 60 s), and a
+#: urc run given no ``lead_s`` plans its pass from
+DEFAULT_LEAD_S = 240.0
+#: a urc run given no ``lead_s`` starts this long before its plan leaves for the AOS pose
+AT_REST_BEFORE_PREPOSITION_S = 5.0
+
+
 def fly_pass_on_sim(profile: str, elements, station, p, state_dir, *, flip: bool | str = "auto",
-                    driver: str = "urc", lead_s: float = 240.0, config: dict | None = None) -> FlownPass:
-    """Fly pass ``p`` on a fresh simulated rotator (``flip`` as ``[rotator] flip``)."""
+                    driver: str = "urc", lead_s: float | None = None, config: dict | None = None) -> FlownPass:
+    """Fly pass ``p`` on a fresh simulated rotator (``flip`` as ``[rotator] flip``).
+
+    ``lead_s``: the run starts this long before AOS. Without it, urc's tracker plans the
+    pass DEFAULT_LEAD_S before AOS and the run starts just before the plan leaves for the
+    AOS pose: the antenna would only stand at rest until then (each simulated second
+    costs a 50 Hz loop's CPU, and the pass tests are the suite's longest)."""
     from ..assembly import build_rotator
     from ..config import Config
     from ..tracking.planner import pointing_error_deg
@@ -150,7 +162,7 @@ def fly_pass_on_sim(profile: str, elements, station, p, state_dir, *, flip: bool
         cfg[k] = {**cfg.get(k, {}), **v} if isinstance(v, dict) else v
     clock = VirtualClock(0.0)
     rot = build_rotator(Config.from_dict(cfg), clock, state_dir, fast_virtual=True)
-    start_u = p.aos_unix_s - lead_s
+    start_u = p.aos_unix_s - (DEFAULT_LEAD_S if lead_s is None else lead_s)
 
     def unix_at(now_s: float) -> float:
         return start_u + now_s
@@ -158,6 +170,8 @@ def fly_pass_on_sim(profile: str, elements, station, p, state_dir, *, flip: bool
     if driver == "urc":
         tracker = Tracker(rot, station, unix_at, park_after_pass=False)
         plan = tracker.track_pass(elements, p, clock.now_s())
+        if lead_s is None:  # no tick has run: the clock's origin moves, the plan's UTC stays
+            start_u = max(start_u, plan.preposition_start_s - AT_REST_BEFORE_PREPOSITION_S)
         step = tracker.step
     else:
         # Gpredict flips by its own rule where the rotator can (its user configures the
