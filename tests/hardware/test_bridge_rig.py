@@ -15,6 +15,7 @@ import pytest
 
 from urc.hardware.bridge import BRIDGE_PROTOCOLS
 from urc.testing.bridged_rig import BridgedRig
+from urc.testing.evaluate import DEFAULT_LEAD_S, start_before_preposition
 from urc.protocols import spid_codec as spid
 from urc.tracking.elements import load_elements
 from urc.angles import great_circle_deg
@@ -154,14 +155,15 @@ TARTU = Station(58.3780, 26.7290, 70.0, "Tartu")
 
 
 def fly_pass(rig: BridgedRig, es, p) -> np.ndarray:
-    """The bridged urc plans and tracks pass ``p`` (from 240 s before AOS); the
-    pointing error (deg) of the controller's simulator truth from AOS to LOS."""
-    start_u = p.aos_unix_s - 240.0
+    """The bridged urc plans pass ``p`` (240 s before AOS) and tracks it (from just before
+    the plan leaves for the AOS pose); the pointing error (deg) of the controller's
+    simulator truth from AOS to LOS."""
+    start_u = p.aos_unix_s - DEFAULT_LEAD_S
 
     def unix_at(now_s: float) -> float:
         return start_u + now_s
     tracker = Tracker(rig.downstream, TARTU, unix_at, park_after_pass=False)
-    tracker.track_pass(es, p, rig.clock.now_s())
+    start_u = start_before_preposition(tracker.track_pass(es, p, rig.clock.now_s()), start_u)
     t, az, el = [], [], []
     while unix_at(rig.clock.now_s()) < p.los_unix_s:
         s = rig.tick()

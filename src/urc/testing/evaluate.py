@@ -142,6 +142,12 @@ DEFAULT_LEAD_S = 240.0
 AT_REST_BEFORE_PREPOSITION_S = 5.0
 
 
+def start_before_preposition(plan, start_u: float) -> float:
+    """When a run that planned ``plan`` at UTC ``start_u`` (no tick yet) may as well
+    start: AT_REST_BEFORE_PREPOSITION_S before the plan leaves for the AOS pose."""
+    return max(start_u, plan.preposition_start_s - AT_REST_BEFORE_PREPOSITION_S)
+
+
 def fly_pass_on_sim(profile: str, elements, station, p, state_dir, *, flip: bool | str = "auto",
                     driver: str = "urc", lead_s: float | None = None, config: dict | None = None) -> FlownPass:
     """Fly pass ``p`` on a fresh simulated rotator (``flip`` as ``[rotator] flip``).
@@ -171,7 +177,7 @@ def fly_pass_on_sim(profile: str, elements, station, p, state_dir, *, flip: bool
         tracker = Tracker(rot, station, unix_at, park_after_pass=False)
         plan = tracker.track_pass(elements, p, clock.now_s())
         if lead_s is None:  # no tick has run: the clock's origin moves, the plan's UTC stays
-            start_u = max(start_u, plan.preposition_start_s - AT_REST_BEFORE_PREPOSITION_S)
+            start_u = start_before_preposition(plan, start_u)
         step = tracker.step
     else:
         # Gpredict flips by its own rule where the rotator can (its user configures the
