@@ -16,7 +16,7 @@ import pytest
 
 from urc.hardware.sim.outputs import read_output_file
 
-from urc_process import URC, UrcProcess, free_port, wait_until
+from urc_process import URC, UrcProcess, free_port, process_gone, wait_until
 
 
 @pytest.fixture
@@ -86,7 +86,7 @@ def test_a_frozen_or_dead_control_process_is_ended_and_its_outputs_driven_safe_f
     assert u.proc.returncode != 0, out
     assert "every output driven safe by this process" in out and "Traceback" not in out, out
     assert ("froze" if how == "SIGSTOP" else "died") in out, out
-    assert not os.path.exists(f"/proc/{ctl}") or "Z" in open(f"/proc/{ctl}/stat").read().split()[2]
+    assert process_gone(ctl)
     assert read_output_file(u.state_dir / "heartbeat")["level"] == 0
     truth_then = truth(u)
     u.start()  # the next start: the move in progress is not resumed
@@ -115,8 +115,7 @@ def test_kill_9_of_the_io_process_stops_the_axes_saves_and_the_heartbeat(urc):
     u.wait(lambda s: s["moving"] and abs(s["az"]["rate_deg_per_s"]) > 3)
     u.proc.send_signal(signal.SIGKILL)
     u.proc.wait()
-    wait_until(lambda: not os.path.exists(f"/proc/{ctl}") or "Z" in open(f"/proc/{ctl}/stat").read().split()[2],
-               30, "the control process exits")
+    wait_until(lambda: process_gone(ctl), 30, "the control process exits")
     dead = heartbeat(u)
     time.sleep(0.6)
     assert heartbeat(u) == dead and dead["level"] == 0

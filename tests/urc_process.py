@@ -132,6 +132,16 @@ def api_answers(url: str) -> bool:
         return False
 
 
+def process_gone(pid: int) -> bool:
+    """True once ``pid`` has exited (gone, or a zombie not yet reaped). Race-free: its
+    parent may reap it between looking for /proc/PID and reading its stat."""
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            return f.read().rsplit(")", 1)[1].split()[0] == "Z"
+    except (FileNotFoundError, ProcessLookupError):
+        return True
+
+
 def wait_until(pred, timeout_s: float = 30.0, what: str = "condition", poll_s: float = 0.05):
     """Poll ``pred`` until it returns something true (returned), or fail after ``timeout_s``."""
     deadline = time.monotonic() + timeout_s

@@ -14,7 +14,7 @@ import pytest
 from urc.clock import RealClock
 from urc.hardware.sim import SimWorld, physics_for
 from urc.profiles import get_profile
-from urc_process import UrcProcess, wait_until
+from urc_process import UrcProcess, process_gone, wait_until
 
 PROFILE = "tartu-urc"
 TIMEOUT_S = 0.22
@@ -67,8 +67,7 @@ def test_a_frozen_or_killed_control_process_runs_on_only_until_the_relay_drops(t
             os.kill(pid, signal.SIGSTOP)
             time.sleep(freeze_s)
         os.kill(pid, signal.SIGKILL)
-        wait_until(lambda: not os.path.exists(f"/proc/{pid}") or
-                   open(f"/proc/{pid}/stat").read().split()[2] == "Z", 10.0, "control process gone")
+        wait_until(lambda: process_gone(pid), 10.0, "control process gone")
     finally:
         p.stop()
     record = json.loads(truth_file.read_text())
