@@ -37,4 +37,9 @@ else
 fi
 # axe-core for the browser tests' accessibility checks (a local file, no CDN)
 npm ci --prefix tests/web --no-audit --no-fund --silent
+# The suite starts hundreds of interpreters (urc run, its control process, the CLI): each
+# loads urc's modules from cached bytecode (__pycache__, git-ignored) instead of compiling
+# ~200 of them from source, ~0.25 s of CPU per interpreter where PYTHONDONTWRITEBYTECODE
+# is set
+unset PYTHONDONTWRITEBYTECODE
 exec python3 -m pytest "$@"

@@ -12,7 +12,6 @@ import socket
 import threading
 from pathlib import Path
 
-from .assembly import STATE_FILE, bridged_caps, build_rotator, hardware_options, settings_from_config  # noqa: F401
 from .clock import Clock
 from .config import Config
 from .errors import UrcError

@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 from gpiozero.pins.mock import MockFactory, MockPWMPin
 
-from urc.app import build_rotator
+from urc.assembly import build_rotator
 from urc.cli import with_emulation
 from urc.clock import VirtualClock
 from urc.config import Config, load_config
