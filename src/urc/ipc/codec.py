@@ -15,6 +15,7 @@ from __future__ import annotations
 import builtins
 import dataclasses
 import enum
+import functools
 import importlib
 import io
 import pickle
@@ -47,8 +48,10 @@ def _urc_data_type(obj: Any) -> bool:
             or (issubclass(obj, tuple) and hasattr(obj, "_fields")))
 
 
+@functools.lru_cache(maxsize=512)
 def allowed_class(module: str, name: str) -> Any:
-    """The class ``module.name`` if the link admits it, else None."""
+    """The class ``module.name`` if the link admits it, else None (remembered: a Status
+    names a dozen classes and crosses the link a hundred times a second)."""
     if (module, name) in _STDLIB or (module.startswith("numpy") and name == "dtype"):
         return getattr(importlib.import_module(module), name, None)
     if module == "urc" or module.startswith("urc."):
