@@ -220,7 +220,17 @@ class UrcProcess:
         raise AssertionError("no control process found")
 
     def status(self) -> dict:
-        return httpx.get(self.url + "/api/status", timeout=5).json()
+        try:
+            return httpx.get(self.url + "/api/status", timeout=5).json()
+        except httpx.TransportError:
+            self._raise_if_exited()
+            raise
+
+    def _raise_if_exited(self) -> None:
+        """A urc that has gone away: fail with what it said, not with 'connection refused'."""
+        if self.proc is not None and self.proc.poll() is not None:
+            out = self.proc.stdout.read() if self.proc.stdout is not None else "(its output went to a log)"
+            raise AssertionError(f"urc run exited with code {self.proc.returncode}:\n{out}")
 
     def post(self, path: str, body: dict | None = None) -> httpx.Response:
         return httpx.post(self.url + path, json=body, timeout=5)
