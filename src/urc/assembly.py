@@ -71,8 +71,8 @@ def bridged_caps(caps, protocol: str):
 
 
 #: least wall time between simulator-truth writes on a fast virtual clock: a write (an
-#: atomic replace, which ext4 flushes) costs ~2-3 ms, and at 0.02 s it was a tenth of a
-#: simulated pass's CPU; ``fast_virtual`` trades restart exactness for speed anyway
+#: atomic replace, which ext4 flushes) waits ~2-3 ms, and at 0.02 s it was a tenth of a
+#: simulated pass's wall time; ``fast_virtual`` trades restart exactness for speed anyway
 FAST_VIRTUAL_TRUTH_WALL_S = 0.25
 
 
