@@ -172,7 +172,8 @@ class SharedFakeSMBus:
         from urc.hardware.gpio.emulate import FakeAs5600, FakeSMBus
         if n not in cls.buses:
             bus = FakeSMBus()
-            bus.mux_channel(0x70, 0)[0x36] = FakeAs5600(lambda: 1024)    # az: 90 deg
+            # az: 90 deg (raw 270: the example's az chip counts the other way, as5600_reversed)
+            bus.mux_channel(0x70, 0)[0x36] = FakeAs5600(lambda: 3072)
             bus.mux_channel(0x70, 1)[0x36] = FakeAs5600(lambda: 512)     # el: 45 deg
             cls.buses[n] = bus
         return cls.buses[n]
