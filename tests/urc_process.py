@@ -177,9 +177,10 @@ class UrcProcess:
                                      start_new_session=True, env=env, preexec_fn=_term_with_parent)
         try:
             wait_until(self._answers, timeout_s, "urc run answers on its API port", poll_s=0.1)
-        except BaseException:
+        except BaseException as exc:
             out = stop_process_group(self.proc, timeout_s=10)
-            raise AssertionError(f"urc run did not start listening:\n{out}") from None
+            # (one that exited has had its output read into exc already: nothing is left)
+            raise AssertionError(f"urc run did not start listening:\n{out or exc}") from None
         return self
 
     def start_logged(self, log_path: Path, prefix: list[str] | None = None,
@@ -200,8 +201,7 @@ class UrcProcess:
         return self
 
     def _answers(self) -> bool:
-        if self.proc.poll() is not None:
-            raise AssertionError(f"urc run exited: {self.proc.stdout.read()}")
+        self._raise_if_exited()
         try:
             httpx.get(self.url + "/api/status", timeout=2.0)   # (any answer: the API is up)
             return True
