@@ -223,14 +223,21 @@ class UrcProcess:
         try:
             return httpx.get(self.url + "/api/status", timeout=5).json()
         except httpx.TransportError:
-            self._raise_if_exited()
+            self._raise_if_exited(grace_s=5.0)
             raise
 
-    def _raise_if_exited(self) -> None:
-        """A urc that has gone away: fail with what it said, not with 'connection refused'."""
-        if self.proc is not None and self.proc.poll() is not None:
-            out = self.proc.stdout.read() if self.proc.stdout is not None else "(its output went to a log)"
-            raise AssertionError(f"urc run exited with code {self.proc.returncode}:\n{out}")
+    def _raise_if_exited(self, grace_s: float = 0.0) -> None:
+        """A urc that has gone away: fail with what it said, not with 'connection refused'.
+        ``grace_s``: how long to wait for it to exit (one on its way out has closed its
+        port a moment before it exits)."""
+        if self.proc is None:
+            return
+        try:
+            self.proc.wait(timeout=grace_s)
+        except subprocess.TimeoutExpired:
+            return
+        out = self.proc.stdout.read() if self.proc.stdout is not None else "(its output went to a log)"
+        raise AssertionError(f"urc run exited with code {self.proc.returncode}:\n{out}")
 
     def post(self, path: str, body: dict | None = None) -> httpx.Response:
         return httpx.post(self.url + path, json=body, timeout=5)
@@ -246,7 +253,11 @@ class UrcProcess:
         raise AssertionError(f"condition not met within {timeout_s} s; last status {s}")
 
     def stop(self) -> str:
-        """SIGTERM, then SIGKILL after 30 s; either way nothing of this urc is left."""
+        """SIGTERM, then SIGKILL after 30 s; either way nothing of this urc is left.
+        Its output is also printed: pytest shows it under a failed test's captured output."""
         if self.proc is None:
             return ""
-        return stop_process_group(self.proc)
+        out = stop_process_group(self.proc)
+        if out:
+            print(f"--- urc run (pid {self.proc.pid}) said:\n{out}")
+        return out
