@@ -279,3 +279,48 @@ def test_close_right_after_the_brake_is_switched_off_saves_it_engaged(tmp_path):
     hw.close()
     saved = json.loads((tmp_path / "simulator-truth.json").read_text())["axes"]
     assert saved["az"]["brake_released"] is False and saved["el"]["brake_released"] is False
+
+
+# ---------------------------------------------------------------- threads
+def test_the_world_is_one_iron_for_every_thread(tmp_path):
+    """The control process's tick-watch thread drives the outputs safe while the loop
+    thread ticks (both wake together after a SIGSTOP): the world must take their calls
+    one at a time, as the iron does. Unserialised, two threads stepped the same substeps
+    (the physics ran twice as far) or both took the same brake event (KeyError: the
+    control loop died after a thaw)."""
+    import sys
+    import threading
+
+    clock = VirtualClock()
+    hw = build_hardware("sim", PROFILES["tartu-urc"], clock, tmp_path, {"wind": False})
+    world = hw.world
+    hw.poll(0.0)
+    brake_s = PROFILES["tartu-urc"].az.brake_release_s
+    errors: list[BaseException] = []
+    old_interval = sys.getswitchinterval()
+    sys.setswitchinterval(1e-6)     # switch threads as often as the interpreter can
+    try:
+        for _ in range(300):
+            hw.az.brake.set_released(world.axes["az"].brake_engaged)   # (a brake event each round)
+            clock.advance(brake_s + 0.05)       # the brake event is due: both threads see it
+            gate = threading.Barrier(2)
+
+            def act(call):
+                try:
+                    gate.wait()
+                    call()
+                except BaseException as exc:  # noqa: BLE001 (reported below)
+                    errors.append(exc)
+            threads = [threading.Thread(target=act, args=(lambda: hw.poll(clock.now_s()),)),
+                       threading.Thread(target=act, args=(hw.drive_safe,))]
+            for t in threads:
+                t.start()
+            for t in threads:
+                t.join()
+            assert not errors, errors
+            # each axis stepped exactly to the present: no substep run twice
+            assert world.time_s == pytest.approx(clock.now_s(), abs=world.dt_s)
+            for phys in world.axes.values():
+                assert phys.tick == world.axes["az"].tick
+    finally:
+        sys.setswitchinterval(old_interval)

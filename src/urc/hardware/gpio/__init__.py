@@ -187,9 +187,10 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
         syncs.append(forget_output_history(factory))
 
         def poll(now_s: float) -> None:
-            world.advance_to(now_s)
-            for s in syncs:
-                s()
+            with world.lock:   # (the chips see one state of the iron: see SimWorld.lock)
+                world.advance_to(now_s)
+                for s in syncs:
+                    s()
 
         def truth() -> dict[str, Any]:
             out = world.truth()

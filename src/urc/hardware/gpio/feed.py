@@ -89,17 +89,18 @@ class EmulatedMotor:
         self.contacts = RelayContacts(axis) if kind == "relay" else None
 
     def set_drive(self, duty: float) -> None:
-        self.world.catch_up()
-        self.driver.set_drive(duty)
-        phys = self.world.axes[self.axis]
-        phys.bridge_open = emulated_bridge_open(self.kind, self.driver)
-        if self.contacts is not None:
-            shorted = self.contacts.update(self.driver.cw.read_back(), self.driver.ccw.read_back(),
-                                           self.world.clock.now_s())
-            if shorted is not None:
-                phys.set_command(0.0)
-                raise HardwareError(shorted)
-        phys.set_command(emulated_motor_duty(self.kind, self.driver, self.levels))
+        with self.world.lock:   # (one step of the iron: see SimWorld.lock)
+            self.world.catch_up()
+            self.driver.set_drive(duty)
+            phys = self.world.axes[self.axis]
+            phys.bridge_open = emulated_bridge_open(self.kind, self.driver)
+            if self.contacts is not None:
+                shorted = self.contacts.update(self.driver.cw.read_back(), self.driver.ccw.read_back(),
+                                               self.world.clock.now_s())
+                if shorted is not None:
+                    phys.set_command(0.0)
+                    raise HardwareError(shorted)
+            phys.set_command(emulated_motor_duty(self.kind, self.driver, self.levels))
 
     def read_current_a(self) -> float:
         # through the current-sense part when one is wired (0 without, as on iron)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from contextlib import AbstractContextManager, nullcontext
 from typing import TYPE_CHECKING, Callable, Literal
 
 from ...errors import HardwareError
@@ -25,20 +26,24 @@ class SimMotor(DirectionTracker):
     and a command given on waking acts only from then on.
     """
 
-    def __init__(self, axis: AxisPhysics, name: str, catch_up: Callable[[], None] | None = None):
+    def __init__(self, axis: AxisPhysics, name: str, catch_up: Callable[[], None] | None = None,
+                 lock: AbstractContextManager | None = None):
         super().__init__()
         self._axis = axis
         self.name = name
         self._catch_up = catch_up
+        #: the world's lock: catching up and the new drive are one step of the iron
+        self._lock = lock if lock is not None else nullcontext()
 
     def set_drive(self, duty: float) -> None:
         duty = float(duty)
         if not math.isfinite(duty):
             raise HardwareError(f"{self.name} motor: drive must be finite, got {duty!r}")
-        if self._catch_up is not None:
-            self._catch_up()
-        self._axis.set_command(duty)
-        self._track(self._axis.cmd_duty)
+        with self._lock:
+            if self._catch_up is not None:
+                self._catch_up()
+            self._axis.set_command(duty)
+            self._track(self._axis.cmd_duty)
 
     def read_current_a(self) -> float:
         return self._axis.current_a()

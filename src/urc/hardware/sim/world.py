@@ -13,6 +13,7 @@ over and drives them safe). ``truth_log`` keeps the history as well (:mod:`.trut
 
 from __future__ import annotations
 
+import functools
 import json
 import logging
 import math
@@ -45,6 +46,18 @@ _MAX_COAST_S = 120.0
 _MAX_RUN_ON_S = 120.0
 
 
+def _serialised(method):
+    """One caller at a time: the world is one piece of iron, and the control process acts
+    on it from more than one thread (the loop's tick, and the tick watch driving the
+    outputs safe: after a SIGSTOP both wake at once). Unserialised, two threads stepped
+    the same substeps or took the same brake event."""
+    @functools.wraps(method)
+    def serialised(self, *args, **kwargs):
+        with self.lock:
+            return method(self, *args, **kwargs)
+    return serialised
+
+
 class SimWorld:
     def __init__(self, caps: RotatorCaps, params: SimRotatorParams, clock: Clock, *,
                  truth_path: Path | None, seed: int = 1, wind: bool = True,
@@ -54,6 +67,9 @@ class SimWorld:
         self.caps = caps
         self.params = params
         self.clock = clock
+        #: held by every call that reads or changes the iron (re-entrant: a heartbeat
+        #: edge and a drive first advance the world)
+        self.lock = threading.RLock()
         self.seed = int(seed)
         self.truth_path = Path(truth_path) if truth_path is not None else None
         self.truth_interval_s = float(truth_interval_s)
@@ -99,7 +115,7 @@ class SimWorld:
         self.limits: dict[str, tuple[SimLimitSwitch | None, SimLimitSwitch | None]] = {}
         for name in AXES:
             ax_caps, p, phys = caps.axis(name), params.axis(name), self.axes[name]
-            self.motors[name] = SimMotor(phys, name, catch_up=self.catch_up)
+            self.motors[name] = SimMotor(phys, name, catch_up=self.catch_up, lock=self.lock)
             self.sensors[name] = make_sensor(
                 name, ax_caps.sensor, phys, p.sensor,
                 random.Random(f"urc-sim:{self.seed}:{name}:sensor"),
@@ -142,6 +158,7 @@ class SimWorld:
             return None
         return self._origin_s + self.axes["az"].tick * self.dt_s
 
+    @_serialised
     def advance_to(self, now_s: float) -> None:
         """Integrate from the last time to ``now_s``; the first call only sets the time."""
         if self._origin_s is None:
@@ -185,6 +202,7 @@ class SimWorld:
         if self._origin_s is not None:
             self.advance_to(self.clock.now_s())
 
+    @_serialised
     def command_brake(self, name: str, released: bool) -> None:
         """Brake coil on (release) / off (engage); the brake moves after its delay."""
         phys = self.axes[name]
@@ -230,6 +248,7 @@ class SimWorld:
         if phys.p.has_brake:
             self._schedule_brake(name, False, at_s)
 
+    @_serialised
     def _heartbeat_edge(self, now_s: float) -> None:
         """A rising heartbeat edge at ``now_s``: the world first runs to it under the old
         deadline, then the relay (re)closes: the motors get their drive back, and the
@@ -248,6 +267,7 @@ class SimWorld:
         return all(phys.powered for phys in self.axes.values())
 
     # ------------------------------------------------------------------ truth
+    @_serialised
     def truth(self) -> dict[str, Any]:
         out: dict[str, Any] = {}
         for name, phys in self.axes.items():
@@ -391,6 +411,7 @@ class SimWorld:
         phys._apply_drive()
         phys.reset_pulse_counter()
 
+    @_serialised
     def close(self) -> None:
         """Power down: save the truth (always) and stop driving."""
         if self._origin_s is not None and not self._closed:
@@ -425,6 +446,7 @@ class SimWorld:
                                     "to_deg": self.axes[name].load_deg} for name in self.axes})
 
     # ------------------------------------------------------------------ faults
+    @_serialised
     def inject(self, axis: str, kind: str, **kw: Any) -> None:
         """Inject a fault on ``axis`` ("az" | "el").
 
@@ -467,6 +489,7 @@ class SimWorld:
             raise ValueError(f"unknown fault {kind!r}; expected one of {', '.join(FAULT_KINDS)}")
         self._faults[axis][kind] = dict(kw)
 
+    @_serialised
     def clear(self, axis: str, kind: str | None = None) -> None:
         """Clear one fault, or every fault on ``axis`` when ``kind`` is None."""
         kinds = list(self._faults[axis]) if kind is None else [kind]
@@ -498,6 +521,7 @@ class SimWorld:
         """Active faults: {axis: {kind: kwargs}}."""
         return {a: {k: dict(v) for k, v in f.items()} for a, f in self._faults.items()}
 
+    @_serialised
     def set_wind(self, enabled: bool, mean_nm: float | None = None,
                  gust_nm: float | None = None, axis: str | None = None) -> None:
         """Switch the wind load on/off and optionally set its mean and gust (1-sigma)."""
