@@ -77,7 +77,7 @@ def test_keyhole_pass_is_flown_over_the_top(tmp_path, leo_sets, dlat_deg):
             key=lambda p: p.max_el_deg)
     assert p.max_el_deg > 85.0
     bound_deg = 90.0 - p.max_el_deg
-    rot, plan, stats, plan_stats, *_ = fly_pass_on_sim("tartu-urc", es, station, p, tmp_path, lead_s=90.0)
+    rot, plan, stats, plan_stats, *_ = fly_pass_on_sim("tartu-urc", es, station, p, tmp_path)
     assert plan.flip, plan.summary()
     # over the top, geometry costs only the seconds around culmination where the azimuth
     # would have to turn faster than the motor can (the pass misses the zenith)
