@@ -22,6 +22,13 @@ SUITE_MARK = "URC_TEST_SUITE_RUN"
 # start-up waits end when the port answers; the bound is for a machine under heavy load
 START_TIMEOUT_S = 120.0
 
+#: The client every request to a test's urc goes through. ``httpx.get()`` builds a client
+#: per call, and with it a TLS context from certifi's CA bundle: ~40 ms of CPU for each
+#: plain-http status (2 ms through this one), so a test polling at 10 Hz kept 40 % of a
+#: core busy. No keep-alive: each request is a connection of its own, as with httpx.get
+#: (a kept one would count against urc's connection cap, and outlive a killed urc).
+HTTP = httpx.Client(timeout=5.0, limits=httpx.Limits(max_keepalive_connections=0))
+
 
 def _is_urc(cmdline: list[bytes]) -> bool:
     """``python -m urc ...``, the ``urc`` script, or a control process."""
@@ -127,7 +134,7 @@ def toml_serve(entries: list[dict]) -> str:
 def api_answers(url: str) -> bool:
     """True once urc's API at ``url`` answers a status read."""
     try:
-        return httpx.get(url + "/api/status", timeout=2.0).status_code == 200
+        return HTTP.get(url + "/api/status", timeout=2.0).status_code == 200
     except httpx.HTTPError:
         return False
 
@@ -203,7 +210,7 @@ class UrcProcess:
     def _answers(self) -> bool:
         self._raise_if_exited()
         try:
-            httpx.get(self.url + "/api/status", timeout=2.0)   # (any answer: the API is up)
+            HTTP.get(self.url + "/api/status", timeout=2.0)   # (any answer: the API is up)
             return True
         except httpx.HTTPError:
             return False
@@ -221,7 +228,7 @@ class UrcProcess:
 
     def status(self) -> dict:
         try:
-            return httpx.get(self.url + "/api/status", timeout=5).json()
+            return HTTP.get(self.url + "/api/status").json()
         except httpx.TransportError:
             self._raise_if_exited(grace_s=5.0)
             raise
@@ -240,7 +247,7 @@ class UrcProcess:
         raise AssertionError(f"urc run exited with code {self.proc.returncode}:\n{out}")
 
     def post(self, path: str, body: dict | None = None) -> httpx.Response:
-        return httpx.post(self.url + path, json=body, timeout=5)
+        return HTTP.post(self.url + path, json=body)
 
     def wait(self, pred, timeout_s: float = 60.0) -> dict:
         deadline = time.monotonic() + timeout_s

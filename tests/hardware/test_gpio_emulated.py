@@ -323,7 +323,7 @@ def test_urc_run_emulate_process(path, tmp_path):
 
     import httpx
 
-    from urc_process import free_port
+    from urc_process import HTTP, free_port
     port = free_port()
     proc = subprocess.Popen([sys.executable, "-m", "urc", "run", "--config", str(path), "--emulate",
                              "--state-dir", str(tmp_path / "state"), "--port", str(port)],
@@ -334,11 +334,11 @@ def test_urc_run_emulate_process(path, tmp_path):
         while time.monotonic() < deadline and status is None:
             assert proc.poll() is None, proc.stdout.read()
             try:
-                status = httpx.get(f"http://127.0.0.1:{port}/api/status", timeout=1.0).json()
+                status = HTTP.get(f"http://127.0.0.1:{port}/api/status", timeout=1.0).json()
             except httpx.HTTPError:
                 time.sleep(0.2)
         assert status is not None and status["simulator_truth"] is not None and not status["faults"]
-        info = httpx.get(f"http://127.0.0.1:{port}/api/info", timeout=2.0).json()
+        info = HTTP.get(f"http://127.0.0.1:{port}/api/info", timeout=2.0).json()
         assert info["backend"] == "gpio" and info["simulator"]
     finally:
         proc.terminate()

@@ -209,7 +209,7 @@ def test_passes_take_the_station_from_the_running_urcs_gps(tmp_path):
     import subprocess
     import threading
 
-    from urc_process import URC, free_port, wait_until
+    from urc_process import HTTP, URC, free_port, wait_until
 
     gps_port, api_port = free_port(), free_port()
     listener = socket.create_server(("127.0.0.1", gps_port))
@@ -244,7 +244,7 @@ def test_passes_take_the_station_from_the_running_urcs_gps(tmp_path):
         def fix():
             assert proc.poll() is None, proc.stdout.read()
             try:
-                gps = (httpx.get(f"http://127.0.0.1:{api_port}/api/status", timeout=2).json()
+                gps = (HTTP.get(f"http://127.0.0.1:{api_port}/api/status", timeout=2).json()
                        .get("tracking") or {}).get("gps") or {}
             except httpx.HTTPError:
                 return None
