@@ -10,12 +10,11 @@ from __future__ import annotations
 
 import collections
 import math
-from dataclasses import replace
-
 from ..control import faults as faultmod
 from ..control import law
 from ..control import positioner as positioner_law
 from ..control.estimator import Estimate, FilterLimits, alpha_beta
+from ..control.evolve import evolve
 from ..control.faults import FaultLimits, MonitorState
 from ..control.profile import stopping_distance_deg
 from ..errors import SensorError
@@ -95,7 +94,7 @@ class Axis:
         # plus two reports late (not a stall)
         every_s = self.positioner.sample_interval_s()
         travel_deg = self._flim.max_rate_deg_per_s * every_s
-        return replace(self._flim, sensor_jump_deg=self._flim.sensor_jump_deg + 2.0 * travel_deg,
+        return evolve(self._flim, sensor_jump_deg=self._flim.sensor_jump_deg + 2.0 * travel_deg,
                        runaway_deg=self._flim.runaway_deg + travel_deg,
                        stall_timeout_s=self._flim.stall_timeout_s + 2.0 * every_s + self.positioner.latency_s())
 
@@ -117,7 +116,7 @@ class Axis:
         if sp is not None and self.out.duty == 0.0:
             # following its target within the band (a slow track goes in the controller's
             # steps): it is where it was told to be, so a runaway is judged from here
-            self.mon = replace(self.mon, rest_deg=self.meas_deg)
+            self.mon = evolve(self.mon, rest_deg=self.meas_deg)
 
     def post(self) -> None:
         """Positioner axes: post the target, or stop when there is no setpoint (stop,
@@ -277,7 +276,7 @@ class Axis:
         self.meas_deg, self._filter_rate, self.rate_deg_per_s = meas_deg, 0.0, 0.0
         self.history.clear()
         self.history.append((self._t_s, meas_deg))
-        self.law = replace(self.law, ref_deg=meas_deg, last_meas_deg=meas_deg)
+        self.law = evolve(self.law, ref_deg=meas_deg, last_meas_deg=meas_deg)
 
     def rereference(self, mech_deg: float, uncertainty_deg: float = 0.0, set_sensor: bool = True) -> None:
         """The axis is at ``mech_deg`` now, known to ``uncertainty_deg``: no setpoint, the
@@ -290,5 +289,5 @@ class Axis:
         self.history.clear()
         self.uncertainty_deg = uncertainty_deg
         self.sp = None
-        self.law = replace(self.law, ref_deg=mech_deg, ref_rate_deg_per_s=0.0, mode="idle")
+        self.law = evolve(self.law, ref_deg=mech_deg, ref_rate_deg_per_s=0.0, mode="idle")
         self.mon = MonitorState()
