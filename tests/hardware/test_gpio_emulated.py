@@ -325,8 +325,10 @@ def test_urc_run_emulate_process(path, tmp_path):
 
     from urc_process import HTTP, free_port
     port = free_port()
+    # (its rotctld on a port of its own: the example's 4533 may be another test's meanwhile)
     proc = subprocess.Popen([sys.executable, "-m", "urc", "run", "--config", str(path), "--emulate",
-                             "--state-dir", str(tmp_path / "state"), "--port", str(port)],
+                             "--state-dir", str(tmp_path / "state"), "--port", str(port),
+                             "--serve", f"rotctld=tcp:127.0.0.1:{free_port()}"],
                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     try:
         deadline = time.monotonic() + 60

@@ -231,7 +231,7 @@ def test_passes_take_the_station_from_the_running_urcs_gps(tmp_path):
                     stop.wait(1.0)
     threading.Thread(target=receiver, daemon=True).start()
     cfg = tmp_path / "urc.toml"
-    cfg.write_text(f'[station]\ngps = "tcp:127.0.0.1:{gps_port}"\n[api]\nport = {api_port}\n'
+    cfg.write_text(f'serve = []\n[station]\ngps = "tcp:127.0.0.1:{gps_port}"\n[api]\nport = {api_port}\n'
                    '[hardware.sim]\nwind = false\n')
     leo = ["--tle", FIXTURES / "leo.tle", "--config", cfg, *START, "--hours", "6"]
     res = run("passes", *leo, ok=False)            # no urc running: says how to get one
