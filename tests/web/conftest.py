@@ -54,7 +54,9 @@ class PageProblems(list):
 def open_page(browser):
     pages = []
 
-    def open_(url: str, width: int = 1400, height: int = 1100, **context):
+    def open_(url: str | None, width: int = 1400, height: int = 1100, **context):
+        """A new context's page at ``url``, its live feed running; ``url=None``: the page
+        only, with its problems watched (the caller navigates it)."""
         ctx = browser.new_context(viewport={"width": width, "height": height}, **context)
         page = ctx.new_page()
         problems = PageProblems()
@@ -62,9 +64,10 @@ def open_page(browser):
         page.on("console", lambda m: problems.append(f"console: {m.text} ({m.location.get('url')})")
                 if m.type == "error" and not expected_refusal(m) else None)
         page.problems = problems
-        page.goto(url)
-        page.wait_for_selector("#conn.live", timeout=15_000)
         pages.append((ctx, page))
+        if url is not None:
+            page.goto(url)
+            page.wait_for_selector("#conn.live", timeout=15_000)
         return page
     yield open_
     for ctx, _page in pages:
