@@ -37,6 +37,15 @@ def remote_urc(tmp_path_factory):
     u.stop()
 
 
+@pytest.fixture(scope="module")
+def plain_urc(tmp_path_factory):
+    """A urc on loopback with nothing configured (each test that uses it resets it:
+    stopped, no fault latched)."""
+    u = UrcProcess(tmp_path_factory.mktemp("layout-plain"), profile="berkeley").start(timeout_s=120)
+    yield u
+    u.stop()
+
+
 def in_viewport(page, selector: str) -> bool:
     box = page.locator(selector).bounding_box()
     vw, vh = page.viewport_size["width"], page.viewport_size["height"]
@@ -63,12 +72,20 @@ STICKING_OUT = """() => {
 }"""
 
 
+#: scroll by script, wait two animation frames, and say how far the page scrolled sideways
+SCROLL_TO = """([x, y]) => new Promise((done) => {
+  window.scrollTo(x, y);
+  requestAnimationFrame(() => requestAnimationFrame(() => done(window.scrollX)));
+})"""
+
+
 def scroll_everywhere_and_check(page, what: str) -> None:
     """Down to the end, up, sideways both ways: STOP in view after each."""
     for x, y in ((0, 100_000), (0, 0), (100_000, 0), (0, 0), (100_000, 100_000), (0, 100_000)):
-        page.evaluate("([x, y]) => window.scrollTo(x, y)", [x, y])
-        page.wait_for_timeout(50)
-        assert page.evaluate("() => window.scrollX") == 0, f"{what}: the page scrolled sideways"
+        # (a script's scrollTo is instant; two frames later every scroll handler has run
+        # and the page is drawn there: a condition, where a fixed 50 ms wait was a guess)
+        scroll_x = page.evaluate(SCROLL_TO, [x, y])
+        assert scroll_x == 0, f"{what}: the page scrolled sideways"
         assert in_viewport(page, "#stop-btn"), f"{what}: STOP off screen after scrolling to {x},{y}"
     # a finger swipe, not only a script: sideways and down
     page.mouse.move(page.viewport_size["width"] / 2, page.viewport_size["height"] * 0.7)
@@ -181,68 +198,62 @@ def test_tracking_banner_whole_foldable_and_reopened_by_news(tmp_path, open_page
 
 
 # --------------------------------------------------------------- the first screen on a phone
-def test_the_first_phone_screen_says_where_what_and_why(tmp_path, open_page, artifacts):
-    u = UrcProcess(tmp_path, profile="berkeley").start(timeout_s=120)
-    try:
-        page = open_page(u.url + "/", 390, 844, has_touch=True, is_mobile=True)
-        reset(u)
-        assert u.post("/api/goto", {"az_deg": 150.0, "el_deg": 35.0}).status_code == 200
-        expect(page.locator("#why-line")).to_contain_text("Going to az 150.0°, el 35.0°", timeout=5000)
-        expect(page.locator("#state-line")).to_contain_text("moving")
-        s = u.wait(lambda s: standing(s) and abs(s["az_deg"] - 150) < 0.5, 30)
-        expect(page.locator("#why-line")).to_have_text("Holding at az 150.0°, el 35.0°.", timeout=5000)
-        expect(page.locator("#state-line")).to_contain_text("standing")
-        az_shown = float(re.search(r"az (\d+\.\d+)", page.locator("#now-az").text_content()).group(1))
-        assert az_shown == pytest.approx(s["az_deg"], abs=0.3)
-        assert page.evaluate("() => window.scrollY") == 0
-        for sel in ("#now-az", "#now-el", "#state-line", "#why-line", "#ro-modeaz", "#ro-modeel", "#stop-btn"):
-            assert in_viewport(page, sel), f"{sel} is not on the first screen"
-        assert page.locator("#now-badge").is_hidden()
-        page.screenshot(path=str(artifacts / "phone-first-screen.png"))
-        page.problems.check()
-    finally:
-        u.stop()
+def test_the_first_phone_screen_says_where_what_and_why(plain_urc, open_page, artifacts):
+    u = plain_urc
+    page = open_page(u.url + "/", 390, 844, has_touch=True, is_mobile=True)
+    reset(u)
+    assert u.post("/api/goto", {"az_deg": 150.0, "el_deg": 35.0}).status_code == 200
+    expect(page.locator("#why-line")).to_contain_text("Going to az 150.0°, el 35.0°", timeout=5000)
+    expect(page.locator("#state-line")).to_contain_text("moving")
+    s = u.wait(lambda s: standing(s) and abs(s["az_deg"] - 150) < 0.5, 30)
+    expect(page.locator("#why-line")).to_have_text("Holding at az 150.0°, el 35.0°.", timeout=5000)
+    expect(page.locator("#state-line")).to_contain_text("standing")
+    az_shown = float(re.search(r"az (\d+\.\d+)", page.locator("#now-az").text_content()).group(1))
+    assert az_shown == pytest.approx(s["az_deg"], abs=0.3)
+    assert page.evaluate("() => window.scrollY") == 0
+    for sel in ("#now-az", "#now-el", "#state-line", "#why-line", "#ro-modeaz", "#ro-modeel", "#stop-btn"):
+        assert in_viewport(page, sel), f"{sel} is not on the first screen"
+    assert page.locator("#now-badge").is_hidden()
+    page.screenshot(path=str(artifacts / "phone-first-screen.png"))
+    page.problems.check()
 
 
 # --------------------------------------------------------------- unconfirmed position
-def test_the_position_is_unconfirmed_while_the_sensor_is_unreadable(tmp_path, open_page, artifacts):
+def test_the_position_is_unconfirmed_while_the_sensor_is_unreadable(plain_urc, open_page, artifacts):
     """A dead elevation sensor: its numbers are marked unconfirmed (the azimuth's are
     not), the banner says the sensor is still unreadable (clearing cannot help); repaired,
     it says clearing will work; cleared, all is confirmed again."""
-    u = UrcProcess(tmp_path, profile="berkeley").start(timeout_s=120)
-    try:
-        page = open_page(u.url + "/", 390, 844, has_touch=True)
-        reset(u)
-        assert page.locator("#now-el").get_attribute("data-confirmed") == "true"
-        assert u.post("/api/sim/fault", {"axis": "el", "kind": "sensor_dead"}).status_code == 200
-        expect(page.locator("#now-el")).to_have_attribute("data-confirmed", "false", timeout=5000)
-        s = u.status()
-        assert s["el"]["sensor_ok"] is False and s["az"]["sensor_ok"] is True
-        for sel in ("#ro-el", "#ro-mel"):
-            assert page.locator(sel).get_attribute("data-confirmed") == "false"
-        for sel in ("#now-az", "#ro-az", "#ro-maz"):
-            assert page.locator(sel).get_attribute("data-confirmed") == "true"
-        expect(page.locator("#now-badge")).to_be_visible()
-        expect(page.locator("#confirm-line")).to_contain_text("el unreadable now")
-        expect(page.locator("#fault-now")).to_contain_text("el still unreadable")
-        expect(page.locator("#fault-now")).to_contain_text("clearing cannot help")
-        # read out to a screen reader once: the live region holds no changing age
-        announced = page.locator("#fault-announce").text_content()
-        assert "el: position sensor unreadable" in announced and "ago" not in announced
-        expect(page.locator("#fault-text")).to_contain_text(" s ago)")
-        assert page.locator("#fault-banner").get_attribute("role") is None
-        assert in_viewport(page, "#now-badge")
-        page.screenshot(path=str(artifacts / "position-unconfirmed-phone.png"))
-        u.post("/api/sim/clear", {"axis": "el"})            # the wire is mended
-        expect(page.locator("#fault-now")).to_contain_text("el reads again: Clear fault re-arms it", timeout=5000)
-        expect(page.locator("#now-el")).to_have_attribute("data-confirmed", "true")
-        expect(page.locator("#fault-banner")).to_be_visible()   # still latched until cleared
-        page.click("#clear-fault-btn")
-        expect(page.locator("#fault-banner")).to_be_hidden(timeout=5000)
-        expect(page.locator("#now-badge")).to_be_hidden()
-        page.problems.check()
-    finally:
-        u.stop()
+    u = plain_urc
+    page = open_page(u.url + "/", 390, 844, has_touch=True)
+    reset(u)
+    assert page.locator("#now-el").get_attribute("data-confirmed") == "true"
+    assert u.post("/api/sim/fault", {"axis": "el", "kind": "sensor_dead"}).status_code == 200
+    expect(page.locator("#now-el")).to_have_attribute("data-confirmed", "false", timeout=5000)
+    s = u.status()
+    assert s["el"]["sensor_ok"] is False and s["az"]["sensor_ok"] is True
+    for sel in ("#ro-el", "#ro-mel"):
+        assert page.locator(sel).get_attribute("data-confirmed") == "false"
+    for sel in ("#now-az", "#ro-az", "#ro-maz"):
+        assert page.locator(sel).get_attribute("data-confirmed") == "true"
+    expect(page.locator("#now-badge")).to_be_visible()
+    expect(page.locator("#confirm-line")).to_contain_text("el unreadable now")
+    expect(page.locator("#fault-now")).to_contain_text("el still unreadable")
+    expect(page.locator("#fault-now")).to_contain_text("clearing cannot help")
+    # read out to a screen reader once: the live region holds no changing age
+    announced = page.locator("#fault-announce").text_content()
+    assert "el: position sensor unreadable" in announced and "ago" not in announced
+    expect(page.locator("#fault-text")).to_contain_text(" s ago)")
+    assert page.locator("#fault-banner").get_attribute("role") is None
+    assert in_viewport(page, "#now-badge")
+    page.screenshot(path=str(artifacts / "position-unconfirmed-phone.png"))
+    u.post("/api/sim/clear", {"axis": "el"})            # the wire is mended
+    expect(page.locator("#fault-now")).to_contain_text("el reads again: Clear fault re-arms it", timeout=5000)
+    expect(page.locator("#now-el")).to_have_attribute("data-confirmed", "true")
+    expect(page.locator("#fault-banner")).to_be_visible()   # still latched until cleared
+    page.click("#clear-fault-btn")
+    expect(page.locator("#fault-banner")).to_be_hidden(timeout=5000)
+    expect(page.locator("#now-badge")).to_be_hidden()
+    page.problems.check()
 
 
 def test_a_position_not_referenced_is_unconfirmed_on_every_axis(tmp_path, open_page):
