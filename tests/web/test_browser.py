@@ -345,33 +345,50 @@ def in_viewport(page, selector: str) -> bool:
         box["x"] + box["width"] <= vw and box["y"] + box["height"] <= vh
 
 
+@pytest.fixture(scope="module")
+def token_urc(tmp_path_factory):
+    """A urc listening beyond loopback with a token (the page shows the token field)."""
+    u = UrcProcess(tmp_path_factory.mktemp("web-token"), profile="berkeley",
+                   extra=f'host = "0.0.0.0"\ntoken = "{TOKEN}"\n').start()
+    yield u
+    u.stop()
+
+
+def reset_with_token(u) -> None:
+    """:func:`reset` for a urc that wants the token: stopped, no fault latched."""
+    auth = {"Authorization": f"Bearer {TOKEN}"}
+    httpx.post(u.url + "/api/stop", json={}, headers=auth, timeout=5)
+    for axis in ("az", "el"):
+        httpx.post(u.url + "/api/sim/clear", json={"axis": axis}, headers=auth, timeout=5)
+    httpx.post(u.url + "/api/clear-faults", json={}, headers=auth, timeout=5)
+    u.wait(lambda s: standing(s) and not s["faults"], 20)
+
+
 @pytest.mark.parametrize("size", [PHONE, (768, 1024), (1400, 1100)], ids=["phone", "tablet", "desktop"])
-def test_stop_and_fault_stay_in_view_at_every_size(tmp_path, open_page, artifacts, size):
+def test_stop_and_fault_stay_in_view_at_every_size(token_urc, open_page, artifacts, size):
     """Issue 12, item 8: with the token field shown (a remote listener), STOP and the
     fault state are inside the viewport, before and after scrolling to the bottom."""
-    u = UrcProcess(tmp_path, profile="berkeley", extra=f'host = "0.0.0.0"\ntoken = "{TOKEN}"\n').start()
-    try:
-        page = open_page(u.url + "/", *size)
-        # shown once the page has read /api/info (a remote listener): wait for it
-        expect(page.locator("#token-form")).to_be_visible(timeout=5000)
-        assert in_viewport(page, "#stop-btn")
-        assert page.evaluate("() => document.documentElement.scrollWidth") <= size[0]   # no sideways scrolling
-        r = httpx.post(u.url + "/api/sim/fault", json={"axis": "el", "kind": "sensor_dead"},
-                       headers={"Authorization": f"Bearer {TOKEN}"})
-        assert r.status_code == 200
-        page.wait_for_selector("#fault-banner", state="visible", timeout=5000)
-        assert in_viewport(page, "#stop-btn") and in_viewport(page, "#fault-banner")
-        page.screenshot(path=str(artifacts / f"layout-{size[0]}x{size[1]}-top.png"))
-        page.locator("#sim-card").scroll_into_view_if_needed()
-        page.keyboard.press("End")
-        page.wait_for_timeout(200)
-        assert page.evaluate("() => window.scrollY") > 0 or size == (1400, 1100)
-        assert in_viewport(page, "#stop-btn") and in_viewport(page, "#fault-banner")
-        page.screenshot(path=str(artifacts / f"layout-{size[0]}x{size[1]}-scrolled.png"))
-        page.click("#stop-btn")      # still usable where it is
-        page.problems.check()
-    finally:
-        u.stop()
+    u = token_urc
+    reset_with_token(u)     # (one urc for every size: no fault left by the one before)
+    page = open_page(u.url + "/", *size)
+    # shown once the page has read /api/info (a remote listener): wait for it
+    expect(page.locator("#token-form")).to_be_visible(timeout=5000)
+    assert in_viewport(page, "#stop-btn")
+    assert page.evaluate("() => document.documentElement.scrollWidth") <= size[0]   # no sideways scrolling
+    r = httpx.post(u.url + "/api/sim/fault", json={"axis": "el", "kind": "sensor_dead"},
+                   headers={"Authorization": f"Bearer {TOKEN}"})
+    assert r.status_code == 200
+    page.wait_for_selector("#fault-banner", state="visible", timeout=5000)
+    assert in_viewport(page, "#stop-btn") and in_viewport(page, "#fault-banner")
+    page.screenshot(path=str(artifacts / f"layout-{size[0]}x{size[1]}-top.png"))
+    page.locator("#sim-card").scroll_into_view_if_needed()
+    page.keyboard.press("End")
+    page.wait_for_timeout(200)
+    assert page.evaluate("() => window.scrollY") > 0 or size == (1400, 1100)
+    assert in_viewport(page, "#stop-btn") and in_viewport(page, "#fault-banner")
+    page.screenshot(path=str(artifacts / f"layout-{size[0]}x{size[1]}-scrolled.png"))
+    page.click("#stop-btn")      # still usable where it is
+    page.problems.check()
 
 
 def test_calibration_fields_follow_the_antenna_and_re_referencing_asks_first(tmp_path, open_page, artifacts):
