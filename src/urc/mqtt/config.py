@@ -46,6 +46,9 @@ class MqttSection(BaseModel):
     #: ... and at least this often (a fleet view tells a live station from a stale one)
     refresh_s: float = Field(10.0, ge=1.0, le=3600.0, allow_inf_nan=False)
     keepalive_s: int = Field(15, ge=5, le=3600)
+    #: an answer from the broker (to the connection, a subscription, a publish) missing
+    #: this long fails the attempt: the connection is dropped and tried again (back-off)
+    timeout_s: float = Field(10.0, ge=0.5, le=300.0, allow_inf_nan=False)
     #: the longest wait between reconnection attempts (they back off from 1 s)
     reconnect_max_s: float = Field(30.0, ge=1.0, le=3600.0, allow_inf_nan=False)
 

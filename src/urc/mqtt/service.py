@@ -65,7 +65,7 @@ class MqttService:
         m = self.section
         return make_client(self.broker, identifier=f"urc-{self.topics.base.replace('/', '-')}-{os.getpid()}",
                            username=m.username, password=m.password, ca_file=m.ca_file, cert_file=m.cert_file,
-                           key_file=m.key_file, keepalive_s=m.keepalive_s,
+                           key_file=m.key_file, keepalive_s=m.keepalive_s, timeout_s=m.timeout_s,
                            will=aiomqtt.Will(self.topics.availability, OFFLINE, qos=1, retain=True))
 
     async def run(self, stop: asyncio.Event) -> None:
