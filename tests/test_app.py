@@ -174,10 +174,13 @@ def test_a_hung_io_process_stops_the_axes_but_not_the_loop(urc):
     u.wait(lambda s: s["moving"] and abs(s["az"]["rate_deg_per_s"]) > 3)
     u.proc.send_signal(signal.SIGSTOP)
     try:
-        time.sleep(IO_SILENT_S + 3.0)
+        # stopped after IO_SILENT_S (and the ramp down) ...
+        wait_until(lambda: all(ax["load_deg_per_s"] == 0.0 for ax in truth(u).values()),
+                   IO_SILENT_S + 30.0, "the axes stopped while the I/O process is hung")
         beat = heartbeat(u)["toggles"]
-        assert all(ax["load_deg_per_s"] == 0.0 for ax in truth(u).values()), truth(u)
         time.sleep(0.5)
+        # ... and held so while the loop goes on
+        assert all(ax["load_deg_per_s"] == 0.0 for ax in truth(u).values()), truth(u)
         assert heartbeat(u)["toggles"] > beat
     finally:
         u.proc.send_signal(signal.SIGCONT)
@@ -186,7 +189,8 @@ def test_a_hung_io_process_stops_the_axes_but_not_the_loop(urc):
     # is near sky 30 too, so the mechanical position is what tells)
     assert abs(s["az"]["pos_deg"] - 390) > 5 and any("silent" in e for e in s["events"]), (s["az"], s["events"])
     again_deg = round(s["az_deg"]) + 5.0
-    assert u.post("/api/goto", {"az_deg": again_deg, "el_deg": 30}).status_code == 200
+    # (elevation where it stopped: the azimuth move is the one judged, and the shorter wait)
+    assert u.post("/api/goto", {"az_deg": again_deg, "el_deg": round(s["el_deg"])}).status_code == 200
     u.wait(lambda s: not s["moving"] and abs(s["az_deg"] - again_deg) < 0.3, timeout_s=90)
     u.stop()
 
@@ -261,21 +265,25 @@ def test_a_stall_inside_a_tick_is_seen_and_recovered_from(urc):
     takeover: on a loaded machine a 0.7 s stall plus a late status passes its 1 s, and a
     control process taken over is another test's subject.)"""
     u = urc(profile="tartu-urc", extra=NO_TAKEOVER).start()
-    assert u.post("/api/goto", {"az_deg": 100, "el_deg": 30}).status_code == 200
+    # (a 40 deg move: about 7 s at tartu-urc's 6 deg/s, the stall comes in its first second)
+    assert u.post("/api/goto", {"az_deg": 40, "el_deg": 30}).status_code == 200
     u.wait(lambda s: s["moving"])
     assert u.post("/api/sim/fault", {"axis": "az", "kind": "slow_read", "delay_s": 0.7}).status_code == 200
     s = u.wait(lambda s: s["loop"]["stalls"] >= 1, timeout_s=20)
     assert s["loop"]["last_stall_ms"] >= 700 and not s["faults"]
     # (tick_late_p99_ms is a p99 over 500 ticks: one stall among them is the status'
     # loop.last_stall_ms, not the p99; under stress-ng the p99 never showed it)
-    s = u.wait(lambda s: not s["moving"] and abs(s["az_deg"] - 100) < 0.3, timeout_s=90)
+    s = u.wait(lambda s: not s["moving"] and abs(s["az_deg"] - 40) < 0.3, timeout_s=90)
     assert not s["faults"] and not s["loop"]["held"]
     for _ in range(2):  # stalls that keep happening latch
+        stalls = s["loop"]["stalls"]
         assert u.post("/api/sim/fault", {"axis": "az", "kind": "slow_read", "delay_s": 0.7}).status_code == 200
-        time.sleep(1.5)
+        # (this one happened: it is counted, or it latched the fault)
+        s = u.wait(lambda s: s["loop"]["stalls"] > stalls or any(f["kind"] == "watchdog" for f in s["faults"]),
+                   timeout_s=20)
     s = u.wait(lambda s: any(f["kind"] == "watchdog" for f in s["faults"]), timeout_s=20)
     assert u.post("/api/clear-faults").status_code == 200
-    assert u.post("/api/goto", {"az_deg": 110, "el_deg": 30}).status_code == 200  # right after
+    assert u.post("/api/goto", {"az_deg": 50, "el_deg": 30}).status_code == 200  # right after
     u.stop()
 
 
@@ -290,20 +298,17 @@ def test_systemd_notify_ready_and_watchdog_pings_only_while_on_time(urc, tmp_pat
                                   stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env,
                                   start_new_session=True)
 
-        def messages(seconds: float) -> list[str]:
+        def messages(seconds: float, until: str | None = None) -> list[str]:
+            """What comes within ``seconds`` (or up to ``until``, if that comes first)."""
             got, end = [], time.monotonic() + seconds
-            while time.monotonic() < end:
+            while time.monotonic() < end and until not in got:
                 try:
                     got.append(sock.recv(256).decode())
                 except socket.timeout:
                     pass
             return got
-        got: list[str] = []
-        deadline = time.monotonic() + 60
-        while "READY=1" not in got and time.monotonic() < deadline:
-            got += messages(0.5)
-        assert "READY=1" in got
-        assert "WATCHDOG=1" in messages(1.0)
+        assert "READY=1" in messages(60.0, until="READY=1")
+        assert "WATCHDOG=1" in messages(1.0, until="WATCHDOG=1")
         from urc.service.control_process import IO_SILENT_S
 
         for pid, silent_s in ((u.control_pid(), 0.3), (u.proc.pid, IO_SILENT_S + 0.5)):
@@ -313,9 +318,9 @@ def test_systemd_notify_ready_and_watchdog_pings_only_while_on_time(urc, tmp_pat
                 assert "WATCHDOG=1" not in messages(1.0), pid
             finally:
                 os.kill(pid, signal.SIGCONT)
-            assert "WATCHDOG=1" in messages(3.0)
+            assert "WATCHDOG=1" in messages(3.0, until="WATCHDOG=1")
         u.proc.send_signal(signal.SIGTERM)
-        assert "STOPPING=1" in messages(3.0)
+        assert "STOPPING=1" in messages(3.0, until="STOPPING=1")
         u.proc.communicate(timeout=30)
 
 
