@@ -32,6 +32,19 @@ class Controller(UrcProcess):
     def status(self) -> dict:
         return json.loads(self.cli("status", "--json").stdout)
 
+    def wait(self, pred, timeout_s: float = 60.0) -> dict:
+        """Poll the API's status (``urc status --json`` prints that same snapshot, and is
+        run by the tests on its own) until ``pred``: a poll is a request, not the start of
+        a Python process, so a wait sees its condition sooner and costs little CPU."""
+        deadline = time.monotonic() + timeout_s
+        s = UrcProcess.status(self)
+        while not pred(s):
+            if time.monotonic() > deadline:
+                raise AssertionError(f"condition not met within {timeout_s} s; last status {s}")
+            time.sleep(0.1)
+            s = UrcProcess.status(self)
+        return s
+
     def stop(self, sig=signal.SIGTERM) -> str:
         self.proc.send_signal(sig)
         out, _ = self.proc.communicate(timeout=20)
@@ -158,8 +171,8 @@ def test_kill_9_during_a_move_then_restart(controller):
 
 def test_kill_9_when_standing_still_restarts_exactly(controller):
     c = controller(profile="bigras").start()
-    c.cli("goto", "33", "12")
-    c.wait(lambda s: not s["moving"] and abs(s["az_deg"] - 33) < 1.5, timeout_s=90)
+    c.cli("goto", "15", "6")   # (BIG-RAS: 4 deg/s az, 2 deg/s el)
+    c.wait(lambda s: not s["moving"] and abs(s["az_deg"] - 15) < 1.5, timeout_s=90)
     time.sleep(0.3)
     before = c.status()
     c.proc.send_signal(signal.SIGKILL)
