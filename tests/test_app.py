@@ -11,12 +11,10 @@ import subprocess
 import threading
 import time
 
-import httpx
 import pytest
+from urc_process import HTTP, URC, UrcProcess, free_port, process_gone, wait_until
 
 from urc.hardware.sim.outputs import read_output_file
-
-from urc_process import URC, UrcProcess, free_port, process_gone, wait_until
 
 
 @pytest.fixture
@@ -44,7 +42,7 @@ def test_a_hung_or_killed_control_process_stops_the_heartbeat(urc):
     u = urc(extra=NO_TAKEOVER).start()
     ctl = u.control_pid()
     assert ctl != u.proc.pid
-    control = httpx.get(u.url + "/api/info", timeout=5).json()["control"]
+    control = HTTP.get(u.url + "/api/info", timeout=5).json()["control"]
     assert control["pid"] == ctl and "SCHED_FIFO" in control["priority"]  # (root here)
     first = heartbeat(u)["toggles"]
     time.sleep(0.6)

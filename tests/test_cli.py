@@ -9,8 +9,7 @@ import time
 import tomllib
 
 import pytest
-
-from urc_process import URC, UrcProcess, free_port
+from urc_process import HTTP, URC, UrcProcess, free_port
 
 
 def urc(*args, check=True, **kw):
@@ -201,8 +200,8 @@ def test_status_shows_a_position_in_a_reference_search_as_unknown(bench):
     """BIG-RAS homing jogs in a search frame of its own: status printed 'az 434.00 ...
     UNCERTAIN' for an antenna at about 62 deg. During the search the number says nothing:
     it is shown as unknown; after it, the found position again."""
-    from urc.status_text import format_status as _format_status
     from urc.service import calibration as cal
+    from urc.status_text import format_status as _format_status
 
     b = bench("bigras", hardware={"sim": {"wind": False, "start_az_deg": 62.0}})
     cal.zero(b.rot, az_deg=b.truth("az"))
@@ -254,7 +253,6 @@ def test_a_second_instance_needs_no_config_file(tmp_path):
                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     try:
         url = f"http://127.0.0.1:{port}"
-        import httpx
 
         from urc_process import wait_until
 
@@ -268,7 +266,7 @@ def test_a_second_instance_needs_no_config_file(tmp_path):
                 return None
         reply = wait_until(answers, timeout_s=60, what="rotctld on the --serve port")
         assert reply.decode().count("\n") == 2                      # az and el lines
-        doc = httpx.get(url + "/api/settings", timeout=5).json()
+        doc = HTTP.get(url + "/api/settings", timeout=5).json()
         assert doc["config"]["serve"] == [{"protocol": "rotctld", "tcp": f"127.0.0.1:{rot_port}",
                                            "reply_port": 12001, "options": {}}]
     finally:

@@ -92,8 +92,8 @@ def stop_process_group(proc: subprocess.Popen, timeout_s: float = 30.0) -> str:
             continue
     else:
         out, _ = proc.communicate()
-    _kill_group(proc.pid)     # a member that outlived its leader (the control process)
-    return out or ""
+    _kill_group(proc.pid)     # a member that outlived its leader (not urc's control
+    return out or ""          # process: it runs in a session of its own, see UrcProcess.stop)
 
 
 def _term_with_parent() -> None:
@@ -103,6 +103,13 @@ def _term_with_parent() -> None:
     import ctypes
 
     ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGTERM)
+
+
+def _kill(pid: int) -> None:
+    try:
+        os.kill(pid, signal.SIGKILL)
+    except ProcessLookupError:
+        pass
 
 
 def _kill_group(pgid: int) -> None:
@@ -264,7 +271,16 @@ class UrcProcess:
         Its output is also printed: pytest shows it under a failed test's captured output."""
         if self.proc is None:
             return ""
+        try:    # (in a session of its own: the signals to urc run's group miss it)
+            control = self.control_pid() if self.proc.poll() is None else None
+        except (AssertionError, OSError):
+            control = None
         out = stop_process_group(self.proc)
+        if control is not None and not process_gone(control):
+            try:    # it ends in order once urc run has gone (axes stopped, state saved) ...
+                wait_until(lambda: process_gone(control), 30.0, "the control process ended")
+            except AssertionError:   # ... or is killed, like urc run after its 30 s
+                _kill(control)
         if out:
             print(f"--- urc run (pid {self.proc.pid}) said:\n{out}")
         return out

@@ -18,9 +18,9 @@ from pathlib import Path
 import httpx
 import pytest
 from playwright.sync_api import expect
+from urc_process import HTTP, UrcProcess, free_port, wait_until
 
 from urc.config import load_config
-from urc_process import UrcProcess, free_port, wait_until
 
 from .fake_tracker import KEYHOLE_NOTE, FakeTracker
 
@@ -139,7 +139,7 @@ def test_jog_stops_when_the_page_goes_away(urc, open_page):
     urc.wait(lambda s: s["moving"] and s["az"]["rate_deg_per_s"] < -2, 5)
     page.context.close()                  # the tab is gone without a release
     s = urc.wait(standing, 30)
-    az_min_deg = httpx.get(urc.url + "/api/info", timeout=5).json()["limits"]["az"][0]
+    az_min_deg = HTTP.get(urc.url + "/api/info", timeout=5).json()["limits"]["az"][0]
     assert not s["faults"] and s["az"]["pos_deg"] > az_min_deg + 5, "stopped by the lease, not at the limit"
 
 
@@ -205,13 +205,13 @@ def test_settings_validation_error_next_to_the_field_then_save(urc, open_page, a
     page.wait_for_selector("#settings-result li", timeout=5000)
     messages = page.locator("#settings-result").text_content()
     assert "saved to" in messages
-    save_path = httpx.get(urc.url + "/api/settings").json()["save_path"]
+    save_path = HTTP.get(urc.url + "/api/settings").json()["save_path"]
     cfg = load_config(save_path)
     assert [z.name for z in cfg.keepout] == ["mast", "tree"] and cfg.limits.az.max_deg is None
     assert cfg.rotator.profile == "berkeley" and cfg.api.port == urc.port
     # applied live: enforced, listed by /api/info and drawn (issue 12, item 10)
     assert "applied now" in messages
-    assert [z["name"] for z in httpx.get(urc.url + "/api/info").json()["keepout"]] == ["mast", "tree"]
+    assert [z["name"] for z in HTTP.get(urc.url + "/api/info").json()["keepout"]] == ["mast", "tree"]
     page.click('nav a[data-view="dashboard"]')
     expect(page.locator("#sky-zones polygon")).to_have_count(2)
     assert page.locator('#sky-zones polygon[data-zone="tree"]').count() == 1
@@ -279,7 +279,7 @@ class InProcessUrc:
         deadline = time.monotonic() + 10
         while time.monotonic() < deadline:
             try:
-                httpx.get(self.url + "/api/status", timeout=0.5)
+                HTTP.get(self.url + "/api/status", timeout=0.5)
                 return self
             except httpx.HTTPError:
                 time.sleep(0.05)
@@ -363,10 +363,10 @@ def token_urc(tmp_path_factory):
 def reset_with_token(u) -> None:
     """:func:`reset` for a urc that wants the token: stopped, no fault latched."""
     auth = {"Authorization": f"Bearer {TOKEN}"}
-    httpx.post(u.url + "/api/stop", json={}, headers=auth, timeout=5)
+    HTTP.post(u.url + "/api/stop", json={}, headers=auth, timeout=5)
     for axis in ("az", "el"):
-        httpx.post(u.url + "/api/sim/clear", json={"axis": axis}, headers=auth, timeout=5)
-    httpx.post(u.url + "/api/clear-faults", json={}, headers=auth, timeout=5)
+        HTTP.post(u.url + "/api/sim/clear", json={"axis": axis}, headers=auth, timeout=5)
+    HTTP.post(u.url + "/api/clear-faults", json={}, headers=auth, timeout=5)
     u.wait(lambda s: standing(s) and not s["faults"], 20)
 
 
@@ -381,7 +381,7 @@ def test_stop_and_fault_stay_in_view_at_every_size(token_urc, open_page, artifac
     expect(page.locator("#token-form")).to_be_visible(timeout=5000)
     assert in_viewport(page, "#stop-btn")
     assert page.evaluate("() => document.documentElement.scrollWidth") <= size[0]   # no sideways scrolling
-    r = httpx.post(u.url + "/api/sim/fault", json={"axis": "el", "kind": "sensor_dead"},
+    r = HTTP.post(u.url + "/api/sim/fault", json={"axis": "el", "kind": "sensor_dead"},
                    headers={"Authorization": f"Bearer {TOKEN}"})
     assert r.status_code == 200
     page.wait_for_selector("#fault-banner", state="visible", timeout=5000)
@@ -557,7 +557,9 @@ def test_tracker_warnings_are_shown_while_tracking(tmp_path, open_page, artifact
         expect(banner).to_contain_text(said[0])
         page.screenshot(path=str(artifacts / "tracking-warnings.png"))
         page.set_viewport_size({"width": 390, "height": 844})  # a phone: still on screen, whole
+        page.mouse.move(195, 600)
         page.mouse.wheel(0, 2000)
+        page.wait_for_function("() => window.scrollY > 0", timeout=5000)  # (else nothing scrolled out)
         page.wait_for_timeout(300)
         assert in_viewport(page, "#track-warnings li"), "the warning scrolled out of view"
         assert page.locator("#track-warnings li").first.text_content() == said[0]
@@ -589,7 +591,7 @@ def test_a_held_front_panel_button_is_shown_and_refuses_moves_from_the_page(tmp_
             factory.pin(6).drive_low()                       # CCW pressed and held
             expect(page.locator("#local-banner")).to_be_visible(timeout=5000)
             expect(page.locator("#local-text")).to_contain_text("CCW button held at the rotator")
-            assert httpx.get(srv.url + "/api/status").json()["local_control"] == ["CCW button"]
+            assert HTTP.get(srv.url + "/api/status").json()["local_control"] == ["CCW button"]
             page.fill("#goto-az", "200")
             page.fill("#goto-el", "20")
             page.locator("#goto-form button[type=submit]").click()

@@ -10,9 +10,9 @@ import json
 import re
 from pathlib import Path
 
-import httpx
 import pytest
 from playwright.sync_api import expect
+from urc_process import HTTP
 
 from .fake_tracker import FakeTracker
 from .test_browser import InProcessUrc
@@ -54,7 +54,7 @@ def test_axe_finds_no_violation_on_any_view(busy_urc, open_page, width, height):
     page.wait_for_selector("#passes-body tr", timeout=5000)
     page.locator('#passes-body tr[data-norad="25544"] button.track-pass').click()
     expect(page.locator("#track-banner")).to_be_visible(timeout=5000)
-    assert httpx.post(srv.url + "/api/sim/fault", json={"axis": "el", "kind": "sensor_dead"}).status_code == 200
+    assert HTTP.post(srv.url + "/api/sim/fault", json={"axis": "el", "kind": "sensor_dead"}).status_code == 200
     try:
         expect(page.locator("#fault-banner")).to_be_visible(timeout=5000)
         found = {}
@@ -70,8 +70,8 @@ def test_axe_finds_no_violation_on_any_view(busy_urc, open_page, width, height):
             found[view] = axe_violations(page)
         assert found == {v: [] for v in VIEWS}, json.dumps(found, indent=1)
     finally:
-        httpx.post(srv.url + "/api/sim/clear", json={"axis": "el"})
-        httpx.post(srv.url + "/api/clear-faults", json={})
+        HTTP.post(srv.url + "/api/sim/clear", json={"axis": "el"})
+        HTTP.post(srv.url + "/api/clear-faults", json={})
     page.problems.check()
 
 

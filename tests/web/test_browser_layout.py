@@ -9,10 +9,10 @@ import re
 import time
 from datetime import datetime
 
-import httpx
 import pytest
+from playwright.sync_api import TimeoutError as PlaywrightTimeout
 from playwright.sync_api import expect
-from urc_process import UrcProcess, free_port
+from urc_process import HTTP, UrcProcess, free_port
 
 from .fake_tracker import KEYHOLE_NOTE, FakeTracker
 from .test_browser import InProcessUrc, reset, standing
@@ -87,15 +87,33 @@ def scroll_everywhere_and_check(page, what: str) -> None:
         scroll_x = page.evaluate(SCROLL_TO, [x, y])
         assert scroll_x == 0, f"{what}: the page scrolled sideways"
         assert in_viewport(page, "#stop-btn"), f"{what}: STOP off screen after scrolling to {x},{y}"
-    # a finger swipe, not only a script: sideways and down
+    # a finger swipe, not only a script: down from the top, sideways, then back up
+    # (down first: a sideways wheel first latched the gesture to a scroller that cannot
+    # scroll down, and the page never moved)
+    page.evaluate(SCROLL_TO, [0, 0])
     page.mouse.move(page.viewport_size["width"] / 2, page.viewport_size["height"] * 0.7)
-    page.mouse.wheel(800, 0)
     page.mouse.wheel(0, 3000)
+    # (a view no taller than the screen has nothing to scroll: the calibration view)
+    swiped_to(page, "window.scrollY > 0 || document.documentElement.scrollHeight <= window.innerHeight", what)
+    assert in_viewport(page, "#stop-btn"), what
+    page.mouse.wheel(800, 0)
     page.wait_for_timeout(100)
     assert page.evaluate("() => window.scrollX") == 0 and in_viewport(page, "#stop-btn"), what
     page.mouse.wheel(0, -6000)
-    page.wait_for_timeout(100)
+    swiped_to(page, "window.scrollY == 0", what)
     assert in_viewport(page, "#stop-btn"), what
+
+
+def swiped_to(page, where: str, what: str) -> None:
+    """Wait until a swipe (a wheel, which scrolls after it returns) has taken the page
+    ``where`` (a JavaScript condition): a swipe that scrolled nothing checks nothing."""
+    try:
+        page.wait_for_function(f"() => {where}", timeout=5000)
+    except PlaywrightTimeout:
+        at = page.evaluate("() => [window.scrollY, document.documentElement.scrollHeight, window.innerHeight]")
+        raise AssertionError(f"{what}: a swipe did not take the page to {where} (scrollY, height, "
+                             f"screen: {at})") from None
+    page.wait_for_timeout(100)   # (the scroll handlers have run: the page drawn there)
 
 
 @pytest.mark.parametrize("width", list(WIDTHS), ids=[f"{w}px" for w in WIDTHS])
@@ -131,8 +149,8 @@ def test_a_fault_banner_is_whole_foldable_and_leaves_stop_on_screen(remote_urc, 
     u = remote_urc
     size = WIDTHS[width]
     page = open_page(u.url + "/", *size, has_touch=width < 1000)
-    httpx.post(u.url + "/api/stop", json={}, headers=AUTH)
-    assert httpx.post(u.url + "/api/sim/fault", json={"axis": "el", "kind": "sensor_dead"}, headers=AUTH).status_code == 200
+    HTTP.post(u.url + "/api/stop", json={}, headers=AUTH)
+    assert HTTP.post(u.url + "/api/sim/fault", json={"axis": "el", "kind": "sensor_dead"}, headers=AUTH).status_code == 200
     try:
         reason = u.wait(lambda s: bool(s["faults"]), 10)["faults"][0]["reason"]
         text = page.locator("#fault-text")
@@ -163,8 +181,8 @@ def test_a_fault_banner_is_whole_foldable_and_leaves_stop_on_screen(remote_urc, 
         page.screenshot(path=str(artifacts / f"fault-open-scrolled-{width}.png"))
     finally:
         for axis in ("az", "el"):
-            httpx.post(u.url + "/api/sim/clear", json={"axis": axis}, headers=AUTH)
-        httpx.post(u.url + "/api/clear-faults", json={}, headers=AUTH)
+            HTTP.post(u.url + "/api/sim/clear", json={"axis": axis}, headers=AUTH)
+        HTTP.post(u.url + "/api/clear-faults", json={}, headers=AUTH)
     expect(page.locator("#fault-banner")).to_be_hidden(timeout=5000)
     page.problems.check()
 
@@ -188,7 +206,7 @@ def test_tracking_banner_whole_foldable_and_reopened_by_news(tmp_path, open_page
         expect(page.locator("#track-warnings")).to_be_hidden()
         expect(page.locator("#track-banner-title")).to_be_visible()
         page.mouse.wheel(0, 3000)
-        page.wait_for_timeout(100)
+        swiped_to(page, "window.scrollY > 0", "the folded banner")
         assert in_viewport(page, "#stop-btn") and in_viewport(page, "#track-banner-title")
         trk.active = {**trk.active, "plan": {**trk.active["plan"],
                                              "notes": [KEYHOLE_NOTE, "the pass crosses the keep-out zone 'mast'"]}}
