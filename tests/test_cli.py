@@ -29,20 +29,9 @@ class Controller(UrcProcess):
         return urc(*args, "--url", self.url, check=check)
 
     def status(self) -> dict:
+        # (its waits poll the API instead, UrcProcess.wait: `urc status --json` prints that
+        # same snapshot, and a poll is then a request, not a Python process started)
         return json.loads(self.cli("status", "--json").stdout)
-
-    def wait(self, pred, timeout_s: float = 60.0) -> dict:
-        """Poll the API's status (``urc status --json`` prints that same snapshot, and is
-        run by the tests on its own) until ``pred``: a poll is a request, not the start of
-        a Python process, so a wait sees its condition sooner and costs little CPU."""
-        deadline = time.monotonic() + timeout_s
-        s = UrcProcess.status(self)
-        while not pred(s):
-            if time.monotonic() > deadline:
-                raise AssertionError(f"condition not met within {timeout_s} s; last status {s}")
-            time.sleep(0.1)
-            s = UrcProcess.status(self)
-        return s
 
     def stop(self, sig=signal.SIGTERM) -> str:
         self.proc.send_signal(sig)

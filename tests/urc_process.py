@@ -234,6 +234,10 @@ class UrcProcess:
         raise AssertionError("no control process found")
 
     def status(self) -> dict:
+        return self.api_status()
+
+    def api_status(self) -> dict:
+        """GET /api/status (what :meth:`wait` polls, whatever ``status`` a subclass reads)."""
         try:
             return HTTP.get(self.url + "/api/status").json()
         except httpx.TransportError:
@@ -258,9 +262,9 @@ class UrcProcess:
 
     def wait(self, pred, timeout_s: float = 60.0) -> dict:
         deadline = time.monotonic() + timeout_s
-        s = self.status()
+        s = self.api_status()
         while time.monotonic() < deadline:
-            s = self.status()
+            s = self.api_status()
             if pred(s):
                 return s
             time.sleep(0.1)
