@@ -55,12 +55,15 @@ def standing(s: dict) -> bool:
     return not s["moving"] and s["az"]["mode"] in ("holding", "idle") and s["el"]["mode"] in ("holding", "idle")
 
 
-def reset(urc) -> None:
-    urc.post("/api/stop", {})
+def reset(urc, token: str | None = None) -> None:
+    """Stopped, standing, no fault latched (the simulator's own repaired); ``token``: for
+    a urc that wants one."""
+    auth = {"Authorization": f"Bearer {token}"} if token else {}
+    HTTP.post(urc.url + "/api/stop", json={}, headers=auth)
     if urc.status()["faults"]:
         for axis in ("az", "el"):
-            urc.post("/api/sim/clear", {"axis": axis})
-        urc.post("/api/clear-faults")
+            HTTP.post(urc.url + "/api/sim/clear", json={"axis": axis}, headers=auth)
+        HTTP.post(urc.url + "/api/clear-faults", json={}, headers=auth)
     urc.wait(lambda s: standing(s) and not s["faults"], 20)
 
 
@@ -360,22 +363,12 @@ def token_urc(tmp_path_factory):
     u.stop()
 
 
-def reset_with_token(u) -> None:
-    """:func:`reset` for a urc that wants the token: stopped, no fault latched."""
-    auth = {"Authorization": f"Bearer {TOKEN}"}
-    HTTP.post(u.url + "/api/stop", json={}, headers=auth, timeout=5)
-    for axis in ("az", "el"):
-        HTTP.post(u.url + "/api/sim/clear", json={"axis": axis}, headers=auth, timeout=5)
-    HTTP.post(u.url + "/api/clear-faults", json={}, headers=auth, timeout=5)
-    u.wait(lambda s: standing(s) and not s["faults"], 20)
-
-
 @pytest.mark.parametrize("size", [PHONE, (768, 1024), (1400, 1100)], ids=["phone", "tablet", "desktop"])
 def test_stop_and_fault_stay_in_view_at_every_size(token_urc, open_page, artifacts, size):
     """Issue 12, item 8: with the token field shown (a remote listener), STOP and the
     fault state are inside the viewport, before and after scrolling to the bottom."""
     u = token_urc
-    reset_with_token(u)     # (one urc for every size: no fault left by the one before)
+    reset(u, TOKEN)     # (one urc for every size: no fault left by the one before)
     page = open_page(u.url + "/", *size)
     # shown once the page has read /api/info (a remote listener): wait for it
     expect(page.locator("#token-form")).to_be_visible(timeout=5000)

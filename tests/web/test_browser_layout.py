@@ -180,9 +180,7 @@ def test_a_fault_banner_is_whole_foldable_and_leaves_stop_on_screen(remote_urc, 
             assert in_viewport(page, "#fault-banner .banner-head")
         page.screenshot(path=str(artifacts / f"fault-open-scrolled-{width}.png"))
     finally:
-        for axis in ("az", "el"):
-            HTTP.post(u.url + "/api/sim/clear", json={"axis": axis}, headers=AUTH)
-        HTTP.post(u.url + "/api/clear-faults", json={}, headers=AUTH)
+        reset(u, TOKEN)
     expect(page.locator("#fault-banner")).to_be_hidden(timeout=5000)
     page.problems.check()
 
