@@ -67,10 +67,7 @@ def reap_leaked(mark: str, grace_s: float) -> list[str]:
     while (left := suite_urc_processes(mark)) and time.monotonic() < deadline:
         time.sleep(0.2)
     for pid, _ in left:
-        try:
-            os.kill(pid, signal.SIGKILL)
-        except ProcessLookupError:
-            pass
+        _kill(pid)
     return [f"{pid}: {cmd}" for pid, cmd in left]
 
 
@@ -275,10 +272,7 @@ class UrcProcess:
         Its output is also printed: pytest shows it under a failed test's captured output."""
         if self.proc is None:
             return ""
-        try:    # (in a session of its own: the signals to urc run's group miss it)
-            control = self.control_pid() if self.proc.poll() is None else None
-        except (AssertionError, OSError):
-            control = None
+        control = self._running_control_pid()
         out = stop_process_group(self.proc)
         if control is not None and not process_gone(control):
             try:    # it ends in order once urc run has gone (axes stopped, state saved) ...
@@ -288,3 +282,22 @@ class UrcProcess:
         if out:
             print(f"--- urc run (pid {self.proc.pid}) said:\n{out}")
         return out
+
+    def kill(self) -> str:
+        """End at once, without the orderly stop: for a test done with a urc whose stop
+        would only wait (a bridge whose sensor cannot be read: the 8 s for a standstill
+        that is never seen). Returns its output."""
+        if self.proc is not None and self.proc.poll() is None:
+            control = self._running_control_pid()
+            if control is not None:
+                _kill(control)
+            _kill_group(self.proc.pid)
+        return self.stop()
+
+    def _running_control_pid(self) -> int | None:
+        """The control process's pid while urc run runs (it is in a session of its own:
+        the signals to urc run's group miss it)."""
+        try:
+            return self.control_pid() if self.proc is not None and self.proc.poll() is None else None
+        except (AssertionError, OSError):
+            return None

@@ -9,7 +9,6 @@ from __future__ import annotations
 import os
 import re
 import shutil
-import signal
 import socket
 import subprocess
 import threading
@@ -38,21 +37,6 @@ def downstream(work, name: str, config: str) -> UrcProcess:
     d = work / name
     d.mkdir()
     return UrcProcess(d, profile=PROFILE, serve=[], extra=config).start()
-
-
-def discard(u: UrcProcess) -> None:
-    """End a urc whose bridge is faulted at once (SIGKILL to its control process, which
-    runs in a session of its own, and to its I/O process's group) when the test is done
-    with it: an orderly stop, or a control process left alone, waits 8 s
-    (loop.STANDSTILL_TIMEOUT_S) for a standstill that an axis whose sensor cannot be read
-    never reports."""
-    if u.proc is not None and u.proc.poll() is None:
-        try:
-            os.kill(u.control_pid(), signal.SIGKILL)
-        except (AssertionError, ProcessLookupError):   # (none, or gone already)
-            pass
-        os.killpg(u.proc.pid, signal.SIGKILL)
-    u.stop()
 
 
 def angle_diff(a: float, b: float) -> float:
@@ -210,7 +194,7 @@ def test_link_loss_mid_move_is_a_fault(tmp_path):
         r = down.post("/api/goto", {"az_deg": 10.0, "el_deg": 10.0})
         assert r.status_code != 200, r.text   # refused while the fault stands
     finally:
-        discard(down)
+        down.kill()   # (its orderly stop would wait 8 s for a standstill it cannot see)
         up.stop()
 
 
@@ -307,7 +291,7 @@ def test_garbage_or_silence_moves_nothing(tmp_path, mode, reason):
         assert b"W" not in after, after          # no target on answers not understood
         assert b"S\r" in after, after             # the fault told it to stop
     finally:
-        discard(down)
+        down.kill()   # (its orderly stop would wait 8 s for a standstill it cannot see)
         ctl.close()
 
 
