@@ -237,7 +237,7 @@ async def _serve(cfg: Config, state_dir: Path, config_path: Path | None, api_soc
     if not asked and web.done() and not web.cancelled() and web.exception() is None:
         raise ServiceFailed("the API server stopped on its own")
     if not result["settled"] and result["saved"]:
-        print("urc: the axes did not come to rest in time; saved as moving", flush=True)
+        print("urc: the axes were not seen to come to rest; saved as moving", flush=True)
     if web.done() and not web.cancelled() and web.exception() is not None:
         raise web.exception()
     print("urc: stopped, state saved" if result["saved"] else "urc: stopped; the state could NOT be saved "

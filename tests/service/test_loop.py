@@ -319,3 +319,49 @@ def test_commands_from_another_thread_never_see_half_a_tick(bench):
     assert done.wait(5)
     with pytest.raises(CommandRejected):
         b.rot.goto(float("nan"), 0.0)
+
+
+class _Frozen:
+    """A rotator whose status is fixed: what an orderly stop's settle() sees."""
+
+    def __init__(self, status):
+        self.polls = 0
+        self._status = status
+
+    def stop(self) -> None:
+        pass
+
+    def status(self):
+        self.polls += 1
+        return self._status
+
+
+def _seen(b, az_mode: str, az_sensor_ok: bool = True, fault: str | None = None, moving: bool = False):
+    from dataclasses import replace
+
+    from urc.control.faults import Fault
+
+    s = b.rot.status()
+    return replace(s, moving=moving, az=replace(s.az, mode=az_mode, sensor_ok=az_sensor_ok),
+                   faults=() if fault is None else (Fault(fault, "az", "position sensor unreadable", s.t_s),))
+
+
+def test_settle_does_not_wait_for_an_axis_whose_standstill_cannot_be_seen(bench):
+    """A bridged controller answering garbage: its axis stays "driving" with a dead
+    sensor, and every orderly stop used to wait the whole standstill timeout for it.
+    Now the stop ends at once, as not settled (so the axis is saved as moving)."""
+    from urc.service.loop import settle
+
+    b = bench("tartu-urc")
+    blind = _Frozen(_seen(b, "driving", az_sensor_ok=False, fault="sensor_dead"))
+    assert settle(blind, timeout_s=30.0, poll_s=0.001) is False
+    assert blind.polls == 1
+    # ... but a sensor that failed without the fault latched (a glitch) is waited for,
+    glitch = _Frozen(_seen(b, "driving", az_sensor_ok=False))
+    assert settle(glitch, timeout_s=0.05, poll_s=0.001) is False
+    assert glitch.polls > 1
+    # ... so is another axis still moving, and an axis at rest ends the wait as settled
+    coasting = _Frozen(_seen(b, "driving", az_sensor_ok=False, fault="sensor_dead", moving=True))
+    assert settle(coasting, timeout_s=0.05, poll_s=0.001) is False and coasting.polls > 1
+    at_rest = _Frozen(_seen(b, "holding"))
+    assert settle(at_rest, timeout_s=30.0, poll_s=0.001) is True and at_rest.polls == 1

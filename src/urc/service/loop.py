@@ -23,7 +23,7 @@ from typing import Callable
 
 from ..clock import Clock, VirtualClock
 from .rotator import Rotator
-from .snapshot import Status
+from .snapshot import AxisStatus, Status
 
 log = logging.getLogger(__name__)
 
@@ -158,7 +158,11 @@ class ControlThread:
 
 def settle(rotator: Rotator, timeout_s: float = STANDSTILL_TIMEOUT_S, poll_s: float = 0.02) -> bool:
     """Stop both axes and wait (bounded) until they stand still, while the loop keeps
-    ticking on its own thread. True if they came to rest."""
+    ticking on its own thread. True if they were seen to come to rest; False if not in
+    ``timeout_s``, or as soon as the only axes not at rest have dead sensors: their
+    standstill can never be seen (their fault has cut their outputs already), so they are
+    saved as moving (a bridged controller answering garbage held every stop for the
+    whole timeout)."""
     try:
         rotator.stop()
     except Exception:  # the stop command itself may be refused (uncertain position...)
@@ -167,9 +171,24 @@ def settle(rotator: Rotator, timeout_s: float = STANDSTILL_TIMEOUT_S, poll_s: fl
     while time.monotonic() < deadline:
         time.sleep(poll_s)
         s = rotator.status()
-        if not s.moving and all(a is None or a.mode in ("idle", "holding") for a in (s.az, s.el)):
+        if s.moving:  # (an axis whose sensor is dead never counts as moving)
+            continue
+        unseen = [name for name in s.axes if not _at_rest(getattr(s, name))]
+        if not unseen:
             return True
+        if all(_sensor_dead(s, name) for name in unseen):
+            log.warning("stop: %s not seen to come to rest (position sensor unreadable)", " and ".join(unseen))
+            return False
     return False
+
+
+def _at_rest(axis: AxisStatus) -> bool:
+    return axis.mode in ("idle", "holding")
+
+
+def _sensor_dead(s: Status, axis: str) -> bool:
+    """As the rotator judges it (Core.sensor_dead): unreadable now, and latched as such."""
+    return not getattr(s, axis).sensor_ok and any(f.kind == "sensor_dead" and f.axis == axis for f in s.faults)
 
 
 async def run_realtime(rotator: Rotator, clock: Clock, stop: asyncio.Event,
