@@ -187,7 +187,7 @@ class UrcProcess:
                                      stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
                                      start_new_session=True, env=env, preexec_fn=_term_with_parent)
         try:
-            wait_until(self._answers, timeout_s, "urc run answers on its API port", poll_s=0.1)
+            wait_until(self._answers, timeout_s, "urc run answers on its API port", poll_s=0.02)
         except BaseException as exc:
             out = stop_process_group(self.proc, timeout_s=10)
             # (one that exited has had its output read into exc already: nothing is left)
