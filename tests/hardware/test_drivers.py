@@ -72,11 +72,11 @@ def test_vnh5019_off_is_the_datasheets_brake_to_gnd_row_not_coast():
         assert state == ("brake" if duty == 0.0 else "forward" if duty > 0 else "reverse")
         assert pwm.value == (1.0 if duty == 0.0 else abs(duty))
     # at exit the PWM stops (idles low): the brake is held by the row that needs no PWM
-    m.before_pwm_close()
+    m.close()
     assert (ina.value, inb.value, pwm.value) == (True, True, 0.0)
     assert vnh5019_state(ina.value, inb.value, False) == "brake"
-    m.set_drive(0.5)                 # a drive after it rewrites both direction pins
-    assert (ina.value, inb.value, pwm.value) == (True, False, 0.5)
+    m.set_drive(0.5)                 # closed: a drive after it is refused, the brake held
+    assert (ina.value, inb.value, pwm.value) == (True, True, 0.0)
 
 
 def test_bts7960_never_drives_both_sides():
@@ -115,7 +115,7 @@ def test_lmd18200_brakes_at_zero():
     assert log.events[-2:] == [("BRAKE", True), ("PWM", 1.0)]
     # at exit, with the PWM channel about to be disabled: BRAKE low, PWM low, the
     # table's other braking row (both sourcing switches on)
-    m.before_pwm_close()
+    m.close()
     assert (pwm.value, brk.value) == (0.0, False)
     assert lmd18200_state(False, d.value, False) == "brake"
 

@@ -37,6 +37,26 @@ class Motor(Protocol):
         """Motor current, amperes (0 when the drive cannot measure it)."""
 
 
+def motor_off(motor: Motor) -> None:
+    """Motor off from any thread: the driver's ``force_safe`` where it has one (the gpio
+    drivers: written without waiting for a tick stuck in the driver, past every cache),
+    else ``set_drive(0)``."""
+    force_safe = getattr(motor, "force_safe", None)
+    if force_safe is not None:
+        force_safe()
+    else:
+        motor.set_drive(0.0)
+
+
+def brake_on(brake: Brake) -> None:
+    """Brake engaged from any thread (``force_safe`` where the driver has one)."""
+    force_safe = getattr(brake, "force_safe", None)
+    if force_safe is not None:
+        force_safe()
+    else:
+        brake.set_released(False)
+
+
 @runtime_checkable
 class Brake(Protocol):
     def set_released(self, released: bool) -> None:
@@ -165,16 +185,18 @@ class Hardware:
     def drive_safe(self) -> None:
         """Every output to its safe state: motors off (positioners stopped), brakes
         engaged, heartbeat low. Each write is tried even when another fails (start-up
-        and every exit path)."""
+        and every exit path). Called without the rotator's lock from other threads than
+        the tick's (the tick watch, the power-fail callback, a shutdown past a hung
+        tick): the drivers' ``force_safe`` (:func:`motor_off`, :func:`brake_on`)."""
         writes: list[tuple[str, Callable[[], Any]]] = []
         for name, ax in (("az", self.az), ("el", self.el)):
             if ax is None:
                 continue
-            writes.append((f"{name} motor off", lambda ax=ax: ax.motor.set_drive(0.0)))
+            writes.append((f"{name} motor off", lambda ax=ax: motor_off(ax.motor)))
             if ax.positioner is not None:  # an external controller's axis: told to stop
                 writes.append((f"{name} positioner stop", lambda ax=ax: ax.positioner.stop()))
             if ax.brake is not None:
-                writes.append((f"{name} brake on", lambda ax=ax: ax.brake.set_released(False)))
+                writes.append((f"{name} brake on", lambda ax=ax: brake_on(ax.brake)))
         if self.heartbeat is not None:
             writes.append(("heartbeat low", lambda: self.heartbeat.write(False)))
         for what, write in writes:

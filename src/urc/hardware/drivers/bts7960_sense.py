@@ -94,7 +94,9 @@ class FilteredDuty:
 
     def advance(self, now_s: float) -> float:
         if now_s > self.at_s:
-            self.value = self.duty + (self.value - self.duty) * math.exp(-(now_s - self.at_s) / self.tau_s)
+            # duty read once: note_duty may change it from another thread (drive_safe's)
+            duty = self.duty
+            self.value = duty + (self.value - duty) * math.exp(-(now_s - self.at_s) / self.tau_s)
             self.at_s = now_s
         return self.value
 

@@ -7,17 +7,31 @@ SPID pulse counter has no direction channel and takes it from the drive
 
 Every driver puts its outputs in the safe state (motor off, H-bridge braking) when it
 is built, before anything else can drive them.
+
+Two threads write the same driver: the control tick (``set_drive``) and whoever calls
+``Hardware.drive_safe`` without the rotator's lock (the tick watch, the power-fail
+callback, a shutdown past a hung tick). Each driver's ``_lock`` is held over its check,
+pin writes and state update, so neither sees the other's half-written pins; it is never
+held over a current-sense read or ``driver_fault`` (a bus read can hang). ``force_safe``
+(what ``drive_safe`` calls) does not wait for a holder that is stuck: it writes the whole
+safe pattern anyway, past every cache, and leaves the driver's remembered state unknown
+so that the next drive writes every pin again. After ``close`` a driver refuses to drive.
 """
 
 from __future__ import annotations
 
+import logging
 import math
-from typing import Callable, Sequence
+import threading
+from contextlib import contextmanager
+from typing import Callable, Iterator, Sequence
 
 from ...clock import Clock
 from ...errors import ConfigError, HardwareError
 from ..parts import CurrentSense, DigitalIn, DigitalOut, PwmOut, VoltageIn
 from .bts7960_sense import V_PER_A as BTS7960_V_PER_A
+
+log = logging.getLogger(__name__)
 
 #: current-sense volts per motor ampere, per bridge as its datasheet and board give it:
 #: VNH5019: K = I_OUT/I_SENSE typ. 7000 (ST VNH5019A-E datasheet, electrical
@@ -71,6 +85,34 @@ def vnh5019_state(ina: bool, inb: bool, pwm_high: bool) -> str:
     if row == "brake to GND" and not pwm_high:
         return "coast"
     return row if row in ("forward", "reverse") else "brake"
+
+
+#: how long ``force_safe`` and ``close`` wait for a driver another thread holds: a
+#: tick's writes take microseconds, so a holder still there after this is stuck mid-write
+#: (SIGSTOP, a hung call) and the outputs go safe without it
+FORCE_WAIT_S = 0.01
+
+
+@contextmanager
+def forcing(lock: threading.Lock, what: str) -> Iterator[bool]:
+    """``lock`` for a write that must happen whatever another thread is doing
+    (``force_safe``, ``close``): held if it comes within :data:`FORCE_WAIT_S`, else the
+    body runs without it (logged). Yields whether it is held."""
+    got = lock.acquire(timeout=FORCE_WAIT_S)
+    if not got:
+        log.warning("%s: written without the driver's lock (another thread has held it for over %.0f ms: "
+                    "stuck mid-write?)", what, FORCE_WAIT_S * 1e3)
+    try:
+        yield got
+    finally:
+        if got:
+            lock.release()
+
+
+def force_duty(pwm: PwmOut, duty: float) -> None:
+    """``duty`` written whatever the part remembers (a hardware PWM skips a duty it
+    thinks it has: :meth:`..gpio.pwm.HardwarePwm.force_duty`)."""
+    getattr(pwm, "force_duty", pwm.write_duty)(duty)
 
 
 def stop_pwm(pwm: PwmOut) -> None:
@@ -148,14 +190,59 @@ class HBridgeMotor(DirectionTracker):
         #: the bridge's fault output where wired (active low: VNH5019 EN/DIAG,
         #: LMD18200 thermal flag)
         self.fault_in = fault_in
+        #: held over check + pin writes + state update (see the module's docstring)
+        self._lock = threading.Lock()
+        #: set by :meth:`close`: every later drive is refused
+        self.closed = False
+        self._refused = False
 
     def set_drive(self, duty: float) -> None:
         duty = clamp_duty(duty, self.name)
         self._track(duty)
-        self.duty = duty
-        self._apply(duty)
+        with self._lock:
+            if self.closed:
+                refuse_closed(self, duty)
+                return
+            self.duty = duty
+            self._apply(duty)
+            if self.closed:      # closed meanwhile by a thread that could not wait for this one
+                self._write_closed()
+
+    def force_safe(self) -> None:
+        """Motor off from any thread (``Hardware.drive_safe``): the full safe pattern,
+        whatever the driver remembers and whether or not its lock came; then what it
+        remembers is unknown, so the next drive writes every pin."""
+        with forcing(self._lock, f"{self.name} motor off"):
+            self.duty = 0.0
+            if self.closed:
+                self._write_closed()
+            else:
+                self._write_safe()
+
+    def close(self) -> None:
+        """At exit: the outputs held safe for after the process (the PWM stopped: lgpio's
+        software PWM thread ends with it, a disabled hardware channel idles low), and
+        every later drive refused (a hung tick that resumes must not drive a line that
+        keeps its level after the process ends, ``persist_gpio_outputs``)."""
+        with forcing(self._lock, f"{self.name} motor close"):
+            self.closed = True   # first: a writer that could not be waited for undoes its writes
+            self.duty = 0.0
+            self._write_closed()
 
     def _apply(self, duty: float) -> None:
+        raise NotImplementedError
+
+    def _write_safe(self) -> None:
+        """The off pattern, every pin written (:meth:`force_safe`)."""
+        raise NotImplementedError
+
+    def _write_closed(self) -> None:
+        """What :meth:`close` leaves: the off pattern, the PWM outputs stopped."""
+        self._write_safe()
+        for pwm in self._pwms():
+            stop_pwm(pwm)
+
+    def _pwms(self) -> tuple[PwmOut, ...]:
         raise NotImplementedError
 
     def read_current_a(self) -> float:
@@ -171,6 +258,13 @@ class HBridgeMotor(DirectionTracker):
             return f"{self.name} motor: {type(self).__name__[:-5].upper()} {self.FAULT_TEXT}"
         sense_fault = getattr(self._current, "fault", None)
         return f"{self.name} motor: {sense_fault}" if sense_fault else None
+
+
+def refuse_closed(motor: HBridgeMotor | RelayMotor, duty: float) -> None:
+    if duty != 0.0 and not motor._refused:
+        motor._refused = True    # (said once)
+        log.warning("%s motor: drive %+.2f refused: the driver is closed (the process is ending)",
+                    motor.name, duty)
 
 
 class Vnh5019Motor(HBridgeMotor):
@@ -190,7 +284,8 @@ class Vnh5019Motor(HBridgeMotor):
                  current: CurrentSense | None = None, diag: DigitalIn | None = None):
         super().__init__(name, current, diag)
         self.ina, self.inb, self.pwm = ina, inb, pwm
-        self._dir = 0
+        #: the direction INA/INB were last written for; None = not known (force_safe)
+        self._dir: int | None = 0
         pwm.write_duty(0.0)
         ina.write(False)
         inb.write(False)
@@ -205,7 +300,14 @@ class Vnh5019Motor(HBridgeMotor):
             self._dir = d
         self.pwm.write_duty(abs(duty) if d else 1.0)
 
-    def before_pwm_close(self) -> None:
+    def _write_safe(self) -> None:
+        force_duty(self.pwm, 0.0)
+        self.ina.write(False)
+        self.inb.write(False)
+        force_duty(self.pwm, 1.0)      # brake to GND
+        self._dir = None
+
+    def _write_closed(self) -> None:
         """At exit the PWM output stops (a disabled hardware channel idles low, which
         with INA = INB = 0 would coast): hold the brake through the row that needs no
         PWM, INA = INB = 1 (brake to VCC, §2.4). The lines keep these levels after the
@@ -213,7 +315,7 @@ class Vnh5019Motor(HBridgeMotor):
         stop_pwm(self.pwm)
         self.ina.write(True)
         self.inb.write(True)
-        self._dir = 2            # neither direction: the next drive rewrites INA/INB
+        self._dir = None
 
 
 class Lmd18200Motor(HBridgeMotor):
@@ -232,6 +334,7 @@ class Lmd18200Motor(HBridgeMotor):
                  current: CurrentSense | None = None, thermal_flag: DigitalIn | None = None):
         super().__init__(name, current, thermal_flag)
         self.pwm_out, self.dir_out, self.brake_out = pwm, dir, brake
+        #: BRAKE and PWM were last written high; False also when not known (force_safe)
         self._braking = False
         pwm.write_duty(0.0)          # coast while BRAKE may still be low
         brake.write(True)
@@ -243,7 +346,14 @@ class Lmd18200Motor(HBridgeMotor):
         self.pwm_out.write_duty(1.0)
         self._braking = True
 
-    def before_pwm_close(self) -> None:
+    def _write_safe(self) -> None:
+        force_duty(self.pwm_out, 0.0)       # coast while BRAKE may still be low
+        self.brake_out.write(True)
+        self.dir_out.write(False)
+        force_duty(self.pwm_out, 1.0)
+        self._braking = False
+
+    def _write_closed(self) -> None:
         """At exit the PWM output stops (a disabled hardware channel idles low; lgpio's
         software PWM is stopped first, or its level when the thread ends is undefined):
         hold the brake through the other braking row of the table, BRAKE low with PWM
@@ -281,6 +391,18 @@ class Bts7960Motor(HBridgeMotor):
         if enable is not None:
             enable.write(True)     # R_EN/L_EN high: both low sides brake at duty 0
 
+    def _write_safe(self) -> None:
+        force_duty(self.lpwm, 0.0)
+        force_duty(self.rpwm, 0.0)
+        if self.enable is not None:
+            self.enable.write(True)
+        note_duty = getattr(self._current, "note_duty", None)
+        if note_duty is not None:
+            note_duty(0.0)
+
+    def _pwms(self) -> tuple[PwmOut, ...]:
+        return self.rpwm, self.lpwm
+
     def _apply(self, duty: float) -> None:
         if duty >= 0.0:
             self.lpwm.write_duty(0.0)
@@ -303,15 +425,25 @@ class PwmDirMotor(HBridgeMotor):
                  current: CurrentSense | None = None):
         super().__init__(name, current)
         self.pwm_out, self.dir_out = pwm, dir
+        #: the direction DIR was last written for; None = not known
+        self._fwd: bool | None = None
         pwm.write_duty(0.0)
         dir.write(False)
 
     def _apply(self, duty: float) -> None:
-        if duty != 0.0 and (duty > 0) != getattr(self, "_fwd", None):
+        if duty != 0.0 and (duty > 0) != self._fwd:
             self.pwm_out.write_duty(0.0)
             self.dir_out.write(duty > 0)
             self._fwd = duty > 0
         self.pwm_out.write_duty(abs(duty))
+
+    def _write_safe(self) -> None:
+        force_duty(self.pwm_out, 0.0)
+        self.dir_out.write(False)
+        self._fwd = None
+
+    def _pwms(self) -> tuple[PwmOut, ...]:
+        return (self.pwm_out,)
 
 
 #: the shortest reversal dead time allowed: a relay's contact opens 5-15 ms after its
@@ -355,10 +487,15 @@ class RelayMotor(DirectionTracker):
         self._current = current
         self.duty = 0.0
         self.level = 0.0          # the level asked for (sign = direction)
-        self._on_dir = 0          # the relay energised now: +1 CW, -1 CCW, 0 none
+        #: the relay energised now: +1 CW, -1 CCW, 0 none, None not known (force_safe)
+        self._on_dir: int | None = 0
         self._off_since_s: float | None = -math.inf
         self._last_dir = 0        # direction of the last energised relay
         self._level_since_s = 0.0
+        #: held over check + relay writes + state update (see the module's docstring)
+        self._lock = threading.Lock()
+        self.closed = False
+        self._refused = False
         cw.write(False)
         ccw.write(False)
         if fast is not None:
@@ -370,23 +507,51 @@ class RelayMotor(DirectionTracker):
     def set_drive(self, duty: float) -> None:
         duty = clamp_duty(duty, self.name)
         self._track(duty)
-        self.duty = duty
-        level = self.quantise(duty)
-        now = self.clock.now_s()
-        if level != self.level:
-            self._level_since_s = now
-            self.level = level
-        self.service(now)
+        with self._lock:
+            if self.closed:
+                refuse_closed(self, duty)
+                return
+            self.duty = duty
+            level = self.quantise(duty)
+            now = self.clock.now_s()
+            if level != self.level:
+                self._level_since_s = now
+                self.level = level
+            self.service(now, level)
+            if self.closed:      # closed meanwhile by a thread that could not wait for this one
+                self._all_off()
 
-    def service(self, now_s: float) -> None:
-        """Set the relays for the asked level at ``now_s`` (also called between drives
-        by a backend that polls faster than the control tick)."""
-        level = self.level
+    def force_safe(self) -> None:
+        """Every relay off from any thread (``Hardware.drive_safe``), whatever the driver
+        remembers and whether or not its lock came; which relay is on is then unknown,
+        so the next drive writes them again."""
+        with forcing(self._lock, f"{self.name} relays off"):
+            self.duty = self.level = 0.0
+            self._all_off()
+
+    def close(self) -> None:
+        """At exit: every relay off, and every later drive refused (a relay line keeps
+        its level after the process ends, ``persist_gpio_outputs``)."""
+        with forcing(self._lock, f"{self.name} relays close"):
+            self.closed = True   # first: a writer that could not be waited for undoes its writes
+            self.duty = self.level = 0.0
+            self._all_off()
+
+    def _all_off(self) -> None:
+        self.cw.write(False)
+        self.ccw.write(False)
+        if self.fast is not None:
+            self.fast.write(False)
+        self._on_dir = None
+        self._off_since_s = self.clock.now_s()    # (after the writes: see _energise)
+
+    def service(self, now_s: float, level: float) -> None:
+        """Set the relays for ``level`` (the one asked for) at ``now_s``."""
         want = 0 if level == 0.0 else (1 if level > 0 else -1)
         if want and self._last_dir and want != self._last_dir:
-            # reversal: off first, then wait out the dead time
-            if self._on_dir:
-                self._energise(0, now_s)
+            # reversal: off first (also when not known), then wait out the dead time
+            if self._on_dir != 0:
+                self._energise(0)
             if self._off_since_s is None or now_s - self._off_since_s < self.reverse_dead_time_s - 1e-9:
                 return
         mag = abs(level)
@@ -397,9 +562,9 @@ class RelayMotor(DirectionTracker):
             on = want if phase < mag * self.pulse_period_s - 1e-9 else 0
         if self.fast is not None:
             self.fast.write(bool(want) and mag >= 1.0)
-        self._energise(on, now_s)
+        self._energise(on)
 
-    def _energise(self, d: int, now_s: float) -> None:
+    def _energise(self, d: int) -> None:
         if d == self._on_dir:
             return
         # break before make: the other relay always opens first
@@ -415,10 +580,14 @@ class RelayMotor(DirectionTracker):
             self._last_dir = d
             self._off_since_s = None
         else:
-            self._off_since_s = now_s
+            # the dead time counts from the clock after the writes: ``now_s`` was read
+            # before them, and a freeze in between (SIGSTOP, a stalled write) would
+            # shorten it by as long as it lasted
+            self._off_since_s = self.clock.now_s()
         self._on_dir = d
 
-    def energised(self) -> int:
+    def energised(self) -> int | None:
+        """The relay energised now: +1 CW, -1 CCW, 0 none, None not known."""
         return self._on_dir
 
     def read_current_a(self) -> float:

@@ -25,7 +25,7 @@ from ...errors import ConfigError
 from ..drivers import LimitSwitchInput, RelayBrake, SenseCurrent
 from ..drivers.bts7960_sense import Bts7960Sense
 from ..drivers.motors import sense_v_per_a
-from ..interfaces import AxisHardware, Hardware
+from ..interfaces import AxisHardware, Hardware, brake_on, motor_off
 from .buses import Buses
 from .feed import (EmulatedBrake, EmulatedHeartbeat, EmulatedMotor, Emulation, feed_current_sense, feed_sensor,
                    forget_output_history, limit_sync)
@@ -210,18 +210,22 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
         return hw
 
     def close_real() -> None:
+        # (force_safe, not set_drive: a hung tick may hold a driver, and closing must not
+        # wait for it)
         for ax in axes.values():
             try:
-                ax.motor.set_drive(0.0)
+                motor_off(ax.motor)
                 if ax.brake is not None:
-                    ax.brake.set_released(False)
+                    brake_on(ax.brake)
             except Exception:  # pragma: no cover - closing must go on
                 log.exception("gpio: could not make %s safe", ax)
-        for ax in axes.values():       # a bridge whose off needs PWM high brakes another way
-            hold = getattr(ax.motor, "before_pwm_close", None)
-            if hold is not None:       # software PWM too: its lgpio thread ends at exit
+        for ax in axes.values():
+            # held safe for after the process, every later drive refused (a bridge whose
+            # off needs PWM high brakes another way; software PWM stopped too)
+            close = getattr(ax.motor, "close", None)
+            if close is not None:
                 try:
-                    hold()
+                    close()
                 except Exception:  # pragma: no cover - closing must go on
                     log.exception("gpio: could not hold %s braked", ax)
         buses.close()

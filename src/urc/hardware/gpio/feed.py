@@ -89,9 +89,16 @@ class EmulatedMotor:
         self.contacts = RelayContacts(axis) if kind == "relay" else None
 
     def set_drive(self, duty: float) -> None:
+        self._drive(lambda: self.driver.set_drive(duty))
+
+    def force_safe(self) -> None:
+        """The driver's force_safe (``Hardware.drive_safe``), fed to the simulator."""
+        self._drive(self.driver.force_safe)
+
+    def _drive(self, write: Any) -> None:
         with self.world.lock:   # (one step of the iron: see SimWorld.lock)
             self.world.catch_up()
-            self.driver.set_drive(duty)
+            write()
             phys = self.world.axes[self.axis]
             phys.bridge_open = emulated_bridge_open(self.kind, self.driver)
             if self.contacts is not None:
@@ -116,6 +123,13 @@ class EmulatedBrake:
 
     def set_released(self, released: bool) -> None:
         self.driver.set_released(released)
+        self._command()
+
+    def force_safe(self) -> None:
+        self.driver.force_safe()
+        self._command()
+
+    def _command(self) -> None:
         self.world.command_brake(self.axis, self.driver.coil.read_back())
 
     def is_released(self) -> bool:

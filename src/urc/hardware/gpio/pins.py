@@ -135,18 +135,36 @@ class PinPwm:
 
     def __init__(self, factory: Any, pin: int, *, frequency_hz: float = 1000.0):
         self.pin = factory.pin(pin)
+        self.frequency_hz = frequency_hz
+        #: set by stop: the pin stays low for good
+        self.closed = False
         claim_output(self.pin, False)
         self.pin.frequency = frequency_hz
         self.pin.state = 0.0
 
     def write_duty(self, duty: float) -> None:
+        # after stop lgpio takes a state as a plain level (gpiozero's LGPIOPin: no PWM,
+        # gpio_write(bool(duty))): any duty above 0 would drive the pin high for good
+        if self.closed:
+            return
         self.pin.state = min(1.0, max(0.0, float(duty)))
+        if self.closed:
+            # stopped meanwhile from another thread, maybe inside this write: LGPIOPin
+            # notes the duty, then calls tx_pwm, so lgpio may run PWM again that gpiozero
+            # thinks stopped (and would not stop again): started known, then stopped
+            self.pin.frequency = self.frequency_hz
+            self._low()
 
     def read_back(self) -> float:
         return float(self.pin.state)
 
     def stop(self) -> None:
-        """End lgpio's PWM on the pin (``tx_pwm`` 0, 0), then hold it low."""
+        """End lgpio's PWM on the pin (``tx_pwm`` 0, 0), then hold it low, for good (a
+        later write_duty is refused)."""
+        self.closed = True    # first: a write_duty under way sees it after its write
+        self._low()
+
+    def _low(self) -> None:
         self.pin.frequency = None
         self.pin.state = False
 

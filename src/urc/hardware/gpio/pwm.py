@@ -154,19 +154,47 @@ class HardwarePwm:
         sysfs_pwm_off(chip, channel, sys_pwm)   # before the library's period write
         self.pwm = pwm_class(pwm_channel=channel, hz=frequency_hz, chip=chip)
         self.duty = 0.0
+        #: False after force_duty: ``duty`` may not be what the channel has (a write from
+        #: another thread may have come between), so the next write_duty writes whatever
+        self._duty_known = True
+        #: set by close: the channel is never enabled again
+        self.closed = False
         self.enabled = True            # not known: a dead urc may have left it running
         self.pwm.stop()                # duty 0, then disabled
         self.enabled = False
 
     def write_duty(self, duty: float) -> None:
         duty = min(1.0, max(0.0, float(duty)))
-        if duty != self.duty:          # a sysfs write per change, not per tick
-            if not self.enabled:
-                self.pwm.start(duty * 100.0)
-                self.enabled = True
-            else:
-                self.pwm.change_duty_cycle(duty * 100.0)
-            self.duty = duty
+        if self.closed:
+            return                     # disabled for good: the pin idles low
+        if duty != self.duty or not self._duty_known:   # a sysfs write per change, not per tick
+            # known before the write: a force_duty that comes between then leaves it unknown
+            self._duty_known = True
+            self._write(duty)
+            if self.closed:            # closed meanwhile from another thread: off again
+                self._off()
+
+    def force_duty(self, duty: float) -> None:
+        """``duty`` written whatever :attr:`duty` says (``Hardware.drive_safe``, from
+        another thread than the tick's). The sysfs writes release the GIL, so a tick's
+        write can land between this write and its bookkeeping: the remembered duty is
+        left unknown, and the next :meth:`write_duty` writes."""
+        duty = min(1.0, max(0.0, float(duty)))
+        if self.closed:
+            self._off()
+            return
+        self._write(duty)
+        self._duty_known = False
+        if self.closed:
+            self._off()
+
+    def _write(self, duty: float) -> None:
+        if duty > 0.0 and not self.enabled:
+            self.pwm.start(duty * 100.0)
+            self.enabled = True
+        else:
+            self.pwm.change_duty_cycle(duty * 100.0)
+        self.duty = duty
 
     def read_back(self) -> float:
         return self.duty
@@ -178,7 +206,12 @@ class HardwarePwm:
         self.close()
 
     def close(self) -> None:
-        """Duty 0 and the channel disabled (the pin idles low)."""
+        """Duty 0 and the channel disabled (the pin idles low), for good: a later
+        write_duty (a hung tick resuming at exit) is refused, never restarts it."""
+        self.closed = True             # first: a write_duty under way sees it after its write
+        self._off()
+
+    def _off(self) -> None:
         self.pwm.stop()
         self.enabled = False
         self.duty = 0.0
