@@ -44,6 +44,7 @@ class FramStore:
 
     # ---------------------------------------------------------------- bus
     def _write(self, mem: int, data: bytes) -> None:
+        # TODO(review case 8): SMBus shared with the tick's chip reads, unlocked (smbus2: set address, then transfer)
         for i in range(0, len(data), CHUNK):
             a = mem + i
             try:
