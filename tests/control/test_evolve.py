@@ -1,5 +1,6 @@
 """evolve: the control law's fast dataclasses.replace, equal to it on its state records
-(the law's, the fault monitor's and its limits, which a bridged axis widens each tick)."""
+(the law's, the fault monitor's and its limits, which a bridged axis widens each tick);
+construct: the same for the records the tick makes afresh (status, monitor inputs)."""
 
 from __future__ import annotations
 
@@ -7,9 +8,11 @@ import dataclasses
 
 import pytest
 
-from urc.control.evolve import evolve
-from urc.control.faults import FaultLimits, MonitorState
+from urc.control.evolve import construct, evolve
+from urc.control.faults import FaultLimits, MonitorInputs, MonitorState
 from urc.control.law import AxisState
+from urc.service.snapshot import AxisStatus, Status
+from urc.service.state_writer import WriterReport
 
 
 @pytest.mark.parametrize("record,changes", [
@@ -39,3 +42,35 @@ def test_the_state_records_are_plain_frozen_dataclasses(cls):
     """What evolve relies on: no __post_init__, every field in __init__, no __slots__."""
     assert cls.__dataclass_params__.frozen and not hasattr(cls, "__post_init__")
     assert all(f.init for f in dataclasses.fields(cls)) and "__slots__" not in cls.__dict__
+
+
+def _construct_cases():
+    axis = AxisStatus(pos_deg=1.5, rate_deg_per_s=-0.25, target_deg=None, mode="holding", duty=0.0,
+                      brake_released=False, uncertainty_deg=0.0, limit_min=False, limit_max=True, current_a=0.4)
+    status = Status(t_s=2.0, profile="tartu-urc", az_deg=10.0, el_deg=None, az=axis, el=None, target_az_deg=None,
+                    target_el_deg=None, flipped=False, wrap_turns=0, moving=False, parked=True,
+                    position_known=True, faults=(), events=("x",), tick_late_p99_ms=0.5, axes=("az",))
+    return [axis, status, MonitorInputs(now_s=1.0, meas_deg=None, current_a=float("inf")),
+            WriterReport(durable=None, pending=True, error="", writes=1, failures=0)]
+
+
+@pytest.mark.parametrize("record", _construct_cases(), ids=lambda r: type(r).__name__)
+def test_construct_equals_the_dataclass_own_init(record):
+    """construct (the status snapshots and the monitor's inputs, made every tick) builds
+    what the class' own __init__ does, and they are plain frozen dataclasses as it needs."""
+    cls = type(record)
+    values = {f.name: getattr(record, f.name) for f in dataclasses.fields(cls)}
+    new = construct(cls, **values)
+    assert new == cls(**values) and repr(new) == repr(record) and type(new) is cls
+    assert list(vars(new)) == list(values)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        setattr(new, next(iter(values)), None)
+    assert cls.__dataclass_params__.frozen and not hasattr(cls, "__post_init__")
+    assert all(f.init for f in dataclasses.fields(cls)) and "__slots__" not in cls.__dict__
+
+
+def test_construct_refuses_a_missing_or_unknown_field():
+    with pytest.raises(TypeError, match="failures"):
+        construct(WriterReport, durable=None, pending=False, error="", writes=0)
+    with pytest.raises(TypeError, match="failure, failures"):
+        construct(WriterReport, durable=None, pending=False, error="", writes=0, failure=0)

@@ -16,6 +16,7 @@ from urc.hardware.interfaces import AxisHardware, Hardware
 from urc.profiles import get_profile
 from urc.service import Rotator, RotatorSettings
 from urc.service.loop import ControlThread, next_deadline_s, run_realtime
+from urc.service.timing import LoopTiming
 
 
 
@@ -365,3 +366,18 @@ def test_settle_does_not_wait_for_an_axis_whose_standstill_cannot_be_seen(bench)
     assert settle(coasting, timeout_s=0.05, poll_s=0.001) is False and coasting.polls > 1
     at_rest = _Frozen(_seen(b, "holding"))
     assert settle(at_rest, timeout_s=30.0, poll_s=0.001) is True and at_rest.polls == 1
+
+
+def test_the_loop_dict_is_made_once_per_health_and_copied_for_each_status():
+    """LoopTiming.health_dict rounds a LoopHealth once (status shows it every tick) and
+    gives each status a copy of its own; a new LoopHealth (a stall) is rounded afresh."""
+    timing = LoopTiming(watchdog_s=0.1)
+    health = timing.health(0.0)
+    first, second = timing.health_dict(health), timing.health_dict(health)
+    assert first == second == health.as_dict() and first is not second
+    first["held"] = "changed by a client"
+    assert timing.health_dict(health) == health.as_dict()
+    timing.stall(1.0, 0.3456789)
+    stalled = timing.health(1.0)
+    assert stalled is not health and timing.health_dict(stalled) == stalled.as_dict()
+    assert timing.health_dict(stalled)["last_stall_ms"] == 345.679 and timing.health_dict(stalled)["held"]

@@ -14,7 +14,7 @@ from ..control import faults as faultmod
 from ..control import law
 from ..control import positioner as positioner_law
 from ..control.estimator import Estimate, FilterLimits, alpha_beta
-from ..control.evolve import evolve
+from ..control.evolve import construct, evolve
 from ..control.faults import FaultLimits, MonitorState
 from ..control.profile import stopping_distance_deg
 from ..errors import SensorError
@@ -252,10 +252,12 @@ class Axis:
         return self.meas_deg + math.copysign(stopping_distance_deg(rate, self.tuning.accel_deg_per_s2), rate)
 
     def status(self) -> AxisStatus:
-        return AxisStatus(
-            pos_deg=self.meas_deg, rate_deg_per_s=self.rate_deg_per_s,
+        out = self.out
+        # (construct: made every tick, see urc.control.evolve)
+        return construct(
+            AxisStatus, pos_deg=self.meas_deg, rate_deg_per_s=self.rate_deg_per_s,
             target_deg=None if self.sp is None else self.sp.target_deg, mode=self.law.mode,
-            duty=self.out.duty, brake_released=self.out.brake_released,
+            duty=out.duty, brake_released=out.brake_released,
             uncertainty_deg=self.uncertainty_deg, limit_min=self.limit_min,
             limit_max=self.limit_max, current_a=self.shown_current_a,
             sensor_ok=self.sensor_ok, sensor_error=self.sensor_error)

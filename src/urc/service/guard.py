@@ -16,6 +16,7 @@ from typing import Any
 
 from ..control import faults as faultmod
 from ..control import law
+from ..control.evolve import construct
 from ..control.faults import Fault, MonitorInputs
 from .axis import Axis
 from .core import Core
@@ -85,9 +86,11 @@ class Guard:
             ax.read_switches()
             if meas is not None:
                 self._clear_link_fault(ax, meas)
-            ax.mon, fault = faultmod.check(ax.mon, MonitorInputs(
-                now_s=now_s, meas_deg=meas, sensor_error=ax.sensor_error, duty=ax.out.duty,
-                min_duty=ax.tuning.min_duty if ax.tuning.drive == "pwm" else min(ax.tuning.drive_levels or (1.0,)),
+            tuning = ax.tuning
+            # (construct: made every tick, see urc.control.evolve)
+            ax.mon, fault = faultmod.check(ax.mon, construct(
+                MonitorInputs, now_s=now_s, meas_deg=meas, sensor_error=ax.sensor_error, duty=ax.out.duty,
+                min_duty=tuning.min_duty if tuning.drive == "pwm" else min(tuning.drive_levels or (1.0,)),
                 current_a=ax.current_a, limit_min=ax.limit_min, limit_max=ax.limit_max,
                 estimate_deg=ax.meas_deg if meas is not None else None), ax.flim)
             if fault is None:

@@ -331,5 +331,6 @@ class Rotator:
         return self._status
 
     def _build_status(self, now_s: float) -> Status:
-        return build_status(self._core, now_s, self.timing.health(now_s), self._records.save_error,
+        health = self.timing.health(now_s)
+        return build_status(self._core, now_s, health, self.timing.health_dict(health), self._records.save_error,
                             self._commands.local_controls(), searches=tuple(self._records.searches))

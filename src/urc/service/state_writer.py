@@ -21,6 +21,7 @@ import time
 from dataclasses import dataclass
 from typing import Any, Callable
 
+from ..control.evolve import construct
 from ..errors import StateFileError
 from ..persistence import StateStore
 
@@ -72,9 +73,9 @@ class StateWriter:
     def report(self) -> WriterReport:
         if not self.background and self._pending is not None:
             self._write_pending(force=False)
-        with self._cv:
-            return WriterReport(self._durable, self._pending is not None or self._busy, self._error,
-                                self._writes, self._failures)
+        with self._cv:  # (construct: asked every tick, see urc.control.evolve)
+            return construct(WriterReport, durable=self._durable, pending=self._pending is not None or self._busy,
+                             error=self._error, writes=self._writes, failures=self._failures)
 
     def write_now(self, payload: dict[str, Any]) -> bool:
         """Write in the caller's thread and wait (start-up, before anything can move)."""

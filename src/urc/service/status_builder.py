@@ -8,17 +8,20 @@ wrap turn, and a flipped pose (past the zenith) shown as the sky direction it po
 from __future__ import annotations
 
 import math
+from typing import Any
 
+from ..control.evolve import construct
 from ..control.geometry import wrap360
 from .core import Core
 from .snapshot import Status
 from .timing import LoopHealth
 
 
-def build_status(core: Core, now_s: float, loop: LoopHealth, save_error: str,
+def build_status(core: Core, now_s: float, loop: LoopHealth, loop_dict: dict[str, Any], save_error: str,
                  local_control: tuple[str, ...], searches: tuple[str, ...] = ()) -> Status:
-    """``searches``: the axes in a reference search (homing): their position is no number
-    a client may be given (Status.procedures)."""
+    """``loop_dict``: ``loop.as_dict()`` (LoopTiming.health_dict: rounded once, not every
+    tick). ``searches``: the axes in a reference search (homing): their position is no
+    number a client may be given (Status.procedures)."""
     az, el = core.axes["az"], core.axes.get("el")
     g = core.geometry
     tgt = core.target_sky
@@ -33,19 +36,20 @@ def build_status(core: Core, now_s: float, loop: LoopHealth, save_error: str,
         sky_az, sky_el = g.to_sky(az.meas_deg, el.meas_deg) if flipped else \
             (wrap360(az.meas_deg + g.az_offset_deg), min(el_ext, 180.0 - el_ext))
         tgt_el = None if tgt is None else tgt[1]
-    return Status(
-        t_s=now_s, profile=core.caps.name, az_deg=round(sky_az, 4) % 360.0, el_deg=sky_el,
+    # (construct: made every tick, see urc.control.evolve; every field, in their order)
+    return construct(
+        Status, t_s=now_s, profile=core.caps.name, az_deg=round(sky_az, 4) % 360.0, el_deg=sky_el,
         az=az.status(), el=None if el is None else el.status(),
         target_az_deg=None if tgt is None else tgt[0], target_el_deg=tgt_el,
         flipped=flipped,
         wrap_turns=int(math.floor((az.meas_deg + g.az_offset_deg) / 360.0)),
         moving=core.moving(), parked=core.parked, position_known=not core.position_uncertain(),
         faults=tuple(core.faults), events=tuple(core.events), tick_late_p99_ms=loop.late_p99_ms,
-        loop=loop.as_dict(),
-        local_control=local_control,
         sim_truth=core.hw.sim_truth(),
         limits={n: ax.limits for n, ax in core.axes.items()},
         offsets={"az": g.az_offset_deg, "el": g.el_offset_deg},
-        state_error=save_error, axes=tuple(core.axes),
+        state_error=save_error, loop=loop_dict,
+        local_control=local_control,
+        axes=tuple(core.axes),
         procedures={n: "reference search" for n in searches})
 

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import collections
 from dataclasses import dataclass
+from typing import Any
 
 
 @dataclass(frozen=True)
@@ -50,6 +51,8 @@ class LoopTiming:
         self._last_stall_ms = 0.0
         self._held_until_s = -float("inf")
         self._health: LoopHealth | None = None
+        #: (the LoopHealth, its as_dict()): rounded once per LoopHealth, copied into every status
+        self._health_dict: tuple[LoopHealth, dict[str, Any]] | None = None
         self._ticks = 0
 
     def record(self, late_s: float, tick_s: float) -> None:
@@ -93,3 +96,10 @@ class LoopTiming:
                                       stalls=self._stalls, recent_stalls=self.recent_stalls(now_s),
                                       held=held, last_stall_ms=self._last_stall_ms)
         return self._health
+
+    def health_dict(self, health: LoopHealth) -> dict[str, Any]:
+        """``health.as_dict()`` for the LoopHealth :meth:`health` returned: a fresh copy
+        (each status owns its own), rounded only when that LoopHealth is new."""
+        if self._health_dict is None or self._health_dict[0] is not health:
+            self._health_dict = (health, health.as_dict())
+        return dict(self._health_dict[1])
