@@ -69,6 +69,8 @@ class Commands:
 
     def local_controls(self) -> tuple[str, ...]:
         """The local controls held now (empty: every source may command motion)."""
+        if not self.local_holds:  # (the usual case, asked every tick: no sort, no copy)
+            return ()
         return tuple(sorted(self.local_holds))
 
     def refuse_unless_local(self, local: bool) -> None:
@@ -495,8 +497,10 @@ class Commands:
     def check_parked(self) -> None:
         """A park under way is done once its last waypoint is held on both axes."""
         core = self.core
+        if not core.parking:
+            return
         park = {"az": core.settings.park_az_deg, "el": core.settings.park_el_deg}
-        if core.parking and len(core.route) <= 1 and all(
+        if len(core.route) <= 1 and all(
                 ax.sp is not None and ax.law.seq == ax.sp.seq and ax.law.mode == "holding"
                 and abs(ax.meas_deg - park[n]) <= ax.tuning.restart_deg + ax.caps.sensor.resolution_deg
                 for n, ax in core.axes.items()):
