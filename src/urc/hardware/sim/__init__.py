@@ -67,7 +67,8 @@ def build_sim_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
                                  on_write=world.enable.heartbeat if world.enable is not None else None)
 
     def truth() -> dict[str, Any]:
-        out = {**world.truth(), "heartbeat": heartbeat.truth()}
+        out = world.truth()  # (a dict of its own: added to, not copied, every tick)
+        out["heartbeat"] = heartbeat.truth()
         if world.enable is not None:
             out["motor_enable"] = world.enable.truth()
         return out

@@ -131,6 +131,8 @@ class SimWorld:
             self.limits[name] = (lo, hi)
 
         self._origin_s: float | None = None
+        #: the clock time the last advance reached (a drive's catch-up mostly asks again)
+        self._reached_s: float | None = None
         self._brake_events: dict[str, tuple[float, bool]] = {}
         #: what the brake relays ask for (the coil gets it only while motor power is on)
         self._brake_cmd: dict[str, bool] = {n: False for n in AXES}
@@ -164,6 +166,10 @@ class SimWorld:
         if self._origin_s is None:
             self._origin_s = float(now_s)
             return
+        if now_s == self._reached_s and self.log is None:
+            # reached already (each drive's catch-up right after the tick's poll): nothing
+            # to step, and the iron is as the truth-file check just found it
+            return
         target = math.floor((now_s - self._origin_s) / self.dt_s + 1e-9)
         cut_tick = self._cut_tick()
         for name, phys in self.axes.items():
@@ -196,6 +202,7 @@ class SimWorld:
                 self._last_written = key
                 self._last_write_s = now_s
                 self._last_write_wall_s = time.monotonic()
+        self._reached_s = now_s
 
     def catch_up(self) -> None:
         """Integrate up to the clock's present (before a command changes the drive)."""
