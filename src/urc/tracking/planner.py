@@ -62,8 +62,10 @@ class Plan:
 
     def pose_at(self, t_s: float) -> tuple[float, float, float, float]:
         """Mechanical (az, el, az_rate, el_rate) at t_s, interpolated."""
-        t = float(np.clip(t_s, self.t_s[0], self.t_s[-1]))
-        i = int(np.clip(np.searchsorted(self.t_s, t) - 1, 0, len(self.t_s) - 2))
+        # (min/max, not np.clip: this runs every tracker update, and np.clip on one
+        # number costs several microseconds)
+        t = min(max(float(t_s), float(self.t_s[0])), float(self.t_s[-1]))
+        i = min(max(int(np.searchsorted(self.t_s, t)) - 1, 0), len(self.t_s) - 2)
         t0, t1 = self.t_s[i], self.t_s[i + 1]
         f = (t - t0) / (t1 - t0)
         az = self.az_deg[i] + f * (self.az_deg[i + 1] - self.az_deg[i])

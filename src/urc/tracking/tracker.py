@@ -285,7 +285,7 @@ class Tracker:
                 log.info("pre-positioning for %s at az %.1f el %.1f", job.target.name, az, el)
             return
         job.state = "tracking"
-        i = int(np.clip(np.searchsorted(plan.t_s, u), 0, len(plan.t_s) - 1))
+        i = min(max(int(np.searchsorted(plan.t_s, u)), 0), len(plan.t_s) - 1)  # (not np.clip: see Plan.pose_at)
         if plan.blocked[i]:
             return  # inside a keep-out zone: wait at its edge
         if now_s < self._route_until_s and self.rot.status().moving:
