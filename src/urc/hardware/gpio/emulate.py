@@ -17,7 +17,7 @@ import collections
 import math
 import struct
 import time
-from typing import Any, Callable
+from typing import Any, Callable, Mapping
 
 from gpiozero.pins.mock import MockFactory, MockPWMPin
 from gpiozero.pins.pi import PiPin
@@ -237,6 +237,10 @@ class FakeAds1115:
         return [word >> 8, word & 0xFF][:n]
 
 
+#: the Gray sequence backwards
+_BACK = {v: k for k, v in _FWD.items()}
+
+
 class QuadDriver:
     """Drives mock A/B pins through the Gray sequence to follow a count, and the index
     pin Z high while ``index(count)`` (one state wide: the counter has counted into the
@@ -265,7 +269,7 @@ class QuadDriver:
 
     def sync(self) -> None:
         target = self.count()
-        back = {v: k for k, v in _FWD.items()}
+        back = _BACK
         while self.pos != target:
             step = 1 if target > self.pos else -1
             nxt = _FWD if step > 0 else back
@@ -469,7 +473,12 @@ class FakeMcp3008:
                 for k in range(10):
                     if out + k < len(miso):
                         miso[out + k] = code >> (9 - k) & 1
-        rx = [sum(bit << (7 - i) for i, bit in enumerate(miso[j:j + 8])) for j in range(0, len(miso), 8)]
+        rx = []
+        for j in range(0, len(miso), 8):  # MSB first (shifted in, not a sum of powers: runs every tick)
+            byte = 0
+            for bit in miso[j:j + 8]:
+                byte = byte << 1 | bit
+            rx.append(byte)
         if self.keep_frames:
             self.frames.append((tuple(data), tuple(rx)))
         return rx
@@ -487,7 +496,7 @@ class FaultedView:
     A dead chip NACKs instead (see ``feed_sensor``); ``slow_read`` stalls a chip's bus
 transactions (:meth:`bus_wait`; pins have no bus to stall). Everything else is the axis'."""
 
-    def __init__(self, phys: Any, faults: Callable[[], dict[str, dict[str, Any]]],
+    def __init__(self, phys: Any, faults: Callable[[], Mapping[str, Mapping[str, Any]]],
                  slow_s: Callable[[], float] | None = None):
         self._phys, self._faults, self._slow_s = phys, faults, slow_s
         self._frozen: dict[str, float] = {}

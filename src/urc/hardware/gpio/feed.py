@@ -12,6 +12,8 @@ from typing import Any
 
 from ...errors import HardwareError
 from ..drivers import LimitSwitchInput, RelayBrake
+# (at the top, not in emulated_bridge_open: an import statement there ran on every drive)
+from ..drivers.motors import lmd18200_state, vnh5019_state
 from .i2c import Lsm303agrChip
 
 
@@ -45,11 +47,9 @@ def emulated_bridge_open(kind: str, motor: Any) -> bool:
     both low sides off). A PWM input partly high in those rows brakes in its high time:
     read as braked."""
     if kind == "vnh5019":
-        from ..drivers.motors import vnh5019_state
         return vnh5019_state(motor.ina.read_back(), motor.inb.read_back(), motor.pwm.read_back() > 0.0) == "coast"
     if kind != "lmd18200" or not motor.brake_out.read_back():
         return False
-    from ..drivers.motors import lmd18200_state
     return lmd18200_state(motor.pwm_out.read_back() > 0.0, motor.dir_out.read_back(), True) == "coast"
 
 
@@ -169,7 +169,8 @@ def forget_output_history(factory: Any) -> Any:
     do for theirs."""
     def sync() -> None:
         for pin in factory.pins.values():
-            if pin.function == "output" and len(pin.states) > 1:
+            # (the length first: MockPin's function is a property, looked up every tick)
+            if len(pin.states) > 1 and pin.function == "output":
                 pin.clear_states()
     return sync
 
@@ -182,7 +183,7 @@ class Emulation:
     def __init__(self, world: Any, syncs: list, fake_spi: dict[int, Any], parts: dict[str, Any]):
         from .emulate import FaultedView
         self.world, self.syncs, self.fake_spi, self.parts = world, syncs, fake_spi, parts
-        self.views = {n: FaultedView(world.axes[n], lambda n=n: world.faults()[n],
+        self.views = {n: FaultedView(world.axes[n], lambda n=n: world.axis_faults(n),
                                      lambda n=n: self._take_slow_read(n)) for n in ("az", "el")}
 
     def _take_slow_read(self, axis: str) -> float:

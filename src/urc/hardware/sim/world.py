@@ -22,7 +22,7 @@ import random
 import threading
 import time
 from pathlib import Path
-from typing import Any
+from typing import Any, Mapping
 
 from ...caps import RotatorCaps
 from ...clock import Clock, VirtualClock
@@ -527,6 +527,12 @@ class SimWorld:
     def faults(self) -> dict[str, dict[str, dict[str, Any]]]:
         """Active faults: {axis: {kind: kwargs}}."""
         return {a: {k: dict(v) for k, v in f.items()} for a, f in self._faults.items()}
+
+    def axis_faults(self, axis: str) -> Mapping[str, Mapping[str, Any]]:
+        """The active faults of one axis, {kind: kwargs}, as they stand (not a copy: for
+        the emulated parts, which look at them several times per tick; never changed
+        through it)."""
+        return self._faults[axis]
 
     @_serialised
     def set_wind(self, enabled: bool, mean_nm: float | None = None,
