@@ -105,8 +105,10 @@ class Client:
 
     def __init__(self, port: int, username: str | None = None, password: str | None = None,
                  subscribe: tuple[str, ...] = ("#",), tls: Pki | None = None):
+        # (no reconnecting: a refused or lost client's network thread ends at once, so close()
+        # does not wait out paho's reconnection delay)
         self.c = paho.Client(paho.CallbackAPIVersion.VERSION2, client_id=f"test-{uuid.uuid4().hex[:8]}",
-                             protocol=paho.MQTTv5)
+                             protocol=paho.MQTTv5, reconnect_on_failure=False)
         if tls is not None:
             self.c.tls_set(ca_certs=str(tls.ca), certfile=str(tls.client_cert), keyfile=str(tls.client_key))
         if username:
@@ -162,8 +164,10 @@ class Client:
         return self.result(base, doc.get("id"), timeout_s)
 
     def close(self) -> None:
-        self.c.loop_stop()
+        # DISCONNECT first: it wakes the network thread, which then ends (stopped first, it
+        # would end only when its wait for the socket times out, up to 1 s)
         self.c.disconnect()
+        self.c.loop_stop()
 
 
 def overhead_station() -> tuple[str, Path]:
