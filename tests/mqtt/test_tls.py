@@ -84,8 +84,10 @@ def test_tls_without_a_client_certificate_is_refused(tls_broker, pki, station):
     relay = Relay(tls_broker.port)   # (the server certificate is for 127.0.0.1: so is the relay)
     try:
         # (TLS 1.3: the broker's refusal comes after the handshake; the attempt ends when
-        # the client's timeout ([mqtt] timeout_s, 10 s by default) expires)
-        u = station("dish", f"mqtts://127.0.0.1:{relay.port}", ca_file=str(pki.ca), timeout_s=1.0)
+        # the client's timeout ([mqtt] timeout_s, 10 s by default) expires; the next one
+        # comes after a back-off of at most reconnect_max_s)
+        u = station("dish", f"mqtts://127.0.0.1:{relay.port}", ca_file=str(pki.ca), timeout_s=1.0,
+                    reconnect_max_s=1.0)
         assert u.post("/api/goto", {"az_deg": 15.0, "el_deg": 80.0}).status_code == 200
         # let two attempts fail: a third connection comes only after the second one failed
         wait_until(lambda: relay.accepted >= 3, 90, "a third connection attempt")
