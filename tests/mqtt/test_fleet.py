@@ -20,7 +20,7 @@ def test_three_stations_listed_and_commanded(broker, station, clients):
     watch = clients(broker.port)
     wait_until(lambda: all(watch.last(f"urc/{k}/status") for k in ("yagi", "dish", "hf-beam")), 60, "three statuses")
 
-    res = fleet(broker.url, "--once", "--wait-s", "2")
+    res = fleet(broker.url, "--once", "--wait-s", "1")
     assert res.returncode == 0, res.stderr
     lines = res.stdout.splitlines()
     assert lines[0].split()[:4] == ["STATION", "ONLINE", "AZ", "EL"]
@@ -42,7 +42,7 @@ def test_three_stations_listed_and_commanded(broker, station, clients):
 
     # the JSON form, and a station that went away is shown offline and refuses commands
     stations["hf beam"].stop()
-    got = json.loads(fleet(broker.url, "--once", "--wait-s", "2", "--json").stdout)
+    got = json.loads(fleet(broker.url, "--once", "--wait-s", "1", "--json").stdout)
     assert got["hf-beam"]["online"] is False and got["dish"]["online"] is True
     assert got["dish"]["status"]["station"] == "dish" and got["dish"]["status"]["state"] == "idle"
     res = fleet(broker.url, "park", "hf beam")
