@@ -15,8 +15,7 @@ from .broker import Mosquitto, Pki
 
 @pytest.fixture(scope="module")
 def pki(tmp_path_factory):
-    """(One CA and its certificates for the module: openssl takes seconds to make them;
-    every test's broker is its own.)"""
+    """(One CA and its certificates for the module; every test's broker is its own.)"""
     return Pki(tmp_path_factory.mktemp("pki"))
 
 
