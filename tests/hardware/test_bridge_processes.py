@@ -201,10 +201,13 @@ def test_link_loss_mid_move_is_a_fault(tmp_path):
 
 
 class FakeGs232b:
-    """A GS-232B on a pty (10 deg/s on both axes) that answers properly, then (on
+    """A GS-232B on a pty (RATE_DEG_PER_S on both axes) that answers properly, then (on
     request) garbage or nothing at all; ``ignore_while_moving``: a new target while it
     moves is ignored (some controllers need a stop first). It records every byte it is
     sent, and the targets it ignored."""
+
+    #: half the downstream's (berkeley) top speed: its legs take seconds, not tens
+    RATE_DEG_PER_S = 20.0
 
     def __init__(self, link: str, ignore_while_moving: bool = False):
         self.master, self.slave = os.openpty()
@@ -233,7 +236,8 @@ class FakeGs232b:
             now = time.monotonic()
             for i, tgt in ((0, self.target[0]), (1, self.target[1])):
                 cur = self.az if i == 0 else self.el
-                step = max(-10 * (now - last), min(10 * (now - last), tgt - cur))
+                reach = self.RATE_DEG_PER_S * (now - last)
+                step = max(-reach, min(reach, tgt - cur))
                 if i == 0:
                     self.az += step
                 else:
