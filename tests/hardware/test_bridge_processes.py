@@ -175,20 +175,16 @@ def test_bridge_to_hamlib_dummy(rotctld, tmp_path):
 
 # ------------------------------------------------------------- link loss, garbage
 def test_link_loss_mid_move_is_a_fault(tmp_path):
-    """The controller's pty goes away mid-move (its process dies: the kernel closes the
-    pty at once, as when a USB serial adapter is pulled): a fault that says the link was
-    lost (not "no position report": pyserial's flush of the dead pty raised termios.error,
-    which ended the bridge's I/O thread), and motion refused."""
-    up_dir = tmp_path / "up"
-    up_dir.mkdir()
-    pty_path = str(up_dir / "ctl")
-    up = UrcProcess(up_dir, profile=PROFILE, serve=[{"protocol": "gs232b", "pty": pty_path}]).start()
-    down = downstream(tmp_path, "down", bridge_config("gs232b", serial=pty_path))
+    """The controller's pty goes away mid-move (the kernel hangs it up at once when the
+    process holding its master dies, as when a USB serial adapter is pulled): a fault that
+    says the link was lost (not "no position report": pyserial's flush of the dead pty
+    raised termios.error, which ended the bridge's I/O thread), and motion refused."""
+    ctl = FakeGs232b(str(tmp_path / "ctl"))
+    down = downstream(tmp_path, "down", bridge_config("gs232b", serial=ctl.link))
     try:
         down.post("/api/goto", {"az_deg": 300.0, "el_deg": 60.0})
-        up.wait(lambda u: u["moving"], timeout_s=10)
-        up.proc.kill()                  # the pty closes mid-move
-        up.proc.wait()
+        wait_until(lambda: ctl.target == (300.0, 60.0) and ctl.az > 1.0, 10, "the controller moving")
+        ctl.vanish()                    # the pty closes mid-move
         s = down.wait(lambda s: bool(s["faults"]), timeout_s=15)
         assert {f["kind"] for f in s["faults"]} == {"sensor_dead"}, s["faults"]
         for f in s["faults"]:
@@ -197,7 +193,7 @@ def test_link_loss_mid_move_is_a_fault(tmp_path):
         assert r.status_code != 200, r.text   # refused while the fault stands
     finally:
         down.kill()   # (its orderly stop would wait 8 s for a standstill it cannot see)
-        up.stop()
+        ctl.close()
 
 
 class FakeGs232b:
@@ -267,11 +263,18 @@ class FakeGs232b:
                 elif line == b"S":
                     self.target = (self.az, self.el)
 
-    def close(self) -> None:
+    def vanish(self) -> None:
+        """Gone as a controller whose process dies: both ends of its pty close (the
+        kernel hangs up the side urc holds); its link stays behind, dangling."""
         self._stop.set()
         self.thread.join(2)
-        os.close(self.master)
-        os.close(self.slave)
+        for fd in (self.master, self.slave):
+            if fd >= 0:
+                os.close(fd)
+        self.master = self.slave = -1
+
+    def close(self) -> None:
+        self.vanish()
         os.unlink(self.link)
 
 
