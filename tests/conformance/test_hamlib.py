@@ -88,7 +88,8 @@ def test_net_rotctl_model_2(urc):
 def test_rotctl_serial_model(urc, model):
     proto, baud, has_query, az_only = SERIAL_MODELS[model]
     port = str(urc.work / f"urc-{model}")
-    target_az, target_el = 40.0 + model % 97, (0.0 if az_only else 10.0 + model % 37)
+    # (azimuths 147-170: between model 2's 123.4 before and the proxies' 201-203 after)
+    target_az, target_el = 140.0 + model % 97, (0.0 if az_only else 10.0 + model % 37)
     rotctl(model, port, "P", str(target_az), str(target_el), baud=baud)
     s = settle_at(urc, target_az, None if az_only else target_el)
     if has_query:
