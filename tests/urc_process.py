@@ -284,9 +284,8 @@ class UrcProcess:
         return out
 
     def kill(self) -> str:
-        """End at once, without the orderly stop: for a test done with a urc whose stop
-        would only wait (a bridge whose sensor cannot be read: the 8 s for a standstill
-        that is never seen). Returns its output."""
+        """End at once, without the orderly stop (1-2 s of its own): for a test done with a
+        urc whose stop it does not check. Returns its output."""
         if self.proc is not None and self.proc.poll() is None:
             control = self._running_control_pid()
             if control is not None:

@@ -189,8 +189,12 @@ def test_link_loss_mid_move_is_a_fault(tmp_path):
             assert "position sensor unreadable (bridge gs232b: link lost: " in f["reason"], f["reason"]
         r = down.post("/api/goto", {"az_deg": 10.0, "el_deg": 10.0})
         assert r.status_code != 200, r.text   # refused while the fault stands
+        # an orderly stop, at once: an axis whose sensor is dead is not waited for (it
+        # waited 8 s for a standstill it could never see; one not seen at rest is saved as moving)
+        out = down.stop()
+        assert "urc: stopped, state saved" in out, out
     finally:
-        down.kill()   # (its orderly stop would wait 8 s for a standstill it cannot see)
+        down.stop()   # (stopped already when the test got this far)
         ctl.close()
 
 
@@ -215,8 +219,12 @@ def test_garbage_or_silence_moves_nothing(tmp_path, mode, reason):
         after = ctl.received[ctl.received_at_switch:]
         assert b"W" not in after, after          # no target on answers not understood
         assert b"S\r" in after, after             # the fault told it to stop
+        # an orderly stop, at once: an axis whose sensor is dead is not waited for (it
+        # waited 8 s for a standstill it could never see; one not seen at rest is saved as moving)
+        out = down.stop()
+        assert "urc: stopped, state saved" in out, out
     finally:
-        down.kill()   # (its orderly stop would wait 8 s for a standstill it cannot see)
+        down.stop()   # (stopped already when the test got this far)
         ctl.close()
 
 
