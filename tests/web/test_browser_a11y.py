@@ -116,4 +116,4 @@ def test_axe_finds_no_violation_on_each_calibration_card(tmp_path, open_page, pr
         assert axe_violations(page) == []
         page.problems.check()
     finally:
-        u.stop()
+        u.kill()     # (at once: the orderly stop is test_cli's subject, not the page's)

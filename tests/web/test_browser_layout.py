@@ -34,7 +34,7 @@ def remote_urc(tmp_path_factory):
     u = UrcProcess(tmp_path_factory.mktemp("layout"), profile="berkeley", serve=serve,
                    extra=f'host = "0.0.0.0"\ntoken = "{TOKEN}"\n{ZONE}').start(timeout_s=120)
     yield u
-    u.stop()
+    u.kill()     # (at once: the page's tests do not test urc's orderly stop, test_cli does)
 
 
 @pytest.fixture(scope="module")
@@ -43,7 +43,7 @@ def plain_urc(tmp_path_factory):
     stopped, no fault latched)."""
     u = UrcProcess(tmp_path_factory.mktemp("layout-plain"), profile="berkeley").start(timeout_s=120)
     yield u
-    u.stop()
+    u.kill()
 
 
 def in_viewport(page, selector: str) -> bool:
@@ -285,7 +285,7 @@ def test_a_position_not_referenced_is_unconfirmed_on_every_axis(tmp_path, open_p
         expect(page.locator("#now-az")).to_contain_text("±")
         page.problems.check()
     finally:
-        u.stop()
+        u.kill()
 
 
 # --------------------------------------------------------------- keys
@@ -320,7 +320,7 @@ def test_enter_presses_a_focused_button_and_space_stops_even_there(tmp_path, ope
         assert u.wait(standing, 30)["target_az_deg"] is None
         page.problems.check()
     finally:
-        u.stop()
+        u.kill()
 
 
 # --------------------------------------------------------------- times

@@ -18,7 +18,7 @@ def urc(tmp_path_factory):
                                                      'profile = "tartu-urc"\nelevation = false\n'))
     u.start()
     yield u
-    u.stop()
+    u.kill()     # (at once: the page's tests do not test urc's orderly stop, test_cli does)
 
 
 def test_elevation_controls_are_hidden_and_azimuth_works(urc, open_page, artifacts):
