@@ -39,6 +39,11 @@ def urc(tmp_path_factory):
     u.kill()
 
 
+#: two animation frames: every scroll, resize and layout change made before has been
+#: handled (scroll and resize handlers, resize observers) and the page drawn as it stands
+TWO_FRAMES = "() => new Promise((done) => requestAnimationFrame(() => requestAnimationFrame(() => done(true))))"
+
+
 def truth_pointing(s: dict) -> tuple[float, float]:
     t = s["simulator_truth"]
     return ((t["az"]["deg"] + s["offsets"]["az"]) % 360.0, t["el"]["deg"] + s["offsets"]["el"])
@@ -84,11 +89,14 @@ def test_page_follows_the_simulator(urc, open_page, artifacts):
     rate = abs(s["az"]["rate_deg_per_s"]) + 1.0
     assert az_diff(az_m, s["az_deg"]) < rate * 0.5
     urc.wait(lambda s: standing(s) and abs(s["az_deg"] - 130) < 1 and abs(s["el_deg"] - 45) < 1, 30)
-    time.sleep(0.4)
-    s = urc.status()
+
+    def drawn_there():   # (the page draws a status a frame or two after urc sent it)
+        s = urc.status()
+        az_t, el_t = truth_pointing(s)
+        az_m, el_m = marker(page)
+        return s if az_diff(az_m, az_t) < STANDING_TOL_DEG and abs(el_m - el_t) < STANDING_TOL_DEG else None
+    s = wait_until(drawn_there, 10, "the marker where the standing antenna truly points")
     az_t, el_t = truth_pointing(s)
-    az_m, el_m = marker(page)
-    assert az_diff(az_m, az_t) < STANDING_TOL_DEG and abs(el_m - el_t) < STANDING_TOL_DEG
     # the drawn position is that direction on the polar plot (elevation inward)
     r = 100 * (90 - el_t) / 90
     cx = float(page.locator("#sky-antenna").get_attribute("cx"))
@@ -384,7 +392,11 @@ def test_stop_and_fault_stay_in_view_at_every_size(token_urc, open_page, artifac
     page.screenshot(path=str(artifacts / f"layout-{size[0]}x{size[1]}-top.png"))
     page.locator("#sim-card").scroll_into_view_if_needed()
     page.keyboard.press("End")
-    page.wait_for_timeout(200)
+    # (a key's scroll glides there over a few frames: to the end of the page, or nowhere
+    # when the page is no taller than the screen)
+    page.wait_for_function("() => Math.ceil(window.scrollY + window.innerHeight)"
+                           " >= document.documentElement.scrollHeight", timeout=5000)
+    page.evaluate(TWO_FRAMES)
     assert page.evaluate("() => window.scrollY") > 0 or size == (1400, 1100)
     assert in_viewport(page, "#stop-btn") and in_viewport(page, "#fault-banner")
     page.screenshot(path=str(artifacts / f"layout-{size[0]}x{size[1]}-scrolled.png"))
@@ -556,7 +568,7 @@ def test_tracker_warnings_are_shown_while_tracking(tmp_path, open_page, artifact
         page.mouse.move(195, 600)
         page.mouse.wheel(0, 2000)
         page.wait_for_function("() => window.scrollY > 0", timeout=5000)  # (else nothing scrolled out)
-        page.wait_for_timeout(300)
+        page.evaluate(TWO_FRAMES)   # (the scroll handlers have run: the page drawn there)
         assert in_viewport(page, "#track-warnings li"), "the warning scrolled out of view"
         assert page.locator("#track-warnings li").first.text_content() == said[0]
         page.screenshot(path=str(artifacts / "tracking-warnings-phone.png"))

@@ -15,7 +15,7 @@ from playwright.sync_api import expect
 from urc_process import HTTP
 
 from .fake_tracker import FakeTracker
-from .test_browser import InProcessUrc
+from .test_browser import TWO_FRAMES, InProcessUrc
 
 AXE = Path(__file__).resolve().parent / "node_modules" / "axe-core" / "axe.min.js"
 if not AXE.exists():  # scripts/test.sh installs it: missing is a failure, not a skip
@@ -66,13 +66,18 @@ def test_axe_finds_no_violation_on_any_view(busy_urc, open_page, width, height):
                 rows = page.locator(".serve-row").count()  # (the default [[serve]] list)
                 page.click("#add-serve")                   # one more, with its selects
                 expect(page.locator(".serve-row")).to_have_count(rows + 1)
-            page.wait_for_timeout(500)
+            elif view == "calibration":                    # (its sensor table, loaded on the way in)
+                expect(page.locator("#cal-sensors tr").first).to_be_attached()
+            page.evaluate(TWO_FRAMES)
             found[view] = axe_violations(page)
         assert found == {v: [] for v in VIEWS}, json.dumps(found, indent=1)
     finally:
         HTTP.post(srv.url + "/api/sim/clear", json={"axis": "el"})
         HTTP.post(srv.url + "/api/clear-faults", json={})
     page.problems.check()
+
+
+DRAWN_LAST = {"/redoc": 'a[href="https://redocly.com/redoc/"]', "/docs": ".opblock"}
 
 
 @pytest.mark.parametrize("path,shows", [("/redoc", "urc control API"), ("/docs", "urc control API")])
@@ -85,7 +90,12 @@ def test_api_docs_fetch_nothing_from_elsewhere(busy_urc, open_page, path, shows)
     page.goto(srv.url + path)
     # (the bundles are large: on a loaded machine drawing takes a while)
     expect(page.get_by_role("heading", name=re.compile(shows)).first).to_be_visible(timeout=90_000)
-    page.wait_for_timeout(2000)                            # ReDoc draws its side menu (and the logo) late
+    # then what each draws last: ReDoc its side menu, whose foot holds Redocly's logo (its
+    # request could come after the heading), Swagger UI its operations; the logo goes in
+    # just after its link: two frames. (With fastapi-offline's own bundle served, the
+    # request to cdn.redoc.ly has been seen by then, in each of three tries.)
+    expect(page.locator(DRAWN_LAST[path]).first).to_be_attached(timeout=30_000)
+    page.evaluate(TWO_FRAMES)
     foreign = [u for u in asked if not (u.startswith(srv.url) or u.startswith(("data:", "blob:")))]
     assert foreign == [], foreign
     assert any(u.endswith("/openapi.json") for u in asked), asked
@@ -106,13 +116,15 @@ def test_axe_finds_no_violation_on_each_calibration_card(tmp_path, open_page, pr
     try:
         page = open_page(u.url + "/#calibration", bypass_csp=True)
         card = {"g4jnt": "#pot-card", "sarcnet-mini": "#mag-card", "bigras": "#home-card"}[profile]
+        # (the card is shown with the sensor table, once the calibration page has loaded)
         expect(page.locator(card)).to_be_visible(timeout=5000)
         if profile == "bigras":
             expect(page.locator("#warn-banner")).to_be_visible(timeout=5000)
-        page.wait_for_timeout(300)
+        page.evaluate(TWO_FRAMES)
         assert axe_violations(page) == []
         page.click('nav a[data-view="dashboard"]')
-        page.wait_for_timeout(300)
+        expect(page.locator("#view-dashboard")).to_be_visible()
+        page.evaluate(TWO_FRAMES)
         assert axe_violations(page) == []
         page.problems.check()
     finally:

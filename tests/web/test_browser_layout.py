@@ -15,7 +15,7 @@ from playwright.sync_api import expect
 from urc_process import HTTP, UrcProcess, free_port
 
 from .fake_tracker import KEYHOLE_NOTE, FakeTracker
-from .test_browser import InProcessUrc, reset, standing
+from .test_browser import TWO_FRAMES, InProcessUrc, reset, standing
 
 TOKEN = "layout-token"
 WIDTHS = {320: (320, 640), 390: (390, 844), 1366: (1366, 768)}
@@ -79,6 +79,19 @@ SCROLL_TO = """([x, y]) => new Promise((done) => {
 })"""
 
 
+def show_view(page, view: str) -> None:
+    """Switch to ``view`` and wait until it is shown whole: what it loads on the way in
+    (the settings form, the calibration page's sensor table) arrived and laid out."""
+    page.click(f'nav a[data-view="{view}"]')
+    expect(page.locator(f"#view-{view}")).to_be_visible()
+    if view == "settings":
+        expect(page.locator(".zone-row")).to_have_count(1)
+        expect(page.locator(".serve-row")).to_have_count(2)
+    elif view == "calibration":
+        expect(page.locator("#cal-sensors tr").first).to_be_attached()
+    page.evaluate(TWO_FRAMES)
+
+
 def scroll_everywhere_and_check(page, what: str) -> None:
     """Down to the end, up, sideways both ways: STOP in view after each."""
     for x, y in ((0, 100_000), (0, 0), (100_000, 0), (0, 0), (100_000, 100_000), (0, 100_000)):
@@ -113,7 +126,7 @@ def swiped_to(page, where: str, what: str) -> None:
         at = page.evaluate("() => [window.scrollY, document.documentElement.scrollHeight, window.innerHeight]")
         raise AssertionError(f"{what}: a swipe did not take the page to {where} (scrollY, height, "
                              f"screen: {at})") from None
-    page.wait_for_timeout(100)   # (the scroll handlers have run: the page drawn there)
+    page.evaluate(TWO_FRAMES)   # (the scroll handlers have run: the page drawn there)
 
 
 @pytest.mark.parametrize("width", list(WIDTHS), ids=[f"{w}px" for w in WIDTHS])
@@ -123,12 +136,7 @@ def test_stop_is_on_screen_in_every_view_at_every_scroll_position(remote_urc, op
     page = open_page(u.url + "/", *size, has_touch=width < 1000)
     expect(page.locator("#token-form")).to_be_visible(timeout=5000)
     for view in VIEWS:
-        page.click(f'nav a[data-view="{view}"]')
-        expect(page.locator(f"#view-{view}")).to_be_visible()
-        if view == "settings":
-            expect(page.locator(".zone-row")).to_have_count(1)
-            expect(page.locator(".serve-row")).to_have_count(2)
-        page.wait_for_timeout(300)
+        show_view(page, view)
         assert page.evaluate(STICKING_OUT) == [], f"{view} at {width} px"
         assert page.evaluate("() => document.documentElement.scrollWidth") <= size[0], view
         scroll_everywhere_and_check(page, f"{view} at {width} px")
@@ -173,8 +181,7 @@ def test_a_fault_banner_is_whole_foldable_and_leaves_stop_on_screen(remote_urc, 
         toggle.click()                                     # and open again
         expect(page.locator("#fault-body")).to_be_visible()
         for view in VIEWS:
-            page.click(f'nav a[data-view="{view}"]')
-            page.wait_for_timeout(200)
+            show_view(page, view)
             assert page.evaluate(STICKING_OUT) == [], f"{view} at {width} px"
             scroll_everywhere_and_check(page, f"{view} at {width} px with the fault banner open")
             assert in_viewport(page, "#fault-banner .banner-head")

@@ -7,8 +7,7 @@ from __future__ import annotations
 import math
 
 import pytest
-
-from urc_process import UrcProcess
+from urc_process import UrcProcess, wait_until
 
 
 @pytest.fixture(scope="module")
@@ -33,9 +32,10 @@ def test_elevation_controls_are_hidden_and_azimuth_works(urc, open_page, artifac
     page.click("#goto-form button[type=submit]")
     s = urc.wait(lambda s: abs(s["az_deg"] - 15.0) < 0.3 and not s["moving"], 30)
     assert s["el"] is None
-    page.wait_for_timeout(400)
     m = page.locator("#sky-antenna")
-    assert float(m.get_attribute("data-az-deg")) == pytest.approx(s["az_deg"], abs=0.2)
+    # (the page draws a status a frame or two after urc sent it)
+    wait_until(lambda: float(m.get_attribute("data-az-deg")) == pytest.approx(s["az_deg"], abs=0.2), 10,
+               f"the marker at the standing antenna's az {s['az_deg']}")
     assert m.get_attribute("data-el-deg") is None  # no elevation presented as measured
     # the beam is drawn on the horizon ring in the direction of the azimuth
     cx, cy = float(m.get_attribute("cx")), float(m.get_attribute("cy"))
@@ -61,6 +61,7 @@ def test_settings_page_shows_the_elevation_switch(urc, open_page):
     assert page.locator("#f-rotator\\.pulses_per_deg").count() == 1
     assert page.locator("#f-control\\.az\\.min_rate_deg_per_s").count() == 1
     page.click("#settings-validate")
-    page.wait_for_timeout(500)
+    # urc's answer shown: "valid" in the result list, or a field's error
+    page.locator("#settings-result li, .field-error:not(:empty)").first.wait_for()
     assert page.locator(".field-error:not(:empty)").count() == 0  # the az-only document is valid as shown
     page.problems.check()
