@@ -50,6 +50,22 @@ class PageProblems(list):
         assert not self, "page reported problems:\n" + "\n".join(self)
 
 
+def _new_page(browser, url: str | None, width: int, height: int, **context):
+    """A new context's page at ``url``, its live feed running; ``url=None``: the page
+    only, with its problems watched (the caller navigates it)."""
+    ctx = browser.new_context(viewport={"width": width, "height": height}, **context)
+    page = ctx.new_page()
+    problems = PageProblems()
+    page.on("pageerror", lambda e: problems.append(f"exception: {e}"))
+    page.on("console", lambda m: problems.append(f"console: {m.text} ({m.location.get('url')})")
+            if m.type == "error" and not expected_refusal(m) else None)
+    page.problems = problems
+    if url is not None:
+        page.goto(url)
+        page.wait_for_selector("#conn.live", timeout=15_000)
+    return page
+
+
 @pytest.fixture
 def open_page(browser):
     pages = []
@@ -57,21 +73,104 @@ def open_page(browser):
     def open_(url: str | None, width: int = 1400, height: int = 1100, **context):
         """A new context's page at ``url``, its live feed running; ``url=None``: the page
         only, with its problems watched (the caller navigates it)."""
-        ctx = browser.new_context(viewport={"width": width, "height": height}, **context)
-        page = ctx.new_page()
-        problems = PageProblems()
-        page.on("pageerror", lambda e: problems.append(f"exception: {e}"))
-        page.on("console", lambda m: problems.append(f"console: {m.text} ({m.location.get('url')})")
-                if m.type == "error" and not expected_refusal(m) else None)
-        page.problems = problems
-        pages.append((ctx, page))
-        if url is not None:
-            page.goto(url)
-            page.wait_for_selector("#conn.live", timeout=15_000)
+        page = _new_page(browser, url, width, height, **context)
+        pages.append(page)
         return page
     yield open_
-    for ctx, _page in pages:
-        ctx.close()
+    for page in pages:
+        page.context.close()
+
+
+class PageKeeper:
+    """One dashboard page kept from a test to the next of the same module that asks for
+    the same one (address without its view, size, context options): opening one took
+    1.5-3 s on the loaded test machine. Closed after a failed test, and once no later
+    test of the module asks for a kept page (an open dashboard draws every live frame)."""
+
+    def __init__(self, browser):
+        self.browser = browser
+        self.key: tuple | None = None
+        self.page = None
+
+    def get(self, url: str, width: int = 1400, height: int = 1100, **context):
+        base, _, view = url.partition("#")
+        key = (base, width, height, tuple(sorted(context.items())))
+        if self.page is not None and key == self.key and not self.page.is_closed():
+            self._hand_over(view or "dashboard")
+            return self.page
+        self.close()
+        self.page, self.key = _new_page(self.browser, url, width, height, **context), key
+        return self.page
+
+    def _hand_over(self, view: str) -> None:
+        """Back to how a newly opened page stands: the view its address names, at the top,
+        nothing focused, showing a live frame sent after this test began (the test's own
+        reset included). Its problems are kept: one that came after the last test's
+        check is reported by this test's."""
+        page = self.page
+        page.evaluate("""(view) => {
+          if (document.activeElement) document.activeElement.blur();
+          if (location.hash !== "#" + view) location.hash = view;
+          window.scrollTo(0, 0);
+        }""", view)
+        page.locator(f"#view-{view}").wait_for()
+        seen = int(page.locator("#conn").get_attribute("data-frames") or 0)
+        # (two more: the first may have been on its way already)
+        page.wait_for_function("(seen) => Number(document.getElementById('conn').dataset.frames) >= seen + 2"
+                               " && document.getElementById('conn').classList.contains('live')",
+                               arg=seen, timeout=15_000)
+
+    def close(self) -> None:
+        if self.page is not None:
+            self.page.context.close()
+        self.page = self.key = None
+
+
+@pytest.fixture(scope="module")
+def page_keeper(browser):
+    keeper = PageKeeper(browser)
+    yield keeper
+    keeper.close()
+
+
+@pytest.fixture
+def shared_page(page_keeper):
+    """Like ``open_page`` (an address is required) for a test that does not test how
+    the page loads: the page the module's test before used when it asked for the same
+    one, handed over as a new one stands (:class:`PageKeeper`), or a new one."""
+    return page_keeper.get
+
+
+_FAILED = pytest.StashKey[bool]()
+
+
+@pytest.hookimpl(wrapper=True)
+def pytest_runtest_makereport(item, call):
+    report = yield
+    if report.failed:
+        item.stash[_FAILED] = True
+    return report
+
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_runtest_teardown(item, nextitem):
+    """Close the kept page after a failed test (the next starts from a new one), and
+    when no later test of this module will ask for it."""
+    keeper = getattr(item, "funcargs", {}).get("page_keeper")
+    if keeper is None or keeper.page is None:
+        return
+    if item.stash.get(_FAILED, False) or not _later_in_module_use(item, "shared_page"):
+        keeper.close()
+
+
+def _later_in_module_use(item, fixture: str) -> bool:
+    items = item.session.items
+    try:
+        i = items.index(item)
+    except ValueError:
+        return False
+    return any(later.module is item.module and fixture in getattr(later, "fixturenames", ())
+               for later in items[i + 1:])
 
 
 class LoopbackClient(TestClient):

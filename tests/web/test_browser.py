@@ -74,9 +74,9 @@ def reset(urc, token: str | None = None) -> None:
     urc.wait(lambda s: standing(s) and not s["faults"], 20)
 
 
-def test_page_follows_the_simulator(urc, open_page, artifacts):
+def test_page_follows_the_simulator(urc, shared_page, artifacts):
     reset(urc)
-    page = open_page(urc.url + "/")
+    page = shared_page(urc.url + "/")
     # no tracker: no pass list (hidden once the page's pass request is answered 404)
     expect(page.locator("#passes-card")).to_be_hidden()
     expect(page.locator("#track-sun")).to_be_hidden()
@@ -110,9 +110,9 @@ def test_page_follows_the_simulator(urc, open_page, artifacts):
     page.problems.check()
 
 
-def test_jog_press_and_hold_then_release(urc, open_page):
+def test_jog_press_and_hold_then_release(urc, shared_page):
     reset(urc)
-    page = open_page(urc.url + "/")
+    page = shared_page(urc.url + "/")
     az0 = urc.status()["az"]["pos_deg"]
     page.locator("#jog-speed").fill("30")
     page.locator(".jog-btn.cw").hover()
@@ -156,9 +156,9 @@ def test_jog_stops_when_the_page_goes_away(urc, open_page):
     assert not s["faults"] and s["az"]["pos_deg"] > az_min_deg + 5, "stopped by the lease, not at the limit"
 
 
-def test_stop_by_space_and_by_button(urc, open_page):
+def test_stop_by_space_and_by_button(urc, shared_page):
     reset(urc)
-    page = open_page(urc.url + "/")
+    page = shared_page(urc.url + "/")
     for how in ("space", "button"):
         # a slow jog towards the far end: only a stop ends it within the wait below (a
         # fast goto could arrive before a loaded machine's browser pressed anything)
@@ -181,9 +181,9 @@ def test_stop_by_space_and_by_button(urc, open_page):
     page.problems.check()
 
 
-def test_fault_banner_appears_with_its_reason_and_clears(urc, open_page, artifacts):
+def test_fault_banner_appears_with_its_reason_and_clears(urc, shared_page, artifacts):
     reset(urc)
-    page = open_page(urc.url + "/")
+    page = shared_page(urc.url + "/")
     assert page.locator("#fault-banner").is_hidden()
     assert urc.post("/api/sim/fault", {"axis": "el", "kind": "sensor_dead"}).status_code == 200
     page.wait_for_selector("#fault-banner", state="visible", timeout=5000)
@@ -197,8 +197,8 @@ def test_fault_banner_appears_with_its_reason_and_clears(urc, open_page, artifac
     page.problems.check()
 
 
-def test_settings_validation_error_next_to_the_field_then_save(urc, open_page, artifacts):
-    page = open_page(urc.url + "/#settings")
+def test_settings_validation_error_next_to_the_field_then_save(urc, shared_page, artifacts):
+    page = shared_page(urc.url + "/#settings")
     field = page.locator('[data-key="limits.az.max_deg"]')
     field.wait_for()
     field.fill("999")

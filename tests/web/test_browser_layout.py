@@ -129,11 +129,17 @@ def swiped_to(page, where: str, what: str) -> None:
     page.evaluate(TWO_FRAMES)   # (the scroll handlers have run: the page drawn there)
 
 
-@pytest.mark.parametrize("width", list(WIDTHS), ids=[f"{w}px" for w in WIDTHS])
-def test_stop_is_on_screen_in_every_view_at_every_scroll_position(remote_urc, open_page, artifacts, width):
+@pytest.fixture(scope="module", params=list(WIDTHS), ids=[f"{w}px" for w in WIDTHS])
+def width(request):
+    """The screen widths of the two tests below, a module's parameter: pytest runs both
+    at one width before the next, and the second is handed the first's page."""
+    return request.param
+
+
+def test_stop_is_on_screen_in_every_view_at_every_scroll_position(remote_urc, shared_page, artifacts, width):
     u = remote_urc
     size = WIDTHS[width]
-    page = open_page(u.url + "/", *size, has_touch=width < 1000)
+    page = shared_page(u.url + "/", *size, has_touch=width < 1000)
     expect(page.locator("#token-form")).to_be_visible(timeout=5000)
     for view in VIEWS:
         show_view(page, view)
@@ -149,14 +155,13 @@ def test_stop_is_on_screen_in_every_view_at_every_scroll_position(remote_urc, op
     page.problems.check()
 
 
-@pytest.mark.parametrize("width", list(WIDTHS), ids=[f"{w}px" for w in WIDTHS])
-def test_a_fault_banner_is_whole_foldable_and_leaves_stop_on_screen(remote_urc, open_page, artifacts, width):
+def test_a_fault_banner_is_whole_foldable_and_leaves_stop_on_screen(remote_urc, shared_page, artifacts, width):
     """The banner says the whole reason (wrapped, never cut), folds to its title and
     opens again; with it open STOP stays on screen in every view and scroll position,
     and all banners together take at most a third of the screen."""
     u = remote_urc
     size = WIDTHS[width]
-    page = open_page(u.url + "/", *size, has_touch=width < 1000)
+    page = shared_page(u.url + "/", *size, has_touch=width < 1000)
     HTTP.post(u.url + "/api/stop", json={}, headers=AUTH)
     assert HTTP.post(u.url + "/api/sim/fault", json={"axis": "el", "kind": "sensor_dead"}, headers=AUTH).status_code == 200
     try:

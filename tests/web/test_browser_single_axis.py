@@ -20,8 +20,8 @@ def urc(tmp_path_factory):
     u.kill()     # (at once: the page's tests do not test urc's orderly stop, test_cli does)
 
 
-def test_elevation_controls_are_hidden_and_azimuth_works(urc, open_page, artifacts):
-    page = open_page(urc.url + "/")
+def test_elevation_controls_are_hidden_and_azimuth_works(urc, shared_page, artifacts):
+    page = shared_page(urc.url + "/")
     page.wait_for_function("document.body.classList.contains('az-only')")
     for sel in ("#goto-el", ".jog-btn.up", ".jog-btn.down", "#ro-el", "#ro-tel", "#ro-mel", "#ro-modeel",
                 "#chart-el"):
@@ -51,8 +51,8 @@ def test_elevation_controls_are_hidden_and_azimuth_works(urc, open_page, artifac
     page.problems.check()
 
 
-def test_settings_page_shows_the_elevation_switch(urc, open_page):
-    page = open_page(urc.url + "/#settings")
+def test_settings_page_shows_the_elevation_switch(urc, shared_page):
+    page = shared_page(urc.url + "/#settings")
     sel = page.locator("#f-rotator\\.elevation")
     sel.wait_for()
     assert sel.input_value() == "false"
