@@ -203,7 +203,9 @@ def test_broker_killed_and_restarted_mid_pass(broker, station, clients, tmp_path
     assert events[0]["target"] == "NOAA 19" and events[0]["station"] == "dish"
     c.close()
     broker.kill()
-    target0 = u.status()["target_az_deg"], u.status()["target_el_deg"]
+    # (the tracker's first setpoint may come a moment after tracking_started)
+    s0 = u.wait(lambda s: s["target_az_deg"] is not None and s["target_el_deg"] is not None, 60)
+    target0 = s0["target_az_deg"], s0["target_el_deg"]
     # tracking goes on without the broker: the setpoint follows the satellite
     u.wait(lambda s: s["target_az_deg"] is not None and (abs(s["target_az_deg"] - target0[0]) > 0.5 or
                                                           abs(s["target_el_deg"] - target0[1]) > 0.5), 60)
