@@ -99,6 +99,10 @@ def run(config_path: str | None, profile: str | None, state_dir: str | None, por
         # another urc on this state dir or hardware, a port in use, a state dir holding
         # something other than files: nothing was started
         raise _Busy(f"cannot start: {exc}") from None
+    finally:
+        from .service.instance import skip_exit_collection
+
+        skip_exit_collection()
 
 
 SERVE_KINDS = ("tcp", "pty", "serial", "udp")

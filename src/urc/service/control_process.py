@@ -41,7 +41,7 @@ from typing import Any, Callable
 from ..clock import RealClock
 from ..ipc import codec
 from ..ipc.messages import COMMANDS, Envelope, HardwareInfo, Query, Reply, Request
-from .instance import mark_stopping
+from .instance import mark_stopping, skip_exit_collection
 from .loop import ControlThread, WatchdogPing, settle
 from .queries import handle as handle_query
 from .remote import (CALL_TIMEOUT_S, ControlLink, ControlUnavailable, RemoteRotator, exception_from_wire,
@@ -361,7 +361,10 @@ def main(argv: list[str]) -> int:
     kind, cfg, state_dir, lock_fds, log_level = codec.loads(conn.recv_bytes())
     logging.basicConfig(level=log_level, format="%(asctime)s %(levelname)s %(name)s: %(message)s")
     log.debug("control process: %s priority for its threads", _realtime())
-    return ControlServer(conn, cfg, Path(state_dir), lock_fds).run()
+    try:
+        return ControlServer(conn, cfg, Path(state_dir), lock_fds).run()
+    finally:
+        skip_exit_collection()
 
 
 # ======================================================================== the parent
