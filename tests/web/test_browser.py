@@ -404,37 +404,93 @@ def test_stop_and_fault_stay_in_view_at_every_size(token_urc, open_page, artifac
     page.problems.check()
 
 
-def test_calibration_fields_follow_the_antenna_and_re_referencing_asks_first(tmp_path, open_page, artifacts):
+STATION = '[station]\nlat_deg = 58.4\nlon_deg = 26.7\n'
+
+
+@pytest.fixture(scope="module")
+def station_urc(tmp_path_factory):
+    """A urc with a station (the map draws it) for the calibration-fields test, which
+    resets it, moves it and re-references it, and the map test, which only reads: neither
+    needs a fresh state directory or a position true to the simulator."""
+    u = UrcProcess(tmp_path_factory.mktemp("web-station"), profile="berkeley", extra=STATION).start()
+    yield u
+    u.kill()
+
+
+def test_calibration_fields_follow_the_antenna_and_re_referencing_asks_first(station_urc, open_page, artifacts):
     """Issue 12, item 9."""
-    u = UrcProcess(tmp_path, profile="berkeley").start()
-    try:
-        page = open_page(u.url + "/#calibration")
-        reset(u)        # (a loaded host may have latched a watchdog fault at start-up)
-        assert u.post("/api/goto", {"az_deg": 120, "el_deg": 40}).status_code == 200
-        s = u.wait(lambda s: standing(s) and abs(s["az"]["pos_deg"] - 120) < 0.5, 30)
-        az_now = s["az"]["pos_deg"] + s["offsets"]["az"]   # (the AS5600 reading jitters by a count or so)
-        expect(page.locator("#zero-az")).to_have_value(re.compile(r"^1[12]\d\.\d\d$"), timeout=3000)
-        assert float(page.locator("#zero-az").input_value()) == pytest.approx(az_now, abs=0.3)  # refreshed live
-        page.fill("#zero-az", "130")                       # edited: no longer follows
-        page.click("#zero-form button[type=submit]")
-        question = page.locator("#zero-question")
-        expect(question).to_be_visible()
-        text = question.text_content()
-        assert float(re.search(r"reads az ([\d.]+)", text).group(1)) == pytest.approx(az_now, abs=0.3)
-        assert "points at az 130.00" in text, text
-        page.screenshot(path=str(artifacts / "calibration-confirm.png"))
-        time.sleep(0.3)
-        assert u.status()["az"]["pos_deg"] == pytest.approx(s["az"]["pos_deg"], abs=0.3)   # not yet
-        page.click("#zero-no")
-        expect(page.locator("#zero-confirm")).to_be_hidden()
-        page.fill("#zero-az", "130")
-        page.click("#zero-form button[type=submit]")
-        page.click("#zero-yes")
-        u.wait(lambda s: abs(s["az"]["pos_deg"] + s["offsets"]["az"] - 130) < 0.5, 5)
-        expect(page.locator("#zero-confirm")).to_be_hidden()
-        page.problems.check()
-    finally:
-        u.kill()
+    u = station_urc
+    page = open_page(u.url + "/#calibration")
+    reset(u)        # (a loaded host may have latched a watchdog fault at start-up)
+    assert u.post("/api/goto", {"az_deg": 120, "el_deg": 40}).status_code == 200
+    s = u.wait(lambda s: standing(s) and abs(s["az"]["pos_deg"] - 120) < 0.5, 30)
+    az_now = s["az"]["pos_deg"] + s["offsets"]["az"]   # (the AS5600 reading jitters by a count or so)
+    expect(page.locator("#zero-az")).to_have_value(re.compile(r"^1[12]\d\.\d\d$"), timeout=3000)
+    assert float(page.locator("#zero-az").input_value()) == pytest.approx(az_now, abs=0.3)  # refreshed live
+    page.fill("#zero-az", "130")                       # edited: no longer follows
+    page.click("#zero-form button[type=submit]")
+    question = page.locator("#zero-question")
+    expect(question).to_be_visible()
+    text = question.text_content()
+    assert float(re.search(r"reads az ([\d.]+)", text).group(1)) == pytest.approx(az_now, abs=0.3)
+    assert "points at az 130.00" in text, text
+    page.screenshot(path=str(artifacts / "calibration-confirm.png"))
+    time.sleep(0.3)
+    assert u.status()["az"]["pos_deg"] == pytest.approx(s["az"]["pos_deg"], abs=0.3)   # not yet
+    page.click("#zero-no")
+    expect(page.locator("#zero-confirm")).to_be_hidden()
+    page.fill("#zero-az", "130")
+    page.click("#zero-form button[type=submit]")
+    page.click("#zero-yes")
+    u.wait(lambda s: abs(s["az"]["pos_deg"] + s["offsets"]["az"] - 130) < 0.5, 5)
+    expect(page.locator("#zero-confirm")).to_be_hidden()
+    page.problems.check()
+
+
+def pixel(page, selector: str, x: float, y: float) -> list[int]:
+    return page.evaluate("([sel, x, y]) => Array.from(document.querySelector(sel).getContext('2d')"
+                         ".getImageData(Math.round(x), Math.round(y), 1, 1).data)", [selector, x, y])
+
+
+def test_map_sky_and_dial_draw_cleanly(station_urc, open_page, artifacts):
+    """Issue 12, item 19: no streaks where land crosses the date line, a station marker,
+    the sky plot's W inside the picture, the dial's reading away from its needle."""
+    u = station_urc
+    page = open_page(u.url + "/")
+    canvas = page.locator("#map")
+    w, h = int(canvas.get_attribute("width")), int(canvas.get_attribute("height"))
+
+    def at(lat, lon):
+        return pixel(page, "#map", (lon + 180) / 360 * w, (90 - lat) / 180 * h)
+    # the station is placed (from /api/info) and the land fetched and drawn (one draw
+    # paints the land and the station): waited for, not guessed at with 800 ms
+    expect(canvas).to_have_attribute("data-station-x", re.compile(r"\d"))
+    wait_until(lambda: at(-87.0, 0.0) != at(-40.0, -25.0), 15, "the land drawn on the map")
+    ocean = at(-40.0, -25.0)                              # South Atlantic (off the grid lines)
+    # Fiji's ring crosses the antimeridian: drawn naively it fills a band across the
+    # whole map at lat -16.5 (Russia's and Antarctica's streak likewise)
+    for lat, lon in ((-16.45, 70.0), (-16.45, -20.0), (-16.45, -110.0)):
+        assert at(lat, lon) == ocean, (lat, lon)
+    assert at(-87.0, 0.0) != ocean and at(66.0, -175.0) != ocean   # Antarctica, Chukotka are land
+    sx, sy = float(canvas.get_attribute("data-station-x")), float(canvas.get_attribute("data-station-y"))
+    assert pixel(page, "#map", sx, sy)[:3] == [0x4e, 0xff, 0x9a]
+    # the sky plot's compass letters are inside its picture
+    sky = page.locator("#sky").bounding_box()
+    for letter in ("N", "E", "S", "W"):
+        box = page.locator("#sky text", has_text=re.compile(f"^{letter}$")).bounding_box()
+        assert box["x"] >= sky["x"] and box["x"] + box["width"] <= sky["x"] + sky["width"], letter
+        assert box["y"] >= sky["y"] and box["y"] + box["height"] <= sky["y"] + sky["height"], letter
+    # the dial's reading lies beyond the needle's longest reach (it turns round the centre)
+    dial = page.locator("#dial").bounding_box()
+    units = dial["width"] / 220.0
+    cx, cy = dial["x"] + dial["width"] / 2, dial["y"] + dial["height"] / 2
+    for sel in ("#dial-value", "#dial text.corner"):
+        b = page.locator(sel).first.bounding_box()
+        nx = min(max(cx, b["x"]), b["x"] + b["width"])
+        ny = min(max(cy, b["y"]), b["y"] + b["height"])
+        assert math.hypot(nx - cx, ny - cy) / units > 92 * 1.05 + 2, sel
+    page.screenshot(path=str(artifacts / "map-sky-dial.png"), full_page=True)
+    page.problems.check()
 
 
 def test_offline_is_shown_and_a_restarted_urc_is_re_read(tmp_path, open_page, artifacts):
@@ -469,58 +525,6 @@ def test_offline_is_shown_and_a_restarted_urc_is_re_read(tmp_path, open_page, ar
         a.kill()            # (ended already, unless the test failed before its stop)
         if b is not None:
             b.kill()
-
-
-STATION = '[station]\nlat_deg = 58.4\nlon_deg = 26.7\n'
-
-
-def pixel(page, selector: str, x: float, y: float) -> list[int]:
-    return page.evaluate("([sel, x, y]) => Array.from(document.querySelector(sel).getContext('2d')"
-                         ".getImageData(Math.round(x), Math.round(y), 1, 1).data)", [selector, x, y])
-
-
-def test_map_sky_and_dial_draw_cleanly(tmp_path, open_page, artifacts):
-    """Issue 12, item 19: no streaks where land crosses the date line, a station marker,
-    the sky plot's W inside the picture, the dial's reading away from its needle."""
-    u = UrcProcess(tmp_path, profile="berkeley", extra=STATION).start()
-    try:
-        page = open_page(u.url + "/")
-        canvas = page.locator("#map")
-        w, h = int(canvas.get_attribute("width")), int(canvas.get_attribute("height"))
-
-        def at(lat, lon):
-            return pixel(page, "#map", (lon + 180) / 360 * w, (90 - lat) / 180 * h)
-        # the station is placed (from /api/info) and the land fetched and drawn (one draw
-        # paints the land and the station): waited for, not guessed at with 800 ms
-        expect(canvas).to_have_attribute("data-station-x", re.compile(r"\d"))
-        wait_until(lambda: at(-87.0, 0.0) != at(-40.0, -25.0), 15, "the land drawn on the map")
-        ocean = at(-40.0, -25.0)                              # South Atlantic (off the grid lines)
-        # Fiji's ring crosses the antimeridian: drawn naively it fills a band across the
-        # whole map at lat -16.5 (Russia's and Antarctica's streak likewise)
-        for lat, lon in ((-16.45, 70.0), (-16.45, -20.0), (-16.45, -110.0)):
-            assert at(lat, lon) == ocean, (lat, lon)
-        assert at(-87.0, 0.0) != ocean and at(66.0, -175.0) != ocean   # Antarctica, Chukotka are land
-        sx, sy = float(canvas.get_attribute("data-station-x")), float(canvas.get_attribute("data-station-y"))
-        assert pixel(page, "#map", sx, sy)[:3] == [0x4e, 0xff, 0x9a]
-        # the sky plot's compass letters are inside its picture
-        sky = page.locator("#sky").bounding_box()
-        for letter in ("N", "E", "S", "W"):
-            box = page.locator("#sky text", has_text=re.compile(f"^{letter}$")).bounding_box()
-            assert box["x"] >= sky["x"] and box["x"] + box["width"] <= sky["x"] + sky["width"], letter
-            assert box["y"] >= sky["y"] and box["y"] + box["height"] <= sky["y"] + sky["height"], letter
-        # the dial's reading lies beyond the needle's longest reach (it turns round the centre)
-        dial = page.locator("#dial").bounding_box()
-        units = dial["width"] / 220.0
-        cx, cy = dial["x"] + dial["width"] / 2, dial["y"] + dial["height"] / 2
-        for sel in ("#dial-value", "#dial text.corner"):
-            b = page.locator(sel).first.bounding_box()
-            nx = min(max(cx, b["x"]), b["x"] + b["width"])
-            ny = min(max(cy, b["y"]), b["y"] + b["height"])
-            assert math.hypot(nx - cx, ny - cy) / units > 92 * 1.05 + 2, sel
-        page.screenshot(path=str(artifacts / "map-sky-dial.png"), full_page=True)
-        page.problems.check()
-    finally:
-        u.kill()
 
 
 def test_pass_list_uses_the_tracking_min_elevation(tmp_path, open_page):
