@@ -463,10 +463,10 @@ def _setting_value(text: str):
 @_client_options
 def settings_show(key: str | None, url: str | None, config_path: str | None) -> None:
     """Print the settings (as TOML), or one dotted KEY's value."""
-    from .config import Config
-
     doc = _request(url, config_path, "GET", "/api/settings")["config"]
     if key is None:
+        from .config import Config  # (about 1 s of imports: not for one KEY's value)
+
         click.echo(Config.from_dict(doc, source="settings").to_toml(), nl=False)
         return
     value = doc
