@@ -43,9 +43,9 @@ def test_menu_settings_from_the_cli_persist_and_apply_at_restart(tmp_path):
         assert abs(s["az_deg"] - 180.0) < 1.0  # the south zero point: mechanical 0 points south
         text = urc("status", "--url", u2.url).stdout
         assert "azimuth only" in text and " el " not in text, text
-        # no EL needed (10 deg: BIG-RAS turns 4 deg/s at most)
-        assert "going to az 190" in urc("goto", "190", "--url", u2.url).stdout
-        s = u2.wait(lambda s: abs(s["az_deg"] - 190.0) < 1.0 and not s["moving"], 120)
+        # no EL needed (5 deg, five counts of the 1 p/deg set above: BIG-RAS turns 4 deg/s at most)
+        assert "going to az 185" in urc("goto", "185", "--url", u2.url).stdout
+        s = u2.wait(lambda s: abs(s["az_deg"] - 185.0) < 1.0 and not s["moving"], 120)
         assert s["el"] is None
     finally:
         u2.stop()
