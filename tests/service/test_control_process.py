@@ -30,9 +30,10 @@ def test_commands_status_and_errors_cross_the_process_boundary(control):
     assert rot.pid == proc.proc.pid and rot.caps.name == "tartu-urc"
     t0 = rot.status().t_s
     wait_until(lambda: rot.status().t_s > t0 + 0.1)  # statuses arrive as the loop ticks
-    assert rot.goto(40.0, 20.0) == [(40.0, 20.0)]
-    s = wait_until(lambda: (lambda s: s if not s.moving and abs(s.az_deg - 40) < 0.3 else None)(rot.status()))
-    assert abs(s.el_deg - 20) < 0.3
+    # (10 deg on each axis from the park at 0, 90: tartu-urc turns 6 deg/s at most)
+    assert rot.goto(10.0, 80.0) == [(10.0, 80.0)]
+    s = wait_until(lambda: (lambda s: s if not s.moving and abs(s.az_deg - 10) < 0.3 else None)(rot.status()))
+    assert abs(s.el_deg - 80) < 0.3
     with pytest.raises(CommandRejected) as refused:  # its own class and reason, as in-process
         rot.goto(500.0, 20.0)
     assert refused.value.reason == "limit" and "outside the limits" in str(refused.value)
@@ -40,7 +41,7 @@ def test_commands_status_and_errors_cross_the_process_boundary(control):
     assert rot.local_controls() == ("panel:cw",)
     wait_until(lambda: rot.status().local_control == ("panel:cw",))
     with pytest.raises(CommandRejected) as held:
-        rot.goto(41.0, 20.0)
+        rot.goto(11.0, 80.0)
     assert held.value.reason == "local"
     rot.hold_local("panel:cw", False)
     result = proc.stop()
@@ -88,8 +89,9 @@ def test_a_hung_tick_gets_the_outputs_made_safe_without_it(control):
     wait_until(lambda: abs(rot.status().az.rate_deg_per_s) > 3)
     assert rot.ask(MotorDuties())["az"] != 0.0
     rot.ask(SimFault("az", "slow_read", {"delay_s": 4.0, "reads": 1}))
-    time.sleep(1.5)  # watchdog_s (0.5 s) and the watch thread's look (50 ms) later
-    assert rot.ask(MotorDuties()) == {"az": 0.0, "el": 0.0}
+    # cut watchdog_s (0.5 s) and the watch thread's look (50 ms) later: waited for up to
+    # the 1.5 s this test always gave it (a fixed sleep before), well inside the 4 s hang
+    wait_until(lambda: rot.ask(MotorDuties()) == {"az": 0.0, "el": 0.0}, 1.5, "the outputs cut while the tick hangs")
 
 
 def test_a_tick_that_hangs_as_the_stop_begins_is_cut_too(control, tmp_path):
