@@ -44,10 +44,12 @@ def test_a_frozen_then_thawed_control_process_lost_motor_power(tmp_path):
         assert s["simulator_truth"]["motor_enable"]["trips"] == 0
         pid = p.control_pid()
         os.kill(pid, signal.SIGSTOP)
-        time.sleep(2.0)
+        # (frozen well past the relay's TIMEOUT_S, and short of the control process's
+        # IO_SILENT_S, 1 s: the relay alone is judged; it was a 2 s freeze)
+        time.sleep(0.6)
         os.kill(pid, signal.SIGCONT)
         # the world catches up on the first tick after the thaw: the relay dropped (again
-        # perhaps while the loop, late by 2 s, held the motors off and let the heartbeat rest)
+        # perhaps while the loop, late by 0.6 s, held the motors off and let the heartbeat rest)
         p.wait(lambda s: s["simulator_truth"]["motor_enable"]["trips"] >= 1, 30.0)
     finally:
         p.stop()
