@@ -96,7 +96,9 @@ def stop_process_group(proc: subprocess.Popen, timeout_s: float = 30.0) -> str:
 def _term_with_parent() -> None:
     """In the child before exec: SIGTERM (an orderly stop) when the test process that
     started it dies, even by SIGKILL or a CI timeout, where no finalizer or session-end
-    check runs (Linux PR_SET_PDEATHSIG; a new session alone leaves it running)."""
+    check runs (Linux PR_SET_PDEATHSIG; a new session alone leaves it running). Linux
+    counts the *thread* that forked as the parent: a urc started from a thread that then
+    ends is stopped with it, so start urcs from the test's own thread."""
     import ctypes
 
     ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGTERM)
