@@ -145,3 +145,25 @@ def test_closing_the_port_abandons_a_sarcnet_calibration(bench, tmp_path):
     during, after, said = asyncio.run(scenario())
     assert said.startswith(b"Calibration in progress") and during == ("SARCNET calibration",)
     assert after == () and b.rot.hw.axis("az").sensor.calibration() == before
+
+
+def test_a_client_that_comes_and_goes_between_two_looks_is_still_heard(bench, tmp_path):
+    """Hamlib's Easycomm set holds the port ~53 ms: a client that opens, writes and
+    closes before urc's presence look (every PRESENCE_POLL_S) had its command lost."""
+    b = bench("tartu-urc")
+    link = tmp_path / "urc-gs232b"
+
+    async def scenario() -> None:
+        ep = PtyEndpoint(lambda: make_session("gs232b", b.rot), str(link), "gs232b")
+        ep.start()
+        try:
+            await _settle()
+            fd = _open(link)
+            os.write(fd, b"W123 030\r")
+            os.close(fd)               # gone at once: never seen present
+            await _settle()
+        finally:
+            ep.close()
+    asyncio.run(scenario())
+    s = b.run(0.1)
+    assert (s.target_az_deg, s.target_el_deg) == (123.0, 30.0), (s.target_az_deg, s.target_el_deg)
