@@ -27,27 +27,34 @@ RAD2DEG = 180.0 / math.pi
 _EPS_DEG = 1e-9
 
 
-def _stick_slip(v: float, t_drive: float, b_damp: float, t_static: float, t_kinetic: float,
-                k_dt: float) -> float:
+def _stick_slip(v: float, t_drive: float, t_static: float, up: float, down: float, den: float) -> float:
     """New velocity of a body after one substep.
 
-    ``t_drive`` is the velocity-independent torque (N m), ``b_damp`` the damping
-    (N m per deg/s, implicit), ``k_dt`` = dt * RAD2DEG / J. Kinetic friction can stop a
-    body but never reverse it; a body at rest breaks away only above ``t_static``.
+    ``t_drive`` is the velocity-independent torque (N m); ``up``, ``down`` and ``den``
+    are the parts that stay the same while the torques do (:func:`_slip_terms`, worked
+    out once, not in every substep): kinetic friction can stop a body but never reverse
+    it; a body at rest breaks away only above ``t_static``.
     """
     if v == 0.0:
         if -t_static <= t_drive <= t_static:
             return 0.0
         if t_drive > 0.0:
-            vn = k_dt * (t_drive - t_kinetic) / (1.0 + k_dt * b_damp)
+            vn = up / den
             return vn if vn > 0.0 else 0.0
-        vn = k_dt * (t_drive + t_kinetic) / (1.0 + k_dt * b_damp)
+        vn = down / den
         return vn if vn < 0.0 else 0.0
     if v > 0.0:
-        vn = (v + k_dt * (t_drive - t_kinetic)) / (1.0 + k_dt * b_damp)
+        vn = (v + up) / den
         return vn if vn > 0.0 else 0.0
-    vn = (v + k_dt * (t_drive + t_kinetic)) / (1.0 + k_dt * b_damp)
+    vn = (v + down) / den
     return vn if vn < 0.0 else 0.0
+
+
+def _slip_terms(t_drive: float, b_damp: float, t_kinetic: float, k_dt: float) -> tuple[float, float, float]:
+    """:func:`_stick_slip`'s ``up``, ``down`` and ``den`` for a body under ``t_drive``:
+    ``b_damp`` is the damping (N m per deg/s, implicit), ``k_dt`` = dt * RAD2DEG / J.
+    The new speed is (v + k_dt * (t_drive -+ t_kinetic)) / (1 + k_dt * b_damp)."""
+    return k_dt * (t_drive - t_kinetic), k_dt * (t_drive + t_kinetic), 1.0 + k_dt * b_damp
 
 
 class AxisPhysics:
@@ -167,15 +174,15 @@ class AxisPhysics:
 
     def current_a(self) -> float:
         """Magnitude of the motor current, amperes."""
+        if not self.relay:
+            return abs(self.dc_current_a())
+        if not self.relay_on():
+            return 0.0
         p = self.p
         vg = 0.0 if self.held else self.gear_deg_per_s
-        if self.relay:
-            if not self.relay_on():
-                return 0.0
-            tm = p.ac_torque_nm if self.held else min(abs(self._ta - self._tb * vg), self._cap)
-            frac = min(1.0, tm / self._cap) if self._cap > 0 else 1.0
-            return p.ac_noload_current_a + (p.ac_stall_current_a - p.ac_noload_current_a) * frac
-        return abs(self.dc_current_a())
+        tm = p.ac_torque_nm if self.held else min(abs(self._ta - self._tb * vg), self._cap)
+        frac = min(1.0, tm / self._cap) if self._cap > 0 else 1.0
+        return p.ac_noload_current_a + (p.ac_stall_current_a - p.ac_noload_current_a) * frac
 
     def dc_current_a(self) -> float:
         """A DC motor's current with its sign, amperes: positive flows the way a positive
@@ -256,6 +263,8 @@ class AxisPhysics:
             self.gear_deg_per_s, self.load_deg_per_s = vg, vl
             return
 
+        # _stick_slip's terms for the torques they were worked out for (NaN: none yet)
+        terms_tda = terms_tdb = terms_wind = math.nan
         for _ in range(n):
             tick += 1
             if wind_on:
@@ -281,14 +290,38 @@ class AxisPhysics:
                     tda, tdb = cap, 0.0
                 elif tm < -cap:
                     tda, tdb = -cap, 0.0
-            # each body on its own ...
-            vg1 = _stick_slip(vg, tda, tdb + bvg, tsg, tkg, kg)
-            vl1 = _stick_slip(vl, wind, bvl, tsl, tkl, kl)
+            if tda != terms_tda or tdb != terms_tdb or wind != terms_wind:
+                # the torques changed (a relay pulse, the AC cap, a gust): new terms
+                terms_tda, terms_tdb, terms_wind = tda, tdb, wind
+                g_up, g_down, g_den = _slip_terms(tda, tdb + bvg, tkg, kg)
+                l_up, l_down, l_den = _slip_terms(wind, bvl, tkl, kl)
+                tc = tda + wind
+                c_up, c_down, c_den = _slip_terms(tc, tdb + bvg + bvl, tk_c, kc)
+            # each body on its own ... (a moving body's case of _stick_slip written out:
+            # these are the simulator's hottest lines; at rest, breakaway is its own)
+            if vg > 0.0:
+                vg1 = vn if (vn := (vg + g_up) / g_den) > 0.0 else 0.0
+            elif vg < 0.0:
+                vg1 = vn if (vn := (vg + g_down) / g_den) < 0.0 else 0.0
+            else:
+                vg1 = _stick_slip(vg, tda, tsg, g_up, g_down, g_den)
+            if vl > 0.0:
+                vl1 = vn if (vn := (vl + l_up) / l_den) > 0.0 else 0.0
+            elif vl < 0.0:
+                vl1 = vn if (vn := (vl + l_down) / l_den) < 0.0 else 0.0
+            else:
+                vl1 = _stick_slip(vl, wind, tsl, l_up, l_down, l_den)
             # ... or as one, when at an edge of the gap and pressing into it
             d = xg - xl
             if (d >= hb_in and vg1 > vl1) or (d <= -hb_in and vg1 < vl1):
                 v0 = vg * wg + vl * wl
-                vg1 = vl1 = _stick_slip(v0, tda + wind, tdb + bvg + bvl, ts_c, tk_c, kc)
+                if v0 > 0.0:
+                    vg1 = vn if (vn := (v0 + c_up) / c_den) > 0.0 else 0.0
+                elif v0 < 0.0:
+                    vg1 = vn if (vn := (v0 + c_down) / c_den) < 0.0 else 0.0
+                else:
+                    vg1 = _stick_slip(v0, tc, ts_c, c_up, c_down, c_den)
+                vl1 = vg1
             vg, vl = vg1, vl1
             xg += vg * dt
             xl += vl * dt
