@@ -20,12 +20,11 @@ from pydantic import BaseModel
 
 from . import __version__
 from .config import Config
-from .errors import CommandRejected, UrcError
+from .errors import CalibrationError, CommandRejected, UrcError
 from .ipc import bridge
 from .ipc.messages import HardwareInfo
 from .service.remote import StopQueued
 from .service import Rotator
-from .service.calibration import CalibrationError
 from .service.queries import ask
 from .web import WebContext, install
 from .web.docs_pages import install_redoc

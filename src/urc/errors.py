@@ -41,3 +41,11 @@ class SensorError(HardwareError):
 
 class StateFileError(UrcError):
     """The persistent state file is corrupt, truncated or from an incompatible version."""
+
+
+class CalibrationError(UrcError):
+    """A calibration cannot be done or its result is not trustworthy."""
+
+
+class NoSuchConstant(CalibrationError):
+    """The sensor has no such constant (it is not the kind of sensor a command is for)."""

@@ -11,15 +11,8 @@ from typing import Sequence
 
 import numpy as np
 
-from ..errors import UrcError
-
-
-class CalibrationError(UrcError):
-    """A calibration cannot be done or its result is not trustworthy."""
-
-
-class NoSuchConstant(CalibrationError):
-    """The sensor has no such constant (it is not the kind of sensor a command is for)."""
+# (defined with the other errors: the I/O process maps them to replies without numpy)
+from ..errors import CalibrationError, NoSuchConstant  # noqa: F401 (re-exported)
 
 
 # =========================================================================== maths
