@@ -69,8 +69,10 @@ def test_construct_equals_the_dataclass_own_init(record):
     assert all(f.init for f in dataclasses.fields(cls)) and "__slots__" not in cls.__dict__
 
 
-def test_construct_refuses_a_missing_or_unknown_field():
-    with pytest.raises(TypeError, match="failures"):
+def test_construct_refuses_a_missing_unknown_or_misplaced_field():
+    with pytest.raises(TypeError, match="got durable, pending, error, writes$"):
         construct(WriterReport, durable=None, pending=False, error="", writes=0)
-    with pytest.raises(TypeError, match="failure, failures"):
+    with pytest.raises(TypeError, match="got durable, pending, error, writes, failure$"):
         construct(WriterReport, durable=None, pending=False, error="", writes=0, failure=0)
+    with pytest.raises(TypeError, match="in this order"):
+        construct(WriterReport, durable=None, pending=False, error="", failures=0, writes=0)
