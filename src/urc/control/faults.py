@@ -96,20 +96,21 @@ def check(st: MonitorState, x: MonitorInputs, lim: FaultLimits) -> tuple[Monitor
     return (evolve(st, **changes) if changes else st), fault
 
 
+def _fault(lim: FaultLimits, x: MonitorInputs, kind: str, reason: str) -> Fault:
+    # (a function of its own, not a closure made in _check on every tick)
+    return Fault(kind, lim.axis, f"{lim.axis}: {reason}", x.now_s)
+
+
 def _check(st: MonitorState, x: MonitorInputs, lim: FaultLimits, ch: dict) -> Fault | None:
-    """Detect; record state changes in ``ch`` (one ``evolve`` per tick, this runs at 50 Hz)."""
-    ax = lim.axis
-
-    def fault(kind: str, reason: str) -> Fault:
-        return Fault(kind, ax, f"{ax}: {reason}", x.now_s)
-
+    """Detect; record state changes in ``ch`` (one ``evolve`` per tick, this runs at 50 Hz;
+    the changes every tick makes are stored item by item, not through update's keywords)."""
     # Limit switches: a rising edge is a fault (the soft limits should have stopped us).
     if x.limit_min != st.limit_min or x.limit_max != st.limit_max:
         ch.update(limit_min=x.limit_min, limit_max=x.limit_max)
         if x.limit_min and not st.limit_min:
-            return fault("limit_switch", "lower limit switch hit")
+            return _fault(lim, x, "limit_switch", "lower limit switch hit")
         if x.limit_max and not st.limit_max:
-            return fault("limit_switch", "upper limit switch hit")
+            return _fault(lim, x, "limit_switch", "upper limit switch hit")
 
     if math.isnan(x.current_a):
         pass    # unknown (a BTS7960 below its duty floor): not seen as safe, so the hold is kept
@@ -117,42 +118,42 @@ def _check(st: MonitorState, x: MonitorInputs, lim: FaultLimits, ch: dict) -> Fa
         since = st.overcurrent_since_s if st.overcurrent_since_s is not None else x.now_s
         ch["overcurrent_since_s"] = since
         if x.now_s - since >= OVERCURRENT_HOLD_S:
-            return fault("overcurrent", f"motor current {x.current_a:.2f} A above {lim.overcurrent_a:.2f} A")
+            return _fault(lim, x, "overcurrent", f"motor current {x.current_a:.2f} A above {lim.overcurrent_a:.2f} A")
     elif st.overcurrent_since_s is not None:
         ch["overcurrent_since_s"] = None
 
     if x.meas_deg is None:
         ch["unreadable_ticks"] = st.unreadable_ticks + 1
         if st.unreadable_ticks + 1 >= SENSOR_DEAD_TICKS:
-            return fault("sensor_dead", f"position sensor unreadable ({x.sensor_error or 'no reading'})")
+            return _fault(lim, x, "sensor_dead", f"position sensor unreadable ({x.sensor_error or 'no reading'})")
         return None
     meas = x.meas_deg
     if st.unreadable_ticks:
         ch["unreadable_ticks"] = 0
 
     if not (lim.min_deg - RANGE_MARGIN_DEG <= meas <= lim.max_deg + RANGE_MARGIN_DEG):
-        return fault("sensor_range", f"reading {meas:.2f} deg outside {lim.min_deg:g}..{lim.max_deg:g} deg")
+        return _fault(lim, x, "sensor_range", f"reading {meas:.2f} deg outside {lim.min_deg:g}..{lim.max_deg:g} deg")
 
-    ch.update(prev_deg=meas, prev_t_s=x.now_s)
+    ch["prev_deg"], ch["prev_t_s"] = meas, x.now_s
     if st.prev_deg is not None:
         dt = max(x.now_s - st.prev_t_s, 1e-6)
         jump = abs(meas - st.prev_deg)
         if jump > lim.max_rate_deg_per_s * dt * 2.0 + lim.sensor_jump_deg:
-            return fault("sensor_jump", f"reading jumped {jump:.2f} deg in {dt * 1000:.0f} ms")
+            return _fault(lim, x, "sensor_jump", f"reading jumped {jump:.2f} deg in {dt * 1000:.0f} ms")
 
     est = x.estimate_deg
     if est is not None and not (lim.min_deg - RANGE_MARGIN_DEG <= est <= lim.max_deg + RANGE_MARGIN_DEG
                                 and abs(est - meas) <= lim.sensor_jump_deg):
         # the filter's estimate left what the axis can physically be: no drive may act on it
-        return fault("sensor_range", f"position estimate {est:.2f} deg implausible (reading {meas:.2f} deg)")
+        return _fault(lim, x, "sensor_range", f"position estimate {est:.2f} deg implausible (reading {meas:.2f} deg)")
 
     driven = abs(x.duty) >= 0.9 * x.min_duty and x.duty != 0.0
     sign = (x.duty > 0) - (x.duty < 0)
     if not driven:
         rest = st.rest_deg if st.rest_deg is not None else meas
-        ch.update(rest_deg=rest, progress_deg=None, dir_sign=0.0)
+        ch["rest_deg"], ch["progress_deg"], ch["dir_sign"] = rest, None, 0.0
         if abs(meas - rest) > lim.runaway_deg:
-            return fault("runaway", f"moved {meas - rest:+.2f} deg with the motor off")
+            return _fault(lim, x, "runaway", f"moved {meas - rest:+.2f} deg with the motor off")
         return None
 
     ch["rest_deg"] = None
@@ -161,19 +162,19 @@ def _check(st: MonitorState, x: MonitorInputs, lim: FaultLimits, ch: dict) -> Fa
         anchor, progress, progress_t = meas, meas, x.now_s
         ch.update(dir_sign=float(sign), dir_anchor_deg=meas)
     if (meas - anchor) * sign < -lim.runaway_deg:
-        return fault("runaway", f"moving the wrong way: {meas - anchor:+.2f} deg while driven "
-                                f"{'up/cw' if sign > 0 else 'down/ccw'}")
+        return _fault(lim, x, "runaway", f"moving the wrong way: {meas - anchor:+.2f} deg while driven "
+                                         f"{'up/cw' if sign > 0 else 'down/ccw'}")
     if progress is None or abs(meas - progress) >= lim.progress_deg:
         if progress is not None and not math.isnan(x.current_a):  # turning: learn its running current
             run = abs(x.current_a) if st.running_a is None else 0.8 * st.running_a + 0.2 * abs(x.current_a)
             ch["running_a"] = run
-        ch.update(progress_deg=meas, progress_t_s=x.now_s)
+        ch["progress_deg"], ch["progress_t_s"] = meas, x.now_s
     else:
-        ch.update(progress_deg=progress, progress_t_s=progress_t)
+        ch["progress_deg"], ch["progress_t_s"] = progress, progress_t
         if x.now_s - progress_t > lim.stall_after_s:
             stuck_for = x.now_s - progress_t
             if st.running_a is not None and 0 < abs(x.current_a) < 1.5 * st.running_a:
-                return fault("sensor_stuck", f"driven for {stuck_for:.1f} s at running current "
-                                             f"{x.current_a:.2f} A but the reading does not change")
-            return fault("stall", f"driven for {stuck_for:.1f} s without moving (current {x.current_a:.2f} A)")
+                return _fault(lim, x, "sensor_stuck", f"driven for {stuck_for:.1f} s at running current "
+                                                      f"{x.current_a:.2f} A but the reading does not change")
+            return _fault(lim, x, "stall", f"driven for {stuck_for:.1f} s without moving (current {x.current_a:.2f} A)")
     return None

@@ -144,6 +144,8 @@ class AxisOutput:
 
 
 OFF = AxisOutput(0.0, False, False)
+#: holding with the brake released (one value, made once: the law holds most ticks)
+HOLD_BRAKE_RELEASED = AxisOutput(0.0, True, False)
 
 
 def initial_state(tuning: AxisTuning, meas_deg: float) -> AxisState:
@@ -242,7 +244,7 @@ def _hold(st: AxisState, meas_deg: float, now_s: float, tun: AxisTuning,
         st = evolve(st, mode="holding", hold_since_s=now_s)
     st = evolve(st, ref_deg=meas_deg, ref_rate_deg_per_s=0.0, integral_deg_s=0.0, arrived=True,
                  phase_until_s=0.0 if not brake_released else st.phase_until_s)
-    return st, AxisOutput(0.0, brake_released and tun.brake, False)
+    return st, (HOLD_BRAKE_RELEASED if brake_released and tun.brake else OFF)
 
 
 def _crossed(st: AxisState, error_deg: float) -> bool:

@@ -192,12 +192,14 @@ class Axis:
         # the reported speed: slope over the window (the filter's own rate is too noisy)
         if self.positioner is not None:  # reports come once per poll: span one at least
             self.window_s = max(self.window_s, self.positioner.sample_interval_s())
-        self.history.append((self._t_s, self.meas_deg))
-        while len(self.history) > 2 and self.history[1][0] <= self._t_s - self.window_s + 1e-9:
-            self.history.popleft()
-        t_old, p_old = self.history[0]
-        if self._t_s - t_old > 0:
-            self.rate_deg_per_s = (self.meas_deg - p_old) / (self._t_s - t_old)
+        t_s, meas_deg, history = self._t_s, self.meas_deg, self.history  # (every tick: locals)
+        history.append((t_s, meas_deg))
+        window_start_s = t_s - self.window_s + 1e-9
+        while len(history) > 2 and history[1][0] <= window_start_s:
+            history.popleft()
+        t_old, p_old = history[0]
+        if t_s - t_old > 0:
+            self.rate_deg_per_s = (meas_deg - p_old) / (t_s - t_old)
         self.sensor_ok, self.sensor_error = True, ""
         return mech
 

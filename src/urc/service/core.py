@@ -70,16 +70,23 @@ class Core:
         el = self.axes.get("el")
         return (self.axes["az"].meas_deg, el.meas_deg if el else FIXED_EL_DEG)
 
+    # (these two run every tick: loops, not any() over a generator)
     def position_uncertain(self) -> bool:
-        return any(ax.uncertainty_deg > 0 for ax in self.axes.values())
+        for ax in self.axes.values():
+            if ax.uncertainty_deg > 0:
+                return True
+        return False
 
     def moving(self) -> bool:
         # coasting counts as moving; sensor noise on a standing axis does not. An axis
         # whose sensor is dead shows no motion: its speed is the last one measured (a
         # bridge link outage said "moving" over a frozen position); its fault says why.
         # (Records still see that speed: a restart must not trust a position at rest.)
-        return any((ax.law.mode in ("driving", "releasing") or abs(ax.rate_deg_per_s) > ax.still_rate_deg_per_s)
-                   and not self.sensor_dead(ax) for ax in self.axes.values())
+        for ax in self.axes.values():
+            if (ax.law.mode in ("driving", "releasing") or abs(ax.rate_deg_per_s) > ax.still_rate_deg_per_s) \
+                    and not self.sensor_dead(ax):
+                return True
+        return False
 
     def sensor_dead(self, ax: Axis) -> bool:
         return not ax.sensor_ok and any(f.kind == "sensor_dead" and f.axis == ax.name for f in self.faults)

@@ -84,7 +84,7 @@ class Guard:
         for name, ax in self.core.axes.items():
             meas = ax.read(dt_s)
             ax.read_switches()
-            if meas is not None:
+            if meas is not None and ax.positioner is not None:  # (only a bridged axis' link comes back)
                 self._clear_link_fault(ax, meas)
             tuning = ax.tuning
             # (construct: made every tick, see urc.control.evolve)

@@ -216,11 +216,10 @@ class Records:
             saved = rec["axes"][name]
             if saved["uncertainty_deg"] != ax.uncertainty_deg:
                 return True
-            band = precord.hold_band_deg(ax)
-            shift = self.searches.get(name, (0.0, 0.0))[1]
             if precord.standing(ax, core.tracking):
                 # at rest: the record should say so (a restart then knows the position)
-                if abs(saved["mech_deg"] + shift - ax.meas_deg) > band or (
+                shift = self.searches.get(name, (0.0, 0.0))[1]
+                if abs(saved["mech_deg"] + shift - ax.meas_deg) > precord.hold_band_deg(ax) or (
                         precord.needs_record(ax) and not precord.known_window(ax, windows[name])):
                     return True
             elif precord.needs_record(ax) and not precord.covers(
