@@ -71,9 +71,10 @@ class FakeSMBus:
         return mux.channels[channel]
 
     def _dev(self, addr: int) -> Any:
-        found = [self.devices[addr]] if addr in self.devices else []
-        for mux in self.devices.values():
-            if isinstance(mux, FakeTca9548a):
+        devices = self.devices
+        found = [devices[addr]] if addr in devices else []
+        for mux in devices.values():
+            if isinstance(mux, FakeTca9548a) and mux.control:  # (no channel selected: none answers)
                 found += mux.selected(addr)
         # ``nack``: set by tests; ``dead``: the simulator's sensor_dead fault on the chip
         found = [d for d in found if not (getattr(d, "nack", False) or getattr(d, "dead", False))]
@@ -136,7 +137,15 @@ class FakeTca9548a:
         return [self.control] * n
 
     def selected(self, addr: int) -> list[Any]:
-        return [devs[addr] for ch, devs in self.channels.items() if self.control >> ch & 1 and addr in devs]
+        """The chips at ``addr`` on the channels selected, lowest channel first."""
+        found = []
+        control, ch = self.control, 0
+        while control:  # (the set bits only: asked on every transaction on the bus)
+            devs = self.channels.get(ch)
+            if control & 1 and devs is not None and addr in devs:
+                found.append(devs[addr])
+            control, ch = control >> 1, ch + 1
+        return found
 
 
 class _WiredAnd:
