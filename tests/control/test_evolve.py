@@ -1,6 +1,7 @@
 """evolve: the control law's fast dataclasses.replace, equal to it on its state records
 (the law's, the fault monitor's and its limits, which a bridged axis widens each tick);
-construct: the same for the records the tick makes afresh (status, monitor inputs)."""
+construct: the same for the records the tick makes afresh (status, monitor inputs, the
+law's output, the filter's estimate)."""
 
 from __future__ import annotations
 
@@ -10,7 +11,8 @@ import pytest
 
 from urc.control.evolve import construct, evolve
 from urc.control.faults import FaultLimits, MonitorInputs, MonitorState
-from urc.control.law import AxisState
+from urc.control.estimator import Estimate
+from urc.control.law import AxisOutput, AxisState
 from urc.service.snapshot import AxisStatus, Status
 from urc.service.state_writer import WriterReport
 
@@ -51,7 +53,8 @@ def _construct_cases():
                     target_el_deg=None, flipped=False, wrap_turns=0, moving=False, parked=True,
                     position_known=True, faults=(), events=("x",), tick_late_p99_ms=0.5, axes=("az",))
     return [axis, status, MonitorInputs(now_s=1.0, meas_deg=None, current_a=float("inf")),
-            WriterReport(durable=None, pending=True, error="", writes=1, failures=0)]
+            WriterReport(durable=None, pending=True, error="", writes=1, failures=0),
+            AxisOutput(duty=-0.5, brake_released=True, driving=True), Estimate(pos_deg=3.0, rate_deg_per_s=-1.0)]
 
 
 @pytest.mark.parametrize("record", _construct_cases(), ids=lambda r: type(r).__name__)

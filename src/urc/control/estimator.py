@@ -13,6 +13,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from .evolve import construct
+
 #: gains: position share of the residual, speed share (per nominal period)
 FILTER_ALPHA = 0.3
 FILTER_BETA = 0.03
@@ -51,4 +53,5 @@ def alpha_beta(est: Estimate, reading_deg: float, dt_s: float, lim: FilterLimits
     # over microseconds the residual is sensor noise, not speed
     rate = est.rate_deg_per_s + FILTER_BETA * resid / max(dt_s, lim.period_s)
     cap = RATE_SLACK * lim.max_rate_deg_per_s
-    return Estimate(pred + FILTER_ALPHA * resid, min(max(rate, -cap), cap))
+    # (construct: every tick of a noisy sensor, see urc.control.evolve)
+    return construct(Estimate, pos_deg=pred + FILTER_ALPHA * resid, rate_deg_per_s=min(max(rate, -cap), cap))

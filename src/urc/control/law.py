@@ -21,7 +21,7 @@ import math
 from dataclasses import dataclass, field, replace
 from typing import Literal
 
-from .evolve import evolve
+from .evolve import construct, evolve
 from .profile import ProfileLimits, advance
 
 Mode = Literal["idle", "releasing", "driving", "holding"]
@@ -165,13 +165,17 @@ def step(st: AxisState, sp: Setpoint | None, meas_deg: float, now_s: float, dt_s
 
 def _step(st: AxisState, sp: Setpoint | None, meas_deg: float, now_s: float, dt_s: float,
           tun: AxisTuning, meas_rate_deg_per_s: float) -> tuple[AxisState, AxisOutput]:
-    st = _learn_coast(st, meas_deg, now_s, tun)
+    if st.cut_deg is not None:  # (a relay's coast to learn: see _learn_coast)
+        st = _learn_coast(st, meas_deg, now_s, tun)
     if sp is None:
         return evolve(st, mode="idle", ref_deg=meas_deg, ref_rate_deg_per_s=0.0,
                        integral_deg_s=0.0, arrived=False), OFF
-    sp = sp.bounded(now_s)
-
     target_deg = sp.target_at(now_s)
+    if sp.rate_deg_per_s != 0.0 and not sp.min_deg < target_deg < sp.max_deg:
+        # (Setpoint.bounded's own test: a moving target inside its limits, the usual
+        # case, is not worked out twice every tick)
+        sp = sp.bounded(now_s)
+        target_deg = sp.target_at(now_s)
     # an on/off drive follows anything slower than its top speed in bursts as well
     steady_deg_per_s = 0.9 * tun.max_rate_deg_per_s if tun.drive == "relay" else tun.min_rate_deg_per_s
     tracking = abs(sp.rate_deg_per_s) >= steady_deg_per_s
@@ -255,7 +259,7 @@ def _pwm(st: AxisState, sp: Setpoint, target_deg: float, error_deg: float, meas_
          meas_rate: float, now_s: float, dt_s: float, tun: AxisTuning, tracking: bool,
          creeping: bool) -> tuple[AxisState, AxisOutput]:
     ref, ref_rate, arrived = advance(st.ref_deg, st.ref_rate_deg_per_s, target_deg, sp.rate_deg_per_s,
-                                     tun.limits, dt_s, sp.speed_cap_deg_per_s)
+                                     tun, dt_s, sp.speed_cap_deg_per_s)  # (its limits: see RateLimits)
     arrived = arrived or st.arrived
     if creeping and (abs(error_deg) <= 0.5 * tun.tolerance_deg or _crossed(st, error_deg)):
         # a creeping target's burst ends as soon as the (overtaking) aim point is
@@ -297,7 +301,7 @@ def _pwm(st: AxisState, sp: Setpoint, target_deg: float, error_deg: float, meas_
         duty = 0.0
     st = evolve(st, mode="driving", ref_deg=ref, ref_rate_deg_per_s=ref_rate, integral_deg_s=integral,
                  arrived=arrived, kick_duty=kick, kick_anchor_deg=anchor, kick_since_s=since)
-    return st, AxisOutput(duty, tun.brake, True)
+    return st, construct(AxisOutput, duty=duty, brake_released=tun.brake, driving=True)  # (every tick it drives)
 
 
 def _relay(st: AxisState, target_deg: float, target_rate: float, error_deg: float, meas_deg: float,

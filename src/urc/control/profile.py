@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Protocol
 
 
 @dataclass(frozen=True)
@@ -18,6 +19,21 @@ class ProfileLimits:
     max_rate_deg_per_s: float
     min_rate_deg_per_s: float
     accel_deg_per_s2: float
+
+
+class RateLimits(Protocol):
+    """What :func:`advance` reads of its limits: a ProfileLimits, or an axis' tuning
+    (``law.AxisTuning``), which has the same three (the law passes it as it is, not a
+    ProfileLimits made every tick)."""
+
+    @property
+    def max_rate_deg_per_s(self) -> float: ...
+
+    @property
+    def min_rate_deg_per_s(self) -> float: ...
+
+    @property
+    def accel_deg_per_s2(self) -> float: ...
 
 
 def _braking_speed(dist_deg: float, accel: float, dt_s: float) -> float:
@@ -31,7 +47,7 @@ def _braking_speed(dist_deg: float, accel: float, dt_s: float) -> float:
 
 
 def advance(ref_deg: float, ref_rate: float, target_deg: float, target_rate: float,
-            limits: ProfileLimits, dt_s: float, speed_cap: float | None = None
+            limits: RateLimits, dt_s: float, speed_cap: float | None = None
             ) -> tuple[float, float, bool]:
     """One tick of the reference. Returns (ref_deg, ref_rate, arrived)."""
     accel = limits.accel_deg_per_s2

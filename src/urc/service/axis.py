@@ -185,7 +185,8 @@ class Axis:
             return None
         mech = self.unwrap(raw + self.count_centre_deg, self.meas_deg)
         if self.noisy and self.sensor_ok:
-            est = alpha_beta(Estimate(self.meas_deg, self._filter_rate), mech, dt_s, self.filter_limits)
+            est = alpha_beta(construct(Estimate, pos_deg=self.meas_deg, rate_deg_per_s=self._filter_rate), mech, dt_s,
+                             self.filter_limits)
             self.meas_deg, self._filter_rate = est.pos_deg, est.rate_deg_per_s
         else:
             self.meas_deg = mech
