@@ -292,3 +292,13 @@ def test_mcp3008_differential_vref_reference_and_failures():
     fake.dead, fake.fail = False, OSError(5, "Input/output error")
     with pytest.raises(SensorError, match=f"failed {ATTEMPTS} times"):
         pot.read_counts()
+
+
+def test_magnet_status_is_what_every_register_value_says():
+    """MagnetStatus.from_register keeps one value per pattern of its three bits (it is
+    asked before every AS5600 angle): each is what that register value says."""
+    for reg in range(256):
+        st = MagnetStatus.from_register(reg)
+        assert st == MagnetStatus(detected=bool(reg & 0x20), too_weak=bool(reg & 0x10),
+                                  too_strong=bool(reg & 0x08))
+        assert st.to_register() == reg & 0x38 and type(st) is MagnetStatus

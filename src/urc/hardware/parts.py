@@ -97,12 +97,22 @@ class MagnetStatus:
 
     @classmethod
     def from_register(cls, status: int) -> "MagnetStatus":
-        return cls(detected=bool(status & 0x20), too_weak=bool(status & 0x10),
-                   too_strong=bool(status & 0x08))
+        # (read before every AS5600 angle: one frozen value per pattern of the three
+        # bits, made once, not a new one through the frozen __init__ every tick)
+        key = (cls, status & 0x38)
+        found = _MAGNET_STATUS.get(key)
+        if found is None:
+            found = _MAGNET_STATUS[key] = cls(detected=bool(status & 0x20), too_weak=bool(status & 0x10),
+                                             too_strong=bool(status & 0x08))
+        return found
 
     def to_register(self) -> int:
         return (0x20 if self.detected else 0) | (0x10 if self.too_weak else 0) | \
             (0x08 if self.too_strong else 0)
+
+
+#: MagnetStatus.from_register's values by (class, the register's MD ML MH bits)
+_MAGNET_STATUS: dict[tuple[type, int], MagnetStatus] = {}
 
 
 @runtime_checkable

@@ -71,16 +71,21 @@ class FakeSMBus:
         return mux.channels[channel]
 
     def _dev(self, addr: int) -> Any:
+        # (every transaction asks: plain loops, no comprehensions or lists made for
+        # the one chip that usually answers)
         devices = self.devices
         found = [devices[addr]] if addr in devices else []
         for mux in devices.values():
             if isinstance(mux, FakeTca9548a) and mux.control:  # (no channel selected: none answers)
                 found += mux.selected(addr)
-        # ``nack``: set by tests; ``dead``: the simulator's sensor_dead fault on the chip
-        found = [d for d in found if not (getattr(d, "nack", False) or getattr(d, "dead", False))]
-        if not found:
+        answering = []
+        for d in found:
+            # ``nack``: set by tests; ``dead``: the simulator's sensor_dead fault on the chip
+            if not (getattr(d, "nack", False) or getattr(d, "dead", False)):
+                answering.append(d)
+        if not answering:
             raise OSError(121, "Remote I/O error")
-        return found[0] if len(found) == 1 else _WiredAnd(found)
+        return answering[0] if len(answering) == 1 else _WiredAnd(answering)
 
     def _rec(self, op: str, addr: int, reg: int, data: Any) -> None:
         if self.keep_log:
