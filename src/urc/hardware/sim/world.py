@@ -207,7 +207,11 @@ class SimWorld:
     def catch_up(self) -> None:
         """Integrate up to the clock's present (before a command changes the drive)."""
         if self._origin_s is not None:
-            self.advance_to(self.clock.now_s())
+            now_s = self.clock.now_s()
+            # (advance_to's own first test, before its lock and call: each drive asks
+            # right after the tick's poll; _reached_s is set last, once a step is done)
+            if now_s != self._reached_s or self.log is not None:
+                self.advance_to(now_s)
 
     @_serialised
     def command_brake(self, name: str, released: bool) -> None:
