@@ -72,10 +72,11 @@ def test_construct_equals_the_dataclass_own_init(record):
     assert all(f.init for f in dataclasses.fields(cls)) and "__slots__" not in cls.__dict__
 
 
-def test_construct_refuses_a_missing_unknown_or_misplaced_field():
-    with pytest.raises(TypeError, match="got durable, pending, error, writes$"):
+def test_construct_refuses_a_missing_or_unknown_field_and_takes_any_order():
+    with pytest.raises(TypeError, match="failures$"):
         construct(WriterReport, durable=None, pending=False, error="", writes=0)
-    with pytest.raises(TypeError, match="got durable, pending, error, writes, failure$"):
+    with pytest.raises(TypeError, match="failure, failures$"):
         construct(WriterReport, durable=None, pending=False, error="", writes=0, failure=0)
-    with pytest.raises(TypeError, match="in this order"):
-        construct(WriterReport, durable=None, pending=False, error="", failures=0, writes=0)
+    # (the class' order is only the fast path: a call in another order makes the same record)
+    assert construct(WriterReport, durable=None, pending=False, error="", failures=2, writes=1) == \
+        WriterReport(durable=None, pending=False, error="", writes=1, failures=2)

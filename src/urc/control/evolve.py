@@ -12,8 +12,8 @@ that is not a field, as ``replace`` does. Only for plain frozen dataclasses: no
 A frozen dataclass' own ``__init__`` sets each field through ``object.__setattr__``,
 about twice the work of ``construct``, which the status snapshots and the monitor's
 inputs are made with (every tick, per axis): the keyword arguments' own fresh dict
-becomes the instance dict. It takes every field, in the class' order, and nothing else,
-so no default is left out.
+becomes the instance dict. It takes every field and nothing else, so no default is
+left out.
 """
 
 from __future__ import annotations
@@ -42,14 +42,15 @@ def evolve(obj: T, **changes: Any) -> T:
 
 
 def construct(cls: type[T], **fields: Any) -> T:
-    """``cls(**fields)`` for a plain frozen dataclass, every field given in its order
-    (see above)."""
+    """``cls(**fields)`` for a plain frozen dataclass, every field given (see above)."""
     names = _FIELD_NAMES.get(cls)
     if names is None:
         names = _FIELD_NAMES[cls] = tuple(f.name for f in dataclasses.fields(cls))  # type: ignore[arg-type]
-    if tuple(fields) != names:
-        raise TypeError(f"{cls.__name__} takes its fields {', '.join(names)} in this order, "
-                        f"got {', '.join(fields)}")
+    # (in the class' order, as every call site gives them, one tuple compare; any other
+    # order is as good, checked as a set: a call in a rare branch must not crash a tick)
+    if tuple(fields) != names and fields.keys() != set(names):
+        wrong = fields.keys() ^ set(names)
+        raise TypeError(f"{cls.__name__} fields missing or unknown: {', '.join(sorted(wrong))}")
     new = object.__new__(cls)
     _set_attr(new, "__dict__", fields)  # (a fresh dict of this call's own)
     return new
