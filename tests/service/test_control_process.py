@@ -191,3 +191,32 @@ def test_the_command_thread_outlives_a_reply_that_cannot_be_sent(tmp_path):
     (first, second) = (reply for _, reply in server.conn.sent)
     assert (first.rid, first.outcome) == (1, "error") and "pickle" in first.value[4]
     assert (second.rid, second.outcome, second.value) == (2, "value", 42)
+
+
+def test_a_reply_carries_the_status_only_where_the_command_changed_it(control):
+    """Read-your-writes: a fault latched or cleared by a command shows in the status as
+    the command returns. A command that leaves the last tick's status (a goto) does not
+    send it again: the publisher sends that one anyway (it was a third of a set's round
+    trip)."""
+    _proc, rot, _lost = control
+    link = rot._link
+    carried: list[tuple[str, bool]] = []
+    real_outcome = link._outcome
+
+    def outcome(request, reply):
+        carried.append((type(request).__name__, reply.status is not None))
+        return real_outcome(request, reply)
+    link._outcome = outcome
+    rot.power_fail("a test's supply cut")
+    assert [f.kind for f in rot.status().faults] == ["power_fail"]   # at once, not at the next tick
+    rot.clear_faults()
+    assert not rot.status().faults
+    assert carried == [("PowerFail", True), ("ClearFaults", True)], carried
+    for az_deg in (10.0, 11.0, 12.0):
+        # once a tick has published (a command in the few microseconds between a tick's
+        # status and its publication still sends its own: hence three tries)
+        t_s = rot.status().t_s
+        wait_until(lambda: rot.status().t_s > t_s)
+        rot.goto(az_deg, 80.0)
+    assert ("Goto", False) in carried[2:], carried
+    wait_until(lambda: rot.status().target_az_deg == 12.0)   # (the next tick's status tells)
