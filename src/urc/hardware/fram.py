@@ -44,7 +44,9 @@ class FramStore:
 
     # ---------------------------------------------------------------- bus
     def _write(self, mem: int, data: bytes) -> None:
-        # TODO(review case 8): SMBus shared with the tick's chip reads, unlocked (smbus2: set address, then transfer)
+        # (the bus is shared with the tick's chip reads: a real one is a SerialisedBus,
+        # each chunk one locked transaction: the tick waits at most one chunk, ~3 ms at the
+        # Pi's default 100 kHz, as the kernel's lock on the adapter already made it)
         for i in range(0, len(data), CHUNK):
             a = mem + i
             try:

@@ -7,7 +7,7 @@ from __future__ import annotations
 from typing import Any
 
 from ...errors import ConfigError
-from .i2c import Ads1115Chip, Tca9548aMux
+from .i2c import Ads1115Chip, SerialisedBus, Tca9548aMux
 from .spi import Mcp3008Chip, open_spidev
 
 
@@ -29,7 +29,8 @@ class Buses:
             else:
                 import smbus2
                 try:
-                    self.i2c[n] = smbus2.SMBus(n)
+                    # (the tick's chips and the FRAM's state writer share it: see SerialisedBus)
+                    self.i2c[n] = SerialisedBus(smbus2.SMBus(n))
                 except OSError as exc:
                     raise ConfigError(f"I2C bus {n}: {exc} (enable I2C with raspi-config)",
                                       key="hardware.gpio.i2c_bus", expected="an I2C bus", found=n) from exc

@@ -212,6 +212,55 @@ class Lsm303agrChip:
         return "LSM303AGR at 0x19/0x1e: WHO_AM_I 0x33/0x40 (ok)"
 
 
+class SerialisedBus:
+    """A real smbus2 bus shared by threads, one transaction at a time.
+
+    smbus2 keeps the slave address per file descriptor: ``read_byte_data(0x36, ...)``
+    is ``ioctl(I2C_SLAVE, 0x36)`` (skipped when the address is unchanged), then
+    ``ioctl(I2C_SMBUS, ...)``. Two threads on one bus (the tick reading an AS5600, the
+    state writer saving to the FRAM at 0x50) can interleave those two steps: the FRAM's
+    block write then goes to the encoder's registers (ZPOS, CONF: a silently moved zero)
+    or a reading comes from the wrong chip. Every call here holds the bus' lock over both
+    steps. ``i2c_rdwr`` addresses each message itself but shares the lock all the same.
+    """
+
+    def __init__(self, bus: Any):
+        self._bus = bus
+        self.lock = threading.Lock()
+
+    def read_byte(self, addr: int) -> int:
+        with self.lock:
+            return self._bus.read_byte(addr)
+
+    def write_byte(self, addr: int, value: int) -> None:
+        with self.lock:
+            self._bus.write_byte(addr, value)
+
+    def read_byte_data(self, addr: int, reg: int) -> int:
+        with self.lock:
+            return self._bus.read_byte_data(addr, reg)
+
+    def write_byte_data(self, addr: int, reg: int, value: int) -> None:
+        with self.lock:
+            self._bus.write_byte_data(addr, reg, value)
+
+    def read_i2c_block_data(self, addr: int, reg: int, n: int) -> list[int]:
+        with self.lock:
+            return self._bus.read_i2c_block_data(addr, reg, n)
+
+    def write_i2c_block_data(self, addr: int, reg: int, data: list[int]) -> None:
+        with self.lock:
+            self._bus.write_i2c_block_data(addr, reg, data)
+
+    def i2c_rdwr(self, *msgs: Any) -> None:
+        with self.lock:
+            self._bus.i2c_rdwr(*msgs)
+
+    def close(self) -> None:
+        with self.lock:
+            self._bus.close()
+
+
 class Tca9548aMux:
     """TCA9548A I2C switch (0x70..0x77): a single control byte, bit n connects channel n
     to the bus. Two chips with one fixed address (the Berkeley rotor's two AS5600 at
