@@ -26,14 +26,14 @@ FRAM, AS5600 = 0x50, 0x36
 class KernelI2c:
     """The i2c-dev driver as far as smbus2 sees it: a slave address per open file, and
     transfers that go to it. Holds the first thread named ``fram`` just after it sets
-    its address, until a transfer by another thread (or ``hold_s``) has happened."""
+    its address, until another thread has made a transfer or is waiting for the bus'
+    lock (``other_went``)."""
 
-    def __init__(self, hold_s: float):
+    def __init__(self):
         self.slave: int | None = None
         self.transfers: list[tuple[str, int | None]] = []  # (thread, slave address used)
-        self.other_transferred = threading.Event()
+        self.other_went = threading.Event()
         self.held = threading.Event()
-        self.hold_s = hold_s
 
     def ioctl(self, fd, request, arg):
         me = threading.current_thread().name
@@ -41,11 +41,11 @@ class KernelI2c:
             self.slave = arg
             if me == "fram" and not self.held.is_set():
                 self.held.set()
-                self.other_transferred.wait(self.hold_s)
+                assert self.other_went.wait(10.0), "the other thread neither transferred nor waited"
         elif request in (smbus2_module.I2C_SMBUS, smbus2_module.I2C_RDWR):
             self.transfers.append((me, self.slave))
             if me != "fram":
-                self.other_transferred.set()
+                self.other_went.set()
         return 0
 
 
@@ -69,9 +69,25 @@ def wrong(transfers: list[tuple[str, int | None]]) -> list[tuple[str, int | None
     return [(who, addr) for who, addr in transfers if addr != meant[who]]
 
 
+class LockSpy:
+    """The SerialisedBus' lock, telling the kernel stand-in when the tick asks for it
+    (it then waits: the writer holds it)."""
+
+    def __init__(self, kernel: KernelI2c):
+        self._lock, self.kernel = threading.Lock(), kernel
+
+    def __enter__(self):
+        if threading.current_thread().name != "fram":
+            self.kernel.other_went.set()
+        self._lock.acquire()
+
+    def __exit__(self, *exc):
+        self._lock.release()
+
+
 @pytest.fixture
 def kernel(monkeypatch):
-    k = KernelI2c(hold_s=0.2)
+    k = KernelI2c()
     monkeypatch.setattr(smbus2_module, "ioctl", k.ioctl)
     return k
 
@@ -82,7 +98,9 @@ def test_a_bare_smbus2_bus_sends_the_fram_write_to_the_encoder(kernel):
 
 
 def test_a_serialised_bus_sends_every_transfer_to_its_own_chip(kernel):
-    transfers = race(SerialisedBus(smbus2_module.SMBus()), kernel)
+    bus = SerialisedBus(smbus2_module.SMBus())
+    bus.lock = LockSpy(kernel)  # type: ignore[assignment]
+    transfers = race(bus, kernel)
     assert not wrong(transfers), transfers
     assert [who for who, _ in transfers] == ["fram", "tick"]   # (the tick waited for the chunk)
 

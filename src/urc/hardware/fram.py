@@ -15,6 +15,7 @@ from __future__ import annotations
 import json
 import logging
 import struct
+import time
 import zlib
 from pathlib import Path
 from typing import Any
@@ -28,8 +29,13 @@ MAGIC = b"URCF"
 HEADER = struct.Struct(">4sIII")
 FLAG_ADDR = 0x0000
 FLAG_SET = 0xA5
-#: bytes per bus transfer (keeps each under smbus2's and the adapter's limits)
+#: bytes per bus transfer: under smbus2's and the adapter's limits, and short, since the
+#: tick's chip reads on the same bus wait for each one (32 bytes at the Pi's default
+#: 100 kHz: ~3 ms, a sixth of a 50 Hz tick)
 CHUNK = 30
+#: a pause between two transfers of one record, so a tick waiting for the bus gets it
+#: (a lock is not handed over: the writer could take it straight back)
+YIELD_S = 0.001
 
 
 class FramStore:
@@ -43,12 +49,13 @@ class FramStore:
         self.path = Path(state_dir or ".") / f"FRAM 0x{address:02x}"
 
     # ---------------------------------------------------------------- bus
+    # (the bus is shared with the tick's chip reads, each transfer one transaction: a
+    # real bus is a SerialisedBus; a save runs on the state writer's thread, never the tick)
     def _write(self, mem: int, data: bytes) -> None:
-        # (the bus is shared with the tick's chip reads: a real one is a SerialisedBus,
-        # each chunk one locked transaction: the tick waits at most one chunk, ~3 ms at the
-        # Pi's default 100 kHz, as the kernel's lock on the adapter already made it)
         for i in range(0, len(data), CHUNK):
             a = mem + i
+            if i:
+                time.sleep(YIELD_S)
             try:
                 self.bus.write_i2c_block_data(self.address, a >> 8, [a & 0xFF, *data[i:i + CHUNK]])
             except OSError as exc:
@@ -57,8 +64,10 @@ class FramStore:
     def _read(self, mem: int, n: int) -> bytes:
         from smbus2 import i2c_msg
         out = bytearray()
-        for i in range(0, n, 256):
-            a, k = mem + i, min(256, n - i)
+        for i in range(0, n, CHUNK):
+            a, k = mem + i, min(CHUNK, n - i)
+            if i:
+                time.sleep(YIELD_S)
             w, r = i2c_msg.write(self.address, [a >> 8, a & 0xFF]), i2c_msg.read(self.address, k)
             try:
                 self.bus.i2c_rdwr(w, r)
