@@ -145,6 +145,8 @@ def test_during_a_link_outage_status_does_not_say_moving(tmp_path):
         s = rig.run(0.5)
         assert s.az.pos_deg == frozen and not s.az.sensor_ok
         assert not s.moving, (s.az, s.el)
+        # (nor "driving" with the outputs off: the last speed seen is no motion it can see)
+        assert s.az.mode != "driving" and s.az.duty == 0.0, s.az
     assert any(ax["moving"] for ax in rig.downstream._records.record["axes"].values()), rig.downstream._records.record
 
 

@@ -109,8 +109,11 @@ class Axis:
             self.law, self.out = law.step(self.law, sp, self.meas_deg, now_s, dt_s, self.tuning,
                                           self.rate_deg_per_s)
             return
+        # a controller unheard for SENSOR_DEAD_TICKS (its link lost): the last speed seen
+        # is not a motion this axis can see, nor a drive to show (the record keeps it)
+        heard = self.mon.unreadable_ticks < faultmod.SENSOR_DEAD_TICKS
         self.law, self.out, self.posted_deg = positioner_law.step(
-            self.law, sp, self.meas_deg, self.rate_deg_per_s, now_s, self.tuning,
+            self.law, sp, self.meas_deg, self.rate_deg_per_s if heard else 0.0, now_s, self.tuning,
             lead_s=self.positioner.latency_s(), still_rate_deg_per_s=self.still_rate_deg_per_s,
             band_deg=max(self.tuning.tolerance_deg, self.positioner.resolution_deg), limits_deg=self.limits)
         if sp is not None and self.out.duty == 0.0:
