@@ -76,3 +76,28 @@ def test_fleet_table_from_messages():
     assert rows[1]["online"] == "?"
     text = plain_table(rows)
     assert text.splitlines()[1].startswith("A ") and "stall: az stalled" in text
+
+
+def test_a_window_keeps_the_messages_that_arrived_in_it(broker, clients):
+    """`urc fleet --once` gathers for --wait-s: what the broker sent within it is shown,
+    read or not when the time is up (it dropped those still queued)."""
+    import asyncio
+    import time
+
+    from urc.mqtt.config import parse_url
+    from urc.mqtt.fleet import watch
+
+    pub = clients(broker.port)
+    names = [f"st{i}" for i in range(6)]
+    for n in names:
+        pub.publish(f"urc/{n}/availability", "online", retain=True)   # (waits for the PUBACK)
+    fleet_ = Fleet("urc")
+    calls = []
+
+    def slow_change() -> None:
+        calls.append(1)
+        if len(calls) == 1:
+            time.sleep(0.5)   # the event loop held past the window: the rest wait in the queue
+
+    asyncio.run(watch(parse_url(broker.url), fleet_, slow_change, seconds=0.2))
+    assert sorted(fleet_.stations) == names, sorted(fleet_.stations)

@@ -100,6 +100,11 @@ def _client(broker: Broker, **auth: Any) -> Any:
     return make_client(broker, identifier=f"urc-fleet-{uuid.uuid4().hex[:8]}", **auth)
 
 
+#: at the end of a window, how long a read under way may take to finish (it is one
+#: message off the queue already, or the queue is empty and nothing is coming)
+DRAIN_S = 0.05
+
+
 async def watch(broker: Broker, fleet: Fleet, on_change, stop: asyncio.Event | None = None,
                 seconds: float | None = None, **auth: Any) -> None:
     """Feed ``fleet`` from the broker; ``on_change()`` after each message. Until
@@ -108,16 +113,26 @@ async def watch(broker: Broker, fleet: Fleet, on_change, stop: asyncio.Event | N
         for pattern in fleet_patterns(fleet.prefix).values():
             await client.subscribe(pattern, qos=1)
 
+        closing = False
+
         async def read() -> None:
             async for msg in client.messages:
                 fleet.feed(str(msg.topic), msg.payload if isinstance(msg.payload, bytes) else b"")
                 on_change()
+                if closing and not len(client.messages):
+                    return
         reader = asyncio.create_task(read())
         waits = [reader]
         if stop is not None:
             waits.append(asyncio.create_task(stop.wait()))
         try:
             await asyncio.wait(waits, timeout=seconds, return_when=asyncio.FIRST_COMPLETED)
+            if not reader.done():
+                # the window is over, but what arrived in it is still this window's (queued
+                # behind a slow on_change, or taken off the queue and not yet returned:
+                # cancelling the read then would lose it): read on until the queue is empty
+                closing = True
+                await asyncio.wait([reader], timeout=DRAIN_S)
         finally:
             for t in waits:
                 t.cancel()
