@@ -16,6 +16,10 @@ held over a current-sense read or ``driver_fault`` (a bus read can hang). ``forc
 (what ``drive_safe`` calls) does not wait for a holder that is stuck: it writes the whole
 safe pattern anyway, past every cache, and leaves the driver's remembered state unknown
 so that the next drive writes every pin again. After ``close`` a driver refuses to drive.
+
+(Just over 600 lines on purpose: the four H-bridges and the relay drive share that one
+lock protocol, its helpers and the base class; a module per chip would split the
+protocol from the code it guards.)
 """
 
 from __future__ import annotations
