@@ -124,3 +124,14 @@ def test_every_urc_import_names_a_module_that_exists():
     missing = {f"{module_name(path)} -> {target}" for path in SRC.rglob("*.py")
                for target in imports_of(path, modules) if target not in modules | packages}
     assert not missing, sorted(missing)
+
+
+def test_a_module_over_600_lines_says_why_at_its_top():
+    """Issue 19: no module over ~600 lines without a reason written in its docstring."""
+    unexplained = []
+    for path in sorted(SRC.rglob("*.py")):
+        text = path.read_text()
+        doc = ast.get_docstring(ast.parse(text)) or ""
+        if text.count("\n") > 600 and "600 lines" not in doc:
+            unexplained.append(f"{path.relative_to(SRC)}: {text.count(chr(10))} lines")
+    assert not unexplained, unexplained
