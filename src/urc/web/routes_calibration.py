@@ -6,6 +6,7 @@ control ticks, so a sensor read and the re-reference that follows are never spli
 
 from __future__ import annotations
 
+import asyncio
 import math
 from typing import Literal
 
@@ -14,7 +15,6 @@ from pydantic import Field
 
 from ..ipc import bridge
 from ..ipc.messages import DescribeSensors, PotApply, PotUnits
-from ..service import calibration as cal
 from ..service.queries import ask
 from .context import WebContext
 from .schemas import CONTROL_RESPONSES, AzDeg, Deg, ElDeg, Ok, Strict
@@ -59,6 +59,18 @@ class ProcedureState(Ok):
     procedure: dict | None = Field(description="kind, axis, state, step, progress (0..1)")
 
 
+def _load_calibration():
+    from ..service import calibration
+
+    return calibration
+
+
+async def _calibration():
+    """urc.service.calibration, imported at the first command that needs it and on a
+    worker thread (lazy: its numpy would cost every start, and the event loop ~0.15 s)."""
+    return await asyncio.to_thread(_load_calibration)
+
+
 def router(ctx: WebContext) -> APIRouter:
     r = APIRouter(prefix="/api/calibration")
     control = dict(dependencies=[Depends(ctx.control)], responses=CONTROL_RESPONSES)
@@ -72,6 +84,7 @@ def router(ctx: WebContext) -> APIRouter:
     @r.post("/zero", **control)
     async def zero(req: ZeroRequest) -> Ok:
         """Declare where the antenna points now (re-reference)."""
+        cal = await _calibration()
         await bridge.run(cal.zero, rot, req.az_deg, req.el_deg)
         return Ok()
 
@@ -95,12 +108,14 @@ def router(ctx: WebContext) -> APIRouter:
     @r.post("/magnetometer", **control)
     async def magnetometer() -> ProcedureState:
         """Start the 12-direction hard-iron calibration (the antenna turns all the way round)."""
+        cal = await _calibration()
         ctx.hub.start_procedure(await bridge.run(cal.MagnetometerCalibration, rot))
         return ProcedureState(procedure=ctx.hub.procedure_dict())
 
     @r.post("/homing", **control)
     async def homing(req: HomingRequest) -> ProcedureState:
         """Start limit-switch homing of one axis (slow jog onto the lower switch)."""
+        cal = await _calibration()
         ctx.hub.start_procedure(await bridge.run(cal.LimitSwitchHoming, rot, req.axis, req.speed_frac, req.switch_deg))
         return ProcedureState(procedure=ctx.hub.procedure_dict())
 
