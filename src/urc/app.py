@@ -141,7 +141,9 @@ async def _serve(cfg: Config, state_dir: Path, config_path: Path | None, api_soc
         from .servers.limits import (MAX_HTTP_CONNECTIONS, bound_library_logs, capped_http_protocol,
                                      raise_open_file_limit)
         from .service.loop import sd_notifier
-        from .tracking.service import TrackingService
+        tracking_on = cfg.station.configured or bool(cfg.station.gps)
+        if tracking_on:  # (lazy: tracking off, this process never loads numpy, sgp4, skyfield)
+            from .tracking.service import TrackingService
 
         raise_open_file_limit()
         bound_library_logs()
@@ -167,7 +169,8 @@ async def _serve(cfg: Config, state_dir: Path, config_path: Path | None, api_soc
     try:
         for sig in (signal.SIGINT, signal.SIGTERM):
             loop.add_signal_handler(sig, lambda sig=sig: (asked.append(sig.name), stop.set()))
-        tracking = TrackingService(rotator, cfg, background=True)  # planning off the event loop
+        # (planning off the event loop)
+        tracking = TrackingService(rotator, cfg, background=True) if tracking_on else _TrackingOff()
         api = create_api(rotator, cfg, config_path=config_path, state_dir=state_dir,
                          tracker=tracking if tracking.station is not None or tracking.gps is not None else None)
         from uvicorn.protocols.http.auto import AutoHTTPProtocol
@@ -242,6 +245,23 @@ async def _serve(cfg: Config, state_dir: Path, config_path: Path | None, api_soc
         raise web.exception()
     print("urc: stopped, state saved" if result["saved"] else "urc: stopped; the state could NOT be saved "
           "(the next start treats the position as uncertain)", flush=True)
+
+
+class _TrackingOff:
+    """What a TrackingService does with no [station] and no GPS: nothing (no station,
+    no tracker; it never searches, plans or reads the catalog). Stands in for it so that
+    ``urc run`` without tracking does not import the tracking maths."""
+
+    station = gps = None
+
+    def start(self) -> None:
+        pass
+
+    def step(self, now_s: float) -> None:
+        pass
+
+    def close(self) -> None:
+        pass
 
 
 async def _announce_tracking(tracking, cfg: Config) -> None:

@@ -57,3 +57,21 @@ def cycle_state(status: dict[str, Any], error_deg: float | None) -> dict[str, st
     else:
         state, why = "report", f"on the target ({error_deg:.2f} deg)"
     return {"state": state, "document": DOCUMENT_NAMES[state], "why": why}
+
+
+# (here, not in the tracker: the dashboard extrapolates without the tracking maths, numpy)
+#: a tracking status older than this is not extrapolated (its rates no longer hold)
+EXTRAPOLATE_MAX_S = 5.0
+
+
+def tracking_now(t: dict[str, Any] | None, unix_s: float) -> dict[str, Any] | None:
+    """A tracking status (``Tracker.status``) with the target's az/el moved on to
+    ``unix_s`` by its rates: the status costs tens of ms and is refreshed about once a
+    second, while a satellite near culmination moves a degree a second."""
+    if not t or t.get("az_rate_deg_per_s") is None or t.get("az_deg") is None or t.get("t_unix_s") is None:
+        return t
+    dt = unix_s - t["t_unix_s"]
+    if not 0.0 < dt <= EXTRAPOLATE_MAX_S:
+        return t
+    return {**t, "t_unix_s": unix_s, "az_deg": (t["az_deg"] + t["az_rate_deg_per_s"] * dt) % 360.0,
+            "el_deg": t["el_deg"] + t["el_rate_deg_per_s"] * dt}

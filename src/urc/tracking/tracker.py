@@ -401,7 +401,7 @@ class Tracker:
         try:
             out["az_deg"], out["el_deg"] = self.target.position(u)
             # with the rates, a status computed a second ago is brought up to date cheaply
-            # (tracking_now) instead of showing where the target was then
+            # (cycle.tracking_now) instead of showing where the target was then
             out["az_rate_deg_per_s"], out["el_rate_deg_per_s"] = self.target.rate(u)
         except Exception as exc:  # a target that cannot be computed now must not break status
             out["az_deg"] = out["el_deg"] = None
@@ -448,23 +448,6 @@ def _not_following(st) -> str | None:
     if st.loop.get("held"):
         return "paused: the control loop was late; resuming when it is on time"
     return None
-
-
-#: a tracking status older than this is not extrapolated (its rates no longer hold)
-EXTRAPOLATE_MAX_S = 5.0
-
-
-def tracking_now(t: dict[str, Any] | None, unix_s: float) -> dict[str, Any] | None:
-    """A tracking status (``Tracker.status``) with the target's az/el moved on to
-    ``unix_s`` by its rates: the status costs tens of ms and is refreshed about once a
-    second, while a satellite near culmination moves a degree a second."""
-    if not t or t.get("az_rate_deg_per_s") is None or t.get("az_deg") is None or t.get("t_unix_s") is None:
-        return t
-    dt = unix_s - t["t_unix_s"]
-    if not 0.0 < dt <= EXTRAPOLATE_MAX_S:
-        return t
-    return {**t, "t_unix_s": unix_s, "az_deg": (t["az_deg"] + t["az_rate_deg_per_s"] * dt) % 360.0,
-            "el_deg": t["el_deg"] + t["el_rate_deg_per_s"] * dt}
 
 
 def _iso(unix_s: float) -> str:

@@ -13,7 +13,7 @@ import math
 from dataclasses import dataclass
 from typing import Any, Iterable
 
-from ..angles import great_circle_deg
+from ..angles import great_circle_1_deg
 
 #: sample fields, in order (also the keys of the arrays the endpoint returns)
 FIELDS = ("t_wall_s", "az_deg", "el_deg", "target_az_deg", "target_el_deg", "error_deg",
@@ -36,7 +36,7 @@ def pointing_error_deg(status: dict[str, Any]) -> float | None:
         return abs((status["az_deg"] - taz + 180.0) % 360.0 - 180.0)
     if taz is None or tel is None:
         return None
-    return float(great_circle_deg(status["az_deg"], status["el_deg"], taz, tel))
+    return great_circle_1_deg(status["az_deg"], status["el_deg"], taz, tel)
 
 
 @dataclass

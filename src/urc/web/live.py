@@ -25,8 +25,7 @@ from starlette.websockets import WebSocket, WebSocketDisconnect, WebSocketState
 
 from ..ipc import bridge
 from ..errors import CommandRejected
-from ..tracking.cycle import cycle_state
-from ..tracking.tracker import tracking_now
+from ..tracking.cycle import cycle_state, tracking_now
 from .history import History, pointing_error_deg
 
 log = logging.getLogger(__name__)
