@@ -7,7 +7,6 @@ with exactly repeatable results, while ``urc run`` uses :class:`RealClock`.
 
 from __future__ import annotations
 
-import asyncio
 import time
 from typing import Protocol
 
@@ -27,6 +26,8 @@ class RealClock:
         return time.monotonic()
 
     async def sleep_until(self, t_s: float) -> None:
+        import asyncio  # (lazy: the control process runs no event loop and never loads asyncio)
+
         delay_s = t_s - time.monotonic()
         await asyncio.sleep(delay_s if delay_s > 0 else 0)
 
@@ -53,4 +54,6 @@ class VirtualClock:
     async def sleep_until(self, t_s: float) -> None:
         if t_s > self._t_s:
             self._t_s = t_s
+        import asyncio  # (lazy: as above)
+
         await asyncio.sleep(0)

@@ -12,18 +12,20 @@ resumes on the next deadline. Every exit path of the thread leaves the outputs s
 
 from __future__ import annotations
 
-import asyncio
 import logging
 import math
 import os
 import sys
 import threading
 import time
-from typing import Callable
+from typing import TYPE_CHECKING, Callable
 
 from ..clock import Clock, VirtualClock
 from .rotator import Rotator
 from .snapshot import AxisStatus, Status
+
+if TYPE_CHECKING:
+    import asyncio
 
 log = logging.getLogger(__name__)
 
@@ -196,6 +198,8 @@ async def run_realtime(rotator: Rotator, clock: Clock, stop: asyncio.Event,
     """Run the control thread until ``stop`` is set (for embedding in an event loop).
     ``on_tick(now_s)`` runs on the event loop after ticks (the tracker feeding setpoints),
     coalesced: a slow one delays the next call, never a tick."""
+    import asyncio  # (lazy: the control process runs no event loop and never loads asyncio)
+
     loop = asyncio.get_running_loop()
     pending = threading.Event()
 

@@ -27,7 +27,6 @@ This module is the I/O side of the wire between the two, over one Unix socket
 
 from __future__ import annotations
 
-import asyncio
 import dataclasses
 import datetime
 import enum
@@ -39,17 +38,20 @@ import threading
 import time
 from multiprocessing.connection import Connection
 from pathlib import PurePath
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Any, Callable
 
 from ..clock import RealClock
 from ..control.faults import Fault
 from ..errors import CommandRejected, UrcError
-from ..ipc import bridge, codec
+from ..ipc import codec
 from ..ipc.messages import (AdoptSensorReading, Announce, ClearFaults, EndSearch, Envelope, Goto, GotoAz, GotoEl,
                             GotoPose, HardwareInfo, HoldLocal, LocalControls, Move, OvershootQuery, Park,
                             PositionUncertain, PowerFail, Query, Reconfigure, Reply, Request, SaveNow,
                             SearchFrame, SetOvershoot, SetPosition, Stop, Track, TrackPose)
 from .snapshot import Status
+
+if TYPE_CHECKING:
+    import asyncio
 
 log = logging.getLogger(__name__)
 
@@ -140,6 +142,8 @@ def exception_from_wire(wire: tuple) -> BaseException:
 
 # ------------------------------------------------------------------ the I/O side
 def _on_event_loop() -> bool:
+    import asyncio  # (lazy, as in call: the control process never loads asyncio)
+
     try:
         asyncio.get_running_loop()
         return True
@@ -216,6 +220,12 @@ class ControlLink:
         """Run ``request`` in the control process; its value, or the exception raised there. A stop is always
         applied, however late it arrives; anything else that is not answered within
         ``timeout_s`` is refused over there too (it carries that deadline)."""
+        # (lazy: only the I/O process calls, and has both loaded; the control process
+        # imports this module for its wire format and never loads asyncio or greenlet)
+        import asyncio
+
+        from ..ipc import bridge
+
         if bridge.in_bridge():
             pending = self._submit(request, timeout_s, asyncio.get_running_loop())
             assert pending.future is not None
