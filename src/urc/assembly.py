@@ -119,9 +119,9 @@ def prepare_takeover(cfg: Config) -> list[str]:
     Returns the modules that could not be imported (a takeover will then say why)."""
     import importlib
 
-    from .hardware import available_backends
+    from .hardware.factory import load_backend
 
-    available_backends()  # (imports every built-in backend)
+    load_backend(cfg.hardware.backend)  # (what take_outputs' build_hardware needs)
     modules = []
     gpio = cfg.hardware.gpio
     if cfg.hardware.backend == "gpio" and gpio is not None:

@@ -57,16 +57,64 @@ def build_hardware(name: str, caps: RotatorCaps, clock: Clock, state_dir: Path,
     return builder(caps, clock, state_dir, dict(options or {}))
 
 
+def load_backend(name: str) -> None:
+    """Import what building backend ``name`` needs, now (:func:`urc.assembly.prepare_takeover`:
+    a takeover then opens the hardware and imports nothing)."""
+    _load_builtin()
+    builder = _BACKENDS.get(name)
+    if isinstance(builder, _Builtin):
+        builder.load()
+
+
+class _Builtin:
+    """A built-in backend's builder whose module is imported at the first build (lazy:
+    checking a configuration, in both processes of every ``urc run``, must not import
+    every backend; the control process builds one, the I/O process may take one over)."""
+
+    def __init__(self, load: Callable[[], Builder]):
+        self.load = load
+
+    def __call__(self, caps: RotatorCaps, clock: Clock, state_dir: Path, options: dict[str, Any]) -> Hardware:
+        return self.load()(caps, clock, state_dir, options)
+
+
+def _sim() -> Builder:
+    from .sim import build_sim_hardware
+    return build_sim_hardware
+
+
+def _bridge() -> Builder:
+    from .bridge import build_bridge_hardware
+    return build_bridge_hardware
+
+
+def _gpio() -> Builder:
+    from .gpio import build_gpio_hardware
+    return build_gpio_hardware
+
+
+# (each backend's package is imported only when its section is there to check, or it is
+# the backend chosen: what the checks themselves look at first)
+def _bridge_issues(cfg: Any, caps: RotatorCaps) -> list[Issue]:
+    if cfg.hardware.bridge is None and cfg.hardware.backend != "bridge":
+        return []
+    from .bridge.checks import bridge_issues
+    return bridge_issues(cfg, caps)
+
+
+def _gpio_issues(cfg: Any, caps: RotatorCaps) -> list[Issue]:
+    if cfg.hardware.gpio is None and cfg.hardware.backend != "gpio":
+        return []
+    from .gpio.checks import gpio_issues
+    return gpio_issues(cfg, caps)
+
+
 def _load_builtin() -> None:
-    # Imported lazily so that importing urc.hardware does not pull in every backend.
+    # Registered here, not at import, so that importing urc.hardware registers nothing a
+    # caller has not registered first (and imports no backend: see _Builtin).
     if "sim" not in _BACKENDS:
-        from .sim import build_sim_hardware
-        register_backend("sim", build_sim_hardware)
+        register_backend("sim", _Builtin(_sim))
     if "bridge" not in _BACKENDS:
-        from .bridge import build_bridge_hardware
-        from .bridge.checks import bridge_issues
-        register_backend("bridge", build_bridge_hardware, bridge_issues)
+        register_backend("bridge", _Builtin(_bridge), _bridge_issues)
     if "gpio" not in _BACKENDS:
-        from .gpio import build_gpio_hardware
-        from .gpio.checks import gpio_issues
-        register_backend("gpio", build_gpio_hardware, gpio_issues)
+        register_backend("gpio", _Builtin(_gpio), _gpio_issues)
