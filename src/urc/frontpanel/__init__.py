@@ -66,10 +66,10 @@ async def serve_panel(cfg, rotator, stop) -> None:
     out: the controller runs on without it."""
     import asyncio
 
-    from .panel import run_panel
-
     if not cfg.panel.enabled:
         return
+    from .panel import run_panel  # (lazy: a urc run without a panel never loads it)
+
     loop = asyncio.get_running_loop()
     try:
         # built in a worker thread: imports and the LCD's power-on sequence take long
