@@ -71,8 +71,10 @@ def settle_at(urc: UrcProcess, az: float, el: float | None) -> dict:
 
 def test_net_rotctl_model_2(urc):
     port = f"127.0.0.1:{urc.rotctld_port}"
-    rotctl(2, port, "P", "123.4", "45.6")
-    s = settle_at(urc, 123.4, 45.6)
+    # (23.4 deg from the park at 0, 0: every target in this file lies below 100 deg of
+    # azimuth, each move a few seconds at most at berkeley's 40 deg/s)
+    rotctl(2, port, "P", "23.4", "5.6")
+    s = settle_at(urc, 23.4, 5.6)
     az, el = read_pos(2, port)
     # the held antenna may move a sensor count in the wind between two reads (berkeley's
     # AS5600 count is 0.088 deg): the value read must be what the controller reported
@@ -88,8 +90,9 @@ def test_net_rotctl_model_2(urc):
 def test_rotctl_serial_model(urc, model):
     proto, baud, has_query, az_only = SERIAL_MODELS[model]
     port = str(urc.work / f"urc-{model}")
-    # (azimuths 147-170: between model 2's 123.4 before and the proxies' 201-203 after)
-    target_az, target_el = 140.0 + model % 97, (0.0 if az_only else 10.0 + model % 37)
+    # (azimuths 47-70: between model 2's 23.4 before and the proxies' 81-83 after;
+    # elevations 19-29, model 2's 5.6 before and the proxies' 30 after)
+    target_az, target_el = 40.0 + model % 97, (0.0 if az_only else 10.0 + model % 37)
     rotctl(model, port, "P", str(target_az), str(target_el), baud=baud)
     s = settle_at(urc, target_az, None if az_only else target_el)
     if has_query:
@@ -119,7 +122,7 @@ def test_rotctld_as_proxy_in_front_of_urc(urc, model):
                 time.sleep(0.1)
         with sock:
             f = sock.makefile("rwb", buffering=0)
-            target = (200.0 + model % 50, 30.0)
+            target = (80.0 + model % 50, 30.0)
             f.write(f"P {target[0]} {target[1]}\n".encode())
             assert f.readline() == b"RPRT 0\n"
             settle_at(urc, *target)
