@@ -101,11 +101,13 @@ def test_a_tick_that_hangs_as_the_stop_begins_is_cut_too(control, tmp_path):
     rot.goto(300.0, 20.0)
     wait_until(lambda: abs(rot.status().az.rate_deg_per_s) > 3)
     az0_deg = rot.status().az.pos_deg
-    rot.ask(SimFault("az", "slow_read", {"delay_s": 4.0, "reads": 1}))
+    # (the stop waits for the hung tick to return: a 2.5 s hang, was 4 s; uncut, the motor
+    # would drive through it, 15 deg at 6 deg/s, still well past the 8 deg judged)
+    rot.ask(SimFault("az", "slow_read", {"delay_s": 2.5, "reads": 1}))
     time.sleep(0.05)
     result = proc.stop()
     truth = json.loads((tmp_path / "state" / "simulator-truth.json").read_text())["axes"]["az"]
-    assert truth["load_deg"] - az0_deg < 8.0, (az0_deg, truth)  # 4 s at 6 deg/s: 24 deg
+    assert truth["load_deg"] - az0_deg < 8.0, (az0_deg, truth)  # 2.5 s at 6 deg/s: 15 deg
     assert result["exit_code"] == 0 and result["saved"]
 
 
