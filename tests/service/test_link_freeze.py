@@ -42,7 +42,7 @@ def frozen_setup(tmp_path):
         pass
     for c in conns:
         c.close()
-    u.stop()
+    u.kill()  # (the stop judged here is the dashboard's STOP, not the process's)
 
 
 def test_a_stopped_control_process_blocks_no_other_client_and_a_stop_waits_for_it(frozen_setup):
