@@ -103,11 +103,14 @@ class PageKeeper:
         return self.page
 
     def _hand_over(self, view: str) -> None:
-        """Back to how a newly opened page stands: the view its address names, at the top,
-        nothing focused, showing a live frame sent after this test began (the test's own
-        reset included). Its problems are kept: one that came after the last test's
-        check is reported by this test's."""
+        """Back to how a newly opened page stands: its size, the view its address names, at
+        the top, nothing focused, showing a live frame sent after this test began (the
+        test's own reset included). Its problems are kept: one that came after the last
+        test's check is reported by this test's."""
         page = self.page
+        width, height = self.key[1], self.key[2]
+        if page.viewport_size != {"width": width, "height": height}:   # (a test resized it)
+            page.set_viewport_size({"width": width, "height": height})
         page.evaluate("""(view) => {
           if (document.activeElement) document.activeElement.blur();
           if (location.hash !== "#" + view) location.hash = view;
@@ -152,15 +155,35 @@ def pytest_runtest_makereport(item, call):
     return report
 
 
-@pytest.hookimpl(tryfirst=True)
+_RELEASE = pytest.StashKey[dict]()
+
+
+def release_when_unused(request, close) -> None:
+    """Call ``close`` (a module fixture's urc's ``kill``) after the teardown of the last
+    test of the module that asks for the fixture, not at the end of the module: an idle
+    ``urc run`` costs ~0.1 CPU-s a second, and some are done with long before their
+    module. The fixture's own teardown still ends it (``close`` must allow that)."""
+    request.node.stash.setdefault(_RELEASE, {})[request.fixturename] = close
+
+
+@pytest.hookimpl(wrapper=True)
 def pytest_runtest_teardown(item, nextitem):
     """Close the kept page after a failed test (the next starts from a new one), and
-    when no later test of this module will ask for it."""
+    unless the next test of this module asks for one (an open dashboard draws every
+    live frame: ~0.25 CPU-s a second kept open through another test); after the
+    teardown, end the module's urcs no later test asks for (:func:`release_when_unused`)."""
     keeper = getattr(item, "funcargs", {}).get("page_keeper")
-    if keeper is None or keeper.page is None:
-        return
-    if item.stash.get(_FAILED, False) or not _later_in_module_use(item, "shared_page"):
+    if keeper is not None and keeper.page is not None and (
+            item.stash.get(_FAILED, False) or nextitem is None or nextitem.module is not item.module
+            or "shared_page" not in getattr(nextitem, "fixturenames", ())):
         keeper.close()
+    try:
+        return (yield)
+    finally:
+        module = item.getparent(pytest.Module)
+        release = module.stash.get(_RELEASE, {}) if module is not None else {}
+        for name in [n for n in release if n in item.fixturenames and not _later_in_module_use(item, n)]:
+            release.pop(name)()
 
 
 def _later_in_module_use(item, fixture: str) -> bool:

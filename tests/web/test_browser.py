@@ -22,6 +22,7 @@ from urc_process import HTTP, UrcProcess, free_port, wait_until
 
 from urc.config import load_config
 
+from .conftest import release_when_unused
 from .fake_tracker import KEYHOLE_NOTE, FakeTracker
 
 #: marker vs truth with the antenna standing: AS5600 count (0.09) + a glitch count + rounding
@@ -31,8 +32,9 @@ KEEPOUT = ('[[keepout]]\nname = "mast"\naz_min_deg = 80.0\naz_max_deg = 100.0\n'
 
 
 @pytest.fixture(scope="module")
-def urc(tmp_path_factory):
+def urc(tmp_path_factory, request):
     u = UrcProcess(tmp_path_factory.mktemp("web"), profile="berkeley", extra=KEEPOUT).start()
+    release_when_unused(request, u.kill)
     yield u
     # ended at once, here and after every test of the page: urc's orderly stop (1-2 s on a
     # loaded machine, most of it the interpreter's exit) is test_cli's and test_app's subject
@@ -138,24 +140,6 @@ def test_jog_press_and_hold_then_release(urc, shared_page):
     page.problems.check()
 
 
-def test_jog_stops_when_the_page_goes_away(urc, open_page):
-    reset(urc)
-    s = urc.status()
-    if s["az"]["pos_deg"] < s["limits"]["az"][0] + 90:
-        # room to jog CCW (run alone, the antenna starts at park, the low limit, where
-        # a CCW jog cannot move at all)
-        assert urc.post("/api/goto", {"az_deg": 150, "el_deg": 45}).status_code == 200
-        urc.wait(lambda s: standing(s) and abs(s["az_deg"] - 150) < 1, 30)
-    page = open_page(urc.url + "/")
-    page.locator(".jog-btn.ccw").hover()
-    page.mouse.down()
-    urc.wait(lambda s: s["moving"] and s["az"]["rate_deg_per_s"] < -2, 5)
-    page.context.close()                  # the tab is gone without a release
-    s = urc.wait(standing, 30)
-    az_min_deg = HTTP.get(urc.url + "/api/info", timeout=5).json()["limits"]["az"][0]
-    assert not s["faults"] and s["az"]["pos_deg"] > az_min_deg + 5, "stopped by the lease, not at the limit"
-
-
 def test_stop_by_space_and_by_button(urc, shared_page):
     reset(urc)
     page = shared_page(urc.url + "/")
@@ -229,6 +213,24 @@ def test_settings_validation_error_next_to_the_field_then_save(urc, shared_page,
     expect(page.locator("#sky-zones polygon")).to_have_count(2)
     assert page.locator('#sky-zones polygon[data-zone="tree"]').count() == 1
     page.problems.check()
+
+
+def test_jog_stops_when_the_page_goes_away(urc, open_page):
+    reset(urc)
+    s = urc.status()
+    if s["az"]["pos_deg"] < s["limits"]["az"][0] + 90:
+        # room to jog CCW (run alone, the antenna starts at park, the low limit, where
+        # a CCW jog cannot move at all)
+        assert urc.post("/api/goto", {"az_deg": 150, "el_deg": 45}).status_code == 200
+        urc.wait(lambda s: standing(s) and abs(s["az_deg"] - 150) < 1, 30)
+    page = open_page(urc.url + "/")
+    page.locator(".jog-btn.ccw").hover()
+    page.mouse.down()
+    urc.wait(lambda s: s["moving"] and s["az"]["rate_deg_per_s"] < -2, 5)
+    page.context.close()                  # the tab is gone without a release
+    s = urc.wait(standing, 30)
+    az_min_deg = HTTP.get(urc.url + "/api/info", timeout=5).json()["limits"]["az"][0]
+    assert not s["faults"] and s["az"]["pos_deg"] > az_min_deg + 5, "stopped by the lease, not at the limit"
 
 
 def test_uncertain_position_warning_and_re_reference(tmp_path, open_page, artifacts):
@@ -365,10 +367,11 @@ def in_viewport(page, selector: str) -> bool:
 
 
 @pytest.fixture(scope="module")
-def token_urc(tmp_path_factory):
+def token_urc(tmp_path_factory, request):
     """A urc listening beyond loopback with a token (the page shows the token field)."""
     u = UrcProcess(tmp_path_factory.mktemp("web-token"), profile="berkeley",
                    extra=f'host = "0.0.0.0"\ntoken = "{TOKEN}"\n').start()
+    release_when_unused(request, u.kill)
     yield u
     u.kill()
 
@@ -408,11 +411,12 @@ STATION = '[station]\nlat_deg = 58.4\nlon_deg = 26.7\n'
 
 
 @pytest.fixture(scope="module")
-def station_urc(tmp_path_factory):
+def station_urc(tmp_path_factory, request):
     """A urc with a station (the map draws it) for the calibration-fields test, which
     resets it, moves it and re-references it, and the map test, which only reads: neither
     needs a fresh state directory or a position true to the simulator."""
     u = UrcProcess(tmp_path_factory.mktemp("web-station"), profile="berkeley", extra=STATION).start()
+    release_when_unused(request, u.kill)
     yield u
     u.kill()
 

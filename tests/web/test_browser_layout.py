@@ -14,6 +14,7 @@ from playwright.sync_api import TimeoutError as PlaywrightTimeout
 from playwright.sync_api import expect
 from urc_process import HTTP, UrcProcess, free_port
 
+from .conftest import release_when_unused
 from .fake_tracker import KEYHOLE_NOTE, FakeTracker
 from .test_browser import TWO_FRAMES, InProcessUrc, reset, standing
 
@@ -26,22 +27,24 @@ AUTH = {"Authorization": f"Bearer {TOKEN}"}
 
 
 @pytest.fixture(scope="module")
-def remote_urc(tmp_path_factory):
+def remote_urc(tmp_path_factory, request):
     """A urc listening beyond loopback (the token field shows: the tallest header), with
     a keep-out zone and two [[serve]] entries (the settings page's widest rows)."""
     serve = [{"protocol": "rotctld", "tcp": f"127.0.0.1:{free_port()}"},
              {"protocol": "gs232b", "tcp": f"127.0.0.1:{free_port()}"}]
     u = UrcProcess(tmp_path_factory.mktemp("layout"), profile="berkeley", serve=serve,
                    extra=f'host = "0.0.0.0"\ntoken = "{TOKEN}"\n{ZONE}').start(timeout_s=120)
+    release_when_unused(request, u.kill)
     yield u
     u.kill()     # (at once: the page's tests do not test urc's orderly stop, test_cli does)
 
 
 @pytest.fixture(scope="module")
-def plain_urc(tmp_path_factory):
+def plain_urc(tmp_path_factory, request):
     """A urc on loopback with nothing configured (each test that uses it resets it:
     stopped, no fault latched)."""
     u = UrcProcess(tmp_path_factory.mktemp("layout-plain"), profile="berkeley").start(timeout_s=120)
+    release_when_unused(request, u.kill)
     yield u
     u.kill()
 
