@@ -14,6 +14,7 @@ import pytest
 from playwright.sync_api import expect
 from urc_process import HTTP
 
+from .conftest import release_when_unused
 from .fake_tracker import FakeTracker
 from .test_browser import TWO_FRAMES, InProcessUrc
 
@@ -37,13 +38,24 @@ def axe_violations(page) -> list[dict]:
 
 
 @pytest.fixture(scope="module")
-def busy_urc(tmp_path_factory):
+def busy_urc(tmp_path_factory, request):
     """A urc with everything on screen: a tracker with passes, a pass planned (the track
-    banner and its notes), a keep-out zone, and a latched fault (the fault banner)."""
+    banner and its notes), a keep-out zone, and a latched fault (the fault banner). Ended
+    after the last test that asks for it (its control loop runs in this process)."""
     trk = FakeTracker()
-    with InProcessUrc(tmp_path_factory.mktemp("a11y") / "state", trk) as srv:
-        srv.trk = trk
+    srv = InProcessUrc(tmp_path_factory.mktemp("a11y") / "state", trk).__enter__()
+    srv.trk = trk
+    running = [True]
+
+    def close():
+        if running:
+            running.clear()
+            srv.__exit__(None, None, None)
+    release_when_unused(request, close)
+    try:
         yield srv
+    finally:
+        close()
 
 
 @pytest.mark.parametrize("width,height", [(390, 844), (1366, 768)], ids=["phone", "desktop"])
