@@ -84,8 +84,9 @@ def open_page(browser):
 class PageKeeper:
     """One dashboard page kept from a test to the next of the same module that asks for
     the same one (address without its view, size, context options): opening one took
-    1.5-3 s on the loaded test machine. Closed after a failed test, and once no later
-    test of the module asks for a kept page (an open dashboard draws every live frame)."""
+    1.5-3 s on the loaded test machine. Closed after a failed test, and after a test
+    whose next one in the module asks for no kept page (an open dashboard draws every
+    live frame)."""
 
     def __init__(self, browser):
         self.browser = browser
