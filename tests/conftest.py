@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import functools
-import itertools
 import os
 import threading
 import uuid
@@ -138,22 +137,16 @@ def pytest_configure(config):
     os.environ[STRICT_ENV] = "1"
 
 
-# -- heavy first, waiting and computing side by side -----------------------------------
+# -- longest first ------------------------------------------------------------------
 # The suite's time goes to files that start real processes (urc run, Chromium, Mosquitto,
-# Hamlib's rotctld) and wait on real clocks, and to files that fly simulated passes in
-# the worker itself. Run with ``--dist loadfile --no-loadscope-reorder`` (.ci/run), xdist
-# hands files out in this order. Heavy ones first, so the two workers finish together
-# instead of one running the last long file while the other idles; and a waiting file,
-# then a computing one, in turn: two waiting files at once left a core idle, two
-# computing ones at the end had no idle core to use (the run was 81 % CPU with all the
-# waiting files first).
+# Hamlib's rotctld) and wait on real clocks. Run with ``--dist loadfile
+# --no-loadscope-reorder`` (.ci/run), xdist hands files out in this order: the heavy ones
+# first, so the two workers finish together instead of one running the last long file
+# while the other idles.
 
-#: what a test file does that costs seconds of wall time per use, mostly waiting
+#: what a test file does that costs seconds of wall time per use
 PROCESS_MARKS = ("UrcProcess(", "urc_processes(", "station(", "open_page", "Mosquitto(", "subprocess.",
                  "rotctld(", "stress(")
-#: each file's seconds in a recent run (scripts/file_seconds.py writes it; a file not in
-#: it is guessed from its marks): only the order depends on it
-FILE_SECONDS = Path(__file__).with_name("file_seconds.json")
 
 
 @functools.cache
@@ -163,22 +156,7 @@ def _file_weight(path: Path) -> int:
 
 
 def pytest_collection_modifyitems(session, config, items):
-    import json
-
-    seconds = json.loads(FILE_SECONDS.read_text()) if FILE_SECONDS.exists() else {}
-    root = Path(str(config.rootpath))
-
-    def cost(f: Path) -> float:
-        rel = f.relative_to(root).as_posix() if f.is_relative_to(root) else str(f)
-        return seconds.get(rel, 3.0 * _file_weight(f))
-
-    by_file: dict[Path, list] = {}
-    for item in items:   # (each file's tests keep their order)
-        by_file.setdefault(Path(str(item.fspath)), []).append(item)
-    waiting = sorted((f for f in by_file if _file_weight(f)), key=lambda f: -cost(f))
-    computing = sorted((f for f in by_file if not _file_weight(f)), key=lambda f: -cost(f))
-    order = [f for pair in itertools.zip_longest(waiting, computing) for f in pair if f is not None]
-    items[:] = [item for f in order for item in by_file[f]]
+    items.sort(key=lambda item: -_file_weight(Path(str(item.fspath))))   # (stable: file order kept)
 
 
 @pytest.fixture(autouse=True, scope="module")
