@@ -105,9 +105,12 @@ def test_a_serialised_bus_sends_every_transfer_to_its_own_chip(kernel):
     assert [who for who, _ in transfers] == ["fram", "tick"]   # (the tick waited for the chunk)
 
 
-def test_the_gpio_backend_opens_real_buses_serialised(monkeypatch):
+def test_the_gpio_backend_opens_its_buses_serialised(monkeypatch):
     opened = []
     monkeypatch.setattr(smbus2_module.SMBus, "__init__", lambda self, n=None, force=False: opened.append(n))
     buses = Buses(gpio=None, emulate=False, parts=[])
     assert isinstance(buses.bus(1), SerialisedBus) and opened == [1]
     assert buses.bus(1) is buses.bus(1)   # (one bus, one lock, for every part on it)
+    # emulated too, so that a bus call the wrapper lacks fails in the emulated runs
+    emulated = Buses(gpio=None, emulate=True, parts=[])
+    assert isinstance(emulated.bus(1), SerialisedBus) and emulated.fake_devices(1, None) == {}

@@ -14,27 +14,32 @@ from .spi import Mcp3008Chip, open_spidev
 class Buses:
     def __init__(self, gpio: Any, emulate: bool, parts: list[tuple[str, Any]]):
         self.gpio, self.emulate, self.parts = gpio, emulate, parts
-        #: I2C bus number -> smbus2.SMBus (emulated: FakeSMBus)
+        #: I2C bus number -> smbus2.SMBus (emulated: FakeSMBus), as opened
         self.i2c: dict[int, Any] = {}
+        #: ... and as every part uses it: one transaction at a time (see SerialisedBus;
+        #: the emulated buses too, so that a bus call the wrapper lacks fails in the tests)
+        self._serialised: dict[int, SerialisedBus] = {}
         self.muxes: dict[int, Tca9548aMux] = {}
         #: SPI0 chip select -> the MCP3008 on it; emulated, the fake chips behind them
         self.mcp3008: dict[int, Mcp3008Chip] = {}
         self.fake_spi: dict[int, Any] = {}
 
-    def bus(self, n: int) -> Any:
-        if n not in self.i2c:
+    def bus(self, n: int) -> SerialisedBus:
+        """Bus ``n`` as the parts on it use it (the tick's chips and the FRAM's state
+        writer share it: see SerialisedBus)."""
+        if n not in self._serialised:
             if self.emulate:
                 from .emulate import FakeSMBus
                 self.i2c[n] = FakeSMBus()
             else:
                 import smbus2
                 try:
-                    # (the tick's chips and the FRAM's state writer share it: see SerialisedBus)
-                    self.i2c[n] = SerialisedBus(smbus2.SMBus(n))
+                    self.i2c[n] = smbus2.SMBus(n)
                 except OSError as exc:
                     raise ConfigError(f"I2C bus {n}: {exc} (enable I2C with raspi-config)",
                                       key="hardware.gpio.i2c_bus", expected="an I2C bus", found=n) from exc
-        return self.i2c[n]
+            self._serialised[n] = SerialisedBus(self.i2c[n])
+        return self._serialised[n]
 
     def chip_bus(self, n: int, channel: int | None) -> Any:
         """The bus a chip talks on: bus ``n`` itself, or one channel of its TCA9548A."""
@@ -49,7 +54,8 @@ class Buses:
     def fake_devices(self, n: int, channel: int | None) -> dict[int, Any]:
         """Emulation: the fake chips answering where a chip on bus ``n`` (mux
         ``channel``) sits, by address."""
-        fake = self.bus(n)
+        self.bus(n)
+        fake = self.i2c[n]
         return fake.devices if channel is None else fake.mux_channel(self.gpio.i2c_mux_address, channel)
 
     def _spi_dev(self, device: int) -> Any:
@@ -74,7 +80,7 @@ class Buses:
         return Ads1115Chip(self.chip_bus(bus_n, cfg.i2c_mux_channel), cfg.i2c_address or 0x48, f"{axis} ADS1115")
 
     def close(self) -> None:
-        for b in self.i2c.values():
+        for b in self._serialised.values():
             b.close()
         for c in self.mcp3008.values():
             c.close()

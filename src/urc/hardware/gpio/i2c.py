@@ -257,8 +257,9 @@ class SerialisedBus:
             self._bus.i2c_rdwr(*msgs)
 
     def close(self) -> None:
-        with self.lock:
-            self._bus.close()
+        # (not under the lock: closing follows drive_safe past a tick hung in a bus read,
+        # and must not wait for that read)
+        self._bus.close()
 
 
 class Tca9548aMux:
