@@ -96,14 +96,13 @@ class Setpoint:
         return min(max(self.target_deg + self.rate_deg_per_s * (now_s - self.t_ref_s), self.min_deg),
                    self.max_deg)
 
-    def bounded(self, now_s: float) -> "Setpoint":
-        """This setpoint, as a standing target at the limit once it has moved there."""
-        if self.rate_deg_per_s == 0.0:
-            return self
+    def bounded_at(self, now_s: float) -> tuple["Setpoint", float]:
+        """This setpoint (a standing target at the limit once it has moved there) and its
+        target at ``now_s`` (worked out once: the law asks every tick)."""
         target = self.target_at(now_s)
-        if self.min_deg < target < self.max_deg:
-            return self
-        return replace(self, target_deg=target, rate_deg_per_s=0.0, t_ref_s=now_s)
+        if self.rate_deg_per_s == 0.0 or self.min_deg < target < self.max_deg:
+            return self, target
+        return replace(self, target_deg=target, rate_deg_per_s=0.0, t_ref_s=now_s), target
 
 
 @dataclass(frozen=True)
@@ -170,12 +169,7 @@ def _step(st: AxisState, sp: Setpoint | None, meas_deg: float, now_s: float, dt_
     if sp is None:
         return evolve(st, mode="idle", ref_deg=meas_deg, ref_rate_deg_per_s=0.0,
                        integral_deg_s=0.0, arrived=False), OFF
-    target_deg = sp.target_at(now_s)
-    if sp.rate_deg_per_s != 0.0 and not sp.min_deg < target_deg < sp.max_deg:
-        # (Setpoint.bounded's own test: a moving target inside its limits, the usual
-        # case, is not worked out twice every tick)
-        sp = sp.bounded(now_s)
-        target_deg = sp.target_at(now_s)
+    sp, target_deg = sp.bounded_at(now_s)
     # an on/off drive follows anything slower than its top speed in bursts as well
     steady_deg_per_s = 0.9 * tun.max_rate_deg_per_s if tun.drive == "relay" else tun.min_rate_deg_per_s
     tracking = abs(sp.rate_deg_per_s) >= steady_deg_per_s
