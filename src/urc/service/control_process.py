@@ -123,13 +123,9 @@ class ControlServer:
         """With the status the command left (a cleared fault shows at once), unless the
         I/O process has been sent that one already: most commands leave the last
         tick's. (A Status is ~1.4 kB of pickle, ~40 us to dump and ~50 us to load: a
-        third of a set's round trip.) Checked under the send lock, so "sent" means
-        ahead of this reply on the socket."""
-        with self._send_lock:
-            sent = status is self._sent
-        data = codec.dumps(("reply", Reply(rid, outcome, value, None if sent else status)))
-        with self._send_lock:
-            self.conn.send_bytes(data)
+        third of a set's round trip.) ``_sent`` is set only once its bytes are on the
+        socket, so a status found there is ahead of this reply."""
+        self.send(("reply", Reply(rid, outcome, value, None if status is self._sent else status)))
 
     def _io_alive(self) -> bool:
         return self._heard_s is None or time.monotonic() - self._heard_s < IO_SILENT_S
