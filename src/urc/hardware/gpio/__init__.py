@@ -174,7 +174,8 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
         fram_bus = buses.bus(gpio.i2c_bus)
         if emulate:
             from .emulate import FakeFram
-            buses.i2c[gpio.i2c_bus].devices[gpio.fram_address] = FakeFram(path=Path(state_dir) / "fram-emulated.bin")
+            buses.fake_devices(gpio.i2c_bus, None)[gpio.fram_address] = FakeFram(
+                path=Path(state_dir) / "fram-emulated.bin")
         hw.state_store = FramStore(fram_bus, gpio.fram_address, state_dir=Path(state_dir))
         parts_list.append((f"FRAM 0x{gpio.fram_address:02x} (bus {gpio.i2c_bus})", hw.state_store))
     if gpio.power_fail_pin is not None:

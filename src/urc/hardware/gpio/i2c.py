@@ -213,7 +213,8 @@ class Lsm303agrChip:
 
 
 class SerialisedBus:
-    """A real smbus2 bus shared by threads, one transaction at a time.
+    """An smbus2 bus (or the emulation's stand-in) shared by threads, one transaction at
+    a time.
 
     smbus2 keeps the slave address per file descriptor: ``read_byte_data(0x36, ...)``
     is ``ioctl(I2C_SLAVE, 0x36)`` (skipped when the address is unchanged), then
