@@ -1,5 +1,6 @@
 """One real smbus2 bus, two threads: the control tick reading a chip and the FRAM state
-writer saving a record (the Tartu board: an AS5600 and an MB85RC256V on bus 1).
+writer saving a record (an AS5600 and an MB85RC256V FRAM on bus 1: the Tartu design's
+FRAM beside any I2C sensor a gpio configuration puts on the same bus).
 
 smbus2 sets the slave address on the file descriptor (``ioctl(I2C_SLAVE)``) and then
 transfers (``ioctl(I2C_SMBUS)``) in two steps; between them the other thread can set its
