@@ -7,8 +7,6 @@ whose exact encoders make byte-exact transcripts possible).
 
 from __future__ import annotations
 
-import tempfile
-from pathlib import Path
 
 import pytest
 from hypothesis import HealthCheck, assume, given, settings
@@ -385,8 +383,8 @@ GARBAGE = st.one_of(st.binary(max_size=300),
 
 
 @pytest.fixture(scope="module")
-def fuzz_bench():
-    b = Bench("sarcnet-mini", Path(tempfile.mkdtemp()))
+def fuzz_bench(tmp_path_factory):
+    b = Bench("sarcnet-mini", tmp_path_factory.mktemp("easycomm-fuzz"))
     b.run(2.0)
     return b
 

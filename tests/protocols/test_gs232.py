@@ -6,8 +6,6 @@ the simulator (g5500: 0..450 az, 0..180 el) judged by the simulator's truth.
 
 from __future__ import annotations
 
-import tempfile
-from pathlib import Path
 
 import pytest
 from hypothesis import HealthCheck, assume, example, given, settings
@@ -480,8 +478,8 @@ GARBAGE = st.one_of(st.binary(max_size=300),
 
 
 @pytest.fixture(scope="module")
-def fuzz_bench():
-    return Bench("g5500", Path(tempfile.mkdtemp()))
+def fuzz_bench(tmp_path_factory):
+    return Bench("g5500", tmp_path_factory.mktemp("gs232-fuzz"))
 
 
 @settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])

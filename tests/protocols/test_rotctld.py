@@ -76,8 +76,20 @@ class Recorder:
         return call
 
 
+_BENCH_DIRS: list[Path] = []
+
+
+@pytest.fixture(scope="module", autouse=True)
+def _bench_dir(tmp_path_factory):
+    """Where fresh_bench's state directories go: under pytest's own temporary root, which
+    pytest prunes, not one /tmp directory per bench left behind by every run."""
+    _BENCH_DIRS.append(tmp_path_factory.mktemp("rotctld"))
+    yield
+    _BENCH_DIRS.pop()
+
+
 def fresh_bench(profile: str = "tartu-urc", **config) -> Bench:
-    return Bench(profile, Path(tempfile.mkdtemp(prefix="rotctld-")) / "state", **config)
+    return Bench(profile, Path(tempfile.mkdtemp(dir=_BENCH_DIRS[-1])) / "state", **config)
 
 
 @pytest.fixture
