@@ -13,19 +13,20 @@ import pytest
 from urc_process import URC
 
 #: longer than the 5 s the client used to wait (the answer is held back this long after
-#: the request came, so a client that gives up after 5 s surely does; `urc track` makes
-#: two requests, each held back)
+#: the request came, so a client that gives up after 5 s surely does). `urc track` makes
+#: two requests through the same client: the first (its POST) is held back, the status
+#: read after it is answered at once
 SLOW_S = 5.5
 
 
 class SlowApi(BaseHTTPRequestHandler):
-    """Answers like urc's API, but only after ``delay_s`` (a loaded controller)."""
+    """Answers like urc's API, its commands only after ``delay_s`` (a loaded controller)."""
 
     delay_s = SLOW_S
     released = threading.Event()
 
-    def _answer(self, body: dict) -> None:
-        self.released.wait(self.delay_s)
+    def _answer(self, body: dict, delay_s: float = 0.0) -> None:
+        self.released.wait(delay_s)
         data = json.dumps(body).encode()
         self.send_response(200)
         self.send_header("Content-Type", "application/json")
@@ -35,7 +36,7 @@ class SlowApi(BaseHTTPRequestHandler):
 
     def do_POST(self):  # noqa: N802 - http.server's name
         self.rfile.read(int(self.headers.get("Content-Length") or 0))
-        self._answer({"ok": True})
+        self._answer({"ok": True}, self.delay_s)
 
     def do_GET(self):  # noqa: N802
         self._answer({"tracking": {"target": "ISS (ZARYA)", "az_deg": 10.0, "el_deg": 20.0}})

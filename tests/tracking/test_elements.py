@@ -8,10 +8,12 @@ from datetime import datetime, timezone
 import numpy as np
 import pytest
 from sgp4.api import Satrec
-from sgp4.io import fix_checksum
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from sgp4.io import compute_checksum, fix_checksum
 
 from urc.errors import UrcError
-from urc.tracking.elements import Catalog, import_file, load_elements, parse_elements, \
+from urc.tracking.elements import Catalog, import_file, load_elements, parse_elements, tle_checksum, \
     parse_omm_csv, parse_omm_json, parse_tle
 from urc.tracking.errors import AmbiguousSatellite, CatalogError, ChecksumError, \
     ElementsError, SatelliteNotFound
@@ -304,3 +306,14 @@ def test_import_file(tmp_path):
     r = import_file(FIXTURES / "omm.json", tmp_path)
     assert len(r.kept) == 4 and not r.added
     assert len(Catalog.load(tmp_path)) == 7
+
+
+@settings(max_examples=400, deadline=None)
+@given(st.one_of(st.text(max_size=75),
+                 st.text(alphabet="0123456789 -+.ABCU²٣", min_size=60, max_size=70),
+                 st.sampled_from([ln for ln in (FIXTURES / "leo.tle").read_text().splitlines() if ln[:2] in ("1 ", "2 ")])))
+def test_tle_checksum_is_sgp4s_on_ascii_and_counts_only_ascii_digits(line):
+    """Our C-speed checksum gives sgp4's compute_checksum's value; a non-ASCII digit
+    (on which sgp4's raises ValueError or counts a '٣' as 3) counts nothing."""
+    ascii_only = "".join(c for c in line[:68] if c.isascii())
+    assert tle_checksum(line) == compute_checksum(ascii_only)
