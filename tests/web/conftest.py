@@ -171,7 +171,7 @@ def release_when_unused(request, close) -> None:
 def pytest_runtest_teardown(item, nextitem):
     """Close the kept page after a failed test (the next starts from a new one), and
     unless the next test of this module asks for one (an open dashboard draws every
-    live frame: ~0.25 CPU-s a second kept open through another test); after the
+    live frame: ~0.06-0.25 CPU-s a second kept open through another test); after the
     teardown, end the module's urcs no later test asks for (:func:`release_when_unused`)."""
     keeper = getattr(item, "funcargs", {}).get("page_keeper")
     if keeper is not None and keeper.page is not None and (

@@ -1,7 +1,7 @@
 // The azimuth dial: the mechanical azimuth range drawn as a spiral, one turn per 360°,
 // so positions in the cable-wrap overlap (beyond 360° or below 0°) sit on their own
 // lap, with the soft limits at its ends and the needle on the lap the antenna is on.
-import { s, clear, setText, fmt } from "./dom.js";
+import { s, clear, setText, fmt, setAttr, setData } from "./dom.js";
 import { RAD } from "./geo.js";
 
 const R_IN = 40, R_OUT = 92;
@@ -79,19 +79,19 @@ export class AzDial {
     const mech = status.az.pos_deg;
     const p = mech + this.off;
     const [x, y] = this.xy(p);
-    for (const [k, v] of [["x2", x], ["y2", y]]) this.needle.setAttribute(k, v.toFixed(2));
-    this.dot.setAttribute("cx", x.toFixed(2));
-    this.dot.setAttribute("cy", y.toFixed(2));
-    this.dot.dataset.mechAzDeg = mech.toFixed(3);
+    for (const [k, v] of [["x2", x], ["y2", y]]) setAttr(this.needle, k, v.toFixed(2));
+    setAttr(this.dot, "cx", x.toFixed(2));
+    setAttr(this.dot, "cy", y.toFixed(2));
+    setData(this.dot, "mechAzDeg", mech.toFixed(3));
     setText(this.label, `${fmt(p, 1)}°`);
     const t = status.az.target_deg;
     if (t !== null && t !== undefined) {
       const [tx, ty] = this.xy(t + this.off);
-      this.targetNeedle.setAttribute("x2", tx.toFixed(2));
-      this.targetNeedle.setAttribute("y2", ty.toFixed(2));
-      this.targetNeedle.setAttribute("visibility", "visible");
+      setAttr(this.targetNeedle, "x2", tx.toFixed(2));
+      setAttr(this.targetNeedle, "y2", ty.toFixed(2));
+      setAttr(this.targetNeedle, "visibility", "visible");
     } else {
-      this.targetNeedle.setAttribute("visibility", "hidden");
+      setAttr(this.targetNeedle, "visibility", "hidden");
     }
     const cw = this.hi - mech, ccw = mech - this.lo;
     const turn = status.wrap_turns;

@@ -42,6 +42,20 @@ export function setText(el, text) {
   if (el.textContent !== t) el.textContent = t;
 }
 
+// an attribute written only when its value changes: the live frames come 10 times a
+// second and every write, even of the same value, makes the browser restyle the element
+// (and repaint the plot it is in)
+export function setAttr(el, name, value) {
+  const v = String(value);
+  if (el.getAttribute(name) !== v) el.setAttribute(name, v);
+}
+
+export function setData(el, key, value) {
+  if (value === undefined) {
+    if (key in el.dataset) delete el.dataset[key];
+  } else if (el.dataset[key] !== value) el.dataset[key] = value;
+}
+
 export function fmt(v, digits = 1) {
   return v === null || v === undefined || Number.isNaN(v) ? "—" : Number(v).toFixed(digits);
 }

@@ -1,5 +1,5 @@
 // The dashboard: wires the live feed to the plots, readouts, banners and pages.
-import { $, h, clear, setText, fmt, utcTime } from "./dom.js";
+import { $, h, clear, setText, setData, fmt, utcTime } from "./dom.js";
 import { get, setToken, token } from "./api.js";
 import { Live } from "./live.js";
 import { SkyPlot } from "./sky.js";
@@ -17,6 +17,7 @@ let sky, dial, map, charts;
 let lastEventsKey = "";
 let lastProcState = "";
 let lastTrackWarnings = "";
+let lastStateLine = "";
 
 // the setpoint is the rotator's target, updated every control tick (also while
 // tracking); the tracked object itself is drawn apart (it may be below the horizon,
@@ -177,6 +178,32 @@ function showTrackingWarnings(trk) {
   if (items.length) bannerNews($("track-banner"), key);
 }
 
+// the pills under the position, rebuilt only when one of them changed (frames come 10
+// times a second: a rebuilt line is a layout and a repaint of the page each time)
+function showStateLine(st, frame) {
+  const error = frame.error_deg !== null && frame.error_deg !== undefined ? fmt(frame.error_deg, 2) : null;
+  const c = st.cycle;
+  const key = JSON.stringify([st.moving, st.parked, st.flipped, error, frame.jogs || [],
+    c ? [c.document, c.state, c.why] : null]);
+  if (key === lastStateLine) return;
+  lastStateLine = key;
+  const line = $("state-line");
+  clear(line);
+  line.append(pill(st.moving ? "moving" : "standing", st.moving ? "on" : ""));
+  if (st.parked) line.append(pill("parked", "on"));
+  if (st.flipped) line.append(pill("flipped (over the top)", "on"));
+  if (error !== null) line.append(pill(`error ${error}°`));
+  for (const axis of frame.jogs || []) line.append(pill(`jogging ${axis}`, "on"));
+  if (c) {
+    // the Berkeley state machine's name for what urc does now (urc.tracking.cycle)
+    const p = pill(`cycle ${c.document}`, c.state === "track" || c.state === "report" ? "on" : "");
+    p.id = "cycle-pill";
+    p.dataset.state = c.state;
+    p.title = c.why;
+    line.append(p);
+  }
+}
+
 function onFrame(frame) {
   const st = frame.status;
   const sp = setpointOf(st);
@@ -198,9 +225,9 @@ function onFrame(frame) {
   const unsure = unconfirmed(st);
   document.body.classList.toggle("unconfirmed", unsure.reasons.length > 0);
   for (const [axis, ids] of Object.entries(AXIS_CELLS)) {
-    for (const id of ids) $(id).dataset.confirmed = String(!unsure.axes.has(axis));
+    for (const id of ids) setData($(id), "confirmed", String(!unsure.axes.has(axis)));
   }
-  $("now-pos").dataset.unconfirmedAxes = [...unsure.axes].join(" ");
+  setData($("now-pos"), "unconfirmedAxes", [...unsure.axes].join(" "));
   $("now-badge").hidden = unsure.reasons.length === 0;
   $("confirm-line").hidden = unsure.reasons.length === 0;
   setText($("confirm-line"), unsure.reasons.length ? `Position unconfirmed: ${unsure.reasons.join("; ")}.` : "");
@@ -221,21 +248,7 @@ function onFrame(frame) {
   setText($("ro-rel"), fmt(el.rate_deg_per_s, 2));
   setText($("ro-modeaz"), st.az.mode);
   setText($("ro-modeel"), el.mode || "—");
-  const line = $("state-line");
-  clear(line);
-  line.append(pill(st.moving ? "moving" : "standing", st.moving ? "on" : ""));
-  if (st.parked) line.append(pill("parked", "on"));
-  if (st.flipped) line.append(pill("flipped (over the top)", "on"));
-  if (frame.error_deg !== null && frame.error_deg !== undefined) line.append(pill(`error ${fmt(frame.error_deg, 2)}°`));
-  for (const axis of frame.jogs || []) line.append(pill(`jogging ${axis}`, "on"));
-  if (st.cycle) {
-    // the Berkeley state machine's name for what urc does now (urc.tracking.cycle)
-    const c = pill(`cycle ${st.cycle.document}`, st.cycle.state === "track" || st.cycle.state === "report" ? "on" : "");
-    c.id = "cycle-pill";
-    c.dataset.state = st.cycle.state;
-    c.title = st.cycle.why;
-    line.append(c);
-  }
+  showStateLine(st, frame);
   const trk = st.tracking;
   setText($("tracking-line"), trk ? `tracking ${trk.target}` + (trk.plan ? ` · AOS ${timeOf(trk.plan.aos)} · LOS ${timeOf(trk.plan.los)}` +
     `${trk.plan.flip ? " · over the top" : ""}${trk.plan.wrap_turns ? ` · wrap lap ${trk.plan.wrap_turns}` : ""}` : "") : "");

@@ -1,6 +1,6 @@
 // The polar sky plot (SVG): horizon rings, keep-out zones, the planned pass, the
 // setpoint and the antenna (whose position the tests read from data-az-deg/data-el-deg).
-import { s, clear } from "./dom.js";
+import { s, clear, setAttr, setData } from "./dom.js";
 import { skyXY, wrap360 } from "./geo.js";
 
 const R = 100;
@@ -91,37 +91,39 @@ export class SkyPlot {
   // the tracked object where it is now (only when above the horizon)
   setObject(tracking) {
     const ok = tracking && tracking.az_deg !== null && tracking.az_deg !== undefined && tracking.el_deg >= -0.5;
-    this.object.setAttribute("visibility", ok ? "visible" : "hidden");
+    setAttr(this.object, "visibility", ok ? "visible" : "hidden");
     if (!ok) return;
     const [x, y] = skyXY(wrap360(tracking.az_deg), tracking.el_deg, R);
-    this.object.setAttribute("cx", x.toFixed(2));
-    this.object.setAttribute("cy", y.toFixed(2));
+    setAttr(this.object, "cx", x.toFixed(2));
+    setAttr(this.object, "cy", y.toFixed(2));
   }
 
   update(status, setpoint, tWallS) {
     // a single-axis rotator (el null): its beam stands at the horizon, drawn on the ring
     const az = wrap360(status.az_deg), el = status.el_deg;
     const [x, y] = skyXY(az, el ?? 0, R);
-    this.antenna.setAttribute("cx", x.toFixed(2));
-    this.antenna.setAttribute("cy", y.toFixed(2));
-    this.antenna.dataset.azDeg = az.toFixed(3);
-    if (el === null || el === undefined) delete this.antenna.dataset.elDeg;
-    else this.antenna.dataset.elDeg = el.toFixed(3);
+    setAttr(this.antenna, "cx", x.toFixed(2));
+    setAttr(this.antenna, "cy", y.toFixed(2));
+    setData(this.antenna, "azDeg", az.toFixed(3));
+    setData(this.antenna, "elDeg", el === null || el === undefined ? undefined : el.toFixed(3));
     if (setpoint) {
       const [tx, ty] = skyXY(wrap360(setpoint[0]), setpoint[1] ?? 0, R);
-      this.target.setAttribute("transform", `translate(${tx.toFixed(2)} ${ty.toFixed(2)})`);
-      this.target.setAttribute("visibility", "visible");
-      this.target.dataset.azDeg = wrap360(setpoint[0]).toFixed(3);
-      this.target.dataset.elDeg = setpoint[1] === null ? "" : setpoint[1].toFixed(3);
+      setAttr(this.target, "transform", `translate(${tx.toFixed(2)} ${ty.toFixed(2)})`);
+      setAttr(this.target, "visibility", "visible");
+      setData(this.target, "azDeg", wrap360(setpoint[0]).toFixed(3));
+      setData(this.target, "elDeg", setpoint[1] === null ? "" : setpoint[1].toFixed(3));
     } else {
-      this.target.setAttribute("visibility", "hidden");
-      delete this.target.dataset.azDeg;
+      setAttr(this.target, "visibility", "hidden");
+      setData(this.target, "azDeg", undefined);
     }
     const last = this.trail[this.trail.length - 1];
     if (!last || tWallS - last[2] >= 0.5) {
-      this.trail.push([x, y, tWallS]);
+      // standing still: the last point's time moves on instead of a copy of it being added
+      // (the line, and so the page, stays unchanged)
+      if (last && last[0] === x && last[1] === y) last[2] = tWallS;
+      else this.trail.push([x, y, tWallS]);
       while (this.trail.length && tWallS - this.trail[0][2] > TRAIL_S) this.trail.shift();
-      this.trailLine.setAttribute("points", polyPoints(this.trail));
+      setAttr(this.trailLine, "points", polyPoints(this.trail));
     }
   }
 }
