@@ -28,6 +28,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from bench_report import write_json  # noqa: E402
 from urc_process import UrcProcess, free_port  # noqa: E402
 
+#: the directory urc is imported from (for the runs without site, which sees no .pth)
+URC_SRC = str(Path(__import__("urc").__file__).resolve().parents[1])
+
 
 def timed(cmd: list[str], env: dict) -> tuple[float, float]:
     """(wall ms, CPU ms: user + system) of one run of ``cmd``. CPU time says what the
@@ -59,18 +62,24 @@ def main() -> None:
         rport = free_port()
         urc = UrcProcess(Path(tmp), serve=[{"protocol": "rotctld", "tcp": f"127.0.0.1:{rport}"}]).start()
         try:
-            clients = {"urc status": [sys.executable, "-m", "urc", "status", "--port", str(urc.port)],
+            status = ["-m", "urc", "status", "--port", str(urc.port)]
+            clients = {"urc status": ([sys.executable, *status], env),
                        # the floor: the interpreter starting and doing nothing (site hooks included)
-                       "python3 -c pass": [sys.executable, "-c", "pass"]}
+                       "python3 -c pass": ([sys.executable, "-c", "pass"], env),
+                       # the same two without site (-S): what its .pth hooks cost on this
+                       # machine (a sandbox's hook that loads certifi: ~60 ms here) is not
+                       # urc's, and a plain Pi has none
+                       "urc status -S": ([sys.executable, "-S", *status], {**env, "PYTHONPATH": URC_SRC}),
+                       "python3 -S -c pass": ([sys.executable, "-S", "-c", "pass"], env)}
             if rotctl:
-                clients["rotctl -m 2 p"] = [rotctl, "-m", "2", "-r", f"127.0.0.1:{rport}", "p"]
-            for cmd in clients.values():  # (warm the page cache: a user's second run)
-                timed(cmd, env)
+                clients["rotctl -m 2 p"] = ([rotctl, "-m", "2", "-r", f"127.0.0.1:{rport}", "p"], env)
+            for cmd, cmd_env in clients.values():  # (warm the page cache: a user's second run)
+                timed(cmd, cmd_env)
             load_before = os.getloadavg()
             times: dict[str, list[tuple[float, float]]] = {name: [] for name in clients}
-            for _ in range(args.runs):  # alternately: the same load for both
-                for name, cmd in clients.items():
-                    times[name].append(timed(cmd, env))
+            for _ in range(args.runs):  # alternately: the same load for all
+                for name, (cmd, cmd_env) in clients.items():
+                    times[name].append(timed(cmd, cmd_env))
             load_after = os.getloadavg()
         finally:
             urc.stop()
@@ -78,9 +87,9 @@ def main() -> None:
                "clients": {name: summary(ms) for name, ms in times.items()}}
     print(f"one client process per query, {args.runs} runs each, alternating "
           f"(load average {load_before[0]:.2f} -> {load_after[0]:.2f})")
-    print(f"{'client':<16} | {'median ms':>9} {'p90 ms':>8} {'min ms':>8} {'max ms':>8} | {'CPU med ms':>10}")
+    print(f"{'client':<18} | {'median ms':>9} {'p90 ms':>8} {'min ms':>8} {'max ms':>8} | {'CPU med ms':>10}")
     for name, s in results["clients"].items():
-        print(f"{name:<16} | {s['median_ms']:9.1f} {s['p90_ms']:8.1f} {s['min_ms']:8.1f} {s['max_ms']:8.1f} | "
+        print(f"{name:<18} | {s['median_ms']:9.1f} {s['p90_ms']:8.1f} {s['min_ms']:8.1f} {s['max_ms']:8.1f} | "
               f"{s['cpu_median_ms']:10.1f}")
     urc_s, floor = results["clients"]["urc status"], results["clients"]["python3 -c pass"]
     # what urc adds to the interpreter's own start (its site hooks included)
@@ -90,6 +99,10 @@ def main() -> None:
           f"CPU median {results['ratio_to_floor']['cpu_median']:.2f} "
           f"(+{urc_s['median_ms'] - floor['median_ms']:.1f} ms wall, "
           f"+{urc_s['cpu_median_ms'] - floor['cpu_median_ms']:.1f} ms CPU)")
+    bare, bare_floor = results["clients"]["urc status -S"], results["clients"]["python3 -S -c pass"]
+    results["site_hooks_ms"] = floor["median_ms"] - bare_floor["median_ms"]
+    print(f"without site: urc status {bare['median_ms']:.1f} ms median, the interpreter "
+          f"{bare_floor['median_ms']:.1f} ms; this machine's site hooks cost {results['site_hooks_ms']:.1f} ms")
     if "rotctl -m 2 p" in results["clients"]:
         ratio = urc_s["median_ms"] / results["clients"]["rotctl -m 2 p"]["median_ms"]
         results["ratio_median"] = ratio

@@ -19,9 +19,10 @@ from urc.entry import status_options
 CLICK = [sys.executable, "-c", "import sys; sys.argv[0] = 'urc'; from urc.cli import main; main()"]
 
 #: never loaded by `urc status`: the click CLI, the configuration, the controller's
-#: event loop and web stack, the tracking package's astronomy
+#: event loop and web stack, the tracking package's astronomy, and for a plain http
+#: address http.client, whose ssl and email imports were half of its time
 HEAVY = ("click", "pydantic", "urc.cli", "urc.config", "asyncio", "fastapi", "starlette", "uvicorn",
-         "httpx", "numpy", "skyfield", "urc.tracking", "urc.app", "urc.service")
+         "httpx", "numpy", "skyfield", "urc.tracking", "urc.app", "urc.service", "http.client", "ssl", "email")
 
 
 class FakeApi(BaseHTTPRequestHandler):

@@ -38,24 +38,32 @@ def base_url(url: str | None, port: int | None) -> str:
 def http(method: str, url: str, body: dict | None, headers: dict[str, str], timeout_s: float) -> tuple[int, bytes]:
     """(status code, body) of one request. Raises OSError when urc cannot be reached,
     NoAnswer when it took the request and did not answer in ``timeout_s``."""
-    import http.client
     from urllib.parse import urlsplit
 
     parts = urlsplit(url)
     if parts.scheme not in ("http", "https") or not parts.hostname:
         raise OSError(f"not an http(s) address: {url!r}")
-    kind = http.client.HTTPSConnection if parts.scheme == "https" else http.client.HTTPConnection
-    conn = kind(parts.hostname, parts.port, timeout=min(CONNECT_TIMEOUT_S, timeout_s))
+    target = (parts.path or "/") + (f"?{parts.query}" if parts.query else "")
+    data = None if body is None else json.dumps(body).encode()
+    if data is not None:
+        headers = {**headers, "Content-Type": "application/json"}
+    if parts.scheme == "https":
+        return _https(parts.hostname, parts.port, method, target, data, headers, timeout_s)
+    return _plain_http(parts.hostname, parts.port or 80, method, target, data, headers, timeout_s)
+
+
+def _https(host: str, port: int | None, method: str, target: str, data: bytes | None,
+           headers: dict[str, str], timeout_s: float) -> tuple[int, bytes]:
+    """Through the standard library's client (it needs ssl anyway)."""
+    import http.client
+
+    conn = http.client.HTTPSConnection(host, port, timeout=min(CONNECT_TIMEOUT_S, timeout_s))
     try:
         conn.connect()  # (OSError: nothing listens, no route, no answer to connect)
         assert conn.sock is not None
         conn.sock.settimeout(timeout_s)
-        data = None if body is None else json.dumps(body).encode()
-        if data is not None:
-            headers = {**headers, "Content-Type": "application/json"}
         try:
-            conn.request(method, (parts.path or "/") + (f"?{parts.query}" if parts.query else ""), body=data,
-                         headers=headers)
+            conn.request(method, target, body=data, headers=headers)
             resp = conn.getresponse()
             return resp.status, resp.read()
         except TimeoutError:
@@ -64,6 +72,79 @@ def http(method: str, url: str, body: dict | None, headers: dict[str, str], time
             raise OSError(f"bad answer: {exc!r}") from None
     finally:
         conn.close()
+
+
+def _plain_http(host: str, port: int, method: str, target: str, data: bytes | None,
+                headers: dict[str, str], timeout_s: float) -> tuple[int, bytes]:
+    """One HTTP/1.1 request on a socket of its own, read to the server's close.
+
+    By hand, not http.client: importing http.client loads ssl and the email package,
+    46 of the ~85 ms `urc status` took on this machine's bare interpreter (issue 19's
+    target is 80 ms; a Pi Zero is ~10x slower). One request per connection
+    (``Connection: close``) needs only the status line, the headers and the body's
+    framing (RFC 9112: chunked, Content-Length, or the close), parsed by
+    :func:`parse_response`."""
+    import socket
+
+    sock = socket.create_connection((host, port), timeout=min(CONNECT_TIMEOUT_S, timeout_s))
+    try:
+        sock.settimeout(timeout_s)
+        authority = f"[{host}]:{port}" if ":" in host else f"{host}:{port}"  # (an IPv6 address)
+        lines = [f"{method} {target} HTTP/1.1", f"Host: {authority}", "Connection: close",
+                 "Accept: application/json", f"Content-Length: {len(data or b'')}",
+                 *(f"{k}: {v}" for k, v in headers.items())]
+        chunks: list[bytes] = []
+        try:
+            sock.sendall("\r\n".join(lines).encode("latin-1") + b"\r\n\r\n" + (data or b""))
+            while chunk := sock.recv(65536):
+                chunks.append(chunk)
+        except TimeoutError:
+            raise NoAnswer() from None
+    finally:
+        sock.close()
+    return parse_response(b"".join(chunks))
+
+
+def parse_response(raw: bytes) -> tuple[int, bytes]:
+    """(status code, body) of a whole HTTP/1.1 response read to the connection's close;
+    OSError("bad answer: ...") for anything else (not HTTP, cut short, bad framing)."""
+    head, sep, rest = raw.partition(b"\r\n\r\n")
+    status_line, *header_lines = head.decode("latin-1").split("\r\n")
+    version, _, code_text = status_line.partition(" ")
+    code = code_text[:3]
+    if not sep or not version.startswith("HTTP/1.") or not (code.isdigit() and len(code) == 3):
+        raise OSError(f"bad answer: not an HTTP response: {raw[:40]!r}")
+    fields = {}
+    for line in header_lines:
+        name, colon, value = line.partition(":")
+        if colon:
+            fields[name.strip().lower()] = value.strip()
+    if "chunked" in fields.get("transfer-encoding", "").lower():
+        return int(code), _unchunk(rest)
+    length = fields.get("content-length")
+    if length is None:
+        return int(code), rest  # (framed by the close)
+    if not length.isdigit() or len(rest) < int(length):
+        raise OSError(f"bad answer: {len(rest)} bytes of a body of {length}")
+    return int(code), rest[: int(length)]
+
+
+def _unchunk(data: bytes) -> bytes:
+    body = []
+    while True:
+        size_line, sep, data = data.partition(b"\r\n")
+        if not sep:
+            raise OSError("bad answer: cut short in a chunk")
+        size_text = size_line.split(b";")[0].strip()
+        if not size_text or size_text.strip(b"0123456789abcdefABCDEF"):
+            raise OSError(f"bad answer: chunk size {size_line[:20]!r}")
+        size = int(size_text, 16)
+        if len(data) < size + 2:
+            raise OSError("bad answer: cut short in a chunk")
+        if size == 0:
+            return b"".join(body)
+        body.append(data[:size])
+        data = data[size + 2:]
 
 
 def request(url: str, method: str, path: str, body: dict | None = None, *, token: str = "",
