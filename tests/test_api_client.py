@@ -5,7 +5,9 @@ from __future__ import annotations
 
 import json
 import socket
+import struct
 import threading
+import time
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 
 import pytest
@@ -29,17 +31,33 @@ def test_a_body_framed_by_the_close():
     assert parse_response(b"HTTP/1.0 200 OK\r\nServer: x\r\n\r\nhello") == (200, b"hello")
 
 
+def test_an_interim_answer_is_passed_over():
+    raw = b"HTTP/1.1 100 Continue\r\n\r\nHTTP/1.1 200 OK\r\nContent-Length: 2\r\n\r\nok"
+    assert parse_response(raw) == (200, b"ok")
+
+
+def test_the_same_length_twice_and_chunked_not_last():
+    assert parse_response(b"HTTP/1.1 200 OK\r\nContent-Length: 2\r\nContent-Length: 2\r\n\r\nok") == (200, b"ok")
+    # (chunked not the last coding: the body runs to the close, RFC 9112 6.3)
+    assert parse_response(b"HTTP/1.1 200 OK\r\nTransfer-Encoding: chunked, gzip\r\n\r\n2\r\nxy") == (200, b"2\r\nxy")
+
+
 def test_header_names_are_case_insensitive():
     assert parse_response(b"HTTP/1.1 200 OK\r\ncontent-LENGTH: 2\r\n\r\nokEXTRA") == (200, b"ok")
 
 
 @pytest.mark.parametrize("raw,said", [
-    (b"", "not an HTTP response"),
+    (b"", "the connection closed without one"),
     (b"SSH-2.0-OpenSSH_9.2\r\n", "not an HTTP response"),
     (b"HTTP/1.1 200 OK\r\nContent-Length: 5\r\n", "not an HTTP response"),   # the head cut short
     (b"HTTP/1.1 2x0 OK\r\n\r\n", "not an HTTP response"),
     (b"HTTP/1.1 200 OK\r\nContent-Length: 10\r\n\r\nshort", "5 bytes of a body of 10"),
-    (b"HTTP/1.1 200 OK\r\nContent-Length: -1\r\n\r\n", "of a body of -1"),
+    (b"HTTP/1.1 200 OK\r\nContent-Length: -1\r\n\r\n", "Content-Length \\['-1'\\]"),
+    (b"HTTP/1.1 200 OK\r\nContent-Length: 1\xb2\r\n\r\nab", "Content-Length"),          # ('1²': not ASCII)
+    (b"HTTP/1.1 200 OK\r\nContent-Length: 2\r\nContent-Length: 3\r\n\r\nabc", "Content-Length"),
+    (b"HTTP/1.1 2\xb20 OK\r\n\r\n", "not an HTTP response"),
+    (b"HTTP/1.1 2000 OK\r\n\r\n", "not an HTTP response"),
+    (b"HTTP/1.1 200 OK\r\nTransfer-Encoding: chunked\r\n\r\n2\r\nabc\r\n0\r\n\r\n", "longer than its size"),
     (b"HTTP/1.1 200 OK\r\nTransfer-Encoding: chunked\r\n\r\nzz\r\n", "chunk size"),
     (b"HTTP/1.1 200 OK\r\nTransfer-Encoding: chunked\r\n\r\n-5\r\n", "chunk size"),
     (b"HTTP/1.1 200 OK\r\nTransfer-Encoding: chunked\r\n\r\n0x3\r\nabc\r\n0\r\n\r\n", "chunk size"),
@@ -132,3 +150,103 @@ def test_a_silent_server_is_no_answer_not_unreachable():
             request(f"http://127.0.0.1:{srv.getsockname()[1]}", "GET", "/api/status", timeout_s=0.3)
     finally:
         srv.close()
+
+
+def one_shot_server(answer) -> tuple[socket.socket, threading.Thread]:
+    """A listening socket whose first connection is handed to ``answer(conn)``."""
+    srv = socket.create_server(("127.0.0.1", 0))
+
+    def serve():
+        conn, _ = srv.accept()
+        answer(conn)
+    t = threading.Thread(target=serve, daemon=True)
+    t.start()
+    return srv, t
+
+
+def reset(conn: socket.socket) -> None:
+    """Closed with a reset (RST), not a FIN: SO_LINGER on, zero seconds."""
+    conn.setsockopt(socket.SOL_SOCKET, socket.SO_LINGER, struct.pack("ii", 1, 0))
+    conn.close()
+
+
+def test_an_answer_is_taken_when_whole_though_the_server_keeps_the_connection():
+    """A server (or proxy) that ignores ``Connection: close``: the answer, at once, not
+    NoAnswer after the timeout."""
+    release = threading.Event()
+
+    def keep_open(conn):
+        conn.recv(65536)
+        conn.sendall(b"HTTP/1.1 200 OK\r\nContent-Length: 11\r\n\r\n{\"ok\":true}")
+        release.wait(30)
+        conn.close()
+    srv, _ = one_shot_server(keep_open)
+    try:
+        assert request(f"http://127.0.0.1:{srv.getsockname()[1]}", "GET", "/api/status", timeout_s=3.0) == {"ok": True}
+    finally:
+        release.set()
+        srv.close()
+
+
+def test_a_whole_answer_then_a_reset_is_the_answer():
+    def answer_then_reset(conn):
+        conn.recv(65536)
+        conn.sendall(b"HTTP/1.1 200 OK\r\nContent-Type: application/json\r\n\r\n{\"ok\":1}")
+        time.sleep(0.2)
+        reset(conn)
+    srv, _ = one_shot_server(answer_then_reset)
+    try:
+        # (framed by the close: the reset ends the body as a close would)
+        assert request(f"http://127.0.0.1:{srv.getsockname()[1]}", "GET", "/api/status", timeout_s=5.0) == {"ok": 1}
+    finally:
+        srv.close()
+
+
+def test_a_refusal_sent_before_the_body_was_read_is_reported():
+    """A server that answers a too large body at once (413) and closes with most of it
+    unread (the kernel then resets): the refusal, not 'cannot reach'."""
+    def refuse_early(conn):
+        conn.recv(1024)
+        body = b'{"error":"request body larger than 65536 bytes"}'
+        conn.sendall(b"HTTP/1.1 413 Content Too Large\r\nContent-Length: %d\r\n\r\n%s" % (len(body), body))
+        time.sleep(0.2)
+        conn.close()   # (unread data in its buffer: the close goes out as a reset)
+    srv, _ = one_shot_server(refuse_early)
+    try:
+        with pytest.raises(ClientError, match=r"refused \(413\): request body larger than 65536 bytes"):
+            request(f"http://127.0.0.1:{srv.getsockname()[1]}", "POST", "/api/goto",
+                    {"pad": "x" * 3_000_000}, timeout_s=5.0)
+    finally:
+        srv.close()
+
+
+@pytest.mark.parametrize("token", ["secret\r", "sec\nret", "a\x00b"])
+def test_a_token_with_a_control_character_is_refused_before_sending(echo, token):
+    with pytest.raises(ClientError, match="the token has a control character"):
+        request(echo, "GET", "/api/status", token=token, timeout_s=5.0)
+
+
+def test_a_path_with_a_space_is_refused_before_sending(echo):
+    with pytest.raises(ClientError, match="has spaces or control characters"):
+        request(echo, "GET", "/api/a b", timeout_s=5.0)
+
+
+def test_an_ipv6_address():
+    if not socket.has_ipv6:
+        pytest.skip("no IPv6 on this machine")
+    try:
+        server = ThreadingHTTPServer(("::1", 0), Echo, bind_and_activate=False)
+        server.address_family = socket.AF_INET6
+        server.socket = socket.socket(socket.AF_INET6, socket.SOCK_STREAM)
+        server.server_bind()
+        server.server_activate()
+    except OSError as exc:
+        pytest.skip(f"no IPv6 loopback: {exc}")
+    threading.Thread(target=server.serve_forever, daemon=True).start()
+    try:
+        port = server.server_address[1]
+        got = request(f"http://[::1]:{port}", "GET", "/api/status", timeout_s=5.0)
+        assert got["headers"]["Host"] == f"[::1]:{port}"
+    finally:
+        server.shutdown()
+        server.server_close()

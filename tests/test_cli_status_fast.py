@@ -186,3 +186,28 @@ def test_unreachable_says_what_click_says():
 ])
 def test_which_command_lines_take_the_short_way(args, env, expected):
     assert status_options(args, env) == expected
+
+
+def test_an_ipv6_api_host_from_the_configuration(snapshot, tmp_path):
+    """``[api] host = "::1"``: the client's address is http://[::1]:port (it was built
+    without brackets, and reading its port raised ValueError)."""
+    import socket
+
+    class Server6(ThreadingHTTPServer):
+        address_family = socket.AF_INET6
+
+    try:
+        server = Server6(("::1", 0), FakeApi)
+    except OSError as exc:
+        pytest.skip(f"no IPv6 loopback: {exc}")
+    FakeApi.body, FakeApi.code, FakeApi.seen = json.dumps(snapshot).encode(), 200, []
+    threading.Thread(target=server.serve_forever, daemon=True).start()
+    try:
+        cfg = tmp_path / "urc.toml"
+        cfg.write_text(f'[api]\nhost = "::1"\nport = {server.server_address[1]}\n')
+        res = run(URC, "status", "--config", str(cfg))
+        assert res.returncode == 0 and "pointing  az" in res.stdout, res.stderr
+        assert FakeApi.seen == [("/api/status", None)]
+    finally:
+        server.shutdown()
+        server.server_close()

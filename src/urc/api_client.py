@@ -9,6 +9,7 @@ slower), and ``urc status`` runs without click (issue 19).
 from __future__ import annotations
 
 import json
+import socket
 
 DEFAULT_URL = "http://127.0.0.1:8080"
 
@@ -76,75 +77,150 @@ def _https(host: str, port: int | None, method: str, target: str, data: bytes | 
 
 def _plain_http(host: str, port: int, method: str, target: str, data: bytes | None,
                 headers: dict[str, str], timeout_s: float) -> tuple[int, bytes]:
-    """One HTTP/1.1 request on a socket of its own, read to the server's close.
+    """One HTTP/1.1 request on a socket of its own.
 
     By hand, not http.client: importing http.client loads ssl and the email package,
-    46 of the ~85 ms `urc status` took on this machine's bare interpreter (issue 19's
-    target is 80 ms; a Pi Zero is ~10x slower). One request per connection
-    (``Connection: close``) needs only the status line, the headers and the body's
-    framing (RFC 9112: chunked, Content-Length, or the close), parsed by
-    :func:`parse_response`."""
-    import socket
-
+    about half of `urc status`'s time (issue 19's target is 80 ms; a Pi Zero is ~10x
+    slower). One request per connection (``Connection: close``) needs only the request
+    line and headers out, and back the status line, the headers and the body's framing
+    (RFC 9112: chunked, Content-Length, or the close): :func:`parse_response`. The answer
+    is taken as soon as it is whole, whether or not the server then closes or resets."""
+    request = _request_head(method, target, host, port, headers, len(data or b"")) + (data or b"")
     sock = socket.create_connection((host, port), timeout=min(CONNECT_TIMEOUT_S, timeout_s))
     try:
         sock.settimeout(timeout_s)
-        authority = f"[{host}]:{port}" if ":" in host else f"{host}:{port}"  # (an IPv6 address)
-        lines = [f"{method} {target} HTTP/1.1", f"Host: {authority}", "Connection: close",
-                 "Accept: application/json", f"Content-Length: {len(data or b'')}",
-                 *(f"{k}: {v}" for k, v in headers.items())]
-        chunks: list[bytes] = []
+        received = b""
         try:
-            sock.sendall("\r\n".join(lines).encode("latin-1") + b"\r\n\r\n" + (data or b""))
-            while chunk := sock.recv(65536):
-                chunks.append(chunk)
+            try:
+                sock.sendall(request)
+            except (BrokenPipeError, ConnectionResetError) as exc:
+                # it may have answered before it stopped reading (a refusal of a large body)
+                received = _read_rest(sock)
+                if not received:
+                    raise exc from None
+                return parse_response(received)
+            while chunk := _recv(sock):
+                received += chunk
+                answer = _parse(received, at_eof=False)
+                if answer is not None:
+                    return answer
         except TimeoutError:
             raise NoAnswer() from None
+        return parse_response(received)
     finally:
         sock.close()
-    return parse_response(b"".join(chunks))
+
+
+def _recv(sock: socket.socket) -> bytes:
+    """The next bytes, or b"" at the end: a reset after the answer ends it as a close does."""
+    try:
+        return sock.recv(65536)
+    except ConnectionResetError:
+        return b""
+
+
+def _read_rest(sock: socket.socket) -> bytes:
+    received = b""
+    try:
+        while chunk := _recv(sock):
+            received += chunk
+    except OSError:
+        pass
+    return received
+
+
+def _request_head(method: str, target: str, host: str, port: int, headers: dict[str, str],
+                  length: int) -> bytes:
+    """The request line and headers; a CR, LF or other control character in a value (a
+    token read from a file with Windows line ends) would cut the request, so it is refused."""
+    if not target.isprintable() or " " in target:
+        raise ClientError(f"the address's path {target!r} has spaces or control characters")
+    authority = f"[{host}]:{port}" if ":" in host else f"{host}:{port}"  # (an IPv6 address)
+    fields = {"Host": authority, "Connection": "close", "Accept": "application/json",
+              "Content-Length": str(length), **headers}
+    for name, value in fields.items():
+        if not value.isprintable() or not name.isprintable() or ":" in name:
+            what = "the token" if name == "Authorization" else f"header {name!r}"
+            raise ClientError(f"{what} has a control character (a line end?): {value!r}")
+    lines = [f"{method} {target} HTTP/1.1", *(f"{k}: {v}" for k, v in fields.items())]
+    return "\r\n".join(lines).encode("latin-1") + b"\r\n\r\n"
 
 
 def parse_response(raw: bytes) -> tuple[int, bytes]:
     """(status code, body) of a whole HTTP/1.1 response read to the connection's close;
     OSError("bad answer: ...") for anything else (not HTTP, cut short, bad framing)."""
-    head, sep, rest = raw.partition(b"\r\n\r\n")
-    status_line, *header_lines = head.decode("latin-1").split("\r\n")
-    version, _, code_text = status_line.partition(" ")
-    code = code_text[:3]
-    if not sep or not version.startswith("HTTP/1.") or not (code.isdigit() and len(code) == 3):
-        raise OSError(f"bad answer: not an HTTP response: {raw[:40]!r}")
-    fields = {}
+    answer = _parse(raw, at_eof=True)
+    assert answer is not None
+    return answer
+
+
+def _digits(text: str) -> bool:
+    return text.isascii() and text.isdigit()
+
+
+def _parse(raw: bytes, at_eof: bool) -> tuple[int, bytes] | None:
+    """The answer in ``raw``; None while it may still be coming (``at_eof`` False)."""
+    while True:
+        head, sep, rest = raw.partition(b"\r\n\r\n")
+        if not sep:
+            if at_eof:
+                raise OSError(f"bad answer: not an HTTP response: {raw[:40]!r}" if raw else
+                              "bad answer: the connection closed without one")
+            return None
+        status_line, *header_lines = head.decode("latin-1").split("\r\n")
+        version, _, code_text = status_line.partition(" ")
+        code = code_text[:3]
+        if not version.startswith("HTTP/1.") or not _digits(code) or code_text[3:4] not in ("", " "):
+            raise OSError(f"bad answer: not an HTTP response: {raw[:40]!r}")
+        if code[0] != "1":
+            break
+        raw = rest  # (an interim answer, 100 Continue or 103 Early Hints: the real one follows)
+    fields: dict[str, list[str]] = {}
     for line in header_lines:
         name, colon, value = line.partition(":")
         if colon:
-            fields[name.strip().lower()] = value.strip()
-    if "chunked" in fields.get("transfer-encoding", "").lower():
-        return int(code), _unchunk(rest)
-    length = fields.get("content-length")
-    if length is None:
-        return int(code), rest  # (framed by the close)
-    if not length.isdigit() or len(rest) < int(length):
-        raise OSError(f"bad answer: {len(rest)} bytes of a body of {length}")
+            fields.setdefault(name.strip().lower(), []).append(value.strip())
+    codings = [c.strip().lower() for v in fields.get("transfer-encoding", []) for c in v.split(",")]
+    if codings:
+        if codings[-1] == "chunked":
+            body = _unchunk(rest, at_eof)
+            return None if body is None else (int(code), body)
+        return (int(code), rest) if at_eof else None  # (another coding last: framed by the close)
+    lengths = set(fields.get("content-length", []))
+    if not lengths:
+        return (int(code), rest) if at_eof else None  # (framed by the close)
+    length = lengths.pop()
+    if lengths or not _digits(length):
+        raise OSError(f"bad answer: Content-Length {fields['content-length']}")
+    if len(rest) < int(length):
+        if at_eof:
+            raise OSError(f"bad answer: {len(rest)} bytes of a body of {length}")
+        return None
     return int(code), rest[: int(length)]
 
 
-def _unchunk(data: bytes) -> bytes:
+def _unchunk(data: bytes, at_eof: bool) -> bytes | None:
+    """The body of a chunked message; None while more may come."""
     body = []
     while True:
         size_line, sep, data = data.partition(b"\r\n")
         if not sep:
-            raise OSError("bad answer: cut short in a chunk")
+            break
         size_text = size_line.split(b";")[0].strip()
         if not size_text or size_text.strip(b"0123456789abcdefABCDEF"):
             raise OSError(f"bad answer: chunk size {size_line[:20]!r}")
         size = int(size_text, 16)
-        if len(data) < size + 2:
-            raise OSError("bad answer: cut short in a chunk")
         if size == 0:
-            return b"".join(body)
+            return b"".join(body)  # (any trailer fields after it are not needed)
+        if len(data) < size + 2:
+            break
+        if data[size:size + 2] != b"\r\n":
+            raise OSError("bad answer: a chunk longer than its size")
         body.append(data[:size])
         data = data[size + 2:]
+    if at_eof:
+        raise OSError("bad answer: cut short in a chunk")
+    return None
 
 
 def request(url: str, method: str, path: str, body: dict | None = None, *, token: str = "",

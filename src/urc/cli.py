@@ -316,6 +316,7 @@ def _request(url: str | None, config_path: str | None, method: str, path: str, b
         except ConfigError as exc:
             raise click.ClickException(str(exc)) from None
         host = "127.0.0.1" if cfg.api.host in ("0.0.0.0", "::") else cfg.api.host
+        host = f"[{host}]" if ":" in host else host  # (an IPv6 address)
         url = f"http://{host}:{cfg.api.port if port is None else port}"
         token = token or cfg.api.token
     timeout_s = (ctx.meta.get("urc.timeout_s") if ctx is not None else None) or CLIENT_TIMEOUT_S

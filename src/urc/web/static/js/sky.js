@@ -118,9 +118,10 @@ export class SkyPlot {
     }
     const last = this.trail[this.trail.length - 1];
     if (!last || tWallS - last[2] >= 0.5) {
-      // standing still: the last point's time moves on instead of a copy of it being added
-      // (the line, and so the page, stays unchanged)
-      if (last && last[0] === x && last[1] === y) last[2] = tWallS;
+      // standing still (to the line's 0.01 precision: a sensor's jitter below it too):
+      // the last point's time moves on instead of a copy of it being added (the line, and
+      // so the page, stays unchanged)
+      if (last && last[0].toFixed(2) === x.toFixed(2) && last[1].toFixed(2) === y.toFixed(2)) last[2] = tWallS;
       else this.trail.push([x, y, tWallS]);
       while (this.trail.length && tWallS - this.trail[0][2] > TRAIL_S) this.trail.shift();
       setAttr(this.trailLine, "points", polyPoints(this.trail));
