@@ -201,7 +201,7 @@ def _parse(raw: bytes, at_eof: bool) -> tuple[int, bytes] | None:
 
 def _unchunk(data: bytes, at_eof: bool) -> bytes | None:
     """The body of a chunked message; None while more may come."""
-    body = []
+    body: list[bytes] = []
     while True:
         size_line, sep, data = data.partition(b"\r\n")
         if not sep:
