@@ -224,15 +224,18 @@ def _short(text: str, n: int = 40) -> str:
     return repr(text if len(text) <= n else text[: n - 3] + "...")
 
 
+#: byte -> what it adds to a TLE checksum: a digit its value, a minus sign 1, anything else 0
+_CHECKSUM_VALUE = bytes(b - 48 if 48 <= b <= 57 else 1 if b == 45 else 0 for b in range(256))
+
+
 def tle_checksum(line: str) -> int:
     """The TLE checksum of ``line``: the digits of its first 68 columns plus one per
-    minus sign, modulo 10 (sgp4.io.compute_checksum's value on ASCII text). Counted with
-    str.count (C) rather than sgp4's generator over every character, which was 60 % of
-    loading a stored catalog (every line is checked again: 4.1 of 6.8 s for 60 000 sets);
-    other characters count nothing, so a non-ASCII digit such as '²', on which sgp4's
-    raises ValueError, makes a checksum error, not a crash."""
-    head = line[:68]
-    return (sum(d * head.count(str(d)) for d in range(1, 10)) + head.count("-")) % 10
+    minus sign, modulo 10 (sgp4.io.compute_checksum's value on ASCII text). Summed in C
+    (bytes.translate) rather than by sgp4's generator over every character (~100x
+    slower), since every line of a stored catalog is checked again at each load; other
+    characters count nothing, so a non-ASCII digit such as '²', on which sgp4's raises
+    ValueError, makes a checksum error, not a crash."""
+    return sum(line[:68].encode("latin-1", "replace").translate(_CHECKSUM_VALUE)) % 10
 
 
 def _check_line(line: str, number: int, source: str, lineno: int, checksum: bool) -> None:
