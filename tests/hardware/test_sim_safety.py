@@ -222,6 +222,9 @@ def test_the_truth_log_keeps_the_history_the_cut_and_the_run_on_of_a_restart(tmp
     clock.t += 1.0                                # frozen a second: no edge, then caught up
     hw.poll(clock.t)
     world = hw.world
+    # (the real-time truth writer's thread done first: a record it still held, written
+    # after the edit below, replaced it on a machine at load 10)
+    world._truth_writer.close()
     world._write_truth()
     world.log.close()
     entries = read_log(log_file)
@@ -241,8 +244,10 @@ def test_the_truth_log_keeps_the_history_the_cut_and_the_run_on_of_a_restart(tmp
     rec["wall_s"] = time.time() - 0.5
     truth_file.write_text(json.dumps(rec))
     build_hardware("sim", get_profile("tartu-urc"), _StepClock(), tmp_path, opts).world.log.close()
+    started_by_wall_s = time.time()
     restore = [e for e in read_log(log_file) if e["t"] == "restore"]
-    assert len(restore) == 1 and restore[0]["run_on_s"] == pytest.approx(0.5, abs=0.1)
+    # ran on from the record until this restart read it (a loaded machine starts late)
+    assert len(restore) == 1 and 0.5 <= restore[0]["run_on_s"] <= started_by_wall_s - rec["wall_s"], restore
     az = restore[0]["axes"]["az"]
     assert az["drive"] == 1.0 and az["to_deg"] - az["from_deg"] > 0.4 * 6.0
     assert restore[0]["off_wall_s"] == pytest.approx(rec["wall_s"] + restore[0]["run_on_s"])
