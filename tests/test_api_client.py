@@ -118,40 +118,6 @@ def test_a_request_arrives_whole_and_its_answer_is_read(echo, path):
     assert got["headers"]["Host"] == echo.removeprefix("http://")
 
 
-def test_nothing_listening_is_unreachable():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        port = s.getsockname()[1]   # (bound, never listening: refused)
-    with pytest.raises(ClientError, match="cannot reach urc"):
-        request(f"http://127.0.0.1:{port}", "GET", "/api/status", timeout_s=2.0)
-
-
-def test_a_server_that_answers_garbage_is_a_bad_answer():
-    """A port that is not urc's (here: it greets like an SSH server, then closes)."""
-    srv = socket.create_server(("127.0.0.1", 0))
-
-    def greet():
-        conn, _ = srv.accept()
-        conn.recv(1024)
-        conn.sendall(b"SSH-2.0-OpenSSH_9.2\r\n")
-        conn.close()
-    threading.Thread(target=greet, daemon=True).start()
-    try:
-        with pytest.raises(ClientError, match="cannot reach urc .*bad answer: not an HTTP response"):
-            request(f"http://127.0.0.1:{srv.getsockname()[1]}", "GET", "/api/status", timeout_s=5.0)
-    finally:
-        srv.close()
-
-
-def test_a_silent_server_is_no_answer_not_unreachable():
-    srv = socket.create_server(("127.0.0.1", 0))   # (the kernel accepts; nobody answers)
-    try:
-        with pytest.raises(ClientError, match="took the request but gave no answer within 0.3 s"):
-            request(f"http://127.0.0.1:{srv.getsockname()[1]}", "GET", "/api/status", timeout_s=0.3)
-    finally:
-        srv.close()
-
-
 def one_shot_server(answer) -> tuple[socket.socket, threading.Thread]:
     """A listening socket whose first connection is handed to ``answer(conn)``."""
     srv = socket.create_server(("127.0.0.1", 0))
@@ -168,6 +134,37 @@ def reset(conn: socket.socket) -> None:
     """Closed with a reset (RST), not a FIN: SO_LINGER on, zero seconds."""
     conn.setsockopt(socket.SOL_SOCKET, socket.SO_LINGER, struct.pack("ii", 1, 0))
     conn.close()
+
+
+def test_nothing_listening_is_unreachable():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]   # (bound, never listening: refused)
+    with pytest.raises(ClientError, match="cannot reach urc"):
+        request(f"http://127.0.0.1:{port}", "GET", "/api/status", timeout_s=2.0)
+
+
+def test_a_server_that_answers_garbage_is_a_bad_answer():
+    """A port that is not urc's (here: it greets like an SSH server, then closes)."""
+    def greet(conn):
+        conn.recv(1024)
+        conn.sendall(b"SSH-2.0-OpenSSH_9.2\r\n")
+        conn.close()
+    srv, _ = one_shot_server(greet)
+    try:
+        with pytest.raises(ClientError, match="cannot reach urc .*bad answer: not an HTTP response"):
+            request(f"http://127.0.0.1:{srv.getsockname()[1]}", "GET", "/api/status", timeout_s=5.0)
+    finally:
+        srv.close()
+
+
+def test_a_silent_server_is_no_answer_not_unreachable():
+    srv = socket.create_server(("127.0.0.1", 0))   # (the kernel accepts; nobody answers)
+    try:
+        with pytest.raises(ClientError, match="took the request but gave no answer within 0.3 s"):
+            request(f"http://127.0.0.1:{srv.getsockname()[1]}", "GET", "/api/status", timeout_s=0.3)
+    finally:
+        srv.close()
 
 
 def test_an_answer_is_taken_when_whole_though_the_server_keeps_the_connection():
@@ -234,12 +231,11 @@ def test_a_path_with_a_space_is_refused_before_sending(echo):
 def test_an_ipv6_address():
     if not socket.has_ipv6:
         pytest.skip("no IPv6 on this machine")
+    class Server6(ThreadingHTTPServer):
+        address_family = socket.AF_INET6
+
     try:
-        server = ThreadingHTTPServer(("::1", 0), Echo, bind_and_activate=False)
-        server.address_family = socket.AF_INET6
-        server.socket = socket.socket(socket.AF_INET6, socket.SOCK_STREAM)
-        server.server_bind()
-        server.server_activate()
+        server = Server6(("::1", 0), Echo)
     except OSError as exc:
         pytest.skip(f"no IPv6 loopback: {exc}")
     threading.Thread(target=server.serve_forever, daemon=True).start()

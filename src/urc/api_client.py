@@ -90,22 +90,25 @@ def _plain_http(host: str, port: int, method: str, target: str, data: bytes | No
     try:
         sock.settimeout(timeout_s)
         received = b""
+        send_error: OSError | None = None
         try:
             try:
                 sock.sendall(request)
             except (BrokenPipeError, ConnectionResetError) as exc:
-                # it may have answered before it stopped reading (a refusal of a large body)
-                received = _read_rest(sock)
-                if not received:
-                    raise exc from None
-                return parse_response(received)
+                send_error = exc  # (it may have answered before it stopped reading: a refusal of a large body)
             while chunk := _recv(sock):
                 received += chunk
                 answer = _parse(received, at_eof=False)
                 if answer is not None:
                     return answer
         except TimeoutError:
-            raise NoAnswer() from None
+            if send_error is None:
+                raise NoAnswer() from None
+        except OSError:
+            if send_error is None:
+                raise
+        if send_error is not None and not received:
+            raise send_error
         return parse_response(received)
     finally:
         sock.close()
@@ -117,16 +120,6 @@ def _recv(sock: socket.socket) -> bytes:
         return sock.recv(65536)
     except ConnectionResetError:
         return b""
-
-
-def _read_rest(sock: socket.socket) -> bytes:
-    received = b""
-    try:
-        while chunk := _recv(sock):
-            received += chunk
-    except OSError:
-        pass
-    return received
 
 
 def _request_head(method: str, target: str, host: str, port: int, headers: dict[str, str],
@@ -173,6 +166,7 @@ def _parse(raw: bytes, at_eof: bool) -> tuple[int, bytes] | None:
         if not version.startswith("HTTP/1.") or not _digits(code) or code_text[3:4] not in ("", " "):
             raise OSError(f"bad answer: not an HTTP response: {raw[:40]!r}")
         if code[0] != "1":
+            status = int(code)
             break
         raw = rest  # (an interim answer, 100 Continue or 103 Early Hints: the real one follows)
     fields: dict[str, list[str]] = {}
@@ -184,11 +178,11 @@ def _parse(raw: bytes, at_eof: bool) -> tuple[int, bytes] | None:
     if codings:
         if codings[-1] == "chunked":
             body = _unchunk(rest, at_eof)
-            return None if body is None else (int(code), body)
-        return (int(code), rest) if at_eof else None  # (another coding last: framed by the close)
+            return None if body is None else (status, body)
+        return (status, rest) if at_eof else None  # (another coding last: framed by the close)
     lengths = set(fields.get("content-length", []))
     if not lengths:
-        return (int(code), rest) if at_eof else None  # (framed by the close)
+        return (status, rest) if at_eof else None  # (framed by the close)
     length = lengths.pop()
     if lengths or not _digits(length):
         raise OSError(f"bad answer: Content-Length {fields['content-length']}")
@@ -196,7 +190,7 @@ def _parse(raw: bytes, at_eof: bool) -> tuple[int, bytes] | None:
         if at_eof:
             raise OSError(f"bad answer: {len(rest)} bytes of a body of {length}")
         return None
-    return int(code), rest[: int(length)]
+    return status, rest[: int(length)]
 
 
 def _unchunk(data: bytes, at_eof: bool) -> bytes | None:
