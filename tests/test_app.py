@@ -167,33 +167,56 @@ def test_a_restart_waits_for_the_previous_control_process(urc, tmp_path):
     assert waiting in log.read_bytes(), log.read_text()
 
 
-def test_a_hung_io_process_stops_the_axes_but_not_the_loop(urc):
-    """SIGSTOP on `urc run` (web, protocols and tracker hung): the control process stops
-    the axes after IO_SILENT_S and keeps holding them (the heartbeat goes on: the loop
-    is well); once the I/O process runs again, commands move the antenna again."""
+def test_a_goto_flies_on_through_a_paused_io_process(urc):
+    """Issue 33: after a 1.5 s SIGSTOP of `urc run` an accepted goto ended half-way,
+    state idle, no fault. A goto is bounded (its end was checked when it was accepted,
+    the guard holds the limits every tick): it reaches its target with the I/O process
+    stopped, and the heartbeat (the loop) goes on meanwhile."""
     from urc.service.control_process import IO_SILENT_S
 
     u = urc(profile="tartu-urc").start()
-    assert u.post("/api/goto", {"az_deg": 390, "el_deg": 30}).status_code == 200
+    assert u.post("/api/goto", {"az_deg": 50, "el_deg": 10}).status_code == 200
     u.wait(lambda s: s["moving"] and abs(s["az"]["rate_deg_per_s"]) > 3)
     u.proc.send_signal(signal.SIGSTOP)
     try:
-        # stopped after IO_SILENT_S (and the ramp down) ...
+        beat = heartbeat(u)["toggles"]
+        time.sleep(IO_SILENT_S + 0.5)
+        # still driving after the silence rule's time: the goto was not stopped
+        assert any(abs(ax["load_deg_per_s"]) > 1.0 for ax in truth(u).values()), truth(u)
+        assert heartbeat(u)["toggles"] > beat
+    finally:
+        u.proc.send_signal(signal.SIGCONT)
+    s = u.wait(lambda s: not s["moving"] and abs(s["az"]["pos_deg"] - 50) < 0.5, timeout_s=90)
+    assert s["target_az_deg"] is not None and not s["faults"], s
+    assert s["last_stop"] is None, s["last_stop"]
+    assert any("flies on" in e for e in s["events"]), s["events"]
+
+
+def test_a_jog_stops_when_the_io_process_is_hung_and_says_why(urc):
+    """A jog only a client's stop ends: with `urc run` hung (SIGSTOP) no client could,
+    so it stops after IO_SILENT_S and is held while the loop goes on; the stop is in
+    status' last_stop (kind, reason, the command it cut) and the events, never a silent
+    idle; once the I/O process runs again, commands move the antenna again."""
+    from urc.service.control_process import IO_SILENT_S
+
+    u = urc(profile="tartu-urc").start()
+    assert u.post("/api/move", {"axis": "az", "direction": 1}).status_code == 200
+    u.wait(lambda s: s["moving"] and abs(s["az"]["rate_deg_per_s"]) > 3)
+    u.proc.send_signal(signal.SIGSTOP)
+    try:
         wait_until(lambda: all(ax["load_deg_per_s"] == 0.0 for ax in truth(u).values()),
-                   IO_SILENT_S + 30.0, "the axes stopped while the I/O process is hung")
+                   IO_SILENT_S + 30.0, "the jog stopped while the I/O process is hung")
         beat = heartbeat(u)["toggles"]
         time.sleep(0.5)
-        # ... and held so while the loop goes on
         assert all(ax["load_deg_per_s"] == 0.0 for ax in truth(u).values()), truth(u)
         assert heartbeat(u)["toggles"] > beat
     finally:
         u.proc.send_signal(signal.SIGCONT)
-    s = u.wait(lambda s: not s["moving"])
-    # stopped on the way (mechanical 390 is sky 30: a stop 30 deg into the move under load
-    # is near sky 30 too, so the mechanical position is what tells)
-    assert abs(s["az"]["pos_deg"] - 390) > 5 and any("silent" in e for e in s["events"]), (s["az"], s["events"])
+    s = u.wait(lambda s: not s["moving"] and s["last_stop"] is not None)
+    stop = s["last_stop"]
+    assert stop["kind"] == "health" and stop["command"] == "move" and "silent" in stop["reason"], stop
+    assert stop["resumes"] is False and any("silent" in e for e in s["events"]), s["events"]
     again_deg = round(s["az_deg"]) + 5.0
-    # (elevation where it stopped: the azimuth move is the one judged, and the shorter wait)
     assert u.post("/api/goto", {"az_deg": again_deg, "el_deg": round(s["el_deg"])}).status_code == 200
     u.wait(lambda s: not s["moving"] and abs(s["az_deg"] - again_deg) < 0.3, timeout_s=90)
 

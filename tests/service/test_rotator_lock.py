@@ -17,6 +17,7 @@ import pytest
 
 from urc.errors import CommandRejected
 from urc.service.locking import LOCK_FREE_ATTR, LOCKED_ATTR, lock_free, locked_api
+from urc.service.program import PassProgram
 from urc.service.rotator import Rotator
 
 
@@ -40,6 +41,11 @@ CALLS: dict[str, Callable[[Rotator], Args]] = {
     "track_pose": lambda rot: ((90.0, 20.0), {}),
     "move": lambda rot: (("az", 1), {}),
     "stop": lambda rot: ((), {}),
+    "stop_open_ended": lambda rot: (("the I/O process was silent",), {}),
+    "fly_program": lambda rot: ((PassProgram(1, "test", (rot.clock.now_s() + 5.0, rot.clock.now_s() + 10.0),
+                                             (90.0, 91.0), (20.0, 21.0), (False, False),
+                                             rot.clock.now_s()),), {}),
+    "cancel_program": lambda rot: ((), {}),
     "set_position": lambda rot: ((), {"az_deg": 100.0}),
     "adopt_sensor_reading": lambda rot: (("az",), {}),
     "search_frame": lambda rot: (("az", 10.0), {}),

@@ -160,11 +160,11 @@ class FaultsSection(Section):
     #: control-loop deadline: a tick this late stops the motors, held off until the loop
     #: has been on time for watchdog_recover_s
     watchdog_s: float = num(0.5, gt=0.0)
-    watchdog_recover_s: float = num(1.0, ge=0.0, le=60.0)
+    watchdog_recover_s: float = num(2.0, ge=0.0, le=60.0)
     #: this many stalls within watchdog_latch_window_s latch a watchdog fault (cleared
     #: only by an operator); fewer are ridden out
     watchdog_latch_stalls: int = Field(default=3, ge=1, le=1000)
-    watchdog_latch_window_s: float = num(600.0, gt=0.0, le=86400.0)
+    watchdog_latch_window_s: float = num(60.0, gt=0.0, le=86400.0)
     #: urc run's I/O process takes the outputs over from a control process that is dead
     #: or has published no status for this long (frozen): it kills it, drives every
     #: output safe itself and stops the service (0: never; the control process's own

@@ -94,6 +94,20 @@ class Stop(Request):
     axis: str | None = None
 
 
+@dataclass(frozen=True)
+class FlyProgram(Request):
+    """A whole planned pass to fly by the control process's own clock
+    (``urc.service.program.PassProgram``: program track)."""
+    METHOD: ClassVar[str] = "fly_program"
+    program: Any
+
+
+@dataclass(frozen=True)
+class CancelProgram(Request):
+    METHOD: ClassVar[str] = "cancel_program"
+    program_id: int | None = None
+
+
 # ------------------------------------------------------------------ position and settings
 @dataclass(frozen=True)
 class SetPosition(Request):
@@ -333,7 +347,8 @@ class SimClear(Query):
 
 #: request type -> the Rotator method that runs it (queries apart: urc.service.queries)
 COMMANDS: dict[type[Request], str] = {cls: cls.METHOD for cls in (
-    Goto, GotoAz, GotoEl, GotoPose, Park, Track, TrackPose, Move, Stop, SetPosition, AdoptSensorReading,
+    Goto, GotoAz, GotoEl, GotoPose, Park, Track, TrackPose, Move, Stop, FlyProgram, CancelProgram, SetPosition,
+    AdoptSensorReading,
     SearchFrame, EndSearch, SetOvershoot, Reconfigure, ClearFaults, HoldLocal, Announce, PowerFail, SaveNow,
     OvershootQuery, LocalControls, PositionUncertain)}
 

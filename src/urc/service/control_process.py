@@ -15,8 +15,10 @@ is in that module's docstring; what this one guarantees:
 * Every end stops the axes, waits for standstill (bounded), leaves the outputs safe and
   saves the state: asked to stop, the I/O process gone (its socket closed, even after a
   ``kill -9``), SIGTERM/SIGINT/SIGABRT here, or the loop dying. An I/O process that goes
-  silent (hung) stops the axes after ``IO_SILENT_S``; the loop keeps holding them, and a
-  command accepted once it talks again moves them again.
+  silent (hung, stopped, starved) for ``IO_SILENT_S`` stops only open-ended motion (a
+  jog, an update-fed track), said in status' ``last_stop``; a bounded one (a goto, a
+  park, a pass program) flies on to its end, since its end was checked when it was
+  accepted and the guard holds the limits and zones every tick.
 * A tick that hangs (a driver blocked on a bus) holds the rotator's lock: the main
   thread, which only reads messages and keeps watch, makes the outputs safe without it.
 """
@@ -55,9 +57,9 @@ PROCESS_RT_PRIORITY = 5
 #: how often the I/O process says it is alive (from its event loop: a loop that can no
 #: longer serve a STOP is as good as hung)
 PING_S = 0.2
-#: the I/O process silent this long (hung, stopped, its event loop blocked): the axes stop,
-#: since no client could stop them any more (issue 20: motors off within 1.5 s). Nothing on
-#: the event loop waits for this process, so only a real stall lasts this long.
+#: the I/O process silent this long (hung, stopped, its event loop blocked): open-ended
+#: motion (a jog) stops, since no client could stop it any more (issue 20: motors off
+#: within 1.5 s); bounded motion flies on (issue 33)
 IO_SILENT_S = 1.0
 #: how often the main thread looks for a hung tick at least (a hung tick's motors are
 #: cut within [faults] watchdog_s plus this; state records reach save_interval_s / 2 of
@@ -252,12 +254,13 @@ class ControlServer:
         self.send(("reply", Reply(rid, "error", exception_to_wire(exc), None)))
 
     def _stop_for_silence(self, silent_s: float) -> None:
+        """Only what a live client must end stops (a jog, an update-fed track); a goto,
+        a park or a pass program flies on to its end (issue 33: a paused I/O process
+        left accepted gotos half-way, silently idle)."""
         try:
-            self.rot.stop()
+            self.rot.stop_open_ended(f"the I/O process (web, protocols, tracker) was silent for {silent_s:.1f} s")
         except Exception:
             log.exception("stop after the I/O process went silent failed")
-        self.rot.announce(f"axes stopped: the I/O process (web, protocols, tracker) was silent for "
-                          f"{silent_s:.1f} s")
 
     def _answer(self, env: Envelope) -> None:
         if env.deadline_s is not None and time.monotonic() > env.deadline_s:

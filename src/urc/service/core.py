@@ -45,6 +45,18 @@ class Core:
         self.target_sky: tuple[float, float] | None = None
         self.seq = 0
         self.last_command_t_s = clock.now_s()
+        #: the motion command being flown ("goto", "park", "track", "move", "program", ...;
+        #: None at rest): what a stop by a health rule says it interrupted, and whether
+        #: that motion is bounded (it runs to its end without the I/O process) or not
+        self.motion: str | None = None
+        #: the pass program being flown (urc.service.program), its state (waiting,
+        #: prepositioning, tracking) and how the last one ended ({"id", "why", "t_s"})
+        self.program: Any = None
+        self.program_state = ""
+        self.program_end: dict[str, Any] | None = None
+        #: the last stop that was not asked for by a client's motion command: who stopped
+        #: what and why ({"kind", "reason", "command", "t_s", "resumes"}); see Status.last_stop
+        self.last_stop: dict[str, Any] | None = None
 
     def event(self, text: str) -> None:
         """Logged, and kept among status' recent events."""
@@ -56,11 +68,45 @@ class Core:
         return self.seq
 
     def abandon_motion(self) -> None:
-        """No route, track, park or target any more (a fault, a zone ahead)."""
+        """No route, track, park or target any more (a fault, a zone ahead). A pass
+        program stays loaded: it flies on once the faults are cleared (where the
+        satellite is then), as the tracker's updates used to."""
         self.route = []
         self.tracking = False
         self.parking = False
         self.target_sky = None
+        self.motion = None
+
+    def note_stop(self, kind: str, reason: str, resumes: bool, command: str | None = None) -> None:
+        """Record a stop that a client did not ask for (kind: "health", "fault",
+        "safety", "rotator"), said as an event too: never a silent idle."""
+        self.last_stop = {"kind": kind, "reason": reason, "command": command or self.motion,
+                          "t_s": self.clock.now_s(), "resumes": resumes}
+        self.event(f"stopped ({kind}): {reason}" + (f"; interrupted {self.last_stop['command']}"
+                                                     if self.last_stop["command"] else "")
+                   + ("; resumes once healthy" if resumes else ""))
+
+    def program_view(self) -> dict[str, Any] | None:
+        """Status' ``program``: one dict per program and state (not one per tick)."""
+        p = self.program
+        if p is None:
+            return None
+        key = (p.program_id, self.program_state)
+        if getattr(self, "_program_view_key", None) != key:
+            self._program_view_key = key
+            self._program_view = {"id": p.program_id, "name": p.name, "state": self.program_state,
+                                  "aos_s": p.aos_s, "los_s": p.los_s}
+        return self._program_view
+
+    def end_program(self, why: str) -> None:
+        """The pass program is over (flown, replaced, stopped); said in status."""
+        if self.program is None:
+            return
+        self.program_end = {"id": self.program.program_id, "name": self.program.name, "why": why,
+                            "t_s": self.clock.now_s()}
+        self.program, self.program_state = None, ""
+        if self.motion == "program":
+            self.motion = None
 
     def rates(self) -> tuple[float, float]:
         el = self.axes.get("el")  # (no elevation axis: its pose never changes; any rate)

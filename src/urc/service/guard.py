@@ -60,6 +60,9 @@ class Guard:
         if any(f.kind == fault.kind and f.axis == fault.axis for f in core.faults):
             return
         core.faults.append(fault)
+        if core.motion is not None or core.program_state in ("prepositioning", "tracking"):
+            core.last_stop = {"kind": "fault", "reason": fault.reason, "command": core.motion or "program",
+                              "t_s": core.clock.now_s(), "resumes": False}
         for ax in core.axes.values():
             ax.sp = None
             ax.out = law.OFF
@@ -131,9 +134,10 @@ class Guard:
         for ax in self.core.axes.values():
             ax.out = law.OFF
             ax.apply()
-        self.core.event(f"control loop late by {late_s * 1000:.0f} ms: motors stopped, resuming when on time "
-                        f"(stall {t.recent_stalls(now_s)} of {t.latch_stalls} that latch a fault within "
-                        f"{t.latch_window_s / 60:g} min)")
+        self.core.note_stop("health", f"control loop late by {late_s * 1000:.0f} ms: motors stopped, resuming "
+                            f"when on time for {t.recover_s:g} s (stall {t.recent_stalls(now_s)} of "
+                            f"{t.latch_stalls} that latch a fault within {t.latch_window_s:g} s)",
+                            resumes=self.core.motion is not None)
         return True
 
     # ---------------------------------------------------------------- the guard

@@ -44,7 +44,8 @@ from ..clock import RealClock
 from ..control.faults import Fault
 from ..errors import CommandRejected, UrcError
 from ..ipc import codec
-from ..ipc.messages import (AdoptSensorReading, Announce, ClearFaults, EndSearch, Envelope, Goto, GotoAz, GotoEl,
+from ..ipc.messages import (AdoptSensorReading, Announce, CancelProgram, ClearFaults, EndSearch, Envelope, FlyProgram,
+                            Goto, GotoAz, GotoEl,
                             GotoPose, HardwareInfo, HoldLocal, LocalControls, Move, OvershootQuery, Park,
                             PositionUncertain, PowerFail, Query, Reconfigure, Reply, Request, SaveNow,
                             SearchFrame, SetOvershoot, SetPosition, Stop, Track, TrackPose)
@@ -438,6 +439,12 @@ class RemoteRotator:
 
     def stop(self, axis: str | None = None) -> None:
         self._link.call(Stop(axis), timeout_s=STOP_ACK_S)
+
+    def fly_program(self, program: Any) -> None:
+        self._link.call(FlyProgram(program))
+
+    def cancel_program(self, program_id: int | None = None) -> None:
+        self._link.call(CancelProgram(program_id))
 
     def set_position(self, az_deg: float | None = None, el_deg: float | None = None, local: bool = False) -> None:
         self._link.call(SetPosition(az_deg, el_deg, local))

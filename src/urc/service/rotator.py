@@ -43,6 +43,7 @@ from .core import Core
 from .guard import Guard
 from .locking import lock_free, locked_api
 from .planning import Planner
+from .program import PassProgram
 from .records import Records
 from .settings import FIXED_EL_DEG, RotatorSettings
 from .snapshot import Status
@@ -138,13 +139,15 @@ class Rotator:
         self.hw.poll(now)
         self._guard.sense(now, dt)
         commands.run_queued()
+        commands.advance_program(now)
         commands.advance_route()
         self._guard.retry_after_cut(now)
         commands.check_parked()
         commands.maybe_idle_park(now)
         held = self.timing.held(now)
         if self._was_held and not held:
-            core.event("control loop on time again: motion resumed")
+            core.event("control loop on time again: motion resumed" if core.motion else
+                       "control loop on time again")
         self._was_held = held
         for ax in self.axes.values():
             sp = None if core.faults or held else ax.sp
@@ -216,6 +219,19 @@ class Rotator:
     def stop(self, axis: str | None = None) -> None:
         """Stop (both axes, or one): decelerate at the axis' limit and hold there."""
         self._commands.stop(axis)
+
+    def stop_open_ended(self, reason: str) -> bool:
+        """A health rule (the I/O process silent): stop a jog or an update-fed track,
+        said with ``reason``; bounded motions fly on. True if something stopped."""
+        return self._commands.stop_open_ended(reason)
+
+    def fly_program(self, program: PassProgram) -> None:
+        """Fly a planned pass by this process's clock (program track, urc.service.program)."""
+        self._commands.fly_program(program)
+
+    def cancel_program(self, program_id: int | None = None) -> None:
+        """End the pass program (only ``program_id``, if given); stops it if flying."""
+        self._commands.cancel_program(program_id)
 
     def set_position(self, az_deg: float | None = None, el_deg: float | None = None,
                      local: bool = False) -> None:

@@ -59,9 +59,9 @@ class RotatorSettings:
     save_interval_s: float = 1.0
     watchdog_s: float = 0.5
     #: the stall rule (see :class:`urc.service.timing.LoopTiming`)
-    watchdog_recover_s: float = 1.0
+    watchdog_recover_s: float = 2.0
     watchdog_latch_stalls: int = 3
-    watchdog_latch_window_s: float = 600.0
+    watchdog_latch_window_s: float = 60.0
 
     @classmethod
     def from_caps(cls, caps: RotatorCaps, **overrides) -> "RotatorSettings":

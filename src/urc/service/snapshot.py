@@ -65,6 +65,15 @@ class Status:
     #: then counts in a frame of the procedure's own: its number says nothing about
     #: where the antenna points, and every client is told its position is unknown
     procedures: dict[str, str] = field(default_factory=dict)
+    #: the last stop no client's motion command asked for ({"kind": "health" | "fault",
+    #: "reason", "command": what it interrupted, "t_s", "resumes": whether that command
+    #: goes on by itself once urc is healthy}); None if there was none
+    last_stop: dict[str, Any] | None = None
+    #: the pass program flown by the control process ({"id", "name", "state": waiting |
+    #: prepositioning | tracking, "aos_s", "los_s"}), None if none is loaded; and how the
+    #: last one ended ({"id", "name", "why": "done" | "stopped" | "replaced by ..." ...})
+    program: dict[str, Any] | None = None
+    program_end: dict[str, Any] | None = None
 
     def position_unknown(self, axis: str | None = None) -> bool:
         """Is the position of ``axis`` (None: any axis) unknown (a procedure runs)?"""

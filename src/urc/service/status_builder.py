@@ -51,5 +51,8 @@ def build_status(core: Core, now_s: float, loop: LoopHealth, loop_dict: dict[str
         state_error=save_error, loop=loop_dict,
         local_control=local_control,
         axes=tuple(core.axes),
-        procedures={n: "reference search" for n in searches})
+        procedures={n: "reference search" for n in searches},
+        last_stop=core.last_stop,
+        program=core.program_view(),
+        program_end=core.program_end)
 

@@ -1,9 +1,12 @@
 """The tracker: feeds the rotator service time-tagged setpoints with feed-forward.
 
 A satellite is flown pass by pass: each pass is planned whole before it starts (wrap,
-flip, rate limits, keep-out, see planner.py), the antenna pre-positions at the AOS pose in
+flip, rate limits, keep-out, see planner.py) and the plan is handed to the rotator as a
+program (urc.service.program): the control process then pre-positions at the AOS pose in
 time, follows the planned trajectory smoothly (moving setpoints, not threshold jumps)
-and parks after LOS if configured. Continuous targets (Sun, Moon, a fixed direction, a
+and parks after LOS if configured, by its own clock, whether or not this process is
+running meanwhile. The tracker watches the program's state in the status, uploads it
+again to a control process that restarted, and plans the next pass. Continuous targets (Sun, Moon, a fixed direction, a
 place, a balloon) are followed while above the horizon.
 
 Sans-I/O in time: ``step(now_s)`` is called periodically by the control loop (or a test
@@ -12,6 +15,7 @@ on a virtual clock); ``unix_at(now_s)`` maps the loop's clock to UTC.
 
 from __future__ import annotations
 
+import itertools
 import logging
 import math
 from dataclasses import dataclass, replace
@@ -21,6 +25,7 @@ import numpy as np
 
 from ..control.geometry import route_time_s
 from ..errors import CommandRejected
+from ..service.program import PassProgram
 from ..service.settings import FIXED_EL_DEG
 from .elements import ElementSet
 from .passes import Pass, find_passes
@@ -51,12 +56,22 @@ ARC_STEP_S = 60.0
 ARC_FOLLOW_DEG = 0.5
 
 
+#: program ids: unique within this process (a restarted control process knows none)
+_PROGRAM_IDS = itertools.count(1)
+#: a program uploaded this long ago that the status does not show is sent again (the
+#: control process restarted, or lost it): it takes it at its next tick
+PROGRAM_RESEND_S = 0.5
+
+
 @dataclass
 class _PassJob:
     target: SatelliteTarget
     pass_: Pass
     plan: Plan
     state: str = "waiting"  # waiting -> prepositioning -> tracking -> done
+    #: the program flying it (urc.service.program), and when it was last sent
+    program_id: int | None = None
+    sent_s: float = -math.inf
 
 
 class Tracker:
@@ -134,6 +149,12 @@ class Tracker:
             return None, f"{target.name}: {exc}"
 
     def stop_tracking(self) -> None:
+        job = self.job
+        if job is not None and job.program_id is not None:
+            try:  # (only that program: one the operator loaded since is left alone)
+                self.rot.cancel_program(job.program_id)
+            except CommandRejected as exc:
+                log.warning("cancelling the pass program of %s: %s", job.target.name, exc)
         self.target = None
         self.job = None
         self._generation += 1
@@ -259,41 +280,56 @@ class Tracker:
             self.last_error = str(exc)
 
     def _step_pass(self, now_s: float) -> None:
+        """The control process flies the pass (its program); here it is uploaded, sent
+        again to a control process that lost it (restarted), and its end is taken."""
         job = self.job
-        u = self.unix_at(now_s)
+        st = self.rot.status()
+        if job.program_id is not None:
+            if st.program is not None and st.program["id"] == job.program_id:
+                job.state = st.program["state"]
+                return
+            end = st.program_end
+            if end is not None and end["id"] == job.program_id:
+                self._program_ended(job, end["why"], now_s)
+                return
+            if st.t_s < job.sent_s + PROGRAM_RESEND_S:
+                return  # (taken at the control process's next tick)
+        if self.unix_at(now_s) >= job.pass_.los_unix_s:
+            self._program_ended(job, "done", now_s)
+            return
+        self._upload(job, now_s)
+
+    def _upload(self, job: _PassJob, now_s: float) -> None:
         plan = job.plan
-        if u >= job.pass_.los_unix_s:
-            job.state = "done"
-            log.info("pass of %s ended", job.target.name)
-            if self.park_after_pass:
-                self.rot.park()
-            else:  # hold the LOS pose: the last update's speed must not carry the antenna on
-                az, el, _, _ = plan.pose_at(job.pass_.los_unix_s)
-                self.rot.track_pose(az, el, 0.0, 0.0, now_s)
-            if self.follow_satellite:
-                self._plan_next(job.target, now_s)
-            else:
-                self.target = None
-                self.job = None
+        offset_s = self.unix_at(now_s) - now_s  # UTC minus the control loop's clock
+        program = PassProgram(
+            program_id=job.program_id or next(_PROGRAM_IDS), name=job.target.name,
+            t_s=tuple((plan.t_s - offset_s).tolist()), az_deg=tuple(plan.az_deg.tolist()),
+            el_deg=tuple(plan.el_deg.tolist()), blocked=tuple(plan.blocked.tolist()),
+            preposition_start_s=min(plan.preposition_start_s - offset_s, float(plan.t_s[0] - offset_s)),
+            end="park" if self.park_after_pass else "hold")
+        resent = job.program_id is not None
+        job.program_id, job.sent_s = program.program_id, now_s
+        self.rot.fly_program(program)
+        log.info("pass of %s %s to the control process (AOS %s)", job.target.name,
+                 "uploaded again" if resent else "uploaded", job.pass_.aos.isoformat())
+
+    def _program_ended(self, job: _PassJob, why: str, now_s: float) -> None:
+        """The pass program is over: flown to LOS, or cut short (a stop or another
+        command from a client: a person's word, never resumed by itself)."""
+        job.state = "done"
+        if why != "done":
+            log.warning("pass of %s not flown on: %s", job.target.name, why)
+            job.program_id = None  # (nothing to cancel any more)
+            self.stop_tracking()
+            self.last_error = f"pass of {job.target.name} not flown on: {why}"
             return
-        if u < plan.t_s[0]:
-            if u >= plan.preposition_start_s and job.state == "waiting":
-                az, el = plan.aos_pose
-                if not self._go_round_zones(az, el, now_s):
-                    self.rot.track_pose(az, el, 0.0, 0.0, now_s)
-                job.state = "prepositioning"
-                log.info("pre-positioning for %s at az %.1f el %.1f", job.target.name, az, el)
-            return
-        job.state = "tracking"
-        i = min(max(int(np.searchsorted(plan.t_s, u)), 0), len(plan.t_s) - 1)  # (not np.clip: see Plan.pose_at)
-        if plan.blocked[i]:
-            return  # inside a keep-out zone: wait at its edge
-        if now_s < self._route_until_s and self.rot.status().moving:
-            return  # flying round a zone to rejoin the track
-        az, el, az_rate, el_rate = plan.pose_at(u)
-        if self._go_round_zones(az, el, now_s, plan, u):
-            return
-        self.rot.track_pose(az, el, az_rate, el_rate, now_s)
+        log.info("pass of %s ended", job.target.name)
+        if self.follow_satellite:
+            self._plan_next(job.target, now_s)
+        else:
+            self.target = None
+            self.job = None
 
     def _go_round_zones(self, az_m: float, el_m: float, now_s: float, plan: Plan | None = None,
                         u: float = 0.0) -> bool:
