@@ -118,6 +118,13 @@ def _kill_group(pgid: int) -> None:
         pass
 
 
+def _read_or_empty(path: Path) -> str:
+    try:
+        return path.read_text()
+    except OSError:  # (a thread that ended meanwhile)
+        return ""
+
+
 def free_port(kind: int = socket.SOCK_STREAM) -> int:
     with socket.socket(socket.AF_INET, kind) as s:
         s.bind(("127.0.0.1", 0))
@@ -224,7 +231,11 @@ class UrcProcess:
     def control_pid(self) -> int:
         """The pid of this urc's control process (the loop, the rotator, the hardware)."""
         assert self.proc is not None
-        for pid in Path(f"/proc/{self.proc.pid}/task/{self.proc.pid}/children").read_text().split():
+        # (every thread's children: a control process started again after a takeover is
+        # the watch thread's child)
+        children = [pid for task in Path(f"/proc/{self.proc.pid}/task").iterdir()
+                    for pid in _read_or_empty(task / "children").split()]
+        for pid in children:
             try:
                 if b"urc.service.control_process" in Path(f"/proc/{pid}/cmdline").read_bytes():
                     return int(pid)

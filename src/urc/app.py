@@ -131,7 +131,11 @@ async def _serve(cfg: Config, state_dir: Path, config_path: Path | None, api_soc
     stop = asyncio.Event()
     loop = asyncio.get_running_loop()
     asked: list[str] = []  # why this process stops, when it was asked to (a signal)
-    control = ControlProcess(cfg, state_dir, lock_fds, on_lost=lambda _why: loop.call_soon_threadsafe(stop.set))
+    supervised = cfg.faults.control_takeover_s > 0
+    # (supervised: a control process that is lost is started again by its watch, and
+    # clients keep their connections meanwhile; else urc run ends and systemd restarts it)
+    control = ControlProcess(cfg, state_dir, lock_fds,
+                             on_lost=None if supervised else lambda _why: loop.call_soon_threadsafe(stop.set))
     control.spawn()  # (it builds the rotator while this process imports the web stack)
     try:
         import uvicorn
@@ -151,17 +155,16 @@ async def _serve(cfg: Config, state_dir: Path, config_path: Path | None, api_soc
         control.abandon()
         raise
     rotator = control.wait_ready()
-    held: list = []  # the outputs, once this process has taken them over
 
-    def take_over(why: str) -> None:
+    def hold_outputs():
         from .assembly import take_outputs
 
-        held.append(take_outputs(cfg, state_dir))
-        failed = getattr(held[-1], "failed", [])   # (lines the takeover could not claim)
-        print(f"urc: {why}: killed it, " + ("every output driven safe by this process" if not failed else
-              "NOT made safe: " + "; ".join(f"{what} ({err})" for what, err in failed)), flush=True)
-        loop.call_soon_threadsafe(stop.set)
-    control.watch(cfg.faults.control_takeover_s, take_over)
+        return take_outputs(cfg, state_dir)
+
+    def said(text: str) -> None:
+        log.warning("%s", text)
+        print(f"urc: {text}", flush=True)
+    control.watch(cfg.faults.control_takeover_s, hold_outputs, said)
     if cfg.faults.control_takeover_s > 0:  # (a takeover then opens the hardware at once)
         from .assembly import prepare_takeover
         threading.Thread(target=prepare_takeover, args=(cfg,), name="urc-takeover-imports", daemon=True).start()
@@ -225,11 +228,10 @@ async def _serve(cfg: Config, state_dir: Path, config_path: Path | None, api_soc
             await asyncio.gather(web, return_exceptions=True)
         if stopper is not None:
             stopper.cancel()
-        for hw in held:  # (held safe until the end: closing is the last thing)
-            hw.close()
+        control.release_outputs()  # (held safe until the end: closing is the last thing)
     if control.taken_over:
-        raise ServiceFailed(f"{control.taken_over}; the outputs were held safe until urc run ended. "
-                            "The position is uncertain if the antenna was moving.")
+        raise ServiceFailed(f"{control.taken_over}; the outputs were held safe until urc run ended "
+                            "(it could not be started again). The position is uncertain if the antenna was moving.")
     if result["hung"]:
         raise ServiceFailed("the control loop hangs in a tick: outputs made safe, state not saved")
     if result["error"]:

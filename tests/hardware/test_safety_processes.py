@@ -105,15 +105,20 @@ def test_a_dead_or_frozen_control_processs_lines_drive_until_the_relay_or_the_ta
     try:
         moving_fast(p)
         t_event = time.time()
-        os.kill(p.control_pid(), getattr(signal, how))
-        out, _ = p.proc.communicate(timeout=60)
-        assert "every output driven safe by this process" in out, out
+        ctl = p.control_pid()
+        os.kill(ctl, getattr(signal, how))
+        # taken over, then a control process of its own started again (issue 33: urc run
+        # no longer ends)
+        p.wait(lambda s: any("started again" in e for e in s["events"]), timeout_s=60)
+        assert p.control_pid() != ctl and p.proc.poll() is None
     finally:
-        p.stop()
+        out = p.stop()
+    assert "every output driven safe by the I/O process" in out, out
     entries = read_log(log)
     before = [e for e in entries if e["t"] == "s" and e["wall_s"] <= t_event][-1]["axes"]["az"]
     restore = [e for e in entries if e["t"] == "restore" and e["wall_s"] > t_event]
-    assert len(restore) == 1, entries[-5:]              # the I/O process's world, on moving iron
+    # the first: the I/O process's world, on moving iron (the second: the new control process's)
+    assert len(restore) >= 1, entries[-5:]
     az = restore[0]["axes"]["az"]
     assert az["drive"] != 0.0 and abs(before["rate"]) > 0.5
     top = get_profile(PROFILE).az.max_rate_deg_per_s

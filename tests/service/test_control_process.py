@@ -5,6 +5,8 @@ process uses."""
 from __future__ import annotations
 
 import errno
+import os
+import signal
 import json
 import threading
 import time
@@ -222,3 +224,41 @@ def test_a_reply_carries_the_status_only_where_the_command_changed_it(control):
         rot.goto(az_deg, 80.0)
     assert ("Goto", False) in carried, carried
     wait_until(lambda: rot.status().target_az_deg == 12.0)   # (the next tick's status tells)
+
+
+def test_a_starved_link_reader_is_no_frozen_control_process(start_control, monkeypatch):
+    """Issue 33: the watch judged the control process by when this process's own reader
+    thread last parsed a status, so a starved reader (a busy I/O process) looked like a
+    frozen control process: it was killed and urc exited. Now the kernel's evidence
+    (its CPU time, its state) is what counts: a reader held up for 2.5 s takes over
+    nothing, while a SIGSTOP of the control process is still caught."""
+    from urc.ipc import codec
+
+    proc, rot = start_control("g5500")
+    held = threading.Event()
+    real_loads = codec.loads
+
+    def starved_loads(data):   # the reader thread gets no time while `held` is set
+        while held.is_set():
+            time.sleep(0.01)
+        return real_loads(data)
+    monkeypatch.setattr(codec, "loads", starved_loads)
+    taken: list[str] = []
+    proc.watch(1.0, lambda: taken.append("held") or _Released(), taken.append)
+    pid = proc.proc.pid
+    held.set()
+    time.sleep(2.5)
+    assert rot.status().t_s < time.monotonic() - 2.0   # (the reader was starved indeed)
+    held.clear()
+    assert not taken and proc.proc.poll() is None and proc.proc.pid == pid, taken
+    # ... and a frozen one is still caught, and started again
+    os.kill(pid, signal.SIGSTOP)
+    wait_until(lambda: proc.proc.pid != pid and rot.status().t_s > time.monotonic() - 0.5, 30.0,
+               "the frozen control process taken over and started again")
+    assert taken[0] == "held" and "froze" in taken[1], taken
+    proc.stopping.set()
+
+
+class _Released:
+    def close(self) -> None:
+        pass

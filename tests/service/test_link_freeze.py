@@ -9,7 +9,7 @@ import socket
 
 import pytest
 
-from urc_process import HTTP, UrcProcess, free_port, wait_until
+from urc_process import HTTP, UrcProcess, free_port, process_gone, wait_until
 
 #: generous: the point is what answers before the pending set does, not how fast
 ANSWER_TIMEOUT_S = 30.0
@@ -84,3 +84,30 @@ def test_a_stopped_control_process_blocks_no_other_client_and_a_stop_waits_for_i
     poller.sendall(b"p\n")
     assert len(line(poller).split()) == 2  # positions again
     wait_until(lambda: not u.status()["moving"], ANSWER_TIMEOUT_S, "standing")
+
+
+def test_after_a_takeover_clients_keep_their_connection_and_the_control_process_comes_back(tmp_path):
+    """Issue 33: after a takeover `urc run` exited, resetting every rotctld client and
+    refusing it until a restart. Now the I/O process holds the outputs safe, starts the
+    control process again (after a back-off) and the same connection is answered
+    meanwhile with the protocol's error, then with the position again."""
+    port = free_port()
+    u = UrcProcess(tmp_path, profile="g5500", serve=[{"protocol": "rotctld", "tcp": f"127.0.0.1:{port}"}]).start()
+    try:
+        client = socket.create_connection(("127.0.0.1", port), timeout=ANSWER_TIMEOUT_S)
+        client.sendall(b"p\n")
+        assert len(line(client).split()) == 2
+        pid = u.control_pid()
+        os.kill(pid, signal.SIGSTOP)   # frozen for good: taken over after control_takeover_s
+        wait_until(lambda: process_gone(pid), 30.0, "the frozen control process killed")
+        client.sendall(b"p\n")
+        assert line(client) == b"RPRT -9\n"   # the same connection: the protocol's error
+        s = u.wait(lambda s: any("started again" in e for e in s["events"]), timeout_s=60)
+        assert not any(f["kind"] == "control" for f in s["faults"]), s["faults"]
+        assert u.control_pid() != pid and u.proc.poll() is None
+        client.sendall(b"p\n")
+        # g5500's potentiometers are absolute: the position is known again at once
+        assert len(line(client).split()) == 2 and s["position_known"]
+        client.close()
+    finally:
+        u.kill()

@@ -68,6 +68,11 @@ WATCH_S = 0.05
 #: how long the watch waits for a killed control process to go before it claims the
 #: outputs anyway (one stuck in the kernel ignores SIGKILL, and its lines stay held)
 KILL_WAIT_S = 2.0
+#: after a takeover the control process is started again after this back-off, doubled
+#: for each restart within RESTART_WINDOW_S; RESTARTS_MAX of them there: outputs held safe
+RESTART_BACKOFF_S = 1.0
+RESTART_WINDOW_S = 60.0
+RESTARTS_MAX = 3
 #: how long building the hardware may take (imports, a bridge's first contact)
 START_TIMEOUT_S = 60.0
 #: how long the I/O process waits for an orderly stop: standstill (loop.STANDSTILL_TIMEOUT_S,
@@ -402,9 +407,15 @@ class ControlProcess:
         self._conn: Connection | None = None
         #: set when the orderly stop begins (a silent process is then not a frozen one)
         self.stopping = threading.Event()
-        #: why the I/O process took the outputs over ("" if it did not)
+        #: why the I/O process took the outputs over ("" if it did not, or the control
+        #: process it started again runs)
         self.taken_over = ""
         self._watcher: threading.Thread | None = None
+        self._restarts: list[float] = []
+        #: the rotator handed out (a restart gives it the new process's link)
+        self.rotator: RemoteRotator | None = None
+        #: the outputs this process holds safe after a takeover (None: it holds none)
+        self.held: Any = None
 
     def start(self, timeout_s: float = START_TIMEOUT_S) -> RemoteRotator:
         """Spawn it and wait until its rotator is built (its start-up errors are raised
@@ -448,7 +459,10 @@ class ControlProcess:
             conn.close()
             raise exception_from_wire(payload)
         self.link = ControlLink(conn, self.on_lost).start()
-        return RemoteRotator(self.link, payload)
+        remote = RemoteRotator(self.link, payload)
+        if self.rotator is None:
+            self.rotator = remote
+        return remote
 
     def abandon(self) -> None:
         """A spawned process that will not be used (its starter failed first): killed."""
@@ -466,55 +480,142 @@ class ControlProcess:
             except OSError:
                 pass
 
-    def watch(self, takeover_s: float, take_over: Callable[[str], None]) -> None:
-        """From a thread of its own (the event loop may be what is stuck): once the
-        control process is gone, or has published no status for ``takeover_s``
-        (frozen: SIGSTOP, a hung interpreter), kill it so its outputs are free, then call
-        ``take_over(why)`` to drive them safe from here. Layer 2 of the safety chain."""
+    def watch(self, takeover_s: float, hold_outputs: Callable[[], Any],
+              on_event: Callable[[str], None] = lambda text: None) -> None:
+        """Supervise the control process from a thread of its own (the event loop may be
+        what is stuck). Once it is gone, or frozen for ``takeover_s`` by evidence a starved
+        I/O process cannot fake (:meth:`progress`), kill it so its outputs are free, hold
+        them safe from here (``hold_outputs()``: an object with ``close``), and start it
+        again with back-off; after RESTARTS_MAX restarts within RESTART_WINDOW_S the
+        outputs stay held safe until ``urc run`` ends. Clients keep their connections
+        meanwhile (their protocol's error: the rotator's link is down). Layer 2 of the
+        safety chain, and what keeps a station on the air after it (issue 33)."""
         if takeover_s <= 0:
             return
 
         def run() -> None:
-            assert self.link is not None and self.proc is not None
-            awake_since_s = last_s = time.monotonic()
             while True:
-                stopping = self.stopping.wait(WATCH_S)
-                now_s = time.monotonic()
-                if now_s - last_s > WATCH_S + 0.25:  # this process was held up itself (SIGSTOP,
-                    awake_since_s = now_s            # swapped out): its reader must catch up first
-                last_s = now_s
-                status = self.link.status
-                age_s = now_s - status.t_s if status is not None else 0.0
-                # (stale for takeover_s, all of it seen by this process while it ran)
-                age_s = min(age_s, now_s - awake_since_s)
-                if self.link.lost:
-                    try:  # (a loop that died still stops in order, saves and says so)
-                        self.proc.wait(5.0)
-                    except subprocess.TimeoutExpired:
-                        pass
-                    if self.link.final is not None:
-                        return  # it ended in order: outputs safe, state saved
-                    why = f"the control process died ({self.link.lost})"
-                elif stopping:
-                    return  # (an orderly stop: silence now is that stop)
-                elif age_s > takeover_s:
-                    why = f"the control process froze (no status for {age_s:.1f} s)"
-                else:
-                    continue
-                self.proc.kill()  # (a stopped process dies too: its lines are free after this)
-                try:  # (one stuck in the kernel, D state, ignores SIGKILL: take what is free)
-                    self.proc.wait(KILL_WAIT_S)
-                except subprocess.TimeoutExpired:
-                    log.error("the control process did not die within %.0f s of SIGKILL (stuck in the kernel?): "
-                              "claiming the outputs it does not hold", KILL_WAIT_S)
+                why = self._watch_once(takeover_s)
+                if not why:
+                    return  # an orderly stop
                 self.taken_over = why
+                held = None
                 try:
-                    take_over(why)
-                except Exception:
+                    held = self.held = hold_outputs()
+                    failed = getattr(held, "failed", [])
+                    on_event(f"{why}: killed it; " + ("every output driven safe by the I/O process" if not failed
+                             else "NOT made safe: " + "; ".join(f"{what} ({err})" for what, err in failed)))
+                except Exception as exc:
                     log.exception("taking the outputs over failed")
-                return
+                    on_event(f"{why}: killed it; taking the outputs over failed: {exc}")
+                if not self._restart(held, on_event):
+                    return
+
         self._watcher = threading.Thread(target=run, name="urc-control-watch", daemon=True)
         self._watcher.start()
+
+    def progress(self) -> tuple[Any, str]:
+        """Evidence that the control process runs, read from the kernel (not from a
+        status some thread of this process may not have had the time to read): its CPU
+        time in ns (/proc/PID/schedstat: a loop that ticks burns some every tick; a
+        stopped, frozen or deadlocked one none), and its state (T: stopped)."""
+        assert self.proc is not None
+        pid = self.proc.pid
+        try:
+            with open(f"/proc/{pid}/stat", "rb") as f:
+                state = f.read().rsplit(b")", 1)[1].split()[0].decode()
+            with open(f"/proc/{pid}/schedstat", "rb") as f:
+                cpu: Any = int(f.read().split()[0])
+        except (OSError, IndexError, ValueError):
+            return None, "?"  # (gone: the link says so)
+        return cpu, state
+
+    def _watch_once(self, takeover_s: float) -> str:
+        """Watch until the control process is lost or frozen (why), or an orderly stop ("")."""
+        assert self.link is not None and self.proc is not None
+        link = self.link
+        awake_since_s = last_s = progress_s = time.monotonic()
+        last_cpu, _ = self.progress()
+        while True:
+            stopping = self.stopping.wait(WATCH_S)
+            now_s = time.monotonic()
+            if now_s - last_s > WATCH_S + 0.25:  # this process was held up itself (SIGSTOP,
+                awake_since_s = now_s            # swapped out): judge only what it saw
+            last_s = now_s
+            if link.lost:
+                try:  # (a loop that died still stops in order, saves and says so)
+                    self.proc.wait(5.0)
+                except subprocess.TimeoutExpired:
+                    pass
+                if stopping or self.stopping.is_set():
+                    return ""
+                return f"the control process ended ({link.lost})" if link.final is not None else \
+                    f"the control process died ({link.lost})"
+            if stopping:
+                return ""  # (an orderly stop: silence now is that stop)
+            cpu, state = self.progress()
+            if cpu != last_cpu and state not in ("T", "t"):
+                last_cpu, progress_s = cpu, now_s
+            status = link.status
+            age_s = now_s - status.t_s if status is not None else 0.0
+            # frozen: no status AND no CPU time for takeover_s, all of it seen while awake
+            still_s = min(age_s, now_s - progress_s, now_s - awake_since_s)
+            if still_s > takeover_s:
+                return f"the control process froze (no tick for {still_s:.1f} s, process state {state})"
+
+    def _restart(self, held: Any, on_event: Callable[[str], None]) -> bool:
+        """Kill what is left, wait the back-off with the outputs held safe, then start a
+        new control process and hand it the rotator's link. False: given up (too many
+        restarts, or an orderly stop began)."""
+        assert self.proc is not None
+        self.proc.kill()  # (a stopped process dies too: its lines are free after this)
+        try:  # (one stuck in the kernel, D state, ignores SIGKILL: take what is free)
+            self.proc.wait(KILL_WAIT_S)
+        except subprocess.TimeoutExpired:
+            log.error("the control process did not die within %.0f s of SIGKILL (stuck in the kernel?)",
+                      KILL_WAIT_S)
+        while True:
+            now_s = time.monotonic()
+            self._restarts = [t for t in self._restarts if now_s - t < RESTART_WINDOW_S]
+            if len(self._restarts) >= RESTARTS_MAX:
+                on_event(f"the control process failed {len(self._restarts) + 1} times within "
+                         f"{RESTART_WINDOW_S:g} s: outputs held safe until urc run ends (restart it)")
+                return False
+            backoff_s = RESTART_BACKOFF_S * 2 ** len(self._restarts)
+            if self.stopping.wait(backoff_s):
+                return False
+            self._restarts.append(time.monotonic())
+            if held is not None:
+                self.release_outputs()
+                held = None
+            try:
+                self.spawn()
+                remote = self.wait_ready()
+            except Exception as exc:
+                log.error("restarting the control process failed: %s", exc)
+                on_event(f"restarting the control process failed: {exc}")
+                continue
+            if self.rotator is not None:
+                self.rotator.rebind(remote)
+            text = (f"control process started again (process {self.proc.pid}) after: {self.taken_over}; position "
+                    + ("known" if remote.status().position_known else "uncertain: re-reference"))
+            on_event(text)
+            try:  # (in its status' events too, for every client)
+                remote.announce(text)
+            except Exception:
+                log.exception("announcing the restart failed")
+            self.taken_over = ""
+            return True
+
+    def release_outputs(self) -> None:
+        """Let go of the outputs held safe since a takeover (the end of ``urc run``, or a
+        new control process about to claim them)."""
+        held, self.held = self.held, None
+        if held is not None:
+            try:
+                held.close()
+            except Exception:
+                log.exception("letting go of the held outputs failed")
 
     def stop(self, timeout_s: float = STOP_TIMEOUT_S) -> dict[str, Any]:
         """Ask for an orderly stop and wait for it; returns how it ended."""

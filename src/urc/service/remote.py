@@ -335,12 +335,18 @@ def _lost_reply(rid: int, reason: str) -> Reply:
 
 
 class _Shared:
-    """What every view of one remote rotator shares: the settings it runs with."""
+    """What every view of one remote rotator shares: the link to the control process
+    (replaced when it is started again) and what it said it runs with."""
 
-    def __init__(self, info: dict[str, Any]):
+    def __init__(self, link: ControlLink, info: dict[str, Any]):
+        self.link = link
         self.settings = info["settings"]
         self.caps = info["caps"]
         self.geometry = info["geometry"]
+        self.pid: int = info["pid"]
+        self.priority: str = info.get("priority", "")
+        #: what the hardware is (sent with "ready": asking costs no round trip)
+        self.hardware = info["hardware"]
 
 
 class RemoteRotator:
@@ -350,14 +356,9 @@ class RemoteRotator:
 
     def __init__(self, link: ControlLink, info: dict[str, Any], shared: _Shared | None = None,
                  fresh_status_only: bool = False):
-        self._link = link
-        self._shared = shared or _Shared(info)
+        self._shared = shared or _Shared(link, info)
         self._fresh_status_only = fresh_status_only
-        self.pid: int = info["pid"]
-        self.priority: str = info.get("priority", "")
         self.clock = RealClock()  # CLOCK_MONOTONIC: the same time base in both processes
-        #: what the hardware is (sent with "ready": asking costs no round trip)
-        self.hardware = info["hardware"]
         self._info = info
         link.offer_status(info["status"])
 
@@ -367,9 +368,21 @@ class RemoteRotator:
         it were current (each answers in its own error form)."""
         return RemoteRotator(self._link, self._info, self._shared, fresh_status_only=True)
 
+    def rebind(self, new: "RemoteRotator") -> None:
+        """A new control process runs (started again after a takeover): every view of this
+        rotator (the sessions' too) talks to it from now on."""
+        shared, theirs = self._shared, new._shared
+        shared.settings, shared.caps, shared.geometry = theirs.settings, theirs.caps, theirs.geometry
+        shared.pid, shared.priority, shared.hardware = theirs.pid, theirs.priority, theirs.hardware
+        shared.link = theirs.link
+
+    _link = property(lambda self: self._shared.link)
     settings = property(lambda self: self._shared.settings)
     caps = property(lambda self: self._shared.caps)
     geometry = property(lambda self: self._shared.geometry)
+    pid = property(lambda self: self._shared.pid)
+    priority = property(lambda self: self._shared.priority)
+    hardware = property(lambda self: self._shared.hardware)
 
     @property
     def lock(self) -> Any:
