@@ -183,3 +183,55 @@ def test_pinctrl_names_per_chip():
         return types.SimpleNamespace(returncode=0, stdout="12: a0    pd | lo // GPIO12 = PWM0_0\n")
     assert Pinctrl(exe="pinctrl", run=run).function(12) == "PWM0_0"
     assert Pinctrl(exe=None).function(12) is None
+
+
+PI5_PWM = {12: "PWM0_CHAN0", 13: "PWM0_CHAN1", 18: "PWM0_CHAN2", 19: "PWM0_CHAN3"}
+
+
+def test_a_pi5_uses_its_detected_four_channel_table_everywhere(monkeypatch, tmp_path, caplog):
+    """bigras on a Pi 5 (the RP1's PWM0 found in sysfs) with hardware_pwm left at "2chan":
+    the build used the 4-channel table, but the start log's advice and `urc hw check`
+    used the 2-channel plan (el's GPIO18/19 "share PWM0/PWM1 ... software PWM") while
+    both ran hardware PWM2/3. Now all three use the detected table."""
+    import logging
+
+    from click.testing import CliRunner
+
+    from urc.cli import main
+    from urc.hardware.gpio import pwm as pwm_mod
+    made: list[int] = []
+
+    class Library:
+        def __init__(self, pwm_channel, hz, chip=0):
+            made.append(pwm_channel)
+
+        def start(self, duty):
+            pass
+
+        def change_duty_cycle(self, duty):
+            pass
+
+        def stop(self):
+            pass
+
+    sys_pwm = pwm_sysfs(tmp_path / "sys", "1f00098000.pwm", running={})
+    monkeypatch.setattr(pwm_mod, "SYS_PWM", sys_pwm)
+    f = MuxedMockFactory(dict(PI5_PWM))
+    monkeypatch.setattr(Device, "pin_factory", f)
+    monkeypatch.setitem(sys.modules, "rpi_hardware_pwm", types.SimpleNamespace(HardwarePWM=Library))
+    cfg = cfg_of("bigras")
+    assert cfg.hardware.gpio.hardware_pwm == "2chan" and not cfg.hardware.gpio.emulate
+    caps = settings_from_config(cfg).caps
+    with caplog.at_level(logging.WARNING):
+        hw = build_hardware("gpio", caps, VirtualClock(1000.0), tmp_path, hardware_options(cfg))
+    assert made == [0, 1, 2, 3]
+    assert "shares PWM" not in caplog.text
+    lines: list[str] = []
+    check(hw, caps, gpio=cfg.hardware.gpio, out=lines.append)
+    text = "\n".join(lines)
+    for where, pin, ch in (("az.rpwm", 12, 0), ("az.lpwm", 13, 1), ("el.rpwm", 18, 2), ("el.lpwm", 19, 3)):
+        assert f"{where} GPIO{pin}: hardware PWM{ch} (pwmchip0, routed to PWM{ch})" in text
+    hw.close()
+    r = CliRunner().invoke(main, ["config", "check", str(EXAMPLES / "bigras.toml")])
+    assert r.exit_code == 0 and "shares PWM" not in r.output, r.output
+    f.close()

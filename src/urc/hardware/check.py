@@ -55,6 +55,11 @@ def check(hw: Any, caps: Any, *, gpio: Any = None, move: bool = False, jog_duty:
         # what was built (a pin the overlay did not route to its channel runs software PWM)
         for where, (pin, what) in built.items():
             out(f"  {where} GPIO{pin}: {what}")
+    elif gpio is not None:
+        from .gpio.pwm import detect_pwm_chip, pwm_plan
+        table = None if gpio.emulate else detect_pwm_chip(gpio)[1]      # a Pi 5's own table
+        for where, (pin, ch) in pwm_plan(gpio, table).items():
+            out(f"  {where} GPIO{pin}: " + (f"hardware PWM{ch} (planned)" if ch is not None else "software PWM"))
     for label, part in hw.parts:
         ident = getattr(part, "identify", None)
         if ident is None:

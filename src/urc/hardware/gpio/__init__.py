@@ -33,6 +33,7 @@ from .i2c import AdcInput, Lsm303dChip
 from .kinds import MOTORS, SENSORS, AxisWiring, motor_kind_issue, sensor_kind_issue
 from .pinmux import pin_functions, routing_note
 from .pins import PinIn, PinOut, release_inputs
+from . import pwm as pwm_mod
 from .pwm import HardwarePwm, detect_pwm_chip, make_pwm, pwm_advice, pwm_plan
 
 log = logging.getLogger(__name__)
@@ -93,12 +94,13 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
 
     parts_list: list[tuple[str, Any]] = []
     buses = Buses(gpio, emulate, parts_list)
-    pwm_chip, pwm_table = (0, None) if emulate else detect_pwm_chip(gpio)
-    plan = pwm_plan(gpio, pwm_table)
+    sys_pwm = pwm_mod.SYS_PWM
+    pwm_chip, pwm_table = (0, None) if emulate else detect_pwm_chip(gpio, sys_pwm)
+    plan = pwm_plan(gpio, pwm_table)   # (a Pi 5's own table, whatever hardware_pwm says)
     functions = None if emulate else pin_functions(factory)
     pwm_parts: list[HardwarePwm] = []
     pwm_outputs: dict[str, tuple[int, str]] = {}
-    for note in pwm_advice(gpio):
+    for note in pwm_advice(gpio, pwm_table):
         log.warning("%s", note)
     syncs: list[Any] = []
     emu = Emulation(world, syncs, buses.fake_spi, {}) if world is not None else None
@@ -117,7 +119,8 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
 
         def pwm(key: str, name: str = name, pins: dict[str, int] = pins, pwm_hz: float = cfg.pwm_frequency_hz) -> Any:
             pin, ch = plan[f"{name}.{key}"]
-            part = make_pwm(factory, pin, ch, pwm_hz, emulated=emulate, chip=pwm_chip, functions=functions)
+            part = make_pwm(factory, pin, ch, pwm_hz, emulated=emulate, chip=pwm_chip, functions=functions,
+                            sys_pwm=sys_pwm)
             if isinstance(part, HardwarePwm):
                 pwm_parts.append(part)
                 parts_list.append((f"{name} {key}", part))

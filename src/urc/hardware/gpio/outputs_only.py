@@ -101,13 +101,16 @@ class OutputsHeld:
 
 
 def take_gpio_outputs(gpio: Any, axes: tuple[str, ...], factory: Any = None, *,
-                      sys_pwm: Path = Path("/sys/class/pwm"), functions: Any = None) -> OutputsHeld:
+                      sys_pwm: Path | None = None, functions: Any = None) -> OutputsHeld:
     """Claim every motor, relay, brake and heartbeat output of ``gpio`` (the
     ``[hardware.gpio]`` section) for ``axes`` at its safe level; a motor PWM pin routed
     to its hardware channel is set through sysfs instead. ``functions``: the pins'
     routing (:func:`.pinmux.pin_functions` of the factory unless given)."""
+    from . import pwm as pwm_mod
     from .pinmux import pin_functions
     from .pwm import PwmChannelLevel, detect_pwm_chip, pwm_plan, routed_to_pwm
+
+    sys_pwm = pwm_mod.SYS_PWM if sys_pwm is None else sys_pwm
 
     if factory is None:
         try:

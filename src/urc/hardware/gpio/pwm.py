@@ -39,6 +39,9 @@ log = logging.getLogger(__name__)
 HARDWARE_PWM = {"2chan": {12: 0, 18: 0, 13: 1, 19: 1},
                 "4chan": {12: 0, 13: 1, 18: 2, 19: 3},
                 "off": {}}
+#: the kernel's PWM class (read at call time by the builder, the takeover and the checks:
+#: tests point it at a tree of their own)
+SYS_PWM = Path("/sys/class/pwm")
 #: lgpio's software PWM (tx_pwm) frequency limit
 SOFTWARE_PWM_MAX_HZ = 10_000.0
 
@@ -47,12 +50,13 @@ SOFTWARE_PWM_MAX_HZ = 10_000.0
 PWM_DEVICES = {"1f00098000.pwm": "pi5", "fe20c000.pwm": "pi4", "7e20c000.pwm": "pi4", "20c000.pwm": "pi4"}
 
 
-def detect_pwm_chip(gpio: Any, sys_pwm: Path = Path("/sys/class/pwm")) -> tuple[int, str | None]:
+def detect_pwm_chip(gpio: Any, sys_pwm: Path | None = None) -> tuple[int, str | None]:
     """``(pwmchip number, pin table name or None = as configured)``: ``pwm_chip`` if
     set; else the pwmchip whose device is the Pi's PWM peripheral (a Pi 5's RP1 PWM0:
     its own 4-channel table, whatever ``hardware_pwm`` says); 0 when none is found."""
     if gpio.hardware_pwm == "off":
         return 0, None
+    sys_pwm = SYS_PWM if sys_pwm is None else sys_pwm
     found: list[tuple[int, str]] = []
     try:
         # by the PWM peripheral's base address only: the RP1's PWM1 (the fan's,
@@ -103,14 +107,15 @@ def pwm_plan(gpio: Any, table_name: str | None = None) -> dict[str, tuple[int, i
     return plan
 
 
-def pwm_advice(gpio: Any) -> list[str]:
-    """Warnings about motor PWM in software (config check, hw check, the start log)."""
+def pwm_advice(gpio: Any, table_name: str | None = None) -> list[str]:
+    """Warnings about motor PWM in software (config check, the start log), on the pin
+    table ``table_name`` (the detected one: :func:`detect_pwm_chip`) or ``hardware_pwm``'s."""
     if gpio is None or gpio.hardware_pwm == "off":
         return []
-    table = HARDWARE_PWM[gpio.hardware_pwm]
+    table = HARDWARE_PWM[table_name or gpio.hardware_pwm]
     pins = ", ".join(f"GPIO{p}" for p in sorted(table))
     notes = []
-    plan = pwm_plan(gpio)
+    plan = pwm_plan(gpio, table_name)
     for where, (pin, ch) in plan.items():
         if ch is not None:
             continue
