@@ -33,10 +33,14 @@ from .i2c import AdcInput, Lsm303dChip
 from .kinds import MOTORS, SENSORS, AxisWiring, motor_kind_issue, sensor_kind_issue
 from .pinmux import pin_functions, routing_note
 from .pins import PinIn, PinOut, release_inputs
+from . import lgwd
 from . import pwm as pwm_mod
 from .pwm import HardwarePwm, detect_pwm_chip, make_pwm, pwm_advice, pwm_plan
 
 log = logging.getLogger(__name__)
+
+# before anything imports lgpio: a notify FIFO directory of this process's own (LG_WD)
+lgwd.install()
 
 
 @dataclass
