@@ -235,3 +235,28 @@ def test_a_pi5_uses_its_detected_four_channel_table_everywhere(monkeypatch, tmp_
     r = CliRunner().invoke(main, ["config", "check", str(EXAMPLES / "bigras.toml")])
     assert r.exit_code == 0 and "shares PWM" not in r.output, r.output
     f.close()
+
+
+def test_the_fallback_advice_names_bookworms_config_txt_and_never_the_heartbeats_pins(factory, tmp_path, caplog):
+    """Review 35 #8: the fallback told the user to add plain dtoverlay=pwm-2chan (its
+    default pins are GPIO18/19, and GPIO18 is the heartbeat in five examples) and passed
+    on rpi-hardware-pwm's /boot/config.txt."""
+    import logging
+
+    class NoOverlay:
+        def __init__(self, pwm_channel, hz, chip=0):
+            raise OSError("Need to add 'dtoverlay=pwm-2chan' to /boot/config.txt and reboot")
+
+    with caplog.at_level(logging.WARNING):
+        make_pwm(factory, 12, 0, 1000.0, emulated=False, pwm_class=NoOverlay, sys_pwm=tmp_path, heartbeat_pin=18)
+        make_pwm(factory, 19, 1, 1000.0, emulated=False, pwm_class=NoOverlay, sys_pwm=tmp_path, heartbeat_pin=18)
+    first, second = [r.getMessage() for r in caplog.records]
+    assert "/boot/firmware/config.txt: dtoverlay=pwm-2chan,pin=12,func=4,pin2=13,func2=4" in first
+    assert "no PWM overlay loaded" in first
+    assert "GPIO18 is the heartbeat, so do not route GPIO18/19 to PWM" in second
+    assert "/boot/config.txt" not in first + second and "dtoverlay=pwm-2chan " not in first + second
+
+
+def test_the_docs_give_el_enc_z_a_pin_that_is_not_the_heartbeat():
+    docs = (EXAMPLES.parent / "docs" / "hardware.md").read_text()
+    assert "GPIO18 / 12 for el" not in docs and "GPIO6 / 31 for el" in docs

@@ -124,7 +124,7 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
         def pwm(key: str, name: str = name, pins: dict[str, int] = pins, pwm_hz: float = cfg.pwm_frequency_hz) -> Any:
             pin, ch = plan[f"{name}.{key}"]
             part = make_pwm(factory, pin, ch, pwm_hz, emulated=emulate, chip=pwm_chip, functions=functions,
-                            sys_pwm=sys_pwm)
+                            sys_pwm=sys_pwm, heartbeat_pin=gpio.heartbeat_pin)
             if isinstance(part, HardwarePwm):
                 pwm_parts.append(part)
                 parts_list.append((f"{name} {key}", part))

@@ -6,7 +6,8 @@ on GPIO12/13/18/19 and only as many outputs as it has channels: two on a Pi 3/4/
 (PWM0 on GPIO12 or 18, PWM1 on GPIO13 or 19: two pins of one channel carry the same
 duty, so one pin per channel), four on a Pi 5 (GPIO12, 13, 18, 19 each their own). The
 kernel exposes it through /sys/class/pwm once the overlay is loaded
-(``dtoverlay=pwm-2chan,pin=12,func=4,pin2=13,func2=4`` in config.txt); rpi-hardware-pwm
+(``dtoverlay=pwm-2chan,pin=12,func=4,pin2=13,func2=4`` in /boot/firmware/config.txt);
+rpi-hardware-pwm
 (``pip install urc[pi]``) drives that.
 
 Which ``pwmchipN`` that is differs: 0 on a Pi 4; on a Pi 5 the RP1's PWM0 is pwmchip2
@@ -226,6 +227,24 @@ class HardwarePwm:
         self.duty = 0.0
 
 
+#: where the firmware reads config.txt on Raspberry Pi OS bookworm (before: /boot/config.txt)
+CONFIG_TXT = "/boot/firmware/config.txt"
+
+
+def overlay_advice(pin: int, heartbeat_pin: int | None = None) -> str:
+    """How to route ``pin`` to PWM, never through the pwm-2chan default (GPIO18/19) when
+    one of those is the heartbeat: routing GPIO18 to PWM would take the heartbeat pin."""
+    if pin in (12, 13):
+        return f"route it in {CONFIG_TXT}: dtoverlay=pwm-2chan,pin=12,func=4,pin2=13,func2=4 (docs/hardware.md)"
+    if pin in (18, 19) and heartbeat_pin in (18, 19):
+        return (f"GPIO{heartbeat_pin} is the heartbeat, so do not route GPIO18/19 to PWM (no pwm-2chan with "
+                "its default pins): put this output on GPIO12/13 for hardware PWM")
+    if pin in (18, 19):
+        return (f"route it in {CONFIG_TXT}: dtoverlay=pwm-2chan,pin=18,func=2,pin2=19,func2=2 on a Pi 3/4 "
+                "(docs/hardware.md for a Pi 5)")
+    return "hardware PWM exists on GPIO12, 13, 18 and 19 only"
+
+
 class PwmChannelLevel:
     """A hardware PWM channel held at a plain level through sysfs (the takeover): low is
     duty 0 and disabled (the pin idles low), high is duty = period and enabled. The pin
@@ -279,7 +298,7 @@ def routed_to_pwm(functions: Any, pin: int, channel: int, chip: int,
 
 def make_pwm(factory: Any, pin: int, channel: int | None, frequency_hz: float, *, emulated: bool,
              pwm_class: Any = None, chip: int = 0, functions: Any = None,
-             sys_pwm: Path = Path("/sys/class/pwm")) -> Any:
+             sys_pwm: Path = Path("/sys/class/pwm"), heartbeat_pin: int | None = None) -> Any:
     """The PWM part for a motor output: hardware PWM where the plan gives the pin a
     channel (on iron; emulated, every PWM is a mock pin), else lgpio's software PWM.
 
@@ -297,8 +316,8 @@ def make_pwm(factory: Any, pin: int, channel: int | None, frequency_hz: float, *
     fn = functions.function(pin) if functions is not None else None
     if not routed_to_pwm(functions, pin, channel, chip, sys_pwm):
         if fn is not None:
-            log.warning("GPIO%d is not routed to PWM%d (pinctrl: %s): software PWM instead; add "
-                        "dtoverlay=pwm-2chan to config.txt", pin, channel, fn)
+            log.warning("GPIO%d is not routed to PWM%d (pinctrl: %s): software PWM instead; %s", pin, channel,
+                        fn, overlay_advice(pin, heartbeat_pin))
             return PinPwm(factory, pin, frequency_hz=frequency_hz)
     try:
         return HardwarePwm(pin, channel, frequency_hz=frequency_hz, pwm_class=pwm_class, chip=chip,
@@ -312,6 +331,9 @@ def make_pwm(factory: Any, pin: int, channel: int | None, frequency_hz: float, *
                 "/sys/class/pwm (docs/hardware.md), or set hardware_pwm = \"off\" and remove the PWM "
                 "overlay", key="hardware.gpio.hardware_pwm", expected="a PWM channel urc can open",
                 found=f"pwmchip{chip}/pwm{channel}: {exc}") from exc
-        log.warning("GPIO%d: hardware PWM%d unavailable (%s): software PWM instead; add "
-                    "dtoverlay=pwm-2chan to config.txt", pin, channel, exc)
+        # (not the library's own advice: it names /boot/config.txt and the overlay's default pins)
+        why = f"no {sys_pwm}/pwmchip{chip}: no PWM overlay loaded" \
+            if not (sys_pwm / f"pwmchip{chip}").is_dir() else str(exc)
+        log.warning("GPIO%d: hardware PWM%d unavailable (%s): software PWM instead; %s", pin, channel, why,
+                    overlay_advice(pin, heartbeat_pin))
     return PinPwm(factory, pin, frequency_hz=frequency_hz)
