@@ -1,6 +1,6 @@
 """The ``gpio`` backend: the seed machines' real parts on a Raspberry Pi.
 
-Pins through gpiozero's pin factory (lgpio on a Pi: ``pip install urc[pi]``), motor PWM
+Pins through gpiozero's pin factory (lgpio on a Pi: ``pip install '.[pi]'`` from the clone), motor PWM
 on the PWM peripheral where a pin has it (:mod:`.pwm`), I2C through smbus2 (a TCA9548A
 mux where chips share an address), an MCP3008 through spidev (:mod:`.buses`). With ``emulate`` the same drivers run on gpiozero MockFactory pins and a
 fake SMBus fed by the physics simulator (:mod:`.emulate`), and status carries
@@ -92,7 +92,7 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
                 from gpiozero.pins.lgpio import LGPIOFactory
                 factory = LGPIOFactory()
         except Exception as exc:  # no lgpio / not a Pi
-            raise ConfigError(f"gpio backend: no GPIO here ({exc}); install urc[pi] on a Raspberry "
+            raise ConfigError(f"gpio backend: no GPIO here ({exc}); install urc with its [pi] extra (pip install '.[pi]' in the clone) on a Raspberry "
                               "Pi, or run with --emulate", key="hardware.gpio.emulate",
                               expected="true off a Pi", found=False) from exc
 

@@ -8,7 +8,7 @@ duty, so one pin per channel), four on a Pi 5 (GPIO12, 13, 18, 19 each their own
 kernel exposes it through /sys/class/pwm once the overlay is loaded
 (``dtoverlay=pwm-2chan,pin=12,func=4,pin2=13,func2=4`` in /boot/firmware/config.txt);
 rpi-hardware-pwm
-(``pip install urc[pi]``) drives that.
+(urc's ``[pi]`` extra) drives that.
 
 Which ``pwmchipN`` that is differs: 0 on a Pi 4; on a Pi 5 the RP1's PWM0 is pwmchip2
 before kernel 6.12 and pwmchip0 after (rpi-hardware-pwm's notes), and its channels map
