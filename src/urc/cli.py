@@ -228,9 +228,12 @@ def config_check(path: str) -> None:
         raise click.ClickException(str(exc)) from None
     click.echo(f"{path}: ok (profile {cfg.rotator.profile})")
     from .hardware.gpio.checks import gpio_warnings
-    from .hardware.gpio.pwm import pwm_advice
+    from .hardware.gpio.pwm import detect_pwm_chip, pwm_advice
 
-    for note in pwm_advice(cfg.hardware.gpio) + gpio_warnings(cfg):
+    gpio = cfg.hardware.gpio
+    # on a Pi 5 its own channel table (GPIO12/13/18/19 -> 0/1/2/3), as urc run uses
+    table = detect_pwm_chip(gpio)[1] if gpio is not None and not gpio.emulate else None
+    for note in pwm_advice(gpio, table) + gpio_warnings(cfg):
         click.echo(f"warning: {note}")
 
 

@@ -113,3 +113,36 @@ def test_a_bts7960_current_sense_warns_of_a_pwm_frequency_its_filter_does_not_su
     # no current sense: no filter to suit
     cfg = Config.from_dict(example("bigras", **{"hardware.gpio.az.pwm_frequency_hz": 100.0}))
     assert not [n for n in gpio_warnings(cfg) if "pwm_frequency_hz" in n and "BTS7960" in n]
+
+
+def test_pins_with_a_boot_time_function_are_warned_about():
+    """Review 35 #9: active-low relays on GPIO0/1 passed (high at boot is their "off"),
+    but the firmware probes the HAT ID EEPROM on those pins at boot; a heartbeat on
+    GPIO14 (UART TXD, the boot messages) passed too. Both warn now, whatever the level."""
+    cfg = Config.from_dict(example("g5500", **{"hardware.gpio.az.pins": {"cw": 0, "ccw": 1},
+                                               "hardware.gpio.az.active_low": ["cw", "ccw"]}))
+    notes = [n for n in gpio_warnings(cfg) if "while the Pi boots" in n]
+    assert notes == [
+        "hardware.gpio.az.pins.ccw: GPIO1: ID_SC (the HAT ID EEPROM's I2C clock, probed by the firmware at "
+        "boot): the output toggles while the Pi boots, before urc claims it; use a free pin from GPIO9-27 "
+        "(GPIO4-8 with active_low)",
+        "hardware.gpio.az.pins.cw: GPIO0: ID_SD (the HAT ID EEPROM's I2C data, probed by the firmware at "
+        "boot): the output toggles while the Pi boots, before urc claims it; use a free pin from GPIO9-27 "
+        "(GPIO4-8 with active_low)"]
+    assert not [n for n in gpio_warnings(cfg) if "power-on" in n]        # (high at boot is their off)
+    cfg = Config.from_dict(example("tartu-urc", **{"hardware.gpio.heartbeat_pin": 14}))
+    (note,) = [n for n in gpio_warnings(cfg) if "while the Pi boots" in n]
+    assert note.startswith("hardware.gpio.heartbeat_pin: GPIO14: UART TXD") and "safety chain's relay" in note
+    cfg = Config.from_dict(example("g5500", **{"hardware.gpio.el.pins": {"cw": 15, "ccw": 21},
+                                               "hardware.gpio.pulled_down": [15]}))
+    assert [n.split(":")[0] for n in gpio_warnings(cfg) if "while the Pi boots" in n] == ["hardware.gpio.el.pins.cw"]
+
+
+def test_an_output_or_heartbeat_high_at_boot_is_warned_about():
+    """GPIO0-8 are pulled up at power-on (BCM2835 peripherals §6.2, Table 6-31, the pull
+    column): a motor output or the heartbeat there is high until urc claims it."""
+    cfg = Config.from_dict(example("tartu-urc", **{"hardware.gpio.heartbeat_pin": 5}))
+    assert any(n.startswith("hardware.gpio.heartbeat_pin: GPIO5 is pulled high") for n in gpio_warnings(cfg))
+    cfg = Config.from_dict(example("tartu-urc", **{"hardware.gpio.az.pins": {
+        "ina": 4, "inb": 25, "pwm": 12, "enc_a": 17, "enc_b": 27, "brake": 16}}))
+    assert any(n.startswith("hardware.gpio.az.pins.ina: GPIO4 is pulled HIGH") for n in gpio_warnings(cfg))

@@ -4,6 +4,8 @@ relay would drop out on iron; without the part the motors run on."""
 
 from __future__ import annotations
 
+import math
+
 import json
 import time
 
@@ -128,6 +130,24 @@ def test_monostable_retriggers_on_rising_edges_only():
     assert part.cut_at_s() == pytest.approx(0.39)
     with pytest.raises(ValueError):
         MotorPowerEnable(0.0, lambda: 0.0)
+
+
+@pytest.mark.parametrize("pulled_down", [True, False])
+def test_a_released_trigger_drops_the_relay_only_with_its_pull_down(pulled_down):
+    """Review 35 #1: with the heartbeat line released (strict_gpiod, a halted Pi's Hi-Z
+    pins, a broken wire) a floating +TR picks up hum, and hum is edges: the relay stays
+    in. The documented 100 kOhm to GND holds it low: the relay drops at the timeout."""
+    t = [0.0]
+    part = MotorPowerEnable(0.2, lambda: t[0], trigger_pulled_down=pulled_down)
+    part.heartbeat(True)
+    t[0] = 0.02
+    part.release()
+    assert part.powered_at(0.1)
+    assert part.powered_at(5.0) is (not pulled_down)
+    assert part.cut_at_s() == (pytest.approx(0.2) if pulled_down else math.inf)
+    part.heartbeat(False)                        # driven again: edges decide once more
+    part.heartbeat(True)
+    assert part.cut_at_s() == pytest.approx(0.22)
 
 
 def test_a_killed_controller_runs_on_until_the_relay_drops(tmp_path, monkeypatch):

@@ -49,6 +49,12 @@ def suggest(word: str, choices: list[str]) -> str:
     return f"did you mean {close[0]!r}?" if close else ""
 
 
+def warning(key: str, found: str, why: str, hint: str = "") -> str:
+    """A warning (``urc config check``): ``<key>: <found>: <why>; <hint>``, keyed like an
+    error, for what is allowed but likely wrong."""
+    return f"{key}: {found}: {why}" + (f"; {hint}" if hint else "")
+
+
 def one_of(key: str, choices: list[str], found: str) -> Issue:
     """``found`` is not among ``choices``: the issue, with the nearest as a hint."""
     return (key, "one of " + ", ".join(choices), found, suggest(found, choices))

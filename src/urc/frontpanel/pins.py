@@ -25,5 +25,5 @@ def pin_factory(emulate: bool) -> Any:
 
         return LGPIOFactory()
     except Exception as exc:  # no lgpio module, no /dev/gpiochip, not a Pi
-        raise HardwareError(f"front panel: no GPIO pins here ({exc}); install urc[pi] on a Raspberry "
+        raise HardwareError(f"front panel: no GPIO pins here ({exc}); install urc with its [pi] extra (pip install '.[pi]' in the clone) on a Raspberry "
                             "Pi, or set [panel] emulate = true") from exc

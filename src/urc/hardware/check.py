@@ -50,10 +50,16 @@ def check(hw: Any, caps: Any, *, gpio: Any = None, move: bool = False, jog_duty:
             f"safety chain, motor power drops {gpio.motor_enable_timeout_s:g} s after its last rising edge"
             if gpio.motor_enable_timeout_s is not None else
             "no safety chain declared (motor_enable_timeout_s): nothing cuts the motors if urc hangs"))
-    if gpio is not None:
-        from .gpio.pwm import pwm_plan
-        for where, (pin, ch) in pwm_plan(gpio).items():
-            out(f"  {where} GPIO{pin}: " + (f"hardware PWM{ch}" if ch is not None else "software PWM"))
+    built = getattr(getattr(hw, "gpio", None), "pwm_outputs", None)
+    if gpio is not None and built:
+        # what was built (a pin the overlay did not route to its channel runs software PWM)
+        for where, (pin, what) in built.items():
+            out(f"  {where} GPIO{pin}: {what}")
+    elif gpio is not None:
+        from .gpio.pwm import detect_pwm_chip, pwm_plan
+        table = None if gpio.emulate else detect_pwm_chip(gpio)[1]      # a Pi 5's own table
+        for where, (pin, ch) in pwm_plan(gpio, table).items():
+            out(f"  {where} GPIO{pin}: " + (f"hardware PWM{ch} (planned)" if ch is not None else "software PWM"))
     for label, part in hw.parts:
         ident = getattr(part, "identify", None)
         if ident is None:

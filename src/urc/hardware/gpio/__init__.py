@@ -1,6 +1,6 @@
 """The ``gpio`` backend: the seed machines' real parts on a Raspberry Pi.
 
-Pins through gpiozero's pin factory (lgpio on a Pi: ``pip install urc[pi]``), motor PWM
+Pins through gpiozero's pin factory (lgpio on a Pi: ``pip install '.[pi]'`` from the clone), motor PWM
 on the PWM peripheral where a pin has it (:mod:`.pwm`), I2C through smbus2 (a TCA9548A
 mux where chips share an address), an MCP3008 through spidev (:mod:`.buses`). With ``emulate`` the same drivers run on gpiozero MockFactory pins and a
 fake SMBus fed by the physics simulator (:mod:`.emulate`), and status carries
@@ -31,10 +31,16 @@ from .feed import (EmulatedBrake, EmulatedHeartbeat, EmulatedMotor, Emulation, f
                    forget_output_history, limit_sync)
 from .i2c import AdcInput, Lsm303dChip
 from .kinds import MOTORS, SENSORS, AxisWiring, motor_kind_issue, sensor_kind_issue
+from .pinmux import pin_functions, routing_note
 from .pins import PinIn, PinOut, release_inputs
+from . import lgwd
+from . import pwm as pwm_mod
 from .pwm import HardwarePwm, detect_pwm_chip, make_pwm, pwm_advice, pwm_plan
 
 log = logging.getLogger(__name__)
+
+# before anything imports lgpio: a notify FIFO directory of this process's own (LG_WD)
+lgwd.install()
 
 
 @dataclass
@@ -50,6 +56,9 @@ class GpioParts:
     fake_spi: dict[int, Any] = field(default_factory=dict)
     #: emulated only: axis -> the emulated sensor part the simulator feeds
     emulation: dict[str, Any] = field(default_factory=dict)
+    #: "az.pwm" -> (pin, what drives it as built: "hardware PWM0 (pwmchip0, routed to PWM0)",
+    #: "software PWM", ...) for `urc hw check`
+    pwm_outputs: dict[str, tuple[int, str]] = field(default_factory=dict)
 
 
 def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
@@ -83,16 +92,19 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
                 from gpiozero.pins.lgpio import LGPIOFactory
                 factory = LGPIOFactory()
         except Exception as exc:  # no lgpio / not a Pi
-            raise ConfigError(f"gpio backend: no GPIO here ({exc}); install urc[pi] on a Raspberry "
+            raise ConfigError(f"gpio backend: no GPIO here ({exc}); install urc with its [pi] extra (pip install '.[pi]' in the clone) on a Raspberry "
                               "Pi, or run with --emulate", key="hardware.gpio.emulate",
                               expected="true off a Pi", found=False) from exc
 
     parts_list: list[tuple[str, Any]] = []
     buses = Buses(gpio, emulate, parts_list)
-    pwm_chip, pwm_table = (0, None) if emulate else detect_pwm_chip(gpio)
-    plan = pwm_plan(gpio, pwm_table)
+    sys_pwm = pwm_mod.SYS_PWM
+    pwm_chip, pwm_table = (0, None) if emulate else detect_pwm_chip(gpio, sys_pwm)
+    plan = pwm_plan(gpio, pwm_table)   # (a Pi 5's own table, whatever hardware_pwm says)
+    functions = None if emulate else pin_functions(factory)
     pwm_parts: list[HardwarePwm] = []
-    for note in pwm_advice(gpio):
+    pwm_outputs: dict[str, tuple[int, str]] = {}
+    for note in pwm_advice(gpio, pwm_table):
         log.warning("%s", note)
     syncs: list[Any] = []
     emu = Emulation(world, syncs, buses.fake_spi, {}) if world is not None else None
@@ -110,11 +122,22 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
             return PinIn(factory, pins[key], now_s=clock.now_s) if key in pins else None
 
         def pwm(key: str, name: str = name, pins: dict[str, int] = pins, pwm_hz: float = cfg.pwm_frequency_hz) -> Any:
-            part = make_pwm(factory, pins[key], plan[f"{name}.{key}"][1], pwm_hz, emulated=emulate,
-                            chip=pwm_chip)
+            pin, ch = plan[f"{name}.{key}"]
+            part = make_pwm(factory, pin, ch, pwm_hz, emulated=emulate, chip=pwm_chip, functions=functions,
+                            sys_pwm=sys_pwm, heartbeat_pin=gpio.heartbeat_pin)
             if isinstance(part, HardwarePwm):
                 pwm_parts.append(part)
                 parts_list.append((f"{name} {key}", part))
+                fn = functions.function(pin) if functions is not None else None
+                pwm_outputs[f"{name}.{key}"] = (pin, f"hardware PWM{part.channel} (pwmchip{pwm_chip}, "
+                                                f"{routing_note(fn, part.channel)})")
+            elif emulate:
+                pwm_outputs[f"{name}.{key}"] = (pin, ("software PWM" if ch is None else f"hardware PWM{ch}")
+                                                + " on iron (emulated here)")
+            else:
+                fn = functions.function(pin) if functions is not None and ch is not None else None
+                pwm_outputs[f"{name}.{key}"] = (pin, "software PWM" + (
+                    f" (planned hardware PWM{ch}: {routing_note(fn, ch)})" if ch is not None else ""))
             return part
 
         sk = ax_caps.sensor.kind
@@ -168,7 +191,8 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
     if heartbeat is not None and world is not None and world.enable is not None:
         heartbeat = EmulatedHeartbeat(heartbeat, world.enable)
     hw = Hardware(backend="gpio", az=axes["az"], el=axes.get("el"), heartbeat=heartbeat, parts=parts_list,
-                  gpio=GpioParts(pin_factory=factory, i2c_buses=buses.i2c, emulated=emulate))
+                  gpio=GpioParts(pin_factory=factory, i2c_buses=buses.i2c, emulated=emulate,
+                                 pwm_outputs=pwm_outputs))
     if gpio.fram_address is not None:
         from ..fram import FramStore
         fram_bus = buses.bus(gpio.i2c_bus)

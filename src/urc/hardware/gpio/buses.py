@@ -65,7 +65,7 @@ class Buses:
         try:
             return open_spidev(device)
         except (ImportError, OSError) as exc:
-            raise ConfigError(f"SPI0 CE{device}: {exc} (install urc[pi]; enable SPI with raspi-config)",
+            raise ConfigError(f"SPI0 CE{device}: {exc} (install urc's [pi] extra: pip install '.[pi]' in the clone; enable SPI with raspi-config)",
                               key="hardware.gpio.spi_device", expected="an SPI device", found=device) from exc
 
     def adc(self, axis: str, cfg: Any, bus_n: int, *, pot_vref: bool) -> Any:

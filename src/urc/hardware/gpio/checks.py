@@ -9,7 +9,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 from ...caps import RotatorCaps
-from ...config.issues import Issue, suggest
+from ...config.issues import Issue, suggest, warning
 from .kinds import AXIS_PINS, MOTORS, SENSORS, motor_kind_issue, sensor_kind_issue
 from .pwm import HARDWARE_PWM
 from .spi import SPI0_CE, SPI0_PINS
@@ -165,6 +165,17 @@ def gpio_issues(cfg: Config, caps: RotatorCaps) -> list[Issue]:
 BOOT_HIGH_PINS = frozenset(range(0, 9))
 
 
+#: pins with a function of their own while the Pi boots, before urc claims them: the HAT
+#: ID EEPROM's I2C (ID_SD / ID_SC, which the firmware interrogates at boot: Raspberry
+#: Pi 4 reduced schematics, "ID_SD and ID_SC pins"; the HAT design guide reserves them)
+#: and the primary UART (TXD / RXD, carrying the boot messages when enable_uart or the
+#: serial console is on)
+BOOT_FUNCTION_PINS = {0: "ID_SD (the HAT ID EEPROM's I2C data, probed by the firmware at boot)",
+                      1: "ID_SC (the HAT ID EEPROM's I2C clock, probed by the firmware at boot)",
+                      14: "UART TXD (the boot messages when enable_uart or the serial console is on)",
+                      15: "UART RXD (the serial console's input when enable_uart is on)"}
+
+
 #: the PWM frequencies the BTS7960 current sense is read well at: the filter (10.5 ms)
 #: leaves a ripple of duty x (1 - duty) x period / tau, 5 % of the reading at 500 Hz; above
 #: some kHz IS spends much of a low duty's on-time settling (Infineon BTS7960 Rev 1.1 §4.4)
@@ -211,6 +222,7 @@ def gpio_warnings(cfg: Config) -> list[str]:
             notes.append(f"hardware.gpio.{name}.current_sense_channel: the motor current is sensed but "
                          "faults.overcurrent_a is 0: no overcurrent trip. Set it (about twice the running "
                          "current, below the stall current)")
+    notes += _boot_function_notes(g)
     if g.heartbeat_pin is not None and g.heartbeat_pin in BOOT_HIGH_PINS and g.heartbeat_pin not in g.pulled_down:
         notes.append(f"hardware.gpio.heartbeat_pin: GPIO{g.heartbeat_pin} is pulled high at power-on: that rising "
                      "edge can hold the safety chain's relay in for one timeout while the Pi boots. Use a "
@@ -219,6 +231,26 @@ def gpio_warnings(cfg: Config) -> list[str]:
         notes.append("hardware.gpio.motor_enable_timeout_s: no safety chain declared: if urc freezes or dies "
                      "nothing but urc stops the motors (docs/hardware.md, \"Safety chain\")")
     return notes
+
+
+def _boot_function_notes(g: Any) -> list[str]:
+    """An output or the heartbeat on a pin that something else drives while the Pi boots
+    (:data:`BOOT_FUNCTION_PINS`): whatever its level or pull-down, it toggles before urc
+    claims it — a relay chatters, a motor jerks, the heartbeat's edges hold the safety
+    chain's relay in."""
+    pins: list[tuple[str, int, str]] = []
+    for name in ("az", "el"):
+        ax = getattr(g, name)
+        if ax is not None:
+            outputs = _outputs(ax.motor)
+            pins += [(f"hardware.gpio.{name}.pins.{k}", p, "the output") for k, p in sorted(ax.pins.items())
+                     if k in outputs]
+    if g.heartbeat_pin is not None:
+        pins.append(("hardware.gpio.heartbeat_pin", g.heartbeat_pin,
+                     "the heartbeat (its edges hold the safety chain's relay in)"))
+    return [warning(key, f"GPIO{pin}", f"{BOOT_FUNCTION_PINS[pin]}: {what} toggles while the Pi boots, "
+                    "before urc claims it", "use a free pin from GPIO9-27 (GPIO4-8 with active_low)")
+            for key, pin, what in pins if pin in BOOT_FUNCTION_PINS]
 
 
 def _outputs(motor_kind: str) -> set[str]:

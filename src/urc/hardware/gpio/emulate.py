@@ -34,6 +34,31 @@ class EmulatedPin(MockPWMPin):
         PiPin._call_when_changed(self, self._factory.event_ticks(), self._state)
 
 
+class MuxedPin(MockPWMPin):
+    """A mock pin that claims its line as lgpio does: made (``factory.pin``) it is a GPIO
+    input, set to output a GPIO output, in the factory's :class:`.pinmux.PinFunctions`
+    (so a pin the overlay routed to PWM is taken off it, for good)."""
+
+    def __init__(self, factory: Any, info: Any, **kwargs: Any):
+        super().__init__(factory, info, **kwargs)
+        factory.pin_functions.claimed(int(info.name[len("GPIO"):]))
+
+    def _set_function(self, value: str) -> None:
+        super()._set_function(value)
+        self._factory.pin_functions.claimed(int(self.info.name[len("GPIO"):]), value == "output")
+
+
+class MuxedMockFactory(MockFactory):
+    """gpiozero's MockFactory with the pins' function select modelled (``pin_functions``):
+    ``routed`` {pin: function} is what the overlays set at boot (``{12: "PWM0_0"}``: a
+    Pi 4's PWM0 on GPIO12)."""
+
+    def __init__(self, routed: dict[int, str] | None = None):
+        from .pinmux import PinFunctions
+        self.pin_functions = PinFunctions(routed)
+        super().__init__(pin_class=MuxedPin)
+
+
 class EmulatedFactory(MockFactory):
     """gpiozero's MockFactory on the control loop's clock: ``ticks()`` is clock time,
     and a feed may stamp the edges it makes (``event_s``) with when they happened

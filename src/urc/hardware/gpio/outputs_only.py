@@ -18,14 +18,18 @@ Safe levels (logical: ``active_low`` outputs are driven the other way):
 * PWM + DIR boards: PWM low; relays (CW, CCW, fast, UP, DOWN): off;
 * brake coils: off (engaged); heartbeat: low (no edges: the safety chain drops).
 
-A motor PWM pin claimed as a plain output is taken from the PWM peripheral (lgpio
-re-muxes it); the sysfs channel is then also disabled, best effort
-(:func:`.pwm.sysfs_pwm_off`), so it does not come back on a pin re-muxed later.
+A motor PWM pin routed to the PWM peripheral is never claimed as a line: that would
+make it a GPIO until the next boot (:mod:`.pinmux`), and every later start would find
+its hardware PWM dead. Its channel is set through sysfs instead
+(:class:`.pwm.PwmChannelLevel`): duty 0 and disabled for a low level (the pin idles
+low), duty = period for the LMD18200's high. A PWM pin that is a GPIO already (software
+PWM, or not routed by the overlay) is claimed like any output.
 """
 
 from __future__ import annotations
 
 import logging
+from pathlib import Path
 from typing import Any
 
 from ...errors import ConfigError
@@ -36,7 +40,8 @@ log = logging.getLogger(__name__)
 #: motor kind -> {pin key: safe logical level}
 SAFE_LEVELS: dict[str, dict[str, bool]] = {
     "vnh5019": {"ina": True, "inb": True, "pwm": False},
-    "lmd18200": {"pwm": True, "dir": False, "bridge_brake": True},
+    # (BRAKE first: with BRAKE high the PWM input only chooses brake or coast, never drive)
+    "lmd18200": {"bridge_brake": True, "dir": False, "pwm": True},
     "bts7960": {"rpwm": False, "lpwm": False, "en": True},
     "pwm_dir": {"pwm": False, "dir": False},
     "relay": {"cw": False, "ccw": False, "fast": False},
@@ -49,7 +54,8 @@ class OutputsHeld:
 
     def __init__(self, factory: Any):
         self.factory = factory
-        self.outputs: dict[str, tuple[PinOut, bool]] = {}
+        #: what -> (a PinOut, or a PwmChannelLevel for a pin left on its PWM channel; its level)
+        self.outputs: dict[str, tuple[Any, bool]] = {}
         self.failed: list[tuple[str, str]] = []
 
     def claim(self, what: str, pin: int, level: bool, active_low: bool) -> None:
@@ -58,6 +64,24 @@ class OutputsHeld:
         except Exception as exc:
             self.failed.append((what, f"GPIO{pin}: {exc}"))
             log.error("takeover: could not claim %s (GPIO%d) to make it safe: %s", what, pin, exc)
+
+    def hold_channel(self, what: str, channel: Any, level: bool) -> None:
+        """A motor PWM pin routed to its hardware channel: the level set through sysfs
+        (:class:`.pwm.PwmChannelLevel`), the pin never claimed. A high level that cannot
+        be set (the LMD18200's PWM) falls back to low: BRAKE high with PWM low coasts
+        (TI LMD18200 Table 1), it never drives."""
+        try:
+            channel.write(level)
+        except OSError as exc:
+            self.failed.append((what, f"{channel!r}: {exc}"))
+            log.error("takeover: could not set %s (%r) %s through sysfs: %s", what, channel,
+                      "high" if level else "low", exc)
+            if level:
+                try:
+                    channel.write(False)
+                except OSError:
+                    pass
+        self.outputs[what] = (channel, level)
 
     def levels(self) -> dict[str, bool]:
         """What each claimed output reads back (logical)."""
@@ -76,9 +100,18 @@ class OutputsHeld:
         process ends (gpiozero's close would float them)."""
 
 
-def take_gpio_outputs(gpio: Any, axes: tuple[str, ...], factory: Any = None) -> OutputsHeld:
+def take_gpio_outputs(gpio: Any, axes: tuple[str, ...], factory: Any = None, *,
+                      sys_pwm: Path | None = None, functions: Any = None) -> OutputsHeld:
     """Claim every motor, relay, brake and heartbeat output of ``gpio`` (the
-    ``[hardware.gpio]`` section) for ``axes`` at its safe level."""
+    ``[hardware.gpio]`` section) for ``axes`` at its safe level; a motor PWM pin routed
+    to its hardware channel is set through sysfs instead. ``functions``: the pins'
+    routing (:func:`.pinmux.pin_functions` of the factory unless given)."""
+    from . import pwm as pwm_mod
+    from .pinmux import pin_functions
+    from .pwm import PwmChannelLevel, detect_pwm_chip, pwm_plan, routed_to_pwm
+
+    sys_pwm = pwm_mod.SYS_PWM if sys_pwm is None else sys_pwm
+
     if factory is None:
         try:
             from gpiozero import Device
@@ -89,28 +122,41 @@ def take_gpio_outputs(gpio: Any, axes: tuple[str, ...], factory: Any = None) -> 
         except Exception as exc:  # no lgpio / not a Pi
             raise ConfigError(f"gpio takeover: no GPIO here ({exc})", key="hardware.gpio.emulate",
                               expected="true off a Pi", found=False) from exc
+    if functions is None:
+        functions = pin_functions(factory)
+    try:
+        chip, table = detect_pwm_chip(gpio, sys_pwm)
+        plan = pwm_plan(gpio, table)
+    except Exception:  # (the plan is config arithmetic; detection reads sysfs)
+        log.exception("takeover: could not tell the hardware PWM channels; every PWM pin is claimed")
+        chip, plan = 0, {}
     held = OutputsHeld(factory)
     for name in axes:
         cfg = getattr(gpio, name, None)
         if cfg is None:
             continue
         for key, level in SAFE_LEVELS.get(cfg.motor, {}).items():
-            if key in cfg.pins:
-                held.claim(f"{name} {cfg.motor} {key}", cfg.pins[key], level, key in cfg.active_low)
+            if key not in cfg.pins:
+                continue
+            what, pin = f"{name} {cfg.motor} {key}", cfg.pins[key]
+            channel = plan.get(f"{name}.{key}", (pin, None))[1]
+            if channel is not None and routed_to_pwm(functions, pin, channel, chip, sys_pwm):
+                held.hold_channel(what, PwmChannelLevel(pin, chip, channel, frequency_hz=cfg.pwm_frequency_hz,
+                                                        sys_pwm=sys_pwm), level)
+            else:
+                held.claim(what, pin, level, key in cfg.active_low)
+                if channel is not None:     # a GPIO already: its channel (routed elsewhere, if anywhere) off
+                    _channel_off(chip, channel, sys_pwm)
         if "brake" in cfg.pins:
             held.claim(f"{name} brake", cfg.pins["brake"], False, "brake" in cfg.active_low)
     if gpio.heartbeat_pin is not None:
         held.claim("heartbeat", gpio.heartbeat_pin, False, False)
-    _pwm_channels_off(gpio)
     return held
 
 
-def _pwm_channels_off(gpio: Any) -> None:
-    from .pwm import detect_pwm_chip, pwm_plan, sysfs_pwm_off
+def _channel_off(chip: int, channel: int, sys_pwm: Path) -> None:
+    from .pwm import sysfs_pwm_off
     try:
-        chip, table = detect_pwm_chip(gpio)
-        for _pin, channel in pwm_plan(gpio, table).values():
-            if channel is not None:
-                sysfs_pwm_off(chip, channel)
-    except Exception:  # best effort: the pins are claimed already
-        log.exception("takeover: could not disable the hardware PWM channels")
+        sysfs_pwm_off(chip, channel, sys_pwm)
+    except Exception:  # best effort: the pin is claimed already
+        log.exception("takeover: could not disable pwmchip%d/pwm%d", chip, channel)

@@ -6,14 +6,18 @@ on GPIO12/13/18/19 and only as many outputs as it has channels: two on a Pi 3/4/
 (PWM0 on GPIO12 or 18, PWM1 on GPIO13 or 19: two pins of one channel carry the same
 duty, so one pin per channel), four on a Pi 5 (GPIO12, 13, 18, 19 each their own). The
 kernel exposes it through /sys/class/pwm once the overlay is loaded
-(``dtoverlay=pwm-2chan,pin=12,func=4,pin2=13,func2=4`` in config.txt); rpi-hardware-pwm
-(``pip install urc[pi]``) drives that.
+(``dtoverlay=pwm-2chan,pin=12,func=4,pin2=13,func2=4`` in /boot/firmware/config.txt);
+rpi-hardware-pwm
+(urc's ``[pi]`` extra) drives that.
 
 Which ``pwmchipN`` that is differs: 0 on a Pi 4; on a Pi 5 the RP1's PWM0 is pwmchip2
 before kernel 6.12 and pwmchip0 after (rpi-hardware-pwm's notes), and its channels map
 GPIO12/13/18/19 to 0/1/2/3 whatever overlay is loaded: :func:`detect_pwm_chip`.
 
-rpi-hardware-pwm 0.3.1 exports the channel and writes its period and a duty of 0, but
+rpi-hardware-pwm 0.3.1 exports the channel, waits until its period, duty_cycle and
+enable files are writable (udev gives the gpio group its rights only after the export;
+0.3.0 wrote the period at once and could fail on a first start: hence >= 0.3.1) and
+writes its period and a duty of 0, but
 leaves ``enable`` as it found it: a channel a killed urc left enabled stays enabled, and
 its period write fails (EINVAL) when the duty it left is longer than the new period.
 :class:`HardwarePwm` therefore first writes duty 0 and enable 0 straight to sysfs
@@ -27,6 +31,7 @@ import logging
 from pathlib import Path
 from typing import Any
 
+from ...errors import ConfigError
 from .kinds import MOTORS
 
 log = logging.getLogger(__name__)
@@ -35,6 +40,9 @@ log = logging.getLogger(__name__)
 HARDWARE_PWM = {"2chan": {12: 0, 18: 0, 13: 1, 19: 1},
                 "4chan": {12: 0, 13: 1, 18: 2, 19: 3},
                 "off": {}}
+#: the kernel's PWM class (read at call time by the builder, the takeover and the checks:
+#: tests point it at a tree of their own)
+SYS_PWM = Path("/sys/class/pwm")
 #: lgpio's software PWM (tx_pwm) frequency limit
 SOFTWARE_PWM_MAX_HZ = 10_000.0
 
@@ -43,12 +51,13 @@ SOFTWARE_PWM_MAX_HZ = 10_000.0
 PWM_DEVICES = {"1f00098000.pwm": "pi5", "fe20c000.pwm": "pi4", "7e20c000.pwm": "pi4", "20c000.pwm": "pi4"}
 
 
-def detect_pwm_chip(gpio: Any, sys_pwm: Path = Path("/sys/class/pwm")) -> tuple[int, str | None]:
+def detect_pwm_chip(gpio: Any, sys_pwm: Path | None = None) -> tuple[int, str | None]:
     """``(pwmchip number, pin table name or None = as configured)``: ``pwm_chip`` if
     set; else the pwmchip whose device is the Pi's PWM peripheral (a Pi 5's RP1 PWM0:
     its own 4-channel table, whatever ``hardware_pwm`` says); 0 when none is found."""
     if gpio.hardware_pwm == "off":
         return 0, None
+    sys_pwm = SYS_PWM if sys_pwm is None else sys_pwm
     found: list[tuple[int, str]] = []
     try:
         # by the PWM peripheral's base address only: the RP1's PWM1 (the fan's,
@@ -99,14 +108,15 @@ def pwm_plan(gpio: Any, table_name: str | None = None) -> dict[str, tuple[int, i
     return plan
 
 
-def pwm_advice(gpio: Any) -> list[str]:
-    """Warnings about motor PWM in software (config check, hw check, the start log)."""
+def pwm_advice(gpio: Any, table_name: str | None = None) -> list[str]:
+    """Warnings about motor PWM in software (config check, the start log), on the pin
+    table ``table_name`` (the detected one: :func:`detect_pwm_chip`) or ``hardware_pwm``'s."""
     if gpio is None or gpio.hardware_pwm == "off":
         return []
-    table = HARDWARE_PWM[gpio.hardware_pwm]
+    table = HARDWARE_PWM[table_name or gpio.hardware_pwm]
     pins = ", ".join(f"GPIO{p}" for p in sorted(table))
     notes = []
-    plan = pwm_plan(gpio)
+    plan = pwm_plan(gpio, table_name)
     for where, (pin, ch) in plan.items():
         if ch is not None:
             continue
@@ -217,18 +227,113 @@ class HardwarePwm:
         self.duty = 0.0
 
 
+#: where the firmware reads config.txt on Raspberry Pi OS bookworm (before: /boot/config.txt)
+CONFIG_TXT = "/boot/firmware/config.txt"
+
+
+def overlay_advice(pin: int, heartbeat_pin: int | None = None) -> str:
+    """How to route ``pin`` to PWM, never through the pwm-2chan default (GPIO18/19) when
+    one of those is the heartbeat: routing GPIO18 to PWM would take the heartbeat pin."""
+    if pin in (12, 13):
+        return f"route it in {CONFIG_TXT}: dtoverlay=pwm-2chan,pin=12,func=4,pin2=13,func2=4 (docs/hardware.md)"
+    if pin in (18, 19) and heartbeat_pin in (18, 19):
+        return (f"GPIO{heartbeat_pin} is the heartbeat, so do not route GPIO18/19 to PWM (no pwm-2chan with "
+                "its default pins): put this output on GPIO12/13 for hardware PWM")
+    if pin in (18, 19):
+        return (f"route it in {CONFIG_TXT}: dtoverlay=pwm-2chan,pin=18,func=2,pin2=19,func2=2 on a Pi 3/4 "
+                "(docs/hardware.md for a Pi 5)")
+    return "hardware PWM exists on GPIO12, 13, 18 and 19 only"
+
+
+class PwmChannelLevel:
+    """A hardware PWM channel held at a plain level through sysfs (the takeover): low is
+    duty 0 and disabled (the pin idles low), high is duty = period and enabled. The pin
+    stays routed to PWM: it is never claimed as a GPIO line (:mod:`.pinmux`)."""
+
+    def __init__(self, pin: int, chip: int, channel: int, *, frequency_hz: float,
+                 sys_pwm: Path = Path("/sys/class/pwm")):
+        self.pin, self.chip, self.channel, self.frequency_hz = pin, chip, channel, frequency_hz
+        self.dir = sys_pwm / f"pwmchip{chip}" / f"pwm{channel}"
+        self.chip_dir = sys_pwm / f"pwmchip{chip}"
+
+    def write(self, level: bool) -> None:
+        """Raises OSError when the level could not be set."""
+        if not level:
+            if self.dir.is_dir():          # (not exported: disabled since boot)
+                (self.dir / "duty_cycle").write_text("0")
+                (self.dir / "enable").write_text("0")
+            return
+        if not self.dir.is_dir():
+            (self.chip_dir / "export").write_text(str(self.channel))
+        period_ns = int((self.dir / "period").read_text().strip() or 0)
+        if period_ns <= 0:
+            period_ns = round(1e9 / self.frequency_hz)
+            (self.dir / "period").write_text(str(period_ns))
+        (self.dir / "duty_cycle").write_text(str(period_ns))
+        (self.dir / "enable").write_text("1")
+
+    def read_back(self) -> bool:
+        try:
+            enabled = (self.dir / "enable").read_text().strip() == "1"
+            duty, period = (int((self.dir / n).read_text().strip()) for n in ("duty_cycle", "period"))
+        except (OSError, ValueError):
+            return False
+        return enabled and period > 0 and duty >= period
+
+    def __repr__(self) -> str:
+        return f"GPIO{self.pin} on PWM{self.channel} (pwmchip{self.chip})"
+
+
+def routed_to_pwm(functions: Any, pin: int, channel: int, chip: int,
+                  sys_pwm: Path = Path("/sys/class/pwm")) -> bool:
+    """Whether ``pin`` may be routed to PWM ``channel`` (so it must not be claimed as a
+    GPIO line): what ``functions`` (:func:`.pinmux.pin_functions`) says; when it cannot
+    tell, True while the PWM chip exists (an overlay loaded may have routed it)."""
+    from .pinmux import pwm_channel_of
+    fn = functions.function(pin) if functions is not None else None
+    if fn is not None:
+        return pwm_channel_of(fn) == channel
+    return (sys_pwm / f"pwmchip{chip}").is_dir()
+
+
 def make_pwm(factory: Any, pin: int, channel: int | None, frequency_hz: float, *, emulated: bool,
-             pwm_class: Any = None, chip: int = 0) -> Any:
+             pwm_class: Any = None, chip: int = 0, functions: Any = None,
+             sys_pwm: Path = Path("/sys/class/pwm"), heartbeat_pin: int | None = None) -> Any:
     """The PWM part for a motor output: hardware PWM where the plan gives the pin a
-    channel (on iron; emulated, every PWM is a mock pin), else lgpio's software PWM. A
-    hardware PWM that cannot be opened (overlay not loaded, no rights) falls back to
-    software PWM with a warning."""
+    channel (on iron; emulated, every PWM is a mock pin), else lgpio's software PWM.
+
+    lgpio's software PWM claims the pin as a GPIO line, which takes it off the PWM
+    peripheral until the next boot (:mod:`.pinmux`). So: a pin the plan gives a channel
+    but the overlay did not route to it (``functions`` says so) runs software PWM (it
+    is a GPIO already); a hardware PWM that cannot be opened falls back to software PWM
+    only when no PWM chip exists (no overlay: nothing routed the pin); a pin routed to
+    PWM whose channel cannot be opened (no write access to sysfs) is refused with a
+    ConfigError, never claimed."""
     from .pins import PinPwm
 
-    if channel is not None and not emulated:
-        try:
-            return HardwarePwm(pin, channel, frequency_hz=frequency_hz, pwm_class=pwm_class, chip=chip)
-        except Exception as exc:  # rpi-hardware-pwm raises its own exception, or OSError
-            log.warning("GPIO%d: hardware PWM%d unavailable (%s): software PWM instead; add "
-                        "dtoverlay=pwm-2chan to config.txt", pin, channel, exc)
+    if channel is None or emulated:
+        return PinPwm(factory, pin, frequency_hz=frequency_hz)
+    fn = functions.function(pin) if functions is not None else None
+    if not routed_to_pwm(functions, pin, channel, chip, sys_pwm):
+        if fn is not None:
+            log.warning("GPIO%d is not routed to PWM%d (pinctrl: %s): software PWM instead; %s", pin, channel,
+                        fn, overlay_advice(pin, heartbeat_pin))
+            return PinPwm(factory, pin, frequency_hz=frequency_hz)
+    try:
+        return HardwarePwm(pin, channel, frequency_hz=frequency_hz, pwm_class=pwm_class, chip=chip,
+                           sys_pwm=sys_pwm)
+    except Exception as exc:  # rpi-hardware-pwm raises its own exception, or OSError
+        if routed_to_pwm(functions, pin, channel, chip, sys_pwm):
+            raise ConfigError(
+                f"GPIO{pin}: hardware PWM{channel} (pwmchip{chip}) cannot be opened ({exc}), and the pin "
+                "is routed to PWM: urc will not claim it as a plain GPIO (software PWM), which would take "
+                "it off the PWM peripheral until the next reboot. Give urc write access to "
+                "/sys/class/pwm (docs/hardware.md), or set hardware_pwm = \"off\" and remove the PWM "
+                "overlay", key="hardware.gpio.hardware_pwm", expected="a PWM channel urc can open",
+                found=f"pwmchip{chip}/pwm{channel}: {exc}") from exc
+        # (not the library's own advice: it names /boot/config.txt and the overlay's default pins)
+        why = f"no {sys_pwm}/pwmchip{chip}: no PWM overlay loaded" \
+            if not (sys_pwm / f"pwmchip{chip}").is_dir() else str(exc)
+        log.warning("GPIO%d: hardware PWM%d unavailable (%s): software PWM instead; %s", pin, channel, why,
+                    overlay_advice(pin, heartbeat_pin))
     return PinPwm(factory, pin, frequency_hz=frequency_hz)

@@ -1,7 +1,7 @@
 """SPI parts: an MCP3008 10-bit ADC reading a pot and its supply (G4JNT, G-5500 class).
 
 The transfer goes through an ``xfer2(bytes) -> bytes`` SPI device: py-spidev's
-``SpiDev`` on SPI0 on a Pi (``pip install urc[pi]``, SPI enabled with raspi-config), the
+``SpiDev`` on SPI0 on a Pi (``pip install '.[pi]'`` from the clone, SPI enabled with raspi-config), the
 emulated chip (:class:`urc.hardware.gpio.emulate.FakeMcp3008`) elsewhere. The three-byte
 MCP3008 frame is written here rather than through gpiozero's ``MCP3008``: gpiozero 2.0
 caches its software SPI bus by pin names across pin factories, so two emulated

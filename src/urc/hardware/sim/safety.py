@@ -29,7 +29,7 @@ class MotorPowerEnable:
     """A retriggerable monostable on the heartbeat: motor power is on from a rising edge
     until ``timeout_s`` after the last one. Off at power-up (no edge yet)."""
 
-    def __init__(self, timeout_s: float, now_s: Callable[[], float]):
+    def __init__(self, timeout_s: float, now_s: Callable[[], float], *, trigger_pulled_down: bool = True):
         timeout_s = float(timeout_s)
         if not (math.isfinite(timeout_s) and 0.0 < timeout_s <= 10.0):
             raise ValueError(f"motor enable timeout must be in (0, 10] s, got {timeout_s!r}")
@@ -42,12 +42,26 @@ class MotorPowerEnable:
         #: times power was cut by the timeout (a relay drop-out on iron)
         self.trips = 0
         self._level = False
+        #: the documented circuit's 100 kOhm from +TR to GND: a trigger nothing drives reads
+        #: low. Without it a floating CMOS input picks up mains hum, and hum is edges.
+        self.trigger_pulled_down = bool(trigger_pulled_down)
+        #: nothing drives the trigger (the line released under strict_gpiod, the Pi halted
+        #: with its pins Hi-Z, the heartbeat wire broken)
+        self.floating = False
         #: called with the clock time of a rising edge, before it is recorded (the
         #: world catches up to it: until then the old deadline holds)
         self.on_edge: Callable[[float], None] | None = None
 
+    def release(self) -> None:
+        """Nothing drives the trigger any more. Pulled down, it reads low: no edge, the
+        relay drops at the timeout. Floating, hum retriggers it for as long as it floats."""
+        self.floating = True
+        if self.trigger_pulled_down:
+            self._level = False
+
     def heartbeat(self, level: bool) -> None:
         """The heartbeat pin's new level (only a rising edge retriggers)."""
+        self.floating = False
         level = bool(level)
         rising = level and not self._level
         self._level = level
@@ -61,10 +75,15 @@ class MotorPowerEnable:
         self.edges += 1
 
     def cut_at_s(self) -> float:
-        """Clock time the power goes (or went) off: -inf before the first edge."""
+        """Clock time the power goes (or went) off: -inf before the first edge; +inf while
+        a trigger with no pull-down floats (hum keeps retriggering it)."""
+        if self.floating and not self.trigger_pulled_down:
+            return math.inf
         return -math.inf if self.last_edge_s is None else self.last_edge_s + self.timeout_s
 
     def powered_at(self, t_s: float) -> bool:
+        if self.floating and not self.trigger_pulled_down:
+            return True
         return self.last_edge_s is not None and self.last_edge_s - 1e-9 <= t_s < self.cut_at_s()
 
     def cut_at_wall_s(self) -> float | None:
