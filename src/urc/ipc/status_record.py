@@ -210,8 +210,10 @@ class StatusRecord:
             seals = fcntl.fcntl(fd, fcntl.F_GET_SEALS)
         except OSError as exc:
             raise StatusRecordError(f"fd {fd} is no status record (not a memfd: {exc})") from None
-        if not seals & fcntl.F_SEAL_SHRINK or os.fstat(fd).st_size < SIZE:
-            raise StatusRecordError(f"fd {fd} is no status record (unsealed, or smaller than {SIZE} bytes)")
+        if not seals & fcntl.F_SEAL_SHRINK:
+            raise StatusRecordError(f"fd {fd} is no status record (a memfd unsealed: it could shrink under the reader)")
+        if os.fstat(fd).st_size < SIZE:
+            raise StatusRecordError(f"fd {fd} is no status record (smaller than {SIZE} bytes)")
         mm = mmap.mmap(fd, SIZE)
         header = _HEADER.unpack_from(mm, 0)
         if header[:3] != (MAGIC, VERSION, BODY.size):
