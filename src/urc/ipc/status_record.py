@@ -22,6 +22,13 @@ is gone once the last fd and mapping are closed, and only a process that was han
 fd can map it. It is sealed to its size, so a confused control process cannot truncate
 it under the reader; the reader's next access would otherwise kill it with SIGBUS.
 
+Use: the control tick (the only writer) does ``gen = cold.update(status)`` (a
+:class:`ColdGeneration`) and ``record.write(status, tick, gen)``, and pickles the full
+Status only when ``gen`` changed, tagged with ``gen`` so the reader knows which generation
+it holds. The reader's watch reads :meth:`StatusRecord.liveness`; a status query reads
+:meth:`StatusRecord.read` and :func:`merge`\\s it into the full Status of that generation
+(an older one lacks a change that is still on its way).
+
 Layout (bytes; the header is written once, by :meth:`create`):
 
 ====== ==== =============================================================================
@@ -156,7 +163,8 @@ def _hot_axis(v: tuple) -> HotAxis:
 # reader loads seq, copies the whole record in one slice (a memcpy into a new bytes), loads
 # seq again, and only then unpacks its copy. It never unpacks fields straight out of the
 # mapping: the writer could change the record between two of them. seq goes through a
-# memoryview cast to "Q": one aligned 8-byte load or store (a memcpy of a constant 8 bytes),
+# memoryview cast to "Q": one aligned 8-byte load or store (a memcpy of a constant 8 bytes,
+# compiled to one instruction),
 # which no CPU splits. struct's "<Q" goes byte by byte, and one increment can carry over
 # several bytes.
 # * Within a process the GIL serialises the two memcpys (a reader thread in the writer's own
