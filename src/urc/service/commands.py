@@ -15,7 +15,7 @@ from dataclasses import dataclass, replace
 from typing import Callable
 
 from ..control import law
-from ..control.geometry import route_time_s, wrap360
+from ..control.geometry import wrap360
 from ..control.profile import stopping_distance_deg
 from ..errors import CommandRejected
 from . import position_record as precord
@@ -23,7 +23,6 @@ from .axis import AXES, Axis
 from .core import Core
 from .guard import Guard
 from .planning import Planner
-from .program import ROUTE_SLACK_S, UPDATE_S, PassProgram
 from .records import Records
 from .settings import FIXED_EL_DEG, RotatorSettings
 from .snapshot import Status
@@ -47,11 +46,6 @@ class Commands:
         self.queue: collections.deque[_Command] = collections.deque()
         #: local controls held now (front-panel buttons, IR keys): the local operator wins
         self.local_holds: set[str] = set()
-        #: the pass program's flight: the pre-position move sent, the next track update,
-        #: a route round a keep-out zone flown until then
-        self._pre_sent = False
-        self._next_update_s = -math.inf
-        self._route_until_s = -math.inf
 
     def run_queued(self) -> None:
         """Apply the accepted commands in order (the tick, under the lock)."""
@@ -334,147 +328,12 @@ class Commands:
         core.note_stop("health", reason, resumes=motion == "track", command=motion)
         return True
 
-    # ------------------------------------------------------------ pass programs
-    def fly_program(self, program: PassProgram) -> None:
-        """Accept a pass program (urc.service.program): every pose it may fly inside the
-        limits and outside the keep-out zones, checked now; flown from the next tick by
-        this process's own clock. Replaces a program loaded before."""
-        core = self.core
-        self.require_motion_ok(automatic=True)
-        why = program.problem()
-        if why:
-            raise CommandRejected(f"refused: {why}", "invalid")
-        if program.los_s <= core.clock.now_s():
-            raise CommandRejected(f"refused: the pass of {program.name} is over", "invalid")
-        g = core.geometry
-        single = "el" not in core.axes
-        for az, el, blocked in zip(program.az_deg, program.el_deg, program.blocked):
-            if blocked:
-                continue  # (not flown: the antenna waits at the zone's edge)
-            el = FIXED_EL_DEG if single else el
-            if not g.in_limits(az, el, slack_deg=1e-6):
-                raise CommandRejected(f"refused: {program.name}'s pose az {az:g}, el {el:g} is outside the "
-                                      "limits", "limit")
-            zone = g.zone_at(az, el, margin_deg=0.0)
-            if zone is not None:
-                raise CommandRejected(f"refused: {program.name}'s pose az {az:g}, el {el:g} is in keep-out "
-                                      f"zone {zone.name!r}", "keepout")
-
-        def apply() -> None:
-            if core.program is not None:
-                core.end_program(f"replaced by program {program.program_id}")
-            core.program, core.program_state = program, "waiting"
-            self._pre_sent, self._next_update_s, self._route_until_s = False, -math.inf, -math.inf
-        self.submit("program", apply)
-
-    def cancel_program(self, program_id: int | None = None) -> None:
-        """End the pass program (``program_id``: only if it is that one); the axes stop
-        if it was flying."""
-        core = self.core
-
-        def apply() -> None:
-            p = core.program
-            if p is None or (program_id is not None and p.program_id != program_id):
-                return
-            flying = core.motion == "program"
-            core.end_program("cancelled")
-            if flying:
-                core.route, core.tracking, core.target_sky = [], False, None
-                self.stop_axes(list(core.axes))
-        self.submit("cancel_program", apply)
-
     def replace_program(self, by: str) -> None:
         """A motion command replaces a program that is flying (a person wins); a program
         still waiting for its pass is kept (it starts on time, as a scheduled pass)."""
         core = self.core
         if core.program is not None and core.program_state in ("prepositioning", "tracking"):
             core.end_program("stopped" if by == "stop" else f"replaced by {by}")
-
-    def advance_program(self, now_s: float) -> None:
-        """Fly the pass program one tick (under the lock): pre-position, follow, end."""
-        core = self.core
-        p = core.program
-        if p is None:
-            return
-        if now_s >= p.los_s:
-            self._end_pass(p, now_s)
-            return
-        if core.faults:  # paused until cleared; then from where the satellite is
-            self._pre_sent, self._next_update_s = False, -math.inf
-            return
-        if now_s < p.preposition_start_s:
-            core.program_state = "waiting"
-            return
-        core.motion = "program"
-        if now_s < p.aos_s:
-            core.program_state = "prepositioning"
-            if not self._pre_sent:
-                self._pre_sent = True
-                core.event(f"pre-positioning for {p.name} at az {p.aos_pose[0]:.1f} el {p.aos_pose[1]:.1f}")
-                self._fly_to(p.aos_pose, now_s)
-            return
-        core.program_state = "tracking"
-        if now_s < self._next_update_s:
-            return
-        self._next_update_s = now_s + UPDATE_S
-        if p.blocked[p.index_at(now_s)]:
-            return  # inside a keep-out zone: wait at its edge
-        if now_s < self._route_until_s and core.moving():
-            return  # flying round a zone to rejoin the track
-        az, el, az_rate, el_rate = p.pose_at(now_s)
-        if self._round_zones(p, (az, el), now_s):
-            return
-        core.target_sky = core.geometry.to_sky(az, el)
-        self.follow((az, el), (az_rate, el_rate), now_s, motion="program")
-
-    def _fly_to(self, pose: tuple[float, float], now_s: float) -> bool:
-        """A route to ``pose`` round the keep-out zones (the pre-position move)."""
-        core = self.core
-        route = self.planner.route_to_pose(pose)
-        if route is None:
-            core.end_program(f"no legal path to az {pose[0]:.1f}, el {pose[1]:.1f}")
-            core.event(f"pass program ended: no legal path to az {pose[0]:.1f}, el {pose[1]:.1f}")
-            return False
-        core.parked = core.parking = False
-        core.tracking = False
-        core.target_sky = core.geometry.to_sky(*pose)
-        self.start_route(route)
-        return True
-
-    def _round_zones(self, p: PassProgram, pose: tuple[float, float], now_s: float) -> bool:
-        """If the straight way to the track crosses a keep-out zone (the track came out
-        from behind one), fly round it to where the track will be on arrival; True if so."""
-        core = self.core
-        g = core.geometry
-        if not g.zones:
-            return False
-        here, rates = core.current_pose(), core.rates()
-        if g.segment_clear(here, pose, rates) is None:
-            return False
-        route = g.plan(here, *g.to_sky(*pose), rates) or [pose]
-        aim = p.pose_at(now_s + route_time_s([here] + route, rates))[:2]
-        if not self._fly_to(aim, now_s):
-            return True
-        self._route_until_s = now_s + route_time_s([here] + core.route, rates) + ROUTE_SLACK_S
-        core.event(f"going round a keep-out zone to az {aim[0]:.1f} el {aim[1]:.1f}")
-        return True
-
-    def _end_pass(self, p: PassProgram, now_s: float) -> None:
-        core = self.core
-        flying = core.motion == "program"
-        core.end_program("done")
-        core.event(f"pass of {p.name} ended")
-        if not flying or core.faults:
-            return
-        if p.end == "park":
-            try:
-                self.park()
-            except CommandRejected as exc:
-                core.event(f"park after the pass refused: {exc}")
-            return
-        # hold the LOS pose: the last update's speed must not carry the antenna on
-        self.follow(p.los_pose, (0.0, 0.0), now_s, motion="program")
-        core.motion = None
 
     def stop_axes(self, names: list[str]) -> None:
         """Decelerate at each axis' limit and hold where it comes to rest (relays: cut)."""

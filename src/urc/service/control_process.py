@@ -1,5 +1,8 @@
 """``urc run``'s control process: the rotator, its hardware and the control loop, nothing else.
 
+(Over 600 lines on purpose: both ends of the one process boundary, the child's serving
+and watching and the parent's starting, watching and starting again, read together.)
+
 The I/O process (web, protocol servers, tracker, front panel) starts it with
 :class:`ControlProcess` and talks to it through :mod:`.remote`. Why a process of its own
 is in that module's docstring; what this one guarantees:

@@ -43,7 +43,7 @@ from .core import Core
 from .guard import Guard
 from .locking import lock_free, locked_api
 from .planning import Planner
-from .program import PassProgram
+from .program import PassProgram, ProgramFlight
 from .records import Records
 from .settings import FIXED_EL_DEG, RotatorSettings
 from .snapshot import Status
@@ -77,6 +77,7 @@ class Rotator:
         self._records = Records(core, store, self._guard.latch)
         self._planner = Planner(core)
         self._commands = Commands(core, self._planner, self._records, self._guard, self.status)
+        self._flight = ProgramFlight(core, self._commands)
         self._last_t_s: float | None = None
         self._heartbeat = False
         self._was_held = False
@@ -139,7 +140,7 @@ class Rotator:
         self.hw.poll(now)
         self._guard.sense(now, dt)
         commands.run_queued()
-        commands.advance_program(now)
+        self._flight.advance(now)
         commands.advance_route()
         self._guard.retry_after_cut(now)
         commands.check_parked()
@@ -227,11 +228,11 @@ class Rotator:
 
     def fly_program(self, program: PassProgram) -> None:
         """Fly a planned pass by this process's clock (program track, urc.service.program)."""
-        self._commands.fly_program(program)
+        self._flight.accept(program)
 
     def cancel_program(self, program_id: int | None = None) -> None:
         """End the pass program (only ``program_id``, if given); stops it if flying."""
-        self._commands.cancel_program(program_id)
+        self._flight.cancel(program_id)
 
     def set_position(self, az_deg: float | None = None, el_deg: float | None = None,
                      local: bool = False) -> None:
