@@ -31,7 +31,7 @@ class _NotAMessage:
     pickle.PickleBuffer,             # a standard type not on the list
 ])
 def test_anything_else_is_refused_and_refused_again(payload):
-    """Refused every time (the codec remembers what it looked up: the refusal too)."""
+    """Refused every time (a refusal leaves nothing behind that could admit it later)."""
     data = pickle.dumps(("request", payload), protocol=pickle.HIGHEST_PROTOCOL)
     for _ in range(2):
         with pytest.raises(pickle.UnpicklingError, match="the link refuses"):
@@ -39,8 +39,8 @@ def test_anything_else_is_refused_and_refused_again(payload):
 
 
 def test_an_urc_name_that_is_not_a_data_type_is_refused():
-    """Under urc. only data types (dataclasses, enums, named tuples, exceptions, models):
-    not a function such as the codec's own loads."""
+    """Only the registry's data types (dataclasses, enums, named tuples, exceptions,
+    models) of its listed modules: not a function such as the codec's own loads."""
     data = pickle.dumps(codec.loads, protocol=pickle.HIGHEST_PROTOCOL)
     with pytest.raises(pickle.UnpicklingError, match="urc.ipc.codec.loads"):
         codec.loads(data)
