@@ -18,9 +18,11 @@ import pytest
 
 from urc import errors
 from urc.config import EXAMPLE_CONFIG, Config, load_config, loads_config
-from urc.ipc import codec, messages
+from urc.ipc import codec
+from urc.ipc import messages
 from urc.ipc.messages import Goto, GotoPose, Reconfigure, Reply
 from urc.service import snapshot
+from urc.service.program import PassProgram
 from urc.service.remote import ControlUnavailable, StopQueued, exception_from_wire, exception_to_wire
 from urc_process import wait_until
 
@@ -61,6 +63,9 @@ SAMPLES: dict[str, object] = {
     "float": 12.5, "str": "az", "int": 3, "bool": True, "float | None": 4.25, "str | None": "el",
     "int | None": 7, "dict": {"M": -15897.0, "C": 3758.0}, "tuple": ((10.0, 1234.0), (200.0, 2900.0)),
     "tuple[str, ...]": ("M", "C"), "Goto | GotoPose": GotoPose(10.0, 20.0, "home"), "Request": Goto(1.0, 2.0),
+    # (FlyProgram's program: a pass program, urc.service.program)
+    "Any": PassProgram(4, "ISS", (100.0, 101.0, 102.0), (10.0, 11.0, 12.0), (5.0, 6.0, 7.0), (False, True, False),
+                       90.0, "hold"),
 }
 
 

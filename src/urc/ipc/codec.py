@@ -42,13 +42,13 @@ from ..control import faults, geometry, law
 from ..frontpanel import settings as panel_settings
 from ..hardware import parts
 from ..mqtt import config as mqtt_config
-from ..service import instance, settings, snapshot
+from ..service import instance, program, settings, snapshot
 from . import messages
 
 #: the modules whose data types cross the link (what the codec admits from urc; a new
 #: module of messages is added here)
 _MODULES: tuple[ModuleType, ...] = (
-    messages, snapshot, faults,                         # requests, replies, statuses
+    messages, snapshot, faults, program,                # requests, replies, statuses, pass programs
     settings, caps, geometry, law,                      # the "ready" message, Reconfigure
     schema, sections, hardware_sections, panel_sections, mqtt_config, panel_settings,  # "init": the Config
     errors, parts, instance,                            # urc's exceptions (exception_from_wire)

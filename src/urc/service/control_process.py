@@ -209,7 +209,7 @@ class ControlServer:
                 msg = codec.loads(self.conn.recv_bytes()) if self.conn.poll(WATCH_S) else None
             except (EOFError, OSError):
                 return "the I/O process is gone"
-            except Exception:  # (refused by the codec: a bug or a stranger on the socket)
+            except BaseException:  # (refused by the codec, whatever it raised: dropped, and on)
                 log.exception("control process: unreadable message from the I/O process, ignored")
                 continue
             now_s = time.monotonic()

@@ -295,7 +295,12 @@ class ControlLink:
         reason = "its socket closed"
         try:
             while True:
-                msg = codec.loads(self.conn.recv_bytes())
+                data = self.conn.recv_bytes()
+                try:
+                    msg = codec.loads(data)
+                except BaseException:  # (whatever the decoder raised: that message dropped, and on)
+                    log.exception("control link: an unreadable message from the control process, dropped")
+                    continue
                 kind = msg[0]
                 if kind == "status":
                     self.offer_status(msg[1])
@@ -311,9 +316,9 @@ class ControlLink:
         except (EOFError, OSError) as exc:
             if not isinstance(exc, EOFError):
                 reason = f"its socket failed: {exc}"
-        except Exception as exc:  # a message that cannot be read: the link is unusable
+        except Exception as exc:  # (a bug in handling a message: the link is unusable)
             log.exception("control link broken")
-            reason = f"unreadable message: {exc!r}"
+            reason = f"link failed: {exc!r}"
         self._lose(reason if self.final is None else "it stopped")
         self.finished.set()
 
