@@ -23,7 +23,6 @@ import subprocess
 import sys
 import tempfile
 import time
-from datetime import datetime, timezone
 from pathlib import Path
 
 import httpx
@@ -34,11 +33,10 @@ sys.path.insert(0, str(ROOT / "tests"))
 sys.path.insert(0, str(ROOT / "bench"))
 from bench_report import write_json  # noqa: E402
 from urc_process import URC, UrcProcess, stop_process_group  # noqa: E402
-from web_bench import STATION, synthetic_tle  # noqa: E402
 
 from urc.angles import great_circle_deg  # noqa: E402
-from urc.tracking.elements import load_elements  # noqa: E402
-from urc.tracking.passes import find_passes  # noqa: E402
+from urc.testing.synthetic import STATION_TOML as STATION  # noqa: E402
+from urc.testing.synthetic import satellite_passing_soon  # noqa: E402
 from urc.tracking.propagate import look_angles  # noqa: E402
 from urc.tracking.station import Station  # noqa: E402
 
@@ -50,19 +48,7 @@ POLL_S = 0.2
 def pick_satellite(work: Path, lead_s: tuple[float, float], min_max_el_deg: float):
     """(TLE text, elements, pass) of a synthetic LEO whose next pass starts within
     ``lead_s`` seconds from now and rises above ``min_max_el_deg``."""
-    now = datetime.now(timezone.utc)
-    path = work / "pick.tle"
-    for raan in range(0, 360, 15):
-        for ma in range(0, 360, 5):
-            text = synthetic_tle("STRESS-SAT", NORAD, now, inc_deg=70.0, raan_deg=raan, argp_deg=90.0,
-                                 ma_deg=ma, rev_per_day=15.2)
-            path.write_text(text)
-            es = load_elements(path)[0]
-            t0 = time.time()
-            for p in find_passes(es, TARTU, t0, duration_s=lead_s[1] + 1200.0, min_el_deg=0.0):
-                if lead_s[0] <= p.aos_unix_s - t0 <= lead_s[1] and p.max_el_deg >= min_max_el_deg:
-                    return text, es, p
-    raise RuntimeError("no synthetic satellite with a pass in the window")
+    return satellite_passing_soon(work, TARTU, lead_s, min_max_el_deg, norad=NORAD, name="STRESS-SAT")
 
 
 def main() -> None:

@@ -22,7 +22,6 @@ from __future__ import annotations
 import argparse
 import asyncio
 import json
-import math
 import os
 import statistics
 import subprocess
@@ -38,6 +37,8 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
 from bench_report import cpu_s, write_json  # noqa: E402
 from urc_process import UrcProcess  # noqa: E402
+
+from urc.testing.synthetic import STATION_TOML, synthetic_tle  # noqa: E402
 
 CHROMIUM = "/usr/bin/chromium"
 CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
@@ -118,23 +119,7 @@ async def _clients(url: str, n: int, window_s: float, pid: int, move_url: str | 
     return {"cpu_share": (c1 - c0) / (t1 - t0), "msgs_per_s_per_client": (n1 - n0) / (t1 - t0) / n}
 
 
-STATION = "[station]\nlat_deg = 58.378\nlon_deg = 26.729\nalt_m = 70.0\n"
-
-
-def synthetic_tle(name: str, norad: int, epoch: datetime, *, inc_deg: float, raan_deg: float,
-                  argp_deg: float, ma_deg: float, rev_per_day: float, ecc: float = 0.001) -> str:
-    """A three-line element set of ``epoch`` (fixture element sets age into decay)."""
-    from sgp4.api import WGS72, Satrec
-    from sgp4.exporter import export_tle
-
-    xpdotp = 1440.0 / (2.0 * math.pi)
-    days = (epoch - datetime(1949, 12, 31, tzinfo=timezone.utc)).total_seconds() / 86400.0
-    sat = Satrec()
-    sat.sgp4init(WGS72, "i", norad, days, 1.0e-4, 0.0, 0.0, ecc, math.radians(argp_deg), math.radians(inc_deg),
-                 math.radians(ma_deg), rev_per_day / xpdotp, math.radians(raan_deg))
-    sat.intldesg, sat.classification, sat.elnum, sat.revnum, sat.ephtype = "98067A", "U", 999, 1, 0
-    l1, l2 = export_tle(sat)
-    return f"{name}\n{l1}\n{l2}\n"
+STATION = STATION_TOML
 
 
 def iss_like_tle(epoch: datetime) -> str:
