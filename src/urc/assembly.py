@@ -54,9 +54,19 @@ def settings_from_config(cfg: Config) -> RotatorSettings:
         az_offset_deg=cfg.offsets.az_deg + cfg.rotator.zero_offset_deg, el_offset_deg=cfg.offsets.el_deg,
         flip=cfg.rotator.flip is True, pass_flip=cfg.rotator.flip_enabled(caps), zones=zones, idle_park_s=cfg.park.idle_park_s,
         az_tuning=tunings["az"], el_tuning=tunings["el"], az_faults=faults["az"], el_faults=faults["el"],
-        save_interval_s=cfg.state.save_interval_s, watchdog_s=cfg.faults.watchdog_s,
+        save_interval_s=cfg.state.save_interval_s, watchdog_s=_stall_s(cfg),
         watchdog_recover_s=cfg.faults.watchdog_recover_s, watchdog_latch_stalls=cfg.faults.watchdog_latch_stalls,
         watchdog_latch_window_s=cfg.faults.watchdog_latch_window_s).completed()
+
+
+def _stall_s(cfg: Config) -> float:
+    """How late a tick is a stall: ``[faults] watchdog_s``, or sooner where a safety part
+    cuts motor power sooner (its timeout): a freeze that dropped the relay interrupted the
+    motion, and the relay closes again on its own when ticks come back, so urc must count
+    it (issue 33: 20 freezes of 0.5 s flapped the relay 20 times, 30 deg of jerky travel,
+    none of them seen as a stall)."""
+    parts = [getattr(section, "motor_enable_timeout_s", None) for section in (cfg.hardware.sim, cfg.hardware.gpio)]
+    return min([cfg.faults.watchdog_s, *(t for t in parts if t is not None)])
 
 
 def bridged_caps(caps, protocol: str):

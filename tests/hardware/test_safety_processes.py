@@ -156,3 +156,31 @@ def test_the_io_process_has_what_a_takeover_needs_imported_before_it_is_needed(t
     out = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True,
                          env={**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}, timeout=120)
     assert out.returncode == 0 and out.stdout.strip() == "ok", out.stderr
+
+
+def test_a_flapping_control_process_latches_a_fault_after_three_stops(tmp_path):
+    """Issue 33: 20 freezes of 0.5 s (shorter than the takeover) cut the relay 20 times
+    and resumed the move after each, about 30 deg of jerky travel before a fault. A
+    freeze that drops the safety part's relay is a stall (urc counts ticks later than the
+    part's timeout); the third within 60 s latches a watchdog fault, after which nothing
+    moves, however often the process freezes again."""
+    p = start(tmp_path, part=True)
+    try:
+        moving_fast(p)
+        ctl = p.control_pid()
+        latched_at = None
+        for i in range(8):
+            os.kill(ctl, signal.SIGSTOP)
+            time.sleep(0.5)
+            os.kill(ctl, signal.SIGCONT)
+            time.sleep(0.5)
+            s = p.status()
+            if latched_at is None and any(f["kind"] == "watchdog" for f in s["faults"]):
+                latched_at = (i, s["simulator_truth"]["az"]["deg"], s["loop"]["stalls"])
+        assert latched_at is not None, s["loop"]
+        assert latched_at[0] <= 3 and latched_at[2] <= 4, latched_at   # (the third stall latches)
+        s = p.wait(lambda s: not s["moving"])
+        assert abs(s["simulator_truth"]["az"]["deg"] - latched_at[1]) < 1.0   # nothing moved after the latch
+        assert s["last_stop"]["kind"] == "fault" and s["target_az_deg"] is None, s["last_stop"]
+    finally:
+        p.kill()
