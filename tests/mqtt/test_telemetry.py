@@ -86,3 +86,16 @@ def test_events():
     assert w.events(s4, status_payload(s4, "d", 0), {"kind": "homing", "state": "done", "error": ""}) == [
         {"type": "tracking_stopped", "target": "NOAA 19"}, {"type": "pass_ended", "target": "NOAA 19"},
         {"type": "procedure", "kind": "homing", "state": "done", "error": ""}]
+
+
+def test_a_stop_urc_made_by_itself_is_an_event_once():
+    """Issue 33: a stop by a health rule was a bare notice; it is a `stopped` event with
+    its kind, reason, the command it cut and whether it resumes, sent once."""
+    w = EventWatcher()
+    s0 = snap()
+    assert w.events(s0, status_payload(s0, "d", 0), None) == []
+    stop = {"kind": "health", "reason": "the I/O process was silent for 1.2 s", "command": "move", "t_s": 5.0,
+            "resumes": False}
+    s1 = snap(last_stop=stop)
+    assert w.events(s1, status_payload(s1, "d", 0), None) == [{"type": "stopped", **stop}]
+    assert w.events(s1, status_payload(s1, "d", 0), None) == []

@@ -132,6 +132,7 @@ class EventWatcher:
         self._pass_state: str | None = None
         self._procedure: tuple | None = None
         self._notices: tuple[str, ...] = ()
+        self._stop_t_s: float | None = None
 
     def events(self, s: dict[str, Any], p: dict[str, Any], procedure: dict[str, Any] | None) -> list[dict]:
         """Events since the last call (none on the first: that is the starting point)."""
@@ -159,9 +160,13 @@ class EventWatcher:
             if proc != self._procedure and proc is not None:
                 out.append({"type": "procedure", "kind": proc[0], "state": proc[1],
                             "error": procedure.get("error")})
+            stop = s.get("last_stop")
+            if stop is not None and stop["t_s"] != self._stop_t_s:
+                out.append({"type": "stopped", **stop})   # (what urc stopped by itself, and why)
             seen = set(self._notices)
             out += [{"type": "notice", "text": n} for n in notices if n not in seen]
         self._primed = True
         self._faults, self._target, self._pass_state = faults, target, pass_state
         self._procedure, self._notices = proc, notices
+        self._stop_t_s = (s.get("last_stop") or {}).get("t_s")
         return out

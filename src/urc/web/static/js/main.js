@@ -271,6 +271,15 @@ function onFrame(frame) {
   $("local-banner").hidden = local.length === 0;
   setText($("local-text"), local.length ? `${local.join(", ")} held at the rotator: moves from here ` +
     "are refused until it is released (STOP still works)." : "");
+  // a stop urc made by itself (a late loop, a silent I/O process, a fault): what it
+  // cut, why, and whether it goes on by itself; shown for a minute, never a silent idle
+  const stop = st.last_stop;
+  const stopShown = !!stop && st.t_s - stop.t_s < 60;
+  $("stop-banner").hidden = !stopShown;
+  if (stopShown) {
+    setText($("stop-text"), `${stop.command || "motion"} stopped (${stop.kind}): ${stop.reason} (${ago(st.t_s - stop.t_s)}); ` +
+      (stop.resumes ? "it resumes by itself once urc is healthy." : "it does not resume by itself."));
+  }
   const uncertain = !st.position_known;
   $("warn-banner").hidden = !uncertain;
   if (uncertain) {
