@@ -101,6 +101,20 @@ def test_a_frozen_or_dead_control_process_is_ended_and_its_outputs_driven_safe_f
     assert ("froze" if how == "SIGSTOP" else "died") in out, out
 
 
+def test_a_goto_under_way_resumes_after_a_takeover_on_absolute_sensors(urc):
+    """Issue 33 item 5: g5500's potentiometers are absolute, so the control process
+    started again after a takeover knows the position, and the goto that was under way
+    goes on to its target."""
+    u = urc(profile="g5500").start()
+    ctl = u.control_pid()
+    assert u.post("/api/goto", {"az_deg": 120, "el_deg": 30}).status_code == 200
+    u.wait(lambda s: s["moving"] and s["az"]["rate_deg_per_s"] > 1)
+    os.kill(ctl, signal.SIGSTOP)
+    s = u.wait(lambda s: any("goto under way resumed" in e for e in s["events"]), timeout_s=60)
+    assert s["position_known"] and u.control_pid() != ctl
+    u.wait(lambda s: not s["moving"] and abs(s["az_deg"] - 120) < 1.0 and abs(s["el_deg"] - 30) < 1.0, timeout_s=90)
+
+
 def test_a_control_process_that_stops_by_itself_is_started_again(urc):
     """SIGTERM to the control process alone: it stops in order and saves; `urc run`
     used to exit (systemd had to start it again, and without systemd the station stayed

@@ -628,6 +628,13 @@ class ControlProcess:
                 self.rotator.rebind(remote)
             text = (f"control process started again (process {self.proc.pid}) after: {self.taken_over}; position "
                     + ("known" if remote.status().position_known else "uncertain: re-reference"))
+            try:  # (an absolute sensor: the goto or park under way goes on)
+                resumed = self.rotator.resume_bounded() if self.rotator is not None else ""
+            except Exception as exc:
+                resumed = ""
+                log.warning("resuming the command under way failed: %s", exc)
+            if resumed:
+                text += f"; the {resumed} under way resumed"
             on_event(text)
             try:  # (in its status' events too, for every client)
                 remote.announce(text)

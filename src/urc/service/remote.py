@@ -352,6 +352,9 @@ class _Shared:
         self.priority: str = info.get("priority", "")
         #: what the hardware is (sent with "ready": asking costs no round trip)
         self.hardware = info["hardware"]
+        #: the last bounded command accepted (a goto, a park: (method, arguments)) until
+        #: another motion command: what a control process started again resumes
+        self.bounded: tuple[str, tuple] | None = None
 
 
 class RemoteRotator:
@@ -428,44 +431,60 @@ class RemoteRotator:
         self._shared.settings, self._shared.caps = settings, settings.caps
         self._shared.geometry = settings.geometry()
 
+    def resume_bounded(self) -> str:
+        """A control process started again: send the bounded command that was under way
+        again if the position is known (an absolute sensor); what was resumed, or ""."""
+        last = self._shared.bounded
+        if last is None or not self.status().position_known:
+            return ""
+        getattr(self, last[0])(*last[1])
+        return last[0]
+
+    def _motion(self, request: Request, bounded: tuple[str, tuple] | None = None) -> Any:
+        """A motion command: remembered while it is the last one if it is bounded."""
+        value = self._link.call(request)
+        self._shared.bounded = bounded
+        return value
+
     # ------------------------------------------------------------- the commands (RotatorPort)
     def goto(self, az_deg: float, el_deg: float) -> list:
-        return self._link.call(Goto(az_deg, el_deg))
+        return self._motion(Goto(az_deg, el_deg), ("goto", (az_deg, el_deg)))
 
     def goto_az(self, az_deg: float) -> list:
-        return self._link.call(GotoAz(az_deg))
+        return self._motion(GotoAz(az_deg), ("goto_az", (az_deg,)))
 
     def goto_el(self, el_deg: float) -> list:
-        return self._link.call(GotoEl(el_deg))
+        return self._motion(GotoEl(el_deg), ("goto_el", (el_deg,)))
 
     def goto_pose(self, az_m_deg: float, el_m_deg: float, name: str = "goto_pose", local: bool = False) -> list:
-        return self._link.call(GotoPose(az_m_deg, el_m_deg, name, local))
+        return self._motion(GotoPose(az_m_deg, el_m_deg, name, local), ("goto_pose", (az_m_deg, el_m_deg, name, local)))
 
     def park(self, local: bool = False) -> list:
-        return self._link.call(Park(local))
+        return self._motion(Park(local), ("park", (local,)))
 
     def track(self, az_deg: float, el_deg: float, az_rate_deg_per_s: float = 0.0, el_rate_deg_per_s: float = 0.0,
               t_ref_s: float | None = None) -> None:
-        self._link.call(Track(az_deg, el_deg, az_rate_deg_per_s, el_rate_deg_per_s, t_ref_s))
+        self._motion(Track(az_deg, el_deg, az_rate_deg_per_s, el_rate_deg_per_s, t_ref_s))
 
     def track_pose(self, az_m_deg: float, el_m_deg: float, az_rate_deg_per_s: float = 0.0,
                    el_rate_deg_per_s: float = 0.0, t_ref_s: float | None = None) -> None:
-        self._link.call(TrackPose(az_m_deg, el_m_deg, az_rate_deg_per_s, el_rate_deg_per_s, t_ref_s))
+        self._motion(TrackPose(az_m_deg, el_m_deg, az_rate_deg_per_s, el_rate_deg_per_s, t_ref_s))
 
     def move(self, axis: str, direction: int, speed_frac: float = 1.0, local: bool = False) -> None:
-        self._link.call(Move(axis, direction, speed_frac, local))
+        self._motion(Move(axis, direction, speed_frac, local))
 
     def stop(self, axis: str | None = None) -> None:
+        self._shared.bounded = None  # (before: a stop that is only queued cancels it too)
         self._link.call(Stop(axis), timeout_s=STOP_ACK_S)
 
     def fly_program(self, program: Any) -> None:
-        self._link.call(FlyProgram(program))
+        self._link.call(FlyProgram(program))  # (a program is uploaded again by its tracker)
 
     def cancel_program(self, program_id: int | None = None) -> None:
         self._link.call(CancelProgram(program_id))
 
     def set_position(self, az_deg: float | None = None, el_deg: float | None = None, local: bool = False) -> None:
-        self._link.call(SetPosition(az_deg, el_deg, local))
+        self._motion(SetPosition(az_deg, el_deg, local))
 
     def adopt_sensor_reading(self, axis: str, local: bool = False) -> float:
         return self._link.call(AdoptSensorReading(axis, local))
