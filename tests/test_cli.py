@@ -115,6 +115,11 @@ def test_run_status_goto_stop_park(controller):
     assert s["simulator_truth"]["az"]["deg"] == pytest.approx(25, abs=0.5)
     refused = c.cli("goto", "400", "30", check=False)  # berkeley: az 0..360
     assert refused.returncode != 0 and "outside" in refused.stderr
+    # beyond what the API takes at all (el -90..180): said as the rotator's limits are,
+    # not as pydantic's list (issue 36.11)
+    refused = c.cli("goto", "123", "200", check=False)
+    assert refused.returncode != 0 and refused.stderr.strip() == \
+        f"Error: refused (422): el 200 outside the limits el {s['limits']['el'][0]:g}..{s['limits']['el'][1]:g}"
     # through the API, not the CLI: a loaded machine can take the whole 6 s move to start
     # a CLI process, and the stop below must land while the antenna moves
     # (a machine busy enough can finish the 4 s move before the stop lands: up to three

@@ -14,7 +14,7 @@ from pathlib import Path
 import click
 
 from . import __version__
-from .api_client import CLIENT_TIMEOUT_S, DEFAULT_URL, ClientError, base_url
+from .api_client import CLIENT_TIMEOUT_S, DEFAULT_URL, ClientError, base_url, field_name, invalid_fields
 from .api_client import request as api_request
 from .errors import ConfigError, StateFileError
 from .status_text import format_tracking, render
@@ -323,7 +323,34 @@ def _request(url: str | None, config_path: str | None, method: str, path: str, b
     try:
         return api_request(base_url(url, port), method, path, body, token=token, timeout_s=timeout_s)
     except ClientError as exc:
-        raise click.ClickException(str(exc)) from None
+        said = str(exc)
+        if exc.code == 422 and path in ("/api/goto", "/api/set-position"):
+            said = _outside_the_limits(base_url(url, port), token, timeout_s, exc.data) or said
+        raise click.ClickException(said) from None
+
+
+def _outside_the_limits(url: str, token: str, timeout_s: float, data: object) -> str | None:
+    """An angle beyond what the API takes (-360..720, -90..180) said as the rotator's own
+    refusal of one beyond its limits says it: ``el 200 outside the limits el 0..180``."""
+    entries = invalid_fields(data) if isinstance(data, dict) else []
+    angles = {field_name(e).removesuffix("_deg"): e.get("input") for e in entries
+              if field_name(e) in ("az_deg", "el_deg") and isinstance(e.get("input"), (int, float))}
+    if not angles or len(angles) != len(entries):
+        return None
+    try:
+        info = api_request(url, "GET", "/api/info", token=token, timeout_s=timeout_s)
+        limits = {axis: (lo + info["offsets"].get(axis, 0.0), hi + info["offsets"].get(axis, 0.0))
+                  for axis, (lo, hi) in info["limits"].items()}
+    except (ClientError, KeyError, TypeError, ValueError, AttributeError):
+        return None
+    said = []
+    for axis, value in angles.items():
+        if axis not in limits:
+            said.append(f"this rotator has no {axis} axis")
+        else:
+            lo, hi = limits[axis]
+            said.append(f"{axis} {value:g} outside the limits {axis} {lo:g}..{hi:g}")
+    return "refused (422): " + "; ".join(said)
 
 
 @main.command()
