@@ -210,6 +210,28 @@ def test_track_prints_the_target_and_its_warnings(controller, tmp_path):
     c.cli("track", "--stop")
 
 
+def test_track_without_a_station_says_what_is_missing(controller):
+    """Issue 36.10: `urc track ISS` on a urc without [station] printed `refused (404): Not
+    Found`. It says what is missing and how to add it; `urc run --lat --lon` gives the
+    position for one run, never saved."""
+    c = controller()
+    c.start()
+    res = c.cli("track", "ISS", check=False)
+    assert res.returncode == 1 and "404" not in res.stderr, res.stderr
+    for said in ("tracking is off", "no station position", "[station]", "lat_deg =", "lon_deg =",
+                 "urc run --lat"):
+        assert said in res.stderr, (said, res.stderr)
+    c.stop()
+    config_before = c.config.read_text()
+    c.start(args=["--lat", "58.378", "--lon", "26.729"])
+    assert "tracking  Sun" in c.cli("track", "sun").stdout
+    c.cli("track", "--stop")
+    c.stop()
+    assert c.config.read_text() == config_before
+    half = urc("run", "--config", str(c.config), "--lat", "58.4", check=False)
+    assert half.returncode == 2 and "--lat and --lon together" in half.stderr
+
+
 def test_status_shows_a_position_in_a_reference_search_as_unknown(bench):
     """BIG-RAS homing jogs in a search frame of its own: status printed 'az 434.00 ...
     UNCERTAIN' for an antenna at about 62 deg. During the search the number says nothing:
