@@ -246,3 +246,40 @@ def test_an_ipv6_address():
     finally:
         server.shutdown()
         server.server_close()
+
+
+# ------------------------------------------------------------------ a refusal in words
+def _served(code: int, body: bytes):
+    def answer(conn):
+        conn.recv(65536)
+        conn.sendall(b"HTTP/1.1 %d X\r\nContent-Type: application/json\r\nContent-Length: %d\r\n\r\n%s"
+                     % (code, len(body), body))
+        conn.close()
+    return one_shot_server(answer)
+
+
+@pytest.mark.parametrize("body, said", [
+    ({"az_deg": 123, "el_deg": 200}, "el_deg 200 is above 180, the most accepted"),
+    ({"az_deg": -400}, "az_deg -400 is below -360, the least accepted"),
+    ({"az_deg": 10, "speed": 2}, "speed: no such field"),
+    ({"el_deg": 10}, "az_deg is missing"),
+    ({"az_deg": "45"}, "az_deg: input should be a valid number, found '45'"),
+])
+def test_a_422_is_one_sentence_naming_the_field(bench, body, said):
+    """`urc goto 123 200` printed FastAPI's 422 as a Python list of dicts (issue 36.11):
+    the real API's answer, said as words."""
+    from fastapi.testclient import TestClient
+
+    from urc.api import create_api
+
+    b = bench("berkeley")
+    answer = TestClient(create_api(b.rot, b.cfg), base_url="http://127.0.0.1:8080").post("/api/goto", json=body)
+    assert answer.status_code == 422
+    srv, _ = _served(422, answer.content)
+    try:
+        with pytest.raises(ClientError) as err:
+            request(f"http://127.0.0.1:{srv.getsockname()[1]}", "POST", "/api/goto", body, timeout_s=5.0)
+    finally:
+        srv.close()
+    assert str(err.value) == f"refused (422): {said}"
+    assert err.value.code == 422 and err.value.data == answer.json()

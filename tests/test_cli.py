@@ -115,6 +115,11 @@ def test_run_status_goto_stop_park(controller):
     assert s["simulator_truth"]["az"]["deg"] == pytest.approx(25, abs=0.5)
     refused = c.cli("goto", "400", "30", check=False)  # berkeley: az 0..360
     assert refused.returncode != 0 and "outside" in refused.stderr
+    # beyond what the API takes at all (el -90..180): said as the rotator's limits are,
+    # not as pydantic's list (issue 36.11)
+    refused = c.cli("goto", "123", "200", check=False)
+    assert refused.returncode != 0 and refused.stderr.strip() == \
+        f"Error: refused (422): el 200 outside the limits el {s['limits']['el'][0]:g}..{s['limits']['el'][1]:g}"
     # through the API, not the CLI: a loaded machine can take the whole 6 s move to start
     # a CLI process, and the stop below must land while the antenna moves
     # (a machine busy enough can finish the 4 s move before the stop lands: up to three
@@ -203,6 +208,28 @@ def test_track_prints_the_target_and_its_warnings(controller, tmp_path):
     out = c.cli("track", "--azel", "120", "-5").stdout  # below the horizon: said so
     assert "warning" in out and "below" in out, out
     c.cli("track", "--stop")
+
+
+def test_track_without_a_station_says_what_is_missing(controller):
+    """Issue 36.10: `urc track ISS` on a urc without [station] printed `refused (404): Not
+    Found`. It says what is missing and how to add it; `urc run --lat --lon` gives the
+    position for one run, never saved."""
+    c = controller()
+    c.start()
+    res = c.cli("track", "ISS", check=False)
+    assert res.returncode == 1 and "404" not in res.stderr, res.stderr
+    for said in ("tracking is off", "no station position", "[station]", "lat_deg =", "lon_deg =",
+                 "urc run --lat"):
+        assert said in res.stderr, (said, res.stderr)
+    c.stop()
+    config_before = c.config.read_text()
+    c.start(args=["--lat", "58.378", "--lon", "26.729"])
+    assert "tracking  Sun" in c.cli("track", "sun").stdout
+    c.cli("track", "--stop")
+    c.stop()
+    assert c.config.read_text() == config_before
+    half = urc("run", "--config", str(c.config), "--lat", "58.4", check=False)
+    assert half.returncode == 2 and "--lat and --lon together" in half.stderr
 
 
 def test_status_shows_a_position_in_a_reference_search_as_unknown(bench):

@@ -120,3 +120,22 @@ def test_a_fifo_in_place_of_the_state_file_is_an_error_not_a_hang(tmp_path):
         pytest.fail("loading a FIFO blocked")
     assert isinstance(outcome[0], StateFileError) and "not a regular file (a FIFO)" in str(outcome[0])
     assert store.quarantine() is None, "nothing copied (copying a FIFO would block too)"
+
+
+@pytest.mark.parametrize("payload, said", [
+    ({"profile": 7, "axes": {}}, "payload.profile"),
+    ({"profile": "x", "axes": []}, "payload.axes"),
+    ({"profile": "x", "axes": {"az": 12.5}}, "payload.axes.az: expected a table"),
+    ({"profile": "x", "axes": {"az": {"mech_deg": "12.5"}}}, "payload.axes.az.mech_deg"),
+    ({"profile": "x", "axes": {"az": {"mech_deg": 1.0, "calibration": {"M": [1, "2"]}}}}, "calibration"),
+])
+def test_a_field_not_as_urc_writes_it_is_damage(tmp_path, payload, said):
+    """Issue 36.20: a valid checksum over a field of the wrong type is still damage."""
+    import time
+    import zlib
+    store = StateStore(tmp_path / "state.json")
+    text = json.dumps(payload, sort_keys=True, separators=(",", ":"))
+    store.path.write_text(json.dumps({"format": "urc-state", "version": 1, "saved_unix_s": time.time(),
+                                      "crc32": zlib.crc32(text.encode()), "payload": payload}))
+    with pytest.raises(StateFileError, match=f"{said}.*damaged"):
+        store.load()

@@ -188,11 +188,13 @@ class UrcProcess:
         self.proc: subprocess.Popen | None = None
         self.banner = ""
 
-    def start(self, timeout_s: float = START_TIMEOUT_S, env: dict | None = None) -> "UrcProcess":
-        """Start ``urc run`` in a process group of its own (so a stop reaches its control
-        process too) and wait until its API answers; a start that fails leaves nothing
-        running."""
-        self.proc = subprocess.Popen(URC + ["run", "--config", str(self.config), "--state-dir", str(self.state_dir)],
+    def start(self, timeout_s: float = START_TIMEOUT_S, env: dict | None = None,
+              args: list[str] | None = None) -> "UrcProcess":
+        """Start ``urc run`` (with ``args`` added) in a process group of its own (so a stop
+        reaches its control process too) and wait until its API answers; a start that
+        fails leaves nothing running."""
+        self.proc = subprocess.Popen(URC + ["run", "--config", str(self.config), "--state-dir", str(self.state_dir),
+                                            *(args or [])],
                                      stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
                                      start_new_session=True, env=env, preexec_fn=_term_with_parent)
         try:

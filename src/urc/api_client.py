@@ -22,7 +22,12 @@ CONNECT_TIMEOUT_S = 5.0
 
 class ClientError(Exception):
     """The request failed: urc unreachable, silent, or it refused. The message is what the
-    command prints after ``Error:``."""
+    command prints after ``Error:``; ``code`` and ``data`` are a refusal's status and
+    decoded answer (0 and None when there was none)."""
+
+    def __init__(self, message: str, code: int = 0, data: object = None):
+        super().__init__(message)
+        self.code, self.data = code, data
 
 
 class NoAnswer(Exception):
@@ -241,7 +246,42 @@ def request(url: str, method: str, path: str, body: dict | None = None, *, token
         errors = data.get("errors") if isinstance(data, dict) else None
         if errors:  # the settings' checks: one problem per key
             detail = "; ".join(f"{e.get('key') or '-'}: {e.get('message')}" for e in errors)
+        elif isinstance(data, dict) and invalid_fields(data):
+            detail = "; ".join(invalid_sentence(e) for e in invalid_fields(data)[:3])
         else:
             detail = data.get("error") or data.get("detail") or data
-        raise ClientError(f"refused ({code}): {detail}")
+        raise ClientError(f"refused ({code}): {detail}", code, data)
     return data
+
+
+#: a range check's words (pydantic's error types in FastAPI's 422 ``detail`` entries)
+_BOUNDS = {"less_than_equal": ("le", "is above {}, the most accepted"), "less_than": ("lt", "must be below {}"),
+           "greater_than_equal": ("ge", "is below {}, the least accepted"), "greater_than": ("gt", "must be above {}")}
+
+
+def invalid_fields(data: dict) -> list[dict]:
+    """The entries of a 422 answer's ``detail`` (one per field), or []."""
+    detail = data.get("detail")
+    if not isinstance(detail, list):
+        return []
+    return [e for e in detail if isinstance(e, dict) and isinstance(e.get("loc"), list)]
+
+
+def field_name(entry: dict) -> str:
+    return ".".join(str(x) for x in entry["loc"] if x != "body") or "body"
+
+
+def invalid_sentence(entry: dict) -> str:
+    """One 422 entry as words: ``el_deg 200 is above 180, the most accepted``."""
+    name, kind, found = field_name(entry), entry.get("type"), entry.get("input")
+    ctx = entry.get("ctx")
+    key, words = _BOUNDS.get(str(kind), ("", ""))
+    limit = ctx.get(key) if key and isinstance(ctx, dict) else None
+    if isinstance(found, (int, float)) and isinstance(limit, (int, float)):
+        return f"{name} {found:g} " + words.format(f"{limit:g}")
+    if kind == "extra_forbidden":
+        return f"{name}: no such field"
+    if kind == "missing":
+        return f"{name} is missing"
+    said = str(entry.get("msg") or "invalid")
+    return f"{name}: {said[:1].lower() + said[1:]}" + (f", found {found!r}" if "input" in entry else "")

@@ -14,7 +14,7 @@ from pathlib import Path
 import click
 
 from . import __version__
-from .api_client import CLIENT_TIMEOUT_S, DEFAULT_URL, ClientError, base_url
+from .api_client import CLIENT_TIMEOUT_S, DEFAULT_URL, ClientError, base_url, field_name, invalid_fields
 from .api_client import request as api_request
 from .errors import ConfigError, StateFileError
 from .status_text import format_tracking, render
@@ -68,9 +68,15 @@ def main() -> None:
                    "rotctld=tcp:127.0.0.1:4535, gs232b=pty:/tmp/urc-gs232b, "
                    "rot2prog=serial:/dev/ttyUSB0,baud=600, pstrotator=udp:0.0.0.0:12000; "
                    "other KEY=VALUE pairs are the protocol's options (urc=tcp:127.0.0.1:4540,variant=trc).")
+@click.option("--lat", "lat_deg", type=click.FloatRange(-90, 90), metavar="DEG",
+              help="Station latitude (north +), with --lon: the [station] position for this run "
+                   "(never saved); tracking needs one.")
+@click.option("--lon", "lon_deg", type=click.FloatRange(-180, 360), metavar="DEG",
+              help="Station longitude (east +), with --lat.")
 @click.option("-v", "--verbose", is_flag=True, help="Log debug detail.")
 def run(config_path: str | None, profile: str | None, state_dir: str | None, port: int | None,
-        emulate: bool, serve_specs: tuple[str, ...], verbose: bool) -> None:
+        emulate: bool, serve_specs: tuple[str, ...], lat_deg: float | None, lon_deg: float | None,
+        verbose: bool) -> None:
     """Start the controller (the simulator with no arguments)."""
     import asyncio
     import logging
@@ -87,6 +93,13 @@ def run(config_path: str | None, profile: str | None, state_dir: str | None, por
             data = cfg.to_dict()
             data.setdefault("api", {})["port"] = port
             cfg = Config.from_dict(data, source="--port")
+        if (lat_deg is None) != (lon_deg is None):
+            raise click.UsageError("give --lat and --lon together")
+        if lat_deg is not None:
+            from .config import Config
+            data = cfg.to_dict()
+            data.setdefault("station", {}).update(lat_deg=lat_deg, lon_deg=lon_deg)
+            cfg = Config.from_dict(data, source="--lat/--lon")
         if serve_specs:
             cfg = with_serve(cfg, serve_specs)
         if emulate:
@@ -326,7 +339,51 @@ def _request(url: str | None, config_path: str | None, method: str, path: str, b
     try:
         return api_request(base_url(url, port), method, path, body, token=token, timeout_s=timeout_s)
     except ClientError as exc:
-        raise click.ClickException(str(exc)) from None
+        said = str(exc)
+        if exc.code == 422 and path in ("/api/goto", "/api/set-position"):
+            said = _outside_the_limits(base_url(url, port), token, timeout_s, exc.data) or said
+        elif exc.code == 404 and path.startswith(("/api/track", "/api/passes")):
+            said = _tracking_off(base_url(url, port), token, timeout_s) or said
+        raise click.ClickException(said) from None
+
+
+def _tracking_off(url: str, token: str, timeout_s: float) -> str | None:
+    """A urc without a station position has no tracking routes (404): say so, and how."""
+    try:
+        info = api_request(url, "GET", "/api/info", token=token, timeout_s=timeout_s)
+    except ClientError:
+        return None
+    if not isinstance(info, dict) or info.get("tracking_available") is not False:
+        return None
+    return (f"tracking is off: the urc at {url} has no station position. Add it to the "
+            "configuration urc runs with, then restart it:\n\n"
+            "  [station]\n  lat_deg = 58.38    # yours: degrees north\n  lon_deg = 26.72    # yours: degrees east\n\n"
+            "(`urc settings set station.lat_deg=58.38 station.lon_deg=26.72` saves that from "
+            "here), or start it with `urc run --lat 58.38 --lon 26.72`.")
+
+
+def _outside_the_limits(url: str, token: str, timeout_s: float, data: object) -> str | None:
+    """An angle beyond what the API takes (-360..720, -90..180) said as the rotator's own
+    refusal of one beyond its limits says it: ``el 200 outside the limits el 0..180``."""
+    entries = invalid_fields(data) if isinstance(data, dict) else []
+    angles = {field_name(e).removesuffix("_deg"): e.get("input") for e in entries
+              if field_name(e) in ("az_deg", "el_deg") and isinstance(e.get("input"), (int, float))}
+    if not angles or len(angles) != len(entries):
+        return None
+    try:
+        info = api_request(url, "GET", "/api/info", token=token, timeout_s=timeout_s)
+        limits = {axis: (lo + info["offsets"].get(axis, 0.0), hi + info["offsets"].get(axis, 0.0))
+                  for axis, (lo, hi) in info["limits"].items()}
+    except (ClientError, KeyError, TypeError, ValueError, AttributeError):
+        return None
+    said = []
+    for axis, value in angles.items():
+        if axis not in limits:
+            said.append(f"this rotator has no {axis} axis")
+        else:
+            lo, hi = limits[axis]
+            said.append(f"{axis} {value:g} outside the limits {axis} {lo:g}..{hi:g}")
+    return "refused (422): " + "; ".join(said)
 
 
 @main.command()

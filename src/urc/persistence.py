@@ -1,8 +1,9 @@
 """State that survives a power cut (the FRAM of the Tartu controller).
 
 One JSON record per rotator, written atomically (temp file, fsync, rename) with a
-CRC-32 of its canonical payload. A truncated, corrupt or foreign file is detected and
-reported, never trusted: the caller then treats incremental positions as unknown.
+CRC-32 of its canonical payload. A truncated, corrupt or foreign file, or one whose
+fields are not of the type and range urc writes, is detected and reported, never
+trusted: the caller then treats incremental positions as unknown.
 
 A *marker* file written at the first start tells a fresh state directory (a new
 installation: the antenna is assumed at its park pose) from a used one whose state
@@ -63,6 +64,71 @@ def check_finite(payload: dict[str, Any], name: Any) -> None:
         raise StateFileError(f"{name}: {bad} is not a finite number; the record is damaged")
 
 
+#: no angle in a record lies further from zero than this (the widest rotator turns a few
+#: times); the rotator checks each axis against its own limits too (position_record)
+MAX_RECORD_DEG = 3600.0
+
+
+def _real(v: Any) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+
+def _angle(v: Any) -> bool:
+    return _real(v) and abs(v) <= MAX_RECORD_DEG
+
+
+def _calibration_value(v: Any) -> bool:
+    # numbers, flags (a bridged elevation's over_top), lists of numbers (a compass's matrices)
+    return _real(v) or isinstance(v, bool) or (isinstance(v, list) and all(_real(x) for x in v))
+
+
+#: an axis record's fields as urc writes them: (what it must be, the check)
+AXIS_FIELDS: dict[str, tuple[str, Any]] = {
+    "mech_deg": (f"a number within +-{MAX_RECORD_DEG:g}", _angle),
+    "rate_deg_per_s": (f"a number within +-{MAX_RECORD_DEG:g}", _angle),
+    "moving": ("true or false", lambda v: isinstance(v, bool)),
+    "window_deg": ("[low, high] numbers, low <= high",
+                   lambda v: isinstance(v, list) and len(v) == 2 and all(_angle(x) for x in v) and v[0] <= v[1]),
+    "calibration": ("a table of numbers, flags and lists of numbers",
+                    lambda v: isinstance(v, dict) and all(isinstance(k, str) and _calibration_value(x)
+                                                          for k, x in v.items())),
+    "coast_deg": ("a list of numbers >= 0",
+                  lambda v: isinstance(v, list) and all(_real(x) and 0 <= x <= MAX_RECORD_DEG for x in v)),
+    "uncertainty_deg": (f"a number in 0..{MAX_RECORD_DEG:g}", lambda v: _real(v) and 0 <= v <= MAX_RECORD_DEG),
+    "procedure": ("text", lambda v: isinstance(v, str)),
+}
+
+
+def record_problem(payload: dict[str, Any]) -> str | None:
+    """What in a decoded record is not what urc writes (a field of the wrong type or out
+    of range: ``"mech_deg": "12.5"`` under a valid checksum was taken as a known position),
+    None if nothing. Keys a record may lack are not required, except an axis' position."""
+    if "profile" in payload and not isinstance(payload["profile"], str):
+        return f"payload.profile: expected text, found {payload['profile']!r:.40}"
+    axes = payload.get("axes", {})
+    if not isinstance(axes, dict):
+        return f"payload.axes: expected a table of axes, found {axes!r:.40}"
+    for name, rec in axes.items():
+        where = f"payload.axes.{name}"
+        if not isinstance(rec, dict):
+            return f"{where}: expected a table, found {rec!r:.40}"
+        if "mech_deg" not in rec:
+            return f"{where}.mech_deg: missing"
+        for key, (expected, ok) in AXIS_FIELDS.items():
+            if key in rec and not ok(rec[key]):
+                return f"{where}.{key}: expected {expected}, found {rec[key]!r:.60}"
+    return None
+
+
+def check_record(payload: dict[str, Any], name: Any) -> None:
+    """StateFileError if ``payload`` holds a NaN or an infinity, or a field that is not
+    what urc writes (a damaged record)."""
+    check_finite(payload, name)
+    bad = record_problem(payload)
+    if bad is not None:
+        raise StateFileError(f"{name}: {bad}; the record is damaged")
+
+
 @dataclass
 class StateStore:
     path: Path
@@ -92,6 +158,7 @@ class StateStore:
         if record.get("crc32") != crc:
             raise StateFileError(f"{self.path}: checksum mismatch (stored {record.get('crc32')}, "
                                  f"computed {crc}); the file is corrupt")
+        check_record(payload, self.path)  # a valid checksum over a wrong field is still damage
         return payload
 
     def save(self, payload: dict[str, Any]) -> None:

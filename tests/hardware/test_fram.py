@@ -107,3 +107,16 @@ def test_non_finite_slot_is_damage_and_never_written():
     s._write(s.slots[1] + 16, body)
     s._write(s.slots[1], struct.pack(">4sIII", b"URCF", 99, len(body), zlib.crc32(body)))
     assert s.load() == {"axes": {"az": {"mech_deg": 12.5}}}
+
+
+def test_a_record_with_a_field_of_the_wrong_type_is_damage():
+    """Issue 36.20: a checksummed record whose position is text ("13.0") is damaged,
+    not trusted: the other slot's record is used (and with none, the load fails)."""
+    s, _, _ = store()
+    s.save({"axes": {"az": {"mech_deg": 12.5}}})
+    s.save({"axes": {"az": {"mech_deg": "13.0"}}})     # (the store checksums what it is given)
+    assert s.load() == {"axes": {"az": {"mech_deg": 12.5}}}
+    only, _, _ = store()
+    only.save({"axes": {"az": {"mech_deg": "13.0"}}})
+    with pytest.raises(StateFileError, match="mech_deg: expected a number"):
+        only.load()

@@ -63,3 +63,34 @@ def test_anything_is_a_command_or_a_bad_command(payload):
         assert str(exc) and len(str(exc)) < 1000
     else:
         assert cmd.command in ("goto", "stop", "park", "clear_faults", "track", "track_stop")
+
+
+@pytest.mark.parametrize("payload, cmd_id, says", [
+    # json keeps the last: this one moved to 200
+    (b'{"id": "d", "command": "goto", "az_deg": 10, "az_deg": 200, "el_deg": 5}', "d", "az_deg"),
+    (b'{"id": "d", "command": "goto", "command": "stop", "az_deg": 10}', "d", "command"),
+    (b'{"id": "a", "id": "b", "command": "park"}', None, "id"),
+    (b'{"id": 3, "command": "track", "kind": "point", "lat_deg": 1, "lat_deg": 2, "lon_deg": 3}', 3, "lat_deg"),
+])
+def test_a_key_given_twice_is_refused(payload, cmd_id, says):
+    with pytest.raises(BadCommand) as err:
+        parse_command(payload)
+    assert err.value.cmd_id == cmd_id and says in str(err.value) and "more than once" in str(err.value)
+
+
+def test_a_key_given_twice_is_answered_invalid_and_moves_nothing():
+    import asyncio
+
+    from urc.mqtt.commands import CommandHandler
+
+    class Rotator:
+        calls: list = []
+
+        def goto(self, *args):
+            self.calls.append(args)
+
+    rot = Rotator()
+    reply = asyncio.run(CommandHandler(rot).handle(
+        b'{"id": "d", "command": "goto", "az_deg": 10, "az_deg": 200, "el_deg": 5}'))
+    assert reply == {"id": "d", "ok": False, "error": "az_deg: given more than once", "reason": "invalid"}
+    assert rot.calls == []

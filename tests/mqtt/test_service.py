@@ -51,6 +51,9 @@ def test_retained_availability_status_and_discovery(broker, station, clients):
     assert stop_button["command_topic"] == f"{BASE}/cmd"
     assert json.loads(stop_button["payload_press"])["command"] == "stop"
     assert all(c["availability_topic"] == f"{BASE}/availability" for c in configs.values())
+    # Home Assistant 2025.10+: the entity id asked for with its domain (object_id is gone in 2026.4)
+    assert all("object_id" not in c and c["default_entity_id"] == f"{t.split('/')[1]}.{c['unique_id']}"
+               for t, c in configs.items())
 
     out = u.stop()  # a clean stop says offline (retained) before it goes
     assert "stopped, state saved" in out

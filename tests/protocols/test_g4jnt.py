@@ -82,7 +82,8 @@ def test_table_1_banner():
     (b"#m-15897", G4jntCommand("const", name="M", value=-15897)),
     (b" #C 3758 ", G4jntCommand("const", name="C", value=3758)),
     (b"#K2048", G4jntCommand("const", name="K", value=2048)),
-    (b"#Z-100", G4jntCommand("const", name="Z", value=-100)),
+    (b"#Z0", G4jntCommand("const", name="Z", value=0)),
+    (b"#Z3599", G4jntCommand("const", name="Z", value=3599)),
     (b"?", G4jntCommand("all")),
     (b"L", G4jntCommand("pulse", direction=-1)),
     (b"r", G4jntCommand("pulse", direction=1)),
@@ -96,6 +97,7 @@ def test_parse(line, cmd):
 
 
 @pytest.mark.parametrize("line", [b"#M0", b"#K100", b"#K99999", b"#Z12.5", b"Z12", b"#Q1", b"#Z", b"#Z1234567",
+                                  b"#Z3600", b"#Z3700", b"#Z-5", b"#Z-100",
                                   b"Gnan", b"G1e3", b"G", b"G1,", b"X", b"LL", b"SS", b"G" + b"9" * 400, b"\xff"])
 def test_parse_errors(line):
     with pytest.raises(G4jntSyntaxError, match="expected|out of range"):
@@ -161,16 +163,26 @@ def test_constants_are_the_rotators_calibration_and_persist(g4, bench):
 
 def test_z_turns_bearings_not_the_travel(g4):
     """Z is the bearing of the end-stop reference: it moves bearings, never the limits
-    (a Z of -10.0 used to be refused as 'below the 0..360 limits')."""
+    (a Z of 350.0 used to be refused as 'outside the 0..360 limits')."""
     b, s = g4
-    assert s.receive(b"#Z-100\r") == [b"Z -100\r\n"]
+    assert s.receive(b"#Z3500\r") == [b"Z 3500\r\n"]
     b.run(0.1)
     st_ = b.rot.status()
     assert st_.limits["az"] == (-10.0, 370.0) and st_.offsets["az"] == pytest.approx(-10.0)
     assert st_.az_deg == pytest.approx((b.truth("az") - 10.0) % 360.0, abs=TRUTH_TOL_DEG)
-    assert s.receive(b"#Z3500\r") == [b"Z 3500\r\n"]          # the same bearing frame
+
+
+@pytest.mark.parametrize("line", [b"#Z3700", b"#Z-5", b"#Z3600"])
+def test_z_outside_the_documents_range_is_refused(g4, line):
+    """Issue 36.17: the document keeps Z "within the range 000 to 359.9"; #Z3700 and #Z-5
+    were taken modulo 360. Refused, and nothing changes."""
+    b, s = g4
+    before = (b.rot.status().offsets["az"], b.rot.hw.az.sensor.calibration()["Z"])
+    reply = s.receive(line + b"\r")
+    assert len(reply) == 1 and reply[0].startswith(b"? #Z: expected a bearing 0..3599"), reply
     b.run(0.1)
-    assert b.rot.status().offsets["az"] == pytest.approx(-10.0)
+    assert (b.rot.status().offsets["az"], b.rot.hw.az.sensor.calibration()["Z"]) == before
+    assert s.receive(b"?\r")[0].startswith(b"Z 0\r\n")
 
 
 def test_a_constant_the_rotator_refuses_changes_nothing(g4):

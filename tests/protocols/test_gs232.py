@@ -608,3 +608,27 @@ def test_bigras_nmea_without_coordinates_or_checksum_is_refused(bench):
     assert s.receive(bad + b"\r") == [b"?>\r\n"]
     b.run(2.0)
     assert b.rot.status().target_az_deg is None
+
+
+def test_bigras_nmea_without_station_options_answers_and_says_why(bench, caplog):
+    """Issue 36.18: a GGA sentence on a GS-232B port with no station options: `?>`, and
+    the log names the options that are missing."""
+    b = bench("bigras")
+    with caplog.at_level("WARNING", logger="urc.protocols.gs232b"):
+        assert make_session("gs232b", b.rot).receive(_gga(47.6, 19.1, 9000.0) + b"\r\n") == [b"?>\r\n"]
+    assert any("station_lat_deg" in r.getMessage() and "NMEA" in r.getMessage() for r in caplog.records)
+
+
+@pytest.mark.parametrize("options, said", [
+    ({"station_lat_deg": 47.5}, "go together"),
+    ({"station_lon_deg": 19.0}, "go together"),
+    ({"station_lat_deg": "north", "station_lon_deg": 19.0}, "lat_deg"),
+    ({"station_lat_deg": 123.0, "station_lon_deg": 19.0}, "lat_deg"),
+    ({"station_lat_deg": 47.5, "station_lon_deg": 19.0, "station_alt_m": 1e9}, "alt_m"),
+])
+def test_station_options_that_are_no_position_are_bad_options(bench, options, said):
+    """Half a pair said "float() argument must be ... not 'NoneType'"; a latitude of 123
+    or "north" crashed the start (the server reports a TypeError as bad options, at start)."""
+    b = bench("bigras")
+    with pytest.raises(TypeError, match=said):
+        Gs232bSession(b.rot, **options)

@@ -226,6 +226,48 @@ def _rewrite_with_checksum(path, edit):
     path.write_text(json.dumps(rec))
 
 
+@pytest.mark.parametrize("field, value, said", [
+    ("mech_deg", "12.5", "mech_deg: expected a number"),       # issue 36.20: taken as known, 11.7 deg off
+    ("mech_deg", True, "mech_deg: expected a number"),
+    ("mech_deg", 1000.0, "outside the az axis' reach"),         # tartu-urc: 0..400
+    ("mech_deg", 1e5, "mech_deg: expected a number within"),
+    ("uncertainty_deg", "0", "uncertainty_deg"),
+    ("uncertainty_deg", -1.0, "uncertainty_deg"),
+    ("moving", "no", "moving"),
+    ("window_deg", ["99", "101"], "window_deg"),
+    ("window_deg", [101.0, 99.0], "window_deg"),
+    ("calibration", {"reference_deg": "3"}, "calibration"),
+    ("coast_deg", "0.5", "coast_deg"),
+    ("rate_deg_per_s", None, "rate_deg_per_s"),
+    (None, None, "mech_deg: missing"),
+])
+def test_a_field_of_the_wrong_type_or_range_is_damage(bench, field, value, said):
+    """Issue 36.20: a record's fields were not checked: mech_deg "12.5" under a valid
+    checksum was taken as a known position. Any field not as urc writes it makes the
+    record damaged: the position restarts uncertain."""
+    b = bench("tartu-urc", exact=True)
+    b.rot.goto(100.0, 30.0)
+    b.settle()
+    b.rot.shutdown()
+    b.rot.hw.close()
+    path = b.state_dir / "state.json"
+
+    def edit(payload):
+        ax = payload["axes"]["az"]
+        if field is None:
+            del ax["mech_deg"]
+        else:
+            ax[field] = value
+    _rewrite_with_checksum(path, edit)
+    b = b.restart(clean=False)
+    s = b.rot.status()
+    assert not s.position_known and s.az.uncertainty_deg > 0
+    assert any("state file damaged" in e and said in e for e in s.events), s.events
+    assert list(b.state_dir.glob("state.json.corrupt-*")), "the damaged file is kept for inspection"
+    with pytest.raises(CommandRejected, match="uncertain"):
+        b.rot.goto(10.0, 10.0)
+
+
 @pytest.mark.parametrize("field", ["uncertainty_deg", "mech_deg", "window_deg"])
 def test_non_finite_field_is_damage_never_trusted_nor_written_back(bench, field):
     """Issue 21: uncertainty_deg = NaN was trusted (moves allowed, NaN written into

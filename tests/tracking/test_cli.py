@@ -46,7 +46,7 @@ def test_import_list_and_passes(tmp_path):
     assert json.loads(run("tle", "list", "noaa", "--json", *cat).stdout)[0]["name"] == "NOAA 18"
 
     table = run("passes", "iss", "metop", *STATION_ARGS, *START, *cat).output
-    assert "above 10 deg, 2024-01-01 12:00:00 to 2024-01-02 12:00:00 UTC" in table
+    assert "above 0 deg, 2024-01-01 12:00:00 to 2024-01-02 12:00:00 UTC" in table
     assert "ISS (ZARYA)" in table and "METOP-B" in table
 
     data = json.loads(run("passes", "25544", "--json", "--hours", "12", "--min-el", "5",
@@ -55,6 +55,61 @@ def test_import_list_and_passes(tmp_path):
                       duration_s=12 * 3600.0, min_el_deg=5.0)
     assert [p["aos"] for p in data["passes"]] == [p.aos.isoformat() for p in ref]
     assert data["passes"][0]["max_el_deg"] == pytest.approx(ref[0].max_el_deg, abs=1e-4)
+
+
+def test_passes_have_one_minimum_elevation_default(tmp_path):
+    """Issue 36.13: 10 deg without --config, 0 with any configuration lacking [tracking]
+    (its help said 10). One default now: [tracking] min_el_deg, 0 when unset."""
+    leo = ["passes", "--tle", FIXTURES / "leo.tle", "--json", *START, "--hours", "6"]
+    bare = tmp_path / "bare.toml"
+    bare.write_text('[station]\nlat_deg = 58.378\nlon_deg = 26.729\nalt_m = 70\n')
+    high = tmp_path / "high.toml"
+    high.write_text(bare.read_text() + "[tracking]\nmin_el_deg = 15\n")
+    without = json.loads(run(*leo, *STATION_ARGS).stdout)
+    with_config = json.loads(run(*leo, "--config", bare).stdout)
+    assert without["min_el_deg"] == with_config["min_el_deg"] == 0.0
+    assert without["passes"] == with_config["passes"]
+    assert json.loads(run(*leo, "--config", high).stdout)["min_el_deg"] == 15.0
+    assert json.loads(run(*leo, *STATION_ARGS, "--min-el", "5").stdout)["min_el_deg"] == 5.0
+
+
+def test_passes_take_the_station_from_a_running_urc_by_port(tmp_path):
+    """Issue 36.13: `urc passes` had no --port like the other client commands. With one
+    (or --url), a running urc's [station] and [tracking] min_el_deg are the defaults."""
+    import threading
+    from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
+
+    info = {"station": {"lat_deg": 58.378, "lon_deg": 26.729, "alt_m": 70.0, "name": ""},
+            "tracking_min_el_deg": 12.5}
+
+    class Api(BaseHTTPRequestHandler):
+        def do_GET(self):  # noqa: N802 - http.server's name
+            body = json.dumps(info if self.path == "/api/info" else {}).encode()
+            self.send_response(200 if self.path == "/api/info" else 404)
+            self.send_header("Content-Length", str(len(body)))
+            self.end_headers()
+            self.wfile.write(body)
+
+        def log_message(self, *args):
+            pass
+
+    server = ThreadingHTTPServer(("127.0.0.1", 0), Api)
+    threading.Thread(target=server.serve_forever, daemon=True).start()
+    port = str(server.server_address[1])
+    leo = ["passes", "--tle", FIXTURES / "leo.tle", "--json", *START, "--hours", "6"]
+    try:
+        data = json.loads(run(*leo, "--port", port).stdout)
+        assert data["station"] == {"lat_deg": 58.378, "lon_deg": 26.729, "alt_m": 70.0}
+        assert data["min_el_deg"] == 12.5
+        assert json.loads(run(*leo, "--url", f"http://127.0.0.1:{port}", "--min-el", "3").stdout)["min_el_deg"] == 3
+        info["station"] = None
+        res = run(*leo, "--port", port, ok=False)
+        assert res.exit_code == 2 and "has none" in res.output and "--lat" in res.output
+        res = run(*leo, "--port", port, "--url", "http://127.0.0.1:1", ok=False)
+        assert res.exit_code == 2 and "not both" in res.output
+    finally:
+        server.shutdown()
+        server.server_close()
 
 
 def test_passes_from_a_file_with_progress(tmp_path):

@@ -145,6 +145,56 @@ def test_history_arrays_line_up(make_client):
     assert c.get("/api/history?which=sometime").status_code == 422
 
 
+def _status(t: float, az: float) -> dict:
+    return {"az_deg": az, "el_deg": 10.0, "target_az_deg": None, "target_el_deg": None,
+            "az": {"pos_deg": az, "target_deg": None}, "tracking": None}
+
+
+def test_history_read_while_the_loop_appends():
+    """GET /api/history runs in a worker thread while the loop appends: a reader that
+    walked the deque itself got "deque mutated during iteration" (a 500). The append
+    here comes mid-walk, from the comparison that filters by time, as a thread switch
+    would bring it."""
+    from urc.web.history import History
+
+    h = History(capacity=100)
+    for i in range(10):
+        h.add(1000.0 + i, _status(1000.0 + i, i), None)
+
+    class AppendsWhenCompared(float):
+        def __ge__(self, other):
+            h.add(2000.0, _status(2000.0, 99.0), None)
+            return float(self) >= other
+
+    h.recent.appendleft((AppendsWhenCompared(999.0), *h.recent[0][1:]))
+    out = h.select("recent", seconds=1e6)
+    assert out["count"] == 11 and out["t_wall_s"][-1] == 1009.0
+
+
+def test_history_read_from_threads_while_appending():
+    import threading
+
+    from urc.web.history import History
+
+    h = History(capacity=5000)
+    stop = threading.Event()
+
+    def writer():
+        t = 0.0
+        while not stop.is_set():
+            t += 0.1
+            h.add(t, _status(t, t % 360), None)
+    w = threading.Thread(target=writer)
+    w.start()
+    try:
+        for _ in range(300):
+            out = h.select("recent", seconds=50.0, since_wall_s=1.0)
+            assert len(out["t_wall_s"]) == out["count"]
+    finally:
+        stop.set()
+        w.join()
+
+
 def test_live_frames_carry_status_error_and_procedure(make_client):
     c = make_client()
     c.post("/api/goto", json={"az_deg": 90, "el_deg": 30})

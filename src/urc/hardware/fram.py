@@ -21,7 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import StateFileError
-from ..persistence import check_finite, nonfinite_field
+from ..persistence import check_finite, nonfinite_field, record_problem
 
 log = logging.getLogger(__name__)
 
@@ -95,7 +95,10 @@ class FramStore:
         if not isinstance(payload, dict):
             return f"slot {'AB'[i]}: no payload"
         bad = nonfinite_field(payload)
-        return (seq, payload) if bad is None else f"slot {'AB'[i]}: {bad} is not a finite number"
+        if bad is not None:
+            return f"slot {'AB'[i]}: {bad} is not a finite number"
+        wrong = record_problem(payload)
+        return (seq, payload) if wrong is None else f"slot {'AB'[i]}: {wrong}"
 
     def _newest(self) -> tuple[int | None, tuple[int, dict[str, Any]] | None, list[str]]:
         best, best_i, bad = None, None, []

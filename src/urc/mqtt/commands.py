@@ -2,8 +2,8 @@
 rotator service (the gate every protocol passes: limits, keep-out zones, local control,
 faults), answer ``{"id", "ok"[, "error", "reason"]}`` for ``<base>/cmd/result``.
 
-Anything not fully understood — not JSON, not an object, NaN, a wrong type, an unknown
-field or command, too big — is answered with an error and moves nothing. Stop is never
+Anything not fully understood — not JSON, not an object, a key given twice, NaN, a wrong
+type, an unknown field or command, too big — is answered with an error and moves nothing. Stop is never
 refused by the gate (it may still fail if the control process is gone).
 """
 
@@ -111,17 +111,31 @@ def parse_command(payload: bytes) -> Goto | Stop | Park | ClearFaults | Track | 
     read) if it is anything else."""
     if len(payload) > MAX_PAYLOAD_BYTES:
         raise BadCommand(f"payload of {len(payload)} bytes: a command is at most {MAX_PAYLOAD_BYTES}")
+    repeated: list[str] = []
+
+    def no_repeats(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+        # json keeps the last of a repeated key; which one the sender meant is unknown
+        obj: dict[str, Any] = {}
+        for key, value in pairs:
+            if key in obj:
+                repeated.append(key)
+            obj[key] = value
+        return obj
+
     try:
         # (NaN and Infinity parse, so the error can name the field and echo the id:
         # every number field refuses them)
-        doc = json.loads(payload)
+        doc = json.loads(payload, object_pairs_hook=no_repeats)
     except (ValueError, RecursionError) as exc:
         raise BadCommand(f"not a JSON object: {str(exc)[:120]}") from None
     if not isinstance(doc, dict):
         raise BadCommand(f"expected a JSON object, found {type(doc).__name__}")
-    raw_id = doc.get("id")
+    raw_id = doc.get("id") if "id" not in repeated else None
     cmd_id = raw_id if (isinstance(raw_id, str) and len(raw_id) <= 64) or \
         (isinstance(raw_id, int) and not isinstance(raw_id, bool)) else None
+    if repeated:
+        names = ", ".join(dict.fromkeys(repeated))[:120]
+        raise BadCommand(f"{names}: given more than once", cmd_id)
     try:
         cmd = _COMMAND.validate_python(doc)
         if isinstance(cmd, Track):

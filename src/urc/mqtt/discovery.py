@@ -3,7 +3,9 @@
 
 Each entity's config is retained at ``<prefix>/<component>/<node>/<object>/config``, so
 Home Assistant finds it after its own restart; an empty retained payload on the same
-topic removes it (``discovery = false``). See
+topic removes it (``discovery = false``). Each asks for its entity id with
+``default_entity_id`` (``sensor.urc_dish_azimuth``), Home Assistant's option since 2025.10
+(``object_id`` stops working in 2026.4). See
 https://www.home-assistant.io/integrations/mqtt/#mqtt-discovery.
 """
 
@@ -53,7 +55,9 @@ def discovery_messages(prefix: str, topics: Topics, station: str, profile: str,
               "model": f"rotator ({profile})", "sw_version": version}
     out = []
     for component, obj, spec in _ENTITIES:
-        cfg = {**spec, "unique_id": f"{node}_{obj}", "object_id": f"{node}_{obj}",
+        # default_entity_id: the entity id asked for, domain included (Home Assistant
+        # 2025.10 deprecated object_id for it; 2026.4 drops object_id)
+        cfg = {**spec, "unique_id": f"{node}_{obj}", "default_entity_id": f"{component}.{node}_{obj}",
                "availability_topic": topics.availability, "device": device,
                "origin": {"name": "urc", "sw_version": version}}
         if component == "button":

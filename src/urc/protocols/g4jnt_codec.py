@@ -22,8 +22,9 @@ Wire format (lines end CR LF):
 * commands (lines ending CR or LF, letters in either case):
 
   ``#Z1807`` ``#M-15897`` ``#C3758`` ``#K2048``  set a constant: ``#`` + letter +
-                             signed integer (``(-)nnnn(n)``) in the units above;
-                             answered with its listing line, e.g. ``Z 1807``
+                             signed integer (``(-)nnnn(n)``) in the units above
+                             (Z a bearing, 0..3599); answered with its listing
+                             line, e.g. ``Z 1807``
   ``L`` / ``R``             go-left / go-right: pulse the rotator one step
   ``G123.4`` / ``G123.4,45`` go to a bearing (and elevation)    -> ``G123.4``  (urc's)
   ``S``                     stop                                -> ``S``       (urc's)
@@ -89,6 +90,11 @@ class G4jntCommand:
 
 
 def check_constant(name: str, value: int) -> None:
+    # Z is the bearing entered for the end-stop reference, kept "within the range 000 to
+    # 359.9" (the document): #Z3700 or #Z-5 is a mistake, not a bearing to wrap
+    if name == "Z" and not 0 <= value < TENTHS_PER_TURN:
+        raise G4jntSyntaxError(f"#Z: expected a bearing 0..{TENTHS_PER_TURN - 1} (000.0..359.9 deg in "
+                               f"0.1 deg), got {value}")
     if name == "M" and value == 0:
         raise G4jntSyntaxError("#M: expected a non-zero slope, got 0")
     if name == "K" and not ADC_MAX < value <= 4 * ADC_MAX:

@@ -19,6 +19,8 @@ the rotator unchanged.
 
 from __future__ import annotations
 
+from typing import Any
+
 from ..errors import CommandRejected, UrcError
 from ..service.snapshot import Status
 from .base import RotatorPort, bad_input_log, internal_error, protocol_logger
@@ -42,6 +44,23 @@ def controller_pose(s: Status) -> tuple[float, float]:
     return az, el
 
 
+def _station(lat_deg: object, lon_deg: object, alt_m: object) -> Any:
+    """The options' station, None without coordinates; TypeError (the server's "bad
+    options", found at start) for half a pair or a value that is not a position."""
+    if lat_deg is None and lon_deg is None:
+        return None
+    if lat_deg is None or lon_deg is None:
+        raise TypeError("station_lat_deg and station_lon_deg go together (the station's position, "
+                        "for NMEA GGA points)")
+    from ..tracking.errors import StationError
+    from ..tracking.station import Station
+
+    try:
+        return Station(lat_deg, lon_deg, alt_m)  # type: ignore[arg-type]  # (it checks the types)
+    except StationError as exc:
+        raise TypeError(str(exc)) from None
+
+
 class _Gs232Session:
     protocol = "gs232"
     style = STYLE_A
@@ -52,10 +71,7 @@ class _Gs232Session:
         self.closed = False
         #: the station's own coordinates, for NMEA GGA points (BIG-RAS: "if we have
         #: previously set our own coordinates")
-        self._station = None
-        if station_lat_deg is not None or station_lon_deg is not None:
-            from ..tracking.station import Station
-            self._station = Station(float(station_lat_deg), float(station_lon_deg), float(station_alt_m))
+        self._station = _station(station_lat_deg, station_lon_deg, station_alt_m)
         self._log = protocol_logger(self.protocol)
         self._bad = bad_input_log(self.protocol)
         self._lines = LineSplitter(log=self._bad)

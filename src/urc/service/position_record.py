@@ -28,6 +28,10 @@ from ..control.profile import stopping_distance_deg
 #: a power cut lets the axis run on up to ~1.1x its controlled stopping distance
 #: (measured per profile in the simulator with the motor unpowered); kept with margin
 POWER_CUT_COAST_FACTOR = 1.5
+#: how far outside its mechanical range an axis' recorded position may lie and still be
+#: believed (over-travel to an end stop, a power cut's coast, a reference moved since):
+#: further out, the record is damaged
+RECORD_RANGE_SLACK_DEG = 90.0
 
 
 def hold_band_deg(ax: Any) -> float:
@@ -116,4 +120,16 @@ def saved_window(saved: dict[str, Any]) -> tuple[float, float] | None:
         lo, hi = float(w[0]), float(w[1])
         if math.isfinite(lo) and math.isfinite(hi) and lo <= hi:
             return lo, hi
+    return None
+
+
+def record_out_of_range(ax: Any, saved: Any) -> str | None:
+    """What makes an axis record (types checked already: persistence.record_problem)
+    impossible for this axis, None if nothing: a position no end stop lets it reach."""
+    if not isinstance(saved, dict) or not isinstance(saved.get("mech_deg"), (int, float)):
+        return None
+    lo, hi = ax.caps.min_deg - RECORD_RANGE_SLACK_DEG, ax.caps.max_deg + RECORD_RANGE_SLACK_DEG
+    if not lo <= saved["mech_deg"] <= hi:
+        return (f"axes.{ax.name}.mech_deg {saved['mech_deg']:g} outside the {ax.name} axis' "
+                f"reach {lo:g}..{hi:g}")
     return None

@@ -63,6 +63,14 @@ class Records:
             except StateFileError as exc:
                 core.event(f"state file damaged, not trusted: {exc}")
                 self.store.quarantine()
+            if payload is not None and payload.get("profile") == core.caps.name:
+                saved_axes = payload.get("axes", {})
+                bad = next((why for name, ax in core.axes.items()
+                            if (why := precord.record_out_of_range(ax, saved_axes.get(name)))), None)
+                if bad is not None:
+                    core.event(f"state file damaged, not trusted: {self.store.path}: {bad}")
+                    self.store.quarantine()
+                    payload = None
             if payload is not None and payload.get("profile") != core.caps.name:
                 core.event(f"state file belongs to profile {payload.get('profile')!r}, ignored")
                 payload = None

@@ -7,6 +7,7 @@
 from __future__ import annotations
 
 import json
+import os
 import sys
 import time
 from datetime import datetime, timezone
@@ -66,24 +67,59 @@ def _resolve_dir(catalog_dir: str | None, cfg: Any = None) -> Path:
     return default_catalog_dir()
 
 
-def _running_gps_fix(cfg: Any) -> tuple[float, float, float]:
+def _running_urc(cfg: Any, url: str | None, port: int | None) -> str:
+    """The running urc's address: --url or --port, else the configuration's [api]."""
+    from ..api_client import DEFAULT_URL, base_url
+
+    if url is not None and port is not None:
+        raise click.UsageError("give --url or --port, not both")
+    if url is None and port is None and cfg is not None:
+        host = "127.0.0.1" if cfg.api.host in ("0.0.0.0", "::") else cfg.api.host
+        host = f"[{host}]" if ":" in host else host
+        return f"http://{host}:{cfg.api.port}"
+    return base_url(url, port) if (url or port) else DEFAULT_URL
+
+
+def _ask_running(url: str, path: str, cfg: Any, how: str) -> dict:
+    from ..api_client import ClientError, request
+
+    token = os.environ.get("URC_TOKEN", "") or getattr(getattr(cfg, "api", None), "token", "")
+    try:
+        answer = request(url, "GET", path, token=token, timeout_s=10.0)
+    except ClientError as exc:
+        raise click.UsageError(f"no station position: asked the running urc, and {exc}; {how}") from None
+    return answer if isinstance(answer, dict) else {}
+
+
+def _running_gps_fix(cfg: Any, url: str) -> tuple[float, float, float]:
     """[station] gps without lat/lon: the station is where the running controller's GPS
     receiver says (its status), else a clear error saying how to get a position."""
-    import httpx
-
-    host = "127.0.0.1" if cfg.api.host in ("0.0.0.0", "::") else cfg.api.host
-    url = f"http://{host}:{cfg.api.port}/api/status"
     how = ("give --lat, --lon and --alt, set [station] lat_deg/lon_deg, or run `urc run` with "
            "this configuration until its receiver has a fix (`urc status` shows it)")
-    try:
-        gps = (httpx.get(url, timeout=5.0).json().get("tracking") or {}).get("gps") or {}
-    except (httpx.HTTPError, ValueError) as exc:
-        raise click.UsageError(f"no station position: [station] gps = {cfg.station.gps!r} is read by a "
-                               f"running urc, and none answers at {url} ({exc}); {how}") from None
+    gps = (_ask_running(url, "/api/status", cfg, how).get("tracking") or {}).get("gps") or {}
     if gps.get("lat_deg") is None:
         raise click.UsageError(f"no station position: the running urc's GPS ({cfg.station.gps}) has no "
                                f"fix yet; {how}")
     return float(gps["lat_deg"]), float(gps["lon_deg"]), float(gps.get("alt_m") or 0.0)
+
+
+def _running_station(cfg: Any, url: str) -> tuple[tuple[float, float, float], float]:
+    """The running urc's [station] position and [tracking] min_el_deg (--url/--port)."""
+    how = "give --lat and --lon, or add [station] lat_deg/lon_deg to that urc's configuration"
+    info = _ask_running(url, "/api/info", cfg, how)
+    st = info.get("station")
+    if not isinstance(st, dict) or st.get("lat_deg") is None:
+        raise click.UsageError(f"no station position: the urc at {url} has none; {how}")
+    return ((float(st["lat_deg"]), float(st["lon_deg"]), float(st.get("alt_m") or 0.0)),
+            float(info.get("tracking_min_el_deg", _default_min_el_deg())))
+
+
+def _default_min_el_deg() -> float:
+    """[tracking] min_el_deg's default: the passes the tracker flies (one default, with or
+    without a configuration)."""
+    from ..config.sections import TrackingSection
+
+    return float(TrackingSection.model_fields["min_el_deg"].default)
 
 
 def _fail(exc: Exception) -> click.ClickException:
@@ -113,8 +149,9 @@ def _fmt_t(t: datetime) -> str:
 @click.option("--hours", type=click.FloatRange(min=0.01, max=24 * 30), default=24.0,
               show_default=True, help="How far ahead to search.")
 @click.option("--min-el", "min_el_deg", type=click.FloatRange(-10.0, 89.0), default=None,
-              help="Minimum elevation of a pass (degrees) [default: [tracking] min_el_deg, "
-                   "else 10].")
+              help="Minimum elevation of a pass (degrees) [default: [tracking] min_el_deg of "
+                   "--config, or of the running urc the station comes from; unset: 0, the "
+                   "passes the tracker flies].")
 @click.option("--all", "all_sats", is_flag=True, help="Every satellite in the catalog.")
 @click.option("--tle", "tle_file", type=click.Path(dir_okay=False),
               help="Take elements from this TLE/OMM file instead of the catalog.")
@@ -126,16 +163,22 @@ def _fmt_t(t: datetime) -> str:
                    "else 0].")
 @click.option("--start", help="Search start, ISO 8601 UTC (default: now).")
 @click.option("--json", "as_json", is_flag=True, help="Print JSON instead of a table.")
+@click.option("--url", envvar="URC_URL", default=None,
+              help="A running urc's API address: the station (and min elevation) come from it "
+                   "when neither --lat/--lon nor --config gives one.")
+@click.option("--port", type=click.IntRange(1, 65535), default=None,
+              help="A running urc's API port on this host (as given to `urc run --port`), as --url.")
 @_catalog_dir_option
 @_config_option
 def passes_command(sats: tuple[str, ...], hours: float, min_el_deg: float | None,
                    all_sats: bool, tle_file: str | None, lat_deg: float | None,
                    lon_deg: float | None, alt_m: float | None, start: str | None, as_json: bool,
-                   catalog_dir: str | None, config_path: str | None) -> None:
+                   url: str | None, port: int | None, catalog_dir: str | None, config_path: str | None) -> None:
     """List passes (AOS, TCA, LOS in UTC, max elevation, azimuth at AOS and LOS).
 
     SATS are names (any case, a unique prefix will do) or NORAD ids; --all searches the
-    whole catalog.
+    whole catalog. The station: --lat/--lon, else --config's [station], else the running
+    urc's (--url/--port, or --config's [station] gps: its receiver's fix).
     """
     from .elements import Catalog, load_elements
     from .passes import search_passes
@@ -146,15 +189,21 @@ def passes_command(sats: tuple[str, ...], hours: float, min_el_deg: float | None
     if lat_deg is None and lon_deg is None and getattr(conf_st, "lat_deg", None) is not None:
         lat_deg, lon_deg = conf_st.lat_deg, conf_st.lon_deg
         alt_m = conf_st.alt_m if alt_m is None else alt_m
+    running_min_el_deg = None
     if lat_deg is None and lon_deg is None and getattr(conf_st, "gps", ""):
-        lat_deg, lon_deg, fix_alt_m = _running_gps_fix(cfg)
+        lat_deg, lon_deg, fix_alt_m = _running_gps_fix(cfg, _running_urc(cfg, url, port))
         alt_m = fix_alt_m if alt_m is None else alt_m
+    elif lat_deg is None and lon_deg is None and (url is not None or port is not None):
+        (lat_deg, lon_deg, run_alt_m), running_min_el_deg = _running_station(cfg, _running_urc(cfg, url, port))
+        alt_m = run_alt_m if alt_m is None else alt_m
     if lat_deg is None or lon_deg is None:
         raise click.UsageError("no station position: give --lat and --lon (degrees) and "
-                               "--alt (metres), or a --config with a [station] section")
+                               "--alt (metres), a --config with a [station] section, or "
+                               "--port/--url of a running urc that has one")
     alt_m = 0.0 if alt_m is None else alt_m
     if min_el_deg is None:
-        min_el_deg = float(getattr(getattr(cfg, "tracking", None), "min_el_deg", 10.0))
+        min_el_deg = (float(cfg.tracking.min_el_deg) if cfg is not None else
+                      running_min_el_deg if running_min_el_deg is not None else _default_min_el_deg())
     where = _resolve_dir(catalog_dir, cfg)
     try:
         station = Station(lat_deg, lon_deg, alt_m)

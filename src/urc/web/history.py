@@ -10,8 +10,9 @@ from __future__ import annotations
 
 import collections
 import math
+import threading
 from dataclasses import dataclass
-from typing import Any, Iterable
+from typing import Any
 
 from ..angles import great_circle_1_deg
 
@@ -46,7 +47,13 @@ class Segment:
 
 
 class History:
+    """Written by the event loop (``add``), read by GET /api/history in a worker thread
+    (``select``): a reader copies what it needs under the lock and works on the copy, as
+    a deque raises "mutated during iteration" if the loop appends while a thread walks
+    it. The loop waits at most for one copy (36 000 references)."""
+
     def __init__(self, capacity: int = 36_000, max_pass_samples: int = 36_000):
+        self._lock = threading.Lock()
         self.recent: collections.deque[tuple] = collections.deque(maxlen=capacity)
         self.current: Segment | None = None
         self.last: Segment | None = None
@@ -59,38 +66,35 @@ class History:
                   None if error_deg is None else round(error_deg, 5),
                   round(status["az"]["pos_deg"], 4),
                   None if status["az"]["target_deg"] is None else round(status["az"]["target_deg"], 4))
-        self.recent.append(sample)
         trk = status.get("tracking")
         label = str(trk.get("target", "tracking")) if trk else None
-        if self.current is not None and label != self.current.label:
-            self.last, self.current = self.current, None
-        if label is not None:
-            if self.current is None:
-                self.current = Segment(label, [])
-            if len(self.current.samples) < self.max_pass_samples:
-                self.current.samples.append(sample)
+        with self._lock:
+            self.recent.append(sample)
+            if self.current is not None and label != self.current.label:
+                self.last, self.current = self.current, None
+            if label is not None:
+                if self.current is None:
+                    self.current = Segment(label, [])
+                if len(self.current.samples) < self.max_pass_samples:
+                    self.current.samples.append(sample)
 
     def select(self, which: str, seconds: float | None = None, since_wall_s: float | None = None,
                max_points: int = 3000) -> dict[str, Any]:
         """Arrays for one window: ``recent`` (the ring, optionally the last ``seconds``),
         ``current`` or ``last`` pass. ``since_wall_s`` returns only newer samples."""
         label = "recent"
-        if which == "current":
-            seg = self.current
-            samples: Iterable[tuple] = seg.samples if seg else []
-            label = seg.label if seg else ""
-        elif which == "last":
-            seg = self.last
-            samples = seg.samples if seg else []
-            label = seg.label if seg else ""
-        else:
-            samples = self.recent
-            if seconds is not None and self.recent:
-                t_min = self.recent[-1][0] - seconds
-                samples = [s for s in self.recent if s[0] >= t_min]
+        with self._lock:
+            if which in ("current", "last"):
+                seg = self.current if which == "current" else self.last
+                rows = list(seg.samples) if seg else []
+                label = seg.label if seg else ""
+            else:
+                rows = list(self.recent)
+        if which not in ("current", "last") and seconds is not None and rows:
+            t_min = rows[-1][0] - seconds
+            rows = [s for s in rows if s[0] >= t_min]
         if since_wall_s is not None:
-            samples = [s for s in samples if s[0] > since_wall_s]
-        rows = list(samples)
+            rows = [s for s in rows if s[0] > since_wall_s]
         if len(rows) > max_points > 0:
             step = math.ceil(len(rows) / max_points)
             rows = rows[::step] + ([rows[-1]] if (len(rows) - 1) % step else [])

@@ -16,6 +16,7 @@ import hmac
 import ipaddress
 import json
 import logging
+import math
 from typing import Any, Callable
 from urllib.parse import urlsplit
 
@@ -135,8 +136,33 @@ async def _send_json(send: Any, status: int, body: dict) -> None:
     await send({"type": "http.response.body", "body": data})
 
 
-def _no_constant(name: str) -> float:
-    raise ValueError(f"{name} is not a number JSON allows (angles and values must be finite)")
+#: the deepest body accepted: a settings document nests 4 deep; Python's parser and the
+#: code after it recurse, so a body of 30 000 brackets must be refused before them (400)
+MAX_BODY_DEPTH = 32
+
+
+class BodyProblem(ValueError):
+    def __init__(self, status: int, loc: list[str | int], kind: str, msg: str):
+        super().__init__(msg)
+        self.status, self.loc, self.kind = status, loc, kind
+
+
+def check_body(doc: Any) -> None:
+    """BodyProblem for a body nested deeper than MAX_BODY_DEPTH (400) or holding a number
+    that is not finite (422 naming its field): ``1e999`` parses to inf, and a validation
+    error echoing it could not be written as JSON (a 500)."""
+    stack: list[tuple[Any, list[str | int]]] = [(doc, ["body"])]
+    while stack:
+        value, loc = stack.pop()
+        if len(loc) > MAX_BODY_DEPTH:
+            raise BodyProblem(400, ["body"], "too_deep", f"nested deeper than {MAX_BODY_DEPTH} levels")
+        if isinstance(value, dict):
+            stack.extend((v, [*loc, k]) for k, v in value.items())
+        elif isinstance(value, list):
+            stack.extend((v, [*loc, i]) for i, v in enumerate(value))
+        elif isinstance(value, float) and not math.isfinite(value):
+            raise BodyProblem(422, loc, "finite_number",
+                              f"{value} is not a finite number (angles and values must be finite)")
 
 
 class HostGate:
@@ -164,8 +190,9 @@ class HostGate:
 class RequestGate:
     """Pure ASGI middleware in front of every request that may change something (any
     method but GET/HEAD/OPTIONS): Origin and token are checked from the headers alone,
-    then the body is read with a size bound (413) and must be strict JSON (no NaN or
-    Infinity: 422) — all before a route parses anything. Without this, FastAPI reads and
+    then the body is read with a size bound (413) and must be JSON no deeper than
+    MAX_BODY_DEPTH (400) whose numbers are finite (NaN, Infinity, 1e999: 422 naming the
+    field) — all before a route parses anything. Without this, FastAPI reads and
     parses a body before the route's dependencies run: a 40 MB POST from a foreign page
     was parsed on the event loop before being refused."""
 
@@ -213,7 +240,14 @@ class RequestGate:
         body = b"".join(chunks)
         if body.strip():
             try:
-                json.loads(body, parse_constant=_no_constant)
+                check_body(json.loads(body))
+            except BodyProblem as exc:
+                await _send_json(send, exc.status, {"detail": [{"loc": exc.loc, "type": exc.kind, "msg": str(exc)}]})
+                return
+            except RecursionError:
+                await _send_json(send, 400, {"detail": [{"loc": ["body"], "type": "too_deep",
+                                                         "msg": f"nested deeper than {MAX_BODY_DEPTH} levels"}]})
+                return
             except ValueError as exc:
                 await _send_json(send, 422, {"detail": [{"loc": ["body"], "type": "json_invalid",
                                                          "msg": f"not valid JSON: {exc}"}]})
