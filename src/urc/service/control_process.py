@@ -46,7 +46,7 @@ from typing import Any, Callable
 from ..clock import RealClock
 from ..ipc import codec
 from ..ipc.messages import COMMANDS, Envelope, HardwareInfo, Query, Reply, Request
-from ..ipc.status_record import StatusRecord
+from ..ipc.status_record import ColdGeneration, StatusRecord
 from .instance import mark_stopping, skip_exit_collection
 from .loop import ControlThread, WatchdogPing, settle
 from .queries import handle as handle_query
@@ -101,6 +101,10 @@ class ControlServer:
         #: this loop runs which the I/O process reads without a thread (urc.ipc.status_record)
         self.record = record
         self._ticks = 0
+        #: counts the changes of the Status's cold fields: only those go out on the
+        #: socket once a record is shared (the hot ones are in the record every tick)
+        self._cold = ColdGeneration()
+        self._latest_gen = 0
         self.cfg = cfg
         self.state_dir = state_dir
         self.lock_fds = lock_fds
@@ -129,8 +133,8 @@ class ControlServer:
         with self._send_lock:
             self.conn.send_bytes(data)
 
-    def _send_status(self, status: Any) -> None:
-        data = codec.dumps(("status", status))
+    def _send_status(self, status: Any, gen: int | None = None) -> None:
+        data = codec.dumps(("status", status, gen))
         with self._send_lock:
             self.conn.send_bytes(data)
             self._sent = status
@@ -352,15 +356,20 @@ class ControlServer:
     def _publish(self, status: Any) -> None:
         """On the loop thread after each tick: hand over, never wait."""
         self._ticked_s = time.monotonic()
-        self._latest = status
-        self._fresh.set()
         if self.record is not None:
             self._ticks += 1
+            gen = self._cold.update(status)
             try:
-                self.record.write(status, self._ticks, 0)
+                self.record.write(status, self._ticks, gen)
             except ValueError:  # (a mode the record has no code for: a bug, said once)
-                log.exception("the status record cannot hold this status")
+                log.exception("the status record cannot hold this status: every status on the socket")
                 self.record = None
+            else:
+                if gen == self._latest_gen:
+                    return  # (nothing the record lacks: no pickle, no socket)
+                self._latest_gen = gen
+        self._latest = status
+        self._fresh.set()
 
     def _publish_loop(self) -> None:
         while not self._closing:
@@ -368,7 +377,7 @@ class ControlServer:
                 continue
             self._fresh.clear()
             try:
-                self._send_status(self._latest)
+                self._send_status(self._latest, self._latest_gen if self.record is not None else None)
             except OSError:
                 return
             except Exception:  # (a status that cannot be sent: the next one may; replies rely on these)
@@ -447,9 +456,9 @@ class ControlProcess:
         rotator while the caller goes on (``urc run`` imports its web stack meanwhile:
         on two cores the two starts overlap)."""
         ours, theirs = socket.socketpair()
-        if self.record is not None:
-            self.record.close()
-        self.record = StatusRecord.create()  # (a fresh one per process: its ticks count from 0)
+        # a fresh record per process (its ticks count from 0); the last one stays with the
+        # lost link that still reads it (its last word), and goes with it
+        self.record = StatusRecord.create()
         try:
             # a fresh interpreter, not a fork: this process may already run threads
             self.proc = subprocess.Popen([sys.executable, "-m", "urc.service.control_process", str(theirs.fileno()),
@@ -481,7 +490,7 @@ class ControlProcess:
             proc.wait(5)
             conn.close()
             raise exception_from_wire(payload)
-        self.link = ControlLink(conn, self.on_lost).start()
+        self.link = ControlLink(conn, self.on_lost, self.record).start()
         remote = RemoteRotator(self.link, payload)
         if self.rotator is None:
             self.rotator = remote
@@ -585,8 +594,10 @@ class ControlProcess:
             cpu, state = self.progress()
             if cpu != last_cpu and state not in ("T", "t"):
                 last_cpu, progress_s = cpu, now_s
+            live = link.record.liveness() if link.record is not None else None
             status = link.status
-            age_s = now_s - status.t_s if status is not None else 0.0
+            t_s = live[1] if live is not None and live[0] > 0 else (status.t_s if status is not None else now_s)
+            age_s = now_s - t_s
             # frozen: no status AND no tick (no CPU time) for takeover_s, all of it seen awake
             still_s = min(age_s, now_s - progress_s, now_s - awake_since_s)
             if still_s > takeover_s:

@@ -49,6 +49,7 @@ from ..ipc.messages import (AdoptSensorReading, Announce, CancelProgram, ClearFa
                             GotoPose, HardwareInfo, HoldLocal, LocalControls, Move, OvershootQuery, Park,
                             PositionUncertain, PowerFail, Query, Reconfigure, Reply, Request, SaveNow,
                             SearchFrame, SetOvershoot, SetPosition, Stop, Track, TrackPose)
+from ..ipc.status_record import StatusRecord, merge
 from .snapshot import Status
 
 if TYPE_CHECKING:
@@ -192,10 +193,17 @@ class ControlLink:
     web route (bridged greenlets on the event loop) it suspends its caller only; from
     another thread it waits on an event. Either way bounded by ``timeout_s``."""
 
-    def __init__(self, conn: Connection, on_lost: Callable[[str], None] | None = None):
+    def __init__(self, conn: Connection, on_lost: Callable[[str], None] | None = None,
+                 record: StatusRecord | None = None):
         self.conn = conn
         self.on_lost = on_lost
+        #: the shared-memory record the control process writes every tick (its hot
+        #: fields, read without this link's thread); None: every status comes by socket
+        self.record = record
+        #: the newest full Status (by socket), and the record's cold generation it is of
         self.status: Status | None = None
+        self.status_gen: int | None = None
+        self._merged: tuple[int, int, Status] | None = None
         #: why the control process is gone ("" while it runs)
         self.lost = ""
         #: the control process's last word: how it stopped ({"saved": ..., ...})
@@ -286,10 +294,30 @@ class ControlLink:
             raise exception_from_wire(reply.value)
         return reply.value
 
-    def offer_status(self, status: Status | None) -> None:
+    def offer_status(self, status: Status | None, gen: int | None = None) -> None:
         # a reply carries the status a command left (read-your-writes); ticks publish too
         if status is not None and (self.status is None or status.t_s >= self.status.t_s):
             self.status = status
+            if gen is not None:
+                self.status_gen = gen
+
+    def current(self) -> Status | None:
+        """The newest status: the last full one with the record's hot fields of the
+        latest tick merged in (position, speeds, modes, its time), so the position is as
+        fresh as the control loop whatever this process's threads managed to read. The
+        cold fields (faults, events, ...) are those of the last full status read."""
+        s = self.status
+        if s is None or self.record is None:
+            return s
+        hot = self.record.read()
+        if hot is None or hot.t_s <= s.t_s:
+            return s
+        cached = self._merged
+        if cached is not None and cached[0] == hot.tick and cached[1] == id(s):
+            return cached[2]
+        merged = merge(s, hot)
+        self._merged = (hot.tick, id(s), merged)
+        return merged
 
     def _read(self) -> None:
         reason = "its socket closed"
@@ -303,7 +331,7 @@ class ControlLink:
                     continue
                 kind = msg[0]
                 if kind == "status":
-                    self.offer_status(msg[1])
+                    self.offer_status(msg[1], msg[2] if len(msg) > 2 else None)
                 elif kind == "reply":
                     pending = self._pending.get(msg[1].rid)
                     if pending is not None:
@@ -398,7 +426,7 @@ class RemoteRotator:
                         "a tick run there whole (a query: urc.service.queries)")
 
     def status(self) -> Status:
-        s = self._link.status
+        s = self._link.current()
         assert s is not None
         fault = self._link_fault(s)
         if fault is None:
