@@ -210,6 +210,8 @@ def test_homing_is_shown_and_ends_at_its_first_answer(tmp_path):
     assert "controller homing" in s.az.sensor_error and "until it has found its endstops" in s.az.sensor_error
     assert {f.kind for f in s.faults} == {"sensor_dead"}
     mark = len(rig.link.sent)
+    s = rig.run(4.0)      # its status question at 3 s goes unanswered: still homing, no failure
+    assert rig.fw.state == "homing" and "controller homing (4 s so far)" in s.az.sensor_error, s.az.sensor_error
     s = rig.run(20.0, until=lambda s: not s.faults)
     assert not s.faults and rig.fw.state == "run" and rig.fw.homings == 1, (s.faults, rig.fw.state)
     assert any("link fault cleared" in e for e in s.events)

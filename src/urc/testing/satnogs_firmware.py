@@ -254,26 +254,26 @@ class SatnogsFirmware:
         elif line[:2] == b"VE":
             out += b"VE" + VERSION + b"\n"
         elif line[:2] == b"IP" and line[2:3].isdigit() and line[2:3] != b"9":
-            n = int(line[2:3])
+            k = int(line[2:3])
             values = [b"0", b"%d" % self.endstop(0), b"%d" % self.endstop(1), _fmt(self.position_deg()[0], 2),
                       _fmt(self.position_deg()[1], 2), b"0", b"0", b"0.00", b"0.00"]
-            out += b"IP%d," % n + values[n] + b"\n"
+            out += b"IP%d," % k + values[k] + b"\n"
         elif line[:2] == b"GS":
             out += b"GS%d\n" % self.status
         elif line[:2] == b"GE":
             out += b"GE%d\n" % self.error
         elif line[:2] == b"CR":
-            n = line[3:4]
-            if n.isdigit() and n != b"0":
-                k = int(n)
+            reg = line[3:4]
+            if reg.isdigit() and reg != b"0":
+                k = int(reg)
                 value = _fmt(self.gains[k - 1], 2) if k <= 6 else _fmt(self.park[k - 7], 2) if k <= 8 \
                     else b"%d" % self.control_mode
-                out += n + b"," + value + b"\n"
+                out += reg + b"," + value + b"\n"
         elif line[:2] == b"CW":
-            n = line[2:3]
+            reg = line[2:3]
             value = line.split(b",", 1)[1][:10] if b"," in line else b""
-            if n.isdigit() and 1 <= int(n) <= 8 and _is_number(value):
-                k = int(n)
+            if reg.isdigit() and 1 <= int(reg) <= 8 and _is_number(value):
+                k = int(reg)
                 if k <= 6:
                     self.gains[k - 1] = _atof(value)
                 else:
@@ -351,7 +351,7 @@ class SatnogsFirmware:
             if all(self._found):
                 self._homing_phase, self._timer_s = "delay", 0.0
         elif self._timer_s >= self.home_delay_s:
-            for i, ax in enumerate(axes):   # (setCurrentPosition also zeroes the speed)
+            for ax in axes:   # (setCurrentPosition also zeroes the speed)
                 ax.zero_deg, ax.count, ax.target, ax.speed = ax.phys_deg, 0.0, 0.0, 0.0
             self.setpoint = [0.0, 0.0]
             self.state, self.status, self.error, self.homing_flag = "run", IDLE, NO_ERROR, True

@@ -212,14 +212,17 @@ class BridgeClient:
         (link down, nothing reported yet, or the last report older than the link's
         whole retry budget)."""
         with self._lock:
+            # (a controller that reports an error and no position: its own words first)
+            ctl = self._ctl_fault_text()
+            ctl = f"{ctl}; " if ctl else ""
             if not self._link_up or self._pos is None:
-                raise SensorError(f"bridge {self.dialect.name}: {self._error}")
+                raise SensorError(f"bridge {self.dialect.name}: {ctl}{self._error}")
             i = AXES.index(axis)
             if now_s is None:
                 return self._pos[i]
             age_s = now_s - self._pos_t_s
             if age_s > self.stale_after_s:
-                raise SensorError(f"bridge {self.dialect.name}: "
+                raise SensorError(f"bridge {self.dialect.name}: {ctl}"
                                   + (f"{self._cause} (no position report for {age_s:.1f} s)" if self._cause
                                      else f"no position report for {age_s:.1f} s"))
             pos = self._pos[i]
@@ -328,13 +331,16 @@ class BridgeClient:
     def controller_fault(self) -> str:
         """The error the controller itself reports (its last status said so), or ""."""
         with self._lock:
-            st, err = self._ctl_status, self._ctl_error
-            if st is None or not st.error:
-                return ""
-            if err is None:
-                return f"bridge {self.dialect.name}: the controller reports an error (status {st.code}); " \
-                       "its error code not read yet"
-            return f"bridge {self.dialect.name}: the controller reports {err.text} (status {st.code}, error {err.code})"
+            text = self._ctl_fault_text()
+            return f"bridge {self.dialect.name}: {text}" if text else ""
+
+    def _ctl_fault_text(self) -> str:
+        st, err = self._ctl_status, self._ctl_error
+        if st is None or not st.error:
+            return ""
+        if err is None:
+            return f"the controller reports an error (status {st.code}); its error code not read yet"
+        return f"the controller reports {err.text} (status {st.code}, error {err.code})"
 
     def homing(self) -> bool:
         with self._lock:
@@ -692,7 +698,9 @@ class BridgeClient:
                 self._error = self._homing_text(now_s)
                 return
         hint = ""
-        if self.dialect.homing_s:
+        if self._ctl_fault_text():
+            hint = "; " + self._ctl_fault_text()
+        elif self.dialect.homing_s:
             hint = (f"; it says nothing while it homes, after power-up or a reset, up to "
                     f"{self.dialect.homing_s:g} s" if since is None else
                     f"; homing for {now_s - since:.0f} s, longer than it takes")

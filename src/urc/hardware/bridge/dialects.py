@@ -382,7 +382,7 @@ class Rotctld(Dialect):
 
 
 # ---------------------------------------------------------------------- SatNOGS
-class Satnogs(Easycomm):
+class Satnogs(Dialect):
     """The SatNOGS rotator firmware (stepper_motor_controller): Easycomm II as it speaks
     it (:mod:`urc.protocols.satnogs_codec` says where each form comes from) plus its
     status (GS), error (GE) and homing (RESET, RB) commands.
@@ -410,15 +410,26 @@ class Satnogs(Easycomm):
     #: watchdog reboot before it (RB): 45 s, and a margin
     homing_s = 50.0
 
+    def __init__(self) -> None:
+        super().__init__()
+        self.resolution_deg = (0.1, 0.1)     # AZ%.1f EL%.1f
+        self.report_resolution_deg = 0.1     # String(x, 1)
+
     def poll(self) -> Exchange:
         return Exchange("poll", sn.format_position_query(), Reply(terminator=b"\n"), self._position)
 
     @staticmethod
     def _position(data: bytes) -> tuple[float, float]:
         try:
-            return _finite(*sn.parse_position_reply(data))
+            az, el = sn.parse_position_reply(data)
         except sn.SatnogsParseError as exc:
             raise ReplyError(str(exc)) from None
+        _finite(az, el)
+        return az, el
+
+    def identify(self) -> Exchange:
+        return Exchange("identify", ec.format_version_query(), Reply(terminator=b"\n"),
+                        lambda data: ec.parse_value_reply(data, "VE"))
 
     def goto(self, az_deg: float, el_deg: float) -> Exchange:
         return Exchange("set", sn.format_set_position(az_deg, el_deg), pose=(az_deg, el_deg))
