@@ -26,6 +26,9 @@ says the controller is well, and an error it reports is :meth:`BridgeClient.cont
 (the rotator's guard latches it, with the controller's own words). A controller told to
 home (:meth:`BridgeClient.request_home`) may say nothing for ``Dialect.homing_s``: its
 position is unknown meanwhile (the reason says it homes), and silence is no failure.
+
+(Over 600 lines on purpose: one engine under one lock, since what goes out next, a stop,
+a home, a status read, a move, a target or a poll, is decided on all of its state at once.)
 """
 
 from __future__ import annotations
