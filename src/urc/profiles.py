@@ -136,6 +136,26 @@ PROFILES: dict[str, RotatorCaps] = {
                     tolerance_deg=0.2, restart_deg=0.5, overshoot_deg=0.15, creep_lead_deg=0.35),
         command_sets=("gs232a", "gs232b", "rotctld"),
     ),
+    # SatNOGS rotator v3 as its firmware drives it (stepper_motor_controller.ino:26-37, the
+    # SatNOGS firmware at pschneiders/satnogs-rotator-firmware 02bc016): NEMA17 steppers at
+    # 1/8 microstep (1600 steps a turn) through 54:1 worm gears, 240 steps/deg; 3200
+    # steps/s top (13.3 deg/s) and 1600 steps/s^2 (6.7 deg/s^2); az 0..360 and el 0..180
+    # from the homing endstops (its seek, ino:105-106), where it parks (globals.h:59). The
+    # step count is its position (incremental: homing re-references it). min_rate: a
+    # stepper has no stall speed; the slowest speed urc asks is a tenth of the top.
+    "satnogs-v3": RotatorCaps(
+        name="satnogs-v3",
+        description="SatNOGS rotator v3: steppers, 54:1 worms, homing endstops, 0-360 az, 0-180 el",
+        az=AxisCaps(name="az", min_deg=0.0, max_deg=360.0, park_deg=0.0,
+                    max_rate_deg_per_s=40.0 / 3.0, min_rate_deg_per_s=4.0 / 3.0, accel_deg_per_s2=20.0 / 3.0,
+                    sensor=SensorCaps(kind="encoder", resolution_deg=1.0 / 240.0, absolute=False),
+                    tolerance_deg=0.05, restart_deg=0.1),
+        el=AxisCaps(name="el", min_deg=0.0, max_deg=180.0, park_deg=0.0,
+                    max_rate_deg_per_s=40.0 / 3.0, min_rate_deg_per_s=4.0 / 3.0, accel_deg_per_s2=20.0 / 3.0,
+                    sensor=SensorCaps(kind="encoder", resolution_deg=1.0 / 240.0, absolute=False),
+                    tolerance_deg=0.05, restart_deg=0.1),
+        command_sets=("easycomm2", "rotctld"),
+    ),
 }
 
 

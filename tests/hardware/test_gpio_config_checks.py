@@ -12,7 +12,7 @@ from urc.errors import ConfigError
 from urc.hardware.gpio.checks import BOOT_HIGH_PINS, gpio_warnings
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
-GPIO_EXAMPLES = sorted(EXAMPLES.glob("*.toml"))
+GPIO_EXAMPLES = sorted(p for p in EXAMPLES.glob("*.toml") if 'backend = "gpio"' in p.read_text())
 
 
 def example(name: str, **changes) -> dict:

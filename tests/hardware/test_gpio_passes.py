@@ -15,7 +15,7 @@ from urc.tracking.passes import find_passes
 from urc.tracking.station import Station
 
 ROOT = Path(__file__).resolve().parents[2]
-EXAMPLES = sorted((ROOT / "examples").glob("*.toml"))
+EXAMPLES = sorted(p for p in (ROOT / "examples").glob("*.toml") if 'backend = "gpio"' in p.read_text())
 T0_UNIX_S = 1704110400.0
 TARTU = Station(58.3780, 26.7290, 70.0, "Tartu")
 

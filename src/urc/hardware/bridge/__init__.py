@@ -35,6 +35,19 @@ class _NoMotor:
         return 0.0
 
 
+class _ControllerFault(_NoMotor):
+    """The controller's own error report (SatNOGS GS/GE), read by the guard as a motor
+    driver's fault output is: it latches a fault in the controller's words, stopping
+    every motion and refusing new ones until the error is gone and the fault cleared.
+    On the azimuth axis only: one controller, one fault."""
+
+    def __init__(self, client: BridgeClient):
+        self.client = client
+
+    def driver_fault(self) -> str | None:
+        return self.client.controller_fault() or None
+
+
 @dataclass
 class BridgeAxis:
     """One axis of the bridged controller: its position sensor (the controller's latest
@@ -81,6 +94,13 @@ class BridgeAxis:
         if self.wake is not None:
             self.wake()
 
+    def request_home(self) -> str:
+        """Have the controller home on its endstops ("" = it will be told; else why not)."""
+        reason = self.client.request_home()
+        if not reason and self.wake is not None:
+            self.wake()
+        return reason
+
     def answering(self) -> bool:
         """The link is up and the controller has reported since (its position re-read)."""
         return self.client.error() == ""
@@ -122,7 +142,8 @@ def bridge_axes(client: BridgeClient, clock: Clock, wake=None) -> tuple[AxisHard
     axes = []
     for name in ("az", "el"):
         ax = BridgeAxis(name, client, clock, wake)
-        axes.append(AxisHardware(motor=_NoMotor(), sensor=ax, positioner=ax))
+        motor = _ControllerFault(client) if name == "az" else _NoMotor()
+        axes.append(AxisHardware(motor=motor, sensor=ax, positioner=ax))
     return axes[0], axes[1]
 
 

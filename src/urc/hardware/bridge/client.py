@@ -19,6 +19,16 @@ Rules for slow and quirky controllers:
 * an answer urc did not fully understand moves nothing: no set goes out until a good
   position report has come back, and ``max_failures`` bad or missing answers in a row
   drop the link (reconnect, with the position unknown until the first good report).
+
+Controllers that report their own status (``Dialect.status_interval_s``, the SatNOGS
+firmware's GS/GE) are read every so often: no target goes out unless a fresh status
+says the controller is well, and an error it reports is :meth:`BridgeClient.controller_fault`
+(the rotator's guard latches it, with the controller's own words). A controller told to
+home (:meth:`BridgeClient.request_home`) may say nothing for ``Dialect.homing_s``: its
+position is unknown meanwhile (the reason says it homes), and silence is no failure.
+
+(Over 600 lines on purpose: one engine under one lock, since what goes out next, a stop,
+a home, a status read, a move, a target or a poll, is decided on all of its state at once.)
 """
 
 from __future__ import annotations
@@ -30,7 +40,7 @@ import threading
 from dataclasses import dataclass
 
 from ...errors import SensorError
-from .dialects import Dialect, Exchange, ReplyError
+from .dialects import ControllerError, ControllerStatus, Dialect, Exchange, ReplyError
 
 log = logging.getLogger("urc.bridge")
 
@@ -56,6 +66,10 @@ SPEED_WINDOW_S = 1.0
 #: a controller's own move is handed over to a goto this long (at its speed) before
 #: the jog's end, on top of the link's delays: it brakes and settles on its own loop
 NATIVE_MOVE_HANDOVER_S = 1.0
+#: while a controller homes its status is asked this often: it reads no input then and
+#: an Arduino keeps only 64 bytes of it (HardwareSerial's receive buffer), so a few
+#: short questions, not a poll per timeout that would overflow it into broken lines
+HOMING_POLL_S = 3.0
 
 
 @dataclass(frozen=True)
@@ -128,8 +142,18 @@ class BridgeClient:
         self._last_set_s = -math.inf
         self._recent: collections.deque[tuple[float, tuple[float, float]]] = collections.deque()
         self.identity: str | None = None
+        #: the controller's own status (Dialect.status): the last read, and when
+        self._ctl_status: ControllerStatus | None = None
+        self._ctl_status_t_s = -math.inf
+        self._ctl_error: ControllerError | None = None
+        self._need_error = False
+        self._next_status_s = -math.inf
+        self._home_wanted = False
+        #: when urc told it to home (None: not homing as far as urc knows)
+        self._homing_since_s: float | None = None
+        self._withheld_reason = ""
         self.counts = {"exchanges": 0, "timeouts": 0, "garbage": 0, "sets": 0, "stops": 0, "moves": 0,
-                       "reconnects": 0}
+                       "reconnects": 0, "statuses": 0, "homes": 0, "withheld": 0}
 
     # ============================================================ control-tick side
     def post(self, axis: str, target_deg: float | None) -> None:
@@ -191,14 +215,17 @@ class BridgeClient:
         (link down, nothing reported yet, or the last report older than the link's
         whole retry budget)."""
         with self._lock:
+            # (a controller that reports an error and no position: its own words first)
+            ctl = self._ctl_fault_text()
+            ctl = f"{ctl}; " if ctl else ""
             if not self._link_up or self._pos is None:
-                raise SensorError(f"bridge {self.dialect.name}: {self._error}")
+                raise SensorError(f"bridge {self.dialect.name}: {ctl}{self._error}")
             i = AXES.index(axis)
             if now_s is None:
                 return self._pos[i]
             age_s = now_s - self._pos_t_s
             if age_s > self.stale_after_s:
-                raise SensorError(f"bridge {self.dialect.name}: "
+                raise SensorError(f"bridge {self.dialect.name}: {ctl}"
                                   + (f"{self._cause} (no position report for {age_s:.1f} s)" if self._cause
                                      else f"no position report for {age_s:.1f} s"))
             pos = self._pos[i]
@@ -304,6 +331,54 @@ class BridgeClient:
         with self._lock:
             return "" if self._link_up and self._trusted else self._error
 
+    def controller_fault(self) -> str:
+        """The error the controller itself reports (its last status said so), or ""."""
+        with self._lock:
+            text = self._ctl_fault_text()
+            return f"bridge {self.dialect.name}: {text}" if text else ""
+
+    def _ctl_fault_text(self) -> str:
+        st, err = self._ctl_status, self._ctl_error
+        if st is None or not st.error:
+            return ""
+        if err is None:
+            return f"the controller reports an error (status {st.code}); its error code not read yet"
+        return f"the controller reports {err.text} (status {st.code}, error {err.code})"
+
+    def homing(self) -> bool:
+        with self._lock:
+            return self._homing_since_s is not None
+
+    def request_home(self) -> str:
+        """Have the controller home on its endstops: "" when it will be told (its next
+        exchange), else why not (the protocol has no such command)."""
+        if self.dialect.home(False) is None:
+            return f"{self.dialect.name}: the controller has no homing command"
+        with self._lock:
+            self._home_wanted = True
+        return ""
+
+    def _homing_text(self, now_s: float) -> str:
+        since = self._homing_since_s if self._homing_since_s is not None else now_s
+        return (f"controller homing ({now_s - since:.0f} s so far): it answers nothing until it has found "
+                f"its endstops, up to {self.dialect.homing_s:g} s; the position is unknown until then")
+
+    def _ctl_blocks(self, now_s: float) -> str:
+        """Why no target may go out now because of the controller's own status ("" = none)."""
+        d = self.dialect
+        if not d.status_interval_s:
+            return ""
+        if self._homing_since_s is not None:
+            return "the controller is homing"
+        st = self._ctl_status
+        if st is None:
+            return "the controller's status not read yet"
+        if st.error:
+            return "the controller reports an error"
+        if now_s - self._ctl_status_t_s > 2.0 * d.status_interval_s + self.timeout_s:
+            return f"the controller's status not read for {now_s - self._ctl_status_t_s:.1f} s"
+        return ""
+
     # ================================================================= link side
     def link_up(self, now_s: float) -> None:
         with self._lock:
@@ -316,6 +391,8 @@ class BridgeClient:
             # the controller may have been told something urc no longer wants
             self._sent_pose, self._told_stop = None, False
             self._after_command = False
+            # its status is read again before any target (what it said is kept till then)
+            self._ctl_status_t_s, self._next_status_s = -math.inf, -math.inf
 
     def link_down(self, reason: str, now_s: float, failures: bool = False) -> None:
         """The link went away (``reason``: the port's error), or is being reopened
@@ -358,11 +435,21 @@ class BridgeClient:
         """(the exchange to run now, or None and how long to wait before asking again)."""
         with self._lock:
             d = self.dialect
-            if self._stop_wanted or (all(self._wanted[a] is None for a in AXES) and not self._stopped):
+            # homing and not answering yet: it reads no input, so nothing but a status
+            # question now and then (a stop waits: it could not reach it before either)
+            silent = self._homing_since_s is not None and self._ctl_status is None
+            if not silent and (self._stop_wanted or (all(self._wanted[a] is None for a in AXES) and not self._stopped)):
                 # a stop always goes out at once, understood or not
                 self._stop_wanted, self._sent_pose = False, None
                 return self._stop_first(d)
-            native = self._native_move()
+            ctl = self._controller_exchange(d, now_s)
+            if ctl is not None:
+                return ctl
+            if silent:
+                self._after_command = False
+                return None, max(0.0, self._next_status_s - now_s)
+            blocked = self._ctl_blocks(now_s)
+            native = self._native_move() if not blocked else None
             if native is not None:
                 if native != self._native and self._trusted and not self._after_command:
                     if d.stop_around_move and not self._told_stop:
@@ -377,6 +464,14 @@ class BridgeClient:
                 pose = None  # moving on its own: only polls until urc takes over
             else:
                 pose = self._pose_to_send()
+            if pose is not None and blocked:
+                if blocked != self._withheld_reason:
+                    log.warning("bridge %s: target %s withheld: %s", d.name, pose, blocked)
+                    self.counts["withheld"] += 1
+                self._withheld_reason = blocked
+                pose = None
+            elif pose is not None:
+                self._withheld_reason = ""
             if pose is not None and self._trusted and not self._after_command and \
                     now_s >= self._last_set_s + MIN_SET_INTERVAL_S:
                 if (self.options.stop_before_set and self._moving()
@@ -392,6 +487,39 @@ class BridgeClient:
                 self._next_poll_s = now_s + max(self.options.poll_interval_s, MIN_POLL_INTERVAL_S)
                 return d.poll(), 0.0
             return None, max(0.0, self._next_poll_s - now_s)
+
+    def _controller_exchange(self, d: Dialect, now_s: float) -> tuple[Exchange, float] | None:
+        """A home, a status or an error read, when one is due (controllers that have them)."""
+        if self._home_wanted:
+            self._home_wanted = False
+            ex = d.home(self._ctl_status is not None and self._ctl_status.error)
+            if ex is not None:
+                # from here its position is unknown and its silence expected
+                self._homing_since_s = now_s
+                self._pos, self._prev_pos, self._trusted = None, None, False
+                self._recent.clear()
+                self._sent_pose, self._stopped, self._native = None, True, None
+                self._after_command = False
+                self._ctl_status, self._ctl_error, self._need_error = None, None, False
+                self._next_status_s = now_s + HOMING_POLL_S
+                self._error = self._homing_text(now_s)
+                self.counts["homes"] += 1
+                log.warning("bridge %s: told the controller to home (%r)", d.name, ex.request)
+                return ex, 0.0
+        if not d.status_interval_s or self._after_command or now_s < self._next_status_s and not self._need_error:
+            return None
+        if self._need_error:
+            ex = d.error_query()
+            self._need_error = False
+            if ex is not None:
+                return ex, 0.0
+        if now_s < self._next_status_s:
+            return None
+        ex = d.status()
+        if ex is None:
+            return None
+        self._next_status_s = now_s + (HOMING_POLL_S if self._homing_since_s is not None else d.status_interval_s)
+        return ex, 0.0
 
     def _stop_first(self, d: Dialect) -> tuple[Exchange, float]:
         """A stop (before a new target or move: a poll follows it, then the command)."""
@@ -503,6 +631,13 @@ class BridgeClient:
             self._rtt_s = rtt if self._rtt_s is None else (1 - LATENCY_GAIN) * self._rtt_s + LATENCY_GAIN * rtt
             if ex.kind == "identify":
                 self.identity = str(value)
+            elif ex.kind == "home":
+                pass    # (RESET answers its position before it homes: no report of where it ends)
+            elif isinstance(value, ControllerStatus):
+                self._status(value, now_s)
+            elif isinstance(value, ControllerError):
+                self._ctl_error = value
+                log.error("bridge %s: %s", self.dialect.name, value.text)
             elif ex.kind == "set" and isinstance(value, int) and value != 0:
                 # rotctld refused the target (its own limits): nothing moves; say so
                 self._error = f"controller refused the target {ex.pose}: RPRT {value}"
@@ -516,7 +651,25 @@ class BridgeClient:
                 # sampled somewhere in the round trip: take its middle
                 self._position(value, now_s - 0.5 * rtt)
 
+    def _status(self, value: ControllerStatus, now_s: float) -> None:
+        self.counts["statuses"] += 1
+        was = self._ctl_status
+        self._ctl_status, self._ctl_status_t_s = value, now_s
+        if value.error:
+            # read what it is: at once when newly reported, then again now and then
+            self._need_error = self._ctl_error is None or was is None or not was.error or \
+                self.counts["statuses"] % 10 == 0
+        else:
+            self._ctl_error = None
+        if self._homing_since_s is not None:
+            # it reads input again: its position next
+            self._next_poll_s = -math.inf
+
     def _position(self, value: tuple[float, float | None], now_s: float) -> None:
+        if self._homing_since_s is not None:
+            log.warning("bridge %s: the controller answers again after %.1f s of homing", self.dialect.name,
+                        now_s - self._homing_since_s)
+            self._homing_since_s = None
         az, el = value
         if el is None:
             el = 0.0
@@ -540,8 +693,22 @@ class BridgeClient:
             self.counts["exchanges"] += 1
 
     def timed_out(self, ex: Exchange, partial: bytes, now_s: float) -> None:
+        with self._lock:
+            since = self._homing_since_s
+            if since is not None and now_s - since <= self.dialect.homing_s:
+                # told to home: its silence is expected, no failure
+                self.counts["timeouts"] += 1
+                self._error = self._homing_text(now_s)
+                return
+        hint = ""
+        if self._ctl_fault_text():
+            hint = "; " + self._ctl_fault_text()
+        elif self.dialect.homing_s:
+            hint = (f"; it says nothing while it homes, after power-up or a reset, up to "
+                    f"{self.dialect.homing_s:g} s" if since is None else
+                    f"; homing for {now_s - since:.0f} s, longer than it takes")
         self._bad(f"no reply from the controller ({ex.kind}: no {'complete ' if partial else ''}answer "
-                  f"within {self.timeout_s:g} s" + (f", got {partial!r}" if partial else "") + ")", "timeouts")
+                  f"within {self.timeout_s:g} s" + (f", got {partial!r}" if partial else "") + hint + ")", "timeouts")
 
     def _bad(self, reason: str, count: str) -> None:
         with self._lock:

@@ -17,11 +17,13 @@ from typing import Any, Callable
 
 from ...protocols import easycomm_codec as ec
 from ...protocols import gs232_codec as gs
+from ...protocols import satnogs_codec as sn
 from ...protocols import spid_codec as spid
 from ...protocols.rotctld import codec as rc
 
 #: the protocols a bridge can drive (``[hardware.bridge] protocol``)
-BRIDGE_PROTOCOLS = ("gs232a", "gs232b", "easycomm2", "easycomm3", "rot2prog", "rot1prog", "md01", "rotctld")
+BRIDGE_PROTOCOLS = ("gs232a", "gs232b", "easycomm2", "easycomm3", "rot2prog", "rot1prog", "md01", "rotctld",
+                    "satnogs")
 
 
 class ReplyError(ValueError):
@@ -57,7 +59,7 @@ class Reply:
 
 @dataclass(frozen=True)
 class Exchange:
-    kind: str                                   # poll | set | stop | move | identify
+    kind: str                                   # poll | set | stop | move | identify | status | error | home
     request: bytes
     reply: Reply | None = None                  # None: the controller answers nothing
     parse: Callable[[bytes], Any] | None = None
@@ -100,6 +102,25 @@ class Dialect:
     def identify(self) -> Exchange | None:
         return None
 
+    #: how often the controller's own status is read (0: the protocol reports none)
+    status_interval_s = 0.0
+    #: how long the controller may say nothing while it homes (0: it answers throughout)
+    homing_s = 0.0
+
+    def status(self) -> Exchange | None:
+        """Read the controller's status (parsed to :class:`ControllerStatus`)."""
+        return None
+
+    def error_query(self) -> Exchange | None:
+        """Read the controller's error once its status says it has one (parsed to
+        :class:`ControllerError`)."""
+        return None
+
+    def home(self, in_error: bool) -> Exchange | None:
+        """Home the controller on its endstops (``in_error``: it reports an error that
+        only a restart clears), or None where the protocol has no such command."""
+        return None
+
     def move(self, axis: str, direction: int, speed_frac: float) -> Exchange | None:
         """The controller's own jog of one axis (runs until a stop or a new target), or
         None where the protocol has none: a jog is then a goto to where it must end."""
@@ -109,6 +130,20 @@ class Dialect:
         """The value the controller will act on (its set resolution)."""
         step = self.resolution_deg[axis]
         return round(value_deg / step) * step
+
+
+@dataclass(frozen=True)
+class ControllerStatus:
+    """The controller's own status: ``error`` when it reports one."""
+    code: int
+    text: str
+    error: bool
+
+
+@dataclass(frozen=True)
+class ControllerError:
+    code: int
+    text: str
 
 
 def _finite(az: float, el: float | None) -> tuple[float, float | None]:
@@ -346,9 +381,92 @@ class Rotctld(Dialect):
                         lambda data: data.strip().decode("ascii", "replace"))
 
 
+# ---------------------------------------------------------------------- SatNOGS
+class Satnogs(Dialect):
+    """The SatNOGS rotator firmware (stepper_motor_controller): Easycomm II as it speaks
+    it (:mod:`urc.protocols.satnogs_codec` says where each form comes from) plus its
+    status (GS), error (GE) and homing (RESET, RB) commands.
+
+    * A stop is answered with the position line (not silent as Easycomm's).
+    * No move of its own: it has no ML..MD, and its VL..VD only set a speed mode the
+      stepper loop never reads (stepper_motor_controller.ino:117-119): jogs are gotos.
+    * It homes at every power-up and on RESET inside a loop that reads no serial input
+      (stepper_motor_controller.ino:100-115, 154-200): silent until both endstops are
+      found, then HOME_DELAY (12 s) more; ``homing_s`` bounds that silence.
+    * A homing or watchdog error stays until a restart (RESET is ignored in the error
+      state, ino:100 and 129-139): homing it then is RB, a reboot through the watchdog.
+    """
+
+    name = "satnogs"
+    #: it reports its step count in degrees (step2deg, ino:224-226), not compass
+    #: azimuth: 0..360 from the endstop, never folded
+    az_modulo_deg = None
+    #: easycomm.h:22 (BAUDRATE 19200)
+    default_baud = 19200
+    timeout_s = 0.5
+    status_interval_s = 0.5
+    #: seek of up to 360 deg az at 3200 steps/s of 240 steps/deg (13.3 deg/s, ino:26-31,
+    #: 105-106) with its 1600 steps/s^2 ramps, then HOME_DELAY 12 s (ino:37), and the 2 s
+    #: watchdog reboot before it (RB): 45 s, and a margin
+    homing_s = 50.0
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.resolution_deg = (0.1, 0.1)     # AZ%.1f EL%.1f
+        self.report_resolution_deg = 0.1     # String(x, 1)
+
+    def poll(self) -> Exchange:
+        return Exchange("poll", sn.format_position_query(), Reply(terminator=b"\n"), self._position)
+
+    @staticmethod
+    def _position(data: bytes) -> tuple[float, float]:
+        try:
+            az, el = sn.parse_position_reply(data)
+        except sn.SatnogsParseError as exc:
+            raise ReplyError(str(exc)) from None
+        _finite(az, el)
+        return az, el
+
+    def identify(self) -> Exchange:
+        return Exchange("identify", ec.format_version_query(), Reply(terminator=b"\n"),
+                        lambda data: ec.parse_value_reply(data, "VE"))
+
+    def goto(self, az_deg: float, el_deg: float) -> Exchange:
+        return Exchange("set", sn.format_set_position(az_deg, el_deg), pose=(az_deg, el_deg))
+
+    def stop(self) -> Exchange:
+        return Exchange("stop", sn.format_stop(), Reply(terminator=b"\n"), self._position)
+
+    def move(self, axis: str, direction: int, speed_frac: float) -> None:
+        return None
+
+    def status(self) -> Exchange:
+        def parse(data: bytes) -> ControllerStatus:
+            try:
+                code = sn.parse_status_reply(data)
+            except sn.SatnogsParseError as exc:
+                raise ReplyError(str(exc)) from None
+            return ControllerStatus(code, sn.describe_status(code), code == sn.STATUS_ERROR)
+        return Exchange("status", sn.format_status_query(), Reply(terminator=b"\n"), parse)
+
+    def error_query(self) -> Exchange:
+        def parse(data: bytes) -> ControllerError:
+            try:
+                code = sn.parse_error_reply(data)
+            except sn.SatnogsParseError as exc:
+                raise ReplyError(str(exc)) from None
+            return ControllerError(code, sn.describe_error(code))
+        return Exchange("error", sn.format_error_query(), Reply(terminator=b"\n"), parse)
+
+    def home(self, in_error: bool) -> Exchange:
+        if in_error:
+            return Exchange("home", sn.format_reboot())
+        return Exchange("home", sn.format_reset(), Reply(terminator=b"\n"), self._position)
+
+
 DIALECTS: dict[str, type[Dialect]] = {
     "gs232a": Gs232a, "gs232b": Gs232b, "easycomm2": Easycomm2, "easycomm3": Easycomm3,
-    "rot2prog": Rot2Prog, "rot1prog": Rot1Prog, "md01": Md01, "rotctld": Rotctld,
+    "rot2prog": Rot2Prog, "rot1prog": Rot1Prog, "md01": Md01, "rotctld": Rotctld, "satnogs": Satnogs,
 }
 assert tuple(DIALECTS) == BRIDGE_PROTOCOLS
 
