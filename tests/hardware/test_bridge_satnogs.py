@@ -6,6 +6,9 @@ error, homing (its silence) shown as homing and ended by its first answer."""
 from __future__ import annotations
 
 import pytest
+
+from urc.ipc.messages import ControllerHome
+from urc.service.queries import ask
 from hypothesis import given
 from hypothesis import strategies as st
 
@@ -204,7 +207,7 @@ def test_homing_is_shown_and_ends_at_its_first_answer(tmp_path):
     rig = Rig(tmp_path, phys_deg=(4.0, 3.0), home_delay_s=5.0)   # (time to brake and come back)
     rig.rot.goto(6.0, 5.0)
     rig.run(10.0, until=settled)
-    assert rig.az.positioner.request_home() == ""
+    ask(rig.rot, ControllerHome())    # (what the API's POST /api/calibration/controller-home asks)
     s = rig.run(3.0, until=lambda s: bool(s.faults))
     assert rig.fw.state == "homing"
     assert "controller homing" in s.az.sensor_error and "until it has found its endstops" in s.az.sensor_error
@@ -220,6 +223,11 @@ def test_homing_is_shown_and_ends_at_its_first_answer(tmp_path):
     assert rig.client.counts["reconnects"] == 0
     assert s.az_deg == pytest.approx(0.0, abs=0.2) and s.el_deg == pytest.approx(0.0, abs=0.2)
     assert rig.fw.true_deg() == pytest.approx((0.0, 0.0), abs=0.05)
+
+
+def test_a_rotator_without_a_controller_to_home_refuses_to(bench):
+    with pytest.raises(CommandRejected, match="no controller to home"):
+        ask(bench("g5500").rot, ControllerHome())
 
 
 def test_a_controller_that_reports_an_error_is_rebooted_to_home(tmp_path):

@@ -312,6 +312,12 @@ class ApplyTwelveDirection(Query):
 
 
 @dataclass(frozen=True)
+class ControllerHome(Query):
+    """Have a bridged controller home on its endstops (the SatNOGS firmware's RESET, or a
+    reboot when it reports an error) -> None; refused with the reason it cannot."""
+
+
+@dataclass(frozen=True)
 class HardwareInfo(Query):
     """What the hardware is -> :class:`HardwareSummary` (sent once at start: asking costs
     no round trip)."""

@@ -15,7 +15,7 @@ from typing import Any, Callable
 
 from ..errors import CommandRejected, UrcError
 from ..ipc.messages import (ApplyCalibration, BeginHandCalibration, Goto, GotoPose, Reset, ResetOutcome, ApplyTwelveDirection, CompassField, CountReading, DescribeSensors,
-                            HardwareInfo, HardwareSummary, MotorDuties, PotApply, PotReading, PotState, PotUnits, Query,
+                            ControllerHome, HardwareInfo, HardwareSummary, MotorDuties, PotApply, PotReading, PotState, PotUnits, Query,
                             RawVectors, SensorCalibrations, SensorCount, SimClear, SimFault)
 
 
@@ -160,6 +160,17 @@ def _twelve(rot: Any, q: ApplyTwelveDirection) -> bool:
     return on_disk
 
 
+def _controller_home(rot: Any, _q: ControllerHome) -> None:
+    home = getattr(getattr(rot.hw.axis("az"), "positioner", None), "request_home", None)
+    if home is None:
+        raise CommandRejected("no controller to home here: homing on the controller's own endstops is for a "
+                              "bridged controller that has them (the SatNOGS firmware)", "invalid")
+    rot.stop()
+    reason = home()
+    if reason:
+        raise CommandRejected(f"the controller cannot home: {reason}", "invalid")
+
+
 def _hardware_info(rot: Any, _q: HardwareInfo) -> HardwareSummary:
     hw = getattr(rot, "hw", None)
     path = getattr(getattr(rot, "store", None), "path", None)
@@ -198,5 +209,5 @@ HANDLERS: dict[type[Query], Callable[[Any, Any], Any]] = {
     BeginHandCalibration: _begin_hand_calibration, Reset: _reset,
     PotState: _pot_state, PotUnits: _pot_units, CompassField: _compass_field, DescribeSensors: _describe,
     ApplyCalibration: _apply, PotApply: _pot_apply, ApplyTwelveDirection: _twelve,
-    HardwareInfo: _hardware_info, MotorDuties: _motor_duties, SimFault: _sim_fault, SimClear: _sim_clear,
+    ControllerHome: _controller_home, HardwareInfo: _hardware_info, MotorDuties: _motor_duties, SimFault: _sim_fault, SimClear: _sim_clear,
 }

@@ -14,7 +14,7 @@ from fastapi import APIRouter, Depends
 from pydantic import Field
 
 from ..ipc import bridge
-from ..ipc.messages import DescribeSensors, PotApply, PotUnits
+from ..ipc.messages import ControllerHome, DescribeSensors, PotApply, PotUnits
 from ..service.queries import ask
 from .context import WebContext
 from .schemas import CONTROL_RESPONSES, AzDeg, Deg, ElDeg, Ok, Strict
@@ -118,6 +118,13 @@ def router(ctx: WebContext) -> APIRouter:
         cal = await _calibration()
         ctx.hub.start_procedure(await bridge.run(cal.LimitSwitchHoming, rot, req.axis, req.speed_frac, req.switch_deg))
         return ProcedureState(procedure=ctx.hub.procedure_dict())
+
+    @r.post("/controller-home", **control)
+    async def controller_home() -> Ok:
+        """Have a bridged controller (the SatNOGS firmware) home on its own endstops; its
+        position is unknown until it answers again (the status says it homes)."""
+        await bridge.run(ask, rot, ControllerHome())
+        return Ok()
 
     @r.get("/procedure")
     async def procedure() -> ProcedureState:
