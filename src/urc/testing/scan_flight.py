@@ -45,7 +45,8 @@ def fly_scan(rot: Any, clock: VirtualClock, plan: ScanPlan, target: Any, source:
     tol = arrive_tol_deg if arrive_tol_deg is not None else max(0.05, 2 * rot.caps.az.sensor.resolution_deg)
     every = max(1, round(plan.dwell_s / period_s / samples_per_point))
     for p in plan.points:
-        az, el = offset_pose(*target.position(unix_at(clock.now_s())), p.dx_deg, p.dy_deg)
+        taz, tel = target.position(unix_at(clock.now_s()))
+        az, el = offset_pose(taz, tel, p.dx_deg, p.dy_deg)
         rot.goto(az, el)
 
         def there(s: Any, az: float = az, el: float = el) -> bool:
