@@ -19,7 +19,10 @@ toggle count, also in the truth as ``heartbeat``; ``motor_enable_timeout_s`` (fl
 not wired): the external safety chain (:mod:`.safety`), motor power held only while the
 heartbeat's rising edges come at most this far apart, in the truth as ``motor_enable``;
 ``truth_log`` (path, default the environment variable ``URC_SIM_TRUTH_LOG``, else none): the
-iron's history appended as JSON lines (:mod:`.truthlog`), for benchmarks.
+iron's history appended as JSON lines (:mod:`.truthlog`), for benchmarks; ``pointing_error``
+(a mapping of pointing-model terms in degrees, e.g. ``{"ia_deg": 0.5, "tf_deg": 1.0}``,
+:class:`urc.pointing.model.PointingModel`; default none): where the beam truly points,
+for a simulated power source (``world.pointing_error``); the control never sees it.
 """
 
 from __future__ import annotations
@@ -43,7 +46,7 @@ log = logging.getLogger(__name__)
 
 _OPTIONS = {"seed", "wind", "truth_file", "start_az_deg", "start_el_deg", "fault_injection",
             "sensor_noise", "truth_interval_s", "truth_wall_interval_s", "heartbeat_file",
-            "motor_enable_timeout_s", "truth_log"}
+            "motor_enable_timeout_s", "truth_log", "pointing_error"}
 
 
 def build_sim_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
@@ -101,12 +104,20 @@ def make_world(caps: RotatorCaps, clock: Clock, state_dir: Path,
                          truth_interval_s=float(options.get("truth_interval_s", 0.02)),
                          truth_wall_interval_s=float(options.get("truth_wall_interval_s", 0.02)),
                          motor_enable_timeout_s=_timeout(options.get("motor_enable_timeout_s")),
-                         truth_log=options.get("truth_log", os.environ.get(TRUTH_LOG_ENV) or None))
-    except (TypeError, ValueError) as exc:
+                         truth_log=options.get("truth_log", os.environ.get(TRUTH_LOG_ENV) or None),
+                         pointing_error=_pointing_error(options.get("pointing_error")))
+    except (TypeError, ValueError, AttributeError) as exc:
         raise ConfigError(f"simulator options: {exc}", key="hardware.options") from exc
     for axis, kind, kw in _fault_list(options.get("fault_injection")):
         world.inject(axis, kind, **kw)
     return world, params
+
+
+def _pointing_error(spec: Any) -> Any:
+    if spec is None:
+        return None
+    from ...pointing.model import PointingModel
+    return spec if isinstance(spec, PointingModel) else PointingModel.from_dict(dict(spec))
 
 
 def _timeout(value: Any) -> float | None:

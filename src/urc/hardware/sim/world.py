@@ -63,8 +63,14 @@ class SimWorld:
                  truth_path: Path | None, seed: int = 1, wind: bool = True,
                  start_deg: dict[str, float] | None = None, sensor_noise: bool = True,
                  truth_interval_s: float = 0.02, truth_wall_interval_s: float = 0.02,
-                 motor_enable_timeout_s: float | None = None, truth_log: Path | str | None = None):
+                 motor_enable_timeout_s: float | None = None, truth_log: Path | str | None = None,
+                 pointing_error: Any = None):
         self.caps = caps
+        #: where the beam truly points differs from the axes' angles by this
+        #: :class:`urc.pointing.model.PointingModel` (None: the beam is the boresight).
+        #: Only a simulated power source reads it (urc.pointing.simsource.world_beam);
+        #: the axes, the sensors and the control never see it.
+        self.pointing_error = pointing_error
         self.params = params
         self.clock = clock
         #: held by every call that reads or changes the iron (re-entrant: a heartbeat
