@@ -117,6 +117,12 @@ class StatusDoc(BaseModel):
     local_control: list[str] = Field(description="front-panel controls held now: motion from here is refused")
     procedures: dict[str, str] = Field(description="per axis, a procedure running now (\"reference search\": "
                                                    "homing); its position is no number to give a client")
+    last_stop: dict | None = Field(description="the last stop urc made by itself: kind (health | fault), reason, "
+                                               "command (what it cut), t_s, resumes (goes on once healthy)")
+    program: dict | None = Field(description="the pass program the control process flies: id, name, state "
+                                             "(waiting | prepositioning | tracking), aos_s, los_s")
+    program_end: dict | None = Field(description="how the last pass program ended: id, name, why (done | stopped | "
+                                                 "replaced by ...), t_s")
     simulator_truth: dict | None = Field(description="the simulator's true state (None on hardware)")
     tracking: dict | None = Field(description="the tracker's status (target, az/el, plan, ground track)")
     cycle: dict = Field(description="the Berkeley state machine's name for what urc does now: state "
