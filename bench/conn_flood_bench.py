@@ -1,5 +1,6 @@
-"""Idle connection flood under a 1024 file limit (issue 21): do the API and rotctld
-keep answering while 1500 idle TCP connections are held?
+"""Idle connection flood under a 1024 file limit (issues 21, 36.1): do the API and
+rotctld keep answering, and do new clients and the dashboard get in (within 2 s),
+while 1300 idle TCP connections are held?
 
 Each case starts a fresh ``urc run`` (simulator, tartu-urc, rotctld on TCP) under
 ``prlimit --nofile=N:N`` (default 1024, systemd's usual limit), measures a baseline,
@@ -10,15 +11,18 @@ run every ``PROBE_PERIOD_S``:
 * ``p`` on a rotctld connection opened before the flood (an existing client),
 * ``GET /api/status`` on a keep-alive HTTP connection opened before the flood,
 * ``p`` on a fresh rotctld connection each time (a client arriving during the flood),
-* ``GET /api/status`` on a fresh HTTP connection each time.
+* ``GET /api/status`` on a fresh HTTP connection each time,
+* ``GET /`` (the dashboard's page) on a fresh HTTP connection each time.
 
-Reported per probe and phase: answered/asked and the round trip p50/p99 (ms); per case:
+Reported per probe and phase: answered/asked, the round trip p50/p99 (ms), and the
+longest time without an answer during the flood ("gap s": from the flood's start or the
+last answer to the next answer; the goal is under 2 s); per case:
 flood connections established, how many of them urc had closed by the end of the hold,
 the I/O process's open descriptors at the peak, the bytes urc logged during the flood,
 and the faults latched.
 
 Prints a table, writes JSON (default bench/results/conn-flood.json). Never gates CI.
-Usage: python bench/conn_flood_bench.py [--conns 1500] [--hold-s 30] [--nofile 1024] [--json PATH]
+Usage: python bench/conn_flood_bench.py [--conns 1300] [--hold-s 30] [--nofile 1024] [--json PATH]
 """
 
 from __future__ import annotations
@@ -77,6 +81,13 @@ class Probe(threading.Thread):
         return {"asked": len(got), "answered": len(ok), "p50_ms": q(0.5), "p99_ms": q(0.99),
                 "max_ms": round(1000 * ok[-1], 2) if ok else math.nan}
 
+    def longest_gap_s(self, t0: float, t1: float) -> float:
+        """The longest time within [t0, t1) with no answer: from t0 or an answer's
+        arrival to the next answer's arrival (or t1)."""
+        arrivals = [t + r for t, r in self.results if r is not None and t0 <= t + r < t1]
+        edges = [t0, *arrivals, t1]
+        return round(max(b - a for a, b in zip(edges, edges[1:])), 2)
+
 
 def _rotctld_p(sock: socket.socket) -> None:
     sock.sendall(b"p\n")
@@ -105,9 +116,9 @@ def make_probes(http_url: str, rotctld_port: int) -> list[Probe]:
         with _connect(rotctld_port) as s:
             _rotctld_p(s)
 
-    def fresh_status() -> None:  # a bare request: an httpx.Client costs ~0.3 s to make
+    def fresh_get(path: str) -> None:  # a bare request: an httpx.Client costs ~0.3 s to make
         with _connect(int(http_url.rsplit(":", 1)[1])) as s:
-            s.sendall(b"GET /api/status HTTP/1.1\r\nHost: 127.0.0.1\r\nConnection: close\r\n\r\n")
+            s.sendall(f"GET {path} HTTP/1.1\r\nHost: 127.0.0.1\r\nConnection: close\r\n\r\n".encode())
             reply = b""
             while chunk := s.recv(65536):
                 reply += chunk
@@ -117,7 +128,8 @@ def make_probes(http_url: str, rotctld_port: int) -> list[Probe]:
     return [Probe("p (held)", lambda: _rotctld_p(held_sock)),
             Probe("status (held)", lambda: held_http.get(http_url + "/api/status").raise_for_status()),
             Probe("p (new conn)", fresh_p),
-            Probe("status (new conn)", fresh_status)]
+            Probe("status (new conn)", lambda: fresh_get("/api/status")),
+            Probe("page (new conn)", lambda: fresh_get("/"))]
 
 
 def open_idle(ports: list[int], n: int) -> list[socket.socket]:
@@ -208,7 +220,8 @@ def run_case(target: str, conns: int, hold_s: float, nofile: int, work: Path) ->
                 "established": len(socks), "closed_by_urc": closed, "io_fds_peak": fds_peak,
                 "log_bytes_flood": log_bytes, "faults": faults,
                 "probes": {p.name: {"baseline": p.between(t_base, t_flood),
-                                    "flood": p.between(t_flood, t_end)} for p in probes}}
+                                    "flood": p.between(t_flood, t_end),
+                                    "flood_longest_gap_s": p.longest_gap_s(t_flood, t_end)} for p in probes}}
     finally:
         for s in socks:
             s.close()
@@ -218,7 +231,7 @@ def run_case(target: str, conns: int, hold_s: float, nofile: int, work: Path) ->
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--conns", type=int, default=1500)
+    ap.add_argument("--conns", type=int, default=1300)
     ap.add_argument("--hold-s", type=float, default=30.0)
     ap.add_argument("--nofile", type=int, default=1024, help="urc's file limit (0: leave it)")
     ap.add_argument("--targets", default="rotctld,http,both")
@@ -235,14 +248,15 @@ def main() -> None:
             results.append(run_case(target, args.conns, args.hold_s, args.nofile, work))
     print(f"{'flood to':8} {'conns':>5} {'estab':>5} {'closed':>6} {'fds':>5} {'log B':>6}  "
           f"{'probe':18} {'base ok':>9} {'base p50':>8} {'base p99':>8}  {'flood ok':>9} {'p50 ms':>8} "
-          f"{'p99 ms':>8} {'max ms':>8}")
+          f"{'p99 ms':>8} {'max ms':>8} {'gap s':>6}")
     for r in results:
         for i, (name, ph) in enumerate(r["probes"].items()):
             head = (f"{r['target']:8} {r['conns']:5d} {r['established']:5d} {r['closed_by_urc']:6d} "
                     f"{r['io_fds_peak']:5d} {r['log_bytes_flood']:6d}") if i == 0 else " " * 39
             b, f = ph["baseline"], ph["flood"]
             print(f"{head}  {name:18} {b['answered']:4d}/{b['asked']:<4d} {b['p50_ms']:8.2f} {b['p99_ms']:8.2f}  "
-                  f"{f['answered']:4d}/{f['asked']:<4d} {f['p50_ms']:8.2f} {f['p99_ms']:8.2f} {f['max_ms']:8.2f}")
+                  f"{f['answered']:4d}/{f['asked']:<4d} {f['p50_ms']:8.2f} {f['p99_ms']:8.2f} {f['max_ms']:8.2f} "
+                  f"{ph['flood_longest_gap_s']:6.2f}")
         if r["faults"]:
             print(" " * 41 + "faults: " + "; ".join(r["faults"]))
     write_json({"cases": results}, args.json)

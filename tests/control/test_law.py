@@ -74,6 +74,18 @@ def test_relay_uses_levels_and_cuts_early_by_the_coast():
     assert out.duty == 0.0 and st.mode == "holding"  # within coast + tolerance/2: cut
 
 
+def test_relay_runs_a_slow_jog_at_its_slow_level_all_the_way():
+    """G4JNT: a jog at speed < 1 (API, dashboard) ran at full speed, duty 1.0 (issue
+    36.16); a relay has only its levels, so a slow request is the slow (pulsed) one."""
+    for speed_frac, duty in ((0.3, 0.25), (0.9, 0.25), (1.0, 1.0)):
+        cap = speed_frac * RELAY.max_rate_deg_per_s
+        st = initial_state(RELAY, 0.0)
+        st, out = step(st, Setpoint(300.0, seq=1, speed_cap_deg_per_s=cap), 0.0, 0.0, DT, RELAY)
+        assert out.duty == duty, (speed_frac, out.duty)
+        st, out = step(st, Setpoint(300.0, seq=1, speed_cap_deg_per_s=cap), 150.0, DT, DT, RELAY)
+        assert out.duty == duty, (speed_frac, "half way", out.duty)
+
+
 def test_relay_learns_its_coast():
     st = initial_state(RELAY, 0.0)
     before = st.coast_deg[0]

@@ -225,7 +225,8 @@ def _step(st: AxisState, sp: Setpoint | None, meas_deg: float, now_s: float, dt_
         st = evolve(st, mode="driving", phase_until_s=-1.0)
 
     if tun.drive == "relay":
-        return _relay(st, target_deg, sp.rate_deg_per_s, error_deg, meas_deg, now_s, tun, creeping)
+        return _relay(st, target_deg, sp.rate_deg_per_s, error_deg, meas_deg, now_s, tun, creeping,
+                      sp.speed_cap_deg_per_s)
     return _pwm(st, sp, target_deg, error_deg, meas_deg, meas_rate_deg_per_s, now_s, dt_s, tun, tracking,
                 creeping)
 
@@ -299,15 +300,20 @@ def _pwm(st: AxisState, sp: Setpoint, target_deg: float, error_deg: float, meas_
 
 
 def _relay(st: AxisState, target_deg: float, target_rate: float, error_deg: float, meas_deg: float,
-           now_s: float, tun: AxisTuning, creeping: bool) -> tuple[AxisState, AxisOutput]:
+           now_s: float, tun: AxisTuning, creeping: bool,
+           speed_cap_deg_per_s: float | None = None) -> tuple[AxisState, AxisOutput]:
     levels = tun.drive_levels or (1.0,)
     remaining = error_deg * st.approach_sign
     fast, slow = len(levels) - 1, 0
     slow_rate = levels[slow] * tun.max_rate_deg_per_s
     # Go slow once within a couple of fast-coast distances plus a second of slow running,
-    # unless the target itself moves faster than the slow speed can follow.
+    # unless the target itself moves faster than the slow speed can follow; and always
+    # when asked for less than the top speed (a slow jog from the API, the dashboard or a
+    # panel: it ran at full speed, duty 1.0, issue 36.16): a relay has no speed between
+    # its levels, so anything under the fast one is the slow (pulsed) one
     slow_zone = 2.0 * st.coast_deg[fast] + slow_rate * 1.0 + tun.restart_deg
-    level = slow if remaining < slow_zone and abs(target_rate) < 0.8 * slow_rate else fast
+    asked_slow = speed_cap_deg_per_s is not None and speed_cap_deg_per_s < levels[fast] * tun.max_rate_deg_per_s
+    level = slow if asked_slow or (remaining < slow_zone and abs(target_rate) < 0.8 * slow_rate) else fast
     if creeping:
         # a burst after a slow target ends where coasting brings the axis to the aim
         # (the target plus the creep lead), counting how far the aim moves meanwhile

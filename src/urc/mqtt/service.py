@@ -15,6 +15,7 @@ import json
 import logging
 import os
 import time
+from collections import deque
 from collections.abc import Callable
 from typing import Any
 
@@ -31,6 +32,16 @@ log = logging.getLogger("urc.mqtt")
 SAMPLE_S = 0.1
 #: at a stop, the longest the client may take to publish "offline" and disconnect
 STOP_GRACE_S = 2.0
+#: commands waiting to run; beyond this a command is refused at once, reason "busy" (a
+#: stop is always taken). 3000 gotos at 1000/s waited in an unbounded queue while urc
+#: read the broker more slowly than they came: the broker dropped 2446 of them unanswered
+#: (its per-client queue holds 1000), issue 36.2
+MAX_PENDING_COMMANDS = 32
+#: results waiting to be published; a command arriving while this many wait gets none:
+#: it is dropped, and one event per wave says how many and which ids
+MAX_PENDING_RESULTS = 2000
+#: results published at once (each waits for the broker's PUBACK; paho's window is 20)
+RESULTS_IN_FLIGHT = 16
 
 
 def _json(doc: Any) -> str:
@@ -158,14 +169,132 @@ class MqttService:
             await asyncio.sleep(SAMPLE_S)
 
     async def _commands(self, client: Any) -> None:
-        # one at a time, in the order sent: a stop after a goto must win
+        """Three tasks, so that reading the broker never waits on a command or a PUBACK:
+        the reader takes every message at once (the broker's queue for urc never
+        fills), the runner runs commands one at a time in the order sent (a stop after
+        a goto must win), the publisher sends their results."""
+        pipe = _CommandPipe()
+        tasks = [asyncio.create_task(self._read_commands(client, pipe), name="mqtt-cmd-read"),
+                 asyncio.create_task(self._run_commands(pipe), name="mqtt-cmd-run"),
+                 asyncio.create_task(self._publish_results(client, pipe), name="mqtt-cmd-results")]
+        try:
+            done, _ = await asyncio.wait(tasks, return_when=asyncio.FIRST_EXCEPTION)
+            for task in done:
+                task.result()
+        finally:
+            for task in tasks:
+                task.cancel()
+            await asyncio.gather(*tasks, return_exceptions=True)
+
+    async def _read_commands(self, client: Any, pipe: _CommandPipe) -> None:
         async for message in client.messages:
             if str(message.topic) != self.topics.cmd:
                 continue
             payload = message.payload if isinstance(message.payload, bytes) else str(message.payload or "").encode()
             if message.retain:  # it would run again at every reconnection: never run
-                result = {"id": None, "ok": False, "reason": "invalid",
-                          "error": "a retained command is not run (publish commands without retain)"}
+                pipe.answer({"id": None, "ok": False, "reason": "invalid",
+                             "error": "a retained command is not run (publish commands without retain)"})
+            elif len(pipe.commands) < MAX_PENDING_COMMANDS or _is_stop(payload):
+                pipe.commands.append(payload)
+                pipe.command_waiting.set()
             else:
-                result = await self.handler.handle(payload)
-            await self._publish(client, self.topics.cmd_result, _json(result), qos=1)
+                pipe.answer({"id": _command_id(payload), "ok": False, "reason": "busy",
+                             "error": f"{MAX_PENDING_COMMANDS} commands already waiting to run; "
+                                      "this one was not run"})
+
+    async def _run_commands(self, pipe: _CommandPipe) -> None:
+        while True:
+            while not pipe.commands:
+                pipe.command_waiting.clear()
+                await pipe.command_waiting.wait()
+            payload = pipe.commands.popleft()
+            pipe.answer(await self.handler.handle(payload))
+
+    async def _publish_results(self, client: Any, pipe: _CommandPipe) -> None:
+        window = asyncio.Semaphore(RESULTS_IN_FLIGHT)
+        sending: set[asyncio.Task] = set()
+        failed: list[BaseException] = []
+
+        async def send(topic: str, payload: str) -> None:
+            try:
+                await self._publish(client, topic, payload, qos=1)
+            except Exception as exc:  # (the connection is lost: the session starts again)
+                failed.append(exc)
+                pipe.result_waiting.set()
+            finally:
+                window.release()
+
+        def start(topic: str, payload: str) -> None:
+            task = asyncio.create_task(send(topic, payload))
+            sending.add(task)  # (a reference until it is done)
+            task.add_done_callback(sending.discard)
+
+        try:
+            while not failed:
+                if not pipe.results and pipe.dropped:  # the end of a wave of drops: one event
+                    await window.acquire()
+                    start(self.topics.event, _json(pipe.drop_event(self.station, time.time())))
+                elif not pipe.results:
+                    pipe.result_waiting.clear()
+                    await pipe.result_waiting.wait()
+                else:
+                    await window.acquire()
+                    start(self.topics.cmd_result, _json(pipe.results.popleft()))
+            raise failed[0]
+        finally:
+            for task in sending:
+                task.cancel()
+
+
+def _is_stop(payload: bytes) -> bool:
+    """A stop is never refused as busy (parsed again, strictly, when it runs)."""
+    try:
+        doc = json.loads(payload)
+    except (ValueError, RecursionError):
+        return False
+    return isinstance(doc, dict) and doc.get("command") == "stop"
+
+
+def _command_id(payload: bytes) -> Any:
+    """The id of a command refused unread, if it has one that can be echoed."""
+    try:
+        doc = json.loads(payload)
+    except (ValueError, RecursionError):
+        return None
+    cmd_id = doc.get("id") if isinstance(doc, dict) else None
+    ok = (isinstance(cmd_id, str) and len(cmd_id) <= 64) or (isinstance(cmd_id, int) and not isinstance(cmd_id, bool))
+    return cmd_id if ok else None
+
+
+class _CommandPipe:
+    """Commands waiting to run, results waiting to be published, and the wave of
+    commands dropped because MAX_PENDING_RESULTS results were waiting."""
+
+    def __init__(self) -> None:
+        self.commands: deque[bytes] = deque()
+        self.command_waiting = asyncio.Event()
+        self.results: deque[dict] = deque()
+        self.result_waiting = asyncio.Event()
+        self.dropped = 0
+        self.dropped_ids: list[Any] = []
+
+    def answer(self, result: dict) -> None:
+        if len(self.results) >= MAX_PENDING_RESULTS:
+            self.dropped += 1
+            if len(self.dropped_ids) < 2:
+                self.dropped_ids.append(result.get("id"))
+            else:
+                self.dropped_ids[1] = result.get("id")
+            return
+        self.results.append(result)
+        self.result_waiting.set()
+
+    def drop_event(self, station: str, now_unix_s: float) -> dict:
+        ids = self.dropped_ids
+        event = {"station": station, "t_unix_s": round(now_unix_s, 2), "type": "commands_dropped",
+                 "count": self.dropped, "first_id": ids[0] if ids else None, "last_id": ids[-1] if ids else None,
+                 "reason": f"{MAX_PENDING_RESULTS} results already waiting to be published: these commands "
+                           "got no result (the busy ones were not run)"}
+        self.dropped = 0
+        self.dropped_ids = []
+        return event

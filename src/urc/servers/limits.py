@@ -4,9 +4,14 @@ port, open files, and log lines.
 1500 idle connections under systemd's usual limit of 1024 open files took every port
 offline, and asyncio logged a traceback for each failed ``accept()`` (5 MB/s); a client
 that sent 30,000 lines and closed made asyncio log a warning per reply it could not
-send. Each port now admits a bounded number of clients (the excess is closed at once,
-with one log line per interval), the process raises its soft file limit to the hard one,
-and asyncio's own repeated messages are logged at a bounded rate.
+send. Each port now admits a bounded number of clients, the process raises its soft file
+limit to the hard one, and asyncio's own repeated messages are logged at a bounded rate.
+
+64 idle rotctld connections then refused every new client for as long as they stayed
+(a laptop asleep, a Wi-Fi drop: until a restart), and 256 idle HTTP ones kept the API
+and the web STOP away (issue 36.1). A full port now makes room: a newcomer takes the
+place of the connection that never completed a command, else of the longest idle one
+(one log line per wave of such closings), and TCP keepalive finds peers that vanished.
 """
 
 from __future__ import annotations
@@ -14,8 +19,9 @@ from __future__ import annotations
 import asyncio
 import logging
 import resource
+import socket
 import time
-from typing import Callable
+from typing import Callable, Iterable, Protocol
 
 from ..protocols.base import RateLimitedLog
 
@@ -34,30 +40,111 @@ MAX_HTTP_CONNECTIONS = 256
 FIRST_REQUEST_S = 10.0
 #: one line per kind of repeated message per this many seconds
 LOG_INTERVAL_S = 10.0
+#: closings for newcomers within this long of the first are one wave: one log line
+WAVE_S = 1.0
+#: TCP keepalive: a peer silent this long is probed every KEEPALIVE_INTERVAL_S, and given
+#: up after KEEPALIVE_PROBES unanswered probes (a vanished client's place is free in
+#: ~2 min, not Linux's default 2 h 11 min)
+KEEPALIVE_IDLE_S = 60
+KEEPALIVE_INTERVAL_S = 10
+KEEPALIVE_PROBES = 6
 
 _refusals = RateLimitedLog(log, interval_s=LOG_INTERVAL_S)
 
 
+def enable_keepalive(sock: socket.socket | None) -> None:
+    """TCP keepalive on an accepted connection (the timings where the OS has them)."""
+    if sock is None:
+        return
+    try:
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_KEEPALIVE, 1)
+        for name, value in (("TCP_KEEPIDLE", KEEPALIVE_IDLE_S), ("TCP_KEEPINTVL", KEEPALIVE_INTERVAL_S),
+                            ("TCP_KEEPCNT", KEEPALIVE_PROBES)):
+            option = getattr(socket, name, None)
+            if option is not None:
+                sock.setsockopt(socket.IPPROTO_TCP, option, value)
+    except OSError:  # (a socket already reset by its peer: it goes away by itself)
+        pass
+
+
+class Member(Protocol):
+    """A connection as a cap sees it."""
+
+    @property
+    def used(self) -> bool: ...        # it completed a command (a request, a reply)
+    @property
+    def idle_since_s(self) -> float: ...  # monotonic time of its last input
+    @property
+    def evictable(self) -> bool: ...   # nothing of it under way (no command waiting)
+
+    def evict(self) -> None: ...
+
+
+def pick_idle(members: Iterable[Member]) -> Member | None:
+    """The connection a newcomer replaces: one that never completed a command (the
+    longest idle of those), else the longest idle; None if every one is busy."""
+    return min((m for m in members if m.evictable), key=lambda m: (m.used, m.idle_since_s), default=None)
+
+
+class Waves:
+    """One log line per wave of closings: the first starts a wave, the line comes
+    WAVE_S later with how many there were."""
+
+    def __init__(self, where: str, limit: int):
+        self.where = where
+        self.limit = limit
+        self.evicted = 0
+        self._in_wave = 0
+
+    def closed_one(self) -> None:
+        self.evicted += 1
+        self._in_wave += 1
+        if self._in_wave > 1:
+            return
+        try:
+            asyncio.get_running_loop().call_later(WAVE_S, self._report)
+        except RuntimeError:  # (no loop: said at once)
+            self._report()
+
+    def _report(self) -> None:
+        log.warning("%s: %d clients already; closed %d idle connection(s) to let new clients in "
+                    "(those that never completed a command first, then the longest idle)",
+                    self.where, self.limit, self._in_wave)
+        self._in_wave = 0
+
+
 class ClientCap:
-    """How many clients one port serves at once; the rest are refused as they arrive."""
+    """How many clients one port serves at once. A newcomer when all places are taken
+    takes the place of an idle connection (``pick_idle``), which is closed; it is
+    refused only if every connection has a command under way."""
 
     def __init__(self, where: str, limit: int = MAX_CLIENTS_PER_PORT):
         self.where = where
         self.limit = limit
-        self.clients = 0
+        self.members: dict[Member, None] = {}  # (an ordered set)
         self.refused = 0
+        self.waves = Waves(where, limit)
 
-    def admit(self) -> bool:
-        if self.clients >= self.limit:
-            self.refused += 1
-            _refusals.warning("%s: %d clients already; further connections are closed at once",
-                              self.where, self.limit)
-            return False
-        self.clients += 1
+    @property
+    def clients(self) -> int:
+        return len(self.members)
+
+    def admit(self, member: Member) -> bool:
+        if len(self.members) >= self.limit:
+            victim = pick_idle(self.members)
+            if victim is None:
+                self.refused += 1
+                _refusals.warning("%s: %d clients already, each with a command under way; further "
+                                  "connections are closed at once", self.where, self.limit)
+                return False
+            del self.members[victim]  # (its place is free now, not when its close is done)
+            victim.evict()
+            self.waves.closed_one()
+        self.members[member] = None
         return True
 
-    def release(self) -> None:
-        self.clients -= 1
+    def release(self, member: Member) -> None:
+        self.members.pop(member, None)
 
 
 def raise_open_file_limit() -> tuple[int, int]:
@@ -113,24 +200,47 @@ def bound_library_logs(names: tuple[str, ...] = ("asyncio", "uvicorn.error")) ->
 
 def capped_http_protocol(base: type, limit: int = MAX_HTTP_CONNECTIONS,
                          first_request_s: float = FIRST_REQUEST_S) -> type:
-    """uvicorn's HTTP protocol class ``base`` closing every connection beyond ``limit``
-    as it arrives, and one that sends nothing for ``first_request_s`` (for
-    uvicorn.Config(http=...)). uvicorn's ``limit_concurrency`` only answers 503 to a
-    request: connections that never sent one were all accepted and held for good, and
-    1500 of them under a file limit of 1024 took every descriptor of the I/O process
-    (the API answered 2 requests in 12 under that flood, rotctld ~1 s late)."""
+    """uvicorn's HTTP protocol class ``base`` (for uvicorn.Config(http=...)) holding at
+    most ``limit`` connections: a newcomer beyond it takes the place of an idle one
+    (``pick_idle``: one that never sent a request first, then the longest idle; never a
+    WebSocket or a request under way), and is closed at once only if there is none. A
+    connection that sends nothing for ``first_request_s`` is closed. uvicorn's
+    ``limit_concurrency`` only answers 503 to a request: connections that never sent one
+    were all accepted and held for good, and 1500 of them under a file limit of 1024
+    took every descriptor of the I/O process (the API answered 2 requests in 12 under
+    that flood, rotctld ~1 s late)."""
+    waves = Waves("HTTP", limit)
 
     class Capped(base):  # type: ignore[misc, valid-type]
         _refused = False
         _silence: asyncio.TimerHandle | None = None
+        idle_since_s = 0.0
+
+        @property
+        def used(self) -> bool:
+            return self.cycle is not None  # (uvicorn's current request; None before the first)
+
+        @property
+        def evictable(self) -> bool:
+            return self.cycle is None or bool(self.cycle.response_complete and not getattr(self, "pipeline", ()))
+
+        def evict(self) -> None:
+            self.connections.discard(self)  # (its place is free now, not when its close is done)
+            self.transport.close()
 
         def connection_made(self, transport) -> None:  # type: ignore[no-untyped-def]
             if len(self.connections) >= limit:  # (uvicorn's set of open connections)
-                self._refused = True
-                _refusals.warning("%s: %d clients already; further connections are closed at once",
-                                  "HTTP", limit)
-                transport.abort()
-                return
+                victim = pick_idle(c for c in self.connections if isinstance(c, Capped))
+                if victim is None:
+                    self._refused = True
+                    _refusals.warning("%s: %d clients already, none idle; further connections are closed "
+                                      "at once", "HTTP", limit)
+                    transport.abort()
+                    return
+                victim.evict()
+                waves.closed_one()
+            self.idle_since_s = time.monotonic()
+            enable_keepalive(transport.get_extra_info("socket"))
             super().connection_made(transport)
             self._silence = asyncio.get_running_loop().call_later(first_request_s, self._silent, transport)
 
@@ -142,6 +252,7 @@ def capped_http_protocol(base: type, limit: int = MAX_HTTP_CONNECTIONS,
         def data_received(self, data: bytes) -> None:
             if self._refused:
                 return
+            self.idle_since_s = time.monotonic()
             if self._silence is not None:
                 self._silence.cancel()
                 self._silence = None

@@ -12,7 +12,7 @@ import socket
 import time
 
 from .common import SessionFactory, SessionRunner, log, needs_tick, tick_loop
-from .limits import MAX_CLIENTS_PER_PORT, ClientCap
+from .limits import MAX_CLIENTS_PER_PORT, ClientCap, enable_keepalive
 
 #: Hamlib's rotctld listens with a backlog of 4; a burst of 64 clients (a logger, SDR
 #: software and a tracker all reconnecting) must all get in.
@@ -29,18 +29,30 @@ class _Connection(asyncio.Protocol):
         self.admitted = False
         self.transport: asyncio.Transport  # (from connection_made on: every other call comes after it)
         self.ticker: asyncio.Task | None = None
+        # (what the cap weighs when a newcomer needs a place: see limits.pick_idle)
+        self.used = False  # a reply answered something it sent
+        self.idle_since_s = time.monotonic()
+
+    @property
+    def evictable(self) -> bool:
+        return self.admitted and not self.runner.busy
+
+    def evict(self) -> None:
+        log.debug("%s: closed for a newcomer (idle)", self.where)
+        self.transport.close()
 
     def connection_made(self, transport: asyncio.BaseTransport) -> None:
         assert isinstance(transport, asyncio.Transport)
         self.transport = transport
-        self.admitted = self.cap.admit()
+        self.where = f"{self.name} tcp {transport.get_extra_info('peername')}"
+        self.admitted = self.cap.admit(self)
         if not self.admitted:  # (its descriptor is freed now, not when the client gives up)
             transport.abort()
             return
-        self.where = f"{self.name} tcp {transport.get_extra_info('peername')}"
         sock = transport.get_extra_info("socket")
         if sock is not None:
             sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+            enable_keepalive(sock)
         self.runner = SessionRunner(self.factory(), self.write, self.where, after=self._close_if_asked,
                                     pause=self._pause)
         if needs_tick(self.runner.session):
@@ -62,14 +74,19 @@ class _Connection(asyncio.Protocol):
         if self.runner.session.closed:
             self.transport.close()
 
+    def _answer(self, reply: bytes) -> None:
+        self.used = True
+        self.write(reply)
+
     def data_received(self, data: bytes) -> None:
         if self.admitted:
-            self.runner.feed(data)
+            self.idle_since_s = time.monotonic()
+            self.runner.feed(data, self._answer)
 
     def connection_lost(self, exc: Exception | None) -> None:
         if not self.admitted:
             return
-        self.cap.release()
+        self.cap.release(self)
         if self.ticker is not None:
             self.ticker.cancel()
         self.runner.hang_up()
