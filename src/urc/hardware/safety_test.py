@@ -161,8 +161,8 @@ class _Run:
                 f"{m + 2 * self.beat_s:.3f} s of the heartbeat resuming: the relay does not pick up again "
                 "(its coil supply, U1's reset)"), resolution_s)
         return SelfTestResult(True, measured_s, (
-            f"{self.what} showed the enable fall {measured_s:.3f} s after the last heartbeat edge "
-            f"(within {window}) and come back with the heartbeat"), resolution_s)
+            f"the enable fell {measured_s:.3f} s after the last heartbeat edge at {self.what} (window "
+            f"{T - m:.3f} to {T + m:.3f} s) and came back with the heartbeat"), resolution_s)
 
 
 __all__ = ["self_test", "SelfTestResult", "DEFAULT_MARGIN_S"]

@@ -197,6 +197,7 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
                                  active_low=gpio.motor_enable_sense_active_low)
         if world is not None and world.enable is not None:
             sense.feed = emulated_feed(sense, world.enable, clock.now_s)
+            syncs.append(sense.feed)       # (each poll, and each read between polls)
             sense.feed()
         parts_list.append(("safety chain read-back", sense))
     hw = Hardware(backend="gpio", az=axes["az"], el=axes.get("el"), heartbeat=heartbeat, parts=parts_list,

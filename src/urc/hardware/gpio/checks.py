@@ -132,9 +132,9 @@ def gpio_issues(cfg: Config, caps: RotatorCaps) -> list[Issue]:
             if b == bus and a == g.i2c_mux_address:
                 issues.append(("hardware.gpio.i2c_mux_address", f"an address free on I2C bus {bus} for "
                                f"the TCA9548A (0x{a:02x} is {other[0]}'s)", hex(a), ""))
-    if g.motor_enable_sense_pin is not None and (g.motor_enable_timeout_s is None or g.heartbeat_pin is None):
-        issues.append(("hardware.gpio.motor_enable_sense_pin", "a safety chain to read back (heartbeat_pin and "
-                       "motor_enable_timeout_s)", g.motor_enable_sense_pin, ""))
+    if g.motor_enable_sense_pin is not None and g.heartbeat_pin is None:
+        issues.append(("hardware.gpio.motor_enable_sense_pin", "a heartbeat_pin, whose safety chain it reads back",
+                       g.motor_enable_sense_pin, ""))
     if g.motor_enable_sense_point not in SENSE_POINTS:
         issues.append(("hardware.gpio.motor_enable_sense_point", "one of " + ", ".join(SENSE_POINTS),
                        g.motor_enable_sense_point, suggest(g.motor_enable_sense_point, list(SENSE_POINTS))))
