@@ -132,9 +132,6 @@ def gpio_issues(cfg: Config, caps: RotatorCaps) -> list[Issue]:
             if b == bus and a == g.i2c_mux_address:
                 issues.append(("hardware.gpio.i2c_mux_address", f"an address free on I2C bus {bus} for "
                                f"the TCA9548A (0x{a:02x} is {other[0]}'s)", hex(a), ""))
-    if g.motor_enable_sense_pin is not None and g.heartbeat_pin is None:
-        issues.append(("hardware.gpio.motor_enable_sense_pin", "a heartbeat_pin, whose safety chain it reads back",
-                       g.motor_enable_sense_pin, ""))
     if g.motor_enable_sense_point not in SENSE_POINTS:
         issues.append(("hardware.gpio.motor_enable_sense_point", "one of " + ", ".join(SENSE_POINTS),
                        g.motor_enable_sense_point, suggest(g.motor_enable_sense_point, list(SENSE_POINTS))))
@@ -238,6 +235,9 @@ def gpio_warnings(cfg: Config) -> list[str]:
         notes.append(f"hardware.gpio.heartbeat_pin: GPIO{g.heartbeat_pin} is pulled high at power-on: that rising "
                      "edge can hold the safety chain's relay in for one timeout while the Pi boots. Use a "
                      "pin from GPIO9-27")
+    if g.motor_enable_sense_pin is not None and (g.heartbeat_pin is None or g.motor_enable_timeout_s is None):
+        notes.append("hardware.gpio.motor_enable_sense_pin: a read-back with no safety chain declared (heartbeat_pin "
+                     "and motor_enable_timeout_s): nothing is tested on it")
     if g.heartbeat_pin is not None and g.motor_enable_timeout_s is not None and g.motor_enable_sense_pin is None:
         notes.append("hardware.gpio.motor_enable_sense_pin: the safety chain is not read back: urc cannot test it "
                      "at start (a stuck enable, a floating trigger or a welded contact goes unseen). Wire the "
