@@ -141,8 +141,28 @@ def test_pins_with_a_boot_time_function_are_warned_about():
 def test_an_output_or_heartbeat_high_at_boot_is_warned_about():
     """GPIO0-8 are pulled up at power-on (BCM2835 peripherals §6.2, Table 6-31, the pull
     column): a motor output or the heartbeat there is high until urc claims it."""
-    cfg = Config.from_dict(example("tartu-urc", **{"hardware.gpio.heartbeat_pin": 5}))
-    assert any(n.startswith("hardware.gpio.heartbeat_pin: GPIO5 is pulled high") for n in gpio_warnings(cfg))
+    cfg = Config.from_dict(example("tartu-urc", **{"hardware.gpio.heartbeat_pin": 4}))
+    assert any(n.startswith("hardware.gpio.heartbeat_pin: GPIO4 is pulled high") for n in gpio_warnings(cfg))
     cfg = Config.from_dict(example("tartu-urc", **{"hardware.gpio.az.pins": {
         "ina": 4, "inb": 25, "pwm": 12, "enc_a": 17, "enc_b": 27, "brake": 16}}))
     assert any(n.startswith("hardware.gpio.az.pins.ina: GPIO4 is pulled HIGH") for n in gpio_warnings(cfg))
+
+
+def test_the_safety_chain_read_back_is_checked():
+    """The read-back's pin is one pin among the others, reads a chain that exists, at a
+    point it can be wired to; a chain without one is warned about (it cannot be tested)."""
+    with pytest.raises(ConfigError, match=r"motor_enable_sense_pin.*GPIO18 is hardware.gpio.heartbeat_pin"):
+        Config.from_dict(example("g5500", **{"hardware.gpio.motor_enable_sense_pin": 18}))
+    with pytest.raises(ConfigError, match=r"hardware.gpio.el.pins.cw.*GPIO22 is hardware.gpio.motor_enable_sense_pin"):
+        Config.from_dict(example("g5500", **{"hardware.gpio.el.pins": {"cw": 22, "ccw": 21}}))
+    cfg = Config.from_dict(example("g5500", **{"hardware.gpio.heartbeat_pin": None,
+                                               "hardware.gpio.motor_enable_timeout_s": None}))
+    assert any(n.startswith("hardware.gpio.motor_enable_sense_pin: a read-back with no safety chain")
+               for n in gpio_warnings(cfg))
+    with pytest.raises(ConfigError, match=r"motor_enable_sense_point"):
+        Config.from_dict(example("g5500", **{"hardware.gpio.motor_enable_sense_point": "coil"}))
+    cfg = Config.from_dict(example("g5500", **{"hardware.gpio.motor_enable_sense_pin": None}))
+    assert any(n.startswith("hardware.gpio.motor_enable_sense_pin: the safety chain is not read back")
+               for n in gpio_warnings(cfg))
+    cfg = Config.from_dict(example("g5500", **{"hardware.gpio.motor_enable_sense_pin": 14}))
+    assert any("motor_enable_sense_pin" in n and "UART TXD" in n for n in gpio_warnings(cfg))

@@ -3,6 +3,7 @@ that finds a motor wired against its sensor."""
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 from click.testing import CliRunner
@@ -79,8 +80,10 @@ def test_a_broken_limit_circuit_is_shown(tmp_path):
     cfg, caps, clock, hw = emulated_hw("bigras", tmp_path)
     n, text = run_check(cfg, caps, clock, hw, move=False)
     assert n == 0 and "broken limit circuit" not in text
-    for sw in (hw.el.limit_min, hw.el.limit_max):      # the el switches' common wire cut
-        sw.pin.pin.drive_high()
+    # the el switches' common wire cut: both inputs read high (through the simulated
+    # switches: the check polls the emulation while it tests the safety chain, and each
+    # poll drives the limit pins from them)
+    hw.world.inject("el", "limit_switch", which="both")
     clock.advance(0.1)                                  # longer than the debounce
     n, text = run_check(cfg, caps, clock, hw, move=False)
     assert n == 1 and "both el limits read active: a broken limit circuit" in text, text
@@ -113,3 +116,33 @@ def test_encoder_index_is_shown(tmp_path):
     assert "encoder index: not seen yet" in text
     n, text = run_check(cfg, caps, clock, hw, move=False)      # the first jog went over it
     assert "encoder index: last at count" in text, text
+
+
+def test_the_safety_chain_is_measured(tmp_path):
+    """urc hw check runs the chain's self-test (the motors off) and shows the timeout it
+    measured on the read-back; a chain that does not cut is a problem."""
+    cfg, caps, clock, hw = emulated_hw("tartu-urc", tmp_path)
+    n, text = run_check(cfg, caps, clock, hw, move=False)
+    assert n == 0, text
+    assert re.search(r"safety chain: measured timeout 0\.22[01] s \(configured 0\.22 s\)", text), text
+    hw.world.inject("chain", "contact_welded")
+    n, text = run_check(cfg, caps, clock, hw, move=False)
+    assert n == 1 and "safety chain: PROBLEM the relay's contact still showed the enable on" in text, text
+
+
+def test_the_safety_chain_without_a_read_back_is_not_measured(tmp_path):
+    cfg = with_emulation(load_config(EXAMPLES / "g5500.toml"))
+    data = cfg.to_dict()
+    data["hardware"]["gpio"].pop("motor_enable_sense_pin")
+    cfg = type(cfg).from_dict(data)
+    clock = VirtualClock(1000.0)
+    hw = build_hardware("gpio", settings_from_config(cfg).caps, clock, tmp_path, hardware_options(cfg))
+    n, text = run_check(cfg, settings_from_config(cfg).caps, clock, hw, move=False)
+    assert n == 0 and "safety chain: not measured: no read-back input (motor_enable_sense_pin)" in text, text
+
+
+def test_cli_shows_the_measured_timeout(tmp_path):
+    r = CliRunner().invoke(main, ["hw", "check", "--config", str(EXAMPLES / "sarcnet-mini.toml"), "--emulate",
+                                  "--state-dir", str(tmp_path)])
+    assert r.exit_code == 0, r.output
+    assert "safety chain: measured timeout 0.22" in r.output and "no problems found" in r.output

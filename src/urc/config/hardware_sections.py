@@ -137,6 +137,15 @@ class GpioSection(Section):
     #: monostable's timeout. Emulated, the part is modelled with it; on iron it is what
     #: `urc hw check` states. None = no such part wired
     motor_enable_timeout_s: float | None = num(None, gt=0.0, le=10.0)
+    #: the safety chain's read-back input (docs/hardware.md "Safety chain"): the start-up
+    #: self-test and `urc hw check` measure the chain on it. None = not wired
+    motor_enable_sense_pin: int | None = Field(default=None, ge=0, le=27)
+    #: what it reads: "contact" (a force-guided relay's auxiliary contact) or "q" (the
+    #: monostable's output; blind to a shorted Q1 and a welded contact)
+    motor_enable_sense_point: str = "contact"
+    #: the pin reads low while the motors have power (an optocoupler, a normally-open
+    #: contact to GND); False: high while they have power (Q, a normally-closed contact)
+    motor_enable_sense_active_low: bool = False
     power_fail_pin: int | None = Field(default=None, ge=0, le=27)
     #: output pins fitted with an external pull-down (GPIO0-8 are pulled up from power-on
     #: until urc claims them: a motor, relay or brake output there needs one)

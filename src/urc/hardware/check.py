@@ -1,7 +1,8 @@
 """``urc hw check``: commissioning a rotator's parts before the controller runs them.
 
 Lists the configured parts, reads every sensor (an I2C device's id and an AS5600's
-magnet status included), shows limit switches and brakes. With ``move`` each axis is
+magnet status included), shows limit switches and brakes, and measures the safety
+chain's timeout on its read-back input (the start-up self-test, :mod:`.safety_test`). With ``move`` each axis is
 jogged briefly up and the sensor must count up: a motor turning against its sensor
 (reversed wiring) is reported with the pin swap that fixes it in the config.
 """
@@ -50,6 +51,7 @@ def check(hw: Any, caps: Any, *, gpio: Any = None, move: bool = False, jog_duty:
             f"safety chain, motor power drops {gpio.motor_enable_timeout_s:g} s after its last rising edge"
             if gpio.motor_enable_timeout_s is not None else
             "no safety chain declared (motor_enable_timeout_s): nothing cuts the motors if urc hangs"))
+    problems += _chain(hw, sleep, now, out)
     built = getattr(getattr(hw, "gpio", None), "pwm_outputs", None)
     if gpio is not None and built:
         # what was built (a pin the overlay did not route to its channel runs software PWM)
@@ -102,6 +104,31 @@ def check(hw: Any, caps: Any, *, gpio: Any = None, move: bool = False, jog_duty:
             problems += _jog(hw, name, ax, ax_caps, gpio, jog_duty, jog_s, sleep, now, out, _Beat(hw))
     out("no problems found" if not problems else f"{problems} problem(s) found")
     return problems
+
+
+class _Clock:
+    def __init__(self, now: Callable[[], float]):
+        self.now_s = now
+
+
+def _chain(hw: Any, sleep: Callable[[float], None], now: Callable[[], float], out: Callable[[str], None]) -> int:
+    """The safety chain measured: its start-up self-test, run here with the motors off
+    (:mod:`.safety_test`), shows the timeout the chain really has."""
+    timeout_s = getattr(hw, "motor_enable_timeout_s", None)
+    if timeout_s is None or getattr(hw, "heartbeat", None) is None:
+        return 0
+    from .safety_test import self_test
+    result = self_test(hw, timeout_s, clock=_Clock(now), sleep=sleep)
+    if result.ok is None:
+        out(f"  safety chain: {result.why}: the timeout and the cut are not checked")
+        return 0
+    if result.ok:
+        assert result.measured_s is not None
+        out(f"  safety chain: measured timeout {result.measured_s:.3f} s (configured {timeout_s:g} s): "
+            f"{result.why}")
+        return 0
+    out(f"  safety chain: PROBLEM {result.why}")
+    return 1
 
 
 def _limits(name: str, ax: Any, out: Callable[[str], None]) -> int:

@@ -128,6 +128,17 @@ class DigitalOutput(Protocol):
         """Drive the output high (True) or low (False)."""
 
 
+@runtime_checkable
+class EnableSense(Protocol):
+    """The safety chain's read-back: ``read()`` is True while the chain gives the motors
+    power. ``point``: what it is wired to, "contact" (the relay's) or "q" (the
+    monostable's output: a welded contact or a shorted Q1 does not show there)."""
+
+    point: str
+
+    def read(self) -> bool: ...
+
+
 @dataclass
 class AxisHardware:
     motor: Motor
@@ -155,6 +166,12 @@ class Hardware:
     #: toggled by every control tick (a square wave) for an external watchdog or charge
     #: pump that removes motor power when urc dies or hangs; None = not wired
     heartbeat: DigitalOutput | None = None
+    #: the safety chain's timeout (the monostable's period) as configured; None = no
+    #: chain declared
+    motor_enable_timeout_s: float | None = None
+    #: the safety chain's read-back input (:class:`EnableSense`); None = not wired: the
+    #: start-up self-test (:mod:`urc.hardware.safety_test`) cannot measure the chain
+    enable_sense: EnableSense | None = None
     #: the physics simulator under the sim backend and the emulated gpio backend (fault
     #: injection, truth); None on real iron and the bridge
     world: SimWorld | None = None

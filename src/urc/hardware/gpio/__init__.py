@@ -27,6 +27,7 @@ from ..drivers.bts7960_sense import Bts7960Sense
 from ..drivers.motors import sense_v_per_a
 from ..interfaces import AxisHardware, Hardware, brake_on, motor_off
 from .buses import Buses
+from .enable_sense import EnableSenseInput, emulated_feed
 from .feed import (EmulatedBrake, EmulatedHeartbeat, EmulatedMotor, Emulation, feed_current_sense, feed_sensor,
                    forget_output_history, limit_sync)
 from .i2c import AdcInput, Lsm303dChip
@@ -190,7 +191,18 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
     heartbeat: Any = PinOut(factory, gpio.heartbeat_pin) if gpio.heartbeat_pin is not None else None
     if heartbeat is not None and world is not None and world.enable is not None:
         heartbeat = EmulatedHeartbeat(heartbeat, world.enable)
+    sense = None
+    if gpio.motor_enable_sense_pin is not None:
+        sense = EnableSenseInput(factory, gpio.motor_enable_sense_pin, point=gpio.motor_enable_sense_point,
+                                 active_low=gpio.motor_enable_sense_active_low)
+        if world is not None and world.enable is not None:
+            sense.feed = emulated_feed(sense, world.enable, clock.now_s)
+            syncs.append(sense.feed)       # (each poll, and each read between polls)
+            sense.feed()
+        parts_list.append(("safety chain read-back", sense))
     hw = Hardware(backend="gpio", az=axes["az"], el=axes.get("el"), heartbeat=heartbeat, parts=parts_list,
+                  motor_enable_timeout_s=gpio.motor_enable_timeout_s if gpio.heartbeat_pin is not None else None,
+                  enable_sense=sense,
                   gpio=GpioParts(pin_factory=factory, i2c_buses=buses.i2c, emulated=emulate,
                                  pwm_outputs=pwm_outputs))
     if gpio.fram_address is not None:

@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING, Any
 
 from ...caps import RotatorCaps
 from ...config.issues import Issue, suggest, warning
+from .enable_sense import SENSE_POINTS
 from .kinds import AXIS_PINS, MOTORS, SENSORS, motor_kind_issue, sensor_kind_issue
 from .pwm import HARDWARE_PWM
 from .spi import SPI0_CE, SPI0_PINS
@@ -35,7 +36,11 @@ def gpio_issues(cfg: Config, caps: RotatorCaps) -> list[Issue]:
         issues.append(("hardware.gpio.hardware_pwm", "one of " + ", ".join(HARDWARE_PWM), g.hardware_pwm,
                        suggest(g.hardware_pwm, list(HARDWARE_PWM))))
     used: dict[int, str] = {}
-    for key, pin in (("heartbeat_pin", g.heartbeat_pin), ("power_fail_pin", g.power_fail_pin)):
+    for key, pin in (("heartbeat_pin", g.heartbeat_pin), ("power_fail_pin", g.power_fail_pin),
+                     ("motor_enable_sense_pin", g.motor_enable_sense_pin)):
+        if pin is not None and pin in used:
+            issues.append((f"hardware.gpio.{key}", f"a pin not already used (GPIO{pin} is {used[pin]})", pin, ""))
+            continue
         if pin is not None:
             used[pin] = f"hardware.gpio.{key}"
     #: (bus, mux channel or None, address) -> (key, chip)
@@ -127,6 +132,9 @@ def gpio_issues(cfg: Config, caps: RotatorCaps) -> list[Issue]:
             if b == bus and a == g.i2c_mux_address:
                 issues.append(("hardware.gpio.i2c_mux_address", f"an address free on I2C bus {bus} for "
                                f"the TCA9548A (0x{a:02x} is {other[0]}'s)", hex(a), ""))
+    if g.motor_enable_sense_point not in SENSE_POINTS:
+        issues.append(("hardware.gpio.motor_enable_sense_point", "one of " + ", ".join(SENSE_POINTS),
+                       g.motor_enable_sense_point, suggest(g.motor_enable_sense_point, list(SENSE_POINTS))))
     if g.motor_enable_timeout_s is not None and g.heartbeat_pin is None:
         issues.append(("hardware.gpio.motor_enable_timeout_s", "a heartbeat_pin for the safety chain to watch",
                        g.motor_enable_timeout_s, ""))
@@ -227,6 +235,13 @@ def gpio_warnings(cfg: Config) -> list[str]:
         notes.append(f"hardware.gpio.heartbeat_pin: GPIO{g.heartbeat_pin} is pulled high at power-on: that rising "
                      "edge can hold the safety chain's relay in for one timeout while the Pi boots. Use a "
                      "pin from GPIO9-27")
+    if g.motor_enable_sense_pin is not None and (g.heartbeat_pin is None or g.motor_enable_timeout_s is None):
+        notes.append("hardware.gpio.motor_enable_sense_pin: a read-back with no safety chain declared (heartbeat_pin "
+                     "and motor_enable_timeout_s): nothing is tested on it")
+    if g.heartbeat_pin is not None and g.motor_enable_timeout_s is not None and g.motor_enable_sense_pin is None:
+        notes.append("hardware.gpio.motor_enable_sense_pin: the safety chain is not read back: urc cannot test it "
+                     "at start (a stuck enable, a floating trigger or a welded contact goes unseen). Wire the "
+                     "relay's auxiliary contact to a free pin (docs/hardware.md, \"Safety chain\")")
     if g.heartbeat_pin is not None and g.motor_enable_timeout_s is None:
         notes.append("hardware.gpio.motor_enable_timeout_s: no safety chain declared: if urc freezes or dies "
                      "nothing but urc stops the motors (docs/hardware.md, \"Safety chain\")")
@@ -248,9 +263,15 @@ def _boot_function_notes(g: Any) -> list[str]:
     if g.heartbeat_pin is not None:
         pins.append(("hardware.gpio.heartbeat_pin", g.heartbeat_pin,
                      "the heartbeat (its edges hold the safety chain's relay in)"))
-    return [warning(key, f"GPIO{pin}", f"{BOOT_FUNCTION_PINS[pin]}: {what} toggles while the Pi boots, "
-                    "before urc claims it", "use a free pin from GPIO9-27 (GPIO4-8 with active_low)")
-            for key, pin, what in pins if pin in BOOT_FUNCTION_PINS]
+    notes = [warning(key, f"GPIO{pin}", f"{BOOT_FUNCTION_PINS[pin]}: {what} toggles while the Pi boots, "
+                     "before urc claims it", "use a free pin from GPIO9-27 (GPIO4-8 with active_low)")
+             for key, pin, what in pins if pin in BOOT_FUNCTION_PINS]
+    sense = g.motor_enable_sense_pin
+    if sense in BOOT_FUNCTION_PINS:
+        notes.append(warning("hardware.gpio.motor_enable_sense_pin", f"GPIO{sense}",
+                             f"{BOOT_FUNCTION_PINS[sense]}: driven while the Pi boots, against the read-back's "
+                             "contact or Q", "use a free pin from GPIO9-27"))
+    return notes
 
 
 def _outputs(motor_kind: str) -> set[str]:

@@ -17,7 +17,10 @@ writes, so a fast virtual clock is not slowed by file writes; 0 = exactly repeat
 (path, default ``state_dir/"heartbeat"`` on a real clock, none on a virtual one; ``None``: no file): the simulated heartbeat output's level and
 toggle count, also in the truth as ``heartbeat``; ``motor_enable_timeout_s`` (float, None =
 not wired): the external safety chain (:mod:`.safety`), motor power held only while the
-heartbeat's rising edges come at most this far apart, in the truth as ``motor_enable``;
+heartbeat's rising edges come at most this far apart, in the truth as ``motor_enable``
+(its faults: ``fault_injection`` on axis "chain"); ``motor_enable_sense`` ("contact", the
+default, "q", or None: not wired): the chain's read-back input, ``Hardware.enable_sense``,
+read from the model when the chain is;
 ``truth_log`` (path, default the environment variable ``URC_SIM_TRUTH_LOG``, else none): the
 iron's history appended as JSON lines (:mod:`.truthlog`), for benchmarks; ``pointing_error``
 (a mapping of pointing-model terms in degrees, e.g. ``{"ia_deg": 0.5, "tf_deg": 1.0}``,
@@ -40,13 +43,14 @@ from .outputs import SimDigitalOutput
 from .params import (PHYSICS, SimAxisParams, SimRotatorParams, SimSensorParams, params_for_caps,
                      physics_for)
 from .truthlog import ENV as TRUTH_LOG_ENV
+from .safety import CHAIN_FAULT_KINDS, SimEnableSense
 from .world import FAULT_KINDS, SimWorld
 
 log = logging.getLogger(__name__)
 
 _OPTIONS = {"seed", "wind", "truth_file", "start_az_deg", "start_el_deg", "fault_injection",
             "sensor_noise", "truth_interval_s", "truth_wall_interval_s", "heartbeat_file",
-            "motor_enable_timeout_s", "truth_log", "pointing_error"}
+            "motor_enable_timeout_s", "motor_enable_sense", "truth_log", "pointing_error"}
 
 
 def build_sim_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
@@ -69,6 +73,13 @@ def build_sim_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
     heartbeat = SimDigitalOutput("heartbeat", Path(heartbeat_file) if heartbeat_file else None,
                                  on_write=world.enable.heartbeat if world.enable is not None else None)
 
+    sense_point = options.get("motor_enable_sense", "contact")
+    try:
+        sense = SimEnableSense(world.enable, clock.now_s, sense_point) \
+            if world.enable is not None and sense_point is not None else None
+    except ValueError as exc:
+        raise ConfigError(f"simulator options: {exc}", key="hardware.options") from exc
+
     def truth() -> dict[str, Any]:
         out = world.truth()  # (a dict of its own: added to, not copied, every tick)
         out["heartbeat"] = heartbeat.truth()
@@ -80,6 +91,8 @@ def build_sim_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
     # at its park), but no part of it is wired: nothing drives or reads it
     return Hardware(backend="sim", az=axis_hw("az"), el=axis_hw("el") if caps.has_el else None,
                     poll_hook=world.advance_to, truth_hook=truth, heartbeat=heartbeat,
+                    motor_enable_timeout_s=world.enable.timeout_s if world.enable is not None else None,
+                    enable_sense=sense,
                     close_hook=lambda: (heartbeat.close(), world.close()),
                     # what a motor driver's over-current trip would be set to: well above
                     # running current, below the stall current a jam draws
@@ -142,10 +155,13 @@ def _fault_list(spec: Any) -> list[tuple[str, str, dict[str, Any]]]:
                           expected="[{axis, kind, ...}] or {axis: {kind: {...}}}",
                           found=spec) from exc
     for axis, kind, _ in out:
+        if axis == "chain" and kind in CHAIN_FAULT_KINDS:
+            continue
         if axis not in ("az", "el") or kind not in FAULT_KINDS:
             raise ConfigError(f"simulator fault_injection: bad axis/kind {axis!r}/{kind!r}",
                               key="hardware.fault_injection",
-                              expected=f"axis az|el, kind {'|'.join(FAULT_KINDS)}",
+                              expected=f"axis az|el, kind {'|'.join(FAULT_KINDS)}; or axis chain, "
+                                       f"kind {'|'.join(CHAIN_FAULT_KINDS)}",
                               found=(axis, kind))
     return out
 

@@ -29,7 +29,7 @@ from ...clock import Clock, VirtualClock
 from .drives import SimBrake, SimLimitSwitch, SimMotor
 from .params import SimRotatorParams
 from .physics import AxisPhysics
-from .safety import MotorPowerEnable
+from .safety import CHAIN_FAULT_KINDS, MotorPowerEnable
 from .sensors import FaultySensor, SensorBoard, make_sensor
 from .truthlog import TruthLog
 
@@ -39,6 +39,8 @@ AXES = ("az", "el")
 TRUTH_VERSION = 1
 FAULT_KINDS = ("sensor_stuck", "sensor_jump", "sensor_dead", "jam", "runaway",
                "limit_switch", "reverse_wiring", "slow_read")
+#: the "axis" the safety chain's faults are injected on (:data:`CHAIN_FAULT_KINDS`)
+CHAIN = "chain"
 #: a coast-down after a restart is simulated for at most this long.
 _MAX_COAST_S = 120.0
 #: a dead process's motor run-on is simulated for at most this long (longer than any
@@ -185,7 +187,7 @@ class SimWorld:
                 ev = self._brake_events.get(name)
                 ev_tick = math.inf if ev is None else \
                     max(phys.tick, math.ceil((ev[0] - self._origin_s) / self.dt_s - 1e-9))
-                cut = cut_tick if phys.powered and cut_tick is not None else math.inf
+                cut = max(cut_tick, phys.tick) if phys.powered and cut_tick is not None else math.inf
                 nxt = min(ev_tick, cut, target)
                 phys.step_n(int(nxt) - phys.tick)
                 if nxt == cut:
@@ -247,9 +249,12 @@ class SimWorld:
     def _cut_tick(self) -> int | None:
         """The substep at which the safety relay drops out (None: no part / no edge
         yet, the power is already off then)."""
-        if self.enable is None or self._origin_s is None or self.enable.last_edge_s is None:
+        if self.enable is None or self._origin_s is None:
             return None
-        return math.ceil((self.enable.cut_at_s() - self._origin_s) / self.dt_s - 1e-9)
+        cut_s = self.enable.cut_at_s()
+        if not math.isfinite(cut_s):        # (no edge yet; or a chain that never cuts)
+            return None
+        return math.ceil((cut_s - self._origin_s) / self.dt_s - 1e-9)
 
     def _power_off(self, name: str, phys: AxisPhysics, at_s: float) -> None:
         """The relay dropped out: the motor supply opens (the motor coasts, terminals
@@ -272,12 +277,26 @@ class SimWorld:
         brake coil what its relay asks for."""
         if self._origin_s is not None:
             self.advance_to(now_s)
+        self._power_on(now_s)
+
+    def _power_on(self, now_s: float) -> None:
         for name, phys in self.axes.items():
             if not phys.powered:
                 phys.powered = True
                 phys._apply_drive()
                 if self._brake_cmd[name]:
                     self._schedule_brake(name, True, now_s)
+
+    def _chain_changed(self) -> None:
+        """A chain fault came or went: the power is what the chain now gives."""
+        assert self.enable is not None
+        now_s = self.clock.now_s()
+        if self.enable.powered_at(now_s):
+            self._power_on(now_s)
+        else:
+            for name, phys in self.axes.items():
+                if phys.powered:
+                    self._power_off(name, phys, now_s)
 
     def motor_power(self) -> bool:
         """Whether the motors have their supply (always, without the safety part)."""
@@ -318,8 +337,10 @@ class SimWorld:
             # level): the next world runs them on from this wall time, until the safety
             # relay drops out when the part is wired, else until it opens
             rec["wall_s"] = time.time()
-            if self.enable is not None:
-                rec["power_cut_at_wall_s"] = self.enable.cut_at_wall_s()
+            cut_wall_s = self.enable.cut_at_wall_s() if self.enable is not None else None
+            if self.enable is not None and (cut_wall_s is None or math.isfinite(cut_wall_s)):
+                # (a chain that never cuts, stuck or welded, is as no part: no deadline)
+                rec["power_cut_at_wall_s"] = cut_wall_s
         return rec
 
     def _write_truth(self, data: dict[str, Any] | None = None) -> None:
@@ -474,7 +495,14 @@ class SimWorld:
         "both": switch forced active), ``reverse_wiring`` (motor turns the wrong way),
         ``slow_read`` (delay_s=0.7, reads=1: the next reads each block that long in wall
         time, a bus timing out: a stall inside the control tick; clears itself).
+
+        The safety chain's faults go on ``axis="chain"`` (a world with the part):
+        ``enable_stuck``, ``trigger_floating``, ``relay_dropout`` (delay_s=0.03),
+        ``contact_welded`` (:mod:`.safety`).
         """
+        if axis == CHAIN:
+            self._chain_fault(kind, kw)
+            return
         phys, sensor = self.axes[axis], self.sensors[axis]
         if kind == "sensor_stuck":
             sensor.freeze()
@@ -506,9 +534,24 @@ class SimWorld:
             raise ValueError(f"unknown fault {kind!r}; expected one of {', '.join(FAULT_KINDS)}")
         self._faults[axis][kind] = dict(kw)
 
+    def _chain_fault(self, kind: str, kw: dict[str, Any]) -> None:
+        if self.enable is None:
+            raise ValueError("no safety chain modelled (motor_enable_timeout_s) to inject a fault into")
+        if kind not in CHAIN_FAULT_KINDS:
+            raise ValueError(f"unknown safety chain fault {kind!r}; expected one of {', '.join(CHAIN_FAULT_KINDS)}")
+        self.catch_up()                  # (the iron until now ran on the old chain)
+        self.enable.inject(kind, **kw)
+        self._chain_changed()
+
     @_serialised
     def clear(self, axis: str, kind: str | None = None) -> None:
         """Clear one fault, or every fault on ``axis`` when ``kind`` is None."""
+        if axis == CHAIN:
+            if self.enable is not None:
+                self.catch_up()
+                self.enable.clear(kind)
+                self._chain_changed()
+            return
         kinds = list(self._faults[axis]) if kind is None else [kind]
         phys, sensor = self.axes[axis], self.sensors[axis]
         for k in kinds:
@@ -535,8 +578,12 @@ class SimWorld:
                 phys._apply_drive()
 
     def faults(self) -> dict[str, dict[str, dict[str, Any]]]:
-        """Active faults: {axis: {kind: kwargs}}."""
-        return {a: {k: dict(v) for k, v in f.items()} for a, f in self._faults.items()}
+        """Active faults: {axis: {kind: kwargs}} (and "chain": the safety chain's, when
+        the part is modelled)."""
+        out = {a: {k: dict(v) for k, v in f.items()} for a, f in self._faults.items()}
+        if self.enable is not None:
+            out[CHAIN] = {k: dict(v) for k, v in self.enable.faults.items()}
+        return out
 
     def axis_faults(self, axis: str) -> Mapping[str, Mapping[str, Any]]:
         """The active faults of one axis, {kind: kwargs}, as they stand (not a copy: for
