@@ -263,3 +263,32 @@ def test_a_starved_link_reader_is_no_frozen_control_process(start_control, monke
 class _Released:
     def close(self) -> None:
         pass
+
+
+@pytest.mark.parametrize("fault", [None, "contact_welded", "enable_stuck"])
+def test_the_safety_chain_is_tested_before_the_first_tick(tmp_path, fault):
+    """Issue 35: before the loop starts, the control process stops the heartbeat and
+    sees the chain's read-back fall within its timeout; a chain that does not cut (a
+    welded contact, a stuck enable) latches a safety_chain fault: nothing drives."""
+    from urc.assembly import build_rotator
+    from urc.clock import RealClock
+    from urc.config import Config
+    from urc.service.control_process import check_safety_chain
+
+    cfg = Config.from_dict({"rotator": {"profile": "tartu-urc"},
+                            "hardware": {"sim": {"wind": False, "motor_enable_timeout_s": 0.22}}})
+    rot = build_rotator(cfg, RealClock(), tmp_path / "state")
+    try:
+        if fault:
+            rot.hw.world.inject("chain", fault)
+        check_safety_chain(rot)
+        faults = [f for f in rot.status().faults if f.kind == "safety_chain"]
+        if fault is None:
+            assert not faults
+        else:
+            assert faults and "FAILED" in faults[0].reason, rot.status().faults
+            with pytest.raises(CommandRejected, match="fault"):
+                rot.goto(10.0, 10.0)
+    finally:
+        rot.shutdown(save=False)
+        rot.hw.close()

@@ -46,6 +46,7 @@ CALLS: dict[str, Callable[[Rotator], Args]] = {
                                              (90.0, 91.0), (20.0, 21.0), (False, False),
                                              rot.clock.now_s()),), {}),
     "cancel_program": lambda rot: ((), {}),
+    "safety_chain_failed": lambda rot: (("safety chain self-test FAILED: a test",), {}),
     "set_position": lambda rot: ((), {"az_deg": 100.0}),
     "adopt_sensor_reading": lambda rot: (("az",), {}),
     "search_frame": lambda rot: (("az", 10.0), {}),

@@ -165,6 +165,7 @@ class ControlServer:
             log.debug("control process could not start", exc_info=True)
             self.send(("failed", exception_to_wire(exc)))
             return 1
+        check_safety_chain(self.rot)
         # systemd's watchdog is fed while the loop is on time and the I/O process talks:
         # a hung web server and protocol ports are a hung service to restart too
         self.control = ControlThread(self.rot, RealClock(), on_tick=self._publish,
@@ -382,6 +383,27 @@ class ControlServer:
                 return
             except Exception:  # (a status that cannot be sent: the next one may; replies rely on these)
                 log.exception("publishing a status failed")
+
+
+def check_safety_chain(rot: Any) -> None:
+    """Before the first tick (the heartbeat still, the motors off): does the external
+    safety chain cut when the heartbeat stops? Only where its output is read back
+    (``motor_enable_sense_pin``); a chain that does not cut latches a fault, so nothing
+    drives until a person has mended it (issue 35)."""
+    hw = rot.hw
+    if getattr(hw, "motor_enable_timeout_s", None) is None or getattr(hw, "enable_sense", None) is None:
+        return
+    from ..hardware.safety_test import self_test
+
+    try:
+        result = self_test(hw, hw.motor_enable_timeout_s, clock=RealClock())
+    except Exception as exc:  # (a read-back that cannot be read: no proof that it cuts)
+        log.exception("the safety chain's self-test failed to run")
+        rot.safety_chain_failed(f"safety chain self-test could not run: {exc}")
+        return
+    log.info("%s", result.line())
+    if result.ok is False:
+        rot.safety_chain_failed(result.line())
 
 
 def _die_with_parent() -> None:

@@ -310,6 +310,14 @@ class Rotator:
             self.hw.drive_safe()
             self._status = self._build_status(self.clock.now_s())
 
+    def safety_chain_failed(self, reason: str) -> None:
+        """The safety chain's start-up self-test failed (urc.hardware.safety_test): the
+        motors could stay powered with nothing in control, so nothing drives until a
+        person has mended it and cleared the fault."""
+        self.hw.drive_safe()
+        self._guard.latch(Fault("safety_chain", None, reason, self.clock.now_s()))
+        self._status = self._build_status(self.clock.now_s())
+
     # ---------------------------------------------------------------- records
     @lock_free("takes the lock to take the record and read the report; waiting for the disk "
                "under it would stop the control loop")
