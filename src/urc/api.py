@@ -25,6 +25,7 @@ from .ipc import bridge
 from .ipc.messages import HardwareInfo
 from .service.remote import StopQueued
 from .service import Rotator
+from .servers import loop_lag
 from .service.queries import ask
 from .web import WebContext, install
 from .web.docs_pages import install_redoc
@@ -106,7 +107,8 @@ def create_api(rotator: Rotator, cfg: Config, *, config_path: str | os.PathLike 
     @app.get("/api/status", **documented(StatusDoc))
     async def status() -> dict:
         """The rotator's snapshot, plus ``tracking`` (null when nothing is tracked)."""
-        return hub.status_dict()
+        await hub.fresh_tracking()  # (computed in a worker thread, never on the loop)
+        return {**hub.status_dict(), "loop_lag": loop_lag.summary()}
 
     @ctl.post("/api/goto")
     async def goto(req: GotoRequest) -> Accepted:
