@@ -436,3 +436,58 @@ def test_goto_without_elevation_turns_the_azimuth_alone(make_client):
     c.bench.run(10.0)
     s = c.get("/api/status").json()
     assert s["target_az_deg"] == 42.0 and s["el"] is None and s["el_deg"] is None and s["axes"] == ["az"]
+
+
+class _LoopRecordingTracker(FakeTracker):
+    """Records, for each status it computes, whether it ran on an event loop's thread."""
+
+    def __init__(self):
+        super().__init__()
+        self.on_loop: list[bool] = []
+
+    def status(self):
+        try:
+            asyncio.get_running_loop()
+            self.on_loop.append(True)
+        except RuntimeError:
+            self.on_loop.append(False)
+        return super().status()
+
+
+def test_status_computes_the_trackers_status_off_the_event_loop(make_client):
+    """The tracker's status is tens of ms (a ground track; a first one imports skyfield,
+    seconds): /api/status computed it on the event loop when no dashboard was open
+    (issue 33). Now in a worker thread, and still as fresh."""
+    trk = _LoopRecordingTracker()
+    c = make_client(tracker=trk)
+    hub = c.app.state.web.hub
+    for target in ("sun", "moon", "azel"):
+        trk.track({"kind": target})
+        hub._tracking_t = -math.inf  # (stale: as a second after the last one)
+        st = c.get("/api/status").json()
+        assert st["tracking"]["target"] == target
+    assert trk.on_loop and not any(trk.on_loop), trk.on_loop
+    assert st["loop_lag"] is None   # (no probe started in this app)
+
+
+def test_mqtt_status_samples_never_compute_the_trackers_status_on_the_loop(bench):
+    """MQTT's telemetry samples Hub.status_dict on the event loop every second; before any
+    web request had started the dashboard's sampler, that computed the tracker's status
+    right there (issue 33). Now a stale one is refreshed in a worker thread."""
+    trk = _LoopRecordingTracker()
+    trk.track({"kind": "sun"})
+    hub = Hub(bench("berkeley").rot, trk)
+
+    async def samples() -> dict:
+        for _ in range(3):
+            hub._tracking_t = -math.inf
+            hub.status_dict()
+            await asyncio.sleep(0.05)
+        for _ in range(1000):  # (bounded: a refresh that never ends fails here)
+            if hub.tracking() is not None and not hub._tracking_busy:
+                break
+            await asyncio.sleep(0.01)
+        return hub.status_dict()
+    st = asyncio.run(samples())
+    assert st["tracking"]["target"] == "sun"
+    assert trk.on_loop and not any(trk.on_loop), trk.on_loop
