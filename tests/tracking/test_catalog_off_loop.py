@@ -33,7 +33,7 @@ WAIT_S = 60.0
 @pytest.fixture
 def recorded(monkeypatch) -> dict[str, list[int]]:
     """The heavy functions, each recording the thread that ran it."""
-    ran: dict[str, list[int]] = {"catalog read": [], "pass search": [], "pass plan": []}
+    ran: dict[str, list[int]] = {"catalog read": [], "pass search": [], "pass plan": [], "ground track": []}
 
     def recording(what, fn):
         def wrapper(*args, **kw):
@@ -45,6 +45,8 @@ def recorded(monkeypatch) -> dict[str, list[int]]:
     for module in (service_module, tracker_module):
         monkeypatch.setattr(module, "find_passes", recording("pass search", passes_module.find_passes))
     monkeypatch.setattr(tracker_module.Tracker, "_plan", recording("pass plan", tracker_module.Tracker._plan))
+    # (the status a tracking command answers with: tens of ms of skyfield)
+    monkeypatch.setattr(tracker_module, "_ground_track", recording("ground track", tracker_module._ground_track))
     return ran
 
 

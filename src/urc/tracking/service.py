@@ -293,7 +293,7 @@ class TrackingService:
         self._stop_reader()
         target = self.make_target(spec)
         self.tracker.track(target, self.rot.clock.now_s())
-        return self.status() or {}
+        return self._status_off_loop()
 
     def track_pass(self, norad: int, aos: Any) -> dict[str, Any]:
         """Fly the pass of ``norad`` whose AOS is near ``aos`` (datetime or UTC seconds)."""
@@ -307,7 +307,15 @@ class TrackingService:
             raise TrackingError(f"the pass of {job.target.name} was not flown: another tracking command "
                                 "came while it was being planned")
         tracker.fly(job)
-        return self.status() or {}
+        return self._status_off_loop()
+
+    def _status_off_loop(self) -> dict[str, Any]:
+        """The status a command answers with: computed in a thread when asked on the event
+        loop (a ground track is tens of ms of skyfield), not on the tracking worker (it
+        may be planning the next pass for seconds)."""
+        if self._executor is None or not _on_event_loop() or not bridge.in_bridge():
+            return self.status() or {}
+        return bridge.wait(asyncio.get_running_loop().run_in_executor(None, self.status)) or {}
 
     def _lookup(self, key: str | int) -> ElementSet:
         return self.catalog().get(key)
