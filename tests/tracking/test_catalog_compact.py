@@ -139,3 +139,24 @@ def test_a_stored_catalog_is_still_checked_whole_at_load(tmp_path, leo_sets):
     path.write_text("\n".join(lines[:-2] + [lines[-2] + ",", json.dumps(dup_older), "]}"]) + "\n")
     back = Catalog.load(tmp_path)
     assert len(back) == len(leo_sets) and back.get(dup_older["norad_id"]).name != "OLDER"
+
+
+def test_sets_merged_into_a_loaded_catalog_join_the_ones_read(tmp_path, leo_sets):
+    first, rest = leo_sets[:4], leo_sets[4:]
+    Catalog(first).save(tmp_path)
+    cat = Catalog.load(tmp_path)
+    r = cat.merge(leo_sets)
+    assert set(r.added) == {es.norad_id for es in rest} and set(r.kept) == {es.norad_id for es in first}
+    assert len(cat) == len(leo_sets) and [es.norad_id for es in cat] == sorted(es.norad_id for es in leo_sets)
+    iss = next(es for es in leo_sets if es.norad_id == 25544)
+    newer = ElementSet.from_record({**iss.to_record(), "name": "ISS NEWER"}, "x")
+    newer = ElementSet(newer.name, newer.norad_id, iss.epoch.replace(year=iss.epoch.year + 1), newer.satrec,
+                       newer.source, newer.tle)
+    assert cat.merge([newer]).updated == (25544,)
+    assert cat.get("iss newer") is newer and cat.get(25544) is newer and len(cat) == len(leo_sets)
+    for es in leo_sets:   # the ones read and the ones merged, by name as by id
+        if es.norad_id != 25544:
+            assert cat.get(es.name).norad_id == es.norad_id and es.norad_id in cat
+    cat.save(tmp_path / "again")
+    back = Catalog.load(tmp_path / "again")
+    assert [es.norad_id for es in back] == [es.norad_id for es in cat] and back.get(25544).name == "ISS NEWER"

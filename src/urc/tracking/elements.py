@@ -13,13 +13,16 @@ newest-set rule are one format's rules, read together when a file is refused.)
 
 from __future__ import annotations
 
+import bisect
 import csv
 import difflib
 import io
 import json
 import math
+import mmap
 import os
 import re
+from array import array
 from collections import OrderedDict
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
@@ -536,19 +539,88 @@ _CATALOG_HEAD = f'{{"format": "{_CATALOG_FORMAT}", "version": {_CATALOG_VERSION}
 _REBUILD = "re-import or `urc tle update --force` to rebuild it"
 
 
+class _Packed:
+    """The records of a catalog as read from its file, in a few large objects: their
+    text end to end in one anonymous memory map, the NORAD ids sorted (an array), where
+    each record lies (arrays) and the names, one string. Small objects per set would
+    stay in Python's allocator after the catalog is read again, and a large malloc'd
+    buffer in the C heap (glibc raises its mmap threshold after such a buffer is freed):
+    RSS grew with each reload (issue 33). A memory map goes back to the system whole
+    when the old catalog is dropped."""
+
+    __slots__ = ("blob", "ids", "names", "starts", "stops")
+
+    def __init__(self, blob: bytes | mmap.mmap = b"", ids: array | None = None, starts: array | None = None,
+                 stops: array | None = None, names: str = ""):
+        self.blob = blob
+        self.ids = ids if ids is not None else array("q")
+        self.starts = starts if starts is not None else array("q")
+        self.stops = stops if stops is not None else array("q")
+        self.names = names  # one a line, in the order of ids
+
+    def find(self, norad_id: int) -> int | None:
+        i = bisect.bisect_left(self.ids, norad_id)
+        return i if i < len(self.ids) and self.ids[i] == norad_id else None
+
+    def record(self, i: int) -> bytes:
+        return self.blob[self.starts[i]:self.stops[i]]
+
+    def name_list(self) -> list[str]:
+        return self.names.split("\n") if len(self.ids) else []
+
+
+class _Packer:
+    """Collects checked records as a file is read, then packs them (:class:`_Packed`)."""
+
+    def __init__(self, size_hint: int) -> None:
+        # (the file's size: its records' text fits; pages never written cost nothing)
+        self.blob = mmap.mmap(-1, max(size_hint, mmap.PAGESIZE))
+        self.used = 0
+        self.ids = array("q")
+        self.starts = array("q")
+        self.names: list[str] = []
+
+    def add(self, norad_id: int, name: str, record: bytes) -> None:
+        if self.used + len(record) > len(self.blob):
+            self.blob.resize(max(2 * len(self.blob), self.used + len(record)))
+        self.ids.append(norad_id)
+        self.starts.append(self.used)
+        self.blob[self.used:self.used + len(record)] = record
+        self.used += len(record)
+        self.names.append(name.replace("\n", " "))
+
+    def pack(self) -> _Packed:
+        blob = self.blob
+        stops = self.starts[1:] + array("q", [self.used])
+        order = sorted(range(len(self.ids)), key=self.ids.__getitem__)  # (stable: file order among equals)
+        kept: list[int] = []
+        for i in order:
+            if kept and self.ids[kept[-1]] == self.ids[i]:
+                # the same satellite again: a newer epoch replaces it, as merge does
+                if _record_epoch(json.loads(blob[self.starts[i]:stops[i]])) > \
+                        _record_epoch(json.loads(blob[self.starts[kept[-1]]:stops[kept[-1]]])):
+                    kept[-1] = i
+                continue
+            kept.append(i)
+        return _Packed(blob, array("q", (self.ids[i] for i in kept)), array("q", (self.starts[i] for i in kept)),
+                       array("q", (stops[i] for i in kept)), "\n".join(self.names[i] for i in kept))
+
+
 class Catalog:
     """Element sets keyed by NORAD id, newest epoch wins; stored as one JSON file.
 
     Held compactly (issue 33: 100 000 sets grew urc run's I/O process by 500 MB, ~2 kB a
     set as an ElementSet with its sgp4 Satrec and Python objects): each set as the JSON
-    text of its record (bytes, ~300 a set) and its name for look-ups. A set's ElementSet
-    and Satrec are built when it is asked for; the last CACHED_SETS built are kept.
-    Every record is still checked when the catalog is read (columns, checksums, OMM
-    fields), so a corrupt file is refused at load as before.
+    text of its record (~300 bytes) and its name for look-ups, those read from the file
+    packed in a few large objects (:class:`_Packed`), those merged since in a dict. A
+    set's ElementSet and Satrec are built when it is asked for; the last CACHED_SETS
+    built are kept. Every record is still checked when the catalog is read (columns,
+    checksums, OMM fields), so a corrupt file is refused at load as before.
     """
 
     def __init__(self, sets: Iterable[ElementSet] = ()):
-        self._record: dict[int, bytes] = {}
+        self._packed = _Packed()
+        self._record: dict[int, bytes] = {}  # merged after the file was read
         self._name: dict[int, str] = {}
         self._built: OrderedDict[int, ElementSet] = OrderedDict()
         self.merge(sets)
@@ -570,29 +642,31 @@ class Catalog:
             return cls()
         except OSError as exc:
             raise CatalogError(f"{path}: cannot read the catalog: {exc}") from None
-        cat = cls()
         with fh:
+            packer = _Packer(os.fstat(fh.fileno()).st_size)
             try:
                 head = fh.readline()
                 records = _record_lines(fh, path) if head.rstrip("\r\n") == _CATALOG_HEAD \
                     else ((rec, None) for rec in _whole_catalog(head + fh.read(), path))
                 for i, (rec, text) in enumerate(records, start=1):
                     try:
-                        cat._add_record(rec, f"{path}: set {i}", text)
+                        packer.add(*_checked_record(rec, f"{path}: set {i}", text))
                     except (ElementsError, TypeError, KeyError, AttributeError, ValueError) as exc:
                         raise CatalogError(f"{path}: set {i}: corrupt record: {exc}") from None
             except (OSError, UnicodeDecodeError) as exc:
                 raise CatalogError(f"{path}: cannot read the catalog: {exc}") from None
+        cat = cls()
+        cat._packed = packer.pack()
         return cat
 
     def save(self, directory: str | os.PathLike[str]) -> Path:
         """Write atomically (temporary file + rename) so a crash never leaves half a file."""
-        return write_catalog(directory, (self._record[n].decode("utf-8") for n in sorted(self._record)))
+        return write_catalog(directory, (self._record_of(n).decode("utf-8") for n in self._ids()))
 
     def records(self) -> list[bytes]:
         """Every set's record (JSON text, by NORAD id): what a worker process rebuilds the
         sets from (:meth:`ElementSet.from_record`) without this process building them."""
-        return [self._record[n] for n in sorted(self._record)]
+        return [self._record_of(n) for n in self._ids()]
 
     # -- contents -------------------------------------------------------------------
 
@@ -600,41 +674,40 @@ class Catalog:
         """Add sets; a NORAD id already present is replaced only by a newer epoch."""
         added, updated, kept = [], [], []
         for es in sets:
-            if es.norad_id not in self._record:
+            if es.norad_id not in self:
                 added.append(es.norad_id)
             elif es.epoch > self._epoch(es.norad_id):
                 updated.append(es.norad_id)
             else:
                 kept.append(es.norad_id)
                 continue
-            self._put(es.norad_id, es.name, json.dumps(es.to_record()).encode("utf-8"))
+            self._record[es.norad_id] = json.dumps(es.to_record()).encode("utf-8")
+            self._name[es.norad_id] = es.name
             self._keep(es)
         return MergeResult(tuple(added), tuple(updated), tuple(kept))
 
-    def _add_record(self, rec: Any, source: str, text: str | None = None) -> None:
-        """One record of a stored catalog (``text``: its JSON text, if at hand), checked
-        as when it was built (no Satrec)."""
-        if not isinstance(rec, dict):
-            raise ElementsError(f"{source}: expected a record (an object), found {_short(repr(rec))}")
-        if "omm" in rec:
-            norad_id = _omm_fields(dict(rec["omm"]), source)["NORAD_CAT_ID"]
-        elif "tle" in rec and len(rec["tle"]) == 2:
-            l1, l2 = (str(x) for x in rec["tle"])
-            _check_tle(l1, l2, source, 0, 0, True)
-            norad_id = _tle_norad_id(l1)
-        else:
-            raise CatalogError(f"{source}: record for {rec.get('name', '?')!r}: expected a "
-                               "'tle' pair or an 'omm' table, found neither")
-        if not rec.get("source"):   # (as ElementSet.from_record names it)
-            rec, text = dict(rec, source=source), None
-        if norad_id in self._record and not _record_epoch(rec) > self._epoch(norad_id):
-            return  # a set of the same satellite as new or newer came before it
-        self._put(norad_id, str(rec.get("name", "")), (text or json.dumps(rec)).encode("utf-8"))
+    def _ids(self) -> list[int]:
+        """Every NORAD id, sorted."""
+        if not self._record:
+            return list(self._packed.ids)
+        return sorted(set(self._packed.ids).union(self._record))
 
-    def _put(self, norad_id: int, name: str, record: bytes) -> None:
-        self._record[norad_id] = record
-        self._name[norad_id] = name
-        self._built.pop(norad_id, None)
+    def _record_of(self, norad_id: int) -> bytes:
+        rec = self._record.get(norad_id)
+        if rec is not None:
+            return rec
+        i = self._packed.find(norad_id)
+        if i is None:
+            raise KeyError(norad_id)
+        return self._packed.record(i)
+
+    def _names(self) -> list[tuple[int, str]]:
+        """(NORAD id, name) of every set, by NORAD id."""
+        packed = dict(zip(self._packed.ids, self._packed.name_list())) if self._record else None
+        if packed is None:
+            return list(zip(self._packed.ids, self._packed.name_list()))
+        packed.update(self._name)
+        return sorted(packed.items())
 
     def _keep(self, es: ElementSet) -> None:
         self._built[es.norad_id] = es
@@ -644,53 +717,55 @@ class Catalog:
 
     def _epoch(self, norad_id: int) -> datetime:
         es = self._built.get(norad_id)
-        return es.epoch if es is not None else _record_epoch(json.loads(self._record[norad_id]))
+        return es.epoch if es is not None else _record_epoch(json.loads(self._record_of(norad_id)))
 
     def _set(self, norad_id: int, keep: bool = True) -> ElementSet:
         """The ElementSet of ``norad_id``, built from its record unless kept."""
         es = self._built.get(norad_id)
         if es is None:
-            es = ElementSet.from_record(json.loads(self._record[norad_id]), CATALOG_FILE)
+            es = ElementSet.from_record(json.loads(self._record_of(norad_id)), CATALOG_FILE)
             if not keep:
                 return es
         self._keep(es)
         return es
 
     def __len__(self) -> int:
-        return len(self._record)
+        return len(self._packed.ids) + sum(1 for n in self._record if self._packed.find(n) is None)
 
     def __iter__(self) -> Iterator[ElementSet]:
         """Every set, by NORAD id (each built as it comes; the kept ones stay as they are)."""
-        return (self._set(n, keep=False) for n in sorted(self._record))
+        return (self._set(n, keep=False) for n in self._ids())
 
     def __contains__(self, norad_id: object) -> bool:
-        return norad_id in self._record
+        if norad_id in self._record:
+            return True
+        return isinstance(norad_id, int) and not isinstance(norad_id, bool) and self._packed.find(norad_id) is not None
 
     def get(self, key: str | int) -> ElementSet:
         """By NORAD id (int or digits), else by name: exact (any case), else a unique prefix."""
         if isinstance(key, int) and not isinstance(key, bool):
-            if key in self._record:
+            if key in self:
                 return self._set(key)
             raise SatelliteNotFound(f"no satellite with NORAD id {key} in the catalog "
                                     f"({len(self)} sets)")
         text = str(key).strip()
-        if text.isdigit() and int(text) in self._record:
+        if text.isdigit() and int(text) in self:
             return self._set(int(text))
         want = _norm(text)
         if not want:
             raise SatelliteNotFound("expected a satellite name or NORAD id, found nothing")
-        ids = sorted(self._name)
-        exact = [n for n in ids if _norm(self._name[n]) == want]
+        names = self._names()
+        exact = [n for n, name in names if _norm(name) == want]
         if len(exact) == 1:
             return self._set(exact[0])
         if len(exact) > 1:
             raise self._ambiguous(text, [self._set(n, keep=False) for n in exact], "share the name")
-        prefix = [n for n in ids if _norm(self._name[n]).startswith(want)]
+        prefix = [n for n, name in names if _norm(name).startswith(want)]
         if len(prefix) == 1:
             return self._set(prefix[0])
         if len(prefix) > 1:
             raise self._ambiguous(text, [self._set(n, keep=False) for n in prefix], "start with")
-        close = difflib.get_close_matches(text.upper(), [self._name[n].upper() for n in ids], n=3)
+        close = difflib.get_close_matches(text.upper(), [name.upper() for _, name in names], n=3)
         hint = f"; did you mean {', '.join(repr(c) for c in close)}?" if close else ""
         what = "NORAD id" if text.isdigit() else "name"
         raise SatelliteNotFound(f"no satellite with {what} {text!r} in the catalog "
@@ -706,6 +781,25 @@ class Catalog:
     def select(self, keys: Iterable[str | int]) -> list[ElementSet]:
         """:meth:`get` for each key, in order."""
         return [self.get(k) for k in keys]
+
+
+def _checked_record(rec: Any, source: str, text: str | None) -> tuple[int, str, bytes]:
+    """(NORAD id, name, JSON text) of one record of a stored catalog (``text``: its JSON
+    text, if at hand), checked as when its set was built, without building a Satrec."""
+    if not isinstance(rec, dict):
+        raise ElementsError(f"{source}: expected a record (an object), found {_short(repr(rec))}")
+    if "omm" in rec:
+        norad_id = _omm_fields(dict(rec["omm"]), source)["NORAD_CAT_ID"]
+    elif "tle" in rec and len(rec["tle"]) == 2:
+        l1, l2 = (str(x) for x in rec["tle"])
+        _check_tle(l1, l2, source, 0, 0, True)
+        norad_id = _tle_norad_id(l1)
+    else:
+        raise CatalogError(f"{source}: record for {rec.get('name', '?')!r}: expected a "
+                           "'tle' pair or an 'omm' table, found neither")
+    if not rec.get("source"):   # (as ElementSet.from_record names it)
+        rec, text = dict(rec, source=source), None
+    return norad_id, str(rec.get("name", "")), (text or json.dumps(rec)).encode("utf-8")
 
 
 def _record_epoch(rec: Mapping[str, Any]) -> datetime:
