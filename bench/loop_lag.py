@@ -128,6 +128,7 @@ def main() -> None:
     ap.add_argument("--sets", type=int, default=30000, help="element sets in the catalog")
     ap.add_argument("--idle-s", type=float, default=5.0)
     ap.add_argument("--src", default=None, help="run urc from this source tree (e.g. the code before the change)")
+    ap.add_argument("--show-log", action="store_true", help="print the end of urc run's output")
     ap.add_argument("--json", default=str(ROOT / "bench" / "results" / "loop_lag.json"))
     args = ap.parse_args()
 
@@ -214,8 +215,8 @@ def main() -> None:
             phase("idle after", t0)
             results["loop_lag_status"] = HTTP.get(urc.url + "/api/status").json().get("loop_lag")
         finally:
-            out = urc.stop()
-            if os.environ.get("LOOP_LAG_DEBUG"):
+            urc.stop()
+            if args.show_log:
                 print((work / "urc.log").read_text()[-5000:])
             reference.kill()
             reference.wait()
