@@ -160,3 +160,26 @@ def test_sets_merged_into_a_loaded_catalog_join_the_ones_read(tmp_path, leo_sets
     cat.save(tmp_path / "again")
     back = Catalog.load(tmp_path / "again")
     assert [es.norad_id for es in back] == [es.norad_id for es in cat] and back.get(25544).name == "ISS NEWER"
+
+
+def test_a_large_catalog_is_read_in_a_process_of_its_own(tmp_path, monkeypatch):
+    """Reading 100 000 sets on a thread of urc run's I/O process held the event loop's
+    share of Python's lock (its timer ran up to 836 ms late on a loaded machine)."""
+    from urc.tracking import catalog_process
+
+    for name in FIXTURE_FILES:
+        import_file(FIXTURES / name, tmp_path)
+    want = Catalog.load(tmp_path)
+    monkeypatch.setattr(catalog_process, "ISOLATED_READ_BYTES", 0)
+    here: list[str] = []
+    load = Catalog.load
+    monkeypatch.setattr(Catalog, "load", staticmethod(lambda d: (here.append(str(d)), load(d))[1]))
+    got = catalog_process.read_catalog(tmp_path)
+    assert here == []   # read in the other process, sent back whole
+    assert got.records() == want.records() and len(got) == len(want)
+    for es in want:
+        assert got.get(es.name or es.norad_id).norad_id == es.norad_id
+        np.testing.assert_array_equal(_positions_km(got.get(es.norad_id)), _positions_km(es))
+    Catalog.path_in(tmp_path).write_text(Catalog.path_in(tmp_path).read_text()[:300])
+    with pytest.raises(CatalogError, match="corrupt catalog"):
+        catalog_process.read_catalog(tmp_path)

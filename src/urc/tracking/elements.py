@@ -558,6 +558,11 @@ class _Packed:
         self.stops = stops if stops is not None else array("q")
         self.names = names  # one a line, in the order of ids
 
+    @property
+    def size(self) -> int:
+        """Bytes of the buffer its records lie in."""
+        return max(self.stops) if len(self.stops) else 0
+
     def find(self, norad_id: int) -> int | None:
         i = bisect.bisect_left(self.ids, norad_id)
         return i if i < len(self.ids) and self.ids[i] == norad_id else None
@@ -625,6 +630,12 @@ class Catalog:
         self._built: OrderedDict[int, ElementSet] = OrderedDict()
         self.merge(sets)
 
+    @classmethod
+    def _of_packed(cls, packed: _Packed) -> Catalog:
+        cat = cls()
+        cat._packed = packed
+        return cat
+
     # -- storage --------------------------------------------------------------------
 
     @staticmethod
@@ -655,9 +666,7 @@ class Catalog:
                         raise CatalogError(f"{path}: set {i}: corrupt record: {exc}") from None
             except (OSError, UnicodeDecodeError) as exc:
                 raise CatalogError(f"{path}: cannot read the catalog: {exc}") from None
-        cat = cls()
-        cat._packed = packer.pack()
-        return cat
+        return cls._of_packed(packer.pack())
 
     def save(self, directory: str | os.PathLike[str]) -> Path:
         """Write atomically (temporary file + rename) so a crash never leaves half a file."""

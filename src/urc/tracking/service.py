@@ -11,6 +11,7 @@ from typing import Any, Callable
 
 from ..config import Config
 from ..ipc import bridge
+from .catalog_process import read_catalog
 from .elements import Catalog, ElementSet
 from .errors import TrackingError
 from .pass_process import find_passes_isolated
@@ -148,7 +149,7 @@ class TrackingService:
             sig = self._catalog_signature()
             if self._catalog is None or reload or sig != self._catalog_sig:
                 had = self._catalog is not None
-                cat = Catalog.load(self.catalog_dir)
+                cat = read_catalog(self.catalog_dir)
                 self._install_catalog(sig, cat, self._replanned_schedule(cat) if had else None, announce=had)
             assert self._catalog is not None
             return self._catalog
@@ -170,7 +171,7 @@ class TrackingService:
         """(signature, catalog, the schedule re-planned on it): may run on the worker."""
         with self._catalog_lock:
             sig = self._catalog_signature()
-            cat = Catalog.load(self.catalog_dir)
+            cat = read_catalog(self.catalog_dir)
             return sig, cat, self._replanned_schedule(cat)
 
     def _replanned_schedule(self, cat: Catalog) -> list[Pass] | None:
