@@ -8,11 +8,10 @@ silence after which the control process stops the axes (issue 33). A process has
 own lock. It is started for each read (a catalog changes seldom; no idle process kept)
 with the ``spawn`` method (forking a process that runs threads can copy a held lock).
 
-It hands the catalog back packed (urc.tracking.elements._Packed): the index (arrays,
-the names) through the pipe, the records' text through a temporary file that is read
-straight into this process's anonymous memory map. (Sent as one bytes object through
-the pipe, tens of MB passed through the C heap, which kept them: RSS grew with every
-reload.)
+It hands the catalog back packed (urc.tracking.elements._Packed) through a temporary
+file, read straight into one anonymous memory map here: records, index and names.
+(Sent through the pipe, tens of MB passed through the C heap, which kept much of them:
+RSS grew with every reload.)
 
 Small catalogs are read where they are asked for: below ISOLATED_READ_BYTES the read
 costs less than starting a process.
@@ -20,11 +19,9 @@ costs less than starting a process.
 
 from __future__ import annotations
 
-import mmap
 import multiprocessing
 import os
 import tempfile
-from array import array
 from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 
@@ -45,30 +42,22 @@ def read_catalog(directory: str | os.PathLike[str]) -> Catalog:
         return Catalog.load(directory)
     try:
         with ProcessPoolExecutor(max_workers=1, mp_context=multiprocessing.get_context("spawn")) as pool:
-            text_path, size, ids, starts, stops, names = pool.submit(_load, os.fspath(directory)).result()
+            path, layout = pool.submit(_load, os.fspath(directory)).result()
     except BrokenProcessPool:  # killed, out of memory: the read must still happen
         return Catalog.load(directory)
     try:
-        blob = mmap.mmap(-1, max(size, 1))
-        with open(text_path, "rb", buffering=0) as fh:
-            got = 0
-            while got < size:
-                n = fh.readinto(memoryview(blob)[got:size])
-                if not n:
-                    raise OSError(f"{text_path}: {got} of {size} bytes")
-                got += n
+        with open(path, "rb", buffering=0) as fh:
+            return Catalog._of_packed(_Packed.read(fh, layout))
     finally:
-        os.unlink(text_path)
-    return Catalog._of_packed(_Packed(blob, ids, starts, stops, names))
+        os.unlink(path)
 
 
-def _load(directory: str) -> tuple[str, int, array, array, array, str]:
-    """In the process: read the catalog; its text to a temporary file, its index back."""
+def _load(directory: str) -> tuple[str, tuple[int, int, int]]:
+    """In the process: read the catalog, write it packed to a temporary file."""
     packed = Catalog.load(directory)._packed
-    fd, text_path = tempfile.mkstemp(prefix="urc-catalog-")
+    fd, path = tempfile.mkstemp(prefix="urc-catalog-")
     with os.fdopen(fd, "wb") as fh:
-        fh.write(memoryview(packed.blob)[:packed.size])
-    return text_path, packed.size, packed.ids, packed.starts, packed.stops, packed.names
+        return path, packed.write(fh)
 
 
 __all__ = ["ISOLATED_READ_BYTES", "read_catalog"]

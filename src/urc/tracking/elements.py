@@ -27,7 +27,7 @@ from collections import OrderedDict
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import IO, Any, Iterable, Iterator, Mapping
+from typing import IO, Any, Iterable, Iterator, Mapping, Sequence
 
 from sgp4.api import SGP4_ERRORS, Satrec
 
@@ -541,22 +541,23 @@ _REBUILD = "re-import or `urc tle update --force` to rebuild it"
 
 class _Packed:
     """The records of a catalog as read from its file, in a few large objects: their
-    text end to end in one anonymous memory map, the NORAD ids sorted (an array), where
-    each record lies (arrays) and the names, one string. Small objects per set would
-    stay in Python's allocator after the catalog is read again, and a large malloc'd
-    buffer in the C heap (glibc raises its mmap threshold after such a buffer is freed):
-    RSS grew with each reload (issue 33). A memory map goes back to the system whole
-    when the old catalog is dropped."""
+    text end to end in one anonymous memory map, the NORAD ids sorted, where each
+    record lies (arrays, or views of a memory map) and the names, one string. Small
+    objects per set would stay in Python's allocator after the catalog is read again,
+    and large malloc'd buffers in the C heap (glibc raises its mmap threshold after such
+    a buffer is freed): RSS grew with each reload (issue 33). A memory map goes back to
+    the system whole when the old catalog is dropped."""
 
     __slots__ = ("blob", "ids", "names", "starts", "stops")
 
-    def __init__(self, blob: bytes | mmap.mmap = b"", ids: array | None = None, starts: array | None = None,
-                 stops: array | None = None, names: str = ""):
+    def __init__(self, blob: bytes | mmap.mmap = b"", ids: Sequence[int] | None = None,
+                 starts: Sequence[int] | None = None, stops: Sequence[int] | None = None,
+                 names: str | memoryview = ""):
         self.blob = blob
         self.ids = ids if ids is not None else array("q")
         self.starts = starts if starts is not None else array("q")
         self.stops = stops if stops is not None else array("q")
-        self.names = names  # one a line, in the order of ids
+        self.names = names  # one a line, in the order of ids (a view: UTF-8)
 
     @property
     def size(self) -> int:
@@ -571,7 +572,43 @@ class _Packed:
         return self.blob[self.starts[i]:self.stops[i]]
 
     def name_list(self) -> list[str]:
-        return self.names.split("\n") if len(self.ids) else []
+        if not len(self.ids):
+            return []
+        names = self.names if isinstance(self.names, str) else bytes(self.names).decode("utf-8")
+        return names.split("\n")
+
+    # -- to another process, through a file: everything in one memory map there
+
+    def write(self, fh: IO[bytes]) -> tuple[int, int, int]:
+        """Write it all; returns the layout :meth:`read` needs."""
+        text = self.size
+        names = (self.names if isinstance(self.names, str) else bytes(self.names).decode("utf-8")).encode("utf-8")
+        fh.write(memoryview(self.blob)[:text] if text else b"")
+        fh.write(b"\0" * (_aligned(text) - text))
+        for column in (self.ids, self.starts, self.stops):
+            fh.write(array("q", column).tobytes())
+        fh.write(names)
+        return text, len(self.ids), len(names)
+
+    @classmethod
+    def read(cls, fh: io.RawIOBase, layout: tuple[int, int, int]) -> _Packed:
+        text, n, names = layout
+        at = _aligned(text)
+        total = at + 24 * n + names
+        blob = mmap.mmap(-1, max(total, 1))
+        view = memoryview(blob)
+        got = 0
+        while got < total:
+            k = fh.readinto(view[got:total])
+            if not k:
+                raise OSError(f"read {got} of {total} bytes")
+            got += k
+        ids, starts, stops = (view[at + 8 * n * c:at + 8 * n * (c + 1)].cast("q") for c in range(3))
+        return cls(blob, ids, starts, stops, view[at + 24 * n:total])
+
+
+def _aligned(n: int) -> int:
+    return (n + 7) & ~7
 
 
 class _Packer:
