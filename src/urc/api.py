@@ -28,6 +28,7 @@ from .service import Rotator
 from .servers import loop_lag
 from .service.queries import ask
 from .web import WebContext, install
+from .web import warm_routes
 from .web.docs_pages import install_redoc
 from .web.live import FRAME_HZ, Hub
 from .web.routes_live import MoveRequest, StopRequest
@@ -160,4 +161,9 @@ def create_api(rotator: Rotator, cfg: Config, *, config_path: str | os.PathLike 
 
     app.include_router(ctl)
     install(app, ctx)
+    try:  # inside ``urc run``: the routes analysed now, off the loop (tests: as requested)
+        asyncio.get_running_loop()
+        warm_routes.start(app)
+    except RuntimeError:
+        pass
     return app

@@ -491,3 +491,49 @@ def test_mqtt_status_samples_never_compute_the_trackers_status_on_the_loop(bench
     st = asyncio.run(samples())
     assert st["tracking"]["target"] == "sun"
     assert trk.on_loop and not any(trk.on_loop), trk.on_loop
+
+
+def test_urc_runs_app_has_its_routes_built_off_the_loop_before_the_first_request(bench, monkeypatch):
+    """FastAPI builds a route's models the first time a request is matched against it,
+    on the event loop: the first request for the page (routed after every API route)
+    held the loop ~0.4 s (issue 33). The app urc run builds (on its running loop) has
+    them built on a thread of its own at once."""
+    import threading
+
+    import pydantic
+
+    from urc.api import create_api
+
+    built_on: list[str] = []
+    real = pydantic.TypeAdapter.__init__
+
+    def counting(self, *args, **kw):
+        built_on.append(threading.current_thread().name)
+        return real(self, *args, **kw)
+    monkeypatch.setattr(pydantic.TypeAdapter, "__init__", counting)
+    b = bench("berkeley")
+
+    async def main() -> tuple[int, list[str]]:
+        app = create_api(b.rot, b.cfg)   # as urc run builds it: on its running loop
+        for thread in threading.enumerate():
+            if thread.name == "urc-warm-routes":
+                await asyncio.to_thread(thread.join, 60.0)
+        warmed = list(built_on)
+        sent: list[dict] = []
+
+        async def receive():
+            return {"type": "http.request", "body": b"", "more_body": False}
+
+        async def send(message):
+            sent.append(message)
+        for path in ("/", "/api/status", "/api/info"):
+            await app({"type": "http", "asgi": {"version": "3.0"}, "http_version": "1.1", "method": "GET",
+                       "scheme": "http", "path": path, "raw_path": path.encode(), "query_string": b"",
+                       "root_path": "", "headers": [(b"host", b"127.0.0.1")], "client": ("127.0.0.1", 1),
+                       "server": ("127.0.0.1", 80)}, receive, send)
+        return [m["status"] for m in sent if m["type"] == "http.response.start"], warmed
+
+    statuses, warmed = asyncio.run(main())
+    assert statuses == [200, 200, 200]
+    assert "urc-warm-routes" in warmed           # (the rest: as the routes were added)
+    assert built_on == warmed, built_on[len(warmed):]   # nothing more built by the requests
