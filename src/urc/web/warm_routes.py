@@ -27,9 +27,10 @@ WARM_UP_PATH = "/urc-warm-up-matches-nothing"
 def warm_up_routes(app: Any) -> None:
     """Send one request that matches nothing through ``app.router`` (blocking)."""
     async def one() -> None:
-        scope = {"type": "http", "asgi": {"version": "3.0"}, "http_version": "1.1", "method": "GET",
-                 "scheme": "http", "path": WARM_UP_PATH, "raw_path": WARM_UP_PATH.encode(),
-                 "query_string": b"", "root_path": "", "headers": [], "client": None, "server": None}
+        scope: dict[str, Any] = {
+            "type": "http", "asgi": {"version": "3.0"}, "http_version": "1.1", "method": "GET", "scheme": "http",
+            "path": WARM_UP_PATH, "raw_path": WARM_UP_PATH.encode(), "query_string": b"", "root_path": "",
+            "headers": [], "client": None, "server": None}
 
         async def receive() -> dict:
             return {"type": "http.request", "body": b"", "more_body": False}
