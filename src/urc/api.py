@@ -25,8 +25,10 @@ from .ipc import bridge
 from .ipc.messages import HardwareInfo
 from .service.remote import StopQueued
 from .service import Rotator
+from .servers import loop_lag
 from .service.queries import ask
 from .web import WebContext, install
+from .web import warm_routes
 from .web.docs_pages import install_redoc
 from .web.live import FRAME_HZ, Hub
 from .web.routes_live import MoveRequest, StopRequest
@@ -106,7 +108,8 @@ def create_api(rotator: Rotator, cfg: Config, *, config_path: str | os.PathLike 
     @app.get("/api/status", **documented(StatusDoc))
     async def status() -> dict:
         """The rotator's snapshot, plus ``tracking`` (null when nothing is tracked)."""
-        return hub.status_dict()
+        await hub.fresh_tracking()  # (computed in a worker thread, never on the loop)
+        return {**hub.status_dict(), "loop_lag": loop_lag.summary()}
 
     @ctl.post("/api/goto")
     async def goto(req: GotoRequest) -> Accepted:
@@ -158,4 +161,9 @@ def create_api(rotator: Rotator, cfg: Config, *, config_path: str | os.PathLike 
 
     app.include_router(ctl)
     install(app, ctx)
+    try:  # inside ``urc run``: the routes analysed now, off the loop (tests: as requested)
+        asyncio.get_running_loop()
+        warm_routes.start(app)
+    except RuntimeError:
+        pass
     return app

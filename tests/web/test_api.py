@@ -486,3 +486,104 @@ def test_goto_without_elevation_turns_the_azimuth_alone(make_client):
     c.bench.run(10.0)
     s = c.get("/api/status").json()
     assert s["target_az_deg"] == 42.0 and s["el"] is None and s["el_deg"] is None and s["axes"] == ["az"]
+
+
+class _LoopRecordingTracker(FakeTracker):
+    """Records, for each status it computes, whether it ran on an event loop's thread."""
+
+    def __init__(self):
+        super().__init__()
+        self.on_loop: list[bool] = []
+
+    def status(self):
+        try:
+            asyncio.get_running_loop()
+            self.on_loop.append(True)
+        except RuntimeError:
+            self.on_loop.append(False)
+        return super().status()
+
+
+def test_status_computes_the_trackers_status_off_the_event_loop(make_client):
+    """The tracker's status is tens of ms (a ground track; a first one imports skyfield,
+    seconds): /api/status computed it on the event loop when no dashboard was open
+    (issue 33). Now in a worker thread, and still as fresh."""
+    trk = _LoopRecordingTracker()
+    c = make_client(tracker=trk)
+    hub = c.app.state.web.hub
+    for target in ("sun", "moon", "azel"):
+        trk.track({"kind": target})
+        hub._tracking_t = -math.inf  # (stale: as a second after the last one)
+        st = c.get("/api/status").json()
+        assert st["tracking"]["target"] == target
+    assert trk.on_loop and not any(trk.on_loop), trk.on_loop
+    assert st["loop_lag"] is None   # (no probe started in this app)
+
+
+def test_mqtt_status_samples_never_compute_the_trackers_status_on_the_loop(bench):
+    """MQTT's telemetry samples Hub.status_dict on the event loop every second; before any
+    web request had started the dashboard's sampler, that computed the tracker's status
+    right there (issue 33). Now a stale one is refreshed in a worker thread."""
+    trk = _LoopRecordingTracker()
+    trk.track({"kind": "sun"})
+    hub = Hub(bench("berkeley").rot, trk)
+
+    async def samples() -> dict:
+        for _ in range(3):
+            hub._tracking_t = -math.inf
+            hub.status_dict()
+            await asyncio.sleep(0.05)
+        for _ in range(1000):  # (bounded: a refresh that never ends fails here)
+            if hub.tracking() is not None and not hub._tracking_busy:
+                break
+            await asyncio.sleep(0.01)
+        return hub.status_dict()
+    st = asyncio.run(samples())
+    assert st["tracking"]["target"] == "sun"
+    assert trk.on_loop and not any(trk.on_loop), trk.on_loop
+
+
+def test_urc_runs_app_has_its_routes_built_off_the_loop_before_the_first_request(bench, monkeypatch):
+    """FastAPI builds a route's models the first time a request is matched against it,
+    on the event loop: the first request for the page (routed after every API route)
+    held the loop ~0.4 s (issue 33). The app urc run builds (on its running loop) has
+    them built on a thread of its own at once."""
+    import threading
+
+    import pydantic
+
+    from urc.api import create_api
+
+    built_on: list[str] = []
+    real = pydantic.TypeAdapter.__init__
+
+    def counting(self, *args, **kw):
+        built_on.append(threading.current_thread().name)
+        return real(self, *args, **kw)
+    monkeypatch.setattr(pydantic.TypeAdapter, "__init__", counting)
+    b = bench("berkeley")
+
+    async def main() -> tuple[int, list[str]]:
+        app = create_api(b.rot, b.cfg)   # as urc run builds it: on its running loop
+        for thread in threading.enumerate():
+            if thread.name == "urc-warm-routes":
+                await asyncio.to_thread(thread.join, 60.0)
+        warmed = list(built_on)
+        sent: list[dict] = []
+
+        async def receive():
+            return {"type": "http.request", "body": b"", "more_body": False}
+
+        async def send(message):
+            sent.append(message)
+        for path in ("/", "/api/status", "/api/info"):
+            await app({"type": "http", "asgi": {"version": "3.0"}, "http_version": "1.1", "method": "GET",
+                       "scheme": "http", "path": path, "raw_path": path.encode(), "query_string": b"",
+                       "root_path": "", "headers": [(b"host", b"127.0.0.1")], "client": ("127.0.0.1", 1),
+                       "server": ("127.0.0.1", 80)}, receive, send)
+        return [m["status"] for m in sent if m["type"] == "http.response.start"], warmed
+
+    statuses, warmed = asyncio.run(main())
+    assert statuses == [200, 200, 200]
+    assert "urc-warm-routes" in warmed           # (the rest: as the routes were added)
+    assert built_on == warmed, built_on[len(warmed):]   # nothing more built by the requests

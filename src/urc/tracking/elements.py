@@ -13,17 +13,21 @@ newest-set rule are one format's rules, read together when a file is refused.)
 
 from __future__ import annotations
 
+import bisect
 import csv
 import difflib
 import io
 import json
 import math
+import mmap
 import os
 import re
+from array import array
+from collections import OrderedDict
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import Any, Iterable, Iterator, Mapping
+from typing import IO, Any, Iterable, Iterator, Mapping, Sequence
 
 from sgp4.api import SGP4_ERRORS, Satrec
 
@@ -98,12 +102,12 @@ class ElementSet:
         return rec
 
     @classmethod
-    def from_record(cls, rec: Mapping[str, Any], source: str) -> ElementSet:
+    def from_record(cls, rec: Mapping[str, Any], source: str, *, checksum: bool = True) -> ElementSet:
         if "omm" in rec:
             es = _from_omm(dict(rec["omm"]), source, str(rec.get("name", "")))
         elif "tle" in rec and len(rec["tle"]) == 2:
             l1, l2 = rec["tle"]
-            es = _from_tle(str(rec.get("name", "")), str(l1), str(l2), source, 0, 0, True)
+            es = _from_tle(str(rec.get("name", "")), str(l1), str(l2), source, 0, 0, checksum)
         else:
             raise CatalogError(f"{source}: record for {rec.get('name', '?')!r}: expected a "
                                "'tle' pair or an 'omm' table, found neither")
@@ -274,6 +278,25 @@ def _check_line(line: str, number: int, source: str, lineno: int, checksum: bool
 
 def _from_tle(name: str, line1: str, line2: str, source: str, lineno1: int, lineno2: int,
               checksum: bool) -> ElementSet:
+    _check_tle(line1, line2, source, lineno1, lineno2, checksum)
+    sat = Satrec.twoline2rv(line1, line2)
+    return ElementSet(name, int(sat.satnum), _epoch_of(sat), sat, source, (line1, line2), None)
+
+
+#: Alpha-5 catalog numbers: a letter (I and O left out) for the ten-thousands above 99999
+_ALPHA5 = {c: i for i, c in enumerate("ABCDEFGHJKLMNPQRSTUVWXYZ", start=10)}
+
+
+def _tle_norad_id(line1: str) -> int:
+    """The NORAD id of a checked line 1 (Alpha-5 too), as sgp4's ``satnum`` reads it."""
+    field = line1[2:7]
+    return _ALPHA5[field[0]] * 10000 + int(field[1:]) if field[0] in _ALPHA5 else int(field)
+
+
+def _check_tle(line1: str, line2: str, source: str, lineno1: int, lineno2: int,
+               checksum: bool) -> None:
+    """Every check of a TLE pair that needs no Satrec (a catalog is checked at load and its
+    Satrecs built only for the sets used)."""
     _check_line(line1, 1, source, lineno1, checksum)
     _check_line(line2, 2, source, lineno2, checksum)
     if line1[2:7] != line2[2:7]:
@@ -294,8 +317,6 @@ def _from_tle(name: str, line1: str, line2: str, source: str, lineno1: int, line
         raise ElementsError(f"{where}, columns 53-63 (mean motion): expected a positive number "
                             f"of revolutions per day, found {line2[52:63]!r}", path=source,
                             line=lineno2, column=53, expected="> 0", found=line2[52:63])
-    sat = Satrec.twoline2rv(line1, line2)
-    return ElementSet(name, int(sat.satnum), _epoch_of(sat), sat, source, (line1, line2), None)
 
 
 # --------------------------------------------------------------------------- OMM
@@ -370,6 +391,24 @@ def parse_omm_csv(text: str, source: str = "<string>") -> list[ElementSet]:
 
 def _from_omm(rec: dict, where: str, name: str | None, *, path: str | None = None,
               line: int | None = None) -> ElementSet:
+    fields = _omm_fields(rec, where, path=path, line=line)
+    sat = Satrec()
+    try:
+        from sgp4.omm import initialize
+
+        initialize(sat, fields)
+    except ValueError as exc:
+        raise ElementsError(f"{where}{_omm_who(rec)}: {exc}", path=path or where, line=line,
+                            expected="valid OMM fields", found=str(exc)) from None
+    name = name if name is not None else str(rec.get("OBJECT_NAME") or "").strip()
+    keep = {k: v for k, v in rec.items() if k is not None}
+    return ElementSet(name, fields["NORAD_CAT_ID"], _epoch_of(sat), sat,
+                      path or where, None, keep)
+
+
+def _omm_fields(rec: Mapping, where: str, *, path: str | None = None,
+                line: int | None = None) -> dict[str, Any]:
+    """The fields sgp4's OMM initialisation takes, every one checked (no Satrec built)."""
     def bad(key: str, expected: str, found: object) -> ElementsError:
         return ElementsError(f"{where}{_omm_who(rec)}: {key}: expected {expected}, found "
                              f"{_short(repr(found))}", path=path or where, line=line,
@@ -411,18 +450,8 @@ def _from_omm(rec: dict, where: str, name: str | None, *, path: str | None = Non
     if object_id and not re.match(r"\d{4}-\d{3}[A-Z ]*\Z", object_id):
         raise bad("OBJECT_ID", "an international designator like '1998-067A'", object_id)
     fields["CLASSIFICATION_TYPE"] = str(fields["CLASSIFICATION_TYPE"])[:1] or "U"
-    sat = Satrec()
-    try:
-        from sgp4.omm import initialize
-
-        initialize(sat, {**fields, "OBJECT_ID": object_id})
-    except ValueError as exc:
-        raise ElementsError(f"{where}{_omm_who(rec)}: {exc}", path=path or where, line=line,
-                            expected="valid OMM fields", found=str(exc)) from None
-    name = name if name is not None else str(rec.get("OBJECT_NAME") or "").strip()
-    keep = {k: v for k, v in rec.items() if k is not None}
-    return ElementSet(name, fields["NORAD_CAT_ID"], _epoch_of(sat), sat,
-                      path or where, None, keep)
+    fields["OBJECT_ID"] = object_id
+    return fields
 
 
 def _omm_who(rec: Mapping) -> str:
@@ -503,12 +532,146 @@ def _norm(name: str) -> str:
     return " ".join(name.casefold().split())
 
 
+#: element sets a catalog keeps built (ElementSet and sgp4 Satrec), most recently used
+CACHED_SETS = 64
+#: the first line of a catalog file as write_catalog writes it (one record a line after it)
+_CATALOG_HEAD = f'{{"format": "{_CATALOG_FORMAT}", "version": {_CATALOG_VERSION}, "sets": ['
+_REBUILD = "re-import or `urc tle update --force` to rebuild it"
+
+
+class _Packed:
+    """The records of a catalog as read from its file, in a few large objects: their
+    text end to end in one anonymous memory map, the NORAD ids sorted, where each
+    record lies (arrays, or views of a memory map) and the names, one string. Small
+    objects per set would stay in Python's allocator after the catalog is read again,
+    and large malloc'd buffers in the C heap (glibc raises its mmap threshold after such
+    a buffer is freed): RSS grew with each reload (issue 33). A memory map goes back to
+    the system whole when the old catalog is dropped."""
+
+    __slots__ = ("blob", "ids", "names", "starts", "stops")
+
+    def __init__(self, blob: bytes | mmap.mmap = b"", ids: Sequence[int] | None = None,
+                 starts: Sequence[int] | None = None, stops: Sequence[int] | None = None,
+                 names: str | memoryview = ""):
+        self.blob = blob
+        self.ids = ids if ids is not None else array("q")
+        self.starts = starts if starts is not None else array("q")
+        self.stops = stops if stops is not None else array("q")
+        self.names = names  # one a line, in the order of ids (a view: UTF-8)
+
+    @property
+    def size(self) -> int:
+        """Bytes of the buffer its records lie in."""
+        return max(self.stops) if len(self.stops) else 0
+
+    def find(self, norad_id: int) -> int | None:
+        i = bisect.bisect_left(self.ids, norad_id)
+        return i if i < len(self.ids) and self.ids[i] == norad_id else None
+
+    def record(self, i: int) -> bytes:
+        return self.blob[self.starts[i]:self.stops[i]]
+
+    def name_list(self) -> list[str]:
+        if not len(self.ids):
+            return []
+        names = self.names if isinstance(self.names, str) else bytes(self.names).decode("utf-8")
+        return names.split("\n")
+
+    # -- to another process, through a file: everything in one memory map there
+
+    def write(self, fh: IO[bytes]) -> tuple[int, int, int]:
+        """Write it all; returns the layout :meth:`read` needs."""
+        text = self.size
+        names = (self.names if isinstance(self.names, str) else bytes(self.names).decode("utf-8")).encode("utf-8")
+        fh.write(memoryview(self.blob)[:text] if text else b"")
+        fh.write(b"\0" * (_aligned(text) - text))
+        for column in (self.ids, self.starts, self.stops):
+            fh.write(array("q", column).tobytes())
+        fh.write(names)
+        return text, len(self.ids), len(names)
+
+    @classmethod
+    def read(cls, fh: io.RawIOBase, layout: tuple[int, int, int]) -> _Packed:
+        text, n, names = layout
+        at = _aligned(text)
+        total = at + 24 * n + names
+        blob = mmap.mmap(-1, max(total, 1))
+        view = memoryview(blob)
+        got = 0
+        while got < total:
+            k = fh.readinto(view[got:total])
+            if not k:
+                raise OSError(f"read {got} of {total} bytes")
+            got += k
+        ids, starts, stops = (view[at + 8 * n * c:at + 8 * n * (c + 1)].cast("q") for c in range(3))
+        return cls(blob, ids, starts, stops, view[at + 24 * n:total])
+
+
+def _aligned(n: int) -> int:
+    return (n + 7) & ~7
+
+
+class _Packer:
+    """Collects checked records as a file is read, then packs them (:class:`_Packed`)."""
+
+    def __init__(self, size_hint: int) -> None:
+        # (the file's size: its records' text fits; pages never written cost nothing)
+        self.blob = mmap.mmap(-1, max(size_hint, mmap.PAGESIZE))
+        self.used = 0
+        self.ids = array("q")
+        self.starts = array("q")
+        self.names: list[str] = []
+
+    def add(self, norad_id: int, name: str, record: bytes) -> None:
+        if self.used + len(record) > len(self.blob):
+            self.blob.resize(max(2 * len(self.blob), self.used + len(record)))
+        self.ids.append(norad_id)
+        self.starts.append(self.used)
+        self.blob[self.used:self.used + len(record)] = record
+        self.used += len(record)
+        self.names.append(name.replace("\n", " "))
+
+    def pack(self) -> _Packed:
+        blob = self.blob
+        stops = self.starts[1:] + array("q", [self.used])
+        order = sorted(range(len(self.ids)), key=self.ids.__getitem__)  # (stable: file order among equals)
+        kept: list[int] = []
+        for i in order:
+            if kept and self.ids[kept[-1]] == self.ids[i]:
+                # the same satellite again: a newer epoch replaces it, as merge does
+                if _record_epoch(json.loads(blob[self.starts[i]:stops[i]])) > \
+                        _record_epoch(json.loads(blob[self.starts[kept[-1]]:stops[kept[-1]]])):
+                    kept[-1] = i
+                continue
+            kept.append(i)
+        return _Packed(blob, array("q", (self.ids[i] for i in kept)), array("q", (self.starts[i] for i in kept)),
+                       array("q", (stops[i] for i in kept)), "\n".join(self.names[i] for i in kept))
+
+
 class Catalog:
-    """Element sets keyed by NORAD id, newest epoch wins; stored as one JSON file."""
+    """Element sets keyed by NORAD id, newest epoch wins; stored as one JSON file.
+
+    Held compactly (issue 33: 100 000 sets grew urc run's I/O process by 500 MB, ~2 kB a
+    set as an ElementSet with its sgp4 Satrec and Python objects): each set as the JSON
+    text of its record (~300 bytes) and its name for look-ups, those read from the file
+    packed in a few large objects (:class:`_Packed`), those merged since in a dict. A
+    set's ElementSet and Satrec are built when it is asked for; the last CACHED_SETS
+    built are kept. Every record is still checked when the catalog is read (columns,
+    checksums, OMM fields), so a corrupt file is refused at load as before.
+    """
 
     def __init__(self, sets: Iterable[ElementSet] = ()):
-        self._by_id: dict[int, ElementSet] = {}
+        self._packed = _Packed()
+        self._record: dict[int, bytes] = {}  # merged after the file was read
+        self._name: dict[int, str] = {}
+        self._built: OrderedDict[int, ElementSet] = OrderedDict()
         self.merge(sets)
+
+    @classmethod
+    def _of_packed(cls, packed: _Packed) -> Catalog:
+        cat = cls()
+        cat._packed = packed
+        return cat
 
     # -- storage --------------------------------------------------------------------
 
@@ -518,37 +681,38 @@ class Catalog:
 
     @classmethod
     def load(cls, directory: str | os.PathLike[str]) -> Catalog:
-        """The catalog stored in ``directory`` (empty if there is none yet)."""
+        """The catalog stored in ``directory`` (empty if there is none yet). Read a record
+        at a time when written one a line (never the whole file's objects at once)."""
         path = cls.path_in(directory)
         try:
-            raw = path.read_text(encoding="utf-8")
+            fh = open(path, encoding="utf-8")
         except FileNotFoundError:
             return cls()
-        except (OSError, UnicodeDecodeError) as exc:
+        except OSError as exc:
             raise CatalogError(f"{path}: cannot read the catalog: {exc}") from None
-        try:
-            data = json.loads(raw)
-        except json.JSONDecodeError as exc:
-            raise CatalogError(f"{path}:{exc.lineno}:{exc.colno}: corrupt catalog: {exc.msg}; "
-                               "re-import or `urc tle update --force` to rebuild it") from None
-        if not isinstance(data, dict) or data.get("format") != _CATALOG_FORMAT \
-                or not isinstance(data.get("sets"), list):
-            raise CatalogError(f"{path}: expected a urc catalog (format {_CATALOG_FORMAT!r}), "
-                               "found something else")
-        if data.get("version") != _CATALOG_VERSION:
-            raise CatalogError(f"{path}: catalog version {data.get('version')!r}, this urc "
-                               f"reads version {_CATALOG_VERSION}")
-        cat = cls()
-        for i, rec in enumerate(data["sets"], start=1):
+        with fh:
+            packer = _Packer(os.fstat(fh.fileno()).st_size)
             try:
-                cat.merge([ElementSet.from_record(rec, f"{path}: set {i}")])
-            except (ElementsError, TypeError, KeyError, AttributeError) as exc:
-                raise CatalogError(f"{path}: set {i}: corrupt record: {exc}") from None
-        return cat
+                head = fh.readline()
+                records = _record_lines(fh, path) if head.rstrip("\r\n") == _CATALOG_HEAD \
+                    else ((rec, None) for rec in _whole_catalog(head + fh.read(), path))
+                for i, (rec, text) in enumerate(records, start=1):
+                    try:
+                        packer.add(*_checked_record(rec, f"{path}: set {i}", text))
+                    except (ElementsError, TypeError, KeyError, AttributeError, ValueError) as exc:
+                        raise CatalogError(f"{path}: set {i}: corrupt record: {exc}") from None
+            except (OSError, UnicodeDecodeError) as exc:
+                raise CatalogError(f"{path}: cannot read the catalog: {exc}") from None
+        return cls._of_packed(packer.pack())
 
     def save(self, directory: str | os.PathLike[str]) -> Path:
         """Write atomically (temporary file + rename) so a crash never leaves half a file."""
-        return write_catalog(directory, (json.dumps(es.to_record()) for es in self))
+        return write_catalog(directory, (self._record_of(n).decode("utf-8") for n in self._ids()))
+
+    def records(self) -> list[bytes]:
+        """Every set's record (JSON text, by NORAD id): what a worker process rebuilds the
+        sets from (:meth:`ElementSet.from_record`) without this process building them."""
+        return [self._record_of(n) for n in self._ids()]
 
     # -- contents -------------------------------------------------------------------
 
@@ -556,50 +720,98 @@ class Catalog:
         """Add sets; a NORAD id already present is replaced only by a newer epoch."""
         added, updated, kept = [], [], []
         for es in sets:
-            old = self._by_id.get(es.norad_id)
-            if old is None:
+            if es.norad_id not in self:
                 added.append(es.norad_id)
-            elif es.epoch > old.epoch:
+            elif es.epoch > self._epoch(es.norad_id):
                 updated.append(es.norad_id)
             else:
                 kept.append(es.norad_id)
                 continue
-            self._by_id[es.norad_id] = es
+            self._record[es.norad_id] = json.dumps(es.to_record()).encode("utf-8")
+            self._name[es.norad_id] = es.name
+            self._keep(es)
         return MergeResult(tuple(added), tuple(updated), tuple(kept))
 
+    def _ids(self) -> list[int]:
+        """Every NORAD id, sorted."""
+        if not self._record:
+            return list(self._packed.ids)
+        return sorted(set(self._packed.ids).union(self._record))
+
+    def _record_of(self, norad_id: int) -> bytes:
+        rec = self._record.get(norad_id)
+        if rec is not None:
+            return rec
+        i = self._packed.find(norad_id)
+        if i is None:
+            raise KeyError(norad_id)
+        return self._packed.record(i)
+
+    def _names(self) -> list[tuple[int, str]]:
+        """(NORAD id, name) of every set, by NORAD id."""
+        packed = dict(zip(self._packed.ids, self._packed.name_list())) if self._record else None
+        if packed is None:
+            return list(zip(self._packed.ids, self._packed.name_list()))
+        packed.update(self._name)
+        return sorted(packed.items())
+
+    def _keep(self, es: ElementSet) -> None:
+        self._built[es.norad_id] = es
+        self._built.move_to_end(es.norad_id)
+        while len(self._built) > CACHED_SETS:
+            self._built.popitem(last=False)
+
+    def _epoch(self, norad_id: int) -> datetime:
+        es = self._built.get(norad_id)
+        return es.epoch if es is not None else _record_epoch(json.loads(self._record_of(norad_id)))
+
+    def _set(self, norad_id: int, keep: bool = True) -> ElementSet:
+        """The ElementSet of ``norad_id``, built from its record unless kept."""
+        es = self._built.get(norad_id)
+        if es is None:
+            es = ElementSet.from_record(json.loads(self._record_of(norad_id)), CATALOG_FILE)
+            if not keep:
+                return es
+        self._keep(es)
+        return es
+
     def __len__(self) -> int:
-        return len(self._by_id)
+        return len(self._packed.ids) + sum(1 for n in self._record if self._packed.find(n) is None)
 
     def __iter__(self) -> Iterator[ElementSet]:
-        return iter(sorted(self._by_id.values(), key=lambda es: es.norad_id))
+        """Every set, by NORAD id (each built as it comes; the kept ones stay as they are)."""
+        return (self._set(n, keep=False) for n in self._ids())
 
     def __contains__(self, norad_id: object) -> bool:
-        return norad_id in self._by_id
+        if norad_id in self._record:
+            return True
+        return isinstance(norad_id, int) and not isinstance(norad_id, bool) and self._packed.find(norad_id) is not None
 
     def get(self, key: str | int) -> ElementSet:
         """By NORAD id (int or digits), else by name: exact (any case), else a unique prefix."""
         if isinstance(key, int) and not isinstance(key, bool):
-            if key in self._by_id:
-                return self._by_id[key]
+            if key in self:
+                return self._set(key)
             raise SatelliteNotFound(f"no satellite with NORAD id {key} in the catalog "
                                     f"({len(self)} sets)")
         text = str(key).strip()
-        if text.isdigit() and int(text) in self._by_id:
-            return self._by_id[int(text)]
+        if text.isdigit() and int(text) in self:
+            return self._set(int(text))
         want = _norm(text)
         if not want:
             raise SatelliteNotFound("expected a satellite name or NORAD id, found nothing")
-        exact = [es for es in self if _norm(es.name) == want]
+        names = self._names()
+        exact = [n for n, name in names if _norm(name) == want]
         if len(exact) == 1:
-            return exact[0]
+            return self._set(exact[0])
         if len(exact) > 1:
-            raise self._ambiguous(text, exact, "share the name")
-        prefix = [es for es in self if _norm(es.name).startswith(want)]
+            raise self._ambiguous(text, [self._set(n, keep=False) for n in exact], "share the name")
+        prefix = [n for n, name in names if _norm(name).startswith(want)]
         if len(prefix) == 1:
-            return prefix[0]
+            return self._set(prefix[0])
         if len(prefix) > 1:
-            raise self._ambiguous(text, prefix, "start with")
-        close = difflib.get_close_matches(text.upper(), [es.name.upper() for es in self], n=3)
+            raise self._ambiguous(text, [self._set(n, keep=False) for n in prefix], "start with")
+        close = difflib.get_close_matches(text.upper(), [name.upper() for _, name in names], n=3)
         hint = f"; did you mean {', '.join(repr(c) for c in close)}?" if close else ""
         what = "NORAD id" if text.isdigit() else "name"
         raise SatelliteNotFound(f"no satellite with {what} {text!r} in the catalog "
@@ -615,6 +827,76 @@ class Catalog:
     def select(self, keys: Iterable[str | int]) -> list[ElementSet]:
         """:meth:`get` for each key, in order."""
         return [self.get(k) for k in keys]
+
+
+def _checked_record(rec: Any, source: str, text: str | None) -> tuple[int, str, bytes]:
+    """(NORAD id, name, JSON text) of one record of a stored catalog (``text``: its JSON
+    text, if at hand), checked as when its set was built, without building a Satrec."""
+    if not isinstance(rec, dict):
+        raise ElementsError(f"{source}: expected a record (an object), found {_short(repr(rec))}")
+    if "omm" in rec:
+        norad_id = _omm_fields(dict(rec["omm"]), source)["NORAD_CAT_ID"]
+    elif "tle" in rec and len(rec["tle"]) == 2:
+        l1, l2 = (str(x) for x in rec["tle"])
+        _check_tle(l1, l2, source, 0, 0, True)
+        norad_id = _tle_norad_id(l1)
+    else:
+        raise CatalogError(f"{source}: record for {rec.get('name', '?')!r}: expected a "
+                           "'tle' pair or an 'omm' table, found neither")
+    if not rec.get("source"):   # (as ElementSet.from_record names it)
+        rec, text = dict(rec, source=source), None
+    return norad_id, str(rec.get("name", "")), (text or json.dumps(rec)).encode("utf-8")
+
+
+def _record_epoch(rec: Mapping[str, Any]) -> datetime:
+    """A stored record's epoch: as written beside it (derived from its elements when it
+    was built), else from the elements themselves."""
+    try:
+        epoch = datetime.fromisoformat(rec["epoch"])
+    except (KeyError, TypeError, ValueError):
+        return ElementSet.from_record(rec, CATALOG_FILE).epoch
+    return epoch if epoch.tzinfo is not None else epoch.replace(tzinfo=timezone.utc)
+
+
+def _record_lines(fh: IO[str], path: Path) -> Iterator[tuple[Any, str]]:
+    """The records of a catalog written by write_catalog, one a line, after its head:
+    (record, its JSON text)."""
+    for lineno, raw in enumerate(fh, start=2):
+        line = raw.strip()
+        if line == "]}":
+            rest = fh.read().strip()
+            if rest:
+                raise CatalogError(f"{path}:{lineno + 1}: corrupt catalog: text after its end: "
+                                   f"{_short(rest)}; {_REBUILD}")
+            return
+        if not line:
+            continue
+        text = line[:-1] if line.endswith(",") else line
+        try:
+            rec = json.loads(text)
+        except json.JSONDecodeError as exc:
+            raise CatalogError(f"{path}:{lineno}:{exc.colno}: corrupt catalog: {exc.msg}; "
+                               f"{_REBUILD}") from None
+        yield rec, text
+    raise CatalogError(f"{path}: corrupt catalog: it ends before its closing ']}}' (truncated); "
+                       f"{_REBUILD}")
+
+
+def _whole_catalog(raw: str, path: Path) -> list[Any]:
+    """The records of a catalog in any other JSON layout, read whole."""
+    try:
+        data = json.loads(raw)
+    except json.JSONDecodeError as exc:
+        raise CatalogError(f"{path}:{exc.lineno}:{exc.colno}: corrupt catalog: {exc.msg}; "
+                           f"{_REBUILD}") from None
+    if not isinstance(data, dict) or data.get("format") != _CATALOG_FORMAT \
+            or not isinstance(data.get("sets"), list):
+        raise CatalogError(f"{path}: expected a urc catalog (format {_CATALOG_FORMAT!r}), "
+                           "found something else")
+    if data.get("version") != _CATALOG_VERSION:
+        raise CatalogError(f"{path}: catalog version {data.get('version')!r}, this urc "
+                           f"reads version {_CATALOG_VERSION}")
+    return data["sets"]
 
 
 def write_catalog(directory: str | os.PathLike[str], records: Iterable[str]) -> Path:
@@ -650,8 +932,8 @@ def _catalog_records(directory: str | os.PathLike[str]) -> Iterator[str]:
                 if line.startswith("{"):
                     yield line
             return
-    for es in Catalog.load(directory):  # (checks the format and says what is wrong)
-        yield json.dumps(es.to_record())
+    for rec in Catalog.load(directory).records():  # (checks the format and says what is wrong)
+        yield rec.decode("utf-8")
 
 
 #: NORAD catalog numbers go to 339999 (Alpha-5: A0000..Z9999 above 99999)

@@ -6,8 +6,9 @@ ticks by ~150 ms (bench/loop_bench.py). A worker process has its own interpreter
 
 The worker is started once, on first use, with the ``spawn`` method (forking a process
 that runs threads can copy a held lock into the child), and is reused. sgp4's ``Satrec``
-cannot be pickled, so element sets travel as the text they were read from and are parsed
-again in the worker.
+cannot be pickled, so element sets travel as their catalog records (the text they were
+read from) and are parsed again in the worker; a whole catalog sends the records it holds,
+never building its sets in this process.
 """
 
 from __future__ import annotations
@@ -18,9 +19,9 @@ import os
 import threading
 from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
-from typing import Any, Iterable
+from typing import Iterable
 
-from .elements import ElementSet, parse_omm_json, parse_tle
+from .elements import Catalog, ElementSet
 from .passes import Pass, find_passes
 from .station import Station
 
@@ -28,24 +29,20 @@ _pool: ProcessPoolExecutor | None = None
 _pool_lock = threading.Lock()
 
 
-def _portable(es: ElementSet) -> tuple[str, str, Any]:
-    """What a worker needs to rebuild ``es``: its name, source and original text."""
-    if es.tle is not None:
-        return es.name, es.source, es.tle
-    if es.omm is not None:
-        return es.name, es.source, dict(es.omm)
-    raise ValueError(f"{es.label}: no TLE or OMM text to send to the pass-search process")
+def _portable(es: ElementSet) -> bytes:
+    """What a worker needs to rebuild ``es``: its record (name, source, original text)."""
+    if es.tle is None and es.omm is None:
+        raise ValueError(f"{es.label}: no TLE or OMM text to send to the pass-search process")
+    return json.dumps(es.to_record()).encode("utf-8")
 
 
-def _rebuild(item: tuple[str, str, Any]) -> ElementSet:
-    name, source, text = item
-    if isinstance(text, tuple):
-        # already checked when imported; a name line makes it a 3LE
-        return parse_tle("\n".join(([name] if name else []) + list(text)), source, checksum=False)[0]
-    return parse_omm_json(json.dumps(text), source)[0]
+def _rebuild(record: bytes) -> ElementSet:
+    # (checked when it was read: a set read without its checksum is sent as it is)
+    rec = json.loads(record)
+    return ElementSet.from_record(rec, str(rec.get("source", "")), checksum=False)
 
 
-def _search(items: list[tuple[str, str, Any]], station: Station, start_unix_s: float,
+def _search(items: list[bytes], station: Station, start_unix_s: float,
             duration_s: float, min_el_deg: float) -> list[Pass]:
     return find_passes([_rebuild(i) for i in items], station, start_unix_s,
                        duration_s=duration_s, min_el_deg=min_el_deg)
@@ -71,11 +68,12 @@ def _executor() -> ProcessPoolExecutor:
         return _pool
 
 
-def find_passes_isolated(sats: Iterable[ElementSet], station: Station, start_unix_s: float, *,
+def find_passes_isolated(sats: Iterable[ElementSet] | Catalog, station: Station, start_unix_s: float, *,
                          duration_s: float, min_el_deg: float) -> list[Pass]:
     """:func:`~urc.tracking.passes.find_passes` run in the worker process (blocking: call
-    it from a worker thread). A worker that died is replaced once."""
-    items = [_portable(es) for es in sats]
+    it from a worker thread) for some sets or a whole catalog. A worker that died is
+    replaced once."""
+    items = sats.records() if isinstance(sats, Catalog) else [_portable(es) for es in sats]
     args = (_search, items, station, start_unix_s, duration_s, min_el_deg)
     try:
         return _executor().submit(*args).result()

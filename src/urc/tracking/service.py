@@ -4,12 +4,14 @@ from __future__ import annotations
 
 import asyncio
 import logging
+import threading
 import time
 from pathlib import Path
 from typing import Any, Callable
 
 from ..config import Config
 from ..ipc import bridge
+from .catalog_process import read_catalog
 from .elements import Catalog, ElementSet
 from .errors import TrackingError
 from .pass_process import find_passes_isolated
@@ -29,6 +31,15 @@ log = logging.getLogger(__name__)
 CATALOG_CHECK_S = 5.0
 
 
+def _on_event_loop() -> bool:
+    """Is the caller on a thread running an event loop (in a bridged greenlet too)?"""
+    try:
+        asyncio.get_running_loop()
+        return True
+    except RuntimeError:
+        return False
+
+
 def realtime_unix_at(now_s: float) -> float:
     """UTC seconds for a RealClock (monotonic) time."""
     return time.time() - (time.monotonic() - now_s)
@@ -39,13 +50,17 @@ class TrackingService:
 
     def __init__(self, rotator, cfg: Config, unix_at: Callable[[float], float] = realtime_unix_at,
                  catalog_dir: Path | None = None, background: bool = False):
-        """``background``: search and plan passes and reload the catalog on a worker
-        thread (``urc run``: the event loop must never go silent); else at once."""
+        """``background``: read the catalog, search and plan passes on a worker thread
+        (``urc run``: the event loop must never go silent, issue 33), and import what the
+        first requests need on another (:mod:`urc.tracking.warm_up`); else at once."""
         self.rot = rotator
         self.cfg = cfg
         self.unix_at = unix_at
         self.catalog_dir = catalog_dir or cfg.tracking.resolve_catalog_dir()
         self._executor: Any = None
+        #: held while the catalog is read and installed: one reader at a time, whichever
+        #: thread asked (the worker, a pass search's thread, the schedule's)
+        self._catalog_lock = threading.RLock()
         if background:
             from concurrent.futures import ThreadPoolExecutor
 
@@ -64,6 +79,13 @@ class TrackingService:
         self._schedule: list[Pass] = []
         self._tasks: list[asyncio.Task] = []
         self._target_reader: asyncio.Task | None = None
+        if background and self.station is not None:
+            from .warm_up import warm_up
+
+            # the catalog read at once (the first `urc track` or pass list finds it), and
+            # what the first requests import imported beside it
+            self._executor.submit(self._preload_catalog)
+            threading.Thread(target=warm_up, name="urc-warm-up", daemon=True).start()
 
     def _set_station(self, station: Station) -> None:
         self.station = station
@@ -114,14 +136,29 @@ class TrackingService:
         return self.station
 
     def catalog(self, reload: bool = False) -> Catalog:
-        """The element catalog, read again when the file changed since it was read."""
-        sig = self._catalog_signature()
-        if self._catalog is None or reload or sig != self._catalog_sig:
-            had = self._catalog is not None
-            cat = Catalog.load(self.catalog_dir)
-            self._install_catalog(sig, cat, self._replanned_schedule(cat) if had else None, announce=had)
-        assert self._catalog is not None
-        return self._catalog
+        """The element catalog, read again when the file changed since it was read: on
+        the worker, never on the event loop's thread (a bridged caller is suspended
+        meanwhile; 100 000 sets are seconds of CPU, and the loop's silence stops the axes)."""
+        if self._catalog is not None and not reload and self._catalog_signature() == self._catalog_sig:
+            return self._catalog
+        return self._off_loop(self._load_catalog, reload)
+
+    def _load_catalog(self, reload: bool) -> Catalog:
+        """Read the catalog if it changed (or ``reload``), and install it; off the loop."""
+        with self._catalog_lock:
+            sig = self._catalog_signature()
+            if self._catalog is None or reload or sig != self._catalog_sig:
+                had = self._catalog is not None
+                cat = read_catalog(self.catalog_dir)
+                self._install_catalog(sig, cat, self._replanned_schedule(cat) if had else None, announce=had)
+            assert self._catalog is not None
+            return self._catalog
+
+    def _preload_catalog(self) -> None:
+        try:
+            self._load_catalog(False)
+        except Exception as exc:  # said again by whatever asks for it next
+            log.warning("element catalog not read: %s", exc)
 
     def _catalog_signature(self) -> tuple | None:
         try:
@@ -132,9 +169,10 @@ class TrackingService:
 
     def _read_catalog(self) -> tuple[tuple | None, Catalog, list[Pass] | None]:
         """(signature, catalog, the schedule re-planned on it): may run on the worker."""
-        sig = self._catalog_signature()
-        cat = Catalog.load(self.catalog_dir)
-        return sig, cat, self._replanned_schedule(cat)
+        with self._catalog_lock:
+            sig = self._catalog_signature()
+            cat = read_catalog(self.catalog_dir)
+            return sig, cat, self._replanned_schedule(cat)
 
     def _replanned_schedule(self, cat: Catalog) -> list[Pass] | None:
         if not self._scheduled or self.station is None:
@@ -213,10 +251,12 @@ class TrackingService:
         while the control loop runs must not hold its interpreter)."""
         station = self._require_station()
         cat = self.catalog()
-        chosen = [cat.get(s) for s in sats] if sats else [cat.get(e.sat) for e in self.cfg.tracking.schedule] \
-            or list(cat)
-        search = find_passes_isolated if isolated else find_passes
-        return search(chosen, station, self.now_unix(), duration_s=hours * 3600.0, min_el_deg=min_el_deg)
+        chosen = [cat.get(s) for s in sats] if sats else [cat.get(e.sat) for e in self.cfg.tracking.schedule]
+        if isolated:  # (a whole catalog goes as its records: its sets are not built here)
+            return find_passes_isolated(chosen or cat, station, self.now_unix(), duration_s=hours * 3600.0,
+                                        min_el_deg=min_el_deg)
+        return find_passes(chosen or list(cat), station, self.now_unix(), duration_s=hours * 3600.0,
+                           min_el_deg=min_el_deg)
 
     # ---------------------------------------------------------------- commands
     def make_target(self, spec: dict[str, Any]) -> Target:
@@ -244,7 +284,8 @@ class TrackingService:
             key = spec.get("norad") if spec.get("norad") is not None else spec.get("name")
             if key is None:
                 raise TrackingError("a satellite needs a name or a NORAD id")
-            return SatelliteTarget(self.catalog().get(key), station)
+            # (a name is looked for through the whole catalog: on the worker too)
+            return SatelliteTarget(self._off_loop(self._lookup, key), station)
         raise TrackingError(f"unknown target kind {kind!r}; expected sun, moon, azel, point or satellite")
 
     def track(self, spec: dict[str, Any]) -> dict[str, Any]:
@@ -253,25 +294,37 @@ class TrackingService:
         self._stop_reader()
         target = self.make_target(spec)
         self.tracker.track(target, self.rot.clock.now_s())
-        return self.status() or {}
+        return self._status_off_loop()
 
     def track_pass(self, norad: int, aos: Any) -> dict[str, Any]:
         """Fly the pass of ``norad`` whose AOS is near ``aos`` (datetime or UTC seconds)."""
         station = self._require_station()
         aos_unix_s = aos.timestamp() if hasattr(aos, "timestamp") else float(aos)
-        es = self.catalog().get(norad)
         tracker = self.tracker
         assert tracker is not None  # (made with the station)
         generation = tracker.generation
-        job = self._off_loop(self._find_and_plan_pass, es, station, aos_unix_s, self.rot.clock.now_s())
+        job = self._off_loop(self._find_and_plan_pass, norad, station, aos_unix_s, self.rot.clock.now_s())
         if tracker.generation != generation:  # a stop or another target meanwhile: it wins
-            raise TrackingError(f"the pass of {es.label} was not flown: another tracking command came "
-                                "while it was being planned")
+            raise TrackingError(f"the pass of {job.target.name} was not flown: another tracking command "
+                                "came while it was being planned")
         tracker.fly(job)
-        return self.status() or {}
+        return self._status_off_loop()
 
-    def _find_and_plan_pass(self, es: ElementSet, station: Station, aos_unix_s: float, now_s: float):
-        """The pass of ``es`` whose AOS is near ``aos_unix_s``, planned (pure: a worker may run it)."""
+    def _status_off_loop(self) -> dict[str, Any]:
+        """The status a command answers with: computed in a thread when asked on the event
+        loop (a ground track is tens of ms of skyfield), not on the tracking worker (it
+        may be planning the next pass for seconds)."""
+        if self._executor is None or not _on_event_loop() or not bridge.in_bridge():
+            return self.status() or {}
+        return bridge.wait(asyncio.get_running_loop().run_in_executor(None, self.status)) or {}
+
+    def _lookup(self, key: str | int) -> ElementSet:
+        return self.catalog().get(key)
+
+    def _find_and_plan_pass(self, norad: int, station: Station, aos_unix_s: float, now_s: float):
+        """The pass of ``norad`` whose AOS is near ``aos_unix_s``, planned (pure: a worker may
+        run it; the catalog is read there if it changed)."""
+        es = self._lookup(norad)
         found = [p for p in find_passes(es, station, aos_unix_s - 600.0, duration_s=1800.0,
                                         min_el_deg=self.cfg.tracking.min_el_deg)
                  if abs(p.aos_unix_s - aos_unix_s) < 300.0]
@@ -281,15 +334,19 @@ class TrackingService:
         return self.tracker.plan_pass(es, found[0], now_s)
 
     def _off_loop(self, fn: Callable[..., Any], *args: Any) -> Any:
-        """``fn(*args)`` on the worker when there is one (``urc run``). A caller on the
-        event loop (a web route's bridged call) is suspended meanwhile, never the loop:
-        a pass search and plan cost seconds of CPU under load, and the loop's silence
-        stops the axes (issue 21)."""
-        if self._executor is None:
+        """``fn(*args)`` never on the event loop's thread when there is a worker (``urc
+        run``): called there (a web route's or MQTT command's bridged call, the tracker's
+        step), it runs on the worker and the caller is suspended meanwhile, never the loop:
+        a catalog read, a pass search and plan cost seconds of CPU under load, and the
+        loop's silence stops the axes (issues 21, 33). Called on any other thread (the
+        worker itself, a pass search's), it runs there."""
+        if self._executor is None or not _on_event_loop():
             return fn(*args)
         future = self._executor.submit(fn, *args)
         if bridge.in_bridge():
             return bridge.wait(asyncio.wrap_future(future))
+        log.warning("%s called on the event loop outside a bridge: the loop waits for it",
+                    getattr(fn, "__name__", fn))
         return future.result()
 
     def _stop_reader(self) -> None:
@@ -328,7 +385,8 @@ class TrackingService:
             nxt = self._schedule[0]
             if self.unix_at(now_s) < nxt.los_unix_s:
                 # the catalog as installed (a changed file is read by _watch_catalog, on
-                # the worker); the plan is made there too
+                # the worker; none yet: read there, this bridged step suspended meanwhile);
+                # the plan is made there too
                 cat = self._catalog if self._catalog is not None else self.catalog()
                 self.tracker.start_pass(cat.get(nxt.norad_id), nxt, now_s)
             self._schedule.pop(0)

@@ -93,16 +93,32 @@ class Hub:
         self._tracking_t = time.monotonic()
 
     def tracking(self) -> dict | None:
-        """The tracker's status, at most TRACKING_REFRESH_S old. Computing it costs tens of
-        ms (ground track, pass plan), too much for every frame on the control loop's
-        thread: the sampler refreshes it in a worker thread about once a second. The
-        setpoint itself reaches the page every frame through the rotator's target."""
+        """The tracker's status, refreshed when TRACKING_REFRESH_S old. Computing it costs
+        tens of ms (ground track, pass plan; a first one imports skyfield, seconds), so
+        never on the event loop: a stale one is refreshed in a worker thread, started
+        here, and the last one is returned meanwhile (``fresh_tracking`` waits for it).
+        The setpoint itself reaches the page every frame through the rotator's target."""
         if self.tracker is None:
             return None
-        if self._task is None or self._task.done():
-            if time.monotonic() - self._tracking_t > TRACKING_REFRESH_S:
-                self.refresh_tracking_now()
+        if time.monotonic() - self._tracking_t > TRACKING_REFRESH_S:
+            self._start_refresh()
         return self._tracking
+
+    def _start_refresh(self) -> None:
+        if self._tracking_busy:
+            return
+        try:
+            loop = asyncio.get_running_loop()
+        except RuntimeError:  # (no event loop on this thread: it may compute it itself)
+            self.refresh_tracking_now()
+            return
+        self._tracking_busy = True
+        loop.create_task(self._refresh_tracking())
+
+    async def fresh_tracking(self) -> None:
+        """Bring the tracker's status up to date if it is stale (in a worker thread)."""
+        if self.tracker is not None and time.monotonic() - self._tracking_t > TRACKING_REFRESH_S:
+            await self.refresh_tracking()
 
     async def _refresh_tracking(self) -> None:
         try:
@@ -169,10 +185,8 @@ class Hub:
     async def _run(self) -> None:
         next_s = time.monotonic()
         while True:
-            if (self.tracker is not None and not self._tracking_busy
-                    and time.monotonic() - self._tracking_t > TRACKING_REFRESH_S):
-                self._tracking_busy = True
-                asyncio.get_running_loop().create_task(self._refresh_tracking())
+            if self.tracker is not None and time.monotonic() - self._tracking_t > TRACKING_REFRESH_S:
+                self._start_refresh()
             try:
                 self.frame_text = self.build_frame()
                 if self.jogs:

@@ -129,6 +129,9 @@ class StatusDoc(BaseModel):
                                     "(setup | process_tle | predict | track | report), document (the "
                                     "document's name: setup, PROCESS_TLE, PREDICT, TRACK_MOTOR, "
                                     "UPDATE_SERVER) and why (urc.tracking.cycle)")
+    loop_lag: dict | None = Field(description="how late the I/O process's event loop ran a 0.1 s timer "
+                                              "(urc.servers.loop_lag): p50_ms, p99_ms, max_ms over window_s, "
+                                              "max_since_start_ms, samples; null when the probe is not running")
 
 
 class ZoneInfo(BaseModel):
