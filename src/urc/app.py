@@ -130,6 +130,8 @@ async def _serve(cfg: Config, state_dir: Path, config_path: Path | None, api_soc
 
     stop = asyncio.Event()
     loop = asyncio.get_running_loop()
+    from .servers import loop_lag
+    loop_lag.start()  # how late this loop runs a 0.1 s timer: /api/status "loop_lag"
     asked: list[str] = []  # why this process stops, when it was asked to (a signal)
     supervised = cfg.faults.control_takeover_s > 0
     # (supervised: a control process that is lost is started again by its watch, and
