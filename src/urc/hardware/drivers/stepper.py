@@ -2,10 +2,14 @@
 
 :class:`StepDirMotor` turns the drive (-1..1, the law's duty) into a step rate, duty 1
 being the profile's top speed, and hands each tick's steps to the pulse train (lgpio's
-queue, :mod:`..gpio.stepdir`) as one entry of an exact count. The rate never changes
-by more than the profile's acceleration per tick and never exceeds its top speed: that
-envelope is what keeps the demanded torque under the motor's pull-out curve (the
-simulator's model, :mod:`..sim.stepper`, checks it). The direction pin changes only
+queue, :mod:`..gpio.stepdir`) as one entry of an exact count. The rate never exceeds
+the profile's top speed and never changes faster than ``max_accel_deg_per_s2`` (the
+builder gives :data:`ENVELOPE_ACCEL_FACTOR` times the profile's acceleration): the
+envelope that keeps the demanded torque under the motor's pull-out curve (the
+simulator's model, :mod:`..sim.stepper`, checks it with margin). It is wider than the
+profile's own ramp because urc's law plans that ramp in duty and brakes harder near a
+target (a DC motor's duty is not its speed); a stepper held to the firmware's ramp
+alone coasts on for seconds past where the law stopped driving. The direction pin changes only
 with the queue empty (the rate ramps through 0 first), so DIR is stable long before
 any STEP edge (the datasheets' setup times are 20-650 ns).
 
@@ -28,9 +32,11 @@ from typing import Any, Callable
 
 from ...caps import SensorCaps
 from ...errors import HardwareError, SensorError
-from ..gpio.stepdir import MAX_LIBRARY_TIMED_HZ, StepDirChip, pulse_times_us
+from .stepdir_chips import MAX_LIBRARY_TIMED_HZ, StepDirChip, pulse_times_us
 from ..parts import DigitalOut
 
+#: the driver's acceleration envelope over the profile's ramp (see the module's text)
+ENVELOPE_ACCEL_FACTOR = 8.0
 #: the train is queued this far ahead of the tick (in ticks): one late tick does not
 #: leave it empty (an empty queue is a sudden stop at full speed)
 LEAD_TICKS = 2
@@ -46,13 +52,13 @@ class StepDirMotor:
 
     def __init__(self, name: str, chip: StepDirChip, pulses: Any, dir_out: DigitalOut,
                  enable: DigitalOut | None, now_s: Callable[[], float], *, steps_per_deg: float,
-                 max_rate_deg_per_s: float, accel_deg_per_s2: float, tick_s: float = 0.02,
+                 max_rate_deg_per_s: float, max_accel_deg_per_s2: float, tick_s: float = 0.02,
                  dir_reversed: bool = False):
         self.name, self.chip, self.pulses = name, chip, pulses
         self.dir_out, self.enable, self.now_s = dir_out, enable, now_s
         self.steps_per_deg = float(steps_per_deg)
         self.max_sps = max_rate_deg_per_s * self.steps_per_deg
-        self.accel_sps2 = accel_deg_per_s2 * self.steps_per_deg
+        self.accel_sps2 = max_accel_deg_per_s2 * self.steps_per_deg
         if self.max_sps > MAX_LIBRARY_TIMED_HZ:
             raise HardwareError(f"{name}: {self.max_sps:.0f} steps/s is over the {MAX_LIBRARY_TIMED_HZ:.0f} "
                                 "a library-timed pulse train keeps up with (fewer microsteps?)")
@@ -96,6 +102,11 @@ class StepDirMotor:
                 k = min(abs(steps), math.floor((now - start) / period + 1e-9) + 1)
                 n += int(math.copysign(k, steps))
         return n
+
+    def at_rest(self) -> bool:
+        """No step asked for and every queued one out."""
+        self.steps()
+        return self.rate_sps == 0.0 and not self._sched
 
     def _queued_end_s(self) -> float:
         if not self._sched:
@@ -240,8 +251,8 @@ class StepCountSensor:
 
     def read_deg(self) -> float:
         deg = self.reference_deg + self.motor.steps() / self.motor.steps_per_deg
-        if self.check is not None:
-            self._compare(deg)
+        if self.check is not None and self.motor.at_rest():
+            self._compare(deg)            # (at rest: an I2C read's age is no error then)
         return deg
 
     def _compare(self, deg: float) -> None:
@@ -262,6 +273,8 @@ class StepCountSensor:
         self.reference_deg = float(angle_deg) - self.motor.steps() / self.motor.steps_per_deg
         self._check_offset_deg = None
         self.motor.re_referenced()
+        if self.check is not None and self.motor.at_rest():
+            self._compare(float(angle_deg))     # where the two agree from now on
 
     def calibration(self) -> dict[str, Any]:
         return {"reference_deg": self.reference_deg}

@@ -87,8 +87,10 @@ class EmulatedStepDirChip:
     while ENABLE is active and the motor supply is on (``powered()``)."""
 
     def __init__(self, chip: StepDirChip, axis: Any, dir_pin: Any, enable_pin: Any | None,
-                 powered: Callable[[], bool] = lambda: True, positive_dir_level: bool = True):
+                 powered: Callable[[], bool] = lambda: True, positive_dir_level: bool = True,
+                 enable_active_low: bool | None = None):
         self.chip, self.axis = chip, axis
+        self.enable_active_low = chip.enable_active_low if enable_active_low is None else enable_active_low
         self.dir_pin, self.enable_pin, self.powered = dir_pin, enable_pin, powered
         self.positive_dir_level = positive_dir_level
         self.dir_violations = 0
@@ -99,7 +101,7 @@ class EmulatedStepDirChip:
         if self.enable_pin is None:
             return True
         level = bool(self.enable_pin.state)
-        return level != self.chip.enable_active_low
+        return level != self.enable_active_low
 
     def on_pulses(self, n: int, period_s: float, last_edge_s: float) -> None:
         level = bool(self.dir_pin.state)
@@ -110,3 +112,59 @@ class EmulatedStepDirChip:
         self._last_dir, self._last_edge_s = level, last_edge_s
         direction = 1 if level == self.positive_dir_level else -1
         self.axis.steps(n, direction, period_s, last_edge_s, enabled=self.enabled() and self.powered())
+
+
+class EmulatedStepper:
+    """The step/dir driver as the backend hands it out when emulated: each drive first
+    brings the world and the pulses emitted up to now (one step of the iron, under the
+    world's lock, as :class:`.feed.EmulatedMotor` does)."""
+
+    def __init__(self, driver: Any, world: Any, sync: Callable[[], None]):
+        self.driver, self.world, self.sync = driver, world, sync
+
+    def set_drive(self, duty: float) -> None:
+        with self.world.lock:
+            self.world.catch_up()
+            self.sync()
+            self.driver.set_drive(duty)
+
+    def force_safe(self) -> None:
+        with self.world.lock:
+            self.world.catch_up()
+            self.sync()
+            self.driver.force_safe()
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self.__dict__["driver"], name)
+
+
+def wire_emulated_stepper(name: str, motor: Any, sensor: Any, world: Any, emu: Any, cfg: Any) -> EmulatedStepper:
+    """The simulator's stepper axis (:mod:`..sim.stepper`) behind ``motor``'s pins: its
+    pulse queue feeds the emulated chip, which moves the model; every poll the model's
+    angle becomes the simulated axis' (the DC stand-in of the plain simulator stays
+    unpowered by its own drive), so limit switches, an AS5600 and the truth all see it."""
+    import dataclasses
+
+    from ..sim.stepper import StepperAxis, satnogs_v3_stepper
+
+    phys = world.axes[name]
+    base = satnogs_v3_stepper(cfg.microsteps)
+    # the gear ratio that gives this axis' steps per degree at its microstep
+    params = dataclasses.replace(base, gear_ratio=motor.steps_per_deg * 360.0 / (
+        base.microsteps * base.full_steps_per_turn))
+    model = StepperAxis(params, phys.load_deg)
+    chip = EmulatedStepDirChip(motor.chip, model, motor.dir_out.pin,
+                               motor.enable.pin if motor.enable is not None else None,
+                               powered=lambda: bool(phys.powered), positive_dir_level=not cfg.dir_reversed,
+                               enable_active_low=cfg.enable_active_low)
+    motor.pulses.sink = chip.on_pulses
+
+    def sync() -> None:
+        motor.pulses.advance()
+        phys.gear_deg = phys.load_deg = model.angle_deg
+        phys.gear_deg_per_s = phys.load_deg_per_s = 0.0
+
+    emu.syncs.insert(0, sync)           # before the sensors and switches read the axis
+    emu.parts[f"{name} stepper"] = chip
+    sensor.set_reference_deg(phys.load_deg)   # a fresh rotator starts referenced, as the sim's
+    return EmulatedStepper(motor, world, sync)
