@@ -49,6 +49,8 @@ pulse count, so a stop would cut a period at an unknown step, and the peripheral
 
 from __future__ import annotations
 
+from typing import Any
+
 from ..drivers.stepdir_chips import (LG_MIN_PERIOD_US, LG_TX_BUF, MAX_LIBRARY_TIMED_HZ, STEPDIR_CHIPS,  # noqa: F401
                                      StepDirChip, pulse_times_us)
 
@@ -57,10 +59,10 @@ class LgpioStepPulses:
     """The STEP pin as lgpio's pulse queue (on a Pi; the emulation has its own,
     :class:`..gpio.emulate_stepdir.EmulatedTxQueue`, with the same calls)."""
 
-    def __init__(self, factory: object, pin: int):
+    def __init__(self, factory: Any, pin: int):
         import lgpio
         self._lg = lgpio
-        self.handle = getattr(factory, "_handle")   # gpiozero's LGPIOFactory chip handle
+        self.handle = factory._handle   # gpiozero's LGPIOFactory chip handle
         self.pin = pin
         lgpio.gpio_claim_output(self.handle, pin, 0)
 
