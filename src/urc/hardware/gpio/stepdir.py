@@ -18,33 +18,46 @@ bcccd78). What it does, and what that means here:
   (``tx_pulse(h, g, 0, 0)``: the record goes inactive at once, mid-entry).
 * ``tx_room`` is 10 minus the entries queued, ``tx_busy`` whether any is running. lg
   does not say how many pulses of the running entry are out, so the driver keeps its
-  own schedule of the entries it queued (:class:`TxSchedule`) and reads the count from
-  it; it is exact whenever the queue has drained (every normal stop) and within the
+  own schedule of the entries it queued (:meth:`..drivers.stepper.StepDirMotor.steps`)
+  and reads the count from it; it is exact whenever the queue has drained (every normal stop) and within the
   pulses of one entry while one runs.
 * The pulses are timed by lg's own thread (``lgPthTx``), on a Pi 4 and a Pi 5 alike
-  (lg has no DMA path; on a Pi 5 the pins are the RP1's, /dev/gpiochip4 before kernel
-  6.6.45, gpiochip0 after): it sleeps with ``clock_nanosleep`` to an absolute deadline
-  for every edge and writes the line through the gpiochip character device. Every
-  pulse is therefore two thread wake-ups and two ioctls: the edges jitter by the
-  kernel's wake-up latency (tens of microseconds typical on a stock kernel, into
-  hundreds under load; not measured on a Pi here: there is none) and a late edge is
-  late, never dropped, because deadlines are absolute (``pthTxReq`` advances by the
-  nominal period whatever the wake-up was).
-* The SatNOGS rate, 3200 steps/s (1/8 microstep, the firmware's top speed), is a
-  period of 312 us: 6400 wake-ups a second, and a jitter of 50 us is a sixth of a
-  period. A stepper driver counts rising edges, so jitter moves steps in time (a
-  speed ripple the rotor's inertia filters) but loses none as long as each pulse
-  stays over the chip's minimum width; the high time is set to half the period, far
-  over the 1-2 us minima. At 1/16 microstep with the same axis speed the rate doubles
-  (6400 steps/s); the 51 kHz of 3200 full-step-equivalent speed at x16 would be 102 000
-  wake-ups a second, over what a Python-free but unprivileged thread keeps up with:
-  pulses then fall behind (late, still counted). :data:`MAX_LIBRARY_TIMED_HZ` is the
-  ceiling this module accepts; a faster axis needs a hardware PWM channel with a
-  counted burst or a driver with its own pulse generator (TMC2209's VACTUAL).
+  (lg has no DMA path; on a Pi 5 the pins are the RP1's: gpiozero 2.0.1's
+  LGPIOFactory opens /dev/gpiochip4 on a Pi 5 where it exists, else gpiochip0): it
+  sleeps with ``clock_nanosleep`` to an absolute deadline for every edge and writes the
+  line through the gpiochip character device. Every pulse is therefore two thread
+  wake-ups and two ioctls: the edges jitter by the kernel's wake-up latency (measured
+  below on this machine; not on a Pi: there is none) and a late edge is late, never
+  dropped, because deadlines are absolute (``pthTxReq`` advances by the nominal period
+  whatever the wake-up was).
+* lg starts that thread in ``gpiochip_open`` with default attributes, so it inherits
+  the opener's scheduling: urc's control process opens the chip after raising itself to
+  SCHED_FIFO 5 (``service.control_process._realtime``, with the systemd unit's
+  CAP_SYS_NICE), so the pulse thread runs real-time there; elsewhere it runs at normal
+  priority.
+* After a late wake-up lg writes the overdue edges back to back (each loop pass handles
+  one edge and the next deadline is already past): the count stays exact, but the steps
+  come as a burst the rotor may not follow. That, not the count, is this method's risk.
+* The SatNOGS rate, 3200 steps/s (1/8 microstep, the firmware's top speed), is a period
+  of 312 us: 6400 wake-ups a second. ``bench/step_pulse_bench.py`` measures lg's loop
+  (without the ioctl) on the machine it runs on. On the shared, loaded 2-core VM this was
+  written on, at SCHED_FIFO 5: edge lateness p50 30 us at 3200 steps/s, but p99 29 ms
+  and max 54 ms (the VM's stolen time): it kept up (p99 under a quarter period) only at
+  800 steps/s; at normal priority p99 was 18 ms. A Pi running only urc should do far
+  better (no hypervisor), but that is not measured here: run the bench on the Pi.
+  Where the bursts matter, the AS5600 check (:class:`..drivers.stepper.StepCountSensor`)
+  turns what they cost into a fault instead of an unseen error.
+* 1/16 microstep at the same axis speed doubles the rate (6400 steps/s); the 51 kHz of
+  x16 on the firmware's 3200 figure would be 102 000 wake-ups a second, beyond any
+  per-edge thread (here each wake-up alone took 16 us). :data:`MAX_LIBRARY_TIMED_HZ` is
+  the ceiling this module accepts; a faster axis needs hardware timing.
 
-Hardware PWM (the PWM peripheral's clock, jitter-free) was not chosen: it has no
-pulse count, so a stop would cut a period at an unknown step, and the peripheral's two
-(Pi 4) or four (Pi 5) channels are taken by the DC bridges' PWM on other machines.
+Not chosen: hardware PWM (the peripheral's clock, jitter-free) has no pulse count, so a
+stop cuts the train at an unknown step, and its two (Pi 4) or four (Pi 5) channels serve
+the DC bridges on other machines; pigpio's DMA waves are hardware-timed and counted but
+pigpio does not run on a Pi 5; the Pi 5's RP1 PIO (Raspberry Pi's ``piolib``) could
+generate counted trains in hardware but was not tried here. Those are the upgrade path
+if the bench on a Pi shows bursts.
 """
 
 from __future__ import annotations
