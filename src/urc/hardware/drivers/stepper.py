@@ -80,6 +80,7 @@ class StepDirMotor:
         self._reported = ""
         self._lock = threading.Lock()
         self.closed = False
+        self._dir_level = True
         self._write_dir(1)
         if self.enable is not None:
             self.enable.write(True)       # holding torque: the worm and the count stay put
@@ -172,8 +173,7 @@ class StepDirMotor:
         self._sched.append([sign * n, (high + low) * 1e-6, start])
 
     def _dir_level_sign(self) -> int:
-        level = self.dir_out.read_back() if hasattr(self.dir_out, "read_back") else self._dir_level
-        return (1 if level else -1) * (-1 if self.dir_reversed else 1)
+        return (1 if self._dir_level else -1) * (-1 if self.dir_reversed else 1)
 
     def _write_dir(self, sign: int) -> None:
         level = (sign > 0) != self.dir_reversed

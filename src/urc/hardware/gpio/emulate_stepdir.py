@@ -77,6 +77,10 @@ class EmulatedTxQueue:
             if self._entries and self._entries[0][3] < end_s:
                 self._entries[0][3] = end_s
 
+    def identify(self) -> str:
+        return (f"lgpio tx_pulse queue (emulated), {LG_TX_BUF - self.room()} of {LG_TX_BUF} entries queued, "
+                f"{self.emitted} pulses out")
+
     def __repr__(self) -> str:
         return "step pulses (lgpio tx_pulse, emulated)"
 

@@ -94,5 +94,9 @@ class LgpioStepPulses:
         self._lg.tx_pulse(self.handle, self.pin, 0, 0, 0, 0)
         self._lg.gpio_write(self.handle, self.pin, 0)
 
+    def identify(self) -> str:
+        return (f"GPIO{self.pin}: lgpio tx_pulse queue, {LG_TX_BUF - self.room()} of {LG_TX_BUF} entries "
+                "queued (library-timed by lg's thread)")
+
     def __repr__(self) -> str:
         return f"GPIO{self.pin} step pulses (lgpio tx_pulse)"
