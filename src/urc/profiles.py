@@ -143,17 +143,18 @@ PROFILES: dict[str, RotatorCaps] = {
     # from the homing endstops (its seek, ino:105-106), where it parks (globals.h:59). The
     # step count is its position (incremental: homing re-references it). min_rate: a
     # stepper has no stall speed; the slowest speed urc asks is a tenth of the top.
+    # limit_switches: its homing endstop, one per axis at the low end (gpio: limit_min).
     "satnogs-v3": RotatorCaps(
         name="satnogs-v3",
         description="SatNOGS rotator v3: steppers, 54:1 worms, homing endstops, 0-360 az, 0-180 el",
         az=AxisCaps(name="az", min_deg=0.0, max_deg=360.0, park_deg=0.0,
                     max_rate_deg_per_s=40.0 / 3.0, min_rate_deg_per_s=4.0 / 3.0, accel_deg_per_s2=20.0 / 3.0,
                     sensor=SensorCaps(kind="encoder", resolution_deg=1.0 / 240.0, absolute=False),
-                    tolerance_deg=0.05, restart_deg=0.1),
+                    tolerance_deg=0.05, restart_deg=0.1, limit_switches=True),
         el=AxisCaps(name="el", min_deg=0.0, max_deg=180.0, park_deg=0.0,
                     max_rate_deg_per_s=40.0 / 3.0, min_rate_deg_per_s=4.0 / 3.0, accel_deg_per_s2=20.0 / 3.0,
                     sensor=SensorCaps(kind="encoder", resolution_deg=1.0 / 240.0, absolute=False),
-                    tolerance_deg=0.05, restart_deg=0.1),
+                    tolerance_deg=0.05, restart_deg=0.1, limit_switches=True),
         command_sets=("easycomm2", "rotctld"),
     ),
 }

@@ -449,7 +449,8 @@ DEAD_SENSOR_FAULTS = {"tartu-urc": {"sensor_stuck"}, "bigras": {"stall"}, "berke
                       "g5500": {"sensor_jump", "sensor_range"}, "trc-turntable": {"stall"}}
 
 
-@pytest.mark.parametrize("path", EXAMPLES, ids=lambda p: p.stem)
+# (not satnogs-v3: its position is the step count, no sensor part for the fault to reach)
+@pytest.mark.parametrize("path", [p for p in EXAMPLES if p.stem != "satnogs-v3"], ids=lambda p: p.stem)
 def test_simulator_sensor_dead_reaches_the_emulated_part(path, tmp_path):
     rot, clock = emulated(path, tmp_path)
     world = rot.hw.world

@@ -17,6 +17,7 @@ from urc.config.issues import error_from_issues
 from urc.errors import ConfigError
 from urc.hardware.drivers import (As5600Sensor, Bts7960Motor, CompassSensor, Lmd18200Motor, PotSensor,
                                   PwmDirMotor, QuadratureEncoder, RelayMotor, SpidPulseSensor, Vnh5019Motor)
+from urc.hardware.drivers.stepper import StepDirMotor
 from urc.hardware.gpio import build_gpio_hardware
 from urc.hardware.gpio.checks import gpio_issues
 from urc.hardware.gpio.kinds import MOTORS, SENSORS
@@ -25,7 +26,7 @@ EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 
 #: what each motor kind must be built as (written out here, not read from the table)
 MOTOR_CLASSES = {"vnh5019": Vnh5019Motor, "lmd18200": Lmd18200Motor, "bts7960": Bts7960Motor,
-                 "pwm_dir": PwmDirMotor, "relay": RelayMotor}
+                 "pwm_dir": PwmDirMotor, "relay": RelayMotor, "stepdir": StepDirMotor}
 #: a shipped example per sensor kind, and the driver it must get
 SENSOR_EXAMPLES = {"encoder": ("tartu-urc", QuadratureEncoder), "pulse": ("bigras", SpidPulseSensor),
                    "pot": ("g4jnt", PotSensor), "as5600": ("berkeley", As5600Sensor),
@@ -47,7 +48,9 @@ def _motor_config(kind: str) -> dict:
     caps = Config.from_dict(data).caps
     for name in ("az", "el"):
         ax = data["hardware"]["gpio"][name]
-        need = list(MOTORS[kind].pins) + list(SENSORS[caps.axis(name).sensor.kind].pins)
+        # (a stepper is its own sensor: its step count)
+        need = list(MOTORS[kind].pins) + ([] if MOTORS[kind].own_sensor is not None
+                                          else list(SENSORS[caps.axis(name).sensor.kind].pins))
         need += ["brake"] if caps.axis(name).brake else []
         ax["motor"] = kind
         ax["pins"] = dict(zip(need, POOL[name]))

@@ -49,7 +49,8 @@ class GpioAxis(Section):
 
     The sensor comes from the profile (encoder, pulse, pot, as5600, magnetometer); the
     pins each motor driver needs: vnh5019 ina inb pwm; lmd18200 pwm dir bridge_brake;
-    bts7960 rpwm lpwm; pwm_dir pwm dir; relay cw ccw [fast]. Sensors: encoder enc_a
+    bts7960 rpwm lpwm; pwm_dir pwm dir; relay cw ccw [fast]; stepdir step dir [enable
+    ms1 ms2 ms3] (its step count is the axis' sensor, whatever the profile's). Sensors: encoder enc_a
     enc_b [enc_z]; pulse pulse. Also brake (the brake relay) and limit_min / limit_max.
     """
 
@@ -116,6 +117,21 @@ class GpioAxis(Section):
     encoder_index_period_deg: float = num(360.0, gt=0.0, le=360.0)
     #: counts an encoder may move with its motor off before that is a fault; None = no check
     encoder_drift_counts: int | None = Field(default=20, ge=1)
+    #: motor = "stepdir": the driver chip (a4988, drv8825, tmc2208, tmc2209: its timing and
+    #: microstep table, urc.hardware.gpio.stepdir), the microstep it is set to (by pins
+    #: ms1..ms3 when wired, in the chip's order: DRV8825 MODE0..2; else by the board's
+    #: jumpers), and the steps per axis degree (None = the profile's step, 1 / resolution)
+    stepper_driver: str = "a4988"
+    microsteps: int = Field(default=8, ge=1, le=256)
+    steps_per_deg: float | None = num(None, gt=0.0, le=100000.0)
+    #: the enable input's level that turns the outputs on: None = the chip's (all four:
+    #: low); True/False to override (a board with an inverter)
+    enable_active_low: bool | None = None
+    #: DIR low turns the axis the way its angle grows (the motor wired the other way)
+    dir_reversed: bool = False
+    #: an AS5600 on the axis (i2c_bus / i2c_address / i2c_mux_channel) checks the step
+    #: count: lost steps become a fault instead of an unseen error
+    as5600_check: bool = False
 
 
 class GpioSection(Section):

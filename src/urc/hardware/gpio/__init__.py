@@ -155,12 +155,20 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
             where = f"SPI0 CE{cfg.spi_device}" if cfg.adc == "mcp3008" else on_bus
             parts_list.append((f"{name} current sense {cfg.adc.upper()} ch{cfg.current_sense_channel} "
                                f"({where})", cs_chip))
+        def pulses(key: str, pins: dict[str, int] = pins) -> Any:
+            if emulate:
+                from .emulate_stepdir import EmulatedTxQueue
+                return EmulatedTxQueue(clock.now_s, sink=lambda *a: None)   # the chip is fed in later
+            from .stepdir import LgpioStepPulses
+            return LgpioStepPulses(factory, pins[key])
+
         wiring = AxisWiring(name=name, caps=caps, ax_caps=ax_caps, cfg=cfg, clock=clock, factory=factory,
                             buses=buses, bus_n=bus_n, mux_ch=mux_ch, on_bus=on_bus, parts=parts_list, lsm=lsm,
-                            current=cs, out=out, fault_in=fault_in, pwm=pwm)
+                            current=cs, out=out, fault_in=fault_in, pwm=pwm, pulses=pulses)
         kind = cfg.motor
         motor = MOTORS[kind].build(wiring)
-        sensor = SENSORS[sk].build(wiring, motor)
+        own_sensor = MOTORS[kind].own_sensor
+        sensor = own_sensor(wiring, motor) if own_sensor is not None else SENSORS[sk].build(wiring, motor)
         brake = RelayBrake(name, out("brake"), clock, release_s=ax_caps.brake_release_s) \
             if "brake" in pins else None
         lims = [LimitSwitchInput(f"{name} {side}", PinIn(factory, pins[f"limit_{side}"],
@@ -170,10 +178,17 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
                 for side in ("min", "max")]
         if world is not None:
             assert emu is not None
-            motor_hw: Any = EmulatedMotor(motor, kind, world, name, ax_caps.drive_levels or (1.0,))
             brake_hw: Any = EmulatedBrake(brake, world, name) if brake is not None else None
             devices = buses.fake_devices(bus_n, mux_ch)
-            feed_sensor(name, sk, sensor, devices, cfg, emu)
+            motor_hw: Any
+            if own_sensor is not None:
+                from .emulate_stepdir import wire_emulated_stepper
+                if sensor.check is not None:
+                    feed_sensor(name, "as5600", sensor.check, devices, cfg, emu)
+                motor_hw = wire_emulated_stepper(name, motor, sensor, world, emu, cfg)
+            else:
+                motor_hw = EmulatedMotor(motor, kind, world, name, ax_caps.drive_levels or (1.0,))
+                feed_sensor(name, sk, sensor, devices, cfg, emu)
             if cs is not None:
                 is_part = feed_current_sense(world.axes[name], cfg, devices, buses.fake_spi, motor,
                                              world.clock.now_s)

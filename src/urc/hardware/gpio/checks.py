@@ -9,11 +9,12 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 from ...caps import RotatorCaps
-from ...config.issues import Issue, suggest, warning
+from ...config.issues import Issue, one_of, suggest, warning
 from .enable_sense import SENSE_POINTS
-from .kinds import AXIS_PINS, MOTORS, SENSORS, motor_kind_issue, sensor_kind_issue
+from .kinds import AXIS_PINS, MOTORS, SENSORS, SensorKind, motor_kind_issue, sensor_kind_issue
 from .pwm import HARDWARE_PWM
 from .spi import SPI0_CE, SPI0_PINS
+from .stepdir import STEPDIR_CHIPS
 
 if TYPE_CHECKING:
     from ...config import Config
@@ -63,6 +64,9 @@ def gpio_issues(cfg: Config, caps: RotatorCaps) -> list[Issue]:
             issues += unknown
             continue
         motor, sensor = MOTORS[ax.motor], SENSORS[kind]
+        if motor.own_sensor is not None:        # a stepper's step count: no sensor pins
+            sensor = SensorKind(sensor.build)
+            issues += _stepdir_issues(pre, ax)
         if motor.drive != axc.drive:
             issues.append((f"{pre}.motor", f"a {'relay' if axc.drive == 'relay' else 'PWM'} drive "
                            f"(profile {caps.name!r} {name} is {axc.drive})", ax.motor, ""))
@@ -103,7 +107,8 @@ def gpio_issues(cfg: Config, caps: RotatorCaps) -> list[Issue]:
                                   g.i2c_bus if ax.i2c_bus is None else ax.i2c_bus)
         chips = {"as5600": [("as5600", 0x36)],
                  "magnetometer": [("lsm303agr", 0x19), ("lsm303agr", 0x1E)] if ax.compass == "lsm303agr"
-                 else [("lsm303d", 0x1D)]}.get(kind, [])
+                 else [("lsm303d", 0x1D)]}.get(
+                     "as5600" if motor.own_sensor is not None and ax.as5600_check else kind, [])
         if uses_adc and ax.adc == "ads1115":
             chips = chips + [("ads1115", 0x48)]
         bus = g.i2c_bus if ax.i2c_bus is None else ax.i2c_bus
@@ -335,4 +340,23 @@ def _spi_issues(pre: str, device: int, used: dict[int, str]) -> list[Issue]:
             issues.append((f"{pre}.spi_device", f"SPI0's GPIO{pin} ({owner}) free for the MCP3008 "
                            f"(it is {used[pin]})", device, ""))
         used.setdefault(pin, owner)
+    return issues
+
+
+def _stepdir_issues(pre: str, ax: Any) -> list[Issue]:
+    """A step/dir axis: a chip the table knows, a microstep it has, no more microstep
+    pins than it has inputs."""
+    chip = STEPDIR_CHIPS.get(ax.stepper_driver)
+    if chip is None:
+        return [one_of(f"{pre}.stepper_driver", list(STEPDIR_CHIPS), ax.stepper_driver)]
+    issues: list[Issue] = []
+    if ax.microsteps not in chip.microstep_table.values():
+        issues.append((f"{pre}.microsteps", f"one the {chip.name} has: "
+                       + ", ".join(str(n) for n in sorted(set(chip.microstep_table.values()))), ax.microsteps, ""))
+    extra = [k for k in ("ms1", "ms2", "ms3")[len(chip.microstep_pins):] if k in ax.pins]
+    for k in extra:
+        issues.append((f"{pre}.pins.{k}", f"at most {len(chip.microstep_pins)} microstep pins on the {chip.name} "
+                       f"({', '.join(chip.microstep_pins)})", k, ""))
+    if ax.as5600_check and ax.i2c_address is not None and ax.i2c_address != 0x36:
+        issues.append((f"{pre}.i2c_address", "the AS5600's 0x36 (it has no other)", ax.i2c_address, ""))
     return issues

@@ -14,9 +14,10 @@ import dataclasses
 from dataclasses import dataclass
 from typing import Any, Callable
 
-from ...caps import AxisCaps, RotatorCaps
+from ...caps import AxisCaps, RotatorCaps, SensorCaps
 from ...clock import Clock
 from ...config.issues import Issue, one_of
+from ..drivers.stepper import ENVELOPE_ACCEL_FACTOR, StepCountSensor, StepDirMotor
 from ..drivers import (As5600Sensor, Bts7960Motor, CompassSensor, Lmd18200Motor, PotSensor, PwmDirMotor,
                        QuadratureEncoder, RelayMotor, SpidPulseSensor, TiltSensor, Vnh5019Motor)
 from ..parts import CurrentSense
@@ -25,6 +26,10 @@ from .feed import ads_reference
 from .i2c import Ads1115Channel, As5600Chip, Lsm303Accel, Lsm303agrChip, Lsm303dChip, Lsm303Mag
 from .pins import PinIn, PinOut, PinPulseCounter, PinQuadrature
 from .spi import Mcp3008Channel
+from .stepdir import STEPDIR_CHIPS
+
+#: an AS5600 checking a step count (the berkeley profile's sensor caps)
+AS5600_CAPS = SensorCaps(kind="as5600", resolution_deg=360.0 / 4096, absolute=True, modulo_deg=360.0)
 
 
 @dataclass
@@ -52,6 +57,8 @@ class AxisWiring:
     out: Callable[[str], PinOut]
     fault_in: Callable[[str], PinIn | None]
     pwm: Callable[[str], Any]
+    #: a pin's step pulse queue (lgpio tx_pulse; emulated: :mod:`.emulate_stepdir`)
+    pulses: Callable[[str], Any] | None = None
 
     @property
     def pins(self) -> dict[str, int]:
@@ -73,6 +80,9 @@ class MotorKind:
     pwm_pins: tuple[str, ...] = ()
     #: has a current-sense output (current_sense_channel)
     current_sense: bool = False
+    #: the motor is its own position sensor (a stepper's step count), whatever the
+    #: profile's sensor: (wiring, motor) -> PositionSensor
+    own_sensor: Callable[[AxisWiring, Any], Any] | None = None
 
 
 @dataclass(frozen=True)
@@ -112,6 +122,44 @@ def _relay(w: AxisWiring) -> Any:
                       pulse_period_s=1.0 / w.cfg.relay_pulse_hz)
 
 
+def _stepdir(w: AxisWiring) -> Any:
+    cfg = w.cfg
+    chip = STEPDIR_CHIPS[cfg.stepper_driver]
+    levels = chip.levels_for(cfg.microsteps)
+    for pin_name, level in zip(("ms1", "ms2", "ms3"), levels):
+        if pin_name in w.pins:
+            w.out(pin_name).write(bool(level))    # set once: the chip reads them at each step
+    enable = None
+    if "enable" in w.pins:
+        low = chip.enable_active_low if cfg.enable_active_low is None else cfg.enable_active_low
+        enable = PinOut(w.factory, w.pins["enable"], active_low=low)   # claimed off (outputs disabled)
+    assert w.pulses is not None
+    pulses = w.pulses("step")
+    w.parts.append((f"{w.name} step pulses", pulses))
+    return StepDirMotor(w.name, chip, pulses, w.out("dir"), enable, w.clock.now_s,
+                        steps_per_deg=stepdir_steps_per_deg(w.ax_caps, cfg),
+                        max_rate_deg_per_s=w.ax_caps.max_rate_deg_per_s,
+                        max_accel_deg_per_s2=ENVELOPE_ACCEL_FACTOR * w.ax_caps.accel_deg_per_s2,
+                        tick_s=1.0 / w.caps.loop_hz,
+                        dir_reversed=cfg.dir_reversed)
+
+
+def stepdir_steps_per_deg(ax_caps: AxisCaps, cfg: Any) -> float:
+    return cfg.steps_per_deg if cfg.steps_per_deg is not None else 1.0 / ax_caps.sensor.resolution_deg
+
+
+def _step_count(w: AxisWiring, motor: Any) -> Any:
+    check = None
+    if w.cfg.as5600_check:
+        chip = As5600Chip(w.buses.chip_bus(w.bus_n, w.mux_ch), w.cfg.i2c_address or As5600Chip.ADDRESS,
+                          f"{w.name} AS5600")
+        w.parts.append((f"{w.name} AS5600 check ({w.on_bus})", chip))
+        check = As5600Sensor(AS5600_CAPS, w.name, chip, zero_deg=w.cfg.zero_deg, reversed=w.cfg.as5600_reversed)
+    caps = dataclasses.replace(w.ax_caps.sensor, kind="encoder", absolute=False, modulo_deg=None,
+                               resolution_deg=1.0 / motor.steps_per_deg)
+    return StepCountSensor(caps, w.name, motor, check=check)
+
+
 MOTORS: dict[str, MotorKind] = {
     "vnh5019": MotorKind(("ina", "inb", "pwm"), "pwm", _vnh5019, fault_inputs=("diag",), pwm_pins=("pwm",),
                          current_sense=True),
@@ -121,6 +169,9 @@ MOTORS: dict[str, MotorKind] = {
                          current_sense=True),
     "pwm_dir": MotorKind(("pwm", "dir"), "pwm", _pwm_dir, pwm_pins=("pwm",)),
     "relay": MotorKind(("cw", "ccw"), "relay", _relay, optional=("fast",)),
+    # A4988 / DRV8825 / TMC2208 / TMC2209 in step/dir mode: [hardware.gpio.<axis>] stepper_driver
+    "stepdir": MotorKind(("step", "dir"), "pwm", _stepdir, optional=("enable", "ms1", "ms2", "ms3"),
+                         own_sensor=_step_count),
 }
 
 

@@ -15,6 +15,7 @@ coefficients in N*m per (deg/s).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from typing import Literal
@@ -291,6 +292,13 @@ def _build(caps: RotatorCaps) -> tuple[SimAxisParams, SimAxisParams]:
                 _ac_axis(el, gear_j_kgm2=60.0, load_j_kgm2=20.0, coast_deg=el.overshoot_deg,
                          backlash_deg=0.5, sensor=_pot(el, "linear", 0.3, False),
                          hard=(-2.0, 182.0), noload_current_a=0.5, stall_current_a=2.5))
+    if name == "satnogs-v3":
+        # The plain simulator's stand-in: the generic DC axis (its steppers are modelled
+        # by sim/stepper.py under the gpio backend's emulation, which moves this axis).
+        # The homing endstop 2 deg below 0 (LimitSwitchHoming's default), only at the low
+        # end as on the rotator; hard stops 5 deg outside the range.
+        return tuple(dataclasses.replace(_generic_axis(a), switch_max_deg=None)  # type: ignore[return-value]
+                     for a in (az, el))
     # Generic machine for caps variants nobody described: DC for pwm, AC for relay.
     return tuple(_generic_axis(a) for a in (az, el))  # type: ignore[return-value]
 

@@ -1,0 +1,287 @@
+"""A step/dir stepper as urc's ``Motor`` and its step count as the ``PositionSensor``.
+
+:class:`StepDirMotor` turns the drive (-1..1, the law's duty) into a step rate, duty 1
+being the profile's top speed, and hands each tick's steps to the pulse train (lgpio's
+queue, :mod:`..gpio.stepdir`) as one entry of an exact count. The rate never exceeds
+the profile's top speed and never changes faster than ``max_accel_deg_per_s2`` (the
+builder gives :data:`ENVELOPE_ACCEL_FACTOR` times the profile's acceleration): the
+envelope that keeps the demanded torque under the motor's pull-out curve (the
+simulator's model, :mod:`..sim.stepper`, checks it with margin). It is wider than the
+profile's own ramp because urc's law plans that ramp in duty and brakes harder near a
+target (a DC motor's duty is not its speed); a stepper held to the firmware's ramp
+alone coasts on for seconds past where the law stopped driving. The direction pin changes only
+with the queue empty (the rate ramps through 0 first), so DIR is stable long before
+any STEP edge (the datasheets' setup times are 20-650 ns).
+
+The step count is the open-loop position (:class:`StepCountSensor`): exact while no
+step is lost. The driver knows of losses it causes: the train cut while moving (a
+fault's ``force_safe``, closing), the enable taken away mid-move. Those make the
+position *uncertain*: reported once as a driver fault (the guard latches it and stops
+the axis) and kept in ``position_lost`` until the axis is re-referenced (homing on
+the endstop, ``set_reference_deg``). Steps the motor slips under a load it cannot
+move are invisible to it; an absolute sensor beside the count (an AS5600 on the axis,
+``check``) turns them into a fault: the two disagreeing by more than ``check_tol_deg``.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+from collections import deque
+from typing import Any, Callable
+
+from ...caps import SensorCaps
+from ...errors import HardwareError, SensorError
+from .stepdir_chips import MAX_LIBRARY_TIMED_HZ, StepDirChip, pulse_times_us
+from ..parts import DigitalOut
+
+#: the driver's acceleration envelope over the profile's ramp (see the module's text)
+ENVELOPE_ACCEL_FACTOR = 8.0
+#: the train is queued this far ahead of the tick (in ticks): one late tick does not
+#: leave it empty (an empty queue is a sudden stop at full speed)
+LEAD_TICKS = 2
+
+
+class StepDirMotor:
+    """``set_drive(duty)`` -> a step rate; ``steps()`` the steps emitted so far (signed).
+
+    ``pulses``: the STEP pin's pulse queue (``queue``/``room``/``busy``/``cut``);
+    ``dir_out``: DIR (high = increasing angle unless ``dir_reversed``); ``enable``:
+    the chip's enable input as a logical output (True = outputs on; its active level
+    is the chip's, :attr:`StepDirChip.enable_active_low`), None when tied on."""
+
+    def __init__(self, name: str, chip: StepDirChip, pulses: Any, dir_out: DigitalOut,
+                 enable: DigitalOut | None, now_s: Callable[[], float], *, steps_per_deg: float,
+                 max_rate_deg_per_s: float, max_accel_deg_per_s2: float, tick_s: float = 0.02,
+                 dir_reversed: bool = False):
+        self.name, self.chip, self.pulses = name, chip, pulses
+        self.dir_out, self.enable, self.now_s = dir_out, enable, now_s
+        self.steps_per_deg = float(steps_per_deg)
+        self.max_sps = max_rate_deg_per_s * self.steps_per_deg
+        self.accel_sps2 = max_accel_deg_per_s2 * self.steps_per_deg
+        if self.max_sps > MAX_LIBRARY_TIMED_HZ:
+            raise HardwareError(f"{name}: {self.max_sps:.0f} steps/s is over the {MAX_LIBRARY_TIMED_HZ:.0f} "
+                                "a library-timed pulse train keeps up with (fewer microsteps?)")
+        if chip.max_step_hz is not None and self.max_sps > chip.max_step_hz:
+            raise HardwareError(f"{name}: {self.max_sps:.0f} steps/s is over the {chip.name}'s "
+                                f"{chip.max_step_hz:.0f}")
+        self.tick_s = tick_s
+        self.dir_reversed = dir_reversed
+        self.duty = 0.0
+        self.rate_sps = 0.0               # signed, as last queued
+        self.direction = 1
+        self.drives = 0
+        self._frac = 0.0                  # the fraction of a step carried to the next entry
+        self._last_s: float | None = None
+        #: entries queued and not yet known done: [steps (signed), period_s, start_s]
+        self._sched: deque[list[float]] = deque()
+        self._done = 0                    # steps of the entries known done
+        self.position_lost = ""           # why the count is no longer the position
+        self._reported = ""
+        self._lock = threading.Lock()
+        self.closed = False
+        self._dir_level = True
+        self._write_dir(1)
+        if self.enable is not None:
+            self.enable.write(True)       # holding torque: the worm and the count stay put
+
+    # ---------------------------------------------------------------- the count
+    def steps(self) -> int:
+        """Steps emitted by now (signed): the entries done, and of the running one the
+        pulses its period has given since it began."""
+        now = self.now_s()
+        n = self._done
+        while self._sched:
+            steps, period, start = self._sched[0]
+            if now < start + abs(steps) * period - 1e-9:
+                break
+            self._done += int(steps)
+            n = self._done
+            self._sched.popleft()
+        for steps, period, start in self._sched:
+            if now >= start:
+                k = min(abs(steps), math.floor((now - start) / period + 1e-9) + 1)
+                n += int(math.copysign(k, steps))
+        return n
+
+    def at_rest(self) -> bool:
+        """No step asked for and every queued one out."""
+        self.steps()
+        return self.rate_sps == 0.0 and not self._sched
+
+    def _queued_end_s(self) -> float:
+        if not self._sched:
+            return self.now_s()
+        steps, period, start = self._sched[-1]
+        return start + abs(steps) * period
+
+    # ---------------------------------------------------------------- the drive
+    def set_drive(self, duty: float) -> None:
+        duty = float(duty)
+        if not math.isfinite(duty):
+            raise HardwareError(f"{self.name} motor: drive must be finite, got {duty!r}")
+        duty = max(-1.0, min(1.0, duty))
+        with self._lock:
+            if self.closed:
+                raise HardwareError(f"{self.name} motor: closed")
+            now = self.now_s()
+            dt = self.tick_s if self._last_s is None else min(max(now - self._last_s, 1e-3), 5 * self.tick_s)
+            self._last_s = now
+            self.duty = duty
+            if duty != 0.0:
+                self.drives += 1
+                self.direction = 1 if duty > 0 else -1
+            if self.enable is not None:
+                self.enable.write(True)
+            want = duty * self.max_sps
+            step = self.accel_sps2 * dt
+            rate = self.rate_sps + max(-step, min(step, want - self.rate_sps))
+            if rate != 0.0 and (rate > 0) != (self.rate_sps > 0) and self.rate_sps != 0.0:
+                rate = 0.0                # through 0 first: DIR changes with the queue empty
+            self._queue(rate, now)
+
+    def _queue(self, rate: float, now: float) -> None:
+        self.rate_sps = rate
+        if rate == 0.0:
+            self._frac = 0.0
+            return
+        sign = 1 if rate > 0 else -1
+        if sign != self._dir_level_sign():
+            if self.pulses.busy():
+                self.rate_sps = 0.0       # the last pulses are still out: wait a tick
+                return
+            self.steps()                  # (the schedule caught up before DIR turns)
+            self._write_dir(sign)
+        # keep LEAD_TICKS of pulses ahead of now, one entry per tick
+        horizon = now + LEAD_TICKS * self.tick_s
+        end = max(self._queued_end_s(), now)
+        if end >= horizon:
+            return
+        span = horizon - end
+        exact = abs(rate) * span + self._frac
+        n = int(exact)
+        self._frac = exact - n
+        if n <= 0:
+            return
+        # the n pulses spread over the span (a slow rate's one pulse does not hold the
+        # queue for its whole period)
+        high, low = pulse_times_us(max(abs(rate), n / span), self.chip)
+        left = self.pulses.queue(high, low, n)
+        if left < 0:
+            raise HardwareError(f"{self.name} motor: the step queue refused {n} pulses (lgpio {left})")
+        start = max(end, now)
+        self._sched.append([sign * n, (high + low) * 1e-6, start])
+
+    def _dir_level_sign(self) -> int:
+        return (1 if self._dir_level else -1) * (-1 if self.dir_reversed else 1)
+
+    def _write_dir(self, sign: int) -> None:
+        level = (sign > 0) != self.dir_reversed
+        self._dir_level = level
+        self.dir_out.write(level)
+
+    # ---------------------------------------------------------------- safety
+    def force_safe(self) -> None:
+        """The train cut now and the chip disabled; a cut mid-move loses the count."""
+        got = self._lock.acquire(timeout=0.01)
+        try:
+            moving = self.pulses.busy()
+            n = self.steps()
+            self.pulses.cut()
+            if self.enable is not None:
+                self.enable.write(False)
+            if moving:
+                self._lose(f"{self.name}: the step train was cut while moving (at step {n}); "
+                           "the position is uncertain until the axis is homed")
+            self._sched.clear()
+            self._done = n
+            self.rate_sps, self.duty, self._frac = 0.0, 0.0, 0.0
+        finally:
+            if got:
+                self._lock.release()
+
+    def close(self) -> None:
+        self.force_safe()
+        self.closed = True
+
+    def _lose(self, why: str) -> None:
+        if not self.position_lost:
+            self.position_lost = why
+
+    def driver_fault(self) -> str:
+        """The position loss, once (the guard latches it); '' otherwise."""
+        if self.position_lost and self._reported != self.position_lost:
+            self._reported = self.position_lost
+            return self.position_lost
+        return ""
+
+    def re_referenced(self) -> None:
+        self.position_lost = self._reported = ""
+
+    def read_current_a(self) -> float:
+        return 0.0
+
+    def identify(self) -> str:
+        return (f"{self.chip.name} step/dir: {self.rate_sps:+.0f} steps/s, count {self.steps()}"
+                + (f", POSITION LOST ({self.position_lost})" if self.position_lost else ""))
+
+
+class StepCountSensor:
+    """The step count as the axis angle: ``reference_deg + steps / steps_per_deg``.
+
+    ``check`` (optional): an absolute sensor on the axis (an AS5600, reading modulo
+    360) compared with the count on every read: once the two differ by more than
+    ``check_tol_deg`` (from where they agreed at the last reference) steps were lost,
+    and the motor reports it as a fault."""
+
+    def __init__(self, caps: SensorCaps, name: str, motor: StepDirMotor, *, check: Any = None,
+                 check_tol_deg: float | None = None):
+        self.caps, self.name, self.motor = caps, name, motor
+        self.reference_deg = 0.0
+        self.check = check
+        # 4 full steps (one electrical turn: what a slipping rotor loses at least) or
+        # two counts of the check sensor, whichever is more
+        full_step_deg = 8.0 / motor.steps_per_deg
+        self.check_tol_deg = check_tol_deg if check_tol_deg is not None else max(
+            4 * full_step_deg, 2 * getattr(getattr(check, "caps", None), "resolution_deg", 0.0))
+        self._check_offset_deg: float | None = None
+
+    def counts(self) -> int:
+        return self.motor.steps()
+
+    def read_deg(self) -> float:
+        deg = self.reference_deg + self.motor.steps() / self.motor.steps_per_deg
+        if self.check is not None and self.motor.at_rest():
+            self._compare(deg)            # (at rest: an I2C read's age is no error then)
+        return deg
+
+    def _compare(self, deg: float) -> None:
+        try:
+            abs_deg = self.check.read_deg()
+        except SensorError:
+            return                        # the count goes on; the check sensor's own fault is its own
+        d = abs_deg - deg
+        if self._check_offset_deg is None:
+            self._check_offset_deg = d
+            return
+        err = (d - self._check_offset_deg + 180.0) % 360.0 - 180.0
+        if abs(err) > self.check_tol_deg:
+            self.motor._lose(f"{self.name}: the step count and the absolute sensor differ by {err:+.2f} deg "
+                             f"({round(err * self.motor.steps_per_deg):+d} steps lost); home the axis")
+
+    def set_reference_deg(self, angle_deg: float) -> None:
+        self.reference_deg = float(angle_deg) - self.motor.steps() / self.motor.steps_per_deg
+        self._check_offset_deg = None
+        self.motor.re_referenced()
+        if self.check is not None and self.motor.at_rest():
+            self._compare(float(angle_deg))     # where the two agree from now on
+
+    def calibration(self) -> dict[str, Any]:
+        return {"reference_deg": self.reference_deg}
+
+    def load_calibration(self, values: dict[str, Any]) -> None:
+        if "reference_deg" in values:
+            self.reference_deg = float(values["reference_deg"])
+
+    def identify(self) -> str:
+        return f"step count {self.motor.steps()}" + (" + absolute check" if self.check is not None else "")

@@ -1,0 +1,174 @@
+"""Emulated step/dir driver: lgpio's pulse queue on the virtual clock, and the driver
+chip reading its STEP, DIR and ENABLE inputs into the simulator's stepper axis.
+
+The queue follows lg's ``tx_pulse`` as :mod:`.stepdir` describes it (lgPthTx.c): up to
+``LG_TX_BUF`` entries, each exactly ``cycles`` pulses of (high + low) microseconds, the
+next entry starting when the previous one's last period ends; ``cut`` drops them all
+at once. The chip (:data:`.stepdir.STEPDIR_CHIPS`) steps on each rising STEP edge in
+the direction DIR has then, only while its enable input is at its active level; a DIR
+change while pulses run (closer than its setup time to an edge) is counted in
+``dir_violations`` and the steps of that entry go the new way (as on iron: the chip
+samples DIR at the edge).
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from typing import Any, Callable
+
+from .stepdir import LG_MIN_PERIOD_US, LG_TX_BUF, StepDirChip
+
+LG_TX_QUEUE_FULL = -96     # lgpio.h
+LG_BAD_PWM_MICROS = -104   # lgpio.h (a period of lgMinTxDelay or less)
+
+
+class EmulatedTxQueue:
+    """lg's pulse queue for one pin on ``now_s``; ``sink(n, period_s, t_s)`` gets each
+    run of pulses emitted (``t_s``: the time of the run's last rising edge)."""
+
+    def __init__(self, now_s: Callable[[], float], sink: Callable[[int, float, float], None]):
+        self.now_s, self.sink = now_s, sink
+        #: [high_us, low_us, cycles left, start of its next pulse (s)]
+        self._entries: deque[list[Any]] = deque()
+        self.emitted = 0
+        self.cuts = 0
+
+    def queue(self, high_us: int, low_us: int, cycles: int) -> int:
+        self.advance()
+        if high_us + low_us < LG_MIN_PERIOD_US:
+            return LG_BAD_PWM_MICROS
+        if len(self._entries) >= LG_TX_BUF:
+            return LG_TX_QUEUE_FULL
+        start = self._entries[-1][3] + self._entries[-1][2] * (self._entries[-1][0] + self._entries[-1][1]) * 1e-6 \
+            if self._entries else self.now_s()
+        self._entries.append([int(high_us), int(low_us), int(cycles), start])
+        return LG_TX_BUF - len(self._entries)
+
+    def room(self) -> int:
+        self.advance()
+        return LG_TX_BUF - len(self._entries)
+
+    def busy(self) -> bool:
+        self.advance()
+        return bool(self._entries)
+
+    def cut(self) -> None:
+        self.advance()
+        self._entries.clear()
+        self.cuts += 1
+
+    def advance(self) -> None:
+        """Emit every pulse whose rising edge is due by now."""
+        now = self.now_s()
+        while self._entries:
+            e = self._entries[0]
+            period_s = (e[0] + e[1]) * 1e-6
+            due = min(e[2], math.floor((now - e[3]) / period_s + 1e-9) + 1) if now >= e[3] else 0
+            if due > 0:
+                self.emitted += due
+                e[2] -= due
+                e[3] += due * period_s
+                self.sink(due, period_s, e[3] - period_s)
+            if e[2] > 0 or now < e[3]:
+                return            # (lg's record stays busy to the end of its last period)
+            end_s = e[3]
+            self._entries.popleft()
+            if self._entries and self._entries[0][3] < end_s:
+                self._entries[0][3] = end_s
+
+    def identify(self) -> str:
+        return (f"lgpio tx_pulse queue (emulated), {LG_TX_BUF - self.room()} of {LG_TX_BUF} entries queued, "
+                f"{self.emitted} pulses out")
+
+    def __repr__(self) -> str:
+        return "step pulses (lgpio tx_pulse, emulated)"
+
+
+class EmulatedStepDirChip:
+    """The driver chip on the mock pins: rising STEP edges (from the queue) into the
+    simulated stepper axis (:class:`..sim.stepper.StepperAxis`), in DIR's direction,
+    while ENABLE is active and the motor supply is on (``powered()``)."""
+
+    def __init__(self, chip: StepDirChip, axis: Any, dir_pin: Any, enable_pin: Any | None,
+                 powered: Callable[[], bool] = lambda: True, positive_dir_level: bool = True,
+                 enable_active_low: bool | None = None):
+        self.chip, self.axis = chip, axis
+        self.enable_active_low = chip.enable_active_low if enable_active_low is None else enable_active_low
+        self.dir_pin, self.enable_pin, self.powered = dir_pin, enable_pin, powered
+        self.positive_dir_level = positive_dir_level
+        self.dir_violations = 0
+        self._last_dir: bool | None = None
+        self._last_edge_s = -math.inf
+
+    def enabled(self) -> bool:
+        if self.enable_pin is None:
+            return True
+        level = bool(self.enable_pin.state)
+        return level != self.enable_active_low
+
+    def on_pulses(self, n: int, period_s: float, last_edge_s: float) -> None:
+        level = bool(self.dir_pin.state)
+        first_edge_s = last_edge_s - (n - 1) * period_s
+        if self._last_dir is not None and level != self._last_dir and \
+                first_edge_s - self._last_edge_s < period_s:
+            self.dir_violations += 1   # DIR turned round mid-train: no setup before its edge
+        self._last_dir, self._last_edge_s = level, last_edge_s
+        direction = 1 if level == self.positive_dir_level else -1
+        self.axis.steps(n, direction, period_s, last_edge_s, enabled=self.enabled() and self.powered())
+
+
+class EmulatedStepper:
+    """The step/dir driver as the backend hands it out when emulated: each drive first
+    brings the world and the pulses emitted up to now (one step of the iron, under the
+    world's lock, as :class:`.feed.EmulatedMotor` does)."""
+
+    def __init__(self, driver: Any, world: Any, sync: Callable[[], None]):
+        self.driver, self.world, self.sync = driver, world, sync
+
+    def set_drive(self, duty: float) -> None:
+        with self.world.lock:
+            self.world.catch_up()
+            self.sync()
+            self.driver.set_drive(duty)
+
+    def force_safe(self) -> None:
+        with self.world.lock:
+            self.world.catch_up()
+            self.sync()
+            self.driver.force_safe()
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self.__dict__["driver"], name)
+
+
+def wire_emulated_stepper(name: str, motor: Any, sensor: Any, world: Any, emu: Any, cfg: Any) -> EmulatedStepper:
+    """The simulator's stepper axis (:mod:`..sim.stepper`) behind ``motor``'s pins: its
+    pulse queue feeds the emulated chip, which moves the model; every poll the model's
+    angle becomes the simulated axis' (the DC stand-in of the plain simulator stays
+    unpowered by its own drive), so limit switches, an AS5600 and the truth all see it."""
+    import dataclasses
+
+    from ..sim.stepper import StepperAxis, satnogs_v3_stepper
+
+    phys = world.axes[name]
+    base = satnogs_v3_stepper(cfg.microsteps)
+    # the gear ratio that gives this axis' steps per degree at its microstep
+    params = dataclasses.replace(base, gear_ratio=motor.steps_per_deg * 360.0 / (
+        base.microsteps * base.full_steps_per_turn))
+    model = StepperAxis(params, phys.load_deg)
+    chip = EmulatedStepDirChip(motor.chip, model, motor.dir_out.pin,
+                               motor.enable.pin if motor.enable is not None else None,
+                               powered=lambda: bool(phys.powered), positive_dir_level=not cfg.dir_reversed,
+                               enable_active_low=cfg.enable_active_low)
+    motor.pulses.sink = chip.on_pulses
+
+    def sync() -> None:
+        motor.pulses.advance()
+        phys.gear_deg = phys.load_deg = model.angle_deg
+        phys.gear_deg_per_s = phys.load_deg_per_s = 0.0
+
+    emu.syncs.insert(0, sync)           # before the sensors and switches read the axis
+    emu.parts[f"{name} stepper"] = chip
+    sensor.set_reference_deg(phys.load_deg)   # a fresh rotator starts referenced, as the sim's
+    return EmulatedStepper(motor, world, sync)
