@@ -9,6 +9,8 @@ from pathlib import Path
 
 import pytest
 
+from urc.errors import CommandRejected
+
 from urc.assembly import build_rotator
 from urc.cli import with_emulation
 from urc.clock import VirtualClock
@@ -99,6 +101,12 @@ def test_a_fault_while_moving_makes_the_position_uncertain(tmp_path):
     assert ("driver", "az") in [(f.kind, f.axis) for f in s.faults]
     assert "cut while moving" in next(f.reason for f in s.faults if f.axis == "az")
     assert rot.hw.axis("az").motor.position_lost
+    # clearing the fault does not make the count the position again: uncertain until homed
+    rot.clear_faults()
+    s = run_virtual(rot, clock, 0.1)
+    assert not s.position_known and s.az.uncertainty_deg > 0
+    with pytest.raises(CommandRejected, match="uncertain"):
+        rot.goto(10.0, 0.0)
     rot.hw.close()
 
 

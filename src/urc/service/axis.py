@@ -38,6 +38,9 @@ class Axis:
         self.hw = hw
         #: set when an external controller closes this axis' loop (bridge backend)
         self.positioner = hw.positioner
+        #: why an open-loop step count stopped being the position (a stepper driver's
+        #: ``position_lost``; None: the motor has no such count)
+        self._lost_position = (lambda: hw.motor.position_lost) if hasattr(hw.motor, "position_lost") else None
         #: the target last posted to the positioner (None: stop)
         self.posted_deg: float | None = None
         self.caps = settings.caps.axis(name)
@@ -204,6 +207,10 @@ class Axis:
         t_old, p_old = history[0]
         if t_s - t_old > 0:
             self.rate_deg_per_s = (meas_deg - p_old) / (t_s - t_old)
+        if self._lost_position is not None and self._lost_position() and self.uncertainty_deg < self.caps.span_deg:
+            # an open-loop count that lost steps (a stepper cut or disabled mid-move): not
+            # the position any more, after the fault is cleared too, until re-referenced
+            self.uncertainty_deg = self.caps.span_deg
         self.sensor_ok, self.sensor_error = True, ""
         return mech
 

@@ -448,12 +448,12 @@ class LimitSwitchHoming(Procedure):
                 raise CalibrationError("the limit-switch fault did not clear")
         elif phase == "backoff":
             self.progress = 0.6
-            if self._elapsed_s(status) < 0.2:
-                return
-            if not ax.limit_min:
+            if not ax.limit_min:  # (at once: a release seen late is an edge recorded past it)
                 self._edge_deg = ax.pos_deg
                 self.step = "switch released; moving clear of it"
                 self._goto_phase("clearing", status)
+            elif self._elapsed_s(status) < 0.2:
+                return
             elif self._still(status) and self._elapsed_s(status) > 0.5:
                 # The rotator's guard drops a jog the moment the law brakes (negative
                 # duty) while the lower switch is pressed, e.g. when a coarse count steps
