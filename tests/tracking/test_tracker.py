@@ -5,6 +5,7 @@ target positions."""
 from __future__ import annotations
 
 import math
+import time
 
 import numpy as np
 import pytest
@@ -417,3 +418,43 @@ def test_an_arc_that_cannot_be_planned_is_followed_and_not_replanned_at_every_up
     assert len(followed) > 80 and not trk.last_error  # followed all the same (an update per 0.2 s)
     trk.step(tracker_mod.ARC_STEP_S + 1.0)
     assert len(calls) == 2
+
+
+def test_an_arc_is_planned_on_the_background_worker_never_by_the_caller(tmp_path, station, monkeypatch):
+    """Issue 33 item 6: `urc run` steps the tracker on its event loop; a Sun's arc (a day
+    of positions planned whole, tens of ms) is planned on the tracker's worker, and the
+    Sun is followed on the side it is on meanwhile."""
+    import threading
+    from concurrent.futures import ThreadPoolExecutor
+
+    from urc.assembly import build_rotator
+    from urc.clock import VirtualClock
+    from urc.config import Config
+    from urc.tracking import tracker as tracker_mod
+    from urc.tracking.targets import SunTarget
+
+    threads = []
+    plan = tracker_mod.plan_pass
+
+    def recorded(*args, **kw):
+        threads.append(threading.current_thread())
+        return plan(*args, **kw)
+    monkeypatch.setattr(tracker_mod, "plan_pass", recorded)
+    clock = VirtualClock(0.0)
+    rot = build_rotator(Config.from_dict({"rotator": {"profile": "tartu-urc"}}), clock, tmp_path, fast_virtual=True)
+    followed = []
+    track = rot.track
+    monkeypatch.setattr(rot, "track", lambda *a, **kw: (followed.append(a), track(*a, **kw)))
+    trk = tracker_mod.Tracker(rot, station, lambda now_s: T0_UNIX_S + now_s)
+    with ThreadPoolExecutor(max_workers=1) as worker:
+        trk.background = worker
+        trk.track(SunTarget(station), 0.0)
+        trk.step(0.0)
+        assert trk.arc is None and followed  # followed on its side meanwhile
+        deadline = time.monotonic() + 30.0
+        i = 1
+        while trk.arc is None and time.monotonic() < deadline:
+            time.sleep(0.05)
+            trk.step(0.2 * i)
+            i += 1
+    assert trk.arc is not None and threads and threading.current_thread() not in threads

@@ -94,6 +94,7 @@ class Tracker:
         self._arc: Plan | None = None
         self._arc_goes_on = False
         self._arc_retry_u = -math.inf  # no arc could be planned: not tried again before then
+        self._arc_pending: Any = None  # (generation, Future) of an arc planned on ``background``
         #: where the next pass is searched and planned: None = at once, in the caller (tests
         #: on virtual time); an executor (``urc run``) keeps that work off the event loop,
         #: whose silence would stop the axes (issue 21: 8 s after `urc track` and at LOS)
@@ -162,6 +163,7 @@ class Tracker:
         self._next_elements = None
         self._arc = None
         self._arc_retry_u = -math.inf
+        self._arc_pending = None
         self.follow_satellite = False
         self.last_error = ""
 
@@ -385,25 +387,50 @@ class Tracker:
         if not hasattr(self.target, "look") or isinstance(self.target, SatelliteTarget) \
                 or not self.rot.settings.caps.has_el:  # a single-axis rotator: no side to choose
             return None
+        if self._arc_pending is not None:  # (planned on ``background``: the loop never waits)
+            generation, future = self._arc_pending
+            if not future.done():
+                return self._arc if self._arc is not None and u <= self._arc.t_s[-1] else None
+            self._arc_pending = None
+            if generation == self._generation:
+                self._install_arc(*future.result(), u)
+            return self._arc
         due = u >= self._arc_retry_u if self._arc is None else self._arc_goes_on and u > self._arc.t_s[-1]
         if due:
-            try:
-                self._arc = self._plan_arc(u, continuing=self._arc is not None)
-            except PlanError as exc:
-                log.warning("%s: no plan for its arc (%s); followed on the side it is on", self.target.name, exc)
-                self._arc = None
-            if self._arc is None:  # planning costs tens of ms: not at every update
-                self._arc_retry_u = u + ARC_STEP_S
+            continuing = self._arc is not None
+            if self.background is None:
+                self._install_arc(*self._plan_arc_or_why(u, continuing), u)
+            else:  # a day's arc costs tens of ms of numpy and skyfield: not on the event loop
+                self._arc_pending = (self._generation, self.background.submit(self._plan_arc_or_why, u, continuing))
+                return None if self._arc is None or u > self._arc.t_s[-1] else self._arc
         return self._arc
 
-    def _plan_arc(self, u: float, continuing: bool) -> Plan | None:
+    def _install_arc(self, arc: Plan | None, goes_on: bool, why: str, u: float) -> None:
+        if why:
+            log.warning("%s: no plan for its arc (%s); followed on the side it is on", self.target.name, why)
+        self._arc, self._arc_goes_on = arc, goes_on
+        if arc is None:  # planning costs tens of ms: not at every update
+            self._arc_retry_u = u + ARC_STEP_S
+
+    def _plan_arc_or_why(self, u: float, continuing: bool) -> tuple[Plan | None, bool, str]:
+        """(the arc's plan or None, whether the arc goes on past its end, why not); pure:
+        it may run on a worker thread (it reads the rotator's immutable status only)."""
+        try:
+            return (*self._plan_arc(u, continuing), "")
+        except PlanError as exc:
+            return None, False, str(exc)
+        except Exception as exc:  # (a bug: said, and the target followed on its side)
+            log.exception("planning the arc failed")
+            return None, False, repr(exc)
+
+    def _plan_arc(self, u: float, continuing: bool) -> tuple[Plan | None, bool]:
         t = np.arange(u, u + ARC_HORIZON_S + ARC_STEP_S / 2, ARC_STEP_S)
         la = self.target.look(t)
         below = np.flatnonzero(la.el_deg < self.min_el_deg)
-        self._arc_goes_on = len(below) == 0
-        n = len(t) if self._arc_goes_on else int(below[0])
+        goes_on = len(below) == 0
+        n = len(t) if goes_on else int(below[0])
         if n < 2:
-            return None
+            return None, goes_on
         st = self.rot.status()
         az, el = self._axis_limits()
         arc = plan_pass(t[:n], la.az_deg[:n], la.el_deg[:n], self.rot.geometry, az, el,
@@ -411,7 +438,7 @@ class Tracker:
         log.info("%s: arc planned for %.0f min: %s, wrap turn %d%s", self.target.name, (t[n - 1] - u) / 60,
                  "over the top" if arc.flip else "not flipped", arc.wrap_turns,
                  "".join(f"; {note}" for note in arc.notes))
-        return arc
+        return arc, goes_on
 
     def _arc_pose(self, arc: Plan, u: float, az: float, el: float, az_rate: float,
                   el_rate: float) -> tuple[float, float, float, float]:
