@@ -193,7 +193,12 @@ def one_run(machine: str, part: bool, event: str, workdir: Path) -> dict:
         az = s["simulator_truth"]["az"]["deg"]
         lo, hi = caps.az.min_deg, caps.az.max_deg
         target = hi - 5.0 if az - lo < hi - az else lo + 5.0
-        r = u.post("/api/goto", {"az_deg": target, "el_deg": s["el_deg"]})
+        if event == "io_stop_10s":
+            # (a silent I/O process stops open-ended motion only: a goto flies on to its
+            # end since issue 33, so the rule is measured on a jog)
+            r = u.post("/api/move", {"axis": "az", "direction": 1 if target > az else -1})
+        else:
+            r = u.post("/api/goto", {"az_deg": target, "el_deg": s["el_deg"]})
         assert r.status_code == 200, r.text
         u.wait(lambda s: abs(s["simulator_truth"]["az"]["rate_deg_per_s"]) > 0.8 * top, 60.0)
         ctl, io = u.control_pid(), u.proc.pid
@@ -221,6 +226,12 @@ def one_run(machine: str, part: bool, event: str, workdir: Path) -> dict:
                 pass
         if event == "io_kill9":
             row["ended"] = wait_for(lambda: gone(ctl), 60.0)
+        elif event.startswith("ctl"):
+            # taken over (or not, thawed in time), then started again by urc run's watch
+            # (issue 33: urc run no longer exits after a takeover)
+            row["ended"] = wait_for(lambda: u.proc.poll() is not None or gone(ctl) and any(
+                "started again" in e for e in u.status()["events"]) or not gone(ctl) and not u.status()["moving"],
+                60.0)
         elif event == "io_stop_10s":
             row["ended"] = wait_for(lambda: not u.status()["moving"], 60.0)
         else:
@@ -277,10 +288,29 @@ def analyse(log_path: Path, truth_file: Path, t_event: float) -> dict:
             offs.append(e["wall_s"])
     off_s = max(0.0, min(offs) - t_event) if offs else None
     restores = [e for e in entries if e["t"] == "restore" and e["wall_s"] >= t_event]
+    resumed = _resumed(entries, t_event, off_s)
+    if resumed is not None:
+        # (urc run started the control process again and the goto resumed, on absolute
+        # sensors (issue 33): the travel judged is the run-on and coast before that)
+        travel = {a: abs(resumed["axes"][a]["deg"] - at_event[a]) for a in ("az", "el")}
+        final = {a: {"load_deg": resumed["axes"][a]["deg"]} for a in ("az", "el")}
     return {"travel_az_deg": travel["az"], "travel_el_deg": travel["el"],
             "off_ms": None if off_s is None else 1000.0 * off_s,
             "run_on_s": restores[0]["run_on_s"] if restores else None,
             "at_event_az_deg": at_event["az"], "final_az_deg": final["az"]["load_deg"]}
+
+
+def _resumed(entries: list[dict], t_event: float, off_s: float | None) -> dict | None:
+    """The last sample before the motors drove again after they went off (a command
+    resumed by a control process started again), or None if they did not."""
+    if off_s is None:
+        return None
+    samples = [e for e in _samples(entries) if e["wall_s"] >= t_event]
+    t_off = t_event + off_s + 0.5
+    for before, e in zip(samples, samples[1:]):
+        if e["wall_s"] > t_off and any(ax["drive"] and ax.get("powered", True) for ax in e["axes"].values()):
+            return before
+    return None
 
 
 def judge_probe(result: dict, log_path: Path, t_event: float, row: dict) -> dict:
