@@ -241,3 +241,49 @@ def test_chain_faults_from_the_options_and_refused_without_the_part(tmp_path):
     with pytest.raises(ValueError, match="no safety chain modelled"):
         hw.world.inject("chain", "enable_stuck")
     assert hw.enable_sense is None
+
+
+def test_a_stall_of_the_test_itself_never_fails_a_good_chain():
+    """Review of issue 35: a reading timed before it was taken (this process descheduled
+    80 ms between the clock and the pin) made a good chain "fall too soon". Each verdict
+    now uses the bound that can only make a good chain pass."""
+    class Clock:
+        t = 0.0
+
+        def now_s(self):
+            return self.t
+
+        def advance(self, dt):
+            self.t += dt
+    clk = Clock()
+
+    class Chain:   # a good chain: on until 0.22 s after the last rising edge
+        last = None
+        level = False
+
+        def write(self, v):
+            if v and not self.level:
+                self.last = clk.t
+            self.level = v
+
+        def on(self):
+            return self.last is not None and clk.t < self.last + 0.22
+    chain = Chain()
+
+    class Sense:
+        point = "contact"
+        stalled = False
+
+        def read(self):
+            if not self.stalled and chain.last is not None and clk.t - chain.last > 0.16:
+                self.stalled = True
+                clk.t += 0.08   # descheduled between the clock and the pin
+            return chain.on()
+
+    class Hw:
+        heartbeat, enable_sense = chain, Sense()
+
+        def poll(self, _t):
+            pass
+    r = self_test(Hw(), 0.22, 0.05, clk)
+    assert r.ok is True and 0.17 <= r.measured_s <= 0.27 + 0.08, (r.ok, r.measured_s, r.why)

@@ -88,16 +88,22 @@ class _Run:
         #: the enable's readings at the read-back, for messages (which point it reads)
         self.what = "the relay's contact" if getattr(sense, "point", "contact") == "contact" else "Q"
 
-    def read(self) -> tuple[float, bool]:
+    def read(self) -> tuple[float, float, bool]:
+        """(clock before, clock after, the enable read): on a loaded machine this process
+        may be descheduled between the two, so each verdict uses the bound that can only
+        make a good chain pass (review of issue 35: a reading timed before it was taken
+        made a good chain "fall too soon" after an 80 ms stall)."""
         self.hw.poll(self.now_s())        # (a simulated or emulated chain advances to now)
-        t_s = self.now_s()
-        return t_s, bool(self.sense.read())
+        before_s = self.now_s()
+        on = bool(self.sense.read())
+        return before_s, self.now_s(), on
 
-    def toggle(self) -> float:
-        """The heartbeat's next level; the clock time of the write."""
+    def toggle(self) -> tuple[float, float]:
+        """The heartbeat's next level; the clock before and after the write."""
         self.level = not self.level
+        before_s = self.now_s()
         self.beat.write(self.level)
-        return self.now_s()
+        return before_s, self.now_s()
 
     def arm(self, within_s: float) -> float | None:
         """Heartbeat edges until the read-back shows the enable on (the clock time it
@@ -108,7 +114,7 @@ class _Run:
             if self.now_s() >= next_beat_s:
                 self.toggle()
                 next_beat_s += self.beat_s
-            t_s, on = self.read()
+            t_s, _after_s, on = self.read()
             if on:
                 return t_s
             if t_s >= end_s:
@@ -132,15 +138,15 @@ class _Run:
         # the last rising edge, then the heartbeat held low (a falling edge never retriggers)
         if self.level:
             self.toggle()
-        edge_s = self.toggle()
+        edge_before_s, edge_s = self.toggle()   # (the rising edge lies between the two)
         self.toggle()
-        last_on_s = edge_s
+        last_on_s = edge_before_s
         while True:
-            t_s, on = self.read()
+            t_s, after_s, on = self.read()
             if not on:
                 break
             last_on_s = t_s
-            if t_s - edge_s > T + m:
+            if t_s - edge_s > T + m:  # (seen on at least this long after the edge)
                 return SelfTestResult(False, None, (
                     f"{self.what} still showed the enable on {t_s - edge_s:.3f} s after the heartbeat stopped "
                     f"(it must fall within {window}): the chain does not cut. Look for Q stuck high or Q1 "
@@ -148,7 +154,9 @@ class _Run:
                     "retriggers it)" + (", a welded relay contact, a relay slow to release (a plain diode "
                                         "across its coil)" if self.what != "Q" else "")))
             self.sleep(self.poll_s)
-        measured_s, resolution_s = t_s - edge_s, t_s - last_on_s
+        # it fell before this reading ended, and after the last reading that saw it on:
+        # "too soon" only if even the latest it can have fallen is too soon
+        measured_s, resolution_s = after_s - edge_before_s, after_s - last_on_s
         if measured_s < T - m:
             return SelfTestResult(False, measured_s, (
                 f"the enable fell {measured_s:.3f} s after the last heartbeat edge, sooner than {window}: the "
