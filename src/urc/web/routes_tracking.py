@@ -103,7 +103,9 @@ def _sync_call(fn: Any, **kw: Any) -> Any:
 
 def router(ctx: WebContext) -> APIRouter:
     r = APIRouter()
-    control = dict(dependencies=[Depends(ctx.control)], responses=CONTROL_RESPONSES)
+    # (the commands: a sub-router carrying the control dependency, typed as such, rather
+    # than a dict of keyword arguments splatted into each decorator)
+    ctl = APIRouter(dependencies=[Depends(ctx.control)], responses=CONTROL_RESPONSES)
     trk = ctx.tracker
 
     # encoded once per search in the worker thread and served as bytes: every open
@@ -124,22 +126,23 @@ def router(ctx: WebContext) -> APIRouter:
         return Response(await search.get(hours, ctx.cfg.tracking.min_el_deg if min_el is None else min_el),
                         media_type="application/json")
 
-    @r.post("/api/track", **control)
+    @ctl.post("/api/track")
     async def track(req: TrackRequest) -> Ok:
         await _call(trk.track, req.model_dump(exclude_none=True))
         await ctx.hub.refresh_tracking()
         return Ok()
 
-    @r.post("/api/track/pass", **control)
+    @ctl.post("/api/track/pass")
     async def track_pass(req: PassRequest) -> Ok:
         await _call(trk.track_pass, norad=req.norad, aos=req.aos)
         await ctx.hub.refresh_tracking()
         return Ok()
 
-    @r.post("/api/track/stop", **control)
+    @ctl.post("/api/track/stop")
     async def track_stop() -> Ok:
         await _call(trk.stop)
         await ctx.hub.refresh_tracking()
         return Ok()
 
+    r.include_router(ctl)
     return r
