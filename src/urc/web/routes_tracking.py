@@ -38,18 +38,15 @@ from .schemas import CONTROL_RESPONSES, AzDeg, ElDeg, Ok, Problem, Strict
 
 log = logging.getLogger(__name__)
 
-NUM = dict(strict=True, allow_inf_nan=False)
-
-
 class TrackRequest(Strict):
     kind: Literal["sun", "moon", "satellite", "point", "azel", "nmea"]
     name: str | None = Field(None, min_length=1, max_length=100)
     #: an NMEA GGA stream (balloon): a device path or tcp:HOST:PORT
     source: str | None = Field(None, min_length=1, max_length=200, pattern=r"^(tcp:[\w.\-\[\]:]+|/[\w./\-]+)$")
     norad: int | None = Field(None, ge=1, le=999_999_999)
-    lat_deg: float | None = Field(None, ge=-90.0, le=90.0, **NUM)
-    lon_deg: float | None = Field(None, ge=-180.0, le=360.0, **NUM)
-    alt_m: float | None = Field(None, ge=-1000.0, le=1e8, **NUM)
+    lat_deg: float | None = Field(None, ge=-90.0, le=90.0, strict=True, allow_inf_nan=False)
+    lon_deg: float | None = Field(None, ge=-180.0, le=360.0, strict=True, allow_inf_nan=False)
+    alt_m: float | None = Field(None, ge=-1000.0, le=1e8, strict=True, allow_inf_nan=False)
     az_deg: AzDeg | None = None
     el_deg: ElDeg | None = None
 
