@@ -218,6 +218,15 @@ def test_to_toml_round_trip_everything_set():
     assert cfg.control_requires_token
 
 
+def test_to_toml_writes_a_lone_surrogate_as_a_replacement_character():
+    """A JSON string can carry one (\\ud800); tomlkit would write it raw, and the text
+    could then not be encoded to a file or a terminal."""
+    cfg = Config.from_dict({"station": {"name": "mast \ud800"}})
+    text = cfg.to_toml()
+    text.encode("utf-8")
+    assert loads_config(text).station.name == "mast \ufffd"
+
+
 # --------------------------------------------------------------------------- error paths
 
 

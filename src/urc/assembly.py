@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from dataclasses import replace
 from pathlib import Path
-from typing import cast
+from typing import Any, cast
 
 from .clock import Clock
 from .config import Config
@@ -25,7 +25,7 @@ def settings_from_config(cfg: Config) -> RotatorSettings:
     caps = cfg.rotator.variant(get_profile(cfg.rotator.profile))
     if caps.loop_hz != cfg.rotator.loop_hz:
         caps = replace(caps, loop_hz=cfg.rotator.loop_hz)
-    if cfg.hardware.backend == "bridge":
+    if cfg.hardware.backend == "bridge" and cfg.hardware.bridge is not None:  # (checked: it is)
         caps = bridged_caps(caps, cfg.hardware.bridge.protocol)
     limits = cfg.effective_limits(caps)
     control = cfg.effective_control(caps)
@@ -89,7 +89,7 @@ FAST_VIRTUAL_TRUTH_WALL_S = 0.25
 def hardware_options(cfg: Config, fast_virtual: bool = False) -> dict:
     """The backend options a configuration gives (``build_hardware``)."""
     sim = cfg.hardware.sim
-    options = {"seed": sim.seed, "wind": sim.wind,
+    options: dict[str, Any] = {"seed": sim.seed, "wind": sim.wind,
                "truth_wall_interval_s": FAST_VIRTUAL_TRUTH_WALL_S if fast_virtual else 0.0}
     if sim.start_az_deg is not None:
         options["start_az_deg"] = sim.start_az_deg
@@ -165,8 +165,8 @@ def build_rotator(cfg: Config, clock: Clock, state_dir: Path, durable_state: boo
         default_a = hardware.overcurrent_a
         if default_a:
                 settings = replace(settings,
-                               az_faults=replace(settings.az_faults, overcurrent_a=default_a.get("az", 0.0)),
-                               el_faults=replace(settings.el_faults, overcurrent_a=default_a.get("el", 0.0)))
+                               az_faults=replace(settings.fault_limits("az"), overcurrent_a=default_a.get("az", 0.0)),
+                               el_faults=replace(settings.fault_limits("el"), overcurrent_a=default_a.get("el", 0.0)))
     # a backend may keep the state itself: the gpio backend's FRAM store (StateStore's
     # interface, not derived from it)
     store = cast(StateStore, hardware.state_store) if hardware.state_store is not None else \

@@ -80,6 +80,19 @@ def test_save_edits_the_file_in_place_byte_for_byte_outside_the_changed_key(tmp_
     assert Config.from_dict(tomllib.loads(text)) == store.cfg
 
 
+def test_a_save_from_the_page_keeps_an_integer_an_integer(tmp_path):
+    """Issue 36 item 9: ``alt_m = 70`` saved from the page as 71 became ``alt_m = 71.0``."""
+    path = tmp_path / "urc.toml"
+    path.write_text("[station]\nlat_deg = 58.3\nlon_deg = 26.7\nalt_m = 70\n")
+    store = store_for(path)
+    doc = store.document()["config"]
+    doc["station"]["alt_m"] = 71          # as the page posts it (JSON)
+    cfg, errors = store.validate(doc)
+    assert not errors
+    store.save(cfg)
+    assert path.read_text() == "[station]\nlat_deg = 58.3\nlon_deg = 26.7\nalt_m = 71\n"
+
+
 def test_a_command_line_override_is_never_saved(tmp_path):
     """Issue 22: a save from a urc started with --emulate wrote [hardware.gpio] emulate =
     true into the file: copied to a Pi, it ran on emulated pins."""

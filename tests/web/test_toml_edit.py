@@ -32,3 +32,13 @@ def test_lists_of_tables_removed_keys_and_untouched_overrides():
 def test_a_broken_file_is_not_touched():
     with pytest.raises(ValueError):
         toml_edit.edit("[api\nport = 1\n", {"api": {"port": 1}}, {"api": {"port": 2}})
+
+
+def test_a_whole_number_stays_an_integer_where_the_file_has_one():
+    """Issue 36 item 9: the schema reads ``alt_m = 70`` as 70.0, and a save wrote 71.0.
+    A float the file holds stays a float; so does a key the file lacks (the schema's type)."""
+    text = "[station]\nalt_m = 70   # the mast\n\n[offsets]\naz_deg = 1.5\n"
+    old = {"station": {"alt_m": 70.0}, "offsets": {"az_deg": 1.5}}
+    new = {"station": {"alt_m": 71.0}, "offsets": {"az_deg": 2.0, "el_deg": 3.0}}
+    out = toml_edit.edit(text, old, new)
+    assert out == "[station]\nalt_m = 71   # the mast\n\n[offsets]\naz_deg = 2.0\nel_deg = 3.0\n"

@@ -25,7 +25,7 @@ The package, by concern:
   builder (:mod:`urc.hardware.gpio.checks`, :mod:`urc.hardware.bridge.checks`), the
   panel's in :mod:`urc.frontpanel.checks`;
 * :mod:`.issues`, :mod:`.explain`: how a problem is worded;
-* :mod:`.toml_read`, :mod:`.toml_write`: TOML in and out (editing a user's file in place
+* :mod:`.toml_read`: TOML in; out is ``Config.to_toml`` (tomlkit; editing a user's file in place
   is :mod:`urc.web.toml_edit`).
 """
 

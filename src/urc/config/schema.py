@@ -4,8 +4,10 @@ rotator profile, and how it is written back. Validation runs the cross-checks
 
 from __future__ import annotations
 
+import re
 from typing import Any
 
+import tomlkit
 from pydantic import Field, ValidationError, model_validator
 
 from ..caps import AxisCaps, RotatorCaps
@@ -21,7 +23,6 @@ from .panel_sections import PanelSection
 from .sections import (DEFAULT_SERVE, ApiSection, AxisControl, AxisLimits, ControlSection, FaultsSection,
                        KeepoutZone, LimitsSection, OffsetsSection, ParkSection, RotatorSection, ServeEntry,
                        StateSection, StationSection, TrackingSection)
-from .toml_write import dump_toml, strip_none
 
 
 class Config(Section):
@@ -127,11 +128,34 @@ class Config(Section):
 
     def to_dict(self) -> dict[str, Any]:
         """Plain nested dict, None values left out, as it would be written to TOML."""
-        return strip_none(self.model_dump())
+        return _strip_none(self.model_dump())
 
     def to_toml(self) -> str:
         """This configuration as a TOML document that loads back to an equal Config."""
-        return dump_toml(self.to_dict())
+        return tomlkit.dumps(_encodable(self.to_dict()))
+
+
+def _strip_none(value: Any) -> Any:
+    if isinstance(value, dict):
+        return {k: _strip_none(v) for k, v in value.items() if v is not None}
+    if isinstance(value, (list, tuple)):
+        return [_strip_none(v) for v in value]
+    return value
+
+
+def _encodable(value: Any) -> Any:
+    """``value`` with each lone surrogate (a JSON string can carry one) replaced by U+FFFD:
+    tomlkit would write it raw, and the text could then not be encoded as UTF-8."""
+    if isinstance(value, dict):
+        return {k: _encodable(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_encodable(v) for v in value]
+    if isinstance(value, str):
+        return _SURROGATE.sub("\ufffd", value)
+    return value
+
+
+_SURROGATE = re.compile("[\ud800-\udfff]")
 
 
 def _pick(override: float | None, default: float) -> float:

@@ -71,11 +71,14 @@ async def serve_panel(cfg, rotator, stop) -> None:
     from .panel import run_panel  # (lazy: a urc run without a panel never loads it)
 
     loop = asyncio.get_running_loop()
+
+    def dispatch(fn: Callable[..., object], *args: object) -> None:
+        loop.call_soon_threadsafe(fn, *args)
+
     try:
         # built in a worker thread: imports and the LCD's power-on sequence take long
         # enough to make the control loop miss its deadline
-        panel = await asyncio.to_thread(build_panel, cfg, rotator,
-                                        lambda fn, *args: loop.call_soon_threadsafe(fn, *args))
+        panel = await asyncio.to_thread(build_panel, cfg, rotator, dispatch)
     except Exception as exc:
         print(f"urc: front panel not started: {exc}", flush=True)
         return

@@ -84,7 +84,7 @@ class Ssd1306Bus:
     def __init__(self, address: int = 0x3C, width: int = 128, height: int = 64):
         self.address, self.width, self.height = address, width, height
         self.gddram = bytearray(width * height // 8)
-        self.contrast = None
+        self.contrast: int | None = None
         self.on = False
         self._pending: list[int] = []
         self._col = (0, width - 1)
@@ -134,6 +134,7 @@ class Ssd1306Bus:
 
         img = Image.new("1", (self.width, self.height))
         px = img.load()
+        assert px is not None  # (a new image is loaded)
         for y in range(self.height):
             for x in range(self.width):
                 px[x, y] = (self.gddram[(y // 8) * self.width + x] >> (y % 8)) & 1

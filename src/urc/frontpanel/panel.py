@@ -199,19 +199,22 @@ class FrontPanel:
         self.beeper.beep("click")
 
     def _zero_press(self, name: str) -> None:
+        zero = self.zero
+        if zero is None:  # (called only while a zero setting is active)
+            return
         if name in ("cw", "ccw"):
-            self.zero.press(JOGS[name][1], self.now_s())
+            zero.press(JOGS[name][1], self.now_s())
         elif name == "slow":
             try:
-                self.zero.store()
+                zero.store()
             except UrcError as exc:
                 log.error("front panel: zero not stored: %s", exc)
                 self.beeper.beep("refused")
                 return
-            log.warning("front panel: %s %.1f stored", self.zero.label, self.zero.value_deg)
+            log.warning("front panel: %s %.1f stored", zero.label, zero.value_deg)
             self.beeper.beep("stored")
         elif name == "stop":
-            self.zero.cancel()
+            zero.cancel()
             self.rotator.stop()
 
     # ---------------------------------------------------------------- outputs

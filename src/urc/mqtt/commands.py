@@ -13,6 +13,7 @@ import asyncio
 import inspect
 import json
 import logging
+from collections.abc import Mapping, Sequence
 from typing import Annotated, Any, Literal, Union
 
 from pydantic import BaseModel, ConfigDict, Field, TypeAdapter, ValidationError
@@ -91,7 +92,7 @@ class BadCommand(ValueError):
         self.cmd_id = cmd_id
 
 
-def _describe(errors: list[dict]) -> str:
+def _describe(errors: Sequence[Mapping[str, Any]]) -> str:
     out = []
     for e in errors[:3]:
         loc = ".".join(str(x) for x in e.get("loc", ()) if x not in COMMANDS) or "command"

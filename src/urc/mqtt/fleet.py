@@ -122,7 +122,7 @@ async def watch(broker: Broker, fleet: Fleet, on_change, stop: asyncio.Event | N
                 if closing and not len(client.messages):
                     return
         reader = asyncio.create_task(read())
-        waits = [reader]
+        waits: list[asyncio.Task[Any]] = [reader]
         if stop is not None:
             waits.append(asyncio.create_task(stop.wait()))
         try:
@@ -137,8 +137,9 @@ async def watch(broker: Broker, fleet: Fleet, on_change, stop: asyncio.Event | N
             for t in waits:
                 t.cancel()
             await asyncio.gather(*waits, return_exceptions=True)
-        if reader.done() and not reader.cancelled() and reader.exception() is not None:
-            raise reader.exception()
+        failure = reader.exception() if reader.done() and not reader.cancelled() else None
+        if failure is not None:
+            raise failure
 
 
 class CommandFailed(Exception):

@@ -93,9 +93,10 @@ async def _show(target: _Target, once: bool, wait_s: float, as_json: bool) -> No
         return
     try:
         from rich.live import Live
+        has_live = True
     except ImportError:
-        Live = None
-    if Live is not None and sys.stdout.isatty():
+        has_live = False
+    if has_live and sys.stdout.isatty():
         with Live(rich_table(fleet.rows()), refresh_per_second=4, transient=False) as live:
             async def repaint() -> None:
                 while True:

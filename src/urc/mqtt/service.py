@@ -143,8 +143,9 @@ class MqttService:
                 task.cancel()
             await asyncio.gather(*tasks, return_exceptions=True)
         for task in done:
-            if task.get_name() != "mqtt-stop" and task.exception() is not None:
-                raise task.exception()
+            failure = task.exception() if task.get_name() != "mqtt-stop" else None
+            if failure is not None:
+                raise failure
         if stop.is_set():  # a clean stop: say so (the will is only sent on a lost connection)
             with contextlib.suppress(Exception):
                 await asyncio.wait_for(self._publish(client, t.availability, OFFLINE, qos=1, retain=True), 2.0)

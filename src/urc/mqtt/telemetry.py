@@ -43,7 +43,8 @@ def station_state(s: dict[str, Any], tracking: dict[str, Any] | None) -> str:
 
 def next_pass(tracking: dict[str, Any] | None) -> dict[str, Any] | None:
     """The pass being waited for or flown (the tracker's plan), or None."""
-    plan = (tracking or {}).get("plan")
+    tracking = tracking or {}
+    plan = tracking.get("plan")
     if not plan or tracking.get("state") == "done":
         return None
     return {"aos": plan.get("aos"), "los": plan.get("los"), "max_el_deg": _r(plan.get("max_el_deg"))}
@@ -159,7 +160,7 @@ class EventWatcher:
                     out.append({"type": "pass_started", "target": target, **(p.get("next_pass") or {})})
             if proc != self._procedure and proc is not None:
                 out.append({"type": "procedure", "kind": proc[0], "state": proc[1],
-                            "error": procedure.get("error")})
+                            "error": (procedure or {}).get("error")})
             stop = s.get("last_stop")
             if stop is not None and stop["t_s"] != self._stop_t_s:
                 out.append({"type": "stopped", **stop})   # (what urc stopped by itself, and why)

@@ -37,6 +37,7 @@ class RotatorPort(Protocol):
     def goto(self, az_deg: float, el_deg: float) -> list: ...
     def goto_az(self, az_deg: float) -> list: ...
     def goto_el(self, el_deg: float) -> list: ...
+    def goto_pose(self, az_m_deg: float, el_m_deg: float) -> list: ...
     def park(self) -> list: ...
     def stop(self, axis: str | None = None) -> None: ...
     def move(self, axis: str, direction: int, speed_frac: float = 1.0) -> None: ...
@@ -151,12 +152,12 @@ class RateLimitedLog:
 
 def goto_named_axes(rotator: RotatorPort, az_deg: float | None, el_deg: float | None) -> None:
     """Go to whichever of az/el the command named; the other axis keeps its target."""
-    if el_deg is None:
-        rotator.goto_az(az_deg)
-    elif az_deg is None:
-        rotator.goto_el(el_deg)
-    else:
+    if az_deg is not None and el_deg is not None:
         rotator.goto(az_deg, el_deg)
+    elif az_deg is not None:
+        rotator.goto_az(az_deg)
+    elif el_deg is not None:
+        rotator.goto_el(el_deg)
 
 
 def protocol_logger(name: str) -> logging.Logger:

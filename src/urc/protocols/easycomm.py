@@ -22,7 +22,7 @@ from .easycomm_codec import (COMMANDS_II, COMMANDS_III, Command, EasycommParseEr
                              format_az_el, format_value, parse_line)
 from .lines import LineSplitter
 from .poses import require_known
-from .single_axis import has_elevation
+from .single_axis import has_elevation, wire_el_axis, wire_el_deg
 
 _JOG = {"ML": ("az", -1), "MR": ("az", 1), "MU": ("el", 1), "MD": ("el", -1),
         "VL": ("az", -1), "VR": ("az", 1), "VU": ("el", 1), "VD": ("el", -1)}
@@ -131,7 +131,7 @@ class _EasycommSession:
             elif c.name in _JOG:
                 axis, direction = _JOG[c.name]
                 frac = 1.0
-                if c.value is not None:  # VL/VR/VU/VD
+                if isinstance(c.value, float):  # VL/VR/VU/VD (parsed as a number)
                     if not 0 <= c.value <= VELOCITY_MAX:  # a value off Hamlib's scale: not understood
                         raise EasycommParseError(f"{c.name} with a velocity 0..{VELOCITY_MAX:.0f}",
                                                  str(c.value).encode())
@@ -179,10 +179,11 @@ class _EasycommSession:
         if axis == "az":
             return s.az_deg
         if s.flipped:
-            return s.el_deg
-        off = s.el_deg - s.el.pos_deg
+            return wire_el_deg(s)
+        el = wire_el_deg(s)
+        off = el - wire_el_axis(s).pos_deg
         lo, hi = s.limits.get("el", (0.0, 90.0))
-        return min(max(s.el_deg, lo + off), min(hi + off, 90.0))
+        return min(max(el, lo + off), min(hi + off, 90.0))
 
     def _stop(self, stops: set[str]) -> list[bytes]:
         self.rotator.stop(None if len(stops) == 2 else next(iter(stops)))
@@ -191,8 +192,8 @@ class _EasycommSession:
     def _position(self, queries: list[str]) -> list[bytes]:
         s = require_known(self.rotator.status())  # never cached: a query while moving says where it is now
         if len(queries) == 2:
-            return [format_az_el(s.az_deg, s.el_deg)]
-        return [format_axis("AZ", s.az_deg) if queries[0] == "az" else format_axis("EL", s.el_deg)]
+            return [format_az_el(s.az_deg, wire_el_deg(s))]
+        return [format_axis("AZ", s.az_deg) if queries[0] == "az" else format_axis("EL", wire_el_deg(s))]
 
     def _read(self, c: Command) -> list[bytes]:
         s = self.rotator.status()
@@ -204,7 +205,7 @@ class _EasycommSession:
                 bits |= GS_MOVING
             else:
                 bits |= GS_IDLE
-                if s.target_az_deg is not None and s.az.mode == s.el.mode == "holding":
+                if s.target_az_deg is not None and s.az.mode == wire_el_axis(s).mode == "holding":
                     bits |= GS_POINTING
             return [format_value("GS", str(bits))]
         if c.name == "GE":

@@ -28,7 +28,7 @@ from .gs232_codec import (SPEED_LEVELS, STYLE_A, STYLE_B, STYLE_GENERIC, Command
                           format_error, format_help, format_position, parse_command)
 from .lines import LineSplitter
 from .poses import extended_pose_deg, frame_offsets_deg, goto_extended
-from .single_axis import has_elevation
+from .single_axis import has_elevation, wire_el_axis
 
 #: the speed a session starts with (X4, fastest), until the client sends X1..X4.
 DEFAULT_SPEED_LEVEL = 4
@@ -141,11 +141,15 @@ class _Gs232Session:
             return None
         # GS-232 speaks the controller's own azimuth (0..450 on an overlap rotator): a set
         # names its pose, the wrap turn included (README: Angles)
+        # (the parser gives each op its fields: asserted for the type checker)
         if cmd.op == "goto":
+            assert cmd.az_deg is not None and cmd.el_deg is not None
             goto_extended(rot, cmd.az_deg, cmd.el_deg)
         elif cmd.op == "goto_az":
+            assert cmd.az_deg is not None
             goto_extended(rot, cmd.az_deg, self._el_to_keep(rot.status()))
         elif cmd.op == "goto_el":
+            assert cmd.el_deg is not None
             goto_extended(rot, self._az_to_keep(rot.status()), cmd.el_deg)
         elif cmd.op == "help":
             return format_help()
@@ -155,6 +159,7 @@ class _Gs232Session:
         elif cmd.op == "stop":
             rot.stop(cmd.what)
         elif cmd.op == "move":
+            assert cmd.what is not None
             rot.move(cmd.what, cmd.direction, self._speed_frac)
         elif cmd.op == "speed":
             # applies to the next L/R/U/D (Hamlib sends X just before the direction)
@@ -198,7 +203,8 @@ class _Gs232Session:
         """``Maaa`` turns the azimuth only: elevation keeps its mechanical pose (a flipped
         120 stays 120) or, while moving, its current target; clamped to the limits so
         sensor noise at the bottom stop cannot make the command illegal."""
-        el_m = s.el.target_deg if s.moving and s.el.target_deg is not None else s.el.pos_deg
+        el = wire_el_axis(s)
+        el_m = el.target_deg if s.moving and el.target_deg is not None else el.pos_deg
         lo, hi = s.limits.get("el", (el_m, el_m))
         return min(max(el_m, lo), hi) + frame_offsets_deg(s)[1]
 

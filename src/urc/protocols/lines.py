@@ -12,9 +12,9 @@ Pure, no I/O (the splitter logs a dropped line when given a logger).
 
 from __future__ import annotations
 
-import logging
 import re
 from dataclasses import dataclass
+from typing import Protocol
 
 from .base import MAX_PENDING_BYTES
 
@@ -29,6 +29,12 @@ class Line:
 
     text: bytes
     overflowed: bool = False
+
+
+class WarningLog(Protocol):
+    """Where a dropped line is told: a ``logging.Logger`` or a ``RateLimitedLog``."""
+
+    def warning(self, msg: str, *args: object) -> None: ...
 
 
 class LineSplitter:
@@ -46,7 +52,7 @@ class LineSplitter:
     """
 
     def __init__(self, max_len: int = MAX_PENDING_BYTES, *, backspace: bool = False,
-                 log: logging.Logger | None = None):
+                 log: WarningLog | None = None):
         self.max_len = max_len
         self.backspace = backspace
         self.log = log

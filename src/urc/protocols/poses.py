@@ -20,6 +20,7 @@ from ..errors import CommandRejected
 from ..ipc.messages import Goto, GotoPose
 from ..service.snapshot import Status
 from .base import RotatorPort
+from .single_axis import wire_el_axis, wire_el_deg
 
 
 class PositionUnknown(CommandRejected):
@@ -46,8 +47,8 @@ def frame_offsets_deg(st: Status) -> tuple[float, float]:
     offsets = getattr(st, "offsets", None)
     if offsets and "az" in offsets and "el" in offsets:
         return float(offsets["az"]), float(offsets["el"])
-    az_m, el_m = st.az.pos_deg, st.el.pos_deg
-    el_off = ((180.0 - st.el_deg) if st.flipped else st.el_deg) - el_m
+    az_m, el_m = st.az.pos_deg, wire_el_axis(st).pos_deg
+    el_off = ((180.0 - wire_el_deg(st)) if st.flipped else wire_el_deg(st)) - el_m
     az_sky_base = st.az_deg - 180.0 if st.flipped else st.az_deg
     az_off = (az_sky_base - az_m + 180.0) % 360.0 - 180.0
     # a mount offset beyond +-180 deg: put the azimuth on the wrap turn the service says
@@ -71,7 +72,7 @@ def shown_pose_deg(st: Status) -> tuple[float, float]:
     """:func:`extended_pose_deg` unchecked: for a display that marks an unknown axis
     itself (:meth:`Status.position_unknown`)."""
     az_off, el_off = frame_offsets_deg(st)
-    return st.az.pos_deg + az_off, st.el.pos_deg + el_off
+    return st.az.pos_deg + az_off, wire_el_axis(st).pos_deg + el_off
 
 
 def readback_pose_deg(st: Status) -> tuple[float, float]:
@@ -84,7 +85,7 @@ def readback_pose_deg(st: Status) -> tuple[float, float]:
     re-send ``P`` every cycle."""
     require_known(st)
     if not st.flipped:
-        return st.az_deg, st.el_deg
+        return st.az_deg, wire_el_deg(st)
     az, el = extended_pose_deg(st)
     return az % 360.0, el
 
@@ -93,7 +94,7 @@ def extended_targets_deg(st: Status) -> tuple[float | None, float | None]:
     """The axes' present setpoints (where each axis is heading now) in the extended
     frame; None for an axis that holds no setpoint (idle, stopped)."""
     az_off, el_off = frame_offsets_deg(st)
-    az_t, el_t = st.az.target_deg, st.el.target_deg
+    az_t, el_t = st.az.target_deg, wire_el_axis(st).target_deg
     return (None if az_t is None else az_t + az_off, None if el_t is None else el_t + el_off)
 
 

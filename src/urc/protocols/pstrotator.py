@@ -29,6 +29,7 @@ from . import pstrotator_codec as codec
 from .numbers import compass_tenths
 from .poses import require_known
 from .pstrotator_codec import PstItem
+from .single_axis import wire_el_deg
 
 log = protocol_logger("pstrotator")
 bad_input = bad_input_log("pstrotator")
@@ -120,12 +121,13 @@ class PstRotatorSession:
         if name == "AZ":
             return [codec.format_reply("AZ", compass_tenths(st.az_deg))]
         if name == "EL":
-            return [codec.format_reply("EL", st.el_deg)]
+            return [codec.format_reply("EL", wire_el_deg(st))]
         if name == "TGA":
             return [codec.format_reply("TGA", compass_tenths(st.az_deg if st.target_az_deg is None
                                                               else st.target_az_deg))]
         if name == "TGE":
-            return [codec.format_reply("TGE", st.el_deg if st.target_el_deg is None else st.target_el_deg)]
+            return [codec.format_reply("TGE", wire_el_deg(st) if st.target_el_deg is None
+                                       else st.target_el_deg)]
         bad_input.warning("unknown query %s? ignored (expected one of %s)", name,
                     ", ".join(q + "?" for q in codec.QUERIES))
         return []

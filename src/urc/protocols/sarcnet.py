@@ -63,6 +63,7 @@ from . import sarcnet_codec as codec
 from .lines import LineSplitter, next_due_s
 from .poses import extended_goto, extended_pose_deg, require_known
 from .sarcnet_codec import SarcnetCommand, SarcnetSyntaxError, signed180
+from .single_axis import wire_el_deg
 
 log = protocol_logger("sarcnet")
 bad_input = bad_input_log("sarcnet")
@@ -164,7 +165,7 @@ class SarcnetSession:
             return []
         if cmd.kind == "ec_query":
             st = require_known(self.rotator.status())
-            return [codec.easycomm_position(cmd.axes, st.az_deg, st.el_deg)]
+            return [codec.easycomm_position(cmd.axes, st.az_deg, wire_el_deg(st))]
         if cmd.kind == "ec_set":
             try:
                 self._set(cmd.az_deg, cmd.el_deg)
@@ -190,7 +191,7 @@ class SarcnetSession:
             held = self._held
             if held is None:                         # paused: stopped where it is
                 st = self.rotator.status()
-                held = (st.az_deg, st.el_deg)
+                held = (st.az_deg, wire_el_deg(st))
             self._held = (held[0] if az is None else az, held[1] if el is None else el)
             return
         if self.mode == "demonstrating":
@@ -312,7 +313,7 @@ class SarcnetSession:
 
     def _letter_d(self, cmd: SarcnetCommand) -> list[bytes]:
         st = self.rotator.status()
-        self._demo = [signed180(st.az_deg), st.el_deg]
+        self._demo = [signed180(st.az_deg), wire_el_deg(st)]
         self._demo_next = 0
         self._demo_goto_s = -1e300
         self._enter("demonstrating")
@@ -372,7 +373,7 @@ class SarcnetSession:
 
     # ------------------------------------------------------------------ streams
     def _monitor_row(self, st: Status) -> bytes:
-        az, el = signed180(st.az_deg), st.el_deg
+        az, el = signed180(st.az_deg), wire_el_deg(st)
         az_set = az if st.target_az_deg is None else signed180(st.target_az_deg)
         el_set = el if st.target_el_deg is None else st.target_el_deg
         az_windup = extended_pose_deg(st)[0]

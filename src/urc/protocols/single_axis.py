@@ -30,6 +30,17 @@ _STANDING = AxisStatus(pos_deg=WIRE_EL_DEG, rate_deg_per_s=0.0, target_deg=None,
                        current_a=0.0)
 
 
+def wire_el_axis(st: Status) -> AxisStatus:
+    """The elevation axis a session reads: the rotator's, or the standing one the wire
+    shows for a single-axis rotator (as :func:`wire_status` puts in the status)."""
+    return _STANDING if st.el is None else st.el
+
+
+def wire_el_deg(st: Status) -> float:
+    """The elevation a session reads: the rotator's, or the wire's 0 (single-axis)."""
+    return WIRE_EL_DEG if st.el_deg is None else st.el_deg
+
+
 def wire_status(st: Status) -> Status:
     """``st`` with the elevation a single-axis controller puts on the wire (unchanged
     for a rotator that has elevation)."""

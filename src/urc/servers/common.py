@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+import functools
 import logging
 import time
 from collections import deque
@@ -141,7 +142,7 @@ class SessionRunner:
                 if kind == "data" and self.stream:
                     self._account(-len(arg))
                 self._busy = True
-                bridge.start(self._work, (kind, arg), lambda replies, error, w=write: self._done(replies, error, w))
+                bridge.start(self._work, (kind, arg), functools.partial(self._done, write=write))
         finally:
             self._draining = False
 

@@ -68,7 +68,8 @@ async def _start(entry: ServeEntry, rotator: RotatorPort) -> Endpoint:
             ep.start()
             return Endpoint(entry, f"{entry.protocol} on pty {where} -> {ep.device}", ep.close)
         from .serial import SerialEndpoint
-        baud = entry.baud or getattr(cls, "default_baud", DEFAULT_BAUD)
+        default_baud: int = getattr(cls, "default_baud", DEFAULT_BAUD)
+        baud = entry.baud or default_baud
         sp = SerialEndpoint(factory, where, baud, entry.protocol)
         sp.start()
         return Endpoint(entry, f"{entry.protocol} on serial {where} at {baud} baud", sp.close)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import asyncio
 import time
+from typing import Any
 
 import serial
 
@@ -35,10 +36,11 @@ class SerialEndpoint:
     def _apply_baud_request(self) -> None:
         """A session may ask for a new line rate (Tartu ``BAUD 9600``): it takes effect
         once its reply has gone out at the old rate, as on the controller."""
-        rate = getattr(self.session, "baud_request", None)
+        session: Any = self.session  # (the attribute is a Tartu session's own)
+        rate = getattr(session, "baud_request", None)
         if rate is None:
             return
-        self.session.baud_request = None
+        session.baud_request = None
         try:
             self.port.flush()
             self.port.baudrate = rate

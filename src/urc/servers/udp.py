@@ -19,7 +19,9 @@ class _Datagrams(asyncio.DatagramProtocol):
 
     def datagram_received(self, data: bytes, addr) -> None:
         # (each datagram's replies go to its own sender)
-        self.runner.feed(data, lambda reply: self.transport.sendto(reply, (addr[0], self.reply_port)))
+        transport = self.transport
+        assert transport is not None  # (connection_made came first)
+        self.runner.feed(data, lambda reply: transport.sendto(reply, (addr[0], self.reply_port)))
 
     @staticmethod
     def _drop(reply: bytes) -> None:

@@ -72,16 +72,20 @@ class SimLink:
                 self._busy = None
                 if reply is None:
                     self.client.sent(ex, done_s)
-                elif ex.reply.complete(reply) is None:
-                    self.client.timed_out(ex, reply, done_s)
                 else:
-                    self.client.answered(ex, reply[:ex.reply.complete(reply)], sent_s, done_s)
+                    assert ex.reply is not None  # (an answer is kept only for an exchange that has one)
+                    complete = ex.reply.complete(reply)
+                    if complete is None:
+                        self.client.timed_out(ex, reply, done_s)
+                    else:
+                        self.client.answered(ex, reply[:complete], sent_s, done_s)
                 self._t_s = done_s + ex.settle_s
             if self._t_s > now_s:
                 return
-            ex, _wait_s = self.client.next_exchange(self._t_s)
-            if ex is None:
+            upcoming, _wait_s = self.client.next_exchange(self._t_s)
+            if upcoming is None:
                 return
+            ex = upcoming
             start_s = self._t_s
             self.sent.append((start_s, ex.request))
             arrived_s = start_s + self.wire_s(ex.request)
@@ -179,4 +183,5 @@ class BridgedRig:
     def truth(self) -> tuple[float, float]:
         """Where the upstream simulator's antenna really points (mechanical)."""
         t = self.upstream.status().sim_truth
+        assert t is not None  # (the upstream is a simulator)
         return t["az"]["deg"], t["el"]["deg"]

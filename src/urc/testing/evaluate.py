@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Callable, NamedTuple
+from typing import Any, Callable, NamedTuple
 
 import numpy as np
 
@@ -163,7 +163,7 @@ def fly_pass_on_sim(profile: str, elements, station, p, state_dir, *, flip: bool
     from ..tracking.targets import SatelliteTarget
     from ..tracking.tracker import Tracker
 
-    cfg = {"rotator": {"profile": profile, "flip": flip}, "hardware": {"sim": {"wind": False}}}
+    cfg: dict[str, Any] = {"rotator": {"profile": profile, "flip": flip}, "hardware": {"sim": {"wind": False}}}
     for k, v in (config or {}).items():  # sections merge; lists (keepout) replace
         cfg[k] = {**cfg.get(k, {}), **v} if isinstance(v, dict) else v
     clock = VirtualClock(0.0)

@@ -61,8 +61,8 @@ def _load_config(config_path: str | None) -> Any:
 def _resolve_dir(catalog_dir: str | None, cfg: Any = None) -> Path:
     if catalog_dir:
         return Path(catalog_dir).expanduser()
-    tracking = getattr(cfg, "tracking", None)
-    if tracking is not None and getattr(tracking, "catalog_dir", ""):
+    tracking: Any = getattr(cfg, "tracking", None)
+    if tracking is not None and getattr(tracking, "catalog_dir", None):
         return Path(tracking.catalog_dir).expanduser()
     return default_catalog_dir()
 
@@ -185,12 +185,12 @@ def passes_command(sats: tuple[str, ...], hours: float, min_el_deg: float | None
     from .station import Station
 
     cfg = _load_config(config_path)
-    conf_st = getattr(cfg, "station", None)
+    conf_st: Any = getattr(cfg, "station", None)
     if lat_deg is None and lon_deg is None and getattr(conf_st, "lat_deg", None) is not None:
         lat_deg, lon_deg = conf_st.lat_deg, conf_st.lon_deg
         alt_m = conf_st.alt_m if alt_m is None else alt_m
     running_min_el_deg = None
-    if lat_deg is None and lon_deg is None and getattr(conf_st, "gps", ""):
+    if lat_deg is None and lon_deg is None and getattr(conf_st, "gps", None):
         lat_deg, lon_deg, fix_alt_m = _running_gps_fix(cfg, _running_urc(cfg, url, port))
         alt_m = fix_alt_m if alt_m is None else alt_m
     elif lat_deg is None and lon_deg is None and (url is not None or port is not None):
@@ -371,9 +371,9 @@ def tle_update(groups: tuple[str, ...], force: bool, timeout_s: float,
                                              force=force, timeout_s=timeout_s,
                                              progress=progress)
     except DownloadError as exc:
-        report = getattr(exc, "report", None)
-        if report is not None:
-            _print_update(report, where)
+        partial = getattr(exc, "report", None)
+        if partial is not None:
+            _print_update(partial, where)
         raise _fail(exc) from None
     except UrcError as exc:
         raise _fail(exc) from None

@@ -39,7 +39,7 @@ ON_TARGET_DEG = 0.5
 def cycle_state(status: dict[str, Any], error_deg: float | None) -> dict[str, str]:
     """``{"state", "document", "why"}`` for a status dict (with its ``tracking``) and
     the pointing error between where the antenna points and where it is told to."""
-    trk = status.get("tracking")
+    trk = status.get("tracking") or {}  # (none and empty alike: nothing tracked)
     if status.get("faults"):
         state, why = "setup", "a fault stops everything until it is cleared"
     elif not status.get("position_known", True):
@@ -51,7 +51,7 @@ def cycle_state(status: dict[str, Any], error_deg: float | None) -> dict[str, st
         state = "predict"
         why = trk.get("error") or {"prepositioning": "moving to where the pass rises",
                                    "planning": "searching and planning the next pass"}.get(
-                                       trk.get("state"), "waiting for the pass")
+                                       str(trk.get("state")), "waiting for the pass")
     elif error_deg is None or error_deg > ON_TARGET_DEG:
         state, why = "track", "following the target" + ("" if error_deg is None else f", {error_deg:.2f} deg off")
     else:

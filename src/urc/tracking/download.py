@@ -157,7 +157,7 @@ def update_catalog(groups: Iterable[str], catalog_dir: str | os.PathLike[str], *
         data_path = cache / f"{group}.json"
         fresh = (meta is not None and data_path.exists()
                  and now - float(meta["fetched_unix_s"]) < max_age_s)
-        if fresh and not force:
+        if fresh and not force and meta is not None:
             try:
                 got = _parse_answer(group, str(data_path), data_path.read_bytes())
                 sets += got
@@ -175,10 +175,10 @@ def update_catalog(groups: Iterable[str], catalog_dir: str | os.PathLike[str], *
         except OfflineError as exc:
             offline.append(group)
             report.groups.append(GroupUpdate(group, "failed", error=str(exc),
-                                             fetched_unix_s=meta and meta["fetched_unix_s"]))
+                                             fetched_unix_s=(meta or {}).get("fetched_unix_s")))
         except (DownloadError, OSError) as exc:
             report.groups.append(GroupUpdate(group, "failed", error=str(exc),
-                                             fetched_unix_s=meta and meta["fetched_unix_s"]))
+                                             fetched_unix_s=(meta or {}).get("fetched_unix_s")))
         else:
             _write_atomic(data_path, raw)
             _write_atomic(_meta_path(cache, group), json.dumps(

@@ -375,14 +375,14 @@ def parse_omm_csv(text: str, source: str = "<string>") -> list[ElementSet]:
         if None in row:  # more cells than header columns
             raise ElementsError(f"{where}: expected {len(header)} columns as in the header, "
                                 f"found {len(header) + len(row[None])}", path=source,
-                                line=reader.line_num, expected=len(header),
+                                line=reader.line_num, expected=f"{len(header)} columns",
                                 found=len(header) + len(row[None]))
         absent = [k for k in header if row.get(k) is None]
         if absent:
             raise ElementsError(f"{where}: truncated row: expected {len(header)} columns as "
                                 f"in the header, found {len(header) - len(absent)} (no "
                                 f"{', '.join(absent)})", path=source, line=reader.line_num,
-                                expected=len(header), found=len(header) - len(absent))
+                                expected=f"{len(header)} columns", found=len(header) - len(absent))
         if not any((v or "").strip() for v in row.values()):
             continue
         out.append(_from_omm(row, where, None, path=source, line=reader.line_num))
@@ -414,7 +414,7 @@ def _omm_fields(rec: Mapping, where: str, *, path: str | None = None,
                              f"{_short(repr(found))}", path=path or where, line=line,
                              expected=expected, found=found)
 
-    fields = dict(_OMM_DEFAULTS)
+    fields: dict[str, Any] = dict(_OMM_DEFAULTS)
     fields.update({k: v for k, v in rec.items() if v not in (None, "")})
     for key in ("EPOCH", "NORAD_CAT_ID", *_OMM_REQUIRED_NUMBERS):
         if key not in fields:

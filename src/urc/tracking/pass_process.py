@@ -74,12 +74,14 @@ def find_passes_isolated(sats: Iterable[ElementSet] | Catalog, station: Station,
     it from a worker thread) for some sets or a whole catalog. A worker that died is
     replaced once."""
     items = sats.records() if isinstance(sats, Catalog) else [_portable(es) for es in sats]
-    args = (_search, items, station, start_unix_s, duration_s, min_el_deg)
+    def search() -> list[Pass]:
+        return _executor().submit(_search, items, station, start_unix_s, duration_s, min_el_deg).result()
+
     try:
-        return _executor().submit(*args).result()
+        return search()
     except BrokenProcessPool:
         shutdown()  # the worker died (killed, out of memory): start a new one, once
-        return _executor().submit(*args).result()
+        return search()
 
 
 def shutdown() -> None:

@@ -463,7 +463,7 @@ def search_passes(sats: ElementSet | Iterable[ElementSet], station: Station, sta
         if es.sgp4_error:
             result.errors[es.norad_id] = f"{es.sgp4_error} at its epoch {es.epoch:%Y-%m-%d}: no passes"
     sats = [es for es in sats if not es.sgp4_error]
-    stats = {"satellites": len(sats), "evaluations": 0, "bisected": 0, "roots": 0}
+    stats: dict[str, float] = {"satellites": len(sats), "evaluations": 0, "bisected": 0, "roots": 0}
     # Near-Earth and deep-space orbits in separate chunks: each gets its own step.
     near = [es for es in sats if es.period_s < DEEP_SPACE_PERIOD_S]
     deep = [es for es in sats if es.period_s >= DEEP_SPACE_PERIOD_S]
@@ -503,7 +503,7 @@ def _search_chunk(eng: _Engine, result: PassSearch, stats: dict, min_pass_s: flo
     n, m1 = err.shape
     for j in np.flatnonzero(err.any(axis=1)):
         code = int(err[j][err[j] != 0][0])
-        result.errors[eng.sats[j].norad_id] = SGP4_ERRORS.get(code, f"error {code}")
+        result.errors[eng.sats[int(j)].norad_id] = SGP4_ERRORS.get(code, f"error {code}")
     bad = err != 0
     for key in g:
         g[key][bad] = np.nan
@@ -598,7 +598,7 @@ def _assemble(eng: _Engine, g: dict, events: list, result: PassSearch) -> None:
     min_el_deg = math.degrees(math.asin(eng.sin_e))
     for k in np.flatnonzero((np.diff(cuts) > 0) | up0).tolist():
         es = eng.sats[k]
-        cur = None  # [aos t, aos az, aos el, clipped, tca (t, az, el) or None]
+        cur: list[Any] | None = None  # [aos t, aos az, aos el, clipped, tca (t, az, el) or None]
         if up0[k]:
             el0, az0 = edge[(k, 0.0)]
             cur = [0.0, az0, el0, True, None]

@@ -475,6 +475,7 @@ def plan_pass(t_s: np.ndarray, sky_az_deg: np.ndarray, sky_el_deg: np.ndarray, g
             (round(worst / 0.05), round(travel_s), flip, round(worst / 0.001))
         if best is None or cost < best[0]:
             best = (cost, flip, fa, fe, travel_s, a, e, worst, not (fa is a and fe is e), keyhole)
+    assert best is not None  # (candidates is never empty)
     _, flip, a_fly, e_fly, travel_s, a, e, worst, rate_limited, keyhole = best
     if keyhole and not rate_limited:
         rate_limited = True  # the sky track was faster than the axes: a keyhole plan is the smoothing

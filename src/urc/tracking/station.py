@@ -65,7 +65,7 @@ class Station:
 
     @classmethod
     def from_fix(cls, fix: GpsFix, name: str = "") -> Station:
-        if not fix.valid:
+        if not fix.valid or fix.lat_deg is None or fix.lon_deg is None:
             raise StationError("the GPS has no valid fix yet (quality 0 / status V)")
         if fix.alt_m is None:
             raise StationError("the GPS fix has no altitude (RMC only); wait for a GGA sentence")

@@ -329,9 +329,9 @@ def parse_target(spec: str, station: Station, catalog: Catalog | None = None) ->
         except ValueError:
             nums = []
         if kind == "azel" and len(nums) == 2:
-            return FixedTarget(*nums)
+            return FixedTarget(nums[0], nums[1])
         if kind == "geo" and len(nums) in (2, 3):
-            return GeoPointTarget(station, *nums)
+            return GeoPointTarget(station, nums[0], nums[1], nums[2] if len(nums) == 3 else 0.0)
         form = "azel:AZ,EL" if kind == "azel" else "geo:LAT,LON[,ALT_M]"
         raise TargetError(f"target {spec!r}: expected {form} with numbers, found {rest!r}")
     name = rest if kind == "sat" else text

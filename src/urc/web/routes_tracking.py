@@ -38,18 +38,15 @@ from .schemas import CONTROL_RESPONSES, AzDeg, ElDeg, Ok, Problem, Strict
 
 log = logging.getLogger(__name__)
 
-NUM = dict(strict=True, allow_inf_nan=False)
-
-
 class TrackRequest(Strict):
     kind: Literal["sun", "moon", "satellite", "point", "azel", "nmea"]
     name: str | None = Field(None, min_length=1, max_length=100)
     #: an NMEA GGA stream (balloon): a device path or tcp:HOST:PORT
     source: str | None = Field(None, min_length=1, max_length=200, pattern=r"^(tcp:[\w.\-\[\]:]+|/[\w./\-]+)$")
     norad: int | None = Field(None, ge=1, le=999_999_999)
-    lat_deg: float | None = Field(None, ge=-90.0, le=90.0, **NUM)
-    lon_deg: float | None = Field(None, ge=-180.0, le=360.0, **NUM)
-    alt_m: float | None = Field(None, ge=-1000.0, le=1e8, **NUM)
+    lat_deg: float | None = Field(None, ge=-90.0, le=90.0, strict=True, allow_inf_nan=False)
+    lon_deg: float | None = Field(None, ge=-180.0, le=360.0, strict=True, allow_inf_nan=False)
+    alt_m: float | None = Field(None, ge=-1000.0, le=1e8, strict=True, allow_inf_nan=False)
     az_deg: AzDeg | None = None
     el_deg: ElDeg | None = None
 
@@ -103,7 +100,9 @@ def _sync_call(fn: Any, **kw: Any) -> Any:
 
 def router(ctx: WebContext) -> APIRouter:
     r = APIRouter()
-    control = dict(dependencies=[Depends(ctx.control)], responses=CONTROL_RESPONSES)
+    # (the commands: a sub-router carrying the control dependency, typed as such, rather
+    # than a dict of keyword arguments splatted into each decorator)
+    ctl = APIRouter(dependencies=[Depends(ctx.control)], responses=CONTROL_RESPONSES)
     trk = ctx.tracker
 
     # encoded once per search in the worker thread and served as bytes: every open
@@ -124,22 +123,23 @@ def router(ctx: WebContext) -> APIRouter:
         return Response(await search.get(hours, ctx.cfg.tracking.min_el_deg if min_el is None else min_el),
                         media_type="application/json")
 
-    @r.post("/api/track", **control)
+    @ctl.post("/api/track")
     async def track(req: TrackRequest) -> Ok:
         await _call(trk.track, req.model_dump(exclude_none=True))
         await ctx.hub.refresh_tracking()
         return Ok()
 
-    @r.post("/api/track/pass", **control)
+    @ctl.post("/api/track/pass")
     async def track_pass(req: PassRequest) -> Ok:
         await _call(trk.track_pass, norad=req.norad, aos=req.aos)
         await ctx.hub.refresh_tracking()
         return Ok()
 
-    @r.post("/api/track/stop", **control)
+    @ctl.post("/api/track/stop")
     async def track_stop() -> Ok:
         await _call(trk.stop)
         await ctx.hub.refresh_tracking()
         return Ok()
 
+    r.include_router(ctl)
     return r

@@ -77,10 +77,19 @@ def _apply(table: Any, old: dict[str, Any], new: dict[str, Any], inline: bool = 
                 sub = table[key]
             _apply(sub, before if isinstance(before, dict) else {}, value, inline)
         else:
-            table[key] = _item(value)
+            table[key] = _item(_like(value, table.get(key)))
     for key in old:
         if key not in new and key in table:
             del table[key]
+
+
+def _like(value: Any, present: Any) -> Any:
+    """A whole number stays an integer where the file has an integer: the schema reads
+    ``alt_m = 70`` as 70.0, and a save wrote ``alt_m = 71.0`` (issue 36 item 9)."""
+    if isinstance(value, float) and value.is_integer() and abs(value) < 2**53 \
+            and isinstance(present, int) and not isinstance(present, bool):
+        return int(value)
+    return value
 
 
 def _is_array_of_tables(item: Any) -> bool:

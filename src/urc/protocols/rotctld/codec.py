@@ -96,12 +96,16 @@ def status_flags(st: Status, az_offset_deg: float = 0.0) -> list[str]:
     if st.moving:
         flags.append("MOVING")
         for ax, name, minus, plus in ((st.az, "AZ", "LEFT", "RIGHT"), (st.el, "EL", "DOWN", "UP")):
+            if ax is None:  # no elevation axis
+                continue
             moving, sign = _axis_motion(ax)
             if moving:
                 flags.append("MOVING_" + name)
                 if sign:
                     flags.append("MOVING_" + (plus if sign > 0 else minus))
     for ax, lo, hi in ((st.az, "LEFT", "RIGHT"), (st.el, "DOWN", "UP")):
+        if ax is None:
+            continue
         if ax.limit_min:
             flags.append("LIMIT_" + lo)
         if ax.limit_max:
@@ -211,7 +215,7 @@ def parse_get_pos_reply(lines: list[bytes]) -> tuple[float, float]:
     are not two finite numbers (an ``RPRT -n`` line is an error the caller reports)."""
     if len(lines) != 2:
         raise ValueError(f"expected two lines az, el; got {lines!r}")
-    values = [parse_float(line.strip().decode("ascii", "replace")) for line in lines]
-    if any(v is None for v in values):
+    az, el = (parse_float(line.strip().decode("ascii", "replace")) for line in lines)
+    if az is None or el is None:
         raise ValueError(f"expected two numbers az, el; got {lines!r}")
-    return values[0], values[1]
+    return az, el

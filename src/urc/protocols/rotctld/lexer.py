@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import re
 import string
+from typing import Any
 
 from ..base import MAX_PENDING_BYTES
 from .commands import BY_CHAR, BY_NAME, CommandSpec
@@ -33,7 +34,8 @@ CMD, CLOSE, UNKNOWN, OVERFLOW = range(4)
 #: how many unknown one-character commands it stands for in ``args[1]`` (a run of them
 #: is one item: junk costs a regex match, not a Python step per byte); OVERFLOW carries
 #: the spec whose arguments were too long (or None).
-Item = tuple[int, "CommandSpec | None", tuple[str, ...], "str | None"]
+#: (kind, spec, arguments, separator); an UNKNOWN run's arguments are (char, count)
+Item = tuple[int, "CommandSpec | None", tuple[Any, ...], "str | None"]
 
 _WS = b" \t\n\r\x0b\x0c"  # C isspace()
 #: one argument word, complete only once whitespace follows it (as scanf("%s") needs)
@@ -130,7 +132,7 @@ class Lexer:
                 c = buf[i]
                 k = cls[c]
             if k == _BSLASH:
-                j = _NAME.match(buf, i + 1).end()
+                j = _NAME.match(buf, i + 1).end()  # type: ignore[union-attr]  # (matches "": never None)
                 if j == n:  # the name ends only at its (consumed) terminator
                     if n - start > self.max_pending:
                         items.append((OVERFLOW, None, (), sep))
@@ -164,7 +166,7 @@ class Lexer:
                 spec = BY_CHAR[c]
                 i += 1
                 if spec is None:
-                    end = _JUNK_RUN.match(buf, i).end()
+                    end = _JUNK_RUN.match(buf, i).end()  # type: ignore[union-attr]  # (matches "")
                     count = 1 + (end - i) - sum(buf.count(w, i, end) for w in _WS_BYTES)
                     items.append((UNKNOWN, None, (chr(c), count), sep))
                     i = end

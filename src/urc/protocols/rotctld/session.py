@@ -82,7 +82,7 @@ class RotctldSession:
             return []
         out = []
         for kind, spec, args, sep in items:
-            if kind == CMD:
+            if kind == CMD and spec is not None:
                 out.append(self._run(spec, args, sep))
             elif kind == CLOSE:
                 self.closed = True
