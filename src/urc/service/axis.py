@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import collections
 import math
+from typing import Any
+
 from ..control import faults as faultmod
 from ..control import law
 from ..control import positioner as positioner_law
@@ -40,7 +42,8 @@ class Axis:
         self.positioner = hw.positioner
         #: why an open-loop step count stopped being the position (a stepper driver's
         #: ``position_lost``; None: the motor has no such count)
-        self._lost_position = (lambda: hw.motor.position_lost) if hasattr(hw.motor, "position_lost") else None
+        motor: Any = hw.motor
+        self._lost_position = (lambda: motor.position_lost) if hasattr(motor, "position_lost") else None
         #: the target last posted to the positioner (None: stop)
         self.posted_deg: float | None = None
         self.caps = settings.caps.axis(name)

@@ -395,7 +395,7 @@ def check_safety_chain(rot: Any) -> None:
         return
     from ..hardware.safety_test import self_test
 
-    for attempt in (1, 2):  # (once more before a fault: a stall of this process in the test)
+    for _attempt in (1, 2):  # (once more before a fault: a stall of this process in the test)
         try:
             result = self_test(hw, hw.motor_enable_timeout_s, clock=RealClock())
         except Exception as exc:  # (a read-back that cannot be read: no proof that it cuts)

@@ -285,6 +285,7 @@ class Tracker:
         """The control process flies the pass (its program); here it is uploaded, sent
         again to a control process that lost it (restarted), and its end is taken."""
         job = self.job
+        assert job is not None  # (step calls this only with a job)
         st = self.rot.status()
         if job.program_id is not None:
             if st.program is not None and st.program["id"] == job.program_id:
@@ -393,13 +394,15 @@ class Tracker:
                 return self._arc if self._arc is not None and u <= self._arc.t_s[-1] else None
             self._arc_pending = None
             if generation == self._generation:
-                self._install_arc(*future.result(), u)
+                arc, goes_on, why = future.result()
+                self._install_arc(arc, goes_on, why, u)
             return self._arc
         due = u >= self._arc_retry_u if self._arc is None else self._arc_goes_on and u > self._arc.t_s[-1]
         if due:
             continuing = self._arc is not None
             if self.background is None:
-                self._install_arc(*self._plan_arc_or_why(u, continuing), u)
+                arc, goes_on, why = self._plan_arc_or_why(u, continuing)
+                self._install_arc(arc, goes_on, why, u)
             else:  # a day's arc costs tens of ms of numpy and skyfield: not on the event loop
                 self._arc_pending = (self._generation, self.background.submit(self._plan_arc_or_why, u, continuing))
                 return None if self._arc is None or u > self._arc.t_s[-1] else self._arc
@@ -416,7 +419,8 @@ class Tracker:
         """(the arc's plan or None, whether the arc goes on past its end, why not); pure:
         it may run on a worker thread (it reads the rotator's immutable status only)."""
         try:
-            return (*self._plan_arc(u, continuing), "")
+            arc, goes_on = self._plan_arc(u, continuing)
+            return arc, goes_on, ""
         except PlanError as exc:
             return None, False, str(exc)
         except Exception as exc:  # (a bug: said, and the target followed on its side)

@@ -9,6 +9,9 @@ if the controller had been restarted on the same rotator. A process that dies wi
 the motors on from the last record until the safety relay cut them (when the part is
 wired) or, without it, until that next world opened (the process that takes the lines
 over and drives them safe). ``truth_log`` keeps the history as well (:mod:`.truthlog`).
+
+(Over 600 lines on purpose: the world's physics, devices, faults and truth are one
+simulated rotator, and the faults act on all of them at once.)
 """
 
 from __future__ import annotations
