@@ -184,25 +184,31 @@ class StepDirMotor:
     def force_safe(self) -> None:
         """The train cut now and the chip disabled; a cut mid-move loses the count."""
         got = self._lock.acquire(timeout=0.01)
+        n = self._done
         try:
             moving = self.pulses.busy()
             n = self.steps()
-            self.pulses.cut()
-            if self.enable is not None:
-                self.enable.write(False)
             if moving:
                 self._lose(f"{self.name}: the step train was cut while moving (at step {n}); "
                            "the position is uncertain until the axis is homed")
-            self._sched.clear()
-            self._done = n
-            self.rate_sps, self.duty, self._frac = 0.0, 0.0, 0.0
+            self.pulses.cut()
         finally:
-            if got:
-                self._lock.release()
+            # (whatever the cut raised: the chip disabled and the drive forgotten all the same)
+            try:
+                if self.enable is not None:
+                    self.enable.write(False)
+            finally:
+                self._sched.clear()
+                self._done = n
+                self.rate_sps, self.duty, self._frac = 0.0, 0.0, 0.0
+                if got:
+                    self._lock.release()
 
     def close(self) -> None:
-        self.force_safe()
-        self.closed = True
+        try:
+            self.force_safe()
+        finally:
+            self.closed = True
 
     def _lose(self, why: str) -> None:
         if not self.position_lost:

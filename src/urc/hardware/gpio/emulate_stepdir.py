@@ -19,8 +19,18 @@ from typing import Any, Callable
 
 from .stepdir import LG_MIN_PERIOD_US, LG_TX_BUF, StepDirChip
 
-LG_TX_QUEUE_FULL = -96     # lgpio.h
-LG_BAD_PWM_MICROS = -104   # lgpio.h (a period of lgMinTxDelay or less)
+# joan2937/lg bcccd78, lgpio.h:2960 and :2970
+LG_TX_QUEUE_FULL = -96
+LG_BAD_PWM_MICROS = -86    # a period of lgMinTxDelay or less, or a cut (0, 0) with no train running
+
+
+class LgError(Exception):
+    """lgpio's ``error`` as its Python raises it for a negative status (``exceptions``
+    is True by default): ``code`` is lg's."""
+
+    def __init__(self, code: int):
+        super().__init__(f"lg error {code}")
+        self.code = code
 
 
 class EmulatedTxQueue:
@@ -34,12 +44,20 @@ class EmulatedTxQueue:
         self.emitted = 0
         self.cuts = 0
 
-    def queue(self, high_us: int, low_us: int, cycles: int) -> int:
+    def tx_pulse(self, high_us: int, low_us: int, cycles: int) -> int:
+        """lg's ``tx_pulse`` on this pin as lgpio's Python has it (xSetAsPwm, lgGpio.c):
+        (0, 0) stops a running train and returns 0, but with none running it is
+        LG_BAD_PWM_MICROS, raised (:class:`LgError`) as lgpio raises every negative
+        status."""
         self.advance()
+        if not high_us and not low_us and self._entries:
+            self._entries.clear()
+            self.cuts += 1
+            return 0
         if high_us + low_us < LG_MIN_PERIOD_US:
-            return LG_BAD_PWM_MICROS
+            raise LgError(LG_BAD_PWM_MICROS)
         if len(self._entries) >= LG_TX_BUF:
-            return LG_TX_QUEUE_FULL
+            raise LgError(LG_TX_QUEUE_FULL)
         start = self._entries[-1][3] + self._entries[-1][2] * (self._entries[-1][0] + self._entries[-1][1]) * 1e-6 \
             if self._entries else self.now_s()
         self._entries.append([int(high_us), int(low_us), int(cycles), start])
@@ -53,10 +71,20 @@ class EmulatedTxQueue:
         self.advance()
         return bool(self._entries)
 
+    def queue(self, high_us: int, low_us: int, cycles: int) -> int:
+        """(:meth:`.stepdir.LgpioStepPulses.queue`'s contract: lg's status, negative refused)"""
+        try:
+            return self.tx_pulse(high_us, low_us, cycles)
+        except LgError as exc:
+            return exc.code
+
     def cut(self) -> None:
-        self.advance()
-        self._entries.clear()
-        self.cuts += 1
+        """As :meth:`.stepdir.LgpioStepPulses.cut`: the stop asked only while a train runs."""
+        try:
+            if self.busy():
+                self.tx_pulse(0, 0, 0)
+        except LgError:
+            pass
 
     def advance(self) -> None:
         """Emit every pulse whose rising edge is due by now."""

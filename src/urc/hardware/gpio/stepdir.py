@@ -62,10 +62,13 @@ if the bench on a Pi shows bursts.
 
 from __future__ import annotations
 
+import logging
 from typing import Any
 
 from ..drivers.stepdir_chips import (LG_MIN_PERIOD_US, LG_TX_BUF, MAX_LIBRARY_TIMED_HZ, STEPDIR_CHIPS,  # noqa: F401
                                      StepDirChip, pulse_times_us)
+
+log = logging.getLogger(__name__)
 
 
 class LgpioStepPulses:
@@ -90,9 +93,21 @@ class LgpioStepPulses:
         return bool(self._lg.tx_busy(self.handle, self.pin, self._lg.TX_PWM) > 0)
 
     def cut(self) -> None:
-        """Every queued pulse dropped now, the pin low (mid-entry: the count is lost)."""
-        self._lg.tx_pulse(self.handle, self.pin, 0, 0, 0, 0)
-        self._lg.gpio_write(self.handle, self.pin, 0)
+        """Every queued pulse dropped now, the pin low (mid-entry: the count is lost).
+
+        lg stops a train with ``tx_pulse(h, g, 0, 0)`` only while one runs: with none
+        (at rest) xSetAsPwm's else-branch finds 0 + 0 not over lgMinTxDelay and returns
+        LG_BAD_PWM_MICROS (-86; joan2937/lg bcccd78, lgGpio.c xSetAsPwm, lgpio.h:2960),
+        which lgpio's Python raises. So it is asked only while busy, and a train that
+        ended between the two calls (the same error) is no failure: the pin goes low
+        either way."""
+        try:
+            if self._lg.tx_busy(self.handle, self.pin, self._lg.TX_PWM) > 0:
+                self._lg.tx_pulse(self.handle, self.pin, 0, 0, 0, 0)
+        except self._lg.error as exc:
+            log.debug("GPIO%d: no train to cut (%s)", self.pin, exc)
+        finally:
+            self._lg.gpio_write(self.handle, self.pin, 0)
 
     def identify(self) -> str:
         return (f"GPIO{self.pin}: lgpio tx_pulse queue, {LG_TX_BUF - self.room()} of {LG_TX_BUF} entries "

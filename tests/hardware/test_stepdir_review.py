@@ -1,0 +1,121 @@
+"""The step/dir review's defects (review of the new hardware code): stopping a stepper
+at rest on lg, the halt racing a drive, the AS5600 check's tolerance, lg's start delay."""
+
+from __future__ import annotations
+
+import sys
+import types
+
+import pytest
+from gpiozero.pins.mock import MockFactory
+
+from urc.caps import SensorCaps
+from urc.clock import VirtualClock
+from urc.hardware.drivers.stepper import ENVELOPE_ACCEL_FACTOR, StepCountSensor, StepDirMotor
+from urc.hardware.gpio.emulate_stepdir import LG_BAD_PWM_MICROS, EmulatedStepDirChip, EmulatedTxQueue, LgError
+from urc.hardware.gpio.pins import PinOut
+from urc.hardware.gpio.stepdir import STEPDIR_CHIPS
+from urc.hardware.sim.stepper import StepperAxis, satnogs_v3_stepper
+from urc.profiles import PROFILES
+
+SATNOGS = PROFILES["satnogs-v3"].az
+
+
+class FakeLg(types.ModuleType):
+    """lgpio's calls the pulse train makes, with xSetAsPwm's rule for (0, 0)
+    (joan2937/lg lgGpio.c): a stop with no train running is LG_BAD_PWM_MICROS, raised."""
+
+    TX_PWM = 0
+
+    class error(Exception):
+        pass
+
+    def __init__(self):
+        super().__init__("lgpio")
+        self.running = False
+        self.writes: list[tuple[int, int]] = []
+
+    def gpio_claim_output(self, h, g, level):
+        return 0
+
+    def tx_busy(self, h, g, kind):
+        return int(self.running)
+
+    def tx_pulse(self, h, g, on, off, offset, cycles):
+        if not on and not off:
+            if not self.running:
+                raise self.error("bad PWM micros")      # lg: -86
+            self.running = False
+            return 0
+        self.running = True
+        return 9
+
+    def gpio_write(self, h, g, level):
+        self.writes.append((g, level))
+        return 0
+
+
+def test_lg_cut_at_rest_does_not_raise_and_leaves_the_pin_low(monkeypatch):
+    from urc.hardware.gpio.stepdir import LgpioStepPulses
+    lg = FakeLg()
+    monkeypatch.setitem(sys.modules, "lgpio", lg)
+    pulses = LgpioStepPulses(types.SimpleNamespace(_handle=1), 17)
+    pulses.cut()                                   # at rest: lg would say -86
+    assert lg.writes == [(17, 0)]
+    pulses.queue(156, 156, 10)
+    pulses.cut()                                   # running: stopped, then low
+    assert not lg.running and lg.writes[-1] == (17, 0)
+
+
+def test_the_emulated_queue_refuses_a_stop_at_rest_as_lg_does():
+    clock = VirtualClock()
+    q = EmulatedTxQueue(clock.now_s, lambda *a: None)
+    assert LG_BAD_PWM_MICROS == -86                # lgpio.h:2960
+    with pytest.raises(LgError) as err:
+        q.tx_pulse(0, 0, 0)
+    assert err.value.code == -86
+    q.cut()                                        # the driver's cut asks only while busy
+    assert q.queue(156, 156, 5) == 9 and q.busy()
+    q.cut()
+    assert not q.busy() and q.cuts == 1
+
+
+class Rig:
+    def __init__(self, queue_cls=EmulatedTxQueue, check=None, microsteps=8, steps_per_deg=240.0):
+        self.clock = VirtualClock()
+        self.factory = MockFactory()
+        self.dir_out = PinOut(self.factory, 20)
+        self.en_out = PinOut(self.factory, 21, active_low=True)
+        self.axis = StepperAxis(satnogs_v3_stepper(), 0.0)
+        self.chip = EmulatedStepDirChip(STEPDIR_CHIPS["a4988"], self.axis, self.dir_out.pin, self.en_out.pin)
+        self.queue = queue_cls(self.clock.now_s, self.chip.on_pulses)
+        self.motor = StepDirMotor("az", STEPDIR_CHIPS["a4988"], self.queue, self.dir_out, self.en_out,
+                                  self.clock.now_s, steps_per_deg=steps_per_deg,
+                                  max_rate_deg_per_s=SATNOGS.max_rate_deg_per_s,
+                                  max_accel_deg_per_s2=ENVELOPE_ACCEL_FACTOR * SATNOGS.accel_deg_per_s2)
+
+    def run(self, duty, seconds, dt=0.02):
+        for _ in range(round(seconds / dt)):
+            self.motor.set_drive(duty)
+            self.clock.advance(dt)
+            self.queue.advance()
+
+
+class CutRaises(EmulatedTxQueue):
+    """A cut that fails (lg's -86 as the old cut met it at rest)."""
+
+    def cut(self):
+        raise LgError(LG_BAD_PWM_MICROS)
+
+
+def test_force_safe_disables_the_chip_even_when_the_cut_raises():
+    rig = Rig(CutRaises)
+    rig.run(0.0, 0.2)
+    assert rig.en_out.read_back()
+    with pytest.raises(LgError):
+        rig.motor.force_safe()
+    assert not rig.en_out.read_back()              # ENABLE off all the same
+    assert rig.motor.rate_sps == 0.0 and rig.motor.duty == 0.0
+    with pytest.raises(LgError):
+        rig.motor.close()
+    assert rig.motor.closed
