@@ -119,3 +119,38 @@ def test_force_safe_disables_the_chip_even_when_the_cut_raises():
     with pytest.raises(LgError):
         rig.motor.close()
     assert rig.motor.closed
+
+
+class HaltDuringQueue(EmulatedTxQueue):
+    """force_safe arriving while set_drive holds the lock, inside tx_pulse: it waits its
+    10 ms for the lock, then cuts without it (the tick thread is still in set_drive)."""
+
+    motor: StepDirMotor | None = None
+    halt_at: str = ""
+
+    def tx_pulse(self, high_us, low_us, cycles):
+        if self.motor is not None and high_us and self.halt_at == "before":
+            self.halt_at = ""
+            self.motor.force_safe()
+        left = super().tx_pulse(high_us, low_us, cycles)
+        if self.motor is not None and high_us and self.halt_at == "after":
+            self.halt_at = ""
+            self.motor.force_safe()
+        return left
+
+
+@pytest.mark.parametrize("when", ["before", "after"])
+def test_a_halt_racing_a_drive_leaves_no_pulse_queued_after_its_cut(when):
+    rig = Rig(HaltDuringQueue)
+    rig.run(0.5, 1.0)                              # moving
+    rig.queue.motor, rig.queue.halt_at = rig.motor, when
+    rig.motor.set_drive(0.5)                       # the tick's drive, force_safe inside it
+    assert rig.queue.halt_at == ""                 # (it did run)
+    assert not rig.en_out.read_back()
+    assert not rig.queue.busy(), "pulses queued after the cut"
+    assert rig.motor.rate_sps == 0.0
+    emitted = rig.queue.emitted
+    rig.clock.advance(0.1)
+    rig.queue.advance()
+    assert rig.queue.emitted == emitted
+    assert rig.motor.at_rest() and rig.motor.steps() == rig.axis.steps_taken
