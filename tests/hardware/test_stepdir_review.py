@@ -153,4 +153,23 @@ def test_a_halt_racing_a_drive_leaves_no_pulse_queued_after_its_cut(when):
     rig.clock.advance(0.1)
     rig.queue.advance()
     assert rig.queue.emitted == emitted
-    assert rig.motor.at_rest() and rig.motor.steps() == rig.axis.steps_taken
+    assert rig.motor.at_rest() and rig.motor.position_lost     # (cut while moving)
+
+
+def test_at_rest_waits_for_lgs_late_started_train():
+    """lg starts a train at its thread's next pass, up to 20 ms after tx_pulse
+    (lgPthTx.c:61): the schedule ends before the last pulse is out; until it is, the
+    axis is not at rest (the AS5600 check compares only at rest)."""
+    rig = Rig()
+    seen_ahead = False
+    for i in range(200):
+        if i % 20 == 0:
+            rig.motor.set_drive(0.2 if i == 0 else 0.0)   # one short train from rest, then stop
+        rig.clock.advance(0.001)
+        rig.queue.advance()
+        if not rig.motor._sched and rig.queue.busy():
+            seen_ahead = True                      # the schedule done, lg's pulses still going
+            assert not rig.motor.at_rest()
+        if rig.motor.at_rest():
+            assert rig.motor.steps() == rig.axis.steps_taken > 0
+    assert seen_ahead and rig.motor.at_rest()

@@ -108,9 +108,11 @@ class StepDirMotor:
         return n
 
     def at_rest(self) -> bool:
-        """No step asked for and every queued one out."""
+        """No step asked for and every queued one out: by the schedule and by lg, whose
+        train starts up to 20 ms after it is queued (lgPthTx.c:61), so the schedule can
+        end before the last pulse is out."""
         self.steps()
-        return self.rate_sps == 0.0 and not self._sched
+        return self.rate_sps == 0.0 and not self._sched and not self.pulses.busy()
 
     def _queued_end_s(self) -> float:
         if not self._sched:

@@ -19,8 +19,13 @@ bcccd78). What it does, and what that means here:
 * ``tx_room`` is 10 minus the entries queued, ``tx_busy`` whether any is running. lg
   does not say how many pulses of the running entry are out, so the driver keeps its
   own schedule of the entries it queued (:meth:`..drivers.stepper.StepDirMotor.steps`)
-  and reads the count from it; it is exact whenever the queue has drained (every normal stop) and within the
-  pulses of one entry while one runs.
+  and reads the count from it. That schedule starts a train when it is queued, but lg
+  starts it later: the new record is picked up when lg's thread next wakes, which idle
+  is up to 20 ms away (``pthTxDelayMicros = 20000``, lgPthTx.c:61), and its first edge
+  is then aligned to its period (lgGpioCreateTxRec). So while a train runs the count
+  leads the pulses by up to 20 ms of steps and a period (65 at 3200 steps/s); once lg's
+  queue has drained (``tx_busy`` 0, which ``at_rest`` requires: every normal stop) it
+  is exact.
 * The pulses are timed by lg's own thread (``lgPthTx``), on a Pi 4 and a Pi 5 alike
   (lg has no DMA path; on a Pi 5 the pins are the RP1's: gpiozero 2.0.1's
   LGPIOFactory opens /dev/gpiochip4 on a Pi 5 where it exists, else gpiochip0): it
