@@ -173,3 +173,33 @@ def test_at_rest_waits_for_lgs_late_started_train():
         if rig.motor.at_rest():
             assert rig.motor.steps() == rig.axis.steps_taken > 0
     assert seen_ahead and rig.motor.at_rest()
+
+
+def test_the_as5600_tolerance_follows_the_microstep_and_the_backlash():
+    """4 full steps at the axis' own microstep (it assumed 1/8), plus the profile's gear
+    play (after a reversal the count and an axis-side sensor differ by up to it)."""
+    rig = Rig(microsteps=16, steps_per_deg=240.0)
+    caps = SensorCaps(kind="encoder", resolution_deg=1 / 240, absolute=False)
+    check = types.SimpleNamespace(caps=SensorCaps(kind="as5600", resolution_deg=360 / 4096, absolute=True))
+    tol = StepCountSensor(caps, "az", rig.motor, check=check, microsteps=16).check_tol_deg
+    assert tol == pytest.approx(4 * 16 / 240)                 # 4 full steps of 1/15 deg
+    tol = StepCountSensor(caps, "az", rig.motor, check=check, microsteps=16, backlash_deg=0.5).check_tol_deg
+    assert tol == pytest.approx(4 * 16 / 240 + 0.5)
+
+
+def test_the_built_satnogs_axis_uses_its_microstep(tmp_path):
+    from pathlib import Path
+
+    from urc.assembly import build_rotator
+    from urc.cli import with_emulation
+    from urc.config import Config, load_config
+    example = Path(__file__).resolve().parents[2] / "examples" / "satnogs-v3.toml"
+    data = with_emulation(load_config(example)).to_dict()
+    data["hardware"]["gpio"]["az"].update(microsteps=16, steps_per_deg=240.0, as5600_check=True)
+    rot = build_rotator(Config.from_dict(data), VirtualClock(1000.0), tmp_path, durable_state=False,
+                        fast_virtual=True)
+    try:
+        sensor = rot.hw.axis("az").sensor
+        assert sensor.check_tol_deg == pytest.approx(4 * 16 / 240 + rot.caps.az.backlash_deg)
+    finally:
+        rot.hw.close()

@@ -261,15 +261,17 @@ class StepCountSensor:
     and the motor reports it as a fault."""
 
     def __init__(self, caps: SensorCaps, name: str, motor: StepDirMotor, *, check: Any = None,
-                 check_tol_deg: float | None = None):
+                 check_tol_deg: float | None = None, microsteps: int = 8, backlash_deg: float = 0.0):
         self.caps, self.name, self.motor = caps, name, motor
         self.reference_deg = 0.0
         self.check = check
-        # 4 full steps (one electrical turn: what a slipping rotor loses at least) or
-        # two counts of the check sensor, whichever is more
-        full_step_deg = 8.0 / motor.steps_per_deg
+        # 4 full steps (one electrical turn: what a slipping rotor loses at least) at the
+        # axis' own microstep, or two counts of the check sensor, whichever is more; plus
+        # the gear play between the motor and a sensor on the axis side (the profile's
+        # backlash): the two differ by up to it after a reversal, with no step lost
+        full_step_deg = microsteps / motor.steps_per_deg
         self.check_tol_deg = check_tol_deg if check_tol_deg is not None else max(
-            4 * full_step_deg, 2 * getattr(getattr(check, "caps", None), "resolution_deg", 0.0))
+            4 * full_step_deg, 2 * getattr(getattr(check, "caps", None), "resolution_deg", 0.0)) + backlash_deg
         self._check_offset_deg: float | None = None
 
     def counts(self) -> int:
