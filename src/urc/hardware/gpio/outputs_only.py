@@ -96,8 +96,24 @@ class OutputsHeld:
                 log.exception("takeover: %s could not be written", what)
 
     def close(self) -> None:
-        """Nothing to let go: the lines stay claimed at their safe levels until the
-        process ends (gpiozero's close would float them)."""
+        """Every claimed line let go at its safe level, for the restarted control process
+        to claim: the I/O process lives on after a takeover, and a line it still requests
+        is EBUSY to any other (gpiozero's LGPIOFactory has no ``__del__`` and lg closes no
+        handle when it is collected; review of the takeover, outputs_only.py). Freed
+        with ``lgpio.gpio_free``, never gpiozero's close (that reclaims it as an input,
+        floating): on Raspberry Pi OS a freed output keeps its level
+        (``persist_gpio_outputs``). Mock pins hold no kernel line; a pin on its PWM
+        channel was never claimed."""
+        for what, (out, _) in self.outputs.items():
+            pin = getattr(out, "pin", None)
+            handle = getattr(getattr(pin, "factory", None), "_handle", None)
+            if type(pin).__name__ != "LGPIOPin" or handle is None:
+                continue
+            try:
+                import lgpio
+                lgpio.gpio_free(handle, pin._number)
+            except Exception:
+                log.exception("takeover: could not let go of %s", what)
 
 
 def take_gpio_outputs(gpio: Any, axes: tuple[str, ...], factory: Any = None, *,
