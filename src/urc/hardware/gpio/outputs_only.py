@@ -16,6 +16,9 @@ Safe levels (logical: ``active_low`` outputs are driven the other way):
 * LMD18200: BRAKE high, PWM high (a plain high level), DIR low — brake (TI Table 1);
 * BTS7960: RPWM = LPWM = 0, EN high where wired — both low sides on, braking;
 * PWM + DIR boards: PWM low; relays (CW, CCW, fast, UP, DOWN): off;
+* step/dir drivers: STEP and DIR low, ENABLE off at the chip's own polarity (active low
+  on all four, :mod:`..drivers.stepdir_chips`; ``enable_active_low`` overrides), never
+  ``active_low``'s;
 * brake coils: off (engaged); heartbeat: low (no edges: the safety chain drops).
 
 A motor PWM pin routed to the PWM peripheral is never claimed as a line: that would
@@ -45,6 +48,7 @@ SAFE_LEVELS: dict[str, dict[str, bool]] = {
     "bts7960": {"rpwm": False, "lpwm": False, "en": True},
     "pwm_dir": {"pwm": False, "dir": False},
     "relay": {"cw": False, "ccw": False, "fast": False},
+    "stepdir": {"step": False, "dir": False, "enable": False},
 }
 
 
@@ -160,7 +164,7 @@ def take_gpio_outputs(gpio: Any, axes: tuple[str, ...], factory: Any = None, *,
                 held.hold_channel(what, PwmChannelLevel(pin, chip, channel, frequency_hz=cfg.pwm_frequency_hz,
                                                         sys_pwm=sys_pwm), level)
             else:
-                held.claim(what, pin, level, key in cfg.active_low)
+                held.claim(what, pin, level, _active_low(cfg, key))
                 if channel is not None:     # a GPIO already: its channel (routed elsewhere, if anywhere) off
                     _channel_off(chip, channel, sys_pwm)
         if "brake" in cfg.pins:
@@ -168,6 +172,16 @@ def take_gpio_outputs(gpio: Any, axes: tuple[str, ...], factory: Any = None, *,
     if gpio.heartbeat_pin is not None:
         held.claim("heartbeat", gpio.heartbeat_pin, False, False)
     return held
+
+
+def _active_low(cfg: Any, key: str) -> bool:
+    if cfg.motor == "stepdir" and key == "enable":
+        from .stepdir import STEPDIR_CHIPS
+        if cfg.enable_active_low is not None:
+            return bool(cfg.enable_active_low)
+        chip = STEPDIR_CHIPS.get(cfg.stepper_driver)
+        return chip.enable_active_low if chip is not None else True     # (all four chips')
+    return key in cfg.active_low
 
 
 def _channel_off(chip: int, channel: int, sys_pwm: Path) -> None:
