@@ -109,7 +109,7 @@ class OutputsHeld:
         (``persist_gpio_outputs``). Mock pins hold no kernel line; a pin on its PWM
         channel was never claimed."""
         for what, (out, _) in self.outputs.items():
-            pin = getattr(out, "pin", None)
+            pin: Any = getattr(out, "pin", None)
             handle = getattr(getattr(pin, "factory", None), "_handle", None)
             if type(pin).__name__ != "LGPIOPin" or handle is None:
                 continue
