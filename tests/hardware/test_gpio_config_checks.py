@@ -166,3 +166,13 @@ def test_the_safety_chain_read_back_is_checked():
                for n in gpio_warnings(cfg))
     cfg = Config.from_dict(example("g5500", **{"hardware.gpio.motor_enable_sense_pin": 14}))
     assert any("motor_enable_sense_pin" in n and "UART TXD" in n for n in gpio_warnings(cfg))
+
+
+def test_a_stepper_enable_is_judged_at_its_chips_polarity():
+    """ENABLE is active low on the step/dir chips: on a pin pulled low at boot the boards
+    are enabled while the Pi boots (the check took it as active high: no warning)."""
+    cfg = Config.from_dict(example("satnogs-v3", **{"hardware.gpio.az.pins": {"step": 17, "dir": 27, "enable": 22}}))
+    notes = [n for n in gpio_warnings(cfg) if "power-on" in n]
+    assert len(notes) == 1 and "az.pins.enable" in notes[0]
+    cfg = Config.from_dict(example("satnogs-v3", **{"hardware.gpio.az.pins": {"step": 17, "dir": 27, "enable": 5}}))
+    assert not [n for n in gpio_warnings(cfg) if "power-on" in n]

@@ -119,3 +119,18 @@ def test_a_channel_a_dead_urc_left_enabled_is_switched_off_before_the_library_wr
     HardwarePwm(12, 0, frequency_hz=20_000.0, pwm_class=Library, chip=0, sys_pwm=tmp_path)
     assert seen == {"duty_at_init": "0", "enable_at_init": "0"}
     assert sysfs_pwm_off(0, 1, tmp_path) is False               # not exported: nothing to do
+
+
+def test_takeover_stops_satnogs_steppers_and_disables_their_chips(factory):
+    """The takeover had no stepdir entry: STEP, DIR and ENABLE were never claimed. ENABLE
+    is off at the chip's polarity (all four active low: the pin HIGH), not active_low's."""
+    gpio = cfg_of("satnogs-v3").hardware.gpio
+    held = take_gpio_outputs(gpio, ("az", "el"), factory)
+    levels = held.levels()
+    assert held.failed == []
+    for axis in ("az", "el"):
+        pins = getattr(gpio, axis).pins
+        assert {k: levels[f"{axis} stepdir {k}"] for k in ("step", "dir", "enable")} == {
+            "step": False, "dir": False, "enable": False}
+        assert factory.pin(pins["enable"]).state                 # HIGH: the A4988's outputs off
+        assert not factory.pin(pins["step"]).state and not factory.pin(pins["dir"]).state

@@ -85,10 +85,10 @@ def test_count_is_the_steps_the_chip_took():
     assert rig.sensor.read_deg() == pytest.approx(rig.axis.angle_deg, abs=1e-9)
     assert rig.axis.steps_lost == 0 and rig.chip.dir_violations == 0
     assert rig.motor.driver_fault() == ""
-    # mid-train the count follows the pulses the period has given
+    # mid-train the count leads the pulses by at most lg's start delay (20 ms) and a period
     rig.run(lambda t: 0.5, 1.01)
     assert rig.queue.busy()
-    assert rig.motor.steps() == rig.axis.steps_taken
+    assert 0 <= rig.motor.steps() - rig.axis.steps_taken <= 0.5 * 3200 * 0.025
 
 
 def test_rate_and_acceleration_stay_in_the_envelope():
@@ -102,6 +102,7 @@ def test_rate_and_acceleration_stay_in_the_envelope():
     assert max(abs(r) for r in rates) == pytest.approx(top)
     accel = ENVELOPE_ACCEL_FACTOR * SATNOGS.accel_deg_per_s2 * STEPS_PER_DEG
     assert max(abs(b - a) for a, b in zip(rates, rates[1:])) <= accel * 0.02 + 1e-6
+    rig.clock.advance(0.5)                # (lg's queue drained: the count is exact then)
     rig.queue.advance()
     assert rig.chip.dir_violations == 0 and rig.axis.steps_lost == 0
     assert rig.motor.steps() == rig.axis.steps_taken
@@ -144,9 +145,9 @@ def test_a_lost_step_is_caught_by_the_absolute_sensor():
     rig.axis.lose_next_steps(40)                      # a jam: 40 microsteps (5 full steps) slip
     rig.run(lambda t: 0.6, 1.0)
     assert rig.axis.steps_lost == 40
-    assert rig.motor.steps() - rig.axis.steps_taken == 40
     assert rig.motor.driver_fault() == ""             # compared at rest only (an I2C read's age)
     rig.run(lambda t: 0.0, 2.0)
+    assert rig.motor.steps() - rig.axis.steps_taken == 40
     assert "absolute sensor differ" in rig.motor.driver_fault()
 
 
@@ -157,6 +158,7 @@ def test_a_lost_step_without_a_sensor_goes_unseen():
     rig.run(lambda t: 0.6, 1.0)
     rig.axis.lose_next_steps(40)
     rig.run(lambda t: 0.6, 1.0)
+    rig.run(lambda t: 0.0, 2.0)
     assert rig.motor.driver_fault() == ""
     assert rig.sensor.read_deg() - rig.axis.angle_deg == pytest.approx(40 / STEPS_PER_DEG)
 

@@ -80,6 +80,9 @@ class StepDirMotor:
         self._reported = ""
         self._lock = threading.Lock()
         self.closed = False
+        #: bumped by every force_safe before it waits for the lock: a drive that began
+        #: before sees it changed and queues nothing after the cut
+        self._halt = 0
         self._dir_level = True
         self._write_dir(1)
         if self.enable is not None:
@@ -105,9 +108,11 @@ class StepDirMotor:
         return n
 
     def at_rest(self) -> bool:
-        """No step asked for and every queued one out."""
+        """No step asked for and every queued one out: by the schedule and by lg, whose
+        train starts up to 20 ms after it is queued (lgPthTx.c:61), so the schedule can
+        end before the last pulse is out."""
         self.steps()
-        return self.rate_sps == 0.0 and not self._sched
+        return self.rate_sps == 0.0 and not self._sched and not self.pulses.busy()
 
     def _queued_end_s(self) -> float:
         if not self._sched:
@@ -124,6 +129,7 @@ class StepDirMotor:
         with self._lock:
             if self.closed:
                 raise HardwareError(f"{self.name} motor: closed")
+            halt = self._halt
             now = self.now_s()
             dt = self.tick_s if self._last_s is None else min(max(now - self._last_s, 1e-3), 5 * self.tick_s)
             self._last_s = now
@@ -138,9 +144,9 @@ class StepDirMotor:
             rate = self.rate_sps + max(-step, min(step, want - self.rate_sps))
             if rate != 0.0 and (rate > 0) != (self.rate_sps > 0) and self.rate_sps != 0.0:
                 rate = 0.0                # through 0 first: DIR changes with the queue empty
-            self._queue(rate, now)
+            self._queue(rate, now, halt)
 
-    def _queue(self, rate: float, now: float) -> None:
+    def _queue(self, rate: float, now: float, halt: int) -> None:
         self.rate_sps = rate
         if rate == 0.0:
             self._frac = 0.0
@@ -166,11 +172,24 @@ class StepDirMotor:
         # the n pulses spread over the span (a slow rate's one pulse does not hold the
         # queue for its whole period)
         high, low = pulse_times_us(max(abs(rate), n / span), self.chip)
+        # force_safe gives up waiting for the lock after 10 ms and cuts without it
+        # (review: stepper.py set_drive against force_safe): a halt since this drive
+        # began, before or during tx_pulse, must not leave these pulses queued behind its cut
+        if self._halt != halt:
+            self._halted()
+            return
         left = self.pulses.queue(high, low, n)
+        if self._halt != halt:
+            self._halted()
+            self.pulses.cut()
+            return
         if left < 0:
             raise HardwareError(f"{self.name} motor: the step queue refused {n} pulses (lgpio {left})")
         start = max(end, now)
         self._sched.append([sign * n, (high + low) * 1e-6, start])
+
+    def _halted(self) -> None:
+        self.rate_sps, self.duty, self._frac = 0.0, 0.0, 0.0
 
     def _dir_level_sign(self) -> int:
         return (1 if self._dir_level else -1) * (-1 if self.dir_reversed else 1)
@@ -183,26 +202,33 @@ class StepDirMotor:
     # ---------------------------------------------------------------- safety
     def force_safe(self) -> None:
         """The train cut now and the chip disabled; a cut mid-move loses the count."""
+        self._halt += 1
         got = self._lock.acquire(timeout=0.01)
+        n = self._done
         try:
             moving = self.pulses.busy()
             n = self.steps()
-            self.pulses.cut()
-            if self.enable is not None:
-                self.enable.write(False)
             if moving:
                 self._lose(f"{self.name}: the step train was cut while moving (at step {n}); "
                            "the position is uncertain until the axis is homed")
-            self._sched.clear()
-            self._done = n
-            self.rate_sps, self.duty, self._frac = 0.0, 0.0, 0.0
+            self.pulses.cut()
         finally:
-            if got:
-                self._lock.release()
+            # (whatever the cut raised: the chip disabled and the drive forgotten all the same)
+            try:
+                if self.enable is not None:
+                    self.enable.write(False)
+            finally:
+                self._sched.clear()
+                self._done = n
+                self.rate_sps, self.duty, self._frac = 0.0, 0.0, 0.0
+                if got:
+                    self._lock.release()
 
     def close(self) -> None:
-        self.force_safe()
-        self.closed = True
+        try:
+            self.force_safe()
+        finally:
+            self.closed = True
 
     def _lose(self, why: str) -> None:
         if not self.position_lost:
@@ -235,15 +261,17 @@ class StepCountSensor:
     and the motor reports it as a fault."""
 
     def __init__(self, caps: SensorCaps, name: str, motor: StepDirMotor, *, check: Any = None,
-                 check_tol_deg: float | None = None):
+                 check_tol_deg: float | None = None, microsteps: int = 8, backlash_deg: float = 0.0):
         self.caps, self.name, self.motor = caps, name, motor
         self.reference_deg = 0.0
         self.check = check
-        # 4 full steps (one electrical turn: what a slipping rotor loses at least) or
-        # two counts of the check sensor, whichever is more
-        full_step_deg = 8.0 / motor.steps_per_deg
+        # 4 full steps (one electrical turn: what a slipping rotor loses at least) at the
+        # axis' own microstep, or two counts of the check sensor, whichever is more; plus
+        # the gear play between the motor and a sensor on the axis side (the profile's
+        # backlash): the two differ by up to it after a reversal, with no step lost
+        full_step_deg = microsteps / motor.steps_per_deg
         self.check_tol_deg = check_tol_deg if check_tol_deg is not None else max(
-            4 * full_step_deg, 2 * getattr(getattr(check, "caps", None), "resolution_deg", 0.0))
+            4 * full_step_deg, 2 * getattr(getattr(check, "caps", None), "resolution_deg", 0.0)) + backlash_deg
         self._check_offset_deg: float | None = None
 
     def counts(self) -> int:

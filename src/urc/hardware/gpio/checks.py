@@ -213,7 +213,7 @@ def gpio_warnings(cfg: Config) -> list[str]:
             if key not in outputs or pin in g.pulled_down:
                 continue
             high_at_boot = pin in BOOT_HIGH_PINS
-            low_active = key in ax.active_low
+            low_active = _active_low(ax, key)
             if high_at_boot == low_active:     # off at boot: high for active low, low otherwise
                 continue
             if high_at_boot:
@@ -277,6 +277,17 @@ def _boot_function_notes(g: Any) -> list[str]:
                              f"{BOOT_FUNCTION_PINS[sense]}: driven while the Pi boots, against the read-back's "
                              "contact or Q", "use a free pin from GPIO9-27"))
     return notes
+
+
+def _active_low(ax: Any, key: str) -> bool:
+    """A step/dir chip's ENABLE has the chip's polarity (active low on all four), or
+    enable_active_low's; any other output active_low's."""
+    if ax.motor == "stepdir" and key == "enable":
+        if ax.enable_active_low is not None:
+            return bool(ax.enable_active_low)
+        chip = STEPDIR_CHIPS.get(ax.stepper_driver)
+        return chip.enable_active_low if chip is not None else True
+    return key in ax.active_low
 
 
 def _outputs(motor_kind: str) -> set[str]:

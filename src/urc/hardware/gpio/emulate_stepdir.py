@@ -4,7 +4,11 @@ chip reading its STEP, DIR and ENABLE inputs into the simulator's stepper axis.
 The queue follows lg's ``tx_pulse`` as :mod:`.stepdir` describes it (lgPthTx.c): up to
 ``LG_TX_BUF`` entries, each exactly ``cycles`` pulses of (high + low) microseconds, the
 next entry starting when the previous one's last period ends; ``cut`` drops them all
-at once. The chip (:data:`.stepdir.STEPDIR_CHIPS`) steps on each rising STEP edge in
+at once. A train queued while none runs starts late, as lg's does: its record is
+picked up when lg's thread next wakes (it sleeps 20 ms at a time when idle,
+``pthTxDelayMicros = 20000``, lgPthTx.c:61) and its first edge is aligned to its period
+(lgGpioCreateTxRec). Here the thread's wake-ups are the 20 ms grid of the clock: the
+idle case, the longest delay (with another pin's train running lg wakes sooner). The chip (:data:`.stepdir.STEPDIR_CHIPS`) steps on each rising STEP edge in
 the direction DIR has then, only while its enable input is at its active level; a DIR
 change while pulses run (closer than its setup time to an edge) is counted in
 ``dir_violations`` and the steps of that entry go the new way (as on iron: the chip
@@ -19,8 +23,30 @@ from typing import Any, Callable
 
 from .stepdir import LG_MIN_PERIOD_US, LG_TX_BUF, StepDirChip
 
-LG_TX_QUEUE_FULL = -96     # lgpio.h
-LG_BAD_PWM_MICROS = -104   # lgpio.h (a period of lgMinTxDelay or less)
+# joan2937/lg bcccd78, lgpio.h:2960 and :2970
+LG_TX_QUEUE_FULL = -96
+LG_BAD_PWM_MICROS = -86    # a period of lgMinTxDelay or less, or a cut (0, 0) with no train running
+#: lg's thread sleeps this long between passes when no edge is due sooner (lgPthTx.c:61)
+LG_IDLE_WAKE_S = 0.02
+
+
+def lg_first_edge_s(now_s: float, period_us: int) -> float:
+    """When lg's first rising edge of a train queued at ``now_s`` with none running
+    comes: at the thread's next wake-up (the idle grid), plus ``ct - frac`` where
+    ``frac`` is that wake-up's microsecond within the second modulo the period
+    (lgGpioCreateTxRec, lgPthTx.c)."""
+    wake_s = (math.floor(now_s / LG_IDLE_WAKE_S + 1e-9) + 1) * LG_IDLE_WAKE_S
+    wake_us = round(wake_s * 1e6) % 1_000_000
+    return wake_s + (period_us - wake_us % period_us) * 1e-6
+
+
+class LgError(Exception):
+    """lgpio's ``error`` as its Python raises it for a negative status (``exceptions``
+    is True by default): ``code`` is lg's."""
+
+    def __init__(self, code: int):
+        super().__init__(f"lg error {code}")
+        self.code = code
 
 
 class EmulatedTxQueue:
@@ -34,14 +60,22 @@ class EmulatedTxQueue:
         self.emitted = 0
         self.cuts = 0
 
-    def queue(self, high_us: int, low_us: int, cycles: int) -> int:
+    def tx_pulse(self, high_us: int, low_us: int, cycles: int) -> int:
+        """lg's ``tx_pulse`` on this pin as lgpio's Python has it (xSetAsPwm, lgGpio.c):
+        (0, 0) stops a running train and returns 0, but with none running it is
+        LG_BAD_PWM_MICROS, raised (:class:`LgError`) as lgpio raises every negative
+        status."""
         self.advance()
+        if not high_us and not low_us and self._entries:
+            self._entries.clear()
+            self.cuts += 1
+            return 0
         if high_us + low_us < LG_MIN_PERIOD_US:
-            return LG_BAD_PWM_MICROS
+            raise LgError(LG_BAD_PWM_MICROS)
         if len(self._entries) >= LG_TX_BUF:
-            return LG_TX_QUEUE_FULL
+            raise LgError(LG_TX_QUEUE_FULL)
         start = self._entries[-1][3] + self._entries[-1][2] * (self._entries[-1][0] + self._entries[-1][1]) * 1e-6 \
-            if self._entries else self.now_s()
+            if self._entries else lg_first_edge_s(self.now_s(), int(high_us) + int(low_us))
         self._entries.append([int(high_us), int(low_us), int(cycles), start])
         return LG_TX_BUF - len(self._entries)
 
@@ -53,10 +87,20 @@ class EmulatedTxQueue:
         self.advance()
         return bool(self._entries)
 
+    def queue(self, high_us: int, low_us: int, cycles: int) -> int:
+        """(:meth:`.stepdir.LgpioStepPulses.queue`'s contract: lg's status, negative refused)"""
+        try:
+            return self.tx_pulse(high_us, low_us, cycles)
+        except LgError as exc:
+            return exc.code
+
     def cut(self) -> None:
-        self.advance()
-        self._entries.clear()
-        self.cuts += 1
+        """As :meth:`.stepdir.LgpioStepPulses.cut`: the stop asked only while a train runs."""
+        try:
+            if self.busy():
+                self.tx_pulse(0, 0, 0)
+        except LgError:
+            pass
 
     def advance(self) -> None:
         """Emit every pulse whose rising edge is due by now."""

@@ -157,7 +157,8 @@ def _step_count(w: AxisWiring, motor: Any) -> Any:
         check = As5600Sensor(AS5600_CAPS, w.name, chip, zero_deg=w.cfg.zero_deg, reversed=w.cfg.as5600_reversed)
     caps = dataclasses.replace(w.ax_caps.sensor, kind="encoder", absolute=False, modulo_deg=None,
                                resolution_deg=1.0 / motor.steps_per_deg)
-    return StepCountSensor(caps, w.name, motor, check=check)
+    return StepCountSensor(caps, w.name, motor, check=check, microsteps=w.cfg.microsteps,
+                           backlash_deg=w.ax_caps.backlash_deg)
 
 
 MOTORS: dict[str, MotorKind] = {

@@ -16,6 +16,9 @@ Safe levels (logical: ``active_low`` outputs are driven the other way):
 * LMD18200: BRAKE high, PWM high (a plain high level), DIR low — brake (TI Table 1);
 * BTS7960: RPWM = LPWM = 0, EN high where wired — both low sides on, braking;
 * PWM + DIR boards: PWM low; relays (CW, CCW, fast, UP, DOWN): off;
+* step/dir drivers: STEP and DIR low, ENABLE off at the chip's own polarity (active low
+  on all four, :mod:`..drivers.stepdir_chips`; ``enable_active_low`` overrides), never
+  ``active_low``'s;
 * brake coils: off (engaged); heartbeat: low (no edges: the safety chain drops).
 
 A motor PWM pin routed to the PWM peripheral is never claimed as a line: that would
@@ -45,6 +48,7 @@ SAFE_LEVELS: dict[str, dict[str, bool]] = {
     "bts7960": {"rpwm": False, "lpwm": False, "en": True},
     "pwm_dir": {"pwm": False, "dir": False},
     "relay": {"cw": False, "ccw": False, "fast": False},
+    "stepdir": {"step": False, "dir": False, "enable": False},
 }
 
 
@@ -96,8 +100,24 @@ class OutputsHeld:
                 log.exception("takeover: %s could not be written", what)
 
     def close(self) -> None:
-        """Nothing to let go: the lines stay claimed at their safe levels until the
-        process ends (gpiozero's close would float them)."""
+        """Every claimed line let go at its safe level, for the restarted control process
+        to claim: the I/O process lives on after a takeover, and a line it still requests
+        is EBUSY to any other (gpiozero's LGPIOFactory has no ``__del__`` and lg closes no
+        handle when it is collected; review of the takeover, outputs_only.py). Freed
+        with ``lgpio.gpio_free``, never gpiozero's close (that reclaims it as an input,
+        floating): on Raspberry Pi OS a freed output keeps its level
+        (``persist_gpio_outputs``). Mock pins hold no kernel line; a pin on its PWM
+        channel was never claimed."""
+        for what, (out, _) in self.outputs.items():
+            pin: Any = getattr(out, "pin", None)
+            handle = getattr(getattr(pin, "factory", None), "_handle", None)
+            if type(pin).__name__ != "LGPIOPin" or handle is None:
+                continue
+            try:
+                import lgpio
+                lgpio.gpio_free(handle, pin._number)
+            except Exception:
+                log.exception("takeover: could not let go of %s", what)
 
 
 def take_gpio_outputs(gpio: Any, axes: tuple[str, ...], factory: Any = None, *,
@@ -144,7 +164,7 @@ def take_gpio_outputs(gpio: Any, axes: tuple[str, ...], factory: Any = None, *,
                 held.hold_channel(what, PwmChannelLevel(pin, chip, channel, frequency_hz=cfg.pwm_frequency_hz,
                                                         sys_pwm=sys_pwm), level)
             else:
-                held.claim(what, pin, level, key in cfg.active_low)
+                held.claim(what, pin, level, _active_low(cfg, key))
                 if channel is not None:     # a GPIO already: its channel (routed elsewhere, if anywhere) off
                     _channel_off(chip, channel, sys_pwm)
         if "brake" in cfg.pins:
@@ -152,6 +172,16 @@ def take_gpio_outputs(gpio: Any, axes: tuple[str, ...], factory: Any = None, *,
     if gpio.heartbeat_pin is not None:
         held.claim("heartbeat", gpio.heartbeat_pin, False, False)
     return held
+
+
+def _active_low(cfg: Any, key: str) -> bool:
+    if cfg.motor == "stepdir" and key == "enable":
+        from .stepdir import STEPDIR_CHIPS
+        if cfg.enable_active_low is not None:
+            return bool(cfg.enable_active_low)
+        chip = STEPDIR_CHIPS.get(cfg.stepper_driver)
+        return chip.enable_active_low if chip is not None else True     # (all four chips')
+    return key in cfg.active_low
 
 
 def _channel_off(chip: int, channel: int, sys_pwm: Path) -> None:

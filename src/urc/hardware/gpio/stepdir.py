@@ -19,8 +19,13 @@ bcccd78). What it does, and what that means here:
 * ``tx_room`` is 10 minus the entries queued, ``tx_busy`` whether any is running. lg
   does not say how many pulses of the running entry are out, so the driver keeps its
   own schedule of the entries it queued (:meth:`..drivers.stepper.StepDirMotor.steps`)
-  and reads the count from it; it is exact whenever the queue has drained (every normal stop) and within the
-  pulses of one entry while one runs.
+  and reads the count from it. That schedule starts a train when it is queued, but lg
+  starts it later: the new record is picked up when lg's thread next wakes, which idle
+  is up to 20 ms away (``pthTxDelayMicros = 20000``, lgPthTx.c:61), and its first edge
+  is then aligned to its period (lgGpioCreateTxRec). So while a train runs the count
+  leads the pulses by up to 20 ms of steps and a period (65 at 3200 steps/s); once lg's
+  queue has drained (``tx_busy`` 0, which ``at_rest`` requires: every normal stop) it
+  is exact.
 * The pulses are timed by lg's own thread (``lgPthTx``), on a Pi 4 and a Pi 5 alike
   (lg has no DMA path; on a Pi 5 the pins are the RP1's: gpiozero 2.0.1's
   LGPIOFactory opens /dev/gpiochip4 on a Pi 5 where it exists, else gpiochip0): it
@@ -62,10 +67,13 @@ if the bench on a Pi shows bursts.
 
 from __future__ import annotations
 
+import logging
 from typing import Any
 
 from ..drivers.stepdir_chips import (LG_MIN_PERIOD_US, LG_TX_BUF, MAX_LIBRARY_TIMED_HZ, STEPDIR_CHIPS,  # noqa: F401
                                      StepDirChip, pulse_times_us)
+
+log = logging.getLogger(__name__)
 
 
 class LgpioStepPulses:
@@ -90,9 +98,21 @@ class LgpioStepPulses:
         return bool(self._lg.tx_busy(self.handle, self.pin, self._lg.TX_PWM) > 0)
 
     def cut(self) -> None:
-        """Every queued pulse dropped now, the pin low (mid-entry: the count is lost)."""
-        self._lg.tx_pulse(self.handle, self.pin, 0, 0, 0, 0)
-        self._lg.gpio_write(self.handle, self.pin, 0)
+        """Every queued pulse dropped now, the pin low (mid-entry: the count is lost).
+
+        lg stops a train with ``tx_pulse(h, g, 0, 0)`` only while one runs: with none
+        (at rest) xSetAsPwm's else-branch finds 0 + 0 not over lgMinTxDelay and returns
+        LG_BAD_PWM_MICROS (-86; joan2937/lg bcccd78, lgGpio.c xSetAsPwm, lgpio.h:2960),
+        which lgpio's Python raises. So it is asked only while busy, and a train that
+        ended between the two calls (the same error) is no failure: the pin goes low
+        either way."""
+        try:
+            if self._lg.tx_busy(self.handle, self.pin, self._lg.TX_PWM) > 0:
+                self._lg.tx_pulse(self.handle, self.pin, 0, 0, 0, 0)
+        except self._lg.error as exc:
+            log.debug("GPIO%d: no train to cut (%s)", self.pin, exc)
+        finally:
+            self._lg.gpio_write(self.handle, self.pin, 0)
 
     def identify(self) -> str:
         return (f"GPIO{self.pin}: lgpio tx_pulse queue, {LG_TX_BUF - self.room()} of {LG_TX_BUF} entries "
