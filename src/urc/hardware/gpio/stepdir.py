@@ -88,8 +88,14 @@ class LgpioStepPulses:
         lgpio.gpio_claim_output(self.handle, pin, 0)
 
     def queue(self, high_us: int, low_us: int, cycles: int) -> int:
-        """``cycles`` pulses appended; the free entries left (negative: lg's error)."""
-        return int(self._lg.tx_pulse(self.handle, self.pin, high_us, low_us, 0, cycles))
+        """``cycles`` pulses appended; the free entries left (negative: lg's error, e.g.
+        LG_TX_QUEUE_FULL -96: lgpio's Python raises it, the driver reads a code)."""
+        try:
+            return int(self._lg.tx_pulse(self.handle, self.pin, high_us, low_us, 0, cycles))
+        except self._lg.error as exc:
+            code = getattr(exc, "errno", None) or (exc.args[0] if exc.args and isinstance(exc.args[0], int) else None)
+            log.debug("GPIO%d: pulses not queued (%s)", self.pin, exc)
+            return int(code) if isinstance(code, int) and code < 0 else -1
 
     def room(self) -> int:
         return int(self._lg.tx_room(self.handle, self.pin, self._lg.TX_PWM))
