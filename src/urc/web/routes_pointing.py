@@ -81,7 +81,7 @@ def router(ctx: WebContext) -> APIRouter:
         doc = store.cfg.to_dict()
         doc["offsets"] = dict(doc.get("offsets", {}), **proc.result["offsets_suggested"])
         cfg, errors = store.validate(doc)
-        if errors:
+        if errors or cfg is None:
             return JSONResponse({"ok": False, "errors": errors}, status_code=422)
         try:
             path = store.save(cfg)
