@@ -97,6 +97,7 @@ def hardware_options(cfg: Config, fast_virtual: bool = False) -> dict:
         options["start_el_deg"] = sim.start_el_deg
     if sim.motor_enable_timeout_s is not None:
         options["motor_enable_timeout_s"] = sim.motor_enable_timeout_s
+    options["pointing_error"] = sim.pointing_error  # (None: a perfect mount)
     if cfg.hardware.bridge is not None:
         options["bridge"] = cfg.hardware.bridge
     if cfg.hardware.gpio is not None:

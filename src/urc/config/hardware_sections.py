@@ -5,7 +5,7 @@ The checks that need more than one field live beside each backend's builder
 
 from __future__ import annotations
 
-from pydantic import Field
+from pydantic import Field, field_validator
 
 from .base import Section, num
 
@@ -19,6 +19,19 @@ class SimSection(Section):
     #: model the external safety chain (docs/hardware.md): motor power only while the
     #: heartbeat's rising edges come at most this far apart; None = not modelled
     motor_enable_timeout_s: float | None = num(None, gt=0.0, le=10.0)
+    #: where the beam truly points differs from the axes by this pointing error model
+    #: (issue 38; urc.pointing.model's terms: {ia_deg = 1.0, tf_deg = 0.5, ...}); the
+    #: controller never sees it, a simulated power source ([pointing] source = "sim")
+    #: does. None = a perfect mount.
+    pointing_error: dict[str, float] | None = Field(default=None, strict=False)
+
+    @field_validator("pointing_error")
+    @classmethod
+    def _terms(cls, v: dict[str, float] | None) -> dict[str, float] | None:
+        if v is None:
+            return None
+        from ..pointing.model import PointingModel
+        return PointingModel.from_dict(v).as_dict()  # (unknown terms and bad values refused)
 
 
 class BridgeSection(Section):

@@ -21,8 +21,8 @@ from .hardware_sections import HardwareSection
 from .issues import describe, error_from_issues
 from .panel_sections import PanelSection
 from .sections import (DEFAULT_SERVE, ApiSection, AxisControl, AxisLimits, ControlSection, FaultsSection,
-                       KeepoutZone, LimitsSection, OffsetsSection, ParkSection, RotatorSection, ServeEntry,
-                       StateSection, StationSection, TrackingSection)
+                       KeepoutZone, LimitsSection, OffsetsSection, ParkSection, PointingSection, RotatorSection,
+                       ServeEntry, StateSection, StationSection, TrackingSection)
 
 
 class Config(Section):
@@ -39,6 +39,7 @@ class Config(Section):
     state: StateSection = StateSection()
     station: StationSection = StationSection()
     tracking: TrackingSection = TrackingSection()
+    pointing: PointingSection = PointingSection()
     #: protocols served and where; None (no [[serve]] at all) = rotctld on 127.0.0.1:4533
     serve: tuple[ServeEntry, ...] | None = Field(default=None, strict=False)
     panel: PanelSection = PanelSection()

@@ -295,3 +295,27 @@ class ServeEntry(Section):
 
 #: what urc serves when the configuration has no [[serve]] entries at all
 DEFAULT_SERVE = (ServeEntry(protocol="rotctld", tcp="127.0.0.1:4533"),)
+
+
+class PointingSection(Section):
+    """``[pointing]``: where a calibration scan (``urc calibrate sun``) reads the received
+    power (urc.pointing.sources) and how wide the beam is."""
+
+    #: "sim": the simulator's source seen through [hardware.sim] pointing_error (the sim
+    #: backend only); "rigctld": a rig's S-meter (``l STRENGTH``) at ``address``;
+    #: "rtl_power": the newest line of rtl_power's CSV ``file``; "tcp": one power per
+    #: line from ``address``
+    source: Literal["sim", "rigctld", "rtl_power", "tcp"] = "sim"
+    #: "host:port" of rigctld or the line feed
+    address: str | None = Field(default=None, min_length=3)
+    #: rtl_power's output file (``rtl_power -f ... file.csv``)
+    file: str | None = Field(default=None, min_length=1)
+    #: the antenna's half-power beamwidth: the scan's size and step follow it
+    beamwidth_deg: float = num(10.0, gt=0.0, le=90.0)
+    #: the simulated source's peak over the noise floor's noise, dB (source = "sim")
+    snr_db: float = num(20.0, ge=-10.0, le=60.0)
+    #: a reading at or above this is saturated (refused); None = no ceiling known
+    ceiling_db: float | None = num(None)
+    #: the antenna stands on each scan point this long, reading the power
+    dwell_s: float = num(2.0, gt=0.0, le=60.0)
+    samples_per_point: int = Field(default=3, ge=1, le=50)

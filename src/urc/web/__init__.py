@@ -42,11 +42,12 @@ class PageFiles:
 
 
 def install(app: FastAPI, ctx: WebContext) -> None:
-    from . import routes_calibration, routes_live, routes_settings, routes_sim, routes_tracking
+    from . import routes_calibration, routes_live, routes_pointing, routes_settings, routes_sim, routes_tracking
 
     app.include_router(routes_live.router(ctx))
     app.include_router(routes_settings.router(ctx))
     app.include_router(routes_calibration.router(ctx))
+    app.include_router(routes_pointing.router(ctx))
     app.include_router(routes_sim.router(ctx))
     if ctx.tracker is not None:
         app.include_router(routes_tracking.router(ctx))
