@@ -320,7 +320,8 @@ def _client_options(f):
     return f
 
 
-def _request(url: str | None, config_path: str | None, method: str, path: str, body: dict | None = None) -> dict:
+def _request(url: str | None, config_path: str | None, method: str, path: str, body: dict | None = None,
+             headers: dict[str, str] | None = None) -> dict:
     token = os.environ.get("URC_TOKEN", "")
     ctx = click.get_current_context(silent=True)
     port = ctx.meta.get("urc.api_port") if ctx is not None else None
@@ -337,9 +338,12 @@ def _request(url: str | None, config_path: str | None, method: str, path: str, b
         token = token or cfg.api.token
     timeout_s = (ctx.meta.get("urc.timeout_s") if ctx is not None else None) or CLIENT_TIMEOUT_S
     try:
-        return api_request(base_url(url, port), method, path, body, token=token, timeout_s=timeout_s)
+        return api_request(base_url(url, port), method, path, body, token=token, timeout_s=timeout_s,
+                           headers=headers)
     except ClientError as exc:
         said = str(exc)
+        if exc.code == 412:
+            raise  # (the caller loads the settings again)
         if exc.code == 422 and path in ("/api/goto", "/api/set-position"):
             said = _outside_the_limits(base_url(url, port), token, timeout_s, exc.data) or said
         elif exc.code == 404 and path.startswith(("/api/track", "/api/passes")):
@@ -545,21 +549,39 @@ def settings_set(assignments: tuple[str, ...], url: str | None, config_path: str
     """Change settings, checked by the same rules as the file, saved and applied (those
     of [rotator], [hardware]... at the next start), e.g.
     `urc settings set rotator.pulses_per_deg=1 control.az.min_rate_deg_per_s=1.2`."""
-    doc = _request(url, config_path, "GET", "/api/settings")["config"]
-    for a in assignments:
-        key, sep, text = a.partition("=")
-        if not sep or not key.strip():
-            raise click.UsageError(f"expected KEY=VALUE, got {a!r}")
-        *path, last = key.strip().split(".")
-        table = doc
-        for part in path:
-            table = table.setdefault(part, {})
-            if not isinstance(table, dict):
-                raise click.UsageError(f"{key}: {part} is not a table")
-        table[last] = _setting_value(text.strip())
-    data = _request(url, config_path, "POST", "/api/settings", doc)
-    for msg in data.get("messages", []):
-        click.echo(msg)
+    for _ in range(SETTINGS_TRIES):
+        loaded = _request(url, config_path, "GET", "/api/settings")
+        doc = loaded["config"]
+        for a in assignments:
+            key, sep, text = a.partition("=")
+            if not sep or not key.strip():
+                raise click.UsageError(f"expected KEY=VALUE, got {a!r}")
+            *path, last = key.strip().split(".")
+            table = doc
+            for part in path:
+                table = table.setdefault(part, {})
+                if not isinstance(table, dict):
+                    raise click.UsageError(f"{key}: {part} is not a table")
+            table[last] = _setting_value(text.strip())
+        # the revision read goes back in If-Match: a save made in between (the web page)
+        # is refused with 412, and these keys are set again on top of it
+        revision = loaded.get("revision")
+        try:
+            data = _request(url, config_path, "POST", "/api/settings", doc,
+                            headers={"If-Match": revision} if revision else None)
+        except ClientError as exc:
+            if exc.code != 412:
+                raise
+            continue
+        for msg in data.get("messages", []):
+            click.echo(msg)
+        return
+    raise click.ClickException(f"the settings kept changing while saving ({SETTINGS_TRIES} tries): "
+                               "someone else is saving them; try again")
+
+
+#: how often ``urc settings set`` loads the settings again when a save came in between
+SETTINGS_TRIES = 3
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -587,3 +587,81 @@ def test_urc_runs_app_has_its_routes_built_off_the_loop_before_the_first_request
     assert statuses == [200, 200, 200]
     assert "urc-warm-routes" in warmed           # (the rest: as the routes were added)
     assert built_on == warmed, built_on[len(warmed):]   # nothing more built by the requests
+
+
+def test_settings_saved_meanwhile_refuse_a_save_from_an_older_revision(make_client, tmp_path):
+    """Issue 36.5: two tabs. The second, loaded before the first saved, must not undo it."""
+    cfg_file = tmp_path / "station.toml"
+    cfg_file.write_text("[offsets]\nel_deg = 0.0\n")
+    c = make_client(config_path=cfg_file)
+    tab1, tab2 = c.get("/api/settings"), c.get("/api/settings")
+    etag = tab1.headers["ETag"]
+    assert etag.startswith('"') and etag == tab2.headers["ETag"] == tab1.json()["revision"]
+    doc1 = tab1.json()["config"]
+    doc1["offsets"]["el_deg"] = 0.5
+    r1 = c.post("/api/settings", json=doc1, headers={"If-Match": etag})
+    assert r1.status_code == 200, r1.text
+    assert r1.headers["ETag"] == r1.json()["revision"] != etag
+    saved = cfg_file.read_text()
+    doc2 = tab2.json()["config"]
+    doc2["park"]["az_deg"] = 5
+    r2 = c.post("/api/settings", json=doc2, headers={"If-Match": etag})
+    assert r2.status_code == 412, r2.text
+    assert r2.headers["ETag"] == r1.headers["ETag"] and "saved by someone else" in r2.json()["errors"][0]["message"]
+    assert cfg_file.read_text() == saved                                   # nothing changed
+    assert c.get("/api/settings").json()["config"]["offsets"]["el_deg"] == 0.5
+    # reloaded: the new revision is taken
+    fresh = c.get("/api/settings")
+    doc3 = fresh.json()["config"]
+    doc3["park"]["az_deg"] = 5
+    assert c.post("/api/settings", json=doc3, headers={"If-Match": fresh.headers["ETag"]}).status_code == 200
+    after = tomllib.loads(cfg_file.read_text())
+    assert after["offsets"]["el_deg"] == 0.5 and after["park"]["az_deg"] == 5
+    # a list naming the current revision, and *, match; a weak tag never does (strong comparison)
+    cur = c.get("/api/settings").headers["ETag"]
+    assert c.post("/api/settings", json=doc3, headers={"If-Match": f'"x", {cur}'}).status_code == 200
+    assert c.post("/api/settings", json=doc3, headers={"If-Match": "*"}).status_code == 200
+    assert c.post("/api/settings", json=doc3, headers={"If-Match": f"W/{cur}"}).status_code == 412
+
+
+def test_settings_save_without_if_match_is_still_taken(make_client):
+    """Clients written before revisions (scripts) post without If-Match: still saved."""
+    c = make_client()
+    doc = c.get("/api/settings").json()["config"]
+    doc["offsets"]["az_deg"] = 1.0
+    assert c.post("/api/settings", json=doc).status_code == 200
+
+
+def test_urc_settings_set_sends_if_match_and_sets_its_keys_again_on_a_newer_revision(make_client, tmp_path,
+                                                                                   monkeypatch):
+    """`urc settings set` sends the revision it read; a save from the page in between
+    (412) makes it load the settings again and set its keys on top, undoing nothing."""
+    from click.testing import CliRunner
+
+    from urc import api_client, cli
+
+    cfg_file = tmp_path / "station.toml"
+    cfg_file.write_text("[offsets]\nel_deg = 0.0\n")
+    c = make_client(config_path=cfg_file)
+    sent: list[tuple[str, dict]] = []
+
+    def through_the_app(url, method, path, body=None, *, token="", timeout_s=0.0, headers=None):
+        sent.append((method, dict(headers or {})))
+        if method == "POST" and len(sent) == 2:  # the page saves between the command's read and its save
+            page = c.get("/api/settings")
+            doc = page.json()["config"]
+            doc["offsets"]["el_deg"] = 0.5
+            assert c.post("/api/settings", json=doc, headers={"If-Match": page.headers["ETag"]}).status_code == 200
+        r = c.request(method, path, json=body, headers=headers or {})
+        if r.status_code >= 400:
+            raise api_client.ClientError(f"refused ({r.status_code})", r.status_code, r.json())
+        return r.json()
+
+    monkeypatch.setattr(cli, "api_request", through_the_app)
+    res = CliRunner().invoke(cli.main, ["settings", "set", "park.az_deg=5", "--url", "http://127.0.0.1:1"])
+    assert res.exit_code == 0, res.output
+    assert [m for m, _ in sent] == ["GET", "POST", "GET", "POST"]
+    assert all(h.get("If-Match", "").startswith('"') for m, h in sent if m == "POST")
+    assert sent[1][1]["If-Match"] != sent[3][1]["If-Match"]
+    saved = tomllib.loads(cfg_file.read_text())
+    assert saved["offsets"]["el_deg"] == 0.5 and saved["park"]["az_deg"] == 5

@@ -211,6 +211,36 @@ def test_fault_banner_appears_with_its_reason_and_clears(urc, shared_page, artif
     page.problems.check()
 
 
+def test_settings_saved_meanwhile_are_loaded_keeping_the_pages_edits(urc, shared_page):
+    """Issue 36.5: a page loaded before another save sends its revision (If-Match), is
+    refused (412) instead of undoing that save, and offers a reload that keeps its edits."""
+    page = shared_page(urc.url + "/#settings")
+    field = page.locator('[data-key="park.az_deg"]')
+    field.wait_for()
+    before = HTTP.get(urc.url + "/api/settings")
+    doc = before.json()["config"]
+    doc["offsets"]["el_deg"] = 0.5          # the other tab's save
+    other = HTTP.post(urc.url + "/api/settings", json=doc, headers={"If-Match": before.headers["ETag"]})
+    assert other.status_code == 200, other.text
+    field.fill("5")
+    page.click("#settings-save")
+    page.wait_for_selector("#settings-reload", timeout=5000)
+    assert "someone else saved" in page.locator("#settings-result").text_content()
+    assert HTTP.get(urc.url + "/api/settings").json()["config"]["offsets"]["el_deg"] == 0.5   # not undone
+    page.click("#settings-reload")
+    expect(page.locator('[data-key="offsets.el_deg"]')).to_have_value("0.5")   # theirs
+    expect(page.locator('[data-key="park.az_deg"]')).to_have_value("5")        # and mine
+    page.click("#settings-save")
+    expect(page.locator("#settings-result")).to_contain_text("saved to")
+    saved = HTTP.get(urc.url + "/api/settings").json()["config"]
+    assert saved["offsets"]["el_deg"] == 0.5 and saved["park"]["az_deg"] == 5
+    # (as it was for the tests after this one)
+    saved["offsets"] = before.json()["config"]["offsets"]
+    saved["park"] = before.json()["config"]["park"]
+    assert HTTP.post(urc.url + "/api/settings", json=saved, headers={"If-Match": "*"}).status_code == 200
+    page.problems.check()
+
+
 def test_settings_validation_error_next_to_the_field_then_save(urc, shared_page, artifacts):
     page = shared_page(urc.url + "/#settings")
     field = page.locator('[data-key="limits.az.max_deg"]')

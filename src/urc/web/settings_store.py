@@ -12,7 +12,10 @@ when the rotator can take new settings (``Rotator.reconfigure``), else at the re
 from __future__ import annotations
 
 import copy
+import hashlib
+import json
 import os
+import secrets
 import stat
 from pathlib import Path
 from typing import Any
@@ -51,6 +54,25 @@ class SettingsStore:
         self.running = cfg
         self.config_path = Path(config_path) if config_path else None
         self.state_dir = Path(state_dir) if state_dir else None
+        # (the revision hashes the whole configuration, token included: salted per
+        # process so that the ETag tells nothing about the token)
+        self._salt = secrets.token_bytes(16)
+
+    @property
+    def revision(self) -> str:
+        """The settings document's revision, an RFC 9110 strong entity tag (quotes
+        included): a save whose If-Match names another is refused (412), so a page
+        loaded before someone else's save cannot undo it."""
+        text = json.dumps(self.cfg.to_dict(), sort_keys=True, default=str).encode()
+        return '"' + hashlib.sha256(self._salt + text).hexdigest()[:20] + '"'
+
+    def if_match(self, header: str | None) -> bool | None:
+        """Whether a save's ``If-Match`` names the current revision (RFC 9110 13.1.1:
+        a list of strong tags, or ``*``); None when there is no If-Match."""
+        if header is None:
+            return None
+        tags = [t.strip() for t in header.split(",")]
+        return "*" in tags or self.revision in tags
 
     @property
     def target_path(self) -> Path | None:
@@ -72,6 +94,7 @@ class SettingsStore:
             "save_path": str(target) if target else None,
             "restart_sections": list(RESTART_SECTIONS),
             "restart_pending": self.restart_pending(),
+            "revision": self.revision,
         }
 
     def _merge_token(self, data: dict[str, Any]) -> dict[str, Any]:

@@ -21,8 +21,8 @@ function describe(status, data) {
   return `HTTP ${status}`;
 }
 
-export async function request(method, path, body, { quiet = false } = {}) {
-  const headers = { Accept: "application/json" };
+export async function request(method, path, body, { quiet = false, headers: extra = {} } = {}) {
+  const headers = { Accept: "application/json", ...extra };
   if (body !== undefined) headers["Content-Type"] = "application/json";
   const t = token();
   if (t) headers.Authorization = `Bearer ${t}`;
@@ -43,7 +43,8 @@ export async function request(method, path, body, { quiet = false } = {}) {
       toast(describe(resp.status, data), true);
     }
   }
-  return { ok: resp.ok, status: resp.status, data, message: resp.ok ? "" : describe(resp.status, data) };
+  return { ok: resp.ok, status: resp.status, data, etag: resp.headers.get("ETag"),
+    message: resp.ok ? "" : describe(resp.status, data) };
 }
 
 export const get = (path, opts) => request("GET", path, undefined, opts);
