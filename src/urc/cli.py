@@ -87,6 +87,13 @@ def run(config_path: str | None, profile: str | None, state_dir: str | None, por
     logging.basicConfig(level=logging.DEBUG if verbose else logging.INFO,
                         format="%(asctime)s %(levelname)s %(name)s: %(message)s")
     try:
+        if config_path is not None:
+            from .config.user_copy import in_use
+
+            used, note = in_use(config_path)
+            if note:
+                click.echo(note, err=True)
+                config_path = str(used)
         cfg = _load(config_path, profile)
         if port is not None:
             from .config import Config

@@ -665,3 +665,36 @@ def test_urc_settings_set_sends_if_match_and_sets_its_keys_again_on_a_newer_revi
     assert sent[1][1]["If-Match"] != sent[3][1]["If-Match"]
     saved = tomllib.loads(cfg_file.read_text())
     assert saved["offsets"]["el_deg"] == 0.5 and saved["park"]["az_deg"] == 5
+
+
+def test_a_save_never_writes_into_an_example_it_copies_it_to_the_users_config_dir(make_client, tmp_path,
+                                                                                  monkeypatch):
+    """Issue 36.12: `urc settings set` on examples/bigras.toml modified the git checkout.
+    The first save copies the example to the user's configuration directory, says so,
+    and that copy is used from then on (this urc's saves, `urc run --config` the example)."""
+    from urc.config.user_copy import in_use
+
+    monkeypatch.setenv("XDG_CONFIG_HOME", str(tmp_path / "xdg"))
+    example = Path(__file__).resolve().parents[2] / "examples" / "bigras.toml"
+    before = example.read_bytes()
+    assert in_use(example) == (example, "")
+    c = make_client(profile="bigras", config_path=example)
+    doc = c.get("/api/settings").json()["config"]
+    doc["offsets"]["az_deg"] = 1.5
+    r = c.post("/api/settings", json=doc)
+    assert r.status_code == 200, r.text
+    copy = tmp_path / "xdg" / "urc" / "bigras.toml"
+    assert example.read_bytes() == before                     # the checkout is not touched
+    assert r.json()["saved_to"] == str(copy) and any(str(copy) in m and "example" in m for m in r.json()["messages"])
+    text = copy.read_text()
+    assert text.startswith("# AlfaSpid BIG-RAS") and tomllib.loads(text)["offsets"]["az_deg"] == 1.5
+    assert oct(copy.stat().st_mode & 0o777) == "0o600"
+    doc = c.get("/api/settings").json()
+    assert doc["config_path"] == str(copy)
+    doc["config"]["offsets"]["el_deg"] = 0.5                   # the next save edits the copy
+    r = c.post("/api/settings", json=doc["config"])
+    assert r.json()["saved_to"] == str(copy) and not any("example" in m for m in r.json()["messages"])
+    assert tomllib.loads(copy.read_text())["offsets"] == {"az_deg": 1.5, "el_deg": 0.5}
+    assert example.read_bytes() == before
+    used, note = in_use(example)                               # urc run --config examples/bigras.toml
+    assert used == copy and str(copy) in note

@@ -110,7 +110,7 @@ def router(ctx: WebContext) -> APIRouter:
         restart = store.restart_pending()
         live = [k for k in changed if k not in RESTART_SECTIONS]
         applied, note = (await bridge.run(_apply_live, ctx, cfg) if live else (True, "nothing to apply"))
-        msgs = [f"saved to {path}"]
+        msgs = [f"saved to {path}"] + ([store.note] if store.note else [])
         if started_without_file:
             msgs.append(f"urc run was started without a configuration file; start it with --config {path} "
                         "to use these settings")

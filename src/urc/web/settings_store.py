@@ -21,6 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from ..config import DEFAULT_SERVE, Config
+from ..config.user_copy import is_example, user_copy
 from ..errors import ConfigError
 from . import toml_edit
 
@@ -54,6 +55,8 @@ class SettingsStore:
         self.running = cfg
         self.config_path = Path(config_path) if config_path else None
         self.state_dir = Path(state_dir) if state_dir else None
+        #: what the last save has to say besides where it went (an example copied)
+        self.note = ""
         # (the revision hashes the whole configuration, token included: salted per
         # process so that the ETag tells nothing about the token)
         self._salt = secrets.token_bytes(16)
@@ -159,18 +162,27 @@ class SettingsStore:
         target = self.target_path
         if target is None:
             raise OSError("no configuration file and no state directory to save to")
+        self.note = ""
+        example = None
+        if is_example(target):  # a template shipped with urc: never written, copied
+            example, target = target, user_copy(target)
         target.parent.mkdir(parents=True, exist_ok=True)
         try:
             old_mode = stat.S_IMODE(target.stat().st_mode)
             old_text = target.read_text(encoding="utf-8")
         except FileNotFoundError:
-            old_mode, old_text = None, ""
+            old_mode = None  # (a new file: 0600)
+            old_text = example.read_text(encoding="utf-8") if example is not None else ""
         try:
             text = toml_edit.edit(old_text, self.cfg.to_dict(), new.to_dict())
         except (toml_edit.EditError, ValueError) as exc:  # (tomllib: a file broken by hand meanwhile)
             raise OSError(f"{target}: {exc}; the file is left as it was") from exc
         _write_atomic(target, text.encode("utf-8"), 0o600 if old_mode is None else old_mode)
         self.cfg = new
+        if example is not None:
+            self.config_path = target
+            self.note = (f"{example} is an example (a template, left as it is): saved to your copy {target}, "
+                         f"used from now on (`urc run --config {example}` takes it too)")
         return target
 
 
