@@ -244,6 +244,7 @@ def config_check(path: str) -> None:
     """Validate a configuration file."""
     try:
         cfg = _load(path)
+        cfg.check_serve_options()  # (as urc run does before it starts)
     except ConfigError as exc:
         raise click.ClickException(str(exc)) from None
     click.echo(f"{path}: ok (profile {cfg.rotator.profile})")
