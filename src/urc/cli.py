@@ -539,8 +539,11 @@ def settings_show(key: str | None, url: str | None, config_path: str | None) -> 
     doc = _request(url, config_path, "GET", "/api/settings")["config"]
     if key is None:
         from .config import Config  # (about 1 s of imports: not for one KEY's value)
+        from .config.applicable import applicable
+        from .config.toml_write import dump_toml
 
-        click.echo(Config.from_dict(doc, source="settings").to_toml(), nl=False)
+        # what applies to this station's parts only (not reply_port on a TCP port)
+        click.echo(dump_toml(applicable(Config.from_dict(doc, source="settings"))), nl=False)
         return
     value = doc
     for part in key.split("."):
