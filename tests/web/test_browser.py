@@ -238,6 +238,7 @@ def test_settings_saved_meanwhile_are_loaded_keeping_the_pages_edits(urc, shared
     saved["offsets"] = before.json()["config"]["offsets"]
     saved["park"] = before.json()["config"]["park"]
     assert HTTP.post(urc.url + "/api/settings", json=saved, headers={"If-Match": "*"}).status_code == 200
+    page.click('nav a[data-view="dashboard"]')   # (the settings view loads them again when shown)
     page.problems.check()
 
 
