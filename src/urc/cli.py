@@ -95,6 +95,11 @@ def run(config_path: str | None, profile: str | None, state_dir: str | None, por
                 click.echo(note, err=True)
                 config_path = str(used)
         cfg = _load(config_path, profile)
+        if config_path is not None:
+            from .config.secrets_mode import readable_by_others
+
+            if warning := readable_by_others(config_path, cfg):
+                logging.getLogger("urc").warning(warning)
         if port is not None:
             from .config import Config
             data = cfg.to_dict()
@@ -248,13 +253,14 @@ def config_check(path: str) -> None:
     except ConfigError as exc:
         raise click.ClickException(str(exc)) from None
     click.echo(f"{path}: ok (profile {cfg.rotator.profile})")
+    from .config.secrets_mode import readable_by_others
     from .hardware.gpio.checks import gpio_warnings
     from .hardware.gpio.pwm import detect_pwm_chip, pwm_advice
 
     gpio = cfg.hardware.gpio
     # on a Pi 5 its own channel table (GPIO12/13/18/19 -> 0/1/2/3), as urc run uses
     table = detect_pwm_chip(gpio)[1] if gpio is not None and not gpio.emulate else None
-    for note in pwm_advice(gpio, table) + gpio_warnings(cfg):
+    for note in pwm_advice(gpio, table) + gpio_warnings(cfg) + [w for w in [readable_by_others(path, cfg)] if w]:
         click.echo(f"warning: {note}")
 
 

@@ -4,6 +4,7 @@ contract, simulator-only debug endpoints, history, jog leases."""
 from __future__ import annotations
 
 import asyncio
+import base64
 import json
 import math
 import re
@@ -11,6 +12,7 @@ import tomllib
 from pathlib import Path
 
 import pytest
+from starlette.websockets import WebSocketDisconnect
 from urc.web import STATIC_DIR
 from urc.web.live import JOG_LEASE_S, Hub
 
@@ -69,26 +71,62 @@ CONTROL_CALLS = [("post", "/api/goto", {"az_deg": 10, "el_deg": 10}), ("post", "
                  ("post", "/api/track", {"kind": "sun"}), ("post", "/api/track/stop", {})]
 
 
-def test_remote_listener_needs_the_token_for_control_but_not_for_viewing(make_client):
-    c = make_client(tracker=FakeTracker(), api={"host": "0.0.0.0", "token": TOKEN})
+READ_TOKEN = "wall-display-9f3e"
+READS = ("/api/status", "/api/info", "/api/history", "/api/settings", "/api/calibration", "/api/passes")
+
+
+def test_remote_listener_needs_a_token_for_control_and_for_reading(make_client):
+    """Issue 36.8: an exposed instance served /api/settings (the station's coordinates,
+    the whole configuration) to anyone. Reads need the control token or the read-only
+    one (a wall display); the read-only one never controls; the page's files stay open."""
+    c = make_client(tracker=FakeTracker(), api={"host": "0.0.0.0", "token": TOKEN, "read_token": READ_TOKEN})
+    control, reader = {"Authorization": f"Bearer {TOKEN}"}, {"Authorization": f"Bearer {READ_TOKEN}"}
     for method, path, body in CONTROL_CALLS:
         assert c.request(method, path, json=body).status_code == 401, path
-        bad = c.request(method, path, json=body, headers={"Authorization": "Bearer wrong"})
-        assert bad.status_code == 401, path
-    ok = c.post("/api/goto", json={"az_deg": 10, "el_deg": 10}, headers={"Authorization": f"Bearer {TOKEN}"})
+        for wrong in ("Bearer wrong", f"Bearer {READ_TOKEN}"):
+            bad = c.request(method, path, json=body, headers={"Authorization": wrong})
+            assert bad.status_code == 401, (path, wrong)
+    ok = c.post("/api/goto", json={"az_deg": 10, "el_deg": 10}, headers=control)
     assert ok.status_code == 200
-    for path in ("/", "/api/status", "/api/info", "/api/history", "/api/settings", "/api/calibration",
-                 "/api/passes"):
-        assert c.get(path).status_code == 200, path
-    with c.websocket_connect("/api/ws") as ws:
+    assert c.get("/").status_code == 200 and c.get("/static/js/main.js").status_code == 200
+    for path in READS:
+        refused = c.get(path)
+        assert refused.status_code == 401 and "58." not in refused.text, path
+        assert c.get(path, headers={"Authorization": "Bearer wrong"}).status_code == 401, path
+        assert c.get(path, headers=reader).status_code == 200, path
+        assert c.get(path, headers=control).status_code == 200, path
+    assert "read_token" not in c.get("/api/settings", headers=control).json()["config"]["api"]
+    with pytest.raises(WebSocketDisconnect):
+        with c.websocket_connect("/api/ws") as ws:
+            ws.receive_json()
+    # a browser's WebSocket sends no Authorization: the token comes as a subprotocol
+    code = base64.urlsafe_b64encode(READ_TOKEN.encode()).decode().rstrip("=")
+    with c.websocket_connect("/api/ws", subprotocols=["urc", f"urc.bearer.{code}"]) as ws:
+        assert ws.accepted_subprotocol == "urc"
         assert next_status(ws)["type"] == "status"
-    assert c.get("/api/info").json()["control_requires_token"] is True
+    with c.websocket_connect("/api/ws", headers=reader) as ws:
+        assert next_status(ws)["type"] == "status"
+    assert c.get("/api/info", headers=reader).json()["control_requires_token"] is True
 
 
-def test_remote_listener_without_a_token_refuses_all_control(make_client):
+def test_remote_listener_without_a_token_refuses_all_control_and_reading(make_client):
     c = make_client(api={"host": "0.0.0.0"})
     assert c.post("/api/stop", json={}).status_code == 401
     assert c.post("/api/stop", json={}, headers={"Authorization": "Bearer "}).status_code == 401
+    assert c.get("/api/settings").status_code == 401 and c.get("/").status_code == 200
+
+
+def test_a_save_makes_a_config_file_holding_a_token_the_owners_alone(make_client, tmp_path):
+    """Issue 36.8: a configuration file with the token, readable by others (0644), is
+    0600 after a save."""
+    cfg_file = tmp_path / "station.toml"
+    cfg_file.write_text(f'[api]\ntoken = "{TOKEN}"\n')
+    cfg_file.chmod(0o644)
+    c = make_client(config_path=cfg_file, api={"token": TOKEN})
+    doc = c.get("/api/settings").json()["config"]
+    doc["offsets"]["az_deg"] = 1.0
+    assert c.post("/api/settings", json=doc).status_code == 200
+    assert cfg_file.stat().st_mode & 0o777 == 0o600
 
 
 def test_loopback_control_needs_no_token(make_client):
@@ -99,7 +137,7 @@ def test_loopback_control_needs_no_token(make_client):
 
 def test_settings_never_reveal_the_token(make_client):
     c = make_client(api={"host": "0.0.0.0", "token": TOKEN})
-    r = c.get("/api/settings")
+    r = c.get("/api/settings", headers={"Authorization": f"Bearer {TOKEN}"})
     assert TOKEN not in r.text and r.json()["token_set"] is True
 
 

@@ -443,7 +443,8 @@ def test_stop_and_fault_stay_in_view_at_every_size(token_urc, open_page, artifac
     fault state are inside the viewport, before and after scrolling to the bottom."""
     u = token_urc
     reset(u, TOKEN)     # (one urc for every size: no fault left by the one before)
-    page = open_page(u.url + "/", *size)
+    # (reading an exposed instance needs the token: issue 36.8; entering it is tested below)
+    page = open_page(u.url + "/", *size, extra_http_headers={"Authorization": f"Bearer {TOKEN}"})
     # shown once the page has read /api/info (a remote listener): wait for it
     expect(page.locator("#token-form")).to_be_visible(timeout=5000)
     assert in_viewport(page, "#stop-btn")
@@ -465,6 +466,24 @@ def test_stop_and_fault_stay_in_view_at_every_size(token_urc, open_page, artifac
     assert in_viewport(page, "#stop-btn") and in_viewport(page, "#fault-banner")
     page.screenshot(path=str(artifacts / f"layout-{size[0]}x{size[1]}-scrolled.png"))
     page.click("#stop-btn")      # still usable where it is
+    page.problems.check()
+
+
+def test_an_exposed_instance_reads_nothing_until_the_token_is_given(token_urc, open_page):
+    """Issue 36.8: the page of an exposed instance shows no station data and asks for the
+    token; given, it loads again and its live feed runs (a browser's WebSocket sends no
+    Authorization: the page offers the token as a subprotocol)."""
+    u = token_urc
+    page = open_page(None)
+    page.goto(u.url + "/")
+    expect(page.locator("#token-form")).to_be_visible(timeout=10_000)
+    assert "live" not in (page.locator("#conn").get_attribute("class") or "")
+    page.fill("#token-input", TOKEN)
+    page.locator("#token-input").dispatch_event("change")     # (the page loads again)
+    page.wait_for_selector("#conn.live", timeout=15_000)
+    expect(page.locator("#profile-name")).to_contain_text("berkeley")
+    # refused before the token (the feed's handshake, /api/info): expected here
+    page.problems[:] = [p for p in page.problems if "403" not in p and "401" not in p]
     page.problems.check()
 
 

@@ -21,6 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from ..config import DEFAULT_SERVE, Config
+from ..config.secrets_mode import holds_secret
 from ..config.user_copy import is_example, user_copy
 from ..errors import ConfigError
 from . import toml_edit
@@ -87,11 +88,13 @@ class SettingsStore:
         """What the page edits: the configuration without the token."""
         data = self.cfg.to_dict()
         data.get("api", {}).pop("token", None)
+        data.get("api", {}).pop("read_token", None)
         data.get("mqtt", {}).pop("password", None)  # (reading is open: the broker's password is not)
         target = self.target_path
         return {
             "config": data,
             "token_set": bool(self.cfg.api.token),
+            "read_token_set": bool(self.cfg.api.read_token),
             "default_serve": [e.model_dump(exclude_none=True) for e in DEFAULT_SERVE],
             "config_path": str(self.config_path) if self.config_path else None,
             "save_path": str(target) if target else None,
@@ -105,6 +108,8 @@ class SettingsStore:
         api = data.setdefault("api", {})
         if isinstance(api, dict) and not api.get("token") and self.cfg.api.token:
             api["token"] = self.cfg.api.token
+        if isinstance(api, dict) and not api.get("read_token") and self.cfg.api.read_token:
+            api["read_token"] = self.cfg.api.read_token
         mqtt = data.get("mqtt")
         if isinstance(mqtt, dict) and "password" not in mqtt and self.cfg.mqtt is not None and self.cfg.mqtt.password:
             mqtt["password"] = self.cfg.mqtt.password
@@ -157,8 +162,9 @@ class SettingsStore:
     def save(self, new: Config) -> Path:
         """Write the keys that changed since the last save (or the start) into the file,
         in place, and replace it atomically: a crash leaves the old file or the new one,
-        never none. The file keeps its permissions (0600 stays 0600: it holds the
-        token); a new file is created 0600 and holds only what was changed."""
+        never none. A file that holds a secret (a token, the MQTT password) is made
+        0600; another keeps its permissions; a new file is created 0600 and holds only
+        what was changed."""
         target = self.target_path
         if target is None:
             raise OSError("no configuration file and no state directory to save to")
@@ -177,7 +183,9 @@ class SettingsStore:
             text = toml_edit.edit(old_text, self.cfg.to_dict(), new.to_dict())
         except (toml_edit.EditError, ValueError) as exc:  # (tomllib: a file broken by hand meanwhile)
             raise OSError(f"{target}: {exc}; the file is left as it was") from exc
-        _write_atomic(target, text.encode("utf-8"), 0o600 if old_mode is None else old_mode)
+        # a file that holds a token is the owner's alone (0600), whatever it was before
+        mode = 0o600 if old_mode is None or holds_secret(new) else old_mode
+        _write_atomic(target, text.encode("utf-8"), mode)
         self.cfg = new
         if example is not None:
             self.config_path = target

@@ -7,9 +7,27 @@ export function token() {
   return sessionStorage.getItem(TOKEN_KEY) || "";
 }
 
+// an exposed instance's reads need a token too (the read-only one will do): a page that
+// was refused a read loads again once one is given, the live feed and all
+let readRefused = false;
+
 export function setToken(value) {
   if (value) sessionStorage.setItem(TOKEN_KEY, value);
   else sessionStorage.removeItem(TOKEN_KEY);
+  if (readRefused && value) location.reload();
+}
+
+function askForToken() {
+  $("token-form").hidden = false;
+}
+
+// the live feed's subprotocols: a browser's WebSocket sends no Authorization header, so
+// the token goes as "urc.bearer.<base64url>" beside "urc" (the one the server picks)
+export function wsProtocols() {
+  const t = token();
+  if (!t) return undefined;
+  const b64 = btoa(String.fromCharCode(...new TextEncoder().encode(t)));
+  return ["urc", `urc.bearer.${b64.replace(/\+/g, "-").replace(/\//g, "_").replace(/=+$/, "")}`];
 }
 
 function describe(status, data) {
@@ -35,10 +53,16 @@ export async function request(method, path, body, { quiet = false, headers: extr
   }
   let data = null;
   try { data = await resp.json(); } catch { data = null; }
+  if (resp.status === 401) {
+    askForToken();
+    if (method === "GET") {
+      readRefused = true;
+      if (!quiet) toast("reading needs the API token (or the read-only one): enter it at the top", true);
+    }
+  }
   if (!resp.ok && !quiet) {
     if (resp.status === 401) {
-      $("token-form").hidden = false;
-      toast("control needs the API token: enter it at the top", true);
+      if (method !== "GET") toast("control needs the API token: enter it at the top", true);
     } else {
       toast(describe(resp.status, data), true);
     }
