@@ -57,3 +57,50 @@ def test_a_fifo_in_place_of_the_state_file_is_refused_at_once(tmp_path):
     u.start()  # with the FIFO gone it starts
     assert u.status()["position_known"]
     u.stop()
+
+
+@pytest.mark.parametrize("protocol, options, said", [
+    ("pstrotator", {"reply_port": 12002}, "reply_port is a key of the [[serve]] entry itself"),
+    ("urc", {"variant": "xyz"}, "variant must be one of"),
+])
+def test_a_bad_serve_option_refuses_the_start_before_the_control_process_and_state(tmp_path, protocol, options,
+                                                                                    said):
+    """Issue 36.15: `options = { reply_port = ... }` on PstRotator was found when the
+    servers started, about 20 s in, after the control process; now as a busy port is."""
+    entry = {"protocol": protocol, "udp" if protocol == "pstrotator" else "tcp": f"127.0.0.1:{free_port()}",
+             "options": options}
+    u = UrcProcess(tmp_path, serve=[entry])
+    r = run_urc(u)
+    assert r.returncode != 0, r.stdout + r.stderr
+    assert "serve[0]" in r.stderr and said in r.stderr, r.stderr
+    assert "control loop in process" not in r.stdout + r.stderr
+    made = {p.name for p in u.state_dir.iterdir()} if u.state_dir.exists() else set()
+    assert not made & {"state.json", "urc-initialised", "heartbeat"}, made
+
+
+def test_config_check_finds_a_bad_serve_option(tmp_path):
+    cfg = tmp_path / "urc.toml"
+    cfg.write_text('[[serve]]\nprotocol = "pstrotator"\nudp = "127.0.0.1:12000"\noptions = { reply_port = 12002 }\n')
+    r = subprocess.run(URC + ["config", "check", str(cfg)], capture_output=True, text=True, timeout=60)
+    assert r.returncode != 0 and "reply_port is a key of the [[serve]] entry itself" in r.stderr, r.stdout + r.stderr
+
+
+def test_a_config_file_holding_a_token_readable_by_others_is_warned_of(tmp_path):
+    """Issue 36.8: a configuration file with the API token, readable by others, is said
+    by `urc config check` and at `urc run`'s start (here a start refused right after, by
+    a bad serve option: the warning comes first)."""
+    cfg = tmp_path / "urc.toml"
+    cfg.write_text('[api]\ntoken = "s3cret"\n')
+    cfg.chmod(0o644)
+    r = subprocess.run(URC + ["config", "check", str(cfg)], capture_output=True, text=True, timeout=60)
+    assert r.returncode == 0 and f"warning: {cfg} holds the API token" in r.stdout and "chmod 600" in r.stdout, \
+        r.stdout + r.stderr
+    cfg.chmod(0o600)
+    r = subprocess.run(URC + ["config", "check", str(cfg)], capture_output=True, text=True, timeout=60)
+    assert "warning" not in r.stdout, r.stdout
+    cfg.write_text('[api]\ntoken = "s3cret"\n[[serve]]\nprotocol = "pstrotator"\nudp = "127.0.0.1:12000"\n'
+                   'options = { reply_port = 12002 }\n')
+    cfg.chmod(0o640)
+    r = subprocess.run(URC + ["run", "--config", str(cfg), "--state-dir", str(tmp_path / "state")],
+                       capture_output=True, text=True, timeout=60)
+    assert r.returncode != 0 and "holds the API token" in r.stderr and "chmod 600" in r.stderr, r.stderr

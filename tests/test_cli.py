@@ -313,3 +313,35 @@ def test_help_texts_for_set_position_and_run():
     assert "--az DEG" in out and "azimuth the antenna points at now" in out
     assert "--el DEG" in out and "elevation the antenna points at now" in out
     assert "--serve PROTOCOL=KIND:WHERE" in urc("run", "--help").stdout
+
+
+def test_settings_show_prints_only_the_keys_that_apply(monkeypatch):
+    """Issue 36.14: `urc settings show` printed reply_port on TCP ports and the compass
+    keys on a BIG-RAS (pulse sensors), the simulator's table on a Pi."""
+    import tomllib
+
+    from click.testing import CliRunner
+
+    from urc import cli
+    from urc.config import Config, load_config
+
+    from pathlib import Path
+
+    data = load_config(Path(__file__).resolve().parents[1] / "examples" / "bigras.toml").to_dict()
+    data["serve"] = [{"protocol": "rotctld", "tcp": "127.0.0.1:4533"},
+                     {"protocol": "pstrotator", "udp": "127.0.0.1:12000", "reply_port": 12002},
+                     {"protocol": "gs232b", "serial": "/dev/ttyUSB0", "baud": 9600}]
+    doc = Config.from_dict(data).to_dict()
+    assert "compass" in doc["hardware"]["gpio"]["az"] and "reply_port" in doc["serve"][0]  # (in the document)
+    monkeypatch.setattr(cli, "api_request", lambda *a, **k: {"config": doc})
+    res = CliRunner().invoke(cli.main, ["settings", "show", "--url", "http://127.0.0.1:1"])
+    assert res.exit_code == 0, res.output
+    shown = tomllib.loads(res.output)
+    az = shown["hardware"]["gpio"]["az"]
+    assert "compass" not in az and "declination_deg" not in az and "stepper_driver" not in az
+    assert "relay_pulse_hz" not in az and "encoder_drift_counts" not in az and "adc" not in az
+    assert az["pulse_debounce_s"] == 0.005 and az["motor"] == "bts7960" and "limit_debounce_s" in az
+    assert "sim" not in shown["hardware"]
+    tcp, udp, serial = shown["serve"]
+    assert "reply_port" not in tcp and "baud" not in tcp and udp["reply_port"] == 12002 and "baud" not in udp
+    assert serial["baud"] == 9600 and "reply_port" not in serial

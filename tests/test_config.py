@@ -289,7 +289,7 @@ def test_unknown_key_with_suggestion(tmp_path, text, key, suggestion):
 
 def test_unknown_key_without_close_match(tmp_path):
     err, p = load_error(tmp_path, "[api]\nzzzzqqq = 1\n")
-    first = assert_names(err, p, "api.zzzzqqq", "unknown key", "host, port, token")
+    first = assert_names(err, p, "api.zzzzqqq", "unknown key", "host, port, read_token, token")
     assert "did you mean" not in first
 
 
@@ -616,3 +616,14 @@ def test_bridge_section_is_validated():
             loads_config(text)
     loads_config('[hardware]\nbackend = "bridge"\n[hardware.bridge]\nprotocol = "rot1prog"\nserial = "/x"\n'
                  '[limits.el]\nmax_deg = 1.0\n[park]\nel_deg = 0.0\n')
+
+
+def test_the_read_only_token_is_not_the_control_token():
+    """Issue 36.8: api.read_token (a wall display) reads and never controls: the same
+    value as api.token would make it control."""
+    from urc.config import Config
+    from urc.errors import ConfigError
+
+    with pytest.raises(ConfigError, match="api.read_token"):
+        Config.from_dict({"api": {"host": "0.0.0.0", "token": "abc", "read_token": "abc"}})
+    assert Config.from_dict({"api": {"host": "0.0.0.0", "token": "abc", "read_token": "xyz"}}).api.reads_require_token

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import os
 import signal
+import re
 import socket
 import subprocess
 import sys
@@ -185,6 +186,9 @@ class UrcProcess:
         self.config.write_text(f'{top}[rotator]\nprofile = "{profile}"\n[hardware.sim]\nwind = false\n'
                                f'[api]\nport = {self.port}\n{extra}{tables}')
         self.url = f"http://127.0.0.1:{self.port}"
+        # an exposed instance's reads need its token (issue 36.8): the one in ``extra``
+        token = re.search(r'^token = "([^"]*)"', extra, re.M)
+        self.auth = {"Authorization": f"Bearer {token.group(1)}"} if token else {}
         self.proc: subprocess.Popen | None = None
         self.banner = ""
 
@@ -251,7 +255,7 @@ class UrcProcess:
     def api_status(self) -> dict:
         """GET /api/status (what :meth:`wait` polls, whatever ``status`` a subclass reads)."""
         try:
-            return HTTP.get(self.url + "/api/status").json()
+            return HTTP.get(self.url + "/api/status", headers=self.auth).json()
         except httpx.TransportError:
             self._raise_if_exited(grace_s=5.0)
             raise

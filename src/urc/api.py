@@ -1,7 +1,8 @@
 """The HTTP control API (FastAPI): what ``urc status/goto/stop/park`` and the web page use.
 
-Reading is open; control needs the configured token when the API listens beyond
-loopback (``Authorization: Bearer <token>``). Every command goes through the rotator
+On loopback reading is open; listening beyond it, reading needs the control token or
+the read-only one and control needs the control token (``Authorization: Bearer
+<token>``; :mod:`urc.web.security`). Every command goes through the rotator
 service, which validates it; a refusal is HTTP 409 with the reason. The web dashboard
 (``urc.web``) is served from ``/`` by the same app, with its live feed on ``/api/ws``.
 """

@@ -223,11 +223,11 @@ def _unchunk(data: bytes, at_eof: bool) -> bytes | None:
 
 
 def request(url: str, method: str, path: str, body: dict | None = None, *, token: str = "",
-            timeout_s: float = CLIENT_TIMEOUT_S) -> dict:
+            timeout_s: float = CLIENT_TIMEOUT_S, headers: dict[str, str] | None = None) -> dict:
     """The answer of ``method path`` at the API ``url``, decoded (a body that is not
     JSON comes back as ``{"error": text}``). Raises ClientError with the message the
-    command prints."""
-    headers = {"Authorization": f"Bearer {token}"} if token else {}
+    command prints. ``headers``: more request headers (a settings save's If-Match)."""
+    headers = {**(headers or {}), **({"Authorization": f"Bearer {token}"} if token else {})}
     try:
         code, raw = http(method, url.rstrip("/") + path, body, headers, timeout_s)
     except NoAnswer:

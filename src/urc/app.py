@@ -102,6 +102,7 @@ async def serve(cfg: Config, state_dir: Path, config_path: Path | None = None) -
     try:
         api_socket = bind_api_socket(cfg.api.host, cfg.api.port)
         try:
+            cfg.check_serve_options()  # (a protocol's options: before the control process, as the ports)
             check_serve_ports(cfg.served)
             await _serve(cfg, state_dir, config_path, api_socket, [lk.fd for lk in locks if lk.fd is not None])
         finally:

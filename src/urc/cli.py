@@ -87,7 +87,19 @@ def run(config_path: str | None, profile: str | None, state_dir: str | None, por
     logging.basicConfig(level=logging.DEBUG if verbose else logging.INFO,
                         format="%(asctime)s %(levelname)s %(name)s: %(message)s")
     try:
+        if config_path is not None:
+            from .config.user_copy import in_use
+
+            used, note = in_use(config_path)
+            if note:
+                click.echo(note, err=True)
+                config_path = str(used)
         cfg = _load(config_path, profile)
+        if config_path is not None:
+            from .config.secrets_mode import readable_by_others
+
+            if warning := readable_by_others(config_path, cfg):
+                logging.getLogger("urc").warning(warning)
         if port is not None:
             from .config import Config
             data = cfg.to_dict()
@@ -237,16 +249,18 @@ def config_check(path: str) -> None:
     """Validate a configuration file."""
     try:
         cfg = _load(path)
+        cfg.check_serve_options()  # (as urc run does before it starts)
     except ConfigError as exc:
         raise click.ClickException(str(exc)) from None
     click.echo(f"{path}: ok (profile {cfg.rotator.profile})")
+    from .config.secrets_mode import readable_by_others
     from .hardware.gpio.checks import gpio_warnings
     from .hardware.gpio.pwm import detect_pwm_chip, pwm_advice
 
     gpio = cfg.hardware.gpio
     # on a Pi 5 its own channel table (GPIO12/13/18/19 -> 0/1/2/3), as urc run uses
     table = detect_pwm_chip(gpio)[1] if gpio is not None and not gpio.emulate else None
-    for note in pwm_advice(gpio, table) + gpio_warnings(cfg):
+    for note in pwm_advice(gpio, table) + gpio_warnings(cfg) + [w for w in [readable_by_others(path, cfg)] if w]:
         click.echo(f"warning: {note}")
 
 
@@ -320,7 +334,8 @@ def _client_options(f):
     return f
 
 
-def _request(url: str | None, config_path: str | None, method: str, path: str, body: dict | None = None) -> dict:
+def _request(url: str | None, config_path: str | None, method: str, path: str, body: dict | None = None,
+             headers: dict[str, str] | None = None) -> dict:
     token = os.environ.get("URC_TOKEN", "")
     ctx = click.get_current_context(silent=True)
     port = ctx.meta.get("urc.api_port") if ctx is not None else None
@@ -337,9 +352,12 @@ def _request(url: str | None, config_path: str | None, method: str, path: str, b
         token = token or cfg.api.token
     timeout_s = (ctx.meta.get("urc.timeout_s") if ctx is not None else None) or CLIENT_TIMEOUT_S
     try:
-        return api_request(base_url(url, port), method, path, body, token=token, timeout_s=timeout_s)
+        return api_request(base_url(url, port), method, path, body, token=token, timeout_s=timeout_s,
+                           headers=headers)
     except ClientError as exc:
         said = str(exc)
+        if exc.code == 412:
+            raise  # (the caller loads the settings again)
         if exc.code == 422 and path in ("/api/goto", "/api/set-position"):
             said = _outside_the_limits(base_url(url, port), token, timeout_s, exc.data) or said
         elif exc.code == 404 and path.startswith(("/api/track", "/api/passes")):
@@ -527,8 +545,11 @@ def settings_show(key: str | None, url: str | None, config_path: str | None) -> 
     doc = _request(url, config_path, "GET", "/api/settings")["config"]
     if key is None:
         from .config import Config  # (about 1 s of imports: not for one KEY's value)
+        from .config.applicable import applicable
+        from .config.toml_write import dump_toml
 
-        click.echo(Config.from_dict(doc, source="settings").to_toml(), nl=False)
+        # what applies to this station's parts only (not reply_port on a TCP port)
+        click.echo(dump_toml(applicable(Config.from_dict(doc, source="settings"))), nl=False)
         return
     value = doc
     for part in key.split("."):
@@ -545,21 +566,39 @@ def settings_set(assignments: tuple[str, ...], url: str | None, config_path: str
     """Change settings, checked by the same rules as the file, saved and applied (those
     of [rotator], [hardware]... at the next start), e.g.
     `urc settings set rotator.pulses_per_deg=1 control.az.min_rate_deg_per_s=1.2`."""
-    doc = _request(url, config_path, "GET", "/api/settings")["config"]
-    for a in assignments:
-        key, sep, text = a.partition("=")
-        if not sep or not key.strip():
-            raise click.UsageError(f"expected KEY=VALUE, got {a!r}")
-        *path, last = key.strip().split(".")
-        table = doc
-        for part in path:
-            table = table.setdefault(part, {})
-            if not isinstance(table, dict):
-                raise click.UsageError(f"{key}: {part} is not a table")
-        table[last] = _setting_value(text.strip())
-    data = _request(url, config_path, "POST", "/api/settings", doc)
-    for msg in data.get("messages", []):
-        click.echo(msg)
+    for _ in range(SETTINGS_TRIES):
+        loaded = _request(url, config_path, "GET", "/api/settings")
+        doc = loaded["config"]
+        for a in assignments:
+            key, sep, text = a.partition("=")
+            if not sep or not key.strip():
+                raise click.UsageError(f"expected KEY=VALUE, got {a!r}")
+            *path, last = key.strip().split(".")
+            table = doc
+            for part in path:
+                table = table.setdefault(part, {})
+                if not isinstance(table, dict):
+                    raise click.UsageError(f"{key}: {part} is not a table")
+            table[last] = _setting_value(text.strip())
+        # the revision read goes back in If-Match: a save made in between (the web page)
+        # is refused with 412, and these keys are set again on top of it
+        revision = loaded.get("revision")
+        try:
+            data = _request(url, config_path, "POST", "/api/settings", doc,
+                            headers={"If-Match": revision} if revision else None)
+        except ClientError as exc:
+            if exc.code != 412:
+                raise
+            continue
+        for msg in data.get("messages", []):
+            click.echo(msg)
+        return
+    raise click.ClickException(f"the settings kept changing while saving ({SETTINGS_TRIES} tries): "
+                               "someone else is saving them; try again")
+
+
+#: how often ``urc settings set`` loads the settings again when a save came in between
+SETTINGS_TRIES = 3
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -180,3 +180,53 @@ def test_moving_commands_are_refused_while_the_state_cannot_be_saved(bench, how)
     b.run(3.0)
     assert b.rot.status().state_error == ""
     b.rot.goto(120.0, 10.0)
+
+
+@pytest.mark.xfail(strict=True, reason="issue 36.19: a disk that fails while the antenna stands is not "
+                   "known until the goto's first record is written; the fix is in src/urc/service "
+                   "(see the report of branch h-testers3)")
+def test_the_first_goto_after_the_disk_fails_standing_is_refused_not_answered_ok(bench):
+    """Issue 36.19: standing still, urc writes nothing, so a disk that has just failed is
+    not known; the next goto was answered ok, then its first record failed, the state
+    fault latched and nothing moved."""
+    b = bench("tartu-urc", exact=True)
+    b.rot.goto(30.0, 10.0)
+    b.settle()
+    b.run(30.0)                       # standing: the record on disk is up to date
+    store = DiskFull(b.rot.store)
+    store.full = True
+    start = b.rot.status().az.pos_deg
+    try:
+        b.rot.goto(200.0, 10.0)       # the disk's failure is not known yet
+        accepted = True
+    except CommandRejected as exc:
+        accepted = False
+        assert exc.reason == "state"
+    b.run(10.0)
+    s = b.rot.status()
+    moved = abs(s.az.pos_deg - start) > 1.0
+    assert not (accepted and not moved), f"goto answered ok, nothing moved; faults {[f.kind for f in s.faults]}"
+
+
+def test_the_readme_names_the_refusals_a_failing_disk_gives(bench):
+    """Issue 36.19: the README said a refusal while writes fail is 409 `reason: state`;
+    with the state fault latched it is `fault` (and `state` once that fault was cleared)."""
+    from pathlib import Path
+
+    readme = (Path(__file__).resolve().parents[2] / "README.md").read_text()
+    b = bench("tartu-urc", exact=True)
+    store = DiskFull(b.rot.store)
+    store.full = True
+    b.rot.goto(100.0, 10.0)
+    b.run(5.0)
+    reasons = []
+    for _ in range(2):
+        with pytest.raises(CommandRejected) as refused:
+            b.rot.goto(200.0, 10.0)
+        reasons.append(refused.value.reason)
+        b.rot.clear_faults()
+        b.run(1.0)
+    assert reasons == ["fault", "state"]
+    said = " ".join(readme.split())
+    assert "latched a moving command is refused as for any fault (HTTP 409 `reason: fault`" in said
+    assert "cleared by hand while writes still fail, it is refused with HTTP 409 `reason: state`" in said

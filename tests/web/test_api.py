@@ -4,6 +4,7 @@ contract, simulator-only debug endpoints, history, jog leases."""
 from __future__ import annotations
 
 import asyncio
+import base64
 import json
 import math
 import re
@@ -11,6 +12,7 @@ import tomllib
 from pathlib import Path
 
 import pytest
+from starlette.websockets import WebSocketDisconnect
 from urc.web import STATIC_DIR
 from urc.web.live import JOG_LEASE_S, Hub
 
@@ -69,26 +71,62 @@ CONTROL_CALLS = [("post", "/api/goto", {"az_deg": 10, "el_deg": 10}), ("post", "
                  ("post", "/api/track", {"kind": "sun"}), ("post", "/api/track/stop", {})]
 
 
-def test_remote_listener_needs_the_token_for_control_but_not_for_viewing(make_client):
-    c = make_client(tracker=FakeTracker(), api={"host": "0.0.0.0", "token": TOKEN})
+READ_TOKEN = "wall-display-9f3e"
+READS = ("/api/status", "/api/info", "/api/history", "/api/settings", "/api/calibration", "/api/passes")
+
+
+def test_remote_listener_needs_a_token_for_control_and_for_reading(make_client):
+    """Issue 36.8: an exposed instance served /api/settings (the station's coordinates,
+    the whole configuration) to anyone. Reads need the control token or the read-only
+    one (a wall display); the read-only one never controls; the page's files stay open."""
+    c = make_client(tracker=FakeTracker(), api={"host": "0.0.0.0", "token": TOKEN, "read_token": READ_TOKEN})
+    control, reader = {"Authorization": f"Bearer {TOKEN}"}, {"Authorization": f"Bearer {READ_TOKEN}"}
     for method, path, body in CONTROL_CALLS:
         assert c.request(method, path, json=body).status_code == 401, path
-        bad = c.request(method, path, json=body, headers={"Authorization": "Bearer wrong"})
-        assert bad.status_code == 401, path
-    ok = c.post("/api/goto", json={"az_deg": 10, "el_deg": 10}, headers={"Authorization": f"Bearer {TOKEN}"})
+        for wrong in ("Bearer wrong", f"Bearer {READ_TOKEN}"):
+            bad = c.request(method, path, json=body, headers={"Authorization": wrong})
+            assert bad.status_code == 401, (path, wrong)
+    ok = c.post("/api/goto", json={"az_deg": 10, "el_deg": 10}, headers=control)
     assert ok.status_code == 200
-    for path in ("/", "/api/status", "/api/info", "/api/history", "/api/settings", "/api/calibration",
-                 "/api/passes"):
-        assert c.get(path).status_code == 200, path
-    with c.websocket_connect("/api/ws") as ws:
+    assert c.get("/").status_code == 200 and c.get("/static/js/main.js").status_code == 200
+    for path in READS:
+        refused = c.get(path)
+        assert refused.status_code == 401 and "58." not in refused.text, path
+        assert c.get(path, headers={"Authorization": "Bearer wrong"}).status_code == 401, path
+        assert c.get(path, headers=reader).status_code == 200, path
+        assert c.get(path, headers=control).status_code == 200, path
+    assert "read_token" not in c.get("/api/settings", headers=control).json()["config"]["api"]
+    with pytest.raises(WebSocketDisconnect):
+        with c.websocket_connect("/api/ws") as ws:
+            ws.receive_json()
+    # a browser's WebSocket sends no Authorization: the token comes as a subprotocol
+    code = base64.urlsafe_b64encode(READ_TOKEN.encode()).decode().rstrip("=")
+    with c.websocket_connect("/api/ws", subprotocols=["urc", f"urc.bearer.{code}"]) as ws:
+        assert ws.accepted_subprotocol == "urc"
         assert next_status(ws)["type"] == "status"
-    assert c.get("/api/info").json()["control_requires_token"] is True
+    with c.websocket_connect("/api/ws", headers=reader) as ws:
+        assert next_status(ws)["type"] == "status"
+    assert c.get("/api/info", headers=reader).json()["control_requires_token"] is True
 
 
-def test_remote_listener_without_a_token_refuses_all_control(make_client):
+def test_remote_listener_without_a_token_refuses_all_control_and_reading(make_client):
     c = make_client(api={"host": "0.0.0.0"})
     assert c.post("/api/stop", json={}).status_code == 401
     assert c.post("/api/stop", json={}, headers={"Authorization": "Bearer "}).status_code == 401
+    assert c.get("/api/settings").status_code == 401 and c.get("/").status_code == 200
+
+
+def test_a_save_makes_a_config_file_holding_a_token_the_owners_alone(make_client, tmp_path):
+    """Issue 36.8: a configuration file with the token, readable by others (0644), is
+    0600 after a save."""
+    cfg_file = tmp_path / "station.toml"
+    cfg_file.write_text(f'[api]\ntoken = "{TOKEN}"\n')
+    cfg_file.chmod(0o644)
+    c = make_client(config_path=cfg_file, api={"token": TOKEN})
+    doc = c.get("/api/settings").json()["config"]
+    doc["offsets"]["az_deg"] = 1.0
+    assert c.post("/api/settings", json=doc).status_code == 200
+    assert cfg_file.stat().st_mode & 0o777 == 0o600
 
 
 def test_loopback_control_needs_no_token(make_client):
@@ -99,7 +137,7 @@ def test_loopback_control_needs_no_token(make_client):
 
 def test_settings_never_reveal_the_token(make_client):
     c = make_client(api={"host": "0.0.0.0", "token": TOKEN})
-    r = c.get("/api/settings")
+    r = c.get("/api/settings", headers={"Authorization": f"Bearer {TOKEN}"})
     assert TOKEN not in r.text and r.json()["token_set"] is True
 
 
@@ -587,3 +625,114 @@ def test_urc_runs_app_has_its_routes_built_off_the_loop_before_the_first_request
     assert statuses == [200, 200, 200]
     assert "urc-warm-routes" in warmed           # (the rest: as the routes were added)
     assert built_on == warmed, built_on[len(warmed):]   # nothing more built by the requests
+
+
+def test_settings_saved_meanwhile_refuse_a_save_from_an_older_revision(make_client, tmp_path):
+    """Issue 36.5: two tabs. The second, loaded before the first saved, must not undo it."""
+    cfg_file = tmp_path / "station.toml"
+    cfg_file.write_text("[offsets]\nel_deg = 0.0\n")
+    c = make_client(config_path=cfg_file)
+    tab1, tab2 = c.get("/api/settings"), c.get("/api/settings")
+    etag = tab1.headers["ETag"]
+    assert etag.startswith('"') and etag == tab2.headers["ETag"] == tab1.json()["revision"]
+    doc1 = tab1.json()["config"]
+    doc1["offsets"]["el_deg"] = 0.5
+    r1 = c.post("/api/settings", json=doc1, headers={"If-Match": etag})
+    assert r1.status_code == 200, r1.text
+    assert r1.headers["ETag"] == r1.json()["revision"] != etag
+    saved = cfg_file.read_text()
+    doc2 = tab2.json()["config"]
+    doc2["park"]["az_deg"] = 5
+    r2 = c.post("/api/settings", json=doc2, headers={"If-Match": etag})
+    assert r2.status_code == 412, r2.text
+    assert r2.headers["ETag"] == r1.headers["ETag"] and "saved by someone else" in r2.json()["errors"][0]["message"]
+    assert cfg_file.read_text() == saved                                   # nothing changed
+    assert c.get("/api/settings").json()["config"]["offsets"]["el_deg"] == 0.5
+    # reloaded: the new revision is taken
+    fresh = c.get("/api/settings")
+    doc3 = fresh.json()["config"]
+    doc3["park"]["az_deg"] = 5
+    assert c.post("/api/settings", json=doc3, headers={"If-Match": fresh.headers["ETag"]}).status_code == 200
+    after = tomllib.loads(cfg_file.read_text())
+    assert after["offsets"]["el_deg"] == 0.5 and after["park"]["az_deg"] == 5
+    # a list naming the current revision, and *, match; a weak tag never does (strong comparison)
+    cur = c.get("/api/settings").headers["ETag"]
+    assert c.post("/api/settings", json=doc3, headers={"If-Match": f'"x", {cur}'}).status_code == 200
+    assert c.post("/api/settings", json=doc3, headers={"If-Match": "*"}).status_code == 200
+    assert c.post("/api/settings", json=doc3, headers={"If-Match": f"W/{cur}"}).status_code == 412
+
+
+def test_settings_save_without_if_match_is_still_taken(make_client):
+    """Clients written before revisions (scripts) post without If-Match: still saved."""
+    c = make_client()
+    doc = c.get("/api/settings").json()["config"]
+    doc["offsets"]["az_deg"] = 1.0
+    assert c.post("/api/settings", json=doc).status_code == 200
+
+
+def test_urc_settings_set_sends_if_match_and_sets_its_keys_again_on_a_newer_revision(make_client, tmp_path,
+                                                                                   monkeypatch):
+    """`urc settings set` sends the revision it read; a save from the page in between
+    (412) makes it load the settings again and set its keys on top, undoing nothing."""
+    from click.testing import CliRunner
+
+    from urc import api_client, cli
+
+    cfg_file = tmp_path / "station.toml"
+    cfg_file.write_text("[offsets]\nel_deg = 0.0\n")
+    c = make_client(config_path=cfg_file)
+    sent: list[tuple[str, dict]] = []
+
+    def through_the_app(url, method, path, body=None, *, token="", timeout_s=0.0, headers=None):
+        sent.append((method, dict(headers or {})))
+        if method == "POST" and len(sent) == 2:  # the page saves between the command's read and its save
+            page = c.get("/api/settings")
+            doc = page.json()["config"]
+            doc["offsets"]["el_deg"] = 0.5
+            assert c.post("/api/settings", json=doc, headers={"If-Match": page.headers["ETag"]}).status_code == 200
+        r = c.request(method, path, json=body, headers=headers or {})
+        if r.status_code >= 400:
+            raise api_client.ClientError(f"refused ({r.status_code})", r.status_code, r.json())
+        return r.json()
+
+    monkeypatch.setattr(cli, "api_request", through_the_app)
+    res = CliRunner().invoke(cli.main, ["settings", "set", "park.az_deg=5", "--url", "http://127.0.0.1:1"])
+    assert res.exit_code == 0, res.output
+    assert [m for m, _ in sent] == ["GET", "POST", "GET", "POST"]
+    assert all(h.get("If-Match", "").startswith('"') for m, h in sent if m == "POST")
+    assert sent[1][1]["If-Match"] != sent[3][1]["If-Match"]
+    saved = tomllib.loads(cfg_file.read_text())
+    assert saved["offsets"]["el_deg"] == 0.5 and saved["park"]["az_deg"] == 5
+
+
+def test_a_save_never_writes_into_an_example_it_copies_it_to_the_users_config_dir(make_client, tmp_path,
+                                                                                  monkeypatch):
+    """Issue 36.12: `urc settings set` on examples/bigras.toml modified the git checkout.
+    The first save copies the example to the user's configuration directory, says so,
+    and that copy is used from then on (this urc's saves, `urc run --config` the example)."""
+    from urc.config.user_copy import in_use
+
+    monkeypatch.setenv("XDG_CONFIG_HOME", str(tmp_path / "xdg"))
+    example = Path(__file__).resolve().parents[2] / "examples" / "bigras.toml"
+    before = example.read_bytes()
+    assert in_use(example) == (example, "")
+    c = make_client(profile="bigras", config_path=example)
+    doc = c.get("/api/settings").json()["config"]
+    doc["offsets"]["az_deg"] = 1.5
+    r = c.post("/api/settings", json=doc)
+    assert r.status_code == 200, r.text
+    copy = tmp_path / "xdg" / "urc" / "bigras.toml"
+    assert example.read_bytes() == before                     # the checkout is not touched
+    assert r.json()["saved_to"] == str(copy) and any(str(copy) in m and "example" in m for m in r.json()["messages"])
+    text = copy.read_text()
+    assert text.startswith("# AlfaSpid BIG-RAS") and tomllib.loads(text)["offsets"]["az_deg"] == 1.5
+    assert oct(copy.stat().st_mode & 0o777) == "0o600"
+    doc = c.get("/api/settings").json()
+    assert doc["config_path"] == str(copy)
+    doc["config"]["offsets"]["el_deg"] = 0.5                   # the next save edits the copy
+    r = c.post("/api/settings", json=doc["config"])
+    assert r.json()["saved_to"] == str(copy) and not any("example" in m for m in r.json()["messages"])
+    assert tomllib.loads(copy.read_text())["offsets"] == {"az_deg": 1.5, "el_deg": 0.5}
+    assert example.read_bytes() == before
+    used, note = in_use(example)                               # urc run --config examples/bigras.toml
+    assert used == copy and str(copy) in note

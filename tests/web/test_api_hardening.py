@@ -244,10 +244,11 @@ def test_a_loopback_api_answers_no_read_under_a_foreign_host_name(make_client, p
 
 
 def test_a_remote_listener_answers_reads_under_any_name(make_client):
-    """Listening beyond loopback, the station's own name is unknown: reads stay open
-    (control needs the token)."""
+    """Listening beyond loopback, the station's own name is unknown: reads are answered
+    under any name (with a token: issue 36.8)."""
     c = make_client(api={"host": "0.0.0.0", "token": TOKEN})
-    assert c.get("/api/status", headers={"host": "station.example:8080"}).status_code == 200
+    auth = {"authorization": f"Bearer {TOKEN}"}
+    assert c.get("/api/status", headers={"host": "station.example:8080", **auth}).status_code == 200
 
 
 @pytest.mark.parametrize("authorization,ok", [

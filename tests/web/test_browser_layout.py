@@ -142,7 +142,7 @@ def width(request):
 def test_stop_is_on_screen_in_every_view_at_every_scroll_position(remote_urc, shared_page, artifacts, width):
     u = remote_urc
     size = WIDTHS[width]
-    page = shared_page(u.url + "/", *size, has_touch=width < 1000)
+    page = shared_page(u.url + "/", *size, has_touch=width < 1000, extra_http_headers=AUTH)  # (reads: issue 36.8)
     expect(page.locator("#token-form")).to_be_visible(timeout=5000)
     for view in VIEWS:
         show_view(page, view)
@@ -164,7 +164,7 @@ def test_a_fault_banner_is_whole_foldable_and_leaves_stop_on_screen(remote_urc, 
     and all banners together take at most a third of the screen."""
     u = remote_urc
     size = WIDTHS[width]
-    page = shared_page(u.url + "/", *size, has_touch=width < 1000)
+    page = shared_page(u.url + "/", *size, has_touch=width < 1000, extra_http_headers=AUTH)  # (reads: issue 36.8)
     HTTP.post(u.url + "/api/stop", json={}, headers=AUTH)
     assert HTTP.post(u.url + "/api/sim/fault", json={"axis": "el", "kind": "sensor_dead"}, headers=AUTH).status_code == 200
     try:

@@ -147,6 +147,9 @@ def cross_check(cfg: Config) -> list[Issue]:
 
     issues += _serve_issues(cfg)
     issues += _control_issues(cfg, caps)
+    if cfg.api.read_token and cfg.api.read_token == cfg.api.token:
+        issues.append(("api.read_token", "a token other than api.token (the read-only token must not "
+                       "also control)", "the control token", ""))
     return issues
 
 

@@ -50,6 +50,13 @@ class Config(Section):
     def served(self) -> tuple[ServeEntry, ...]:
         return DEFAULT_SERVE if self.serve is None else self.serve
 
+    def check_serve_options(self) -> None:
+        """Each served entry's options against its protocol (ConfigError if refused):
+        ``urc run`` checks them before anything starts (:mod:`.serve_options`)."""
+        from .serve_options import check_serve_options
+
+        check_serve_options(self.served)
+
     @model_validator(mode="after")
     def _check_against_profile(self) -> Config:
         issues = cross_check(self)

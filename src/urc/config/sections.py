@@ -176,6 +176,15 @@ class ApiSection(Section):
     host: str = Field(default="127.0.0.1", min_length=1)
     port: int = Field(default=8080, ge=0, le=65535)
     token: str = ""
+    #: a read-only token (a wall display): reads of an exposed instance, never control
+    read_token: str = ""
+
+    @property
+    def reads_require_token(self) -> bool:
+        """Listening beyond loopback, reading (status, settings: the station's position and
+        the whole configuration, the live feed) needs ``token`` or ``read_token``; with
+        neither set, nothing is read from other machines (the page's files still load)."""
+        return not self.is_loopback
 
     @property
     def is_loopback(self) -> bool:

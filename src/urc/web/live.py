@@ -221,9 +221,9 @@ class Hub:
             out.append(self.frame_text)
         return out
 
-    async def serve(self, ws: WebSocket) -> None:
+    async def serve(self, ws: WebSocket, subprotocol: str | None = None) -> None:
         self.ensure_started()
-        await ws.accept()
+        await ws.accept(subprotocol=subprotocol)
         self.clients += 1
 
         async def sender() -> None:

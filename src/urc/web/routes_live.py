@@ -19,7 +19,7 @@ from ..protocols.registry import PROTOCOLS
 from .context import WebContext
 from .live import JOG_LEASE_S
 from .schemas import CONTROL_RESPONSES, HistoryDoc, InfoDoc, Ok, Strict, documented
-from .security import check_browser_origin
+from .security import WS_PROTOCOL, check_browser_origin
 
 log = logging.getLogger(__name__)
 
@@ -49,16 +49,19 @@ def router(ctx: WebContext) -> APIRouter:
 
     @r.websocket("/api/ws")
     async def live(ws: WebSocket) -> None:
-        """Status frames (JSON) about ten times a second; viewing needs no token, but a
-        page of another site (or one reached through a rebinding host name) gets no
-        feed, as it gets no control: closed before the handshake (HTTP 403)."""
+        """Status frames (JSON) about ten times a second. On an exposed instance it
+        needs a token (the read-only one will do; a page offers it as the subprotocol
+        ``urc.bearer.<base64url token>`` beside ``urc``); a page of another site (or one
+        reached through a rebinding host name) gets no feed, as it gets no control:
+        closed before the handshake (HTTP 403)."""
         try:
             check_browser_origin(ctx.cfg, ws)
         except HTTPException as exc:
             log.warning("live feed refused: %s", exc.detail)
             await ws.close(code=1008, reason=str(exc.detail)[:120])
             return
-        await ctx.hub.serve(ws)
+        offered = [p.strip() for p in (ws.headers.get("sec-websocket-protocol") or "").split(",")]
+        await ctx.hub.serve(ws, WS_PROTOCOL if WS_PROTOCOL in offered else None)
 
     @r.get("/api/info", **documented(InfoDoc))
     def info() -> dict:

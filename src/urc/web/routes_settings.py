@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from fastapi import APIRouter, Body, Depends
+from fastapi import APIRouter, Body, Depends, Header, Response
 from fastapi.responses import JSONResponse
 from pydantic import BaseModel, Field
 
@@ -52,6 +52,7 @@ class SaveResult(BaseModel):
     applied_live: bool
     started_without_file: bool
     messages: list[str]
+    revision: str = Field(description="the saved document's revision (also its ETag)")
 
 
 def router(ctx: WebContext) -> APIRouter:
@@ -59,9 +60,12 @@ def router(ctx: WebContext) -> APIRouter:
     store = ctx.settings
 
     @r.get("/api/settings")
-    def get_settings() -> dict:
-        """The configuration document (without the API token) and where it is saved."""
-        return store.document()
+    def get_settings(response: Response) -> dict:
+        """The configuration document (without the API token) and where it is saved. Its
+        ``ETag`` (also ``revision``) goes back in a save's ``If-Match``."""
+        doc = store.document()
+        response.headers["ETag"] = doc["revision"]
+        return doc
 
     @r.post("/api/settings/validate", response_model=Checked,
             responses={422: {"model": SettingsInvalid, "description": "each error names its key"},
@@ -75,9 +79,22 @@ def router(ctx: WebContext) -> APIRouter:
 
     @r.post("/api/settings", dependencies=[Depends(ctx.control)], response_model=SaveResult,
             responses=CONTROL_RESPONSES | {422: {"model": SettingsInvalid, "description": "each error names its key"},
+                                           412: {"model": SettingsInvalid,
+                                                 "description": "If-Match is not the current revision: nothing saved"},
                                            500: {"model": SettingsInvalid, "description": "could not save"}})
-    async def save(data: Any = Body(...)) -> JSONResponse:
-        """Validate, save (the changed keys only, in place) and apply what can be applied live."""
+    async def save(data: Any = Body(...), if_match: str | None = Header(None)) -> JSONResponse:
+        """Validate, save (the changed keys only, in place) and apply what can be applied live.
+
+        Send the revision read with the document (its ``ETag``) in ``If-Match``: a save
+        made meanwhile (another tab, ``urc settings set``) changed the revision, and this
+        one is then refused with 412 and nothing changes. A save without If-Match is
+        still taken (scripts written before revisions); ``If-Match: *`` says "whatever
+        is there" explicitly."""
+        if store.if_match(if_match) is False:
+            return JSONResponse({"ok": False, "revision": store.revision, "errors": [
+                {"key": "", "message": "the settings were saved by someone else since these were loaded: "
+                                       "load them again (your changes can be made on top) and save"}]},
+                status_code=412, headers={"ETag": store.revision})
         cfg, errors = store.validate(data)
         if errors:
             return JSONResponse({"ok": False, "errors": errors}, status_code=422)
@@ -93,7 +110,7 @@ def router(ctx: WebContext) -> APIRouter:
         restart = store.restart_pending()
         live = [k for k in changed if k not in RESTART_SECTIONS]
         applied, note = (await bridge.run(_apply_live, ctx, cfg) if live else (True, "nothing to apply"))
-        msgs = [f"saved to {path}"]
+        msgs = [f"saved to {path}"] + ([store.note] if store.note else [])
         if started_without_file:
             msgs.append(f"urc run was started without a configuration file; start it with --config {path} "
                         "to use these settings")
@@ -103,6 +120,7 @@ def router(ctx: WebContext) -> APIRouter:
             msgs.append(f"{', '.join(restart)}: restart urc run for these to take effect")
         return JSONResponse({"ok": True, "saved_to": str(path), "changed": changed, "restart_needed": restart,
                              "applied_live": applied and bool(live), "started_without_file": started_without_file,
-                             "messages": msgs})
+                             "messages": msgs, "revision": store.revision},
+                            headers={"ETag": store.revision})
 
     return r

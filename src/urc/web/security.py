@@ -1,7 +1,13 @@
-"""Who may control, and the headers every response carries.
+"""Who may read and control, and the headers every response carries.
 
-Viewing is open; control needs ``Authorization: Bearer <token>`` whenever the API listens
-beyond loopback (``api.control_requires_token``), and is refused to pages of other sites.
+On loopback reading is open. An API that listens beyond loopback (an exposed instance)
+serves its page's files to anyone, but every read of ``/api/`` (status, settings with the
+station's coordinates and the whole configuration, the live feed) needs a token: the
+control token (``api.token``) or the read-only one (``api.read_token``, for a wall
+display), as ``Authorization: Bearer <token>``, or for the live feed (a browser's
+WebSocket sends no such header) as the subprotocol ``urc.bearer.<base64url token>``
+beside ``urc``. Control needs ``api.token`` whenever the API listens beyond loopback
+(``api.control_requires_token``), and is refused to pages of other sites.
 An API that listens on loopback answers nothing (page, reads, live feed or control) asked
 for under a host name that is not a loopback one: a page of another site whose name was
 re-pointed at 127.0.0.1 (DNS rebinding) would otherwise read the station's position and
@@ -12,6 +18,8 @@ markup could not run it.
 
 from __future__ import annotations
 
+import base64
+import binascii
 import hmac
 import ipaddress
 import json
@@ -112,6 +120,40 @@ def check_token(cfg: Config, authorization: str | None) -> None:
         raise HTTPException(401, "control needs the API token (Authorization: Bearer <token>)")
 
 
+#: the live feed's subprotocol (the page offers it with its token's, below)
+WS_PROTOCOL = "urc"
+WS_TOKEN_PREFIX = "urc.bearer."
+
+
+def ws_token(headers: Headers) -> str | None:
+    """The token a WebSocket handshake offers as the subprotocol ``urc.bearer.<base64url>``."""
+    for offered in (headers.get("sec-websocket-protocol") or "").split(","):
+        offered = offered.strip()
+        if offered.startswith(WS_TOKEN_PREFIX):
+            code = offered[len(WS_TOKEN_PREFIX):]
+            try:
+                return base64.urlsafe_b64decode(code + "=" * (-len(code) % 4)).decode()
+            except (binascii.Error, ValueError):
+                return None
+    return None
+
+
+def _same(supplied: str, expected: str) -> bool:
+    return bool(expected) and hmac.compare_digest(supplied.encode(), expected.encode())
+
+
+def check_read(cfg: Config, headers: Headers, websocket: bool = False) -> None:
+    """An exposed instance's reads need the control token or the read-only one."""
+    if not cfg.api.reads_require_token:
+        return
+    supplied = bearer_token(headers.get("authorization"))
+    if supplied is None and websocket:
+        supplied = ws_token(headers)
+    if supplied is None or not (_same(supplied, cfg.api.token) or _same(supplied, cfg.api.read_token)):
+        raise HTTPException(401, "reading needs a token: this API listens beyond loopback "
+                                 "(Authorization: Bearer <api.token or api.read_token>)")
+
+
 def check_control(cfg: Config, headers: Headers) -> None:
     """The browser-origin check, then the token when one is required."""
     check_browser_origin(cfg, headers)
@@ -167,7 +209,8 @@ def check_body(doc: Any) -> None:
 
 class HostGate:
     """Pure ASGI middleware in front of everything (page, reads, live feed, control):
-    :func:`check_host`. A refused WebSocket is closed before its handshake (HTTP 403)."""
+    :func:`check_host`, and an exposed instance's reads :func:`check_read`. A refused
+    WebSocket is closed before its handshake (HTTP 403)."""
 
     def __init__(self, app: Any, cfg: Config):
         self.app = app
@@ -176,7 +219,12 @@ class HostGate:
     async def __call__(self, scope: dict, receive: Any, send: Any) -> None:
         if scope["type"] in ("http", "websocket"):
             try:
-                check_host(self.cfg, Headers(scope=scope))
+                headers = Headers(scope=scope)
+                check_host(self.cfg, headers)
+                # an exposed instance's reads (what may change is RequestGate's)
+                if str(scope.get("path", "")).startswith("/api/") and \
+                        (scope["type"] == "websocket" or scope["method"] in RequestGate.SAFE):
+                    check_read(self.cfg, headers, websocket=scope["type"] == "websocket")
             except HTTPException as exc:
                 refusal_log.warning("refused: %s", exc.detail)
                 if scope["type"] == "http":

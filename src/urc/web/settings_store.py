@@ -12,12 +12,17 @@ when the rotator can take new settings (``Rotator.reconfigure``), else at the re
 from __future__ import annotations
 
 import copy
+import hashlib
+import json
 import os
+import secrets
 import stat
 from pathlib import Path
 from typing import Any
 
 from ..config import DEFAULT_SERVE, Config
+from ..config.secrets_mode import holds_secret
+from ..config.user_copy import is_example, user_copy
 from ..errors import ConfigError
 from . import toml_edit
 
@@ -51,6 +56,27 @@ class SettingsStore:
         self.running = cfg
         self.config_path = Path(config_path) if config_path else None
         self.state_dir = Path(state_dir) if state_dir else None
+        #: what the last save has to say besides where it went (an example copied)
+        self.note = ""
+        # (the revision hashes the whole configuration, token included: salted per
+        # process so that the ETag tells nothing about the token)
+        self._salt = secrets.token_bytes(16)
+
+    @property
+    def revision(self) -> str:
+        """The settings document's revision, an RFC 9110 strong entity tag (quotes
+        included): a save whose If-Match names another is refused (412), so a page
+        loaded before someone else's save cannot undo it."""
+        text = json.dumps(self.cfg.to_dict(), sort_keys=True, default=str).encode()
+        return '"' + hashlib.sha256(self._salt + text).hexdigest()[:20] + '"'
+
+    def if_match(self, header: str | None) -> bool | None:
+        """Whether a save's ``If-Match`` names the current revision (RFC 9110 13.1.1:
+        a list of strong tags, or ``*``); None when there is no If-Match."""
+        if header is None:
+            return None
+        tags = [t.strip() for t in header.split(",")]
+        return "*" in tags or self.revision in tags
 
     @property
     def target_path(self) -> Path | None:
@@ -62,16 +88,19 @@ class SettingsStore:
         """What the page edits: the configuration without the token."""
         data = self.cfg.to_dict()
         data.get("api", {}).pop("token", None)
+        data.get("api", {}).pop("read_token", None)
         data.get("mqtt", {}).pop("password", None)  # (reading is open: the broker's password is not)
         target = self.target_path
         return {
             "config": data,
             "token_set": bool(self.cfg.api.token),
+            "read_token_set": bool(self.cfg.api.read_token),
             "default_serve": [e.model_dump(exclude_none=True) for e in DEFAULT_SERVE],
             "config_path": str(self.config_path) if self.config_path else None,
             "save_path": str(target) if target else None,
             "restart_sections": list(RESTART_SECTIONS),
             "restart_pending": self.restart_pending(),
+            "revision": self.revision,
         }
 
     def _merge_token(self, data: dict[str, Any]) -> dict[str, Any]:
@@ -79,6 +108,8 @@ class SettingsStore:
         api = data.setdefault("api", {})
         if isinstance(api, dict) and not api.get("token") and self.cfg.api.token:
             api["token"] = self.cfg.api.token
+        if isinstance(api, dict) and not api.get("read_token") and self.cfg.api.read_token:
+            api["read_token"] = self.cfg.api.read_token
         mqtt = data.get("mqtt")
         if isinstance(mqtt, dict) and "password" not in mqtt and self.cfg.mqtt is not None and self.cfg.mqtt.password:
             mqtt["password"] = self.cfg.mqtt.password
@@ -131,23 +162,35 @@ class SettingsStore:
     def save(self, new: Config) -> Path:
         """Write the keys that changed since the last save (or the start) into the file,
         in place, and replace it atomically: a crash leaves the old file or the new one,
-        never none. The file keeps its permissions (0600 stays 0600: it holds the
-        token); a new file is created 0600 and holds only what was changed."""
+        never none. A file that holds a secret (a token, the MQTT password) is made
+        0600; another keeps its permissions; a new file is created 0600 and holds only
+        what was changed."""
         target = self.target_path
         if target is None:
             raise OSError("no configuration file and no state directory to save to")
+        self.note = ""
+        example = None
+        if is_example(target):  # a template shipped with urc: never written, copied
+            example, target = target, user_copy(target)
         target.parent.mkdir(parents=True, exist_ok=True)
         try:
             old_mode = stat.S_IMODE(target.stat().st_mode)
             old_text = target.read_text(encoding="utf-8")
         except FileNotFoundError:
-            old_mode, old_text = None, ""
+            old_mode = None  # (a new file: 0600)
+            old_text = example.read_text(encoding="utf-8") if example is not None else ""
         try:
             text = toml_edit.edit(old_text, self.cfg.to_dict(), new.to_dict())
         except (toml_edit.EditError, ValueError) as exc:  # (tomllib: a file broken by hand meanwhile)
             raise OSError(f"{target}: {exc}; the file is left as it was") from exc
-        _write_atomic(target, text.encode("utf-8"), 0o600 if old_mode is None else old_mode)
+        # a file that holds a token is the owner's alone (0600), whatever it was before
+        mode = 0o600 if old_mode is None or holds_secret(new) else old_mode
+        _write_atomic(target, text.encode("utf-8"), mode)
         self.cfg = new
+        if example is not None:
+            self.config_path = target
+            self.note = (f"{example} is an example (a template, left as it is): saved to your copy {target}, "
+                         f"used from now on (`urc run --config {example}` takes it too)")
         return target
 
 

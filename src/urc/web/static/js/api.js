@@ -7,9 +7,27 @@ export function token() {
   return sessionStorage.getItem(TOKEN_KEY) || "";
 }
 
+// an exposed instance's reads need a token too (the read-only one will do): a page that
+// was refused a read loads again once one is given, the live feed and all
+let readRefused = false;
+
 export function setToken(value) {
   if (value) sessionStorage.setItem(TOKEN_KEY, value);
   else sessionStorage.removeItem(TOKEN_KEY);
+  if (readRefused && value) location.reload();
+}
+
+function askForToken() {
+  $("token-form").hidden = false;
+}
+
+// the live feed's subprotocols: a browser's WebSocket sends no Authorization header, so
+// the token goes as "urc.bearer.<base64url>" beside "urc" (the one the server picks)
+export function wsProtocols() {
+  const t = token();
+  if (!t) return undefined;
+  const b64 = btoa(String.fromCharCode(...new TextEncoder().encode(t)));
+  return ["urc", `urc.bearer.${b64.replace(/\+/g, "-").replace(/\//g, "_").replace(/=+$/, "")}`];
 }
 
 function describe(status, data) {
@@ -21,8 +39,8 @@ function describe(status, data) {
   return `HTTP ${status}`;
 }
 
-export async function request(method, path, body, { quiet = false } = {}) {
-  const headers = { Accept: "application/json" };
+export async function request(method, path, body, { quiet = false, headers: extra = {} } = {}) {
+  const headers = { Accept: "application/json", ...extra };
   if (body !== undefined) headers["Content-Type"] = "application/json";
   const t = token();
   if (t) headers.Authorization = `Bearer ${t}`;
@@ -35,15 +53,22 @@ export async function request(method, path, body, { quiet = false } = {}) {
   }
   let data = null;
   try { data = await resp.json(); } catch { data = null; }
+  if (resp.status === 401) {
+    askForToken();
+    if (method === "GET") {
+      readRefused = true;
+      if (!quiet) toast("reading needs the API token (or the read-only one): enter it at the top", true);
+    }
+  }
   if (!resp.ok && !quiet) {
     if (resp.status === 401) {
-      $("token-form").hidden = false;
-      toast("control needs the API token: enter it at the top", true);
+      if (method !== "GET") toast("control needs the API token: enter it at the top", true);
     } else {
       toast(describe(resp.status, data), true);
     }
   }
-  return { ok: resp.ok, status: resp.status, data, message: resp.ok ? "" : describe(resp.status, data) };
+  return { ok: resp.ok, status: resp.status, data, etag: resp.headers.get("ETag"),
+    message: resp.ok ? "" : describe(resp.status, data) };
 }
 
 export const get = (path, opts) => request("GET", path, undefined, opts);

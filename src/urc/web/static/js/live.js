@@ -2,6 +2,7 @@
 // Offline (closed, or no frame for STALE_MS) the page says so and dims the last values:
 // nothing old is ever shown as live.
 import { $, setText, utcTime } from "./dom.js";
+import { wsProtocols } from "./api.js";
 
 const STALE_MS = 2500;
 
@@ -25,7 +26,7 @@ export class Live {
 
   connect() {
     const proto = location.protocol === "https:" ? "wss:" : "ws:";
-    const ws = new WebSocket(`${proto}//${location.host}/api/ws`);
+    const ws = new WebSocket(`${proto}//${location.host}/api/ws`, wsProtocols());
     this.ws = ws;
     ws.onopen = () => { this.delayMs = 250; this.parts = {}; this.onOpen(); };
     ws.onmessage = (ev) => {

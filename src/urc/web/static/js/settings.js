@@ -4,6 +4,7 @@ import { $, h, clear, setText, toast } from "./dom.js";
 import { get, post } from "./api.js";
 
 let doc = null;      // the document as loaded (config without the token)
+let revision = null; // its ETag: a save sends it in If-Match (412 when someone saved meanwhile)
 let info = null;
 let serveDirty = false;
 
@@ -93,8 +94,7 @@ function renumber(cls, name) {
   });
 }
 
-function build() {
-  const c = doc.config;
+function build(c = doc.config) {
   const form = $("settings-form");
   clear(form);
   const profiles = Object.keys(info.profiles);
@@ -231,10 +231,50 @@ async function check() {
   return r.ok;
 }
 
-async function save() {
-  const r = await post("/api/settings", collect(), { quiet: true });
+// what the person changed (against the document loaded) on top of a newer one: a leaf
+// (a number, a list of zones or ports) they changed is theirs, any other is the newer's
+function onTop(base, mine, newer) {
+  const same = (a, b) => JSON.stringify(a) === JSON.stringify(b);
+  const isTable = (v) => v !== null && typeof v === "object" && !Array.isArray(v);
+  if (isTable(base) && isTable(mine) && isTable(newer)) {
+    const out = {};
+    for (const k of new Set([...Object.keys(newer), ...Object.keys(mine), ...Object.keys(base)])) {
+      const v = onTop(base[k], mine[k], newer[k]);
+      if (v !== undefined) out[k] = v;
+    }
+    return out;
+  }
+  return same(base, mine) ? newer : mine;
+}
+
+async function reloadKeepingEdits() {
+  const mine = collect();
+  const base = doc.config;
+  const r = await get("/api/settings", { quiet: true });
+  if (!r.ok) { toast("cannot load the settings", true); return; }
+  doc = r.data;
+  revision = r.etag || doc.revision;
+  const merged = onTop(base, mine, doc.config);
+  build(merged);
+  serveDirty = JSON.stringify(merged.serve) !== JSON.stringify(doc.config.serve);
   const res = $("settings-result");
   clear(res);
+  res.append(h("li", { text: "Loaded the settings saved meanwhile; your changes are kept on top. Check them and save again." }));
+}
+
+async function save() {
+  // always conditional: a tab loaded before someone else's save must not undo it
+  const r = await post("/api/settings", collect(), { quiet: true, headers: { "If-Match": revision } });
+  const res = $("settings-result");
+  clear(res);
+  if (r.status === 412) {
+    showErrors([]);
+    const again = h("button", { type: "button", id: "settings-reload", text: "load theirs, keep my changes" });
+    again.addEventListener("click", reloadKeepingEdits);
+    res.append(h("li", { text: "Not saved: someone else saved the settings since this page loaded them. " }, again));
+    toast("settings not saved: they changed meanwhile", true);
+    return;
+  }
   if (!r.ok) {
     showErrors((r.data && r.data.errors) || [{ key: "", message: r.message }]);
     if (r.status === 401) toast("saving needs the API token", true);
@@ -252,6 +292,7 @@ export async function load(infoData) {
   const r = await get("/api/settings", { quiet: true });
   if (!r.ok) return;
   doc = r.data;
+  revision = r.etag || doc.revision;
   setText($("settings-where"), doc.config_path
     ? `Configuration file: ${doc.config_path}`
     : `urc run was started without a configuration file: settings are saved to ${doc.save_path}.`);
