@@ -143,7 +143,8 @@ def exception_from_wire(wire: tuple) -> BaseException:
 
 
 # ------------------------------------------------------------------ the I/O side
-def _on_event_loop() -> bool:
+def on_event_loop() -> bool:
+    """Is the caller on a thread running an event loop (in a bridged greenlet too)?"""
     import asyncio  # (lazy, as in call: the control process never loads asyncio)
 
     try:
@@ -239,7 +240,7 @@ class ControlLink:
             pending = self._submit(request, timeout_s, asyncio.get_running_loop())
             assert pending.future is not None
             return self._outcome(pending.request, bridge.wait(pending.future))
-        if _on_event_loop():
+        if on_event_loop():
             self._complain(request)
         pending = self._submit(request, timeout_s, None)
         assert pending.done is not None

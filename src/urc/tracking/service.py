@@ -11,6 +11,7 @@ from typing import Any, Callable
 
 from ..config import Config
 from ..ipc import bridge
+from ..service.remote import on_event_loop
 from .catalog_process import read_catalog
 from .elements import Catalog, ElementSet
 from .errors import TrackingError
@@ -29,15 +30,6 @@ log = logging.getLogger(__name__)
 #: how often a running controller looks whether the element catalog changed on disk
 #: (`urc tle import` / `urc tle update` write it while urc runs): a stat, nothing more
 CATALOG_CHECK_S = 5.0
-
-
-def _on_event_loop() -> bool:
-    """Is the caller on a thread running an event loop (in a bridged greenlet too)?"""
-    try:
-        asyncio.get_running_loop()
-        return True
-    except RuntimeError:
-        return False
 
 
 def realtime_unix_at(now_s: float) -> float:
@@ -314,7 +306,7 @@ class TrackingService:
         """The status a command answers with: computed in a thread when asked on the event
         loop (a ground track is tens of ms of skyfield), not on the tracking worker (it
         may be planning the next pass for seconds)."""
-        if self._executor is None or not _on_event_loop() or not bridge.in_bridge():
+        if self._executor is None or not on_event_loop() or not bridge.in_bridge():
             return self.status() or {}
         return bridge.wait(asyncio.get_running_loop().run_in_executor(None, self.status)) or {}
 
@@ -340,7 +332,7 @@ class TrackingService:
         a catalog read, a pass search and plan cost seconds of CPU under load, and the
         loop's silence stops the axes (issues 21, 33). Called on any other thread (the
         worker itself, a pass search's), it runs there."""
-        if self._executor is None or not _on_event_loop():
+        if self._executor is None or not on_event_loop():
             return fn(*args)
         future = self._executor.submit(fn, *args)
         if bridge.in_bridge():
