@@ -321,7 +321,9 @@ def soak(u, sh: Shared, rng, picks, goto_times, end, lead_s, rates, catalog, rel
     def goto(n: int, pos: tuple[float, float]) -> None:
         az = (pos[0] + rng.uniform(-60.0, 60.0)) % 360.0
         el = rng.uniform(10.0, 60.0)
-        travel_s = max(abs(wrap180(az - pos[0])) / rates[0], abs(el - pos[1]) / rates[1]) + 3.0
+        # (the mechanical route may be most of a turn: from the park at 0 through a 400 deg
+        # range, not the sky angle; a first run judged 6 gotos still on their way as lost)
+        travel_s = max(420.0 / rates[0], abs(el - pos[1]) / rates[1]) + 3.0
         g = {"id": f"g{n}", "az": az, "el": el, "t": time.time(), "bound_s": travel_s + 30.0, "ok": None,
              "completed": None}
         gotos.append(g)
@@ -392,8 +394,8 @@ def soak(u, sh: Shared, rng, picks, goto_times, end, lead_s, rates, catalog, rel
                     if (abs(wrap180(s["az_deg"] - g["az"])) <= 1.0 and abs(s["el_deg"] - g["el"]) <= 1.0
                             and not s.get("moving")):
                         g["completed"], g["took_s"] = True, round(t1 - g["t"], 1)
-                    elif t1 > g["t"] + g["bound_s"]:
-                        g["completed"] = False
+                    elif t1 > g["t"] + g["bound_s"] or (t1 > g["t"] + 5.0 and not s.get("moving")):
+                        g["completed"] = False   # (late, or at rest short of its target)
                         g["status"] = {k: s.get(k) for k in ("az_deg", "el_deg", "state", "moving", "last_stop")}
         time.sleep(max(0.0, t0 + POLL_S - time.time()))
     for g in gotos:
