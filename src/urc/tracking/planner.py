@@ -414,10 +414,9 @@ def plan_pass(t_s: np.ndarray, sky_az_deg: np.ndarray, sky_el_deg: np.ndarray, g
               az: AxisLimits, el: AxisLimits, start_pose: tuple[float, float], now_s: float,
               continuing: bool = False) -> Plan:
     """Choose wrap turn and flip for the pass and return the trajectory to fly.
-    Of equally good plans the one whose first pose is reached sooner wins, flipped or
-    not (then the unflipped one). ``continuing``: the antenna is on the target already
-    (a long arc planned anew); the same rule keeps it on its side, with no swing to
-    the other side mid-track (kept for the callers that say so)."""
+    ``continuing``: the antenna is on the target already (a long arc planned anew): of
+    equally good plans, the one nearest its pose wins over the unflipped one, so that
+    it does not swing to the other side mid-track."""
     t = np.asarray(t_s, dtype=float)
     s_az = np.asarray(sky_az_deg, dtype=float) % 360.0
     s_el = np.asarray(sky_el_deg, dtype=float)
@@ -469,12 +468,11 @@ def plan_pass(t_s: np.ndarray, sky_az_deg: np.ndarray, sky_el_deg: np.ndarray, g
             if route is not None:
                 travel_s = route_time_s([start_pose] + route, rates)
         # the smallest worst-case pointing error wins (to 0.05 deg: below that the
-        # servo decides); then the pose reached sooner, to a second (issue 36.21: an
-        # unflipped start 314 deg away was chosen over a flipped one 135 deg away; a
-        # continuing arc so keeps the side the antenna is on); then no flip; then the
-        # smaller worst case, to a millidegree (a keyhole's minimax against a near miss)
+        # servo decides); then no flip; then the smaller worst case, to a millidegree
+        # (a keyhole's minimax against a near miss); then the shorter pre-positioning move
         worst = float(_error_between_samples_deg(fa, fe, s_az, s_el, g).max())
-        cost = (round(worst / 0.05), round(travel_s), flip, round(worst / 0.001), travel_s)
+        cost = (round(worst / 0.05), flip, round(worst / 0.001), travel_s) if not continuing else \
+            (round(worst / 0.05), round(travel_s), flip, round(worst / 0.001))
         if best is None or cost < best[0]:
             best = (cost, flip, fa, fe, travel_s, a, e, worst, not (fa is a and fe is e), keyhole)
     assert best is not None  # (candidates is never empty)
