@@ -546,7 +546,7 @@ def settings_show(key: str | None, url: str | None, config_path: str | None) -> 
     if key is None:
         from .config import Config  # (about 1 s of imports: not for one KEY's value)
         from .config.applicable import applicable
-        from .config.toml_write import dump_toml
+        from .config.schema import dump_toml
 
         # what applies to this station's parts only (not reply_port on a TCP port)
         click.echo(dump_toml(applicable(Config.from_dict(doc, source="settings"))), nl=False)

@@ -49,14 +49,14 @@ def test_advice_warns_about_software_pwm_and_config_check_shows_it(tmp_path):
     notes = pwm_advice(gpio_of("bigras").hardware.gpio)
     assert len(notes) == 2 and notes[0].startswith("hardware.gpio.el.pins.rpwm: GPIO18 shares PWM0 with az.rpwm")
     data = load_config(EXAMPLES / "tartu-urc.toml").to_dict()
-    data["hardware"]["gpio"]["az"]["pins"]["pwm"] = 5
+    data["hardware"]["gpio"]["az"]["pins"]["pwm"] = 6    # (GPIO5 is the safety chain's read-back)
     notes = pwm_advice(Config.from_dict(data).hardware.gpio)
-    assert notes == ["hardware.gpio.az.pins.pwm: GPIO5 has no hardware PWM; software PWM jitters under CPU "
+    assert notes == ["hardware.gpio.az.pins.pwm: GPIO6 has no hardware PWM; software PWM jitters under CPU "
                      "load (hardware PWM pins: GPIO12, GPIO13, GPIO18, GPIO19)"]
     path = tmp_path / "c.toml"
-    path.write_text((EXAMPLES / "tartu-urc.toml").read_text().replace("pwm = 12", "pwm = 5"))
+    path.write_text((EXAMPLES / "tartu-urc.toml").read_text().replace("pwm = 12", "pwm = 6"))
     r = CliRunner().invoke(main, ["config", "check", str(path)])
-    assert r.exit_code == 0 and "warning: hardware.gpio.az.pins.pwm: GPIO5 has no hardware PWM" in r.output
+    assert r.exit_code == 0 and "warning: hardware.gpio.az.pins.pwm: GPIO6 has no hardware PWM" in r.output
     notes = pwm_advice(gpio_of("bigras", hardware_pwm="4chan").hardware.gpio)
     assert notes == []
     data = load_config(EXAMPLES / "bigras.toml").to_dict()

@@ -140,7 +140,12 @@ class Config(Section):
 
     def to_toml(self) -> str:
         """This configuration as a TOML document that loads back to an equal Config."""
-        return tomlkit.dumps(_encodable(self.to_dict()))
+        return dump_toml(self.to_dict())
+
+
+def dump_toml(data: dict[str, Any]) -> str:
+    """A configuration's dict (``Config.to_dict``, or part of it) as a TOML document."""
+    return tomlkit.dumps(_encodable(data))
 
 
 def _strip_none(value: Any) -> Any:

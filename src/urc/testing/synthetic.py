@@ -35,23 +35,11 @@ def satellite_passing_soon(work: Path, station, lead_s: tuple[float, float], min
                            accept: Callable[[object], bool] = lambda p: True):
     """(TLE text, elements, pass) of a synthetic LEO whose next pass over ``station``
     starts ``lead_s`` (min, max) seconds from now, rises above ``min_max_el_deg`` and
-    satisfies ``accept(pass)``."""
-    from ..tracking.elements import load_elements
-    from ..tracking.passes import find_passes
-
-    now = datetime.now(timezone.utc)
-    path = work / "pick.tle"
-    for raan in range(0, 360, 15):
-        for ma in range(0, 360, 5):
-            text = synthetic_tle(name, norad, now, inc_deg=70.0, raan_deg=raan, argp_deg=90.0, ma_deg=ma,
-                                 rev_per_day=15.2)
-            path.write_text(text)
-            es = load_elements(path)[0]
-            t0 = time.time()
-            for p in find_passes(es, station, t0, duration_s=lead_s[1] + 1200.0, min_el_deg=0.0):
-                if lead_s[0] <= p.aos_unix_s - t0 <= lead_s[1] and p.max_el_deg >= min_max_el_deg and accept(p):
-                    return text, es, p
-    raise RuntimeError("no synthetic satellite with a pass in the window")
+    satisfies ``accept(pass)`` (one vectorised search over a dense grid of orbits: a
+    coarse grid found none in some windows)."""
+    now_s = time.time()
+    return satellite_passing_between(work, station, (now_s + lead_s[0], now_s + lead_s[1]), min_max_el_deg,
+                                     norad, name, accept)
 
 
 def satellite_passing_between(work: Path, station, aos_window_unix_s: tuple[float, float],
