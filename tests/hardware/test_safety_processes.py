@@ -41,7 +41,9 @@ def test_a_frozen_then_thawed_control_process_lost_motor_power(tmp_path):
     p = start(tmp_path, part=True)
     try:
         s = moving_fast(p)
-        assert s["simulator_truth"]["motor_enable"]["trips"] == 0
+        # (the start's self-test of the chain may have dropped the relay once already)
+        trips = s["simulator_truth"]["motor_enable"]["trips"]
+        assert trips <= 1
         pid = p.control_pid()
         os.kill(pid, signal.SIGSTOP)
         # (frozen well past the relay's TIMEOUT_S, and short of the control process's
@@ -50,7 +52,7 @@ def test_a_frozen_then_thawed_control_process_lost_motor_power(tmp_path):
         os.kill(pid, signal.SIGCONT)
         # the world catches up on the first tick after the thaw: the relay dropped (again
         # perhaps while the loop, late by 0.6 s, held the motors off and let the heartbeat rest)
-        p.wait(lambda s: s["simulator_truth"]["motor_enable"]["trips"] >= 1, 30.0)
+        p.wait(lambda s: s["simulator_truth"]["motor_enable"]["trips"] >= trips + 1, 30.0)
     finally:
         p.kill()  # (nothing judged of its stop: an orderly one waited for the move's ramp down)
 
