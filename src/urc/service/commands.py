@@ -299,12 +299,18 @@ class Commands:
 
         def apply() -> None:
             self.replace_program("stop")
-            core.route = []
-            core.tracking = False
-            core.parking = False  # a park cut short is no park
-            core.motion = None
-            self.stop_axes([axis] if axis else list(core.axes))
+            self.halt([axis] if axis else list(core.axes))
         self.submit("stop", apply)
+
+    def halt(self, names: list[str]) -> None:
+        """No route, track, park or motion any more; ``names`` decelerate and hold (the
+        tick: a stop, a health rule's stop, a cancelled program)."""
+        core = self.core
+        core.route = []
+        core.tracking = False
+        core.parking = False  # a park cut short is no park
+        core.motion = None
+        self.stop_axes(names)
 
     # ------------------------------------------------------------ stops by a health rule
     def stop_open_ended(self, reason: str) -> bool:
@@ -318,11 +324,8 @@ class Commands:
             if motion is not None:
                 core.event(f"{reason}: the {motion} flies on to its end (a bounded motion)")
             return False
-        core.route = []
-        core.tracking = False
-        core.motion = None
         core.target_sky = None
-        self.stop_axes(list(core.axes))
+        self.halt(list(core.axes))
         # a track resumes by itself: the tracker's next update restarts it once the I/O
         # process talks; a jog needs its client to ask again
         core.note_stop("health", reason, resumes=motion == "track", command=motion)

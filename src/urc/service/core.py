@@ -57,6 +57,9 @@ class Core:
         #: the last stop that was not asked for by a client's motion command: who stopped
         #: what and why ({"kind", "reason", "command", "t_s", "resumes"}); see Status.last_stop
         self.last_stop: dict[str, Any] | None = None
+        #: status' ``program``: made once per program and state (program_view)
+        self._program_view_key: tuple[int, str] | None = None
+        self._program_view: dict[str, Any] | None = None
 
     def event(self, text: str) -> None:
         """Logged, and kept among status' recent events."""
@@ -92,7 +95,7 @@ class Core:
         if p is None:
             return None
         key = (p.program_id, self.program_state)
-        if getattr(self, "_program_view_key", None) != key:
+        if self._program_view_key != key:
             self._program_view_key = key
             self._program_view = {"id": p.program_id, "name": p.name, "state": self.program_state,
                                   "aos_s": p.aos_s, "los_s": p.los_s}

@@ -169,8 +169,8 @@ class ProgramFlight:
             flying = core.motion == "program"
             core.end_program("cancelled")
             if flying:
-                core.route, core.tracking, core.target_sky = [], False, None
-                self.commands.stop_axes(list(core.axes))
+                core.target_sky = None
+                self.commands.halt(list(core.axes))
         self.commands.submit("cancel_program", apply)
 
     def advance(self, now_s: float) -> None:
