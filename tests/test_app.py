@@ -129,12 +129,14 @@ def test_a_control_process_that_stops_by_itself_is_started_again(urc):
 
 
 def test_kill_9_of_the_io_process_stops_the_axes_saves_and_the_heartbeat(urc):
-    """kill -9 of `urc run` (the I/O process): its control process sees the socket close,
-    brings the axes to rest, saves and exits, and the heartbeat stops; a new urc started
-    at once waits for it and comes up exact."""
+    """kill -9 of `urc run` (the I/O process) during a jog (open-ended: only a client
+    could end it): its control process sees the socket close, brings the axes to rest,
+    saves and exits, and the heartbeat stops; a new urc started at once waits for it and
+    comes up exact. (A bounded motion flies on instead, and the next urc run takes the
+    control process over: tests/tracking/test_program_track_process.py.)"""
     u = urc(profile="tartu-urc").start()
     ctl = u.control_pid()
-    assert u.post("/api/goto", {"az_deg": 300, "el_deg": 30}).status_code == 200
+    assert u.post("/api/move", {"axis": "az", "direction": 1}).status_code == 200
     u.wait(lambda s: s["moving"] and abs(s["az"]["rate_deg_per_s"]) > 3)
     u.proc.send_signal(signal.SIGKILL)
     u.proc.wait()
@@ -148,9 +150,33 @@ def test_kill_9_of_the_io_process_stops_the_axes_saves_and_the_heartbeat(urc):
     assert not saved["az"]["moving"]
     u.start()
     s = u.status()
-    assert s["position_known"] and abs(s["az_deg"] - 300) > 5  # stopped on the way, where it was
+    assert s["position_known"] and not s["moving"]  # stopped where it was
     for axis in ("az", "el"):
         assert s[axis]["pos_deg"] == pytest.approx(s["simulator_truth"][axis]["deg"], abs=0.2)
+
+
+def test_kill_9_of_the_io_process_during_a_goto_flies_it_to_its_end_then_stops_in_order(urc):
+    """A goto is bounded: kill -9 of `urc run` while it flies leaves it flying to its target
+    (it used to stop half-way); nobody takes the control process over, so once at rest it
+    waits ORPHAN_GRACE_S for a new urc run, then stops in order (state saved, heartbeat
+    off, lock free: the next start is exact, at the goto's target)."""
+    from urc.service.adoption import ORPHAN_GRACE_S
+
+    u = urc(profile="tartu-urc").start()
+    ctl = u.control_pid()
+    assert u.post("/api/goto", {"az_deg": 60, "el_deg": 30}).status_code == 200  # (10 s at 6 deg/s)
+    u.wait(lambda s: s["moving"] and abs(s["az"]["rate_deg_per_s"]) > 3)
+    u.proc.send_signal(signal.SIGKILL)
+    u.proc.wait()
+    time.sleep(1.0)
+    assert not process_gone(ctl), "the control process stopped the goto with urc run"
+    wait_until(lambda: process_gone(ctl), 30 + ORPHAN_GRACE_S, "the control process exits")
+    assert heartbeat(u)["level"] == 0
+    saved = json.loads((u.state_dir / "state.json").read_text())["payload"]["axes"]
+    assert not saved["az"]["moving"]
+    u.start()
+    s = u.status()
+    assert s["position_known"] and abs(s["az_deg"] - 60) < 1 and abs(s["el_deg"] - 30) < 1, (s["az_deg"], s["el_deg"])
 
 
 def test_a_restart_waits_for_the_previous_control_process(urc, tmp_path):

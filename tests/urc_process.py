@@ -191,6 +191,8 @@ class UrcProcess:
         self.auth = {"Authorization": f"Bearer {token.group(1)}"} if token else {}
         self.proc: subprocess.Popen | None = None
         self.banner = ""
+        #: a control process this urc run took over (not its child: urc.service.adoption)
+        self.adopted_control_pid: int | None = None
 
     def start(self, timeout_s: float = START_TIMEOUT_S, env: dict | None = None,
               args: list[str] | None = None) -> "UrcProcess":
@@ -247,6 +249,8 @@ class UrcProcess:
                     return int(pid)
             except FileNotFoundError:
                 pass
+        if self.adopted_control_pid is not None and not process_gone(self.adopted_control_pid):
+            return self.adopted_control_pid
         raise AssertionError("no control process found")
 
     def status(self) -> dict:

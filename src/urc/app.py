@@ -10,6 +10,7 @@ import logging
 import signal
 import socket
 import threading
+from typing import Any
 from pathlib import Path
 
 from .clock import Clock
@@ -95,21 +96,42 @@ async def serve(cfg: Config, state_dir: Path, config_path: Path | None = None) -
     for standstill (bounded), leaves every output safe and saves (in the control process).
     """
     from .persistence import check_state_dir
-    from .service.instance import lock_instance
 
     check_state_dir(state_dir)
-    locks = lock_instance(state_dir, _hardware_key(cfg), _real_hardware(cfg))
+    adopted, locks = _adopt_or_lock(cfg, state_dir)
     try:
         api_socket = bind_api_socket(cfg.api.host, cfg.api.port)
         try:
             cfg.check_serve_options()  # (a protocol's options: before the control process, as the ports)
             check_serve_ports(cfg.served)
-            await _serve(cfg, state_dir, config_path, api_socket, [lk.fd for lk in locks if lk.fd is not None])
+            await _serve(cfg, state_dir, config_path, api_socket, [lk.fd for lk in locks if lk.fd is not None],
+                         adopted)
         finally:
             api_socket.close()
     finally:
+        if adopted is not None:
+            adopted.conn.close()  # (a start that failed: it is an orphan again, for the next one)
         for lock in locks:
             lock.release()
+
+
+def _adopt_or_lock(cfg: Config, state_dir: Path) -> tuple[Any, list]:
+    """Take over the control process a dead ``urc run`` left flying a bounded motion
+    (urc.service.adoption) with the locks it holds; else take the instance locks (waiting
+    for a previous urc that is still bringing its axes to rest)."""
+    from .service import adoption
+    from .service.instance import LOCK_FILE, InstanceLock, hardware_lock_path, lock_instance
+
+    try:
+        adopted = adoption.adopt(state_dir, cfg)
+    except (adoption.AdoptionRefused, OSError, EOFError) as exc:
+        log.warning("not taking over the control process that runs on: %s", exc)
+        adopted = None
+    if adopted is None:
+        return None, lock_instance(state_dir, _hardware_key(cfg), _real_hardware(cfg))
+    where = [(Path(state_dir) / LOCK_FILE, f"state dir {state_dir}"),
+             (hardware_lock_path(_hardware_key(cfg)), f"the {_hardware_key(cfg)} hardware")]
+    return adopted, [InstanceLock.handed_over(fd, path, what) for fd, (path, what) in zip(adopted.lock_fds, where)]
 
 
 def _api_server(config):
@@ -126,7 +148,7 @@ def _api_server(config):
 
 
 async def _serve(cfg: Config, state_dir: Path, config_path: Path | None, api_socket: socket.socket,
-                 lock_fds: list[int]) -> None:
+                 lock_fds: list[int], adopted: Any = None) -> None:
     from .service.control_process import ControlProcess
 
     stop = asyncio.Event()
@@ -139,7 +161,10 @@ async def _serve(cfg: Config, state_dir: Path, config_path: Path | None, api_soc
     # clients keep their connections meanwhile; else urc run ends and systemd restarts it)
     control = ControlProcess(cfg, state_dir, lock_fds,
                              on_lost=None if supervised else lambda _why: loop.call_soon_threadsafe(stop.set))
-    control.spawn()  # (it builds the rotator while this process imports the web stack)
+    if adopted is not None:  # (a control process flying on after a dead urc run: taken over)
+        control.adopt(adopted)
+    else:
+        control.spawn()  # (it builds the rotator while this process imports the web stack)
     try:
         import uvicorn
 
@@ -158,6 +183,8 @@ async def _serve(cfg: Config, state_dir: Path, config_path: Path | None, api_soc
         control.abandon()
         raise
     rotator = control.wait_ready()
+    if adopted is not None:
+        await _took_over(rotator, cfg, adopted.ready.get("config_settings"))
 
     def hold_outputs():
         from .assembly import take_outputs
@@ -250,6 +277,19 @@ async def _serve(cfg: Config, state_dir: Path, config_path: Path | None, api_soc
         raise web.exception()
     print("urc: stopped, state saved" if result["saved"] else "urc: stopped; the state could NOT be saved "
           "(the next start treats the position as uncertain)", flush=True)
+
+
+async def _took_over(rotator, cfg: Config, config_settings) -> None:
+    """Said, and this configuration's settings applied if they are not the ones the
+    control process was given (the file changed meanwhile: limits, zones, offsets, speeds;
+    applying them ends the motion in flight, as a settings save does)."""
+    from .assembly import settings_from_config
+
+    print(f"urc: took over the control process (process {rotator.pid}) that flew on after the last urc run "
+          "ended", flush=True)
+    settings = settings_from_config(cfg)
+    if settings != config_settings:
+        await asyncio.to_thread(rotator.reconfigure, settings)
 
 
 class _TrackingOff:

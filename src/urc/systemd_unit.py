@@ -51,11 +51,14 @@ def unit_text(config_path: Path | None, state_dir: Path | None, user: str | None
              f"WatchdogSec={WATCHDOG_SEC}",
              "Restart=on-failure",
              "RestartSec=2",
-             # SIGTERM to both processes (also when the I/O process died, and on a watchdog
-             # timeout): the control process stops, waits for standstill (bounded) and
-             # saves on its own; SIGKILL only after that can have happened
+             # signals to urc run only (a stop, a watchdog timeout): it stops the control
+             # process in order (axes to rest, save) within TimeoutStopSec. The control
+             # process is left alone when urc run dies: a bounded motion it flies (a pass
+             # program, a goto, a park) goes on, and the restarted urc run takes it over
+             # (urc.service.adoption); with nothing in flight it stops in order by itself.
+             # control-group would SIGTERM it, and lose the pass, on every restart.
              f"TimeoutStopSec={int(STOP_TIMEOUT_S + 5)}",
-             "KillMode=control-group",
+             "KillMode=process",
              "WatchdogSignal=SIGTERM",
              # room for every client the ports admit (servers/limits.py) and then some:
              # 1024, systemd's usual soft limit, let idle connections take every port down

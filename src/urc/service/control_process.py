@@ -17,7 +17,9 @@ is in that module's docstring; what this one guarantees:
   while this one still brings the axes to rest.
 * Every end stops the axes, waits for standstill (bounded), leaves the outputs safe and
   saves the state: asked to stop, the I/O process gone (its socket closed, even after a
-  ``kill -9``), SIGTERM/SIGINT/SIGABRT here, or the loop dying. An I/O process that goes
+  ``kill -9``), SIGTERM/SIGINT/SIGABRT here, or the loop dying. An I/O process gone with
+  a bounded motion in flight is the exception: that motion flies on, and the next
+  ``urc run`` takes this process over (urc.service.adoption). An I/O process that goes
   silent (hung, stopped, starved) for ``IO_SILENT_S`` stops only open-ended motion (a
   jog, an update-fed track), said in status' ``last_stop``; a bounded one (a goto, a
   park, a pass program) flies on to its end, since its end was checked when it was
@@ -45,9 +47,10 @@ from typing import Any, Callable
 
 from ..clock import RealClock
 from ..ipc import codec
-from ..ipc.messages import COMMANDS, Envelope, HardwareInfo, Query, Reply, Request
+from ..ipc.messages import COMMANDS, Envelope, HardwareInfo, Query, Reconfigure, Reply, Request
 from ..ipc.status_record import ColdGeneration, StatusRecord
-from .instance import mark_stopping, skip_exit_collection
+from . import adoption
+from .instance import mark_adoptable, mark_stopping, skip_exit_collection
 from .loop import ControlThread, WatchdogPing, settle
 from .queries import handle as handle_query
 from .remote import (CALL_TIMEOUT_S, ControlLink, ControlUnavailable, RemoteRotator, exception_from_wire,
@@ -87,6 +90,8 @@ STOP_TIMEOUT_S = 30.0
 # ======================================================================== the child
 #: why a control process may end with exit code 0 (the service was asked to stop)
 ORDERLY = ("asked to stop", "SIGTERM received", "SIGINT received")
+#: why _serve ended when the I/O process died (its socket closed, or PR_SET_PDEATHSIG)
+IO_GONE = "the I/O process is gone"
 
 
 class ControlServer:
@@ -115,6 +120,8 @@ class ControlServer:
         self._sent: Any = None
         self._closing = False
         self._signal = ""
+        #: PR_SET_PDEATHSIG said the I/O process died (its socket's close may come later)
+        self._io_gone = False
         #: the I/O process's last message (None: not heard since "ready", as it starts)
         self._heard_s: float | None = None
         #: when the last tick ended (the loop thread's own clock reading)
@@ -127,6 +134,9 @@ class ControlServer:
         self._watching = True
         self.rot: Any = None
         self.control: ControlThread | None = None
+        #: the settings the configuration gave this rotator (at start, or the last
+        #: Reconfigure): a urc run taking it over compares its own with these
+        self._config_settings: Any = None
 
     def send(self, msg: tuple) -> None:
         data = codec.dumps(msg)
@@ -155,10 +165,12 @@ class ControlServer:
         from ..assembly import build_rotator
 
         # (SIGABRT: what systemd's watchdog sends by default)
-        for sig in (signal.SIGTERM, signal.SIGINT, signal.SIGABRT):
+        for sig in (signal.SIGTERM, signal.SIGINT, signal.SIGABRT, signal.SIGUSR1):
             signal.signal(sig, self._on_signal)
         try:
             self.rot = build_rotator(self.cfg, RealClock(), self.state_dir)
+            from ..assembly import settings_from_config
+            self._config_settings = settings_from_config(self.cfg)
             # what the calibration queries need (numpy): imported now, not while ticking
             import urc.service.calibration  # noqa: F401
         except BaseException as exc:
@@ -174,18 +186,17 @@ class ControlServer:
         try:
             while not self.control.priority:  # (set first thing on the loop thread)
                 time.sleep(0.001)
-            rot = self.rot
-            self.send(("ready", {"pid": os.getpid(), "priority": self.control.priority, "settings": rot.settings,
-                                 "caps": rot.caps, "geometry": rot.geometry, "status": rot.status(),
-                                 "hardware": handle_query(rot, HardwareInfo())}))
+            self.send(("ready", self._ready()))
             # (statuses only after "ready": the first message the I/O process reads is that)
             threading.Thread(target=self._publish_loop, name="urc-status-out", daemon=True).start()
             self._worker.start()
             self._ticked_s = time.monotonic()  # (building the rotator took its time)
             threading.Thread(target=self._watch_ticks, name="urc-tick-watch", daemon=True).start()
             reason = self._serve()
+            while reason == IO_GONE and self.record is not None and self.rot.bounded_in_flight():
+                reason = self._orphaned()
         except (EOFError, OSError):
-            reason = "the I/O process is gone"
+            reason = IO_GONE
         except BaseException as exc:  # a bug here must still end in the orderly stop
             log.exception("control process failed")
             reason = f"control process failed: {exc!r}"
@@ -194,8 +205,66 @@ class ControlServer:
         self._last_word(("stopped", result))
         return 0 if reason in ORDERLY and result["saved"] and not result["error"] else 1
 
+    def _ready(self) -> dict[str, Any]:
+        """What the I/O process needs of this rotator (its "ready", and a take-over's)."""
+        rot = self.rot
+        assert self.control is not None
+        return {"pid": os.getpid(), "priority": self.control.priority, "settings": rot.settings,
+                "caps": rot.caps, "geometry": rot.geometry, "status": rot.status(),
+                "hardware": handle_query(rot, HardwareInfo()), "config_settings": self._config_settings}
+
     def _on_signal(self, signum: int, _frame: Any) -> None:
-        self._signal = signal.Signals(signum).name
+        if signum == signal.SIGUSR1:  # (PR_SET_PDEATHSIG: the I/O process died)
+            self._io_gone = True
+        else:
+            self._signal = signal.Signals(signum).name
+
+    def _orphaned(self) -> str:
+        """The I/O process died with a bounded motion in flight: fly it on by this
+        process's clock, and hand this process over to the next ``urc run`` of this state
+        directory (urc.service.adoption); serve that one until it ends too. Once the
+        motion has ended and nobody came for ORPHAN_GRACE_S, end (why: IO_GONE)."""
+        assert self.control is not None
+        assert self.record is not None
+        what = self.rot.bounded_in_flight()
+        self.rot.stop_open_ended(IO_GONE)
+        self.rot.announce(f"{IO_GONE}: the {what} flies on; a new urc run takes this control process over")
+        for fd in self.lock_fds:  # (a new urc run asks this process before it waits for the lock)
+            mark_adoptable(fd)
+        listener = adoption.Listener(self.state_dir)
+        settled_s: float | None = None
+        try:
+            while True:
+                if self._signal:
+                    return f"{self._signal} received"
+                if not self.control.alive:
+                    return f"control loop died: {self.control.error!r}"
+                conn = listener.accept(4 * WATCH_S)
+                if conn is not None:
+                    try:
+                        taken, who = adoption.hand_over(conn, adoption.hardware_digest(self.cfg), self._ready(),
+                                                        [self.record.fd, *self.lock_fds])
+                    except (EOFError, OSError, ValueError) as exc:
+                        taken, who = False, f"the hand-over failed: {exc}"
+                    if taken:
+                        with self._send_lock:
+                            self.conn = conn
+                        self._heard_s, self._io_gone, self._latest_gen = None, False, -1
+                        self.rot.announce(f"taken over by {who}: the {what} went on meanwhile")
+                        return self._serve()
+                    conn.close()
+                    log.warning("a take-over was refused: %s", who)
+                    if "another rotator" in who:
+                        return f"{IO_GONE}; {who}"
+                now_s = time.monotonic()
+                if self.rot.bounded_in_flight():
+                    settled_s = None
+                elif settled_s is None:
+                    settled_s = now_s
+                elif now_s - settled_s > adoption.ORPHAN_GRACE_S:
+                    return IO_GONE
+        finally:
+            listener.close()
 
     def _serve(self) -> str:
         """Read the I/O process's messages, hand commands to the command thread, and
@@ -206,6 +275,8 @@ class ControlServer:
         while True:
             if self._signal:
                 return f"{self._signal} received"
+            if self._io_gone:
+                return IO_GONE
             if not self.control.alive:
                 error = repr(self.control.error)
                 self._last_word(("died", error))
@@ -213,7 +284,7 @@ class ControlServer:
             try:
                 msg = codec.loads(self.conn.recv_bytes()) if self.conn.poll(WATCH_S) else None
             except (EOFError, OSError):
-                return "the I/O process is gone"
+                return IO_GONE
             except BaseException:  # (refused by the codec, whatever it raised: dropped, and on)
                 log.exception("control process: unreadable message from the I/O process, ignored")
                 continue
@@ -259,15 +330,15 @@ class ControlServer:
                     self._reply_error(msg[1].rid, ControlUnavailable("the control process is stopping: nothing was done"))
                 else:
                     self._answer(msg[1])
-            except OSError:  # the I/O process is gone: the main thread sees it too
-                return
+            except OSError:  # (the I/O process is gone: its reply with it; a new one may come)
+                continue
             except Exception as exc:  # (this thread must outlive any one command)
                 log.exception("command %r failed", msg[1])
                 if msg[0] != "silent":
                     try:
                         self._reply_error(msg[1].rid, exc)
                     except OSError:
-                        return
+                        continue
 
     def _reply_error(self, rid: int, exc: BaseException) -> None:
         self.send(("reply", Reply(rid, "error", exception_to_wire(exc), None)))
@@ -294,6 +365,8 @@ class ControlServer:
                 raise TypeError(f"{type(env.request).__name__} returned {type(value).__name__}, "
                                 "which cannot leave the control process")
             outcome = "value"
+            if isinstance(env.request, Reconfigure):
+                self._config_settings = env.request.settings
         except Exception as exc:
             outcome, value = "error", exception_to_wire(exc)
         self._send_reply(env.rid, outcome, value, self.rot.status())
@@ -325,7 +398,7 @@ class ControlServer:
         """Axes to rest, outputs safe, state saved: every way this process ends."""
         assert self.control is not None
         log.info("control process stopping: %s", reason)
-        if reason == "the I/O process is gone":
+        if reason.startswith(IO_GONE):
             for fd in self.lock_fds:  # a new urc waits for this one instead of failing
                 mark_stopping(fd)
         self._stopping = True  # (commands still queued are refused, none runs after this)
@@ -379,8 +452,9 @@ class ControlServer:
             self._fresh.clear()
             try:
                 self._send_status(self._latest, self._latest_gen if self.record is not None else None)
-            except OSError:
-                return
+            except OSError:  # (the I/O process is gone; a new one may take this process over)
+                self._fresh.set()
+                time.sleep(4 * WATCH_S)
             except Exception:  # (a status that cannot be sent: the next one may; replies rely on these)
                 log.exception("publishing a status failed")
 
@@ -409,10 +483,11 @@ def check_safety_chain(rot: Any) -> None:
 
 
 def _die_with_parent() -> None:
-    """SIGTERM (an orderly stop) if the I/O process dies, even when it is killed before
-    its socket's close is seen (Linux prctl PR_SET_PDEATHSIG)."""
+    """SIGUSR1 if the I/O process dies, even when it is killed before its socket's close
+    is seen (Linux prctl PR_SET_PDEATHSIG): said as the I/O process gone (an orderly stop,
+    or a bounded motion flown on to be taken over; SIGTERM would be a stop only)."""
     try:
-        ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGTERM)
+        ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGUSR1)
     except (OSError, AttributeError):
         pass
 
@@ -468,6 +543,8 @@ class ControlProcess:
         self.held: Any = None
         #: the status record the control process writes every tick (urc.ipc.status_record)
         self.record: StatusRecord | None = None
+        #: a taken-over process's "ready" (urc.service.adoption), until wait_ready reads it
+        self._adopted_ready: dict[str, Any] | None = None
 
     def start(self, timeout_s: float = START_TIMEOUT_S) -> RemoteRotator:
         """Spawn it and wait until its rotator is built (its start-up errors are raised
@@ -495,11 +572,22 @@ class ControlProcess:
         self._conn.send_bytes(codec.dumps(("init", self.cfg, str(self.state_dir), self.lock_fds,
                                            logging.getLogger().getEffectiveLevel())))
 
+    def adopt(self, adopted: adoption.Adopted) -> None:
+        """Take over a control process whose I/O process died mid-flight (instead of
+        :meth:`spawn`; :meth:`wait_ready` then returns its rotator at once)."""
+        self.proc = _Foreign(adopted.pid)  # type: ignore[assignment]
+        self.record = StatusRecord.attach(adopted.record_fd)
+        self._conn = adopted.conn
+        self._adopted_ready = adopted.ready
+
     def wait_ready(self, timeout_s: float = START_TIMEOUT_S) -> RemoteRotator:
         """Wait for the spawned process's rotator (its start-up errors are raised here);
         a process that failed or did not answer in time is gone when this raises."""
         conn, proc = self._conn, self.proc
         assert conn is not None and proc is not None, "spawn() first"
+        if self._adopted_ready is not None:
+            payload, self._adopted_ready = self._adopted_ready, None
+            return self._link_up(conn, payload)
         try:
             if not conn.poll(timeout_s):
                 raise ControlUnavailable(f"the control process did not start within {timeout_s:g} s")
@@ -514,6 +602,9 @@ class ControlProcess:
             proc.wait(5)
             conn.close()
             raise exception_from_wire(payload)
+        return self._link_up(conn, payload)
+
+    def _link_up(self, conn: Connection, payload: dict[str, Any]) -> RemoteRotator:
         self.link = ControlLink(conn, self.on_lost, self.record).start()
         remote = RemoteRotator(self.link, payload)
         if self.rotator is None:
@@ -715,6 +806,39 @@ class ControlProcess:
         final = self.link.final or {"saved": False, "settled": False, "hung": False, "reason": self.link.lost,
                                      "error": f"the control process ended without a word ({self.link.lost})"}
         return {**final, "exit_code": code}
+
+
+class _Foreign:
+    """A control process taken over from a dead I/O process (urc.service.adoption): not
+    this process's child, so it is watched through a pidfd (Linux 5.3) rather than
+    waited for; what the watch and the stop use of subprocess.Popen."""
+
+    returncode: int | None = None
+
+    def __init__(self, pid: int):
+        self.pid = pid
+        self._fd = os.pidfd_open(pid)
+
+    def poll(self) -> int | None:
+        if self.returncode is None and select.select([self._fd], [], [], 0)[0]:
+            self.returncode = 0  # (its exit code went to its real parent)
+        return self.returncode
+
+    def wait(self, timeout: float | None = None) -> int:
+        if self.returncode is None and not select.select([self._fd], [], [], timeout)[0]:
+            raise subprocess.TimeoutExpired(f"process {self.pid}", timeout or 0.0)
+        self.returncode = 0
+        return 0
+
+    def _signal(self, sig: int) -> None:
+        if self.poll() is None:
+            signal.pidfd_send_signal(self._fd, sig)
+
+    def kill(self) -> None:
+        self._signal(signal.SIGKILL)
+
+    def terminate(self) -> None:
+        self._signal(signal.SIGTERM)
 
 
 if __name__ == "__main__":

@@ -65,6 +65,14 @@ class InstanceLock:
     def fd(self) -> int | None:
         return self._fd
 
+    @classmethod
+    def handed_over(cls, fd: int, path: Path, what: str) -> "InstanceLock":
+        """A lock held through a descriptor a control process handed over (adoption)."""
+        lock = cls(path, what)
+        lock._fd = fd
+        claim(fd)
+        return lock
+
     def release(self) -> None:
         if self._fd is not None:
             os.close(self._fd)  # closing drops the flock
@@ -98,6 +106,27 @@ def mark_stopping(fd: int) -> None:
     try:
         os.ftruncate(fd, 0)
         os.pwrite(fd, f"{os.getpid()} stopping\n".encode(), 0)
+    except OSError:
+        pass
+
+
+def mark_adoptable(fd: int) -> None:
+    """In a control process whose I/O process is gone while a bounded motion flies on:
+    the next urc run of this state directory takes it over (urc.service.adoption)
+    rather than wait for it."""
+    try:
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, f"{os.getpid()} adoptable stopping\n".encode(), 0)
+    except OSError:
+        pass
+
+
+def claim(fd: int) -> None:
+    """A lock handed over with a control process (urc.service.adoption): held by this
+    process from now on, and said so in its file."""
+    try:
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, f"{os.getpid()}\n".encode(), 0)
     except OSError:
         pass
 
