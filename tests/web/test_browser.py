@@ -211,6 +211,24 @@ def test_fault_banner_appears_with_its_reason_and_clears(urc, shared_page, artif
     page.problems.check()
 
 
+def test_a_stall_banner_says_whether_clearing_can_help(urc, shared_page):
+    """Issue 36.9: a stall's banner said what happened, not whether Clear fault helps."""
+    reset(urc)
+    page = shared_page(urc.url + "/")
+    az = urc.status()["az"]["pos_deg"]
+    assert urc.post("/api/sim/fault", {"axis": "az", "kind": "jam"}).status_code == 200
+    try:
+        assert urc.post("/api/goto", {"az_deg": (az + 60.0) % 360.0, "el_deg": 30}).status_code == 200
+        # (berkeley's jammed motor draws its stall current: overcurrent, before the stall's timeout)
+        urc.wait(lambda s: any(f["kind"] in ("stall", "overcurrent") for f in s["faults"]), 20)
+        expect(page.locator("#fault-now")).to_contain_text("Now: az ", timeout=5000)
+        now = page.locator("#fault-now").text_content()
+        assert "Clearing helps only if the cause is gone" in now and "stops again if still stuck" in now, now
+    finally:
+        reset(urc)
+    page.problems.check()
+
+
 def test_settings_saved_meanwhile_are_loaded_keeping_the_pages_edits(urc, shared_page):
     """Issue 36.5: a page loaded before another save sends its revision (If-Match), is
     refused (412) instead of undoing that save, and offers a reload that keeps its edits."""
