@@ -10,6 +10,7 @@ import { setupControls } from "./controls.js";
 import { startPasses, setPassOptions } from "./passes.js";
 import { load as loadSettings, setupSettings } from "./settings.js";
 import { loadCalibration, setupCalibration, showProcedure, followPosition } from "./calibration.js";
+import { setupPointing } from "./point.js";
 
 let info = null;
 let infoRev = null;
@@ -368,6 +369,7 @@ async function start() {
   setupControls();
   setupSettings();
   setupCalibration();
+  setupPointing();
   startPasses();
   window.addEventListener("hashchange", route);
   route();
