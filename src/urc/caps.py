@@ -32,6 +32,10 @@ class SensorCaps:
     fold_deg: float | None = None
     #: expected 1-sigma reading noise, degrees (0 for clean digital sensors).
     noise_deg: float = 0.0
+    #: the sensor rides on the elevation boom and reads the boom's heading, not its
+    #: axis's angle (SARCNET's tilt-compensated compass): past the zenith the heading is
+    #: the mechanical azimuth + 180, so a flipped pose is misread.
+    heading_on_boom: bool = False
 
 
 @dataclass(frozen=True)
@@ -104,6 +108,14 @@ class RotatorCaps:
     def can_flip(self) -> bool:
         """Elevation reaches past the zenith, so a pass can be flown 'over the top'."""
         return self.has_el and self.el.max_deg >= 180.0 - 1e-9
+
+    @property
+    def senses_flipped_pose(self) -> bool:
+        """Its sensors read a flipped pose as such: no heading read on the boom, no
+        reading that folds at the zenith (a controller reporting sky directions)."""
+        sensors = (self.az.sensor, self.el.sensor)
+        return self.can_flip and not any(s.heading_on_boom for s in sensors) and \
+            not any(s.fold_deg is not None and self.el.min_deg < s.fold_deg < self.el.max_deg for s in sensors)
 
     def single_axis(self) -> "RotatorCaps":
         """This rotator without its elevation axis (a variant: a new caps value)."""

@@ -42,7 +42,7 @@ PROFILES: dict[str, RotatorCaps] = {
         az=AxisCaps(name="az", min_deg=-90.0, max_deg=450.0, park_deg=0.0,
                     max_rate_deg_per_s=3.6, min_rate_deg_per_s=0.4, accel_deg_per_s2=6.0,
                     sensor=SensorCaps(kind="magnetometer", resolution_deg=0.1, absolute=True,
-                                      modulo_deg=360.0, noise_deg=0.15),
+                                      modulo_deg=360.0, noise_deg=0.15, heading_on_boom=True),
                     tolerance_deg=0.3, restart_deg=0.8, creep_lead_deg=0.15, backlash_deg=0.5),
         el=AxisCaps(name="el", min_deg=0.0, max_deg=180.0, park_deg=0.0,
                     max_rate_deg_per_s=3.6, min_rate_deg_per_s=0.4, accel_deg_per_s2=6.0,

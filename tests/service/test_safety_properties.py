@@ -29,10 +29,46 @@ command = st.one_of(
 step = st.tuples(command, st.floats(0.2, 8.0))
 
 
-def slack(rot, axis: str) -> float:
-    """What sensor quantisation, gear play and coasting may legitimately add."""
-    c = rot.caps.axis(axis)
-    return c.tolerance_deg + 2 * c.sensor.resolution_deg + 4 * c.sensor.noise_deg + 1.6
+def allowance_terms(rot, axis: str) -> dict[str, float]:
+    """How far the simulator's truth may pass a soft limit or a keep-out zone's edge on
+    ``axis``, term by term (deg). The guard (urc.service.guard) looks once a control
+    tick at the reading, cuts the drive where the axis would stop past a limit (less
+    its tolerance) or would head into a zone within its lookahead, and the axis then
+    runs on as it does when its power goes."""
+    from urc.service.axis import GUARD_LOOKAHEAD_S
+    from urc.service.position_record import coast_deg
+
+    ax = rot.axes[axis]
+    c = ax.caps
+    top = c.max_rate_deg_per_s
+    return {
+        # the reading a count behind the truth, and 4 sigma of noise on it
+        "quantum": c.sensor.resolution_deg,
+        "noise": 4.0 * c.sensor.noise_deg,
+        # the guard looks once a tick: up to a tick's travel at top speed past its cue
+        "tick": top / rot.caps.loop_hz,
+        # the guard's own leeway: a limit may be passed by the tolerance (a zone: a count)
+        "guard": max(c.tolerance_deg, c.sensor.resolution_deg),
+        # the run-on once the drive is cut at top speed (1.5 x the stopping distance
+        # v^2 / 2a, a relay's coast, the brake's delay, the gear play), less the
+        # lookahead the guard cuts that early by (a limit's cue is the stopping point)
+        "stopping": max(0.0, coast_deg(ax, top) - top * GUARD_LOOKAHEAD_S),
+    }
+
+
+def allowance_deg(rot, axis: str) -> float:
+    return sum(allowance_terms(rot, axis).values())
+
+
+def test_the_allowance_is_derived_term_by_term(tmp_path):
+    """Issue 36.22: the allowance was a sum with a bare 1.6 deg and zones shrunk by a
+    bare 1 deg. tartu-urc by hand: a 0.1 deg count, no noise, 6 deg/s over a 50 Hz tick,
+    a 0.1 deg tolerance, and 1.5 x 6^2 / (2 x 12) + 0.1 s of brake x 6 deg/s run-on less
+    the guard's 0.3 s lookahead at 6 deg/s."""
+    rot = Bench("tartu-urc", tmp_path).rot
+    assert allowance_terms(rot, "az") == pytest.approx(
+        {"quantum": 0.1, "noise": 0.0, "tick": 0.12, "guard": 0.1, "stopping": 2.25 + 0.6 - 1.8})
+    assert allowance_deg(rot, "el") == pytest.approx(1.37)
 
 
 @pytest.mark.parametrize("profile", ALL_PROFILES)
@@ -74,34 +110,55 @@ def check_example_sequence(example: str, steps) -> None:
     check_sequence(cfg.rotator.profile, steps, hardware=hardware, rotator=cfg.to_dict()["rotator"])
 
 
-def check_sequence(profile, steps, **config):
+def check_sequence(profile, steps, measured: dict | None = None, **config):
+    """Run ``steps`` on a fresh rotator, judged by the simulator's truth every tick. With
+    ``measured`` (the benchmark's mode) the worst overrun past each axis' limits and the
+    worst depth inside each zone are kept there (the larger of old and new) and nothing
+    is asserted."""
     with tempfile.TemporaryDirectory() as tmp:
         single = config.get("rotator", {}).get("elevation") is False  # (the TRC turntable)
         b = Bench(profile, Path(tmp), keepout=[MAST, NORTH_ROOF],
                   park={"az_deg": 180.0} if single else {"az_deg": 180.0, "el_deg": 45.0}, **config)
         rot = b.rot
         geometry = rot.geometry
-        # zones shrunk by the allowed slack: the truth may graze, never enter
-        inner = [KeepOut(z.name, z.az_min_deg + 1.0, z.az_max_deg - 1.0, z.el_min_deg, z.el_max_deg - 1.0)
-                 for z in geometry.zones]
+        allow = {a: allowance_deg(rot, a) for a in rot.caps.axes}
+        el_allow = allow.get("el", 0.0)
+        # zones shrunk by the allowance: the truth may graze, never enter
+        # (a zone narrower than twice the allowance has nothing left: none to enter)
+        inner = [KeepOut(z.name, z.az_min_deg + allow["az"], z.az_max_deg - allow["az"], z.el_min_deg,
+                         z.el_max_deg - el_allow) if z.az_width_deg > 2 * allow["az"] and
+                 z.el_max_deg - z.el_min_deg > el_allow else None for z in geometry.zones]
         limits = {a: rot.settings.limits(a) for a in rot.caps.axes}
         violations: list[str] = []
-        outside = {z.name: False for z in inner}  # starting inside a zone is allowed: leave only
+        outside = {z.name: False for z in geometry.zones}  # starting inside a zone is allowed: leave only
+        worst = measured if measured is not None else {}
+
+        def keep(key: str, value: float) -> None:
+            worst[key] = max(worst.get(key, -math.inf), value)
 
         def check(s):
             truth = s.sim_truth
             for a in rot.caps.axes:
                 lo, hi = limits[a]
                 t = truth[a]["deg"]
-                if not (lo - slack(rot, a) <= t <= hi + slack(rot, a)):
-                    violations.append(f"{a} truth {t:.2f} outside {lo}..{hi}")
+                keep(f"{a}_past_limit_deg", max(lo - t, t - hi))   # (negative: inside by that much)
+                if not (lo - allow[a] <= t <= hi + allow[a]):
+                    violations.append(f"{a} truth {t:.2f} outside {lo}..{hi} by more than {allow[a]:.2f}")
             # (a single-axis rotator's beam stands at the horizon, el 0)
             az, el = geometry.to_sky(truth["az"]["deg"], truth["el"]["deg"] if rot.caps.has_el else 0.0)
-            for z in inner:
-                if not z.contains(az, el):
+            for z, z_in in zip(geometry.zones, inner):
+                depth = z.depth_deg(az, el, el_fixed=not rot.caps.has_el)
+                if outside[z.name]:
+                    keep("into_zone_deg", depth)    # (negative: the nearest it came, outside)
+                if depth < 0.0:
                     outside[z.name] = True
                 elif outside[z.name]:
-                    violations.append(f"truth az {az:.2f} el {el:.2f} entered {z.name}")
+                    if z_in is not None and z_in.contains(az, el):
+                        violations.append(f"truth az {az:.2f} el {el:.2f} entered {z.name} {depth:.2f} deg")
+
+        def verdict():
+            if measured is None:
+                assert not violations, violations[:3]
 
         for (cmd, *args), dwell_s in steps:
             try:
@@ -109,10 +166,12 @@ def check_sequence(profile, steps, **config):
             except CommandRejected:
                 pass
             b.run(dwell_s, on_tick=check)
-            assert not violations, violations[:3]
+            verdict()
         # finally let every command run to its end
         b.run(60.0, on_tick=check, until=lambda s: not s.moving)
-        assert not violations, violations[:3]
+        verdict()
+        if measured is not None:
+            keep("violations", len(violations))
 
 
 @settings(max_examples=200, deadline=None)

@@ -8,6 +8,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -93,13 +94,59 @@ def test_a_step_cutting_a_zone_corner_is_blocked():
 def test_a_continuing_arc_keeps_the_side_the_antenna_is_on():
     """A long arc (the midnight sun) is planned anew while the antenna is on it: where the
     flipped and the unflipped plan are equally good, the side it is on wins over the
-    unflipped one, instead of a half-turn swing mid-track; a fresh plan prefers unflipped."""
+    unflipped one, instead of a half-turn swing mid-track; a fresh plan from a pose as
+    far from both prefers unflipped."""
     g = Geometry(0.0, 450.0, 0.0, 180.0, flip=True)
     t, s_az, s_el = great_circle_pass(180.0, 30.0, 0.5, 1)
     lim = AxisLimits(6.0, 10.0)
     flipped_aos = ((s_az[0] + 180.0) % 360.0, 180.0 - s_el[0])
-    fresh = plan_pass(t, s_az, s_el, g, lim, lim, flipped_aos, t[0] - 600.0)
+    between = ((s_az[0] + flipped_aos[0]) / 2.0, 90.0)   # (the two AOS poses are 180 deg apart in azimuth)
+    fresh = plan_pass(t, s_az, s_el, g, lim, lim, between, t[0] - 600.0)
     assert not fresh.flip
     going_on = plan_pass(t, s_az, s_el, g, lim, lim, flipped_aos, t[0], continuing=True)
     assert going_on.flip
     assert math.hypot(going_on.aos_pose[0] - flipped_aos[0], going_on.aos_pose[1] - flipped_aos[1]) < 1.0
+
+
+@pytest.mark.parametrize("flip_sensed", [True, False])
+def test_the_pre_position_pose_reached_sooner_wins_where_the_flip_is_sensed(flip_sensed):
+    """Issue 36.21: on tartu-urc (az 0..400, el 0..180, 6 deg/s) the planner chose an
+    unflipped start a 314 deg slew away over a flipped one about 135 deg away. Of
+    equally good plans the pose reached sooner wins where the sensors read a flipped
+    pose as such; where they do not (sarcnet-mini's compass on the boom reads it 180 deg
+    off), the unflipped one still does."""
+    from urc.tracking.planner import route_time_s
+
+    g = Geometry(0.0, 400.0, 0.0, 180.0, flip=True, flip_sensed=flip_sensed)
+    lim = AxisLimits(6.0, 12.0)
+    t, s_az, s_el = great_circle_pass(300.0, 10.0, 0.5, -1)   # a low pass, AOS at az 30, going west
+    start = (0.0, 10.0)
+    plan = plan_pass(t, s_az, s_el, g, lim, lim, start, t[0] - 3600.0)
+    unflipped_s = route_time_s([start, (s_az[0] + 360.0, s_el[0])], (6.0, 6.0))   # az 390: 0..30 is not on its way
+    flipped = ((s_az[0] + 180.0) % 360.0, 180.0 - s_el[0])
+    assert route_time_s([start, flipped], (6.0, 6.0)) < unflipped_s - 20.0     # (the case)
+    if not flip_sensed:
+        assert not plan.flip and plan.aos_pose[0] > 360.0
+        return
+    assert plan.flip
+    assert route_time_s([start, plan.aos_pose], (6.0, 6.0)) < unflipped_s - 20.0
+    assert plan.preposition_start_s > t[0] - unflipped_s - 5.0                  # it can leave later
+
+
+def test_which_profiles_sense_a_flipped_pose():
+    """The planner's choice follows the profile's sensors: encoders, pots and AS5600s on
+    each axis read a flipped pose; SARCNET's compass rides the boom (its heading turns
+    180 deg past the zenith); a bridged controller reporting sky elevations folds at 90."""
+    from dataclasses import replace
+
+    from urc.profiles import PROFILES
+    from urc.service.settings import RotatorSettings
+
+    sensed = {n for n, c in PROFILES.items() if c.senses_flipped_pose}
+    assert sensed == {n for n, c in PROFILES.items() if c.can_flip} - {"sarcnet-mini"}
+    assert "tartu-urc" in sensed
+    assert RotatorSettings.from_caps(PROFILES["tartu-urc"]).geometry().flip_sensed
+    assert not RotatorSettings.from_caps(PROFILES["sarcnet-mini"]).geometry().flip_sensed
+    tartu = PROFILES["tartu-urc"]
+    folded = replace(tartu, el=replace(tartu.el, sensor=replace(tartu.el.sensor, kind="controller", fold_deg=90.0)))
+    assert not folded.senses_flipped_pose

@@ -307,8 +307,9 @@ def test_sun_culminating_across_the_wrap_point_is_not_lost(tmp_path, config):
     at noon. Tracked from 200 s before, the antenna took the turn nearest its park
     pose and unwound 360 deg at culmination, up to 14 deg off the Sun for a minute. Its arc is
     now planned when tracking starts: on tartu-urc's 0..400 deg, the overlap turn holds
-    the rest of the day (367 -> 243 deg); limited to 0..360, none does, and it flies
-    over the top (the azimuth passes 180 instead)."""
+    the rest of the day (367 -> 243 deg) and so does flying over the top, which is
+    reached sooner from the park pose (az 187 against 367: issue 36.21) and flown;
+    limited to 0..360 only over the top holds it (the azimuth passes 180 instead)."""
     from urc.angles import great_circle_deg
     from urc.tracking.propagate import sun_look_angles
     from urc.tracking.targets import SunTarget
@@ -323,16 +324,23 @@ def test_sun_culminating_across_the_wrap_point_is_not_lost(tmp_path, config):
     on = t > noon - 110.0  # 90 s to slew there from the park pose
     assert err[on].max() < 0.2, err[on].max()
     assert np.ptp(az_m[on]) < 30.0  # no unwind: the azimuth axis moved with the Sun only
-    assert rot.status().flipped == (config is AZ_0_360) and not rot.status().faults
+    assert rot.status().flipped and not rot.status().faults
 
 
-def test_sun_that_needs_no_flip_is_flown_unflipped(tmp_path, station):
-    """The planner keeps the unflipped pose whenever it is as good: the Sun over Tartu."""
+@pytest.mark.parametrize("profile, hours, flipped", [("tartu-urc", -3.0, False), ("tartu-urc", 0.0, True),
+                                                    ("sarcnet-mini", 0.0, False)])
+def test_sun_that_needs_no_flip_is_flown_on_the_side_reached_sooner(tmp_path, station, profile, hours, flipped):
+    """The Sun over Tartu, flown as well either way: from tartu-urc's park pose (az 0,
+    el 90) the side reached sooner wins (issue 36.21): at 09:00 UTC (az 162) unflipped,
+    27 s against 57 s for the flipped az 342; at noon (az 204) flipped, az 24 and el 174
+    in 14 s against 34 s (it was unflipped: no flip whenever as good). sarcnet-mini's
+    compass rides the boom and reads a flipped pose 180 deg off: it stays unflipped at
+    noon too, though the flipped start is sooner from its park pose (az 0, el 0)."""
     from urc.tracking.targets import SunTarget
 
-    rot, tracker, *_ = fly_continuous(tmp_path, "tartu-urc", SunTarget, station, T0_UNIX_S, 60.0)
-    assert tracker.arc is not None and not tracker.arc.flip
-    assert not rot.status().flipped
+    rot, tracker, *_ = fly_continuous(tmp_path, profile, SunTarget, station, T0_UNIX_S + hours * 3600.0, 60.0)
+    assert tracker.arc is not None and tracker.arc.flip is flipped
+    assert rot.status().flipped is flipped
 
 
 def least_follow_error_deg(t: np.ndarray, sky_az: np.ndarray, sky_el: np.ndarray, rate_deg_per_s: float) -> float:

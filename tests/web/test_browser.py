@@ -211,6 +211,68 @@ def test_fault_banner_appears_with_its_reason_and_clears(urc, shared_page, artif
     page.problems.check()
 
 
+def test_a_stall_banner_says_whether_clearing_can_help(urc, shared_page):
+    """Issue 36.9: a stall's banner said what happened, not whether Clear fault helps."""
+    reset(urc)
+    page = shared_page(urc.url + "/")
+    az = urc.status()["az"]["pos_deg"]
+    assert urc.post("/api/sim/fault", {"axis": "az", "kind": "jam"}).status_code == 200
+    try:
+        assert urc.post("/api/goto", {"az_deg": (az + 60.0) % 360.0, "el_deg": 30}).status_code == 200
+        # (berkeley's jammed motor draws its stall current: overcurrent, before the stall's timeout)
+        urc.wait(lambda s: any(f["kind"] in ("stall", "overcurrent") for f in s["faults"]), 20)
+        expect(page.locator("#fault-now")).to_contain_text("Now: az ", timeout=5000)
+        now = page.locator("#fault-now").text_content()
+        assert "Clearing helps only if the cause is gone" in now and "stops again if still stuck" in now, now
+    finally:
+        reset(urc)
+    page.problems.check()
+
+
+def sky_point(page, az_deg: float, el_deg: float) -> tuple[float, float]:
+    """Where on the screen the sky plot draws (az, el) (its viewBox: -120..120, horizon r 100)."""
+    box = page.locator("#sky").bounding_box()
+    r = 100.0 * (90.0 - el_deg) / 90.0
+    scale = box["width"] / 240.0
+    return (box["x"] + box["width"] / 2 + scale * r * math.sin(math.radians(az_deg)),
+            box["y"] + box["height"] / 2 - scale * r * math.cos(math.radians(az_deg)))
+
+
+def test_the_sky_plot_and_the_dial_point_the_antenna(urc, open_page):
+    """Issue 36.9: click the sky plot (or the dial) to point there. On a phone a tap only
+    asks; nothing moves until it is confirmed. A direction in a keep-out zone is refused
+    by the goto the click makes (the mast: az 80..100, el 0..30)."""
+    reset(urc)
+    page = open_page(urc.url + "/", 390, 844, has_touch=True, is_mobile=True)
+    page.locator("#sky").scroll_into_view_if_needed()
+    page.mouse.click(*sky_point(page, 200.0, 45.0))
+    expect(page.locator("#point-confirm")).to_be_visible()
+    assert "az 200" in page.locator("#point-question").text_content()
+    time.sleep(0.3)
+    assert urc.status()["target_az_deg"] is None                 # asked, not moved
+    page.click("#point-no")
+    expect(page.locator("#point-confirm")).to_be_hidden()
+    page.mouse.click(*sky_point(page, 200.0, 45.0))
+    page.click("#point-yes")
+    s = urc.wait(lambda s: s["target_az_deg"] is not None, 5)
+    assert az_diff(s["target_az_deg"], 200.0) < 2.0 and abs(s["target_el_deg"] - 45.0) < 2.0, s
+    urc.wait(standing, 30)
+    page.mouse.click(*sky_point(page, 90.0, 15.0))               # inside the mast
+    page.click("#point-yes")
+    expect(page.locator("#toast")).to_contain_text("keep-out", timeout=5000)
+    assert az_diff(urc.status()["target_az_deg"], 200.0) < 2.0   # refused: still the last target
+    # on a desktop a click on the dial turns there at once
+    desk = open_page(urc.url + "/", 1366, 900)
+    box = desk.locator("#dial").bounding_box()
+    desk.locator("#dial").scroll_into_view_if_needed()
+    box = desk.locator("#dial").bounding_box()
+    desk.mouse.click(box["x"] + box["width"] / 2 - box["width"] * 0.3, box["y"] + box["height"] / 2)  # west
+    s = urc.wait(lambda s: s["target_az_deg"] is not None and az_diff(s["target_az_deg"], 270.0) < 3.0, 5)
+    reset(urc)
+    page.problems.check()
+    desk.problems.check()
+
+
 def test_settings_saved_meanwhile_are_loaded_keeping_the_pages_edits(urc, shared_page):
     """Issue 36.5: a page loaded before another save sends its revision (If-Match), is
     refused (412) instead of undoing that save, and offers a reload that keeps its edits."""

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 from playwright.sync_api import expect
-from urc_process import HTTP
+from urc_process import HTTP, wait_until
 
 from .conftest import release_when_unused
 from .fake_tracker import FakeTracker
@@ -141,3 +141,76 @@ def test_axe_finds_no_violation_on_each_calibration_card(tmp_path, open_page, pr
         page.problems.check()
     finally:
         u.kill()     # (at once: the orderly stop is test_cli's subject, not the page's)
+
+
+def axe_in(page, state: str, found: dict) -> None:
+    page.evaluate(TWO_FRAMES)
+    found[state] = axe_violations(page)
+
+
+def test_axe_finds_no_violation_in_use(busy_urc, open_page):
+    """Issue 36.7: axe on the page at rest missed what use shows. Moving with the events
+    overflowing their list (a scrolling region a keyboard must reach), tracking, with a
+    fault latched, and re-referencing (its confirmation is a modal dialog: named, the
+    focus in it and kept there, STOP still taking it)."""
+    srv = busy_urc
+    page = open_page(srv.url + "/", 1366, 768, bypass_csp=True)
+    page.wait_for_selector("#passes-body tr", timeout=5000)
+    found: dict[str, list] = {}
+    events = page.locator("#events")
+    # events enough to overflow their list: faults latched and cleared (each is one or more)
+    for _ in range(12):
+        if len(HTTP.get(srv.url + "/api/status").json()["events"]) >= 16:
+            break
+        HTTP.post(srv.url + "/api/sim/fault", json={"axis": "el", "kind": "sensor_dead"})
+        wait_until(lambda: HTTP.get(srv.url + "/api/status").json()["faults"], 5)
+        HTTP.post(srv.url + "/api/sim/clear", json={"axis": "el"})
+        HTTP.post(srv.url + "/api/clear-faults", json={})
+        wait_until(lambda: not HTTP.get(srv.url + "/api/status").json()["faults"], 5)
+    # moving
+    assert HTTP.post(srv.url + "/api/goto", json={"az_deg": 20, "el_deg": 60}).status_code == 200
+    expect(page.locator("#state-line .pill.on").first).to_have_text("moving", timeout=5000)
+    page.wait_for_function("() => { const e = document.getElementById('events');"
+                           " return e.scrollHeight > e.clientHeight; }", timeout=5000)
+    axe_in(page, "moving", found)
+    events.focus()                                # reachable by the keyboard, and scrolled by it
+    page.keyboard.press("End")
+    page.wait_for_function("() => document.getElementById('events').scrollTop > 0", timeout=3000)
+    # tracking (the stand-in tracker's pass: the track banner and its notes)
+    page.locator('#passes-body tr[data-norad="25544"] button.track-pass').click()
+    expect(page.locator("#track-banner")).to_be_visible(timeout=5000)
+    axe_in(page, "tracking", found)
+    HTTP.post(srv.url + "/api/track/stop", json={})
+    # a fault latched
+    assert HTTP.post(srv.url + "/api/sim/fault", json={"axis": "el", "kind": "sensor_dead"}).status_code == 200
+    try:
+        expect(page.locator("#fault-banner")).to_be_visible(timeout=5000)
+        axe_in(page, "fault", found)
+    finally:
+        HTTP.post(srv.url + "/api/sim/clear", json={"axis": "el"})
+        HTTP.post(srv.url + "/api/clear-faults", json={})
+    expect(page.locator("#fault-banner")).to_be_hidden(timeout=5000)
+    # re-referencing: the confirmation open
+    page.click('nav a[data-view="calibration"]')
+    page.fill("#zero-az", "12")
+    page.click("#zero-form button[type=submit]")
+    dialog = page.locator("#zero-confirm")
+    expect(dialog).to_be_visible()
+    axe_in(page, "re-reference", found)
+    assert found == {s: [] for s in found}, json.dumps(found, indent=1)
+    expect(page.get_by_role("alertdialog", name="Re-reference the position?")).to_be_visible()
+    focused = "() => document.activeElement && document.activeElement.id"
+    assert page.evaluate(focused) == "zero-no"    # the safe answer first
+    seen = set()
+    for key in ["Tab"] * 3 + ["Shift+Tab"] * 3:
+        page.keyboard.press(key)
+        seen.add(page.evaluate(focused))
+    assert seen == {"zero-yes", "zero-no"}, seen  # never out of the dialog
+    page.locator("#zero-az").focus()              # a click elsewhere: the focus comes back
+    assert page.evaluate(focused) in ("zero-yes", "zero-no")
+    page.locator("#stop-btn").focus()             # STOP alone may take it
+    assert page.evaluate(focused) == "stop-btn"
+    page.click("#zero-no")
+    expect(dialog).to_be_hidden()
+    assert page.evaluate(focused) == "zero-submit"
+    page.problems.check()

@@ -78,6 +78,9 @@ class Geometry:
     flip: bool = False
     #: the pass planner may fly a pass over the top (always when ``flip``)
     pass_flip: bool = False
+    #: the sensors read a flipped pose as such (caps ``senses_flipped_pose``): a pass may
+    #: then start on whichever side is reached sooner; else unflipped where as good
+    flip_sensed: bool = False
     zones: tuple[KeepOut, ...] = field(default_factory=tuple)
     #: zones are grown by this much so sensor error and coasting cannot graze them.
     zone_margin_deg: float = 0.5

@@ -99,4 +99,5 @@ class RotatorSettings:
             2 * max(self.caps.az.sensor.resolution_deg, self.caps.el.sensor.resolution_deg)
         return Geometry(*self.az_limits_deg, *self.el_limits_deg,
                         az_offset_deg=self.az_offset_deg, el_offset_deg=self.el_offset_deg,
-                        flip=self.flip, pass_flip=self.pass_flip, zones=self.zones, zone_margin_deg=zone_margin)
+                        flip=self.flip, pass_flip=self.pass_flip, flip_sensed=self.caps.senses_flipped_pose,
+                        zones=self.zones, zone_margin_deg=zone_margin)

@@ -414,9 +414,12 @@ def plan_pass(t_s: np.ndarray, sky_az_deg: np.ndarray, sky_el_deg: np.ndarray, g
               az: AxisLimits, el: AxisLimits, start_pose: tuple[float, float], now_s: float,
               continuing: bool = False) -> Plan:
     """Choose wrap turn and flip for the pass and return the trajectory to fly.
-    ``continuing``: the antenna is on the target already (a long arc planned anew): of
-    equally good plans, the one nearest its pose wins over the unflipped one, so that
-    it does not swing to the other side mid-track."""
+    Of equally good plans the one whose first pose is reached sooner wins, flipped or
+    not, where the sensors read a flipped pose as such (``geometry.flip_sensed``);
+    elsewhere the unflipped one (a compass on the boom reads a flipped pose 180 deg
+    off). ``continuing``: the antenna is on the target already (a long arc planned
+    anew): the pose nearest it wins, so that it does not swing to the other side
+    mid-track."""
     t = np.asarray(t_s, dtype=float)
     s_az = np.asarray(sky_az_deg, dtype=float) % 360.0
     s_el = np.asarray(sky_el_deg, dtype=float)
@@ -453,6 +456,7 @@ def plan_pass(t_s: np.ndarray, sky_az_deg: np.ndarray, sky_el_deg: np.ndarray, g
         notes.append(note)
 
     rates = (az.max_rate_deg_per_s, el.max_rate_deg_per_s)
+    sooner_first = continuing or g.flip_sensed
     best = None
     for flip, a, e, keyhole in candidates:
         fa = _flyable(a, t, g.az_min_deg, g.az_max_deg, az_budget)
@@ -468,11 +472,14 @@ def plan_pass(t_s: np.ndarray, sky_az_deg: np.ndarray, sky_el_deg: np.ndarray, g
             if route is not None:
                 travel_s = route_time_s([start_pose] + route, rates)
         # the smallest worst-case pointing error wins (to 0.05 deg: below that the
-        # servo decides); then no flip; then the smaller worst case, to a millidegree
-        # (a keyhole's minimax against a near miss); then the shorter pre-positioning move
+        # servo decides); then, where the flip is sensed (or the arc continues), the
+        # pose reached sooner, to a second (issue 36.21: an unflipped start 314 deg
+        # away was chosen over a flipped one 135 deg away); then no flip; then the
+        # smaller worst case, to a millidegree (a keyhole's minimax against a near
+        # miss); then the shorter pre-positioning move
         worst = float(_error_between_samples_deg(fa, fe, s_az, s_el, g).max())
-        cost = (round(worst / 0.05), flip, round(worst / 0.001), travel_s) if not continuing else \
-            (round(worst / 0.05), round(travel_s), flip, round(worst / 0.001))
+        sooner = round(travel_s) if sooner_first else 0
+        cost = (round(worst / 0.05), sooner, flip, round(worst / 0.001), travel_s)
         if best is None or cost < best[0]:
             best = (cost, flip, fa, fe, travel_s, a, e, worst, not (fa is a and fe is e), keyhole)
     assert best is not None  # (candidates is never empty)

@@ -73,9 +73,30 @@ export function followPosition(st) {
 }
 
 function endZero() {
+  const wasOpen = !$("zero-confirm").hidden;
   pendingZero = null;
   $("zero-confirm").hidden = true;
   for (const id of ["zero-az", "zero-el"]) delete $(id).dataset.edited;
+  if (wasOpen && $("zero-confirm").contains(document.activeElement)) $("zero-submit").focus();
+}
+
+// the confirmation is a modal dialog: Tab and Shift+Tab go round its buttons, and focus
+// that leaves it (a click elsewhere) comes back; STOP alone may take it
+function trapZeroFocus() {
+  const dialog = $("zero-confirm");
+  const buttons = () => [...dialog.querySelectorAll("button")];
+  dialog.addEventListener("keydown", (ev) => {
+    if (ev.key !== "Tab") return;
+    const all = buttons();
+    const at = all.indexOf(document.activeElement);
+    ev.preventDefault();
+    all[(at + (ev.shiftKey ? all.length - 1 : 1)) % all.length].focus();
+  });
+  document.addEventListener("focusin", (ev) => {
+    // (not while another page is shown: the dialog is not on screen then)
+    if (dialog.hidden || dialog.offsetParent === null || dialog.contains(ev.target) || ev.target === $("stop-btn")) return;
+    buttons()[0].focus();
+  });
 }
 
 export function showProcedure(proc) {
@@ -106,7 +127,9 @@ export function setupCalibration() {
     pendingZero = body;   // asked first: re-referencing cannot be undone by moving
     zeroQuestion(lastReading || { az: null, el: null });
     $("zero-confirm").hidden = false;
+    $("zero-no").focus();   // (the safe answer first: Enter on it cancels)
   });
+  trapZeroFocus();
   $("zero-no").addEventListener("click", endZero);
   $("zero-yes").addEventListener("click", async () => {
     const body = pendingZero;

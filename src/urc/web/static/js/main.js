@@ -10,6 +10,7 @@ import { setupControls } from "./controls.js";
 import { startPasses, setPassOptions } from "./passes.js";
 import { load as loadSettings, setupSettings } from "./settings.js";
 import { loadCalibration, setupCalibration, showProcedure, followPosition } from "./calibration.js";
+import { setupPointing } from "./point.js";
 
 let info = null;
 let infoRev = null;
@@ -121,6 +122,19 @@ function faultNow(st) {
   }
   const back = sensorAxes.filter((a) => st[a].sensor_ok !== false);
   if (back.length) out.push(`Now: ${both(back)} ${back.length > 1 ? "read" : "reads"} again: Clear fault re-arms ${back.length > 1 ? "them" : "it"}.`);
+  // a stall: nothing here tells whether its cause is gone; a runaway: whether it still turns
+  const ofKind = (kind) => [...new Set((st.faults || []).filter((f) => f.kind === kind && f.axis && st[f.axis]).map((f) => f.axis))];
+  for (const [kind, what] of [["stall", "stalled (driven, did not turn)"], ["overcurrent", "drew too much current (jammed or overloaded)"]]) {
+    const axes = ofKind(kind);
+    if (!axes.length) continue;
+    out.push(`Now: ${both(axes)} ${what}. Clearing helps only if the cause is gone (ice, a jammed gear, ` +
+      "a cable, an end stop): Clear fault lets the next move try again, and it stops again if still stuck.");
+  }
+  const running = ofKind("runaway");
+  const turning = running.filter((a) => Math.abs(st[a].rate_deg_per_s) > 0.2);
+  if (turning.length) out.push(`Now: ${both(turning)} still ${turning.length > 1 ? "turn" : "turns"} with the motor off: clearing cannot help until ${turning.length > 1 ? "they stop" : "it stops"}.`);
+  const still = running.filter((a) => !turning.includes(a));
+  if (still.length) out.push(`Now: ${both(still)} ${still.length > 1 ? "stand" : "stands"} still: Clear fault re-arms ${still.length > 1 ? "them" : "it"}.`);
   return out.join(" ");
 }
 
@@ -355,6 +369,7 @@ async function start() {
   setupControls();
   setupSettings();
   setupCalibration();
+  setupPointing();
   startPasses();
   window.addEventListener("hashchange", route);
   route();
