@@ -26,7 +26,7 @@ from ..errors import CommandRejected, UrcError
 from .fit import ScanRefused, fit_cross
 from .model import PointingModel
 from .scan import ScanPlan, cross_scan, offset_pose, pose_offset
-from .simsource import SimulatedPower, SkySource
+from .simsource import SimulatedPower, SkySource, true_beam
 from .sources import Sample, SignalRefused, judge
 
 TARGETS = ("sun", "moon", "beacon")
@@ -50,13 +50,8 @@ class StatusPower:
         truth = status.sim_truth
         if not truth or "az" not in truth:
             raise SignalRefused("missing", 'no simulator truth in the status: source = "sim" needs the simulator')
-        az = float(truth["az"]["deg"])
-        el = float(truth["el"]["deg"]) if truth.get("el") else 0.0
-        if el > 90.0:  # over the top
-            az, el = az + 180.0, 180.0 - el
-        az %= 360.0
-        if self.model is not None:
-            az, el = (float(v) for v in self.model.beam_from_mech(az, el))
+        el_m = float(truth["el"]["deg"]) if truth.get("el") else 0.0
+        az, el = true_beam(self.model, float(truth["az"]["deg"]), el_m)
         value = float(self.sim.measure(unix_s, az, el)[0])
         return judge(unix_s, value, "dB", now_s=unix_s, max_age_s=None, ceiling=self.sim.ceiling_db, what=self.name)
 
