@@ -50,6 +50,9 @@ class RotatorSettings:
     #: passes may be flown over the top (flip = true or "auto" on a profile that can)
     pass_flip: bool = False
     zones: tuple[KeepOut, ...] = field(default_factory=tuple)
+    #: the fitted pointing model's terms (Geometry.pointing_deg; () = none), from the
+    #: state directory (urc.pointing.store), not the configuration
+    pointing_deg: tuple[float, ...] = ()
     idle_park_s: float = 0.0
     az_tuning: AxisTuning | None = None
     el_tuning: AxisTuning | None = None
@@ -78,6 +81,8 @@ class RotatorSettings:
         fixed = {} if c.has_el else dict(el_limits_deg=(FIXED_EL_DEG, FIXED_EL_DEG), park_el_deg=FIXED_EL_DEG,
                                          el_offset_deg=0.0, flip=False, pass_flip=False)
         self = replace(self, **fixed)
+        if not c.has_el:  # (the model needs the elevation a scan measures it at)
+            self = replace(self, pointing_deg=())
         return replace(
             self,
             az_tuning=self.az_tuning or default_tuning(c.az),
@@ -99,4 +104,5 @@ class RotatorSettings:
             2 * max(self.caps.az.sensor.resolution_deg, self.caps.el.sensor.resolution_deg)
         return Geometry(*self.az_limits_deg, *self.el_limits_deg,
                         az_offset_deg=self.az_offset_deg, el_offset_deg=self.el_offset_deg,
-                        flip=self.flip, pass_flip=self.pass_flip, zones=self.zones, zone_margin_deg=zone_margin)
+                        flip=self.flip, pass_flip=self.pass_flip, zones=self.zones, zone_margin_deg=zone_margin,
+                        pointing_deg=self.pointing_deg)
