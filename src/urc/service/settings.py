@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
+from typing import Any
 
 from ..caps import AxisCaps, RotatorCaps
 from ..control.faults import FaultLimits
@@ -78,8 +79,8 @@ class RotatorSettings:
         (``caps.axes == ("az",)``) has its beam fixed at the horizon: elevation pinned to
         0 (the pose keep-out zones are checked at), never flipped."""
         c = self.caps
-        fixed = {} if c.has_el else dict(el_limits_deg=(FIXED_EL_DEG, FIXED_EL_DEG), park_el_deg=FIXED_EL_DEG,
-                                         el_offset_deg=0.0, flip=False, pass_flip=False)
+        fixed: dict[str, Any] = {} if c.has_el else dict(el_limits_deg=(FIXED_EL_DEG, FIXED_EL_DEG), park_el_deg=FIXED_EL_DEG,
+                                                         el_offset_deg=0.0, flip=False, pass_flip=False)
         self = replace(self, **fixed)
         if not c.has_el:  # (the model needs the elevation a scan measures it at)
             self = replace(self, pointing_deg=())
