@@ -14,6 +14,7 @@ from .control.faults import FaultLimits
 from .control.law import AxisTuning
 from .hardware import Hardware, build_hardware
 from .persistence import StateStore
+from .pointing.store import pointing_for
 from .profiles import get_profile
 from .service import Rotator, RotatorSettings
 from .service.settings import default_fault_limits, default_tuning
@@ -21,7 +22,10 @@ from .service.settings import default_fault_limits, default_tuning
 STATE_FILE = "state.json"
 
 
-def settings_from_config(cfg: Config) -> RotatorSettings:
+def settings_from_config(cfg: Config, state_dir: Path | None = None) -> RotatorSettings:
+    """The rotator's settings from ``cfg``, with the fitted pointing model stored in
+    ``state_dir`` (urc.pointing.store; none without one, or if it is damaged:
+    :func:`urc.pointing.store.pointing_for` says why)."""
     caps = cfg.rotator.variant(get_profile(cfg.rotator.profile))
     if caps.loop_hz != cfg.rotator.loop_hz:
         caps = replace(caps, loop_hz=cfg.rotator.loop_hz)
@@ -52,7 +56,8 @@ def settings_from_config(cfg: Config) -> RotatorSettings:
         park_az_deg=park_az, park_el_deg=park_el,
         # (a south zero point: the mechanical frame starts at south)
         az_offset_deg=cfg.offsets.az_deg + cfg.rotator.zero_offset_deg, el_offset_deg=cfg.offsets.el_deg,
-        flip=cfg.rotator.flip is True, pass_flip=cfg.rotator.flip_enabled(caps), zones=zones, idle_park_s=cfg.park.idle_park_s,
+        flip=cfg.rotator.flip is True, pass_flip=cfg.rotator.flip_enabled(caps), zones=zones,
+        pointing_deg=pointing_for(state_dir)[0], idle_park_s=cfg.park.idle_park_s,
         az_tuning=tunings["az"], el_tuning=tunings["el"], az_faults=faults["az"], el_faults=faults["el"],
         save_interval_s=cfg.state.save_interval_s, watchdog_s=_stall_s(cfg),
         watchdog_recover_s=cfg.faults.watchdog_recover_s, watchdog_latch_stalls=cfg.faults.watchdog_latch_stalls,
@@ -155,7 +160,7 @@ def build_rotator(cfg: Config, clock: Clock, state_dir: Path, durable_state: boo
     skips it and spaces simulator-truth writes in wall time (benchmarks: restart exactness
     of the simulated iron on the virtual clock is traded for speed).
     """
-    settings = settings_from_config(cfg)
+    settings = settings_from_config(cfg, state_dir)
     if fast_virtual:
         durable_state = False
     state_dir.mkdir(parents=True, exist_ok=True)
@@ -173,6 +178,8 @@ def build_rotator(cfg: Config, clock: Clock, state_dir: Path, durable_state: boo
     store = cast(StateStore, hardware.state_store) if hardware.state_store is not None else \
         StateStore(state_dir / STATE_FILE, durable=durable_state)
     rotator = Rotator(settings, hardware, clock, store)
+    if problem := pointing_for(state_dir)[1]:
+        rotator.announce(problem)  # (the start goes on without it: a model is no safety part)
     power_fail = hardware.power_fail
     if power_fail is not None:
         # BIG-RAS saves its position on a power-fail interrupt: urc also stops at once

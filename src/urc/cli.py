@@ -35,7 +35,8 @@ class _LazyGroup(click.Group):
     must not pay for numpy and skyfield (the tracking commands)."""
 
     LAZY = {"passes": "urc.tracking.cli:passes_command", "tle": "urc.tracking.cli:tle_command",
-            "fleet": "urc.mqtt.fleet_cli:fleet_command", "calibrate": "urc.pointing.cli:calibrate_command"}
+            "fleet": "urc.mqtt.fleet_cli:fleet_command", "calibrate": "urc.pointing.cli:calibrate_command",
+            "pointing": "urc.pointing.cli:pointing_command"}
 
     def list_commands(self, ctx: click.Context) -> list[str]:
         return sorted({*super().list_commands(ctx), *self.LAZY})

@@ -31,8 +31,9 @@ def expected_offset(model: PointingModel) -> tuple[float, float]:
     return tuple(float(v) for v in pose_offset(az_m, el_m, BEACON_AZ_DEG, BEACON_EL_DEG))  # type: ignore[return-value]
 
 
-def sim_rotator(tmp_path, model: PointingModel | None):
-    cfg = Config.from_dict({"rotator": {"profile": "tartu-urc"}, "hardware": {"sim": {"wind": False}}})
+def sim_rotator(tmp_path, model: PointingModel | None, offsets: dict | None = None):
+    cfg = Config.from_dict({"rotator": {"profile": "tartu-urc"}, "hardware": {"sim": {"wind": False}},
+                            "offsets": offsets or {}})
     clock = VirtualClock(0.0)
     rot = build_rotator(cfg, clock, tmp_path, fast_virtual=True)
     rot.hw.world.pointing_error = model
@@ -46,7 +47,7 @@ def fly(tmp_path, model, *, fwhm_deg=10.0, snr_db=30.0, ceiling_db=None, seed=3)
     def unix_at(now_s: float) -> float:
         return T0_UNIX_S + now_s
     power = SimulatedPower(src, fwhm_deg=fwhm_deg, snr_db=snr_db, ceiling_db=ceiling_db, seed=seed,
-                           beam_at=world_beam(rot.hw.world, rot.geometry, unix_at))
+                           beam_at=world_beam(rot.hw.world, unix_at))
     plan = cross_scan(fwhm_deg, step_fwhm=0.25, settle_s=0.2, dwell_s=0.2)
     data = fly_scan(rot, clock, plan, src, power, unix_at, samples_per_point=2)
     return plan, data
@@ -65,6 +66,25 @@ def test_a_flown_cross_scan_recovers_the_injected_offset_within_a_tenth_of_the_b
     assert abs(fit.dx_deg - want_dx) < 4 * fit.dx_err_deg + 0.1
     assert abs(fit.dy_deg - want_dy) < 4 * fit.dy_err_deg + 0.1
     assert fit.az.fwhm_deg[0] == pytest.approx(fwhm_deg, rel=0.2)
+
+
+def test_the_true_beam_ignores_the_controllers_offsets(tmp_path):
+    """The simulated beam is where the iron points: the axes' truth through the world's
+    error model. The controller's [offsets] are its belief, which a calibration corrects:
+    with the encoders reading 2 deg high in azimuth (IA = 2) and [offsets] az -2 (the
+    right correction), a goto of the beacon puts the true beam on it. (Before, the beam
+    was taken through the configured offsets as well, counting the error twice: 2 deg off.)"""
+    from urc.service.loop import run_virtual
+
+    rot, clock = sim_rotator(tmp_path, PointingModel(ia_deg=2.0), offsets={"az_deg": -2.0})
+    rot.goto(BEACON_AZ_DEG, BEACON_EL_DEG)
+    run_virtual(rot, clock, 200.0, until=lambda s: not s.moving and s.az.mode in ("holding", "idle")
+                and abs(s.az_deg - BEACON_AZ_DEG) < 0.1 and abs(s.el_deg - BEACON_EL_DEG) < 0.1)
+    _, az, el = world_beam(rot.hw.world, lambda now_s: T0_UNIX_S + now_s)()
+    assert abs(az - BEACON_AZ_DEG) < 0.2 and abs(el - BEACON_EL_DEG) < 0.2, (az, el)
+    # a south-zero rotator's mechanical zero points south: the iron's own bearing
+    _, az_s, _ = world_beam(rot.hw.world, lambda now_s: T0_UNIX_S + now_s, az_zero_deg=180.0)()
+    assert abs((az_s - az) % 360.0 - 180.0) < 1e-9
 
 
 def test_with_the_model_off_the_scan_finds_no_offset(tmp_path):

@@ -5,9 +5,14 @@ Two frames:
 * mechanical (``az_m``, ``el_m``): what the axes and sensors know, the wrap range
   included (e.g. 0..450 deg), elevation up to 180 on rotators that can flip;
 * sky (``az``, ``el``): compass azimuth 0..360 and elevation 0..90 where the beam points,
-  after the mount offsets and the flip mapping.
+  after the mount offsets and the flip mapping (the boresight's direction), then the
+  fitted pointing model (``pointing_deg``, issue 38; none by default): every command
+  names, and every report gives, where the beam points.
 
-Keep-out zones are regions of the sky. A path is checked by sampling the motion the axes
+Limits are mechanical (the axes' travel). Keep-out zones are regions of the sky, checked
+where the beam points: the frame the user draws them in and sees every position in (the
+model moves that frame by a degree or two at most; the zone margin is not meant to
+absorb it). A path is checked by sampling the motion the axes
 will really make (each axis at its own speed, so not a straight line), every sample
 must stay inside the limits and out of every zone.
 """
@@ -19,6 +24,32 @@ from dataclasses import dataclass, field
 
 #: path sampling step along the faster-changing axis, degrees.
 PATH_STEP_DEG = 0.25
+#: the pointing model's terms in tan E and sec E are taken at most at this elevation:
+#: a first-order model is not meant for the zenith, where they grow without bound
+#: (urc.pointing.model uses the same bound)
+MODEL_MAX_EL_DEG = 85.0
+#: the pointing model's terms in Geometry.pointing_deg's order (urc.pointing.model)
+POINTING_TERMS = ("ia", "ie", "ca", "npae", "an", "aw", "tf")
+
+
+def model_offsets_deg(terms: tuple[float, ...], az_deg: float, el_deg: float) -> tuple[float, float]:
+    """The pointing model's (dA, dE) = boresight minus beam at the boresight's (az, el),
+    ``terms`` = (IA, IE, CA, NPAE, AN, AW, TF) in degrees: urc.pointing.model's terms
+    (that module's :func:`~urc.pointing.model.design` is the reference, with numpy; this
+    is the scalar form the control loop uses, which must not import numpy)."""
+    ia, ie, ca, npae, an, aw, tf = terms
+    a = math.radians(az_deg)
+    e = math.radians(min(max(el_deg, -MODEL_MAX_EL_DEG), MODEL_MAX_EL_DEG))
+    sa, cos_a, te, ce = math.sin(a), math.cos(a), math.tan(e), math.cos(e)
+    return (ia + ca / ce + npae * te + (an * sa + aw * cos_a) * te,
+            ie + an * cos_a - aw * sa + tf * ce)
+
+
+def _over_the_top(az_deg: float, el_deg: float) -> tuple[float, float]:
+    """A direction past the zenith as the one it is: the other side, el below 90."""
+    if el_deg > 90.0:
+        az_deg, el_deg = az_deg + 180.0, 180.0 - el_deg
+    return wrap360(az_deg), el_deg
 
 
 def wrap360(az_deg: float) -> float:
@@ -84,6 +115,15 @@ class Geometry:
     zones: tuple[KeepOut, ...] = field(default_factory=tuple)
     #: zones are grown by this much so sensor error and coasting cannot graze them.
     zone_margin_deg: float = 0.5
+    #: the fitted pointing model (urc.pointing.model.TERMS order, degrees; () = none):
+    #: where the beam points relative to the boresight
+    pointing_deg: tuple[float, ...] = ()
+
+    def __post_init__(self) -> None:
+        if self.pointing_deg and not (len(self.pointing_deg) == 7 and all(
+                isinstance(v, (int, float)) and math.isfinite(v) and abs(v) <= 10.0 for v in self.pointing_deg)):
+            raise ValueError(f"pointing model: expected 7 finite terms within +-10 deg (IA IE CA NPAE AN AW TF), "
+                             f"found {self.pointing_deg!r}")
 
     @property
     def can_fly_passes_flipped(self) -> bool:
@@ -91,10 +131,31 @@ class Geometry:
 
     # ---- frames -------------------------------------------------------------------
     def to_sky(self, az_m: float, el_m: float) -> tuple[float, float]:
-        az, el = az_m + self.az_offset_deg, el_m + self.el_offset_deg
-        if el > 90.0:
-            az, el = az + 180.0, 180.0 - el
-        return wrap360(az), el
+        az, el = _over_the_top(az_m + self.az_offset_deg, el_m + self.el_offset_deg)
+        return self.beam_of(az, el) if self.pointing_deg else (az, el)
+
+    def beam_of(self, az_deg: float, el_deg: float) -> tuple[float, float]:
+        """Where the beam points with the boresight at sky (az, el) (the model's forward)."""
+        if not self.pointing_deg:
+            return wrap360(az_deg), el_deg
+        da, de = model_offsets_deg(self.pointing_deg, az_deg, el_deg)
+        return _over_the_top(az_deg - da, el_deg - de)
+
+    def boresight_of(self, az_deg: float, el_deg: float) -> tuple[float, float]:
+        """The boresight's sky direction that puts the beam on sky (az, el): the model's
+        inverse, the fixed point of b = beam + offsets(b) (a few iterations for terms of
+        a few degrees; the terms' elevation bound keeps it contracting near the zenith)."""
+        if not self.pointing_deg:
+            return wrap360(az_deg), el_deg
+        ab, eb = az_deg, el_deg
+        for _ in range(50):
+            da, de = model_offsets_deg(self.pointing_deg, ab, eb)
+            nxt = (az_deg + da, el_deg + de)
+            done = abs(nxt[0] - ab) < 1e-10 and abs(nxt[1] - eb) < 1e-10
+            ab, eb = nxt
+            if done:
+                break
+        return _over_the_top(ab, eb)
 
     def in_limits(self, az_m: float, el_m: float, slack_deg: float = 1e-6) -> bool:
         return (self.az_min_deg - slack_deg <= az_m <= self.az_max_deg + slack_deg
@@ -123,7 +184,8 @@ class Geometry:
         return None
 
     def candidates(self, az_deg: float, el_deg: float) -> list[tuple[float, float]]:
-        """Every mechanical pose within the limits that points at sky (az, el)."""
+        """Every mechanical pose within the limits that points (the beam) at sky (az, el)."""
+        az_deg, el_deg = self.boresight_of(az_deg, el_deg)
         poses = []
         options = [(az_deg, el_deg)]
         if self.flip:

@@ -30,7 +30,7 @@ boresight. TPOINT itself measures azimuth from south and calls a correction posi
 the left, so compare its coefficients term by term after that conversion.
 
 First order in the terms (a few degrees at most), like TPOINT's own; tan E and sec E grow
-without bound at the zenith, so the model is for E up to ~85 deg and for unflipped poses
+without bound at the zenith, so they are taken at E = 85 deg above it, and the model is for E up to ~85 deg and for unflipped poses
 (elevation axis not over the top). Inputs may be numpy arrays (vectorised).
 """
 
@@ -42,7 +42,9 @@ from typing import Any
 
 import numpy as np
 
-TERMS = ("ia", "ie", "ca", "npae", "an", "aw", "tf")
+from ..control.geometry import MODEL_MAX_EL_DEG, POINTING_TERMS
+
+TERMS = POINTING_TERMS
 
 
 @dataclass(frozen=True)
@@ -97,6 +99,10 @@ class PointingModel:
     def as_dict(self) -> dict[str, float]:
         return asdict(self)
 
+    def as_terms(self) -> tuple[float, ...]:
+        """The terms as :class:`urc.control.geometry.Geometry` carries them."""
+        return tuple(float(v) for v in self.as_vector())
+
     # -------------------------------------------------------------- the model
     def offsets_deg(self, az_m_deg: Any, el_m_deg: Any) -> tuple[Any, Any]:
         """(dA, dE) = mechanical minus beam, in degrees, at mechanical pose (A, E)."""
@@ -128,7 +134,8 @@ def design(az_m_deg: Any, el_m_deg: Any) -> tuple[np.ndarray, np.ndarray]:
     of shape (..., len(TERMS)); (dA, dE) = (Ja @ terms, Je @ terms). The model is linear
     in its terms, so these are its whole definition, and a fit is linear least squares."""
     a = np.radians(np.asarray(az_m_deg, dtype=float))
-    e = np.radians(np.asarray(el_m_deg, dtype=float))
+    # (the tan E, sec E terms bounded as the control loop bounds them: geometry.model_offsets_deg)
+    e = np.radians(np.clip(np.asarray(el_m_deg, dtype=float), -MODEL_MAX_EL_DEG, MODEL_MAX_EL_DEG))
     sa, ca, te, ce = np.sin(a), np.cos(a), np.tan(e), np.cos(e)
     one, zero = np.ones_like(a), np.zeros_like(a)
     #            IA   IE    CA       NPAE  AN         AW         TF

@@ -26,7 +26,7 @@ from ..errors import CommandRejected, UrcError
 from .fit import ScanRefused, fit_cross
 from .model import PointingModel
 from .scan import ScanPlan, cross_scan, offset_pose, pose_offset
-from .simsource import SimulatedPower, SkySource
+from .simsource import SimulatedPower, SkySource, true_beam
 from .sources import Sample, SignalRefused, judge
 
 TARGETS = ("sun", "moon", "beacon")
@@ -50,13 +50,8 @@ class StatusPower:
         truth = status.sim_truth
         if not truth or "az" not in truth:
             raise SignalRefused("missing", 'no simulator truth in the status: source = "sim" needs the simulator')
-        az = float(truth["az"]["deg"])
-        el = float(truth["el"]["deg"]) if truth.get("el") else 0.0
-        if el > 90.0:  # over the top
-            az, el = az + 180.0, 180.0 - el
-        az %= 360.0
-        if self.model is not None:
-            az, el = (float(v) for v in self.model.beam_from_mech(az, el))
+        el_m = float(truth["el"]["deg"]) if truth.get("el") else 0.0
+        az, el = true_beam(self.model, float(truth["az"]["deg"]), el_m)
         value = float(self.sim.measure(unix_s, az, el)[0])
         return judge(unix_s, value, "dB", now_s=unix_s, max_age_s=None, ceiling=self.sim.ceiling_db, what=self.name)
 
@@ -145,8 +140,14 @@ class ScanCalibration:
 
     def __init__(self, rotator: Any, sky: SkySource, source: Any, *, fwhm_deg: float, dwell_s: float = 2.0,
                  samples_per_point: int = 3, plan: ScanPlan | None = None, target: str = "",
-                 unix_at: Callable[[Any], float] | None = None):
+                 unix_at: Callable[[Any], float] | None = None,
+                 record: Callable[[dict[str, Any]], Any] | None = None):
+        """``record``: called with a finished scan's stored form (:meth:`stored_scan`),
+        e.g. urc.pointing.store.append_scan into the state directory."""
         self.rotator, self.sky, self.source = rotator, sky, source
+        self.record = record
+        #: the pointing model in force when the scan started (the status reports through it)
+        self._pointing: tuple[float, ...] = ()
         self.fwhm_deg, self.samples_per_point = float(fwhm_deg), int(samples_per_point)
         self.plan = plan or cross_scan(fwhm_deg, dwell_s=dwell_s)
         self.target = target or sky.name
@@ -215,6 +216,7 @@ class ScanCalibration:
             if hasattr(self.source, "read_at") and not status.sim_truth:
                 raise ScanSetupError('[pointing] source = "sim" needs the simulator backend')
             self._offsets = dict(status.offsets)
+            self._pointing = tuple(getattr(getattr(self.rotator, "geometry", None), "pointing_deg", ()) or ())
             self._move(status)
         elif self._phase == "moving":
             if status.t_s - self._since_s > self.MOVE_TIMEOUT_S:
@@ -316,9 +318,37 @@ class ScanCalibration:
                        "fwhm_deg": [fit.az.fwhm_deg[0], fit.el.fwhm_deg[0]], "snr_db": [fit.az.snr_db, fit.el.snr_db],
                        "offsets_before": {"az_deg": self._offsets.get("az", 0.0), "el_deg": self._offsets.get("el", 0.0)},
                        "offsets_suggested": suggested, "applied": False}
+        self.result["stored"] = self._store(fit)
         self._end("done", "")
         self.step = (f"done: the beam is {daz:+.3f} +- {fit.dx_err_deg * sec:.3f} deg in az, "
                      f"{de:+.3f} +- {fit.dy_err_deg:.3f} deg in el from where urc reports it")
+
+    def stored_scan(self, fit: Any) -> dict[str, Any]:
+        """The scan as urc.pointing.store keeps it: in the frame the pointing model maps
+        from (the boresight's direction where the beam was on the source: the reported
+        peak taken back through the model then in force), the boresight minus the beam."""
+        t = sum(x["t_unix_s"] for x in self.samples) / len(self.samples)
+        taz, tel = self.sky.position(t)
+        peak = offset_pose(taz, tel, fit.dx_deg, fit.dy_deg)  # where urc reported the beam on it
+        baz, bel = peak
+        if self._pointing:
+            baz, bel = (float(v) for v in PointingModel.from_vector(self._pointing).mech_from_beam(*peak))
+        dx, dy = pose_offset(baz, bel, taz, tel)
+        return {"t_unix_s": round(t, 3), "date": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime(t)),
+                "target": self.target, "az_deg": float(baz), "el_deg": float(bel),
+                "dx_deg": float(dx), "dy_deg": float(dy), "dx_err_deg": float(fit.dx_err_deg),
+                "dy_err_deg": float(fit.dy_err_deg), "beamwidth_deg": self.fwhm_deg,
+                "offsets": {"az_deg": self._offsets.get("az", 0.0), "el_deg": self._offsets.get("el", 0.0)},
+                "model_then": list(self._pointing)}
+
+    def _store(self, fit: Any) -> str:
+        """Hand the scan to ``record``: what it said (where it went), or why not."""
+        if self.record is None:
+            return ""
+        try:
+            return str(self.record(self.stored_scan(fit)))
+        except Exception as exc:  # noqa: BLE001 (a full disk must not lose the result shown)
+            return f"not stored: {type(exc).__name__}: {exc}"
 
     def _end(self, state: str, error: str) -> None:
         self.state, self.error = state, error

@@ -114,15 +114,29 @@ class SimulatedPower:
         return judge(t, value, "dB", now_s=t, max_age_s=None, ceiling=self.ceiling_db, what=self.name)
 
 
-def world_beam(world: Any, geometry: Any, unix_at: Callable[[float], float]) -> Callable[[], tuple[float, float, float]]:
-    """``beam_at`` for a simulated rotator: its truth through the rotator's geometry to
-    the sky (as urc.testing.evaluate judges a pass), then the world's pointing error
-    model (``world.pointing_error``, none: the beam is the boresight)."""
+def true_beam(model: Any, az_m_deg: float, el_m_deg: float, az_zero_deg: float = 0.0) -> tuple[float, float]:
+    """Where the simulated beam truly points with the axes at (az_m, el_m) of the
+    simulator's truth: the boresight's sky direction (``az_zero_deg``: the mechanical
+    zero's compass bearing, 180 on a south-zero rotator; over the top, the other side),
+    then the world's pointing error ``model`` (None: the beam is the boresight).
+
+    Nothing the controller believes enters: its [offsets] and its fitted pointing model
+    are what a calibration measures, not where the iron points."""
+    az, el = az_m_deg + az_zero_deg, el_m_deg
+    if el > 90.0:  # over the top
+        az, el = az + 180.0, 180.0 - el
+    if model is not None:
+        az, el = model.beam_from_mech(az % 360.0, el)
+    return float(az) % 360.0, float(el)
+
+
+def world_beam(world: Any, unix_at: Callable[[float], float],
+               az_zero_deg: float = 0.0) -> Callable[[], tuple[float, float, float]]:
+    """``beam_at`` for a simulated rotator: its true axes through the world's pointing
+    error model (``world.pointing_error``) to the sky (:func:`true_beam`)."""
     def beam_at() -> tuple[float, float, float]:
         truth = world.truth()
-        az, el = geometry.to_sky(truth["az"]["deg"], truth["el"]["deg"])
-        model = getattr(world, "pointing_error", None)
-        if model is not None:
-            az, el = model.beam_from_mech(az, el)
-        return unix_at(world.clock.now_s()), float(az), float(el)
+        az, el = true_beam(getattr(world, "pointing_error", None), truth["az"]["deg"], truth["el"]["deg"],
+                           az_zero_deg)
+        return unix_at(world.clock.now_s()), az, el
     return beam_at

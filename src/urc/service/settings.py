@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
+from typing import Any
 
 from ..caps import AxisCaps, RotatorCaps
 from ..control.faults import FaultLimits
@@ -50,6 +51,9 @@ class RotatorSettings:
     #: passes may be flown over the top (flip = true or "auto" on a profile that can)
     pass_flip: bool = False
     zones: tuple[KeepOut, ...] = field(default_factory=tuple)
+    #: the fitted pointing model's terms (Geometry.pointing_deg; () = none), from the
+    #: state directory (urc.pointing.store), not the configuration
+    pointing_deg: tuple[float, ...] = ()
     idle_park_s: float = 0.0
     az_tuning: AxisTuning | None = None
     el_tuning: AxisTuning | None = None
@@ -75,9 +79,11 @@ class RotatorSettings:
         (``caps.axes == ("az",)``) has its beam fixed at the horizon: elevation pinned to
         0 (the pose keep-out zones are checked at), never flipped."""
         c = self.caps
-        fixed = {} if c.has_el else dict(el_limits_deg=(FIXED_EL_DEG, FIXED_EL_DEG), park_el_deg=FIXED_EL_DEG,
-                                         el_offset_deg=0.0, flip=False, pass_flip=False)
+        fixed: dict[str, Any] = {} if c.has_el else dict(el_limits_deg=(FIXED_EL_DEG, FIXED_EL_DEG), park_el_deg=FIXED_EL_DEG,
+                                                         el_offset_deg=0.0, flip=False, pass_flip=False)
         self = replace(self, **fixed)
+        if not c.has_el:  # (the model needs the elevation a scan measures it at)
+            self = replace(self, pointing_deg=())
         return replace(
             self,
             az_tuning=self.az_tuning or default_tuning(c.az),
@@ -100,4 +106,4 @@ class RotatorSettings:
         return Geometry(*self.az_limits_deg, *self.el_limits_deg,
                         az_offset_deg=self.az_offset_deg, el_offset_deg=self.el_offset_deg,
                         flip=self.flip, pass_flip=self.pass_flip, flip_sensed=self.caps.senses_flipped_pose,
-                        zones=self.zones, zone_margin_deg=zone_margin)
+                        zones=self.zones, zone_margin_deg=zone_margin, pointing_deg=self.pointing_deg)

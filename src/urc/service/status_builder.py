@@ -2,7 +2,8 @@
 rotator's parts once per tick (and after a command that must show at once).
 
 The sky direction is worked out here from the mechanical axes: the mount offsets, the
-wrap turn, and a flipped pose (past the zenith) shown as the sky direction it points at.
+wrap turn, a flipped pose (past the zenith) shown as the sky direction it points at, and
+the fitted pointing model (Geometry.beam_of): the position reported is where the beam points.
 """
 
 from __future__ import annotations
@@ -33,8 +34,10 @@ def build_status(core: Core, now_s: float, loop: LoopHealth, loop_dict: dict[str
         # within the tolerance past the zenith the antenna stands at its own azimuth,
         # not "flipped" to the other side (a resting antenna at el 90 reads 90.05)
         flipped = el_ext > 90.0 + el.tuning.tolerance_deg
-        sky_az, sky_el = g.to_sky(az.meas_deg, el.meas_deg) if flipped else \
-            (wrap360(az.meas_deg + g.az_offset_deg), min(el_ext, 180.0 - el_ext))
+        sky_az = wrap360(az.meas_deg + g.az_offset_deg + (180.0 if flipped else 0.0))
+        sky_el = min(el_ext, 180.0 - el_ext)
+        if g.pointing_deg:
+            sky_az, sky_el = g.beam_of(sky_az, sky_el)
         tgt_el = None if tgt is None else tgt[1]
     # (construct: made every tick, see urc.control.evolve; every field, in their order)
     return construct(

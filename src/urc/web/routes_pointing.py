@@ -35,11 +35,19 @@ def _build(ctx: WebContext, req: ScanRequest) -> Any:
         source = pp.make_source(cfg.pointing, cfg.hardware.sim.pointing_error, sky, seed=cfg.hardware.sim.seed)
         proc = pp.ScanCalibration(ctx.rotator, sky, source, fwhm_deg=cfg.pointing.beamwidth_deg,
                                   dwell_s=cfg.pointing.dwell_s, samples_per_point=cfg.pointing.samples_per_point,
-                                  target=req.target)
+                                  target=req.target, record=_recorder(ctx))
         sky.position(time.time())
     except pp.ScanSetupError as exc:
         raise CommandRejected(str(exc), "calibration") from None
     return proc
+
+
+def _recorder(ctx: WebContext) -> Any:
+    """Each finished scan kept in the state directory: what a pointing model is fitted to."""
+    from functools import partial
+
+    from ..pointing.store import append_scan
+    return None if ctx.settings.state_dir is None else partial(append_scan, ctx.settings.state_dir)
 
 
 def router(ctx: WebContext) -> APIRouter:
@@ -93,5 +101,7 @@ def router(ctx: WebContext) -> APIRouter:
         return JSONResponse({"ok": True, "saved_to": str(path), "offsets": proc.result["offsets_suggested"],
                              "applied_live": applied, "messages": [f"saved to {path}", f"offsets: {note}"]})
 
+    from .routes_pointing_model import routes as model_routes
+    model_routes(ctx, r, ctl)  # /pointing-model: show, fit, clear
     r.include_router(ctl)
     return r

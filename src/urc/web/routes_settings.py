@@ -22,7 +22,7 @@ def _apply_live(ctx: WebContext, cfg: Any) -> tuple[bool, str]:
     from ..assembly import settings_from_config
 
     try:
-        reconfigure(settings_from_config(cfg))
+        reconfigure(settings_from_config(cfg, ctx.settings.state_dir))  # (the stored pointing model kept)
     except Exception as exc:  # refused (e.g. the antenna sits in a new keep-out zone)
         return False, f"saved, but not applied now: {exc}"
     return True, "applied now"

@@ -2,6 +2,7 @@
 // and limit-switch homing (progress arrives with every live frame).
 import { $, h, clear, setText, fmt, toast } from "./dom.js";
 import { get, post } from "./api.js";
+import { showScan } from "./scanplot.js";
 
 const pot = { p1: null, p2: null };
 
@@ -108,6 +109,7 @@ export function showProcedure(proc) {
   setText($("proc-step"), proc.step);
   $("proc-cancel").hidden = proc.state !== "running";
   card.dataset.state = proc.state;
+  if (proc.kind === "scan") showScan();  // the power against offset, as the scan goes
 }
 
 async function readPot(which) {
