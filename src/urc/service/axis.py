@@ -44,6 +44,8 @@ class Axis:
         #: ``position_lost``; None: the motor has no such count)
         motor: Any = hw.motor
         self._lost_position = (lambda: motor.position_lost) if hasattr(motor, "position_lost") else None
+        #: how far off such a count may be at most (a translator reset at rest), 0: exact
+        self._position_bound = (lambda: motor.position_bound_deg) if hasattr(motor, "position_bound_deg") else None
         #: the target last posted to the positioner (None: stop)
         self.posted_deg: float | None = None
         self.caps = settings.caps.axis(name)
@@ -214,6 +216,8 @@ class Axis:
             # an open-loop count that lost steps (a stepper cut or disabled mid-move): not
             # the position any more, after the fault is cleared too, until re-referenced
             self.uncertainty_deg = self.caps.span_deg
+        if self._position_bound is not None and self._position_bound() > self.uncertainty_deg:
+            self.uncertainty_deg = self._position_bound()
         self.sensor_ok, self.sensor_error = True, ""
         return mech
 

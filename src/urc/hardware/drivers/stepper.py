@@ -32,7 +32,7 @@ from typing import Any, Callable
 
 from ...caps import SensorCaps
 from ...errors import HardwareError, SensorError
-from .stepdir_chips import MAX_LIBRARY_TIMED_HZ, StepDirChip, pulse_times_us
+from .stepdir_chips import HOME_SNAP_FULL_STEPS, MAX_LIBRARY_TIMED_HZ, StepDirChip, pulse_times_us
 from ..parts import DigitalOut
 
 #: the driver's acceleration envelope over the profile's ramp (see the module's text)
@@ -53,7 +53,7 @@ class StepDirMotor:
     def __init__(self, name: str, chip: StepDirChip, pulses: Any, dir_out: DigitalOut,
                  enable: DigitalOut | None, now_s: Callable[[], float], *, steps_per_deg: float,
                  max_rate_deg_per_s: float, max_accel_deg_per_s2: float, tick_s: float = 0.02,
-                 dir_reversed: bool = False):
+                 dir_reversed: bool = False, microsteps: int = 8):
         self.name, self.chip, self.pulses = name, chip, pulses
         self.dir_out, self.enable, self.now_s = dir_out, enable, now_s
         self.steps_per_deg = float(steps_per_deg)
@@ -77,6 +77,13 @@ class StepDirMotor:
         self._sched: deque[list[float]] = deque()
         self._done = 0                    # steps of the entries known done
         self.position_lost = ""           # why the count is no longer the position
+        #: the count is the position to within this (deg) until re-referenced: a translator
+        #: reset by a motor-supply loss at rest (:meth:`poll_supply`)
+        self.position_bound_deg = 0.0
+        self.full_step_deg = microsteps / self.steps_per_deg
+        #: the safety chain's read-back (True: the motor supply is on), when wired
+        self.supply_on: Callable[[], bool] | None = None
+        self._supply = True
         self._reported = ""
         self._lock = threading.Lock()
         self.closed = False
@@ -126,6 +133,7 @@ class StepDirMotor:
         if not math.isfinite(duty):
             raise HardwareError(f"{self.name} motor: drive must be finite, got {duty!r}")
         duty = max(-1.0, min(1.0, duty))
+        self.poll_supply()
         with self._lock:
             if self.closed:
                 raise HardwareError(f"{self.name} motor: closed")
@@ -234,8 +242,30 @@ class StepDirMotor:
         if not self.position_lost:
             self.position_lost = why
 
+    def poll_supply(self) -> None:
+        """The motor supply (the safety chain's read-back) just lost: while stepping, the
+        steps after it are lost (position lost); at rest, on a chip whose translator its
+        loss resets (:attr:`StepDirChip.home_on_motor_supply_loss`: DRV8825, TMC22xx), the
+        rotor will snap to the home state's nearest position when power returns, up to
+        ``HOME_SNAP_FULL_STEPS`` full steps from the count (an A4988 keeps its translator
+        on VDD, and the powered-again coils pull the rotor back where it was)."""
+        if self.supply_on is None:
+            return
+        try:
+            on = bool(self.supply_on())
+        except Exception:     # (the read-back's own failure is the chain monitor's to report)
+            return
+        if self._supply and not on:
+            if self.rate_sps != 0.0 or self.pulses.busy():
+                self._lose(f"{self.name}: the motor supply was cut while stepping; the position is uncertain "
+                           "until the axis is homed")
+            elif self.chip.home_on_motor_supply_loss:
+                self.position_bound_deg = max(self.position_bound_deg, HOME_SNAP_FULL_STEPS * self.full_step_deg)
+        self._supply = on
+
     def driver_fault(self) -> str:
         """The position loss, once (the guard latches it); '' otherwise."""
+        self.poll_supply()
         if self.position_lost and self._reported != self.position_lost:
             self._reported = self.position_lost
             return self.position_lost
@@ -243,6 +273,7 @@ class StepDirMotor:
 
     def re_referenced(self) -> None:
         self.position_lost = self._reported = ""
+        self.position_bound_deg = 0.0
 
     def read_current_a(self) -> float:
         return 0.0

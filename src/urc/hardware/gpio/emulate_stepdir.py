@@ -144,6 +144,19 @@ class EmulatedStepDirChip:
         self.dir_violations = 0
         self._last_dir: bool | None = None
         self._last_edge_s = -math.inf
+        self._powered = True
+        #: translator resets by a motor-supply loss (the chips whose logic it feeds)
+        self.translator_resets = 0
+
+    def poll_power(self) -> None:
+        """The motor supply's return after a loss resets the translator of a chip whose
+        logic runs on it (:attr:`StepDirChip.home_on_motor_supply_loss`): the rotor snaps
+        to the home state's nearest position as the outputs come on."""
+        on = bool(self.powered())
+        if on and not self._powered and self.chip.home_on_motor_supply_loss:
+            self.axis.reset_translator()
+            self.translator_resets += 1
+        self._powered = on
 
     def enabled(self) -> bool:
         if self.enable_pin is None:
@@ -152,6 +165,7 @@ class EmulatedStepDirChip:
         return level != self.enable_active_low
 
     def on_pulses(self, n: int, period_s: float, last_edge_s: float) -> None:
+        self.poll_power()
         level = bool(self.dir_pin.state)
         first_edge_s = last_edge_s - (n - 1) * period_s
         if self._last_dir is not None and level != self._last_dir and \
@@ -208,6 +222,7 @@ def wire_emulated_stepper(name: str, motor: Any, sensor: Any, world: Any, emu: A
     motor.pulses.sink = chip.on_pulses
 
     def sync() -> None:
+        chip.poll_power()
         motor.pulses.advance()
         phys.gear_deg = phys.load_deg = model.angle_deg
         phys.gear_deg_per_s = phys.load_deg_per_s = 0.0

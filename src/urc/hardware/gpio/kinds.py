@@ -141,7 +141,7 @@ def _stepdir(w: AxisWiring) -> Any:
                         max_rate_deg_per_s=w.ax_caps.max_rate_deg_per_s,
                         max_accel_deg_per_s2=ENVELOPE_ACCEL_FACTOR * w.ax_caps.accel_deg_per_s2,
                         tick_s=1.0 / w.caps.loop_hz,
-                        dir_reversed=cfg.dir_reversed)
+                        dir_reversed=cfg.dir_reversed, microsteps=cfg.microsteps)
 
 
 def stepdir_steps_per_deg(ax_caps: AxisCaps, cfg: Any) -> float:

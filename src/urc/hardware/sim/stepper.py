@@ -94,6 +94,28 @@ class StepperAxis:
         self._force_lose = 0
         self._t_s = -math.inf
         self.worst_margin = math.inf
+        #: the translator's microstep state within one electrical turn (4 full steps),
+        #: from its home state (0): the rotor sits where the translator's state puts it
+        #: (after a slip, a whole number of electrical turns off)
+        self.translator_index = 0
+        #: microsteps the rotor moved when a reset translator pulled it to its home state
+        self.snapped_steps = 0
+
+    @property
+    def electrical_turn(self) -> int:
+        return 4 * self.p.microsteps
+
+    def reset_translator(self) -> int:
+        """The translator back at its home state (the motor supply lost on a chip whose
+        logic it feeds, a RESET): with the outputs on again, the rotor is pulled to the
+        nearest position in that state, within half an electrical turn (2 full steps).
+        Returns the microsteps it moved."""
+        turn = self.electrical_turn
+        delta = (-self.translator_index + turn // 2) % turn - turn // 2
+        self.translator_index = 0
+        self.snapped_steps += delta
+        self.angle_deg += delta / self.p.steps_per_deg
+        return delta
 
     def lose_next_steps(self, n: int) -> None:
         """Fault injection: the next ``n`` steps received slip (a jam, ice, a gust)."""
@@ -107,6 +129,7 @@ class StepperAxis:
             self.steps_lost += n
             self._rate = 0.0
             return
+        self.translator_index = (self.translator_index + direction * n) % self.electrical_turn
         rate = direction / period_s
         gap_s = t_s - self._t_s
         prev = self._rate if gap_s < 2 * period_s + (n - 1) * period_s + 1e-9 else 0.0   # a pause: from rest
