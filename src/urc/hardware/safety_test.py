@@ -96,7 +96,11 @@ class _Run:
         self.hw.poll(self.now_s())        # (a simulated or emulated chain advances to now)
         before_s = self.now_s()
         on = bool(self.sense.read())
-        return before_s, self.now_s(), on
+        after_s = self.now_s()
+        note = getattr(self.hw, "note_enable", None)
+        if note is not None:              # (the cut resets a step/dir chip's indexer: supply_watch)
+            note(on)
+        return before_s, after_s, on
 
     def toggle(self) -> tuple[float, float]:
         """The heartbeat's next level; the clock before and after the write."""

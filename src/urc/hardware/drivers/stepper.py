@@ -18,7 +18,12 @@ step is lost. The driver knows of losses it causes: the train cut while moving (
 fault's ``force_safe``, closing), the enable taken away mid-move. Those make the
 position *uncertain*: reported once as a driver fault (the guard latches it and stops
 the axis) and kept in ``position_lost`` until the axis is re-referenced (homing on
-the endstop, ``set_reference_deg``). Steps the motor slips under a load it cannot
+the endstop, ``set_reference_deg``). The motor supply lost while urc drives (the safety
+chain's read-back, :mod:`..supply_watch`: ``supply_lost``) is one of those losses, at
+rest too while the chip is enabled: the steps went to a driver without power, and the
+indexer reset. Each time the read-back shows the supply off (the start-up self-test's
+cut included: ``supply_off``) the count's bound ``snap_deg`` widens by
+:data:`SUPPLY_SNAP_FULL_STEPS` full steps, the snap of the reset indexer. Steps the motor slips under a load it cannot
 move are invisible to it; an absolute sensor beside the count (an AS5600 on the axis,
 ``check``) turns them into a fault: the two disagreeing by more than ``check_tol_deg``.
 """
@@ -40,6 +45,10 @@ ENVELOPE_ACCEL_FACTOR = 8.0
 #: the train is queued this far ahead of the tick (in ticks): one late tick does not
 #: leave it empty (an empty queue is a sudden stop at full speed)
 LEAD_TICKS = 2
+#: how far the rotor can snap when the motor supply comes back after a loss: the chip's
+#: indexer went home (its logic runs on that supply), and the rotor moves to the nearest
+#: position of the home state, at most half an electrical turn (4 full steps)
+SUPPLY_SNAP_FULL_STEPS = 2
 
 
 class StepDirMotor:
@@ -85,8 +94,17 @@ class StepDirMotor:
         self._halt = 0
         self._dir_level = True
         self._write_dir(1)
+        #: the chip's outputs on as last written (True where ENABLE is tied on)
+        self.enabled = True
         if self.enable is not None:
             self.enable.write(True)       # holding torque: the worm and the count stay put
+        #: one full step in degrees at the axis (the sensor sets it from its microstep;
+        #: full-step drive until then)
+        self.full_step_deg = 1.0 / self.steps_per_deg
+        #: how far the rotor may be from the count by the indexer resets since the last
+        #: reference (``supply_off``), and how many supply losses the read-back showed
+        self.snap_deg = 0.0
+        self.supply_offs = 0
 
     # ---------------------------------------------------------------- the count
     def steps(self) -> int:
@@ -139,6 +157,7 @@ class StepDirMotor:
                 self.direction = 1 if duty > 0 else -1
             if self.enable is not None:
                 self.enable.write(True)
+                self.enabled = True
             want = duty * self.max_sps
             step = self.accel_sps2 * dt
             rate = self.rate_sps + max(-step, min(step, want - self.rate_sps))
@@ -184,7 +203,7 @@ class StepDirMotor:
             self.pulses.cut()
             return
         if left < 0:
-            raise HardwareError(f"{self.name} motor: the step queue refused {n} pulses (lgpio {left})")
+            raise HardwareError(f"{self.name} motor: the step queue refused {n} pulses (lg status {left})")
         start = max(end, now)
         self._sched.append([sign * n, (high + low) * 1e-6, start])
 
@@ -216,6 +235,7 @@ class StepDirMotor:
             # (whatever the cut raised: the chip disabled and the drive forgotten all the same)
             try:
                 if self.enable is not None:
+                    self.enabled = False  # (before the write: a failed one may have disabled it)
                     self.enable.write(False)
             finally:
                 self._sched.clear()
@@ -230,6 +250,28 @@ class StepDirMotor:
         finally:
             self.closed = True
 
+    def supply_off(self) -> None:
+        """The read-back showed the motor supply off (once per loss; the self-test's
+        cut too): the indexer went home, the rotor snaps up to
+        :data:`SUPPLY_SNAP_FULL_STEPS` full steps when the supply returns."""
+        self.supply_offs += 1
+        self.snap_deg += SUPPLY_SNAP_FULL_STEPS * self.full_step_deg
+
+    def supply_lost(self, why: str) -> None:
+        """The motor supply lost while urc drives (the ``motor_power`` fault, ``why``):
+        a train running or the chip enabled (holding) loses the count. The fault says
+        why, so it is not reported again as this driver's fault."""
+        moving = self.rate_sps != 0.0 or bool(self._sched) or self.pulses.busy()
+        if not (moving or self.enabled):
+            return
+        n = self.steps()
+        already = bool(self.position_lost)
+        self._lose(f"{self.name}: motor supply lost while {'moving' if moving else 'holding'} (at step {n}): "
+                   "the steps went to a driver without power and its indexer reset; the position is "
+                   "uncertain until the axis is homed")
+        if not already:
+            self._reported = self.position_lost
+
     def _lose(self, why: str) -> None:
         if not self.position_lost:
             self.position_lost = why
@@ -243,12 +285,15 @@ class StepDirMotor:
 
     def re_referenced(self) -> None:
         self.position_lost = self._reported = ""
+        self.snap_deg = 0.0
 
     def read_current_a(self) -> float:
         return 0.0
 
     def identify(self) -> str:
         return (f"{self.chip.name} step/dir: {self.rate_sps:+.0f} steps/s, count {self.steps()}"
+                + (f", within +/-{self.snap_deg:.3f} deg after {self.supply_offs} motor-supply "
+                   "loss(es) since the reference" if self.snap_deg else "")
                 + (f", POSITION LOST ({self.position_lost})" if self.position_lost else ""))
 
 
@@ -270,6 +315,7 @@ class StepCountSensor:
         # the gear play between the motor and a sensor on the axis side (the profile's
         # backlash): the two differ by up to it after a reversal, with no step lost
         full_step_deg = microsteps / motor.steps_per_deg
+        motor.full_step_deg = full_step_deg   # (the indexer reset's snap is counted in it)
         self.check_tol_deg = check_tol_deg if check_tol_deg is not None else max(
             4 * full_step_deg, 2 * getattr(getattr(check, "caps", None), "resolution_deg", 0.0)) + backlash_deg
         self._check_offset_deg: float | None = None
