@@ -146,3 +146,12 @@ def test_cli_shows_the_measured_timeout(tmp_path):
                                   "--state-dir", str(tmp_path)])
     assert r.exit_code == 0, r.output
     assert "safety chain: measured timeout 0.22" in r.output and "no problems found" in r.output
+
+
+def test_the_self_tests_cut_widens_the_step_counts_bound(tmp_path):
+    """Review finding 5: the check's self-test drops the steppers' supply, which resets
+    their indexers: up to 2 full steps (1/15 deg on satnogs-v3), said per axis."""
+    cfg, caps, clock, hw = emulated_hw("satnogs-v3", tmp_path, wind=False)
+    n, text = run_check(cfg, caps, clock, hw, move=False)
+    assert n == 0, text
+    assert text.count("step count: the rotor may be up to 0.067 deg from it after 1 motor-supply") == 2, text
