@@ -65,6 +65,12 @@ def test_a_relay_dropping_mid_move_on_a_stepper_is_a_fault_and_loses_the_count(t
         assert "motor supply lost" in lost, axis
     assert "while moving" in rot.hw.axis("az").motor.position_lost
     assert "while holding" in rot.hw.axis("el").motor.position_lost
+    # the train was cut at the trip: no more steps into a driver without its supply
+    az_motor = rot.hw.axis("az").motor
+    count = az_motor.steps()
+    assert not az_motor.pulses.busy()
+    run_virtual(rot, clock, 0.5)
+    assert az_motor.steps() == count
     # the supply back: nothing resumes by itself, and the count stays untrusted
     world.clear("chain", "contact_open")
     s = run_virtual(rot, clock, 5.0)

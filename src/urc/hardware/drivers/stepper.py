@@ -259,8 +259,9 @@ class StepDirMotor:
 
     def supply_lost(self, why: str) -> None:
         """The motor supply lost while urc drives (the ``motor_power`` fault, ``why``):
-        a train running or the chip enabled (holding) loses the count. The fault says
-        why, so it is not reported again as this driver's fault."""
+        a train running or the chip enabled (holding) loses the count, and a running
+        train is cut. The fault says why, so it is not reported again as this driver's
+        fault."""
         moving = self.rate_sps != 0.0 or bool(self._sched) or self.pulses.busy()
         if not (moving or self.enabled):
             return
@@ -271,6 +272,10 @@ class StepDirMotor:
                    "uncertain until the axis is homed")
         if not already:
             self._reported = self.position_lost
+        if moving:
+            # the train cut now: its steps reach no rotor, and a supply back mid-ramp
+            # would give a standing rotor steps at speed
+            self.force_safe()
 
     def _lose(self, why: str) -> None:
         if not self.position_lost:
