@@ -19,11 +19,14 @@ from urc.hardware.parts import MagnetStatus
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 
 
-def emulated_hw(name: str, tmp_path: Path, **sim):
+def emulated_hw(name: str, tmp_path: Path, stepper_driver: str | None = None, **sim):
     cfg = with_emulation(load_config(EXAMPLES / f"{name}.toml"))
-    if sim:
+    if sim or stepper_driver:
         data = cfg.to_dict()
-        data["hardware"]["sim"] = sim
+        if sim:
+            data["hardware"]["sim"] = sim
+        for axis in ("az", "el") if stepper_driver else ():
+            data["hardware"]["gpio"][axis]["stepper_driver"] = stepper_driver
         cfg = type(cfg).from_dict(data)
     caps = settings_from_config(cfg).caps
     clock = VirtualClock(1000.0)
@@ -146,3 +149,12 @@ def test_cli_shows_the_measured_timeout(tmp_path):
                                   "--state-dir", str(tmp_path)])
     assert r.exit_code == 0, r.output
     assert "safety chain: measured timeout 0.22" in r.output and "no problems found" in r.output
+
+
+def test_the_self_tests_cut_widens_the_step_counts_bound(tmp_path):
+    """Review finding 5: the check's self-test drops the steppers' supply, which resets
+    their indexers: up to 2 full steps (1/15 deg on satnogs-v3), said per axis."""
+    cfg, caps, clock, hw = emulated_hw("satnogs-v3", tmp_path, stepper_driver="drv8825", wind=False)
+    n, text = run_check(cfg, caps, clock, hw, move=False)
+    assert n == 0, text
+    assert text.count("step count: the rotor may be up to 0.067 deg from it after 1 motor-supply") == 2, text

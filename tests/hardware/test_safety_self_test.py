@@ -48,7 +48,7 @@ BACKENDS = {"sim": sim_hw, "emulated": emulated_hw}
 #: each fault that keeps the motors powered with the heartbeat stopped, and what the
 #: reason must name
 NEVER_CUTS = {"enable_stuck": "Q stuck high or Q1 failed shorted",
-              "trigger_floating": "a floating trigger",
+              "trigger_floating": "a trigger floating now (the heartbeat wire broken with no 100 kOhm",
               "contact_welded": "a welded relay contact"}
 
 
@@ -92,7 +92,8 @@ def test_a_relay_slow_to_release_fails(backend, tmp_path):
     hw, clock = BACKENDS[backend](tmp_path)
     hw.world.inject("chain", "relay_dropout", delay_s=0.2)
     r = self_test(hw, TIMEOUT_S, MARGIN_S, clock)
-    assert r.ok is False and "a relay slow to release" in r.why, r.why
+    # (the margin named: a release slower by less, a plain diode's tens of ms, passes)
+    assert r.ok is False and "a relay releasing more than 0.05 s late" in r.why, r.why
 
 
 def test_a_chain_that_cuts_too_soon_fails(tmp_path):

@@ -14,7 +14,7 @@ from urc.clock import VirtualClock
 from urc.hardware.drivers.stepper import ENVELOPE_ACCEL_FACTOR, StepCountSensor, StepDirMotor
 from urc.hardware.gpio.emulate_stepdir import LG_BAD_PWM_MICROS, EmulatedStepDirChip, EmulatedTxQueue, LgError
 from urc.hardware.gpio.pins import PinOut
-from urc.hardware.gpio.stepdir import STEPDIR_CHIPS
+from urc.hardware.gpio.stepdir import LG_ERROR_TEXT, LG_TX_BUF, STEPDIR_CHIPS, LgpioStepPulses, lg_error_code
 from urc.hardware.sim.stepper import StepperAxis, satnogs_v3_stepper
 from urc.profiles import PROFILES
 
@@ -56,7 +56,6 @@ class FakeLg(types.ModuleType):
 
 
 def test_lg_cut_at_rest_does_not_raise_and_leaves_the_pin_low(monkeypatch):
-    from urc.hardware.gpio.stepdir import LgpioStepPulses
     lg = FakeLg()
     monkeypatch.setitem(sys.modules, "lgpio", lg)
     pulses = LgpioStepPulses(types.SimpleNamespace(_handle=1), 17)
@@ -73,7 +72,8 @@ def test_the_emulated_queue_refuses_a_stop_at_rest_as_lg_does():
     assert LG_BAD_PWM_MICROS == -86                # lgpio.h:2960
     with pytest.raises(LgError) as err:
         q.tx_pulse(0, 0, 0)
-    assert err.value.code == -86
+    assert err.value.value == "bad PWM micros"    # the text only, as lgpio.error
+    assert lg_error_code(err.value) == -86
     q.cut()                                        # the driver's cut asks only while busy
     assert q.queue(156, 156, 5) == 9 and q.busy()
     q.cut()
@@ -105,7 +105,7 @@ class CutRaises(EmulatedTxQueue):
     """A cut that fails (lg's -86 as the old cut met it at rest)."""
 
     def cut(self):
-        raise LgError(LG_BAD_PWM_MICROS)
+        raise LgError("bad PWM micros")
 
 
 def test_force_safe_disables_the_chip_even_when_the_cut_raises():
@@ -203,3 +203,34 @@ def test_the_built_satnogs_axis_uses_its_microstep(tmp_path):
         assert sensor.check_tol_deg == pytest.approx(4 * 16 / 240 + rot.caps.az.backlash_deg)
     finally:
         rot.hw.close()
+
+
+def test_a_refused_queue_gives_lgs_code_from_the_text_lgpio_raises(monkeypatch):
+    """Review finding 3: lgpio's _u2i raises error(error_text(status)), the text only,
+    so the old queue() returned -1 for a full queue, not LG_TX_QUEUE_FULL -96. The
+    emulation's LgError carried the int and hid it; now it carries the text too."""
+    lgpio = pytest.importorskip("lgpio")
+    for code, text in LG_ERROR_TEXT.items():
+        assert lgpio.error_text(code) == text
+    real = lgpio.error(lgpio.error_text(-96))           # what lgpio raises for a full queue
+    assert real.value == "TX queue full" and real.args == ("TX queue full",)
+
+    def tx_pulse(*a):
+        raise real
+
+    fake = types.SimpleNamespace(error=lgpio.error, error_text=lgpio.error_text, TX_PWM=lgpio.TX_PWM,
+                                 gpio_claim_output=lambda *a: 0, tx_pulse=tx_pulse)
+    monkeypatch.setitem(sys.modules, "lgpio", fake)
+    pulses = LgpioStepPulses(types.SimpleNamespace(_handle=1), 17)
+    assert pulses.queue(100, 100, 5) == -96
+    fake.tx_pulse = lambda *a: (_ for _ in ()).throw(lgpio.error("some other text"))
+    assert pulses.queue(100, 100, 5) == -1
+    # the emulation raises the same shape, and its queue maps it back the same way
+    q = EmulatedTxQueue(VirtualClock().now_s, lambda *a: None)
+    for _ in range(LG_TX_BUF):
+        q.tx_pulse(156, 156, 1000)
+    with pytest.raises(LgError) as err:
+        q.tx_pulse(156, 156, 1000)
+    assert err.value.value == real.value and str(err.value) == str(real) and err.value.args == real.args
+    assert not hasattr(err.value, "code")
+    assert q.queue(156, 156, 1000) == -96

@@ -43,7 +43,7 @@ class Rig:
                                   self.clock.now_s, steps_per_deg=STEPS_PER_DEG,
                                   max_rate_deg_per_s=SATNOGS.max_rate_deg_per_s,
                                   max_accel_deg_per_s2=ENVELOPE_ACCEL_FACTOR * SATNOGS.accel_deg_per_s2)
-        self.motor.supply_on = lambda: self.supply
+        self._supply_was = True
         self.sensor = StepCountSensor(SensorCaps(kind="encoder", resolution_deg=1 / 240, absolute=False), "az",
                                       self.motor)
         self.sensor.set_reference_deg(0.0)
@@ -53,6 +53,9 @@ class Rig:
         self.clock.advance(dt)
         self.queue.advance()
         self.chip.poll_power()
+        if self._supply_was and not self.supply:   # (urc.hardware.supply_watch: each OFF episode)
+            self.motor.supply_off()
+        self._supply_was = self.supply
         self.motor.driver_fault()
 
     def move_then_rest(self, seconds: float) -> None:
@@ -124,7 +127,7 @@ def test_a_supply_cut_while_stepping_loses_the_position():
         rig.tick(0.5)
     rig.supply = False
     rig.tick(0.5)
-    assert "motor supply was cut while stepping" in rig.motor.position_lost
+    assert "motor supply lost while moving" in rig.motor.position_lost
 
 
 def test_the_model_snaps_within_half_an_electrical_turn():

@@ -24,7 +24,9 @@ RANGE_MARGIN_DEG = 10.0
 class Fault:
     kind: str  # stall, runaway, sensor_stuck, sensor_jump, sensor_range, sensor_dead,
     #            limit_switch, overcurrent, watchdog, state, power_fail, control (the
-    #            control process silent or gone: shown by urc run's I/O process)
+    #            control process silent or gone: shown by urc run's I/O process),
+    #            driver, safety_chain, motor_power (the chain's read-back OFF while
+    #            the heartbeat runs: urc.hardware.supply_watch)
     axis: str | None
     reason: str
     t_s: float

@@ -84,6 +84,10 @@ def check(hw: Any, caps: Any, *, gpio: Any = None, move: bool = False, jog_duty:
             out(f"  sensor: PROBLEM {err}")
         else:
             out(f"  sensor reads {v:.2f} deg")
+        if getattr(motor, "position_bound_deg", 0.0):     # (a step count: the chain's cut reset its indexer)
+            out(f"  step count: the rotor may be up to {motor.position_bound_deg:.3f} deg from it after "
+                f"{motor.supply_offs} motor-supply loss(es) seen on the read-back (the self-test's cut "
+                f"included): each resets the {motor.chip.name}'s indexer, 2 full steps; homing clears it")
         problems += _limits(name, ax, out)
         if ax.brake is not None:
             out(f"  brake: {'released' if ax.brake.is_released() else 'engaged'}")

@@ -20,6 +20,7 @@ if TYPE_CHECKING:  # the backends' own types, named for readers and mypy only
     from .fram import FramStore
     from .gpio import GpioParts, PowerFailInput
     from .sim.world import SimWorld
+    from .supply_watch import SupplyWatch
 
 log = logging.getLogger(__name__)
 
@@ -189,6 +190,9 @@ class Hardware:
     gpio: GpioParts | None = None
     #: the bridge backend's client and link to the controller
     bridge: BridgeLink | None = None
+    #: the read-back watched on every tick (:class:`.supply_watch.SupplyWatch`): made on
+    #: first use where there is a chain (``motor_enable_timeout_s``) and a read-back
+    supply_watch: SupplyWatch | None = None
 
     def axis(self, name: str) -> AxisHardware:
         if name == "az":
@@ -225,6 +229,41 @@ class Hardware:
     def poll(self, now_s: float) -> None:
         if self.poll_hook is not None:
             self.poll_hook(now_s)
+
+    def beat(self, level: bool, now_s: float) -> None:
+        """The tick's heartbeat write, then one read of the safety chain's read-back
+        (:mod:`.supply_watch`: motor power lost while the heartbeat runs is a fault).
+        A failed write is logged only: the external chain sees it."""
+        if self.heartbeat is None:
+            return
+        try:
+            self.heartbeat.write(level)
+        except Exception as exc:
+            log.debug("heartbeat write failed: %s", exc)
+        watch = self.watch()
+        if watch is not None:   # (after a failed write too: meant, and the chain drops on it)
+            watch.beat(level, now_s)
+
+    def watch(self) -> SupplyWatch | None:
+        """The read-back's watch, or None without a chain and a read-back."""
+        if self.supply_watch is None and self.enable_sense is not None and self.motor_enable_timeout_s is not None:
+            from .supply_watch import SupplyWatch
+            self.supply_watch = SupplyWatch(self.enable_sense, self.motor_enable_timeout_s, self._motors)
+        return self.supply_watch
+
+    def _motors(self) -> list[Motor]:
+        return [ax.motor for ax in (self.az, self.el) if ax is not None]
+
+    def note_enable(self, on: bool) -> None:
+        """A reading of the read-back taken elsewhere (the start-up self-test)."""
+        watch = self.watch()
+        if watch is not None:
+            watch.observe(on)
+
+    def motor_power_fault(self) -> str:
+        """Why the motors lost their supply while urc drives ('' if they did not): the
+        guard latches it as a ``motor_power`` fault."""
+        return self.supply_watch.take_fault() if self.supply_watch is not None else ""
 
     def sim_truth(self) -> dict[str, Any] | None:
         return self.truth_hook() if self.truth_hook is not None else None

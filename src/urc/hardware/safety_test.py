@@ -1,6 +1,11 @@
 """The safety chain's start-up self-test: stop the heartbeat, see the enable fall within
 the timeout, re-arm (issue 35).
 
+What it cannot see (docs/hardware.md): a missing pull-down on +TR (the test drives the
+heartbeat line, so +TR does not float then; a commissioning check with the line
+undriven shows it), and a relay slow to release by less than the margin (a plain diode
+across its coil: tens of ms).
+
 The chain (docs/hardware.md "Safety chain") is only worth something if it cuts: a Q
 stuck high or a Q1 failed shorted, a trigger floating in mains hum (hum is edges) and a
 welded relay contact all leave the motors powered with nothing in control, and none of
@@ -96,7 +101,11 @@ class _Run:
         self.hw.poll(self.now_s())        # (a simulated or emulated chain advances to now)
         before_s = self.now_s()
         on = bool(self.sense.read())
-        return before_s, self.now_s(), on
+        after_s = self.now_s()
+        note = getattr(self.hw, "note_enable", None)
+        if note is not None:              # (the cut resets a step/dir chip's indexer: supply_watch)
+            note(on)
+        return before_s, after_s, on
 
     def toggle(self) -> tuple[float, float]:
         """The heartbeat's next level; the clock before and after the write."""
@@ -150,9 +159,10 @@ class _Run:
                 return SelfTestResult(False, None, (
                     f"{self.what} still showed the enable on {t_s - edge_s:.3f} s after the heartbeat stopped "
                     f"(it must fall within {window}): the chain does not cut. Look for Q stuck high or Q1 "
-                    "failed shorted, a floating trigger (the 100 kOhm from +TR to GND, the heartbeat wire: hum "
-                    "retriggers it)" + (", a welded relay contact, a relay slow to release (a plain diode "
-                                        "across its coil)" if self.what != "Q" else "")))
+                    "failed shorted, a trigger floating now (the heartbeat wire broken with no 100 kOhm from "
+                    "+TR to GND: hum retriggers it)" + (", a welded relay contact, a relay releasing more than "
+                                                       f"{m:g} s late (a plain diode across its coil)"
+                                                       if self.what != "Q" else "")))
             self.sleep(self.poll_s)
         # it fell before this reading ended, and after the last reading that saw it on:
         # "too soon" only if even the latest it can have fallen is too soon

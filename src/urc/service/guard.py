@@ -40,6 +40,15 @@ def driver_fault(axis: str, motor: Any, now_s: float) -> Fault | None:
     return Fault("driver", axis, reason, now_s) if reason else None
 
 
+def motor_power_fault(hw: Any, now_s: float) -> Fault | None:
+    """The safety chain's read-back OFF while the heartbeat runs (the hardware's watch,
+    read after each heartbeat write: urc.hardware.supply_watch): the motors have no
+    supply while urc drives them."""
+    read = getattr(hw, "motor_power_fault", None)
+    reason = read() if read is not None else ""
+    return Fault("motor_power", None, reason, now_s) if reason else None
+
+
 class Guard:
     def __init__(self, core: Core, timing: LoopTiming):
         self.core = core
@@ -106,6 +115,9 @@ class Guard:
                 if fault.kind == "sensor_range" and meas is not None:
                     ax.show_reading(meas)  # the reading, not the wild estimate
                 self.latch(fault)
+        fault = motor_power_fault(self.core.hw, now_s)
+        if fault is not None:
+            self.latch(fault)
 
     def _clear_link_fault(self, ax: Axis, meas: float) -> None:
         """A bridged controller answers again after its link went down (a USB-serial

@@ -157,7 +157,7 @@ class Rotator:
         self._records.persist(now)
         for ax in self.axes.values():
             ax.apply()
-        self._beat()
+        self._beat(now)
         self._status = self._build_status(now)
         return self._status
 
@@ -170,16 +170,15 @@ class Rotator:
             if self._guard.on_stall(self.timing.stall(now, late_s), late_s, now):
                 self._was_held = True
 
-    def _beat(self) -> None:
+    def _beat(self, now_s: float) -> None:
         """Toggle the heartbeat output: a square wave while ticks run, for an external
-        watchdog (charge pump) that cuts motor power when it stops."""
+        watchdog (charge pump) that cuts motor power when it stops. The hardware then
+        reads the chain's read-back (motor power lost while the heartbeat runs: a
+        ``motor_power`` fault at the next tick's sense)."""
         if self.hw.heartbeat is None:
             return
         self._heartbeat = not self._heartbeat
-        try:
-            self.hw.heartbeat.write(self._heartbeat)
-        except Exception as exc:  # a failed heartbeat write is the external watchdog's to see
-            log.debug("heartbeat write failed: %s", exc)
+        self.hw.beat(self._heartbeat, now_s)
 
     # ---------------------------------------------------------------- commands
     def goto(self, az_deg: float, el_deg: float) -> list[Pose]:

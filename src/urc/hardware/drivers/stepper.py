@@ -18,7 +18,14 @@ step is lost. The driver knows of losses it causes: the train cut while moving (
 fault's ``force_safe``, closing), the enable taken away mid-move. Those make the
 position *uncertain*: reported once as a driver fault (the guard latches it and stops
 the axis) and kept in ``position_lost`` until the axis is re-referenced (homing on
-the endstop, ``set_reference_deg``). Steps the motor slips under a load it cannot
+the endstop, ``set_reference_deg``). The motor supply lost while urc drives (the safety
+chain's read-back, :mod:`..supply_watch`: ``supply_lost``) is one of those losses, at
+rest too while the chip is enabled: the steps went to a driver without power, and the
+indexer reset. Each time the read-back shows the supply off (the start-up self-test's
+cut included: ``supply_off``) while stepping, the position is lost; at rest, on a chip
+whose translator the loss resets, the count's bound ``position_bound_deg`` widens by
+``HOME_SNAP_FULL_STEPS`` full steps, the snap of the reset indexer (the axis takes it
+as its uncertainty until homed). Steps the motor slips under a load it cannot
 move are invisible to it; an absolute sensor beside the count (an AS5600 on the axis,
 ``check``) turns them into a fault: the two disagreeing by more than ``check_tol_deg``.
 """
@@ -78,12 +85,9 @@ class StepDirMotor:
         self._done = 0                    # steps of the entries known done
         self.position_lost = ""           # why the count is no longer the position
         #: the count is the position to within this (deg) until re-referenced: a translator
-        #: reset by a motor-supply loss at rest (:meth:`poll_supply`)
+        #: reset by a motor-supply loss at rest (:meth:`supply_off`)
         self.position_bound_deg = 0.0
         self.full_step_deg = microsteps / self.steps_per_deg
-        #: the safety chain's read-back (True: the motor supply is on), when wired
-        self.supply_on: Callable[[], bool] | None = None
-        self._supply = True
         self._reported = ""
         self._lock = threading.Lock()
         self.closed = False
@@ -92,8 +96,12 @@ class StepDirMotor:
         self._halt = 0
         self._dir_level = True
         self._write_dir(1)
+        #: the chip's outputs on as last written (True where ENABLE is tied on)
+        self.enabled = True
         if self.enable is not None:
             self.enable.write(True)       # holding torque: the worm and the count stay put
+        #: how many motor-supply losses the read-back showed since the start (supply_off)
+        self.supply_offs = 0
 
     # ---------------------------------------------------------------- the count
     def steps(self) -> int:
@@ -133,7 +141,6 @@ class StepDirMotor:
         if not math.isfinite(duty):
             raise HardwareError(f"{self.name} motor: drive must be finite, got {duty!r}")
         duty = max(-1.0, min(1.0, duty))
-        self.poll_supply()
         with self._lock:
             if self.closed:
                 raise HardwareError(f"{self.name} motor: closed")
@@ -147,6 +154,7 @@ class StepDirMotor:
                 self.direction = 1 if duty > 0 else -1
             if self.enable is not None:
                 self.enable.write(True)
+                self.enabled = True
             want = duty * self.max_sps
             step = self.accel_sps2 * dt
             rate = self.rate_sps + max(-step, min(step, want - self.rate_sps))
@@ -192,7 +200,7 @@ class StepDirMotor:
             self.pulses.cut()
             return
         if left < 0:
-            raise HardwareError(f"{self.name} motor: the step queue refused {n} pulses (lgpio {left})")
+            raise HardwareError(f"{self.name} motor: the step queue refused {n} pulses (lg status {left})")
         start = max(end, now)
         self._sched.append([sign * n, (high + low) * 1e-6, start])
 
@@ -224,6 +232,7 @@ class StepDirMotor:
             # (whatever the cut raised: the chip disabled and the drive forgotten all the same)
             try:
                 if self.enable is not None:
+                    self.enabled = False  # (before the write: a failed one may have disabled it)
                     self.enable.write(False)
             finally:
                 self._sched.clear()
@@ -238,34 +247,50 @@ class StepDirMotor:
         finally:
             self.closed = True
 
+    def supply_off(self) -> None:
+        """The read-back showed the motor supply off (once per loss, the self-test's cut
+        too; urc.hardware.supply_watch): while stepping, the steps after it are lost
+        (position lost); at rest, on a chip whose translator its loss resets
+        (:attr:`StepDirChip.home_on_motor_supply_loss`: DRV8825, TMC22xx), the rotor snaps
+        to the home state's nearest position when power returns, up to
+        ``HOME_SNAP_FULL_STEPS`` full steps from the count (an A4988 keeps its translator
+        on VDD, and the powered-again coils pull the rotor back where it was)."""
+        self.supply_offs += 1
+        if self.rate_sps != 0.0 or self.pulses.busy():
+            # (said by the stop that cut it — a stall's, or the motor_power fault — not as
+            # this driver's fault too; the count is untrusted from here)
+            self._lose(f"{self.name}: motor supply lost while moving (cut while stepping, at step {self.steps()}): "
+                       "the position is uncertain until the axis is homed")
+            self._reported = self.position_lost
+        elif self.chip.home_on_motor_supply_loss:
+            self.position_bound_deg += HOME_SNAP_FULL_STEPS * self.full_step_deg
+
+    def supply_lost(self, why: str) -> None:
+        """The motor supply lost while urc drives (the ``motor_power`` fault, ``why``):
+        a train running or the chip enabled (holding) loses the count, and a running
+        train is cut. The fault says why, so it is not reported again as this driver's
+        fault."""
+        moving = self.rate_sps != 0.0 or bool(self._sched) or self.pulses.busy()
+        if not (moving or self.enabled):
+            return
+        n = self.steps()
+        already = bool(self.position_lost)
+        self._lose(f"{self.name}: motor supply lost while {'moving' if moving else 'holding'} (at step {n}): "
+                   "the steps went to a driver without power and its indexer reset; the position is "
+                   "uncertain until the axis is homed")
+        if not already:
+            self._reported = self.position_lost
+        if moving:
+            # the train cut now: its steps reach no rotor, and a supply back mid-ramp
+            # would give a standing rotor steps at speed
+            self.force_safe()
+
     def _lose(self, why: str) -> None:
         if not self.position_lost:
             self.position_lost = why
 
-    def poll_supply(self) -> None:
-        """The motor supply (the safety chain's read-back) just lost: while stepping, the
-        steps after it are lost (position lost); at rest, on a chip whose translator its
-        loss resets (:attr:`StepDirChip.home_on_motor_supply_loss`: DRV8825, TMC22xx), the
-        rotor will snap to the home state's nearest position when power returns, up to
-        ``HOME_SNAP_FULL_STEPS`` full steps from the count (an A4988 keeps its translator
-        on VDD, and the powered-again coils pull the rotor back where it was)."""
-        if self.supply_on is None:
-            return
-        try:
-            on = bool(self.supply_on())
-        except Exception:     # (the read-back's own failure is the chain monitor's to report)
-            return
-        if self._supply and not on:
-            if self.rate_sps != 0.0 or self.pulses.busy():
-                self._lose(f"{self.name}: the motor supply was cut while stepping; the position is uncertain "
-                           "until the axis is homed")
-            elif self.chip.home_on_motor_supply_loss:
-                self.position_bound_deg = max(self.position_bound_deg, HOME_SNAP_FULL_STEPS * self.full_step_deg)
-        self._supply = on
-
     def driver_fault(self) -> str:
         """The position loss, once (the guard latches it); '' otherwise."""
-        self.poll_supply()
         if self.position_lost and self._reported != self.position_lost:
             self._reported = self.position_lost
             return self.position_lost
@@ -280,6 +305,8 @@ class StepDirMotor:
 
     def identify(self) -> str:
         return (f"{self.chip.name} step/dir: {self.rate_sps:+.0f} steps/s, count {self.steps()}"
+                + (f", within +/-{self.position_bound_deg:.3f} deg after {self.supply_offs} motor-supply "
+                   "loss(es)" if self.position_bound_deg else "")
                 + (f", POSITION LOST ({self.position_lost})" if self.position_lost else ""))
 
 

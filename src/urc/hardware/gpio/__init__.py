@@ -215,10 +215,6 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
             syncs.append(sense.feed)       # (each poll, and each read between polls)
             sense.feed()
         parts_list.append(("safety chain read-back", sense))
-        for ax_hw in axes.values():        # a stepper's translator may reset with the supply
-            m = getattr(ax_hw.motor, "driver", ax_hw.motor)
-            if hasattr(m, "supply_on"):
-                m.supply_on = sense.read
     hw = Hardware(backend="gpio", az=axes["az"], el=axes.get("el"), heartbeat=heartbeat, parts=parts_list,
                   motor_enable_timeout_s=gpio.motor_enable_timeout_s if gpio.heartbeat_pin is not None else None,
                   enable_sense=sense,

@@ -21,11 +21,9 @@ import math
 from collections import deque
 from typing import Any, Callable
 
-from .stepdir import LG_MIN_PERIOD_US, LG_TX_BUF, StepDirChip
+from .stepdir import (LG_BAD_PWM_MICROS, LG_ERROR_TEXT, LG_MIN_PERIOD_US, LG_TX_BUF, LG_TX_QUEUE_FULL,  # noqa: F401
+                      StepDirChip, lg_error_code)
 
-# joan2937/lg bcccd78, lgpio.h:2960 and :2970
-LG_TX_QUEUE_FULL = -96
-LG_BAD_PWM_MICROS = -86    # a period of lgMinTxDelay or less, or a cut (0, 0) with no train running
 #: lg's thread sleeps this long between passes when no edge is due sooner (lgPthTx.c:61)
 LG_IDLE_WAKE_S = 0.02
 
@@ -42,11 +40,20 @@ def lg_first_edge_s(now_s: float, period_us: int) -> float:
 
 class LgError(Exception):
     """lgpio's ``error`` as its Python raises it for a negative status (``exceptions``
-    is True by default): ``code`` is lg's."""
+    is True by default, ``_u2i``): ``error(error_text(status))``, so ``value`` is the
+    text and no code comes with it (:func:`.stepdir.lg_error_code` maps it back)."""
 
-    def __init__(self, code: int):
-        super().__init__(f"lg error {code}")
-        self.code = code
+    def __init__(self, value: str):
+        super().__init__(value)
+        self.value = value
+
+    def __str__(self) -> str:
+        return repr(self.value)
+
+
+def lg_raise(code: int) -> LgError:
+    """The exception lgpio raises for lg's ``code``."""
+    return LgError(LG_ERROR_TEXT.get(code, f"unknown error {code}"))
 
 
 class EmulatedTxQueue:
@@ -71,9 +78,9 @@ class EmulatedTxQueue:
             self.cuts += 1
             return 0
         if high_us + low_us < LG_MIN_PERIOD_US:
-            raise LgError(LG_BAD_PWM_MICROS)
+            raise lg_raise(LG_BAD_PWM_MICROS)
         if len(self._entries) >= LG_TX_BUF:
-            raise LgError(LG_TX_QUEUE_FULL)
+            raise lg_raise(LG_TX_QUEUE_FULL)
         start = self._entries[-1][3] + self._entries[-1][2] * (self._entries[-1][0] + self._entries[-1][1]) * 1e-6 \
             if self._entries else lg_first_edge_s(self.now_s(), int(high_us) + int(low_us))
         self._entries.append([int(high_us), int(low_us), int(cycles), start])
@@ -92,7 +99,7 @@ class EmulatedTxQueue:
         try:
             return self.tx_pulse(high_us, low_us, cycles)
         except LgError as exc:
-            return exc.code
+            return lg_error_code(exc)
 
     def cut(self) -> None:
         """As :meth:`.stepdir.LgpioStepPulses.cut`: the stop asked only while a train runs."""

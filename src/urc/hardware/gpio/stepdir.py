@@ -68,12 +68,34 @@ if the bench on a Pi shows bursts.
 from __future__ import annotations
 
 import logging
-from typing import Any
+from typing import Any, Callable
 
 from ..drivers.stepdir_chips import (LG_MIN_PERIOD_US, LG_TX_BUF, MAX_LIBRARY_TIMED_HZ, STEPDIR_CHIPS,  # noqa: F401
                                      StepDirChip, pulse_times_us)
 
 log = logging.getLogger(__name__)
+
+# lg's statuses the step train can meet (joan2937/lg bcccd78, lgpio.h:2960, :2970, :2988)
+LG_TX_QUEUE_FULL = -96
+LG_BAD_PWM_MICROS = -86    # a period of lgMinTxDelay or less, or a cut (0, 0) with no train running
+LG_GPIO_NOT_AN_OUTPUT = -104
+#: lgpio's ``error_text`` for each (lgpio 0.2.2.0; tests compare them with the library's)
+LG_ERROR_TEXT = {LG_TX_QUEUE_FULL: "TX queue full", LG_BAD_PWM_MICROS: "bad PWM micros",
+                 LG_GPIO_NOT_AN_OUTPUT: "GPIO not set as an output"}
+
+
+def lg_error_code(exc: BaseException, error_text: Callable[[int], str] | None = None) -> int:
+    """lg's status back from an ``lgpio.error``. lgpio's Python raises
+    ``error(error_text(status))`` (``_u2i``): the exception carries the text only
+    (``.value``), no code. The text is matched with ``error_text(code)`` (lgpio's own,
+    else :data:`LG_ERROR_TEXT`) for the codes above; -1 for any other."""
+    text = getattr(exc, "value", None)
+    if text is None and exc.args:
+        text = exc.args[0]
+    for code, known in LG_ERROR_TEXT.items():
+        if text == (error_text(code) if error_text is not None else known):
+            return code
+    return -1
 
 
 class LgpioStepPulses:
@@ -88,14 +110,14 @@ class LgpioStepPulses:
         lgpio.gpio_claim_output(self.handle, pin, 0)
 
     def queue(self, high_us: int, low_us: int, cycles: int) -> int:
-        """``cycles`` pulses appended; the free entries left (negative: lg's error, e.g.
-        LG_TX_QUEUE_FULL -96: lgpio's Python raises it, the driver reads a code)."""
+        """``cycles`` pulses appended; the free entries left, or lg's status when refused
+        (negative: e.g. LG_TX_QUEUE_FULL -96, mapped back from the text lgpio raises,
+        :func:`lg_error_code`; -1 for a status not known here)."""
         try:
             return int(self._lg.tx_pulse(self.handle, self.pin, high_us, low_us, 0, cycles))
         except self._lg.error as exc:
-            code = getattr(exc, "errno", None) or (exc.args[0] if exc.args and isinstance(exc.args[0], int) else None)
             log.debug("GPIO%d: pulses not queued (%s)", self.pin, exc)
-            return int(code) if isinstance(code, int) and code < 0 else -1
+            return lg_error_code(exc, getattr(self._lg, "error_text", None))
 
     def room(self) -> int:
         return int(self._lg.tx_room(self.handle, self.pin, self._lg.TX_PWM))

@@ -20,7 +20,10 @@ can be shown to catch them: ``enable_stuck`` (Q, or Q1 failed shorted, holds the
 whatever the trigger does), ``trigger_floating`` (+TR cut off from the heartbeat and
 its pull-down: hum retriggers it, the relay never drops), ``relay_dropout`` (delay_s:
 the contact opens that long after Q falls; an edge meanwhile keeps it closed) and
-``contact_welded`` (the contact stays closed). Two points can be read back: Q
+``contact_welded`` (the contact stays closed), and ``contact_open`` (the relay drops
+while Q still drives it: its coil supply sagging, an e-stop in the coil circuit, a loose
+wire; the heartbeat cannot bring it back until the fault is cleared: what the read-back
+watch, :mod:`urc.hardware.supply_watch`, must see). Two points can be read back: Q
 (:meth:`MotorPowerEnable.q_at`) and the contact (:meth:`MotorPowerEnable.powered_at`,
 which is also what the motors get).
 """
@@ -35,7 +38,7 @@ from typing import Any, Callable
 DEFAULT_TIMEOUT_S = 0.22
 
 #: the chain's faults (``SimWorld.inject("chain", kind, ...)``)
-CHAIN_FAULT_KINDS = ("enable_stuck", "trigger_floating", "relay_dropout", "contact_welded")
+CHAIN_FAULT_KINDS = ("enable_stuck", "trigger_floating", "relay_dropout", "contact_welded", "contact_open")
 #: a relay_dropout fault's delay when none is given (a DC relay with a plain diode across
 #: its coil releases in tens of ms; with the documented Zener in a few)
 DEFAULT_DROPOUT_S = 0.03
@@ -139,12 +142,18 @@ class MotorPowerEnable:
             return math.inf
         return -math.inf if self.last_edge_s is None else self.last_edge_s + self.timeout_s
 
+    def held_open(self) -> bool:
+        """The contact is open whatever Q does (the contact_open fault)."""
+        return "contact_open" in self.faults and "contact_welded" not in self.faults
+
     def cut_at_s(self) -> float:
         """Clock time the relay's contact opens (or opened), cutting the power: Q's fall
-        plus the relay's drop-out time; -inf before the first edge, +inf if it never
-        will (Q stuck on, a floating trigger, a welded contact)."""
+        plus the relay's drop-out time; -inf before the first edge or while it is held
+        open, +inf if it never will (Q stuck on, a floating trigger, a welded contact)."""
         if "contact_welded" in self.faults:
             return math.inf
+        if self.held_open():
+            return -math.inf
         q_off_s = self.q_off_at_s()
         return q_off_s + self.dropout_s if math.isfinite(q_off_s) else q_off_s
 
@@ -156,7 +165,11 @@ class MotorPowerEnable:
 
     def powered_at(self, t_s: float) -> bool:
         """The relay's contact closed (motor power on) at clock time ``t_s``."""
-        if "contact_welded" in self.faults or self._q_stuck():
+        if "contact_welded" in self.faults:
+            return True
+        if self.held_open():
+            return False
+        if self._q_stuck():
             return True
         return self.last_edge_s is not None and self.last_edge_s - 1e-9 <= t_s < self.cut_at_s()
 
@@ -165,7 +178,7 @@ class MotorPowerEnable:
         None before the first edge (off), +inf if it never will."""
         if self.cut_at_s() == math.inf:
             return math.inf
-        if self.last_edge_wall_s is None:
+        if self.last_edge_wall_s is None or self.held_open():
             return None
         return self.last_edge_wall_s + self.timeout_s + self.dropout_s
 

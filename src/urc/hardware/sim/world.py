@@ -268,8 +268,11 @@ class SimWorld:
             self.enable.trips += 1
             if self.log is not None:  # (found late after a freeze: when it happened)
                 self.log.event("cut", time.time() - (self.clock.now_s() - at_s))
-            log.warning("simulator: no heartbeat edge for %.3f s: the safety relay cut motor power",
-                        self.enable.timeout_s)
+            if self.enable.held_open():
+                log.warning("simulator: the safety relay dropped with the heartbeat running (contact_open)")
+            else:
+                log.warning("simulator: no heartbeat edge for %.3f s: the safety relay cut motor power",
+                            self.enable.timeout_s)
         if phys.p.has_brake:
             self._schedule_brake(name, False, at_s)
 
@@ -280,6 +283,8 @@ class SimWorld:
         brake coil what its relay asks for."""
         if self._origin_s is not None:
             self.advance_to(now_s)
+        if self.enable is not None and self.enable.held_open():
+            return                        # (the contact_open fault: the coil gets nothing)
         self._power_on(now_s)
 
     def _power_on(self, now_s: float) -> None:
@@ -501,7 +506,7 @@ class SimWorld:
 
         The safety chain's faults go on ``axis="chain"`` (a world with the part):
         ``enable_stuck``, ``trigger_floating``, ``relay_dropout`` (delay_s=0.03),
-        ``contact_welded`` (:mod:`.safety`).
+        ``contact_welded``, ``contact_open`` (:mod:`.safety`).
         """
         if axis == CHAIN:
             self._chain_fault(kind, kw)
