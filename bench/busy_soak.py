@@ -360,7 +360,11 @@ def soak(u, sh: Shared, rng, picks, goto_times, end, lead_s, rates, catalog, rel
         if s is not None:
             last_status = s
             b = beam(s)
-            samples.append((0.5 * (t0 + t1), s["az_deg"], s["el_deg"], b[0], b[1]))
+            # the truth is of the tick that made the status (t_s: CLOCK_MONOTONIC, shared by
+            # every process), not of the request's middle: a slow answer under stress would
+            # count the satellite's motion meanwhile as pointing error
+            t_sample = s["t_s"] + (time.time() - time.monotonic()) if "t_s" in s else 0.5 * (t0 + t1)
+            samples.append((t_sample, s["az_deg"], s["el_deg"], b[0], b[1]))
             for e in s.get("events", []):
                 if e not in events:
                     events.append(e)

@@ -14,6 +14,7 @@ import math
 from dataclasses import dataclass, replace
 from typing import Callable
 
+from ..angles import great_circle_1_deg
 from ..control import law
 from ..control.geometry import wrap360
 from ..control.profile import stopping_distance_deg
@@ -32,6 +33,12 @@ from .snapshot import Status
 class _Command:
     name: str
     apply: Callable[[], None]
+
+
+#: a sky goto this close to where the pass program in flight points now does not replace
+#: it (Commands._agrees_with_program): a client tracking the same satellite with the same
+#: elements asks for the same direction, within its own poll's lag
+PROGRAM_AGREE_DEG = 2.0
 
 
 class Commands:
@@ -130,9 +137,13 @@ class Commands:
         self.submit(name, apply)
 
     def goto(self, az_deg: float, el_deg: float) -> list[tuple[float, float]]:
-        """Point at sky (az, el). Returns the planned mechanical waypoints."""
+        """Point at sky (az, el). Returns the planned mechanical waypoints (a goto that
+        agrees with the pass program flying: that program's pose now, and it flies on)."""
         core = self.core
         self.require_motion_ok(automatic=True)
+        agreed = self._agrees_with_program(az_deg, el_deg)
+        if agreed is not None:
+            return [agreed]
         if "el" not in core.axes:
             el_deg = self.planner.no_el(el_deg)
         route = self.planner.plan(az_deg, el_deg)
@@ -330,6 +341,22 @@ class Commands:
         # process talks; a jog needs its client to ask again
         core.note_stop("health", reason, resumes=motion == "track", command=motion)
         return True
+
+    def _agrees_with_program(self, az_deg: float, el_deg: float) -> tuple[float, float] | None:
+        """A sky goto within PROGRAM_AGREE_DEG of where the pass program in flight points
+        now is what that program does (Gpredict, SatNOGS or a script tracking the same
+        satellite beside urc's own tracker): the program flies on rather than be replaced
+        by a track that is its own copy, late by a client's poll. Its pose now, else None."""
+        core = self.core
+        p = core.program
+        if p is None or core.program_state not in ("prepositioning", "tracking") or \
+                not (math.isfinite(az_deg) and math.isfinite(el_deg)):
+            return None
+        az_m, el_m, _, _ = p.pose_at(core.clock.now_s())
+        sky = core.geometry.to_sky(az_m, el_m)
+        if great_circle_1_deg(wrap360(az_deg), el_deg, *sky) > PROGRAM_AGREE_DEG:
+            return None
+        return (az_m, el_m)
 
     def replace_program(self, by: str) -> None:
         """A motion command replaces a program that is flying (a person wins); a program
