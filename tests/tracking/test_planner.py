@@ -150,3 +150,24 @@ def test_which_profiles_sense_a_flipped_pose():
     tartu = PROFILES["tartu-urc"]
     folded = replace(tartu, el=replace(tartu.el, sensor=replace(tartu.el.sensor, kind="controller", fold_deg=90.0)))
     assert not folded.senses_flipped_pose
+
+
+def test_a_pass_is_planned_for_the_beam_with_a_pointing_model_in_force():
+    """Issue 38: with a pointing model (IA 1.5, IE -0.8, CA 0.6, AN 0.4 deg) the planned
+    mechanical poses put the beam on the track (Geometry.to_sky, the controller's own
+    frame map); the planner used to subtract the offsets only, the beam off by the model."""
+    terms = {"ia": 1.5, "ie": -0.8, "ca": 0.6, "an": 0.4}
+    from urc.control.geometry import POINTING_TERMS
+
+    g = Geometry(0.0, 450.0, 0.0, 90.0, pointing_deg=tuple(terms.get(n, 0.0) for n in POINTING_TERMS))
+    t, s_az, s_el = great_circle_pass(120.0, 60.0, 0.5, 1)
+    up = s_el > 5.0   # (a boresight below the horizon is no pose: the pass above 5 deg)
+    t, s_az, s_el = t[up], s_az[up], s_el[up]
+    lim = AxisLimits(6.0, 10.0)
+    plan = plan_pass(t, s_az, s_el, g, lim, lim, (120.0, 0.0), t[0] - 600.0)
+    beam = np.array([g.to_sky(a, e) for a, e in zip(plan.az_deg, plan.el_deg)])
+    err = [math.degrees(math.acos(min(1.0, math.sin(math.radians(e1)) * math.sin(math.radians(e2))
+                                      + math.cos(math.radians(e1)) * math.cos(math.radians(e2))
+                                      * math.cos(math.radians(a1 - a2)))))
+           for (a1, e1), a2, e2 in zip(beam, s_az, s_el)]
+    assert max(err) < 0.05, max(err)

@@ -419,10 +419,18 @@ def plan_pass(t_s: np.ndarray, sky_az_deg: np.ndarray, sky_el_deg: np.ndarray, g
     elsewhere the unflipped one (a compass on the boom reads a flipped pose 180 deg
     off). ``continuing``: the antenna is on the target already (a long arc planned
     anew): the pose nearest it wins, so that it does not swing to the other side
-    mid-track."""
+    mid-track.
+
+    With a pointing model in force (``geometry.pointing_deg``, issue 38) the track is
+    first taken to the boresight's directions that put the beam on it: the plan, its
+    errors and its ``sky_*`` are in that frame, as the offsets are subtracted after."""
     t = np.asarray(t_s, dtype=float)
     s_az = np.asarray(sky_az_deg, dtype=float) % 360.0
     s_el = np.asarray(sky_el_deg, dtype=float)
+    if geometry.pointing_deg:
+        from ..pointing.model import PointingModel
+
+        s_az, s_el = PointingModel.from_vector(geometry.pointing_deg).mech_from_beam(s_az, s_el)
     if len(t) < 2:
         raise PlanError("a pass needs at least two samples")
     g = geometry

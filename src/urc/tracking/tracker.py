@@ -450,6 +450,7 @@ class Tracker:
         its flip at this moment, the wrap turn nearest its pose."""
         g = self.rot.geometry
         plan_az, plan_el, plan_az_rate, plan_el_rate = arc.pose_at(u)
+        az, el = g.boresight_of(az, el)  # (the beam on (az, el): a pointing model in force)
         if plan_el + g.el_offset_deg > 90.0:
             az, el, el_rate = az + 180.0, 180.0 - el, -el_rate
         az_m, el_m = az - g.az_offset_deg, el - g.el_offset_deg
