@@ -13,7 +13,7 @@ from pathlib import Path
 
 import click
 
-from . import __version__
+from . import __version__, registrations  # noqa: F401  (before any configuration is read: see urc.registrations)
 from .api_client import CLIENT_TIMEOUT_S, DEFAULT_URL, ClientError, base_url, field_name, invalid_fields
 from .api_client import request as api_request
 from .errors import ConfigError, StateFileError
