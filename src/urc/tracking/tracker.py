@@ -25,7 +25,7 @@ import numpy as np
 
 from ..control.geometry import route_time_s
 from ..errors import CommandRejected
-from ..service.program import PassProgram
+from ..service.program import PassProgram, rejoin_aim
 from ..service.settings import FIXED_EL_DEG
 from .elements import ElementSet
 from .passes import Pass, find_passes
@@ -344,12 +344,14 @@ class Tracker:
             return False
         st = self.rot.status()
         here = (st.az.pos_deg, FIXED_EL_DEG if st.el is None else st.el.pos_deg)
-        rates = tuple(lim.max_rate_deg_per_s for lim in self._axis_limits())
-        if g.segment_clear(here, (az_m, el_m), rates) is None:
+        az_lim, el_lim = self._axis_limits()
+        rates = (az_lim.max_rate_deg_per_s, el_lim.max_rate_deg_per_s)
+        pose = (az_m, el_m)
+        aim = rejoin_aim(g, here, pose, rates, (lambda dt_s: plan.pose_at(u + dt_s)[:2]) if plan is not None
+                         else (lambda _dt_s: pose))
+        if aim is None:
             return False
-        if plan is not None:  # aim where the track will be once the route is flown
-            route = g.plan(here, *g.to_sky(az_m, el_m), rates) or [(az_m, el_m)]
-            az_m, el_m, _, _ = plan.pose_at(u + route_time_s([here] + route, rates))
+        az_m, el_m = aim
         route = self.rot.goto_pose(az_m, el_m)
         self._route_until_s = now_s + route_time_s([here] + route, rates) + ROUTE_SLACK_S
         log.info("going round a keep-out zone to az %.1f el %.1f", az_m, el_m)
