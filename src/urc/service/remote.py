@@ -261,11 +261,11 @@ class ControlLink:
         return self._outcome(request, await pending.future)
 
     def _complain(self, request: Request) -> None:
-        """A round trip from the event loop thread outside a bridge blocks every client:
-        a bug in urc (wrap the caller in urc.ipc.bridge), loud in tests."""
+        """A round trip from the event loop thread, neither awaited nor bridged, blocks
+        every client: a bug in urc (await RemoteRotator.call), loud in tests."""
         name = type(request).__name__
         if os.environ.get(STRICT_ENV):
-            raise RuntimeError(f"{name} would block the event loop: call it through urc.ipc.bridge")
+            raise RuntimeError(f"{name} would block the event loop: await it (urc.service.effects.call)")
         if name not in self._complained:
             self._complained.add(name)
             log.error("%s blocks the event loop while it waits for the control process (a bug)", name,

@@ -94,8 +94,8 @@ def router(ctx: WebContext) -> APIRouter:
         """The pot's linearised reading P here (averaged), for a two-point calibration."""
         p = await call(rot, PotUnits(req.axis))
         status = rot.status()  # (the reply's: read with P)
-        return {"ok": True, "axis": req.axis, "p": p,
-                "reading_deg": getattr(status, req.axis).pos_deg + status.offsets.get(req.axis, 0.0)}
+        return PotReading(axis=req.axis, p=p,
+                          reading_deg=getattr(status, req.axis).pos_deg + status.offsets.get(req.axis, 0.0))
 
     @ctl.post("/pot/apply")
     async def pot_apply(req: PotApplyRequest) -> PotApplied:
