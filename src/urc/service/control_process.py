@@ -170,7 +170,7 @@ class ControlServer:
         try:
             self.rot = build_rotator(self.cfg, RealClock(), self.state_dir)
             from ..assembly import settings_from_config
-            self._config_settings = settings_from_config(self.cfg)
+            self._config_settings = settings_from_config(self.cfg, self.state_dir)
             # what the calibration queries need (numpy): imported now, not while ticking
             import urc.service.calibration  # noqa: F401
         except BaseException as exc:
