@@ -316,3 +316,16 @@ def test_the_readme_names_the_refusals_a_failing_disk_gives(bench):
     assert "While writes fail a moving command is refused with HTTP 409 `reason: state`" in said
     assert "whether that fault is latched (its kind `state` in `faults`" in said
     assert "or was cleared by hand" in said
+
+
+def test_urc_run_answers_the_first_goto_after_the_disk_fails_with_409_state(urc_processes):
+    """Issue 36.19 end to end: a real ``urc run`` standing at park, its state dir no longer
+    taking writes (``state.json.tmp`` a directory), answers the next goto on the web API
+    with HTTP 409 ``reason: state``, not ``{"ok": true}``."""
+    u = urc_processes().start()
+    (u.state_dir / "state.json.tmp").mkdir()
+    r = u.post("/api/goto", {"az_deg": 60.0, "el_deg": 40.0})
+    assert r.status_code == 409, r.text
+    assert r.json()["reason"] == "state" and "directory" in r.json()["error"]
+    s = u.wait(lambda s: s["faults"])
+    assert [f["kind"] for f in s["faults"]] == ["state"]
