@@ -23,7 +23,13 @@ Refused, never fitted: saturated samples, no significant peak (noise), a peak be
 beamwidth, too few samples. Signal loss (LOSS_CYCLES refused cycles, or the source
 refusing) falls back to the prediction: shifted by the time offset estimated so far
 (the issue's "applied for the rest of the pass"), no cross-track offset, no scan; an
-acquisition scan is tried again every REACQUIRE_S.
+acquisition search is tried again after REACQUIRE_S.
+
+Acquisition: a satellite whose elements are 30 s off is 15 deg from its prediction in
+mid-pass, beyond a narrow beam's reach, and nothing in the power says which way: one
+acquisition cycle is flown at each time offset along the predicted track (0, +h, -h,
++2h, ... up to MAX_SEARCH_S), where a satellite late or early must be; the first cycle
+whose fit holds locks. A search that finds nothing falls back to the prediction.
 """
 
 from __future__ import annotations
@@ -64,11 +70,14 @@ CROSS_WALK_DEG2_PER_S = 0.002
 #: the noise floor is read before AOS - FLOOR_GUARD_S (a satellite this early is still below)
 FLOOR_GUARD_S = 60.0
 FLOOR_MIN_SAMPLES = 10
-#: refused cycles in a row that make the signal lost; acquisition cycles tried in a row;
-#: then the prediction alone this long before trying again
+#: refused cycles in a row that make the signal lost; then the prediction alone this
+#: long before an acquisition search again
 LOSS_CYCLES = 2
-SEARCH_CYCLES = 3
-REACQUIRE_S = 20.0
+REACQUIRE_S = 30.0
+#: acquisition: one scan cycle at each time offset along the predicted track, 0, +h, -h,
+#: +2h, ... (h: this many beamwidths of the sky motion), up to MAX_SEARCH_S either way
+SEARCH_STEP_FWHM = 0.8
+MAX_SEARCH_S = 90.0
 #: samples a cycle's fit needs
 MIN_SAMPLES = 12
 #: slower than this on the sky (deg/s), no time offset is observable: all goes across
@@ -197,6 +206,9 @@ class StepTrack:
         self._cycle = -1
         self._fails = 0               # refused cycles in a row
         self._retry_u = -math.inf     # lost: the prediction alone until then
+        self._search_k = 0            # the acquisition search's step (0: the estimate itself)
+        self._search_h_s = 0.0
+        self._ref_s = 0.0             # the time offset the program flown this cycle used
         self._last_fit_u = -math.inf
         self.fits = 0
         self.last_refusal = ""
@@ -215,9 +227,8 @@ class StepTrack:
             return None
         if self.state in ("floor", "waiting"):
             self._set_floor()
-            self.state = "searching"
+            self._search(u)
             self._cycle = int(now_s // CYCLE_S)
-            self._fails = 0
             return self._program(now_s, utc_minus_clock_s)
         if self.state != "lost":
             for pose, got in self.reader.poll(status, u):
@@ -229,12 +240,26 @@ class StepTrack:
         if self.state == "lost":
             if u < self._retry_u:
                 return None
-            self.state, self._fails = "searching", 0
+            self._search(u)
             self._samples.clear()
             self._refused.clear()
             return self._program(now_s, utc_minus_clock_s)
         self._estimate(u)
         return self._program(now_s, utc_minus_clock_s)
+
+    def _search(self, u: float) -> None:
+        """Start an acquisition search along the predicted track."""
+        vx, vy = self.pred.rate(u - self.time_offset_s)
+        self.state, self._fails, self._search_k = "searching", 0, 0
+        self._search_h_s = SEARCH_STEP_FWHM * self.fwhm_deg / max(math.hypot(vx, vy), MIN_SKY_RATE_DEG_S)
+
+    @property
+    def search_offset_s(self) -> float:
+        """The time offset tried on top of the estimate in this acquisition cycle."""
+        if self.state != "searching" or self._search_k == 0:
+            return 0.0
+        n = (self._search_k + 1) // 2
+        return n * self._search_h_s * (1.0 if self._search_k % 2 else -1.0)
 
     def _read_floor(self, status: Any, u: float) -> None:
         for _pose, got in self.reader.poll(status, u):
@@ -267,7 +292,7 @@ class StepTrack:
                 why = ", ".join(f"{k} {v}" for k, v in sorted(refused.items())) or "none read"
                 raise ScanRefused("few", f"{len(samples)} usable samples ({why})")
             t, az, el, p = (np.array(c) for c in zip(*samples))
-            paz, pel = self.pred.at(t - self.time_offset_s)
+            paz, pel = self.pred.at(t - self._ref_s)
             dx = _wrap180(az - paz) * np.cos(np.radians(el))
             dy = el - pel
             centre, cov, _a, _a_err = fit_beam(dx, dy, p, fwhm_deg=self.fwhm_deg, floor=self.floor)
@@ -277,7 +302,7 @@ class StepTrack:
         self._update(float(np.mean(t)), centre, cov, u)
 
     def _update(self, t_mid: float, centre: np.ndarray, cov: np.ndarray, u: float) -> None:
-        vx, vy = self.pred.rate(t_mid - self.time_offset_s)
+        vx, vy = self.pred.rate(t_mid - self._ref_s)
         speed = math.hypot(vx, vy)
         dt = max(0.0, u - self._last_fit_u) if math.isfinite(self._last_fit_u) else CYCLE_S
         self._last_fit_u = u
@@ -288,7 +313,7 @@ class StepTrack:
             across_hat = np.array([-along_hat[1], along_hat[0]])
             along, across = float(centre @ along_hat), float(centre @ across_hat)
             # truth(t) = pred(t - T) + along v_hat = pred(t - (T - along / |v|))
-            meas_s, meas_var = self.time_offset_s - along / speed, float(along_hat @ cov @ along_hat) / speed ** 2
+            meas_s, meas_var = self._ref_s - along / speed, float(along_hat @ cov @ along_hat) / speed ** 2
             k = self.time_var_s2 / (self.time_var_s2 + meas_var)
             self.time_offset_s = float(np.clip(self.time_offset_s + k * (meas_s - self.time_offset_s),
                                                -MAX_TIME_OFFSET_S, MAX_TIME_OFFSET_S))
@@ -316,14 +341,17 @@ class StepTrack:
     def _refuse(self, exc: ScanRefused, u: float) -> None:
         self.last_refusal = str(exc)
         self._fails += 1
-        limit = LOSS_CYCLES if self.state == "tracking" else SEARCH_CYCLES
-        if self._fails >= limit:
-            was = self.state
-            self.state, self._retry_u = "lost", u + REACQUIRE_S
-            self.cross_deg = 0.0
-            if was == "tracking" or exc.reason == "saturated":
-                self._say(f"step-track: {self.name} signal lost ({exc}): flying the prediction, time offset "
-                          f"{self.time_offset_s:+.1f} s kept", u)
+        if self.state == "searching" and exc.reason != "saturated":
+            self._search_k += 1
+            if abs(self.search_offset_s) <= MAX_SEARCH_S:
+                return  # the next time offset along the track
+        elif self.state == "tracking" and self._fails < LOSS_CYCLES and exc.reason != "saturated":
+            return
+        was = self.state
+        self.state, self._retry_u, self.cross_deg = "lost", u + REACQUIRE_S, 0.0
+        if was == "tracking" or exc.reason == "saturated":
+            self._say(f"step-track: {self.name} signal lost ({exc}): flying the prediction, time offset "
+                      f"{self.time_offset_s:+.1f} s kept", u)
 
     def upload_refused(self, why: str, u: float) -> None:
         """The control process refused a corrected program: the prediction then."""
@@ -350,9 +378,10 @@ class StepTrack:
         return ACQUIRE_RADIUS_FWHM * self.fwhm_deg if self.state == "searching" else 0.0
 
     def _program(self, now_s: float, utc_minus_clock_s: float) -> PassProgram:
+        self._ref_s = self.time_offset_s + self.search_offset_s
         return build_program(self.plan, self.pred, self.geometry, program_id=self.new_id(), name=self.name,
                              end=self.end, now_s=now_s, utc_minus_clock_s=utc_minus_clock_s,
-                             time_offset_s=self.time_offset_s,
+                             time_offset_s=self._ref_s,
                              cross_deg=self.cross_deg if self.state == "tracking" else 0.0,
                              radius_deg=self.radius_deg)
 
@@ -406,11 +435,15 @@ def build_program(plan: Any, pred: Prediction, geometry: Any, *, program_id: int
     off = utc_minus_clock_s
     plan_t = np.asarray(plan.t_s, dtype=float)
     start = math.floor(now_s / DENSE_S) * DENSE_S - DENSE_S  # (in the past: flown at once, no pre-position)
-    los = float(plan_t[-1]) + time_offset_s - off
+    # (never before the predicted LOS: a search step back in time must not end the pass;
+    # past the plan's end the LOS pose is held)
+    los = float(plan_t[-1]) + max(time_offset_s, 0.0) - off
+    if los <= start + DENSE_S:
+        los = start + 2 * DENSE_S
     dense_end = min(start + DENSE_S + SCAN_AHEAD_S, los) if radius_deg > 0 else start + DENSE_S
     dense = np.arange(start, dense_end, DENSE_S)
-    rest = plan_t + time_offset_s - off
-    rest = rest[rest > dense[-1] + 1e-3]
+    rest = np.append(plan_t + time_offset_s - off, los)
+    rest = np.unique(rest[(rest > dense[-1] + 1e-3) & (rest <= los)])
     t = np.concatenate([dense, rest])
     if len(t) < 2:
         t = np.array([start, max(los, start + DENSE_S)])
