@@ -44,6 +44,9 @@ from ..service.program import PassProgram
 from .fit import FWHM_PER_SIGMA, MIN_SIGNIFICANCE, ScanRefused, _lm
 from .sources import SignalRefused, to_linear
 
+#: step-track in ``urc run`` (TrackingService): off until a config field turns it on
+#: (proposed: ``[pointing] step_track = false``); tests and benches set Tracker.step_track
+ENABLED = False
 #: each scan point is held this long (the program's dense samples are DENSE_S apart)
 DWELL_S = 2.0
 DENSE_S = 0.5
@@ -488,3 +491,17 @@ def factory(fwhm_deg: float, source_for: Callable[[Any], Any], *, floor_db: floa
                          new_id=tracker.new_program_id, end="park" if tracker.park_after_pass else "hold",
                          floor_db=floor_db, ceiling_db=ceiling_db)
     return make
+
+
+def from_config(cfg: Any, station: Any) -> Callable[[Any, Any], StepTrack]:
+    """``Tracker.step_track`` from ``[pointing]``: its source (the simulator's sees the
+    pass's satellite through [hardware.sim] pointing_error), beamwidth and ceiling."""
+    from .procedure import make_source
+    from .simsource import SkySource
+
+    pointing = cfg.pointing
+
+    def source_for(job: Any) -> Any:
+        sky = SkySource.satellite(job.target.elements, station)
+        return make_source(pointing, cfg.hardware.sim.pointing_error, sky, seed=cfg.hardware.sim.seed)
+    return factory(pointing.beamwidth_deg, source_for, ceiling_db=pointing.ceiling_db)

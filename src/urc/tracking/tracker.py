@@ -156,6 +156,8 @@ class Tracker:
 
     def stop_tracking(self) -> None:
         job = self.job
+        if job is not None and job.steptrack is not None:
+            job.steptrack.close()
         if job is not None and job.program_id is not None:
             try:  # (only that program: one the operator loaded since is left alone)
                 self.rot.cancel_program(job.program_id)
@@ -352,6 +354,8 @@ class Tracker:
         """The pass program is over: flown to LOS, or cut short (a stop or another
         command from a client: a person's word, never resumed by itself)."""
         job.state = "done"
+        if job.steptrack is not None:
+            job.steptrack.close()  # (its reader's thread; the status keeps its estimate)
         if why != "done":
             log.warning("pass of %s not flown on: %s", job.target.name, why)
             job.program_id = None  # (nothing to cancel any more)
