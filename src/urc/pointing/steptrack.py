@@ -44,9 +44,6 @@ from ..service.program import PassProgram
 from .fit import FWHM_PER_SIGMA, MIN_SIGNIFICANCE, ScanRefused, _lm
 from .sources import SignalRefused, to_linear
 
-#: step-track in ``urc run`` (TrackingService): off until a config field turns it on
-#: (proposed: ``[pointing] step_track = false``); tests and benches set Tracker.step_track
-ENABLED = False
 #: each scan point is held this long (the program's dense samples are DENSE_S apart)
 DWELL_S = 2.0
 DENSE_S = 0.5

@@ -128,7 +128,7 @@ class RotctldSession:
     def _rejected_code(self, exc: CommandRejected) -> int:
         if exc.reason in ("limit", "keepout"):
             return self._limit_code
-        if exc.reason in ("fault", "uncertain", "local"):
+        if exc.reason in ("fault", "uncertain", "local", "state"):
             return RIG_ERJCTED
         return RIG_EINVAL
 
