@@ -163,6 +163,12 @@ class Client:
         return wait_until(lambda: next((r for r in self.json_on(f"{base}/cmd/result") if r.get("id") == cmd_id),
                                        None), timeout_s, f"result of command {cmd_id!r}")
 
+    def outcome(self, base: str, cmd_id, timeout_s: float = 60.0) -> dict:
+        """The second result of a goto or park: how it ended (urc.mqtt.outcomes)."""
+        return wait_until(lambda: next((r for r in self.json_on(f"{base}/cmd/result")
+                                        if r.get("id") == cmd_id and r.get("state") not in (None, "accepted")),
+                                       None), timeout_s, f"the end of command {cmd_id!r}")
+
     def command(self, base: str, doc: dict, timeout_s: float = 60.0) -> dict:
         self.publish(f"{base}/cmd", json.dumps(doc))
         return self.result(base, doc.get("id"), timeout_s)

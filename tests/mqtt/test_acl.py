@@ -54,7 +54,8 @@ def test_acl_refuses_unauthorised_clients(secured, station, clients):
                                                    "el_deg": 10.0}))
     assert rc == NOT_AUTHORIZED, rc
     # the operator's command, sent after, is answered; the viewer's never was
-    assert op.command(BASE, {"id": "op", "command": "goto", "az_deg": 30.0, "el_deg": 45.0}) == {"id": "op", "ok": True}
+    assert op.command(BASE, {"id": "op", "command": "goto", "az_deg": 30.0, "el_deg": 45.0}) == \
+        {"id": "op", "ok": True, "state": "accepted"}
     assert [r["id"] for r in op.json_on(f"{BASE}/cmd/result")] == ["op"]
     assert u.status()["target_az_deg"] == 30.0
 

@@ -64,7 +64,8 @@ def test_each_command_and_its_result(broker, station, clients):
     u = station("dish", broker.url)
     c = clients(broker.port)
     wait_until(lambda: c.last(f"{BASE}/status"), 60, "a status")
-    assert c.command(BASE, {"id": "g1", "command": "goto", "az_deg": 120.0, "el_deg": 30.0}) == {"id": "g1", "ok": True}
+    assert c.command(BASE, {"id": "g1", "command": "goto", "az_deg": 120.0, "el_deg": 30.0}) == \
+        {"id": "g1", "ok": True, "state": "accepted"}
     s = u.status()
     assert (s["target_az_deg"], s["target_el_deg"]) == (120.0, 30.0)
     wait_until(lambda: (c.last(f"{BASE}/status") or {}).get("state") == "moving", 60, "moving, on MQTT")
@@ -72,11 +73,16 @@ def test_each_command_and_its_result(broker, station, clients):
     u.wait(lambda s: not s["moving"], 60)
     stopped_az = sim_az_deg(u)
     assert abs(stopped_az - 120.0) > 1.0, "stopped before it got there"
+    # the goto's end: one more result, never a silent idle (issue 33)
+    end = c.outcome(BASE, "g1")
+    assert end["ok"] is False and end["state"] == "stopped" and end["kind"] == "person", end
     assert c.command(BASE, {"id": "g2", "command": "goto", "az_deg": 40.0})["ok"]   # azimuth only
     assert u.status()["target_az_deg"] == 40.0
     assert c.command(BASE, {"id": "s-az", "command": "stop", "axis": "az"})["ok"]
     assert c.command(BASE, {"id": "p", "command": "park"})["ok"]
+    assert c.outcome(BASE, "g2")["state"] == "replaced"
     s = u.wait(lambda s: s["parked"], 60)
+    assert c.outcome(BASE, "p") == {"id": "p", "ok": True, "command": "park", "state": "done"}
     wait_until(lambda: (c.last(f"{BASE}/status") or {}).get("state") == "parked", 60, "parked, on MQTT")
     assert c.command(BASE, {"id": "cf", "command": "clear_faults"}) == {"id": "cf", "ok": True}
     # tracking needs a station position: refused here with the reason

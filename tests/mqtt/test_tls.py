@@ -76,7 +76,8 @@ def test_tls_with_a_client_certificate(tls_broker, pki, station, clients):
     c = clients(tls_broker.port, tls=pki)
     wait_until(lambda: c.on("urc/dish/availability") == [b"online"] and c.last("urc/dish/status"), 60,
                "the station over TLS")
-    assert c.command("urc/dish", {"id": "t", "command": "goto", "az_deg": 45.0, "el_deg": 45.0}) == {"id": "t", "ok": True}
+    assert c.command("urc/dish", {"id": "t", "command": "goto", "az_deg": 45.0, "el_deg": 45.0}) == \
+        {"id": "t", "ok": True, "state": "accepted"}
 
 
 def test_tls_without_a_client_certificate_is_refused(tls_broker, pki, station):

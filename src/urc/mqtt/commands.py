@@ -157,6 +157,9 @@ class CommandHandler:
         self.rotator = rotator
         self.tracker = tracker
         self.hub = hub
+        #: told of each accepted goto and park (id, command, sky target or None for park):
+        #: urc.mqtt.outcomes then says how it ended
+        self.on_motion: Any = None
 
     async def handle(self, payload: bytes) -> dict[str, Any]:
         try:
@@ -173,6 +176,10 @@ class CommandHandler:
         except Exception as exc:  # a tracker that cannot plan, a bad element set ...
             log.warning("MQTT %s failed: %s", cmd.command, exc, exc_info=True)
             return {"id": cmd.id, "ok": False, "error": str(exc) or type(exc).__name__, "reason": "failed"}
+        if isinstance(cmd, (Goto, Park)):  # (its end follows as one more result: urc.mqtt.outcomes)
+            if self.on_motion is not None:
+                self.on_motion(cmd.id, cmd.command, None if isinstance(cmd, Park) else (cmd.az_deg, cmd.el_deg))
+            return {"id": cmd.id, "ok": True, "state": "accepted"}
         return {"id": cmd.id, "ok": True}
 
     async def run(self, cmd: Any) -> None:

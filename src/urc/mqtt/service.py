@@ -21,6 +21,7 @@ from typing import Any
 
 from .commands import CommandHandler
 from .config import MqttSection, parse_url
+from .outcomes import MotionOutcomes
 from .connect import make_client
 from .discovery import discovery_messages, removal_messages
 from .telemetry import EventWatcher, StatusGate, status_payload
@@ -63,6 +64,13 @@ class MqttService:
         self.version = version
         self.gate = StatusGate(section.deadband_deg, section.max_rate_hz, section.refresh_s)
         self.watcher = EventWatcher()
+        #: how each accepted goto and park ended, published as one more cmd/result
+        self.outcomes = MotionOutcomes()
+        if handler is not None:
+            handler.on_motion = lambda cmd_id, command, target: self.outcomes.accepted(
+                cmd_id, command, target, self.status(), time.time())
+        #: the connected session's command pipe (None between connections: those ends are lost)
+        self._pipe: _CommandPipe | None = None
         self._down_logged = False
         self._ever_connected = False
 
@@ -157,9 +165,13 @@ class MqttService:
                 p = status_payload(s, self.station, time.time())
                 text = _json(p)
                 events = self.watcher.events(s, p, self.procedure())
+                ends = self.outcomes.update(s, time.time()) if len(self.outcomes) else []
             except Exception:  # a status that cannot be read now: try the next sample
                 log.exception("MQTT: status not built")
-                events, p = [], None
+                events, p, ends = [], None, []
+            for end in ends:
+                if self._pipe is not None:
+                    self._pipe.answer(end)
             for ev in events:
                 await self._publish(client, self.topics.event,
                                     _json({"station": self.station, "t_unix_s": round(time.time(), 2), **ev}), qos=1)
@@ -174,7 +186,7 @@ class MqttService:
         the reader takes every message at once (the broker's queue for urc never
         fills), the runner runs commands one at a time in the order sent (a stop after
         a goto must win), the publisher sends their results."""
-        pipe = _CommandPipe()
+        pipe = self._pipe = _CommandPipe()
         tasks = [asyncio.create_task(self._read_commands(client, pipe), name="mqtt-cmd-read"),
                  asyncio.create_task(self._run_commands(pipe), name="mqtt-cmd-run"),
                  asyncio.create_task(self._publish_results(client, pipe), name="mqtt-cmd-results")]
