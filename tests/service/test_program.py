@@ -52,3 +52,4 @@ def test_a_goto_elsewhere_replaces_the_program():
     rot.goto(200.0, 60.0)
     s = run_virtual(rot, clock, 1.0)
     assert s.program is None and s.program_end["why"] == "replaced by goto"
+

@@ -403,6 +403,11 @@ class Commands:
                 continue
             if not math.isfinite(v):
                 raise CommandRejected(f"{name} {v!r} is not a finite number")
+        if g.pointing_deg:  # (the values say where the beam points: the boresight's are set)
+            values = self._boresight_values(values)
+        for name, v in values.items():
+            if v is None:
+                continue
             lo, hi = core.axes[name].limits
             off = g.az_offset_deg if name == "az" else g.el_offset_deg
             if not lo - 1e-9 <= v - off <= hi + 1e-9:
@@ -417,6 +422,23 @@ class Commands:
                 self.rereference(core.axes[name], v - off)
                 core.event(f"{name} re-referenced to {v:.2f} deg")
         self.submit("set_position", apply)
+
+    def _boresight_values(self, values: dict[str, float | None]) -> dict[str, float | None]:
+        """Declared beam directions (a pointing model in force) as the boresight's: the
+        axis not given keeps where the beam points now; the azimuth keeps its wrap turn.
+        A flipped elevation (past 90) names a mechanical pose: taken as it is."""
+        st = self.status()
+        az = values["az"] if values["az"] is not None else st.az_deg
+        el = values.get("el") if values.get("el") is not None else st.el_deg
+        if az is None or el is None or not 0.0 <= el <= 90.0:
+            return values
+        b_az, b_el = self.core.geometry.boresight_of(wrap360(az), el)
+        out = dict(values)
+        if values["az"] is not None:
+            out["az"] = values["az"] + ((b_az - wrap360(az) + 180.0) % 360.0 - 180.0)
+        if values.get("el") is not None:
+            out["el"] = b_el
+        return out
 
     def adopt_sensor_reading(self, axis: str, local: bool = False, reread: bool = True) -> float:
         """An absolute sensor's constants were just changed (a G4JNT zero offset Z, a
