@@ -193,9 +193,10 @@ def one_run(machine: str, part: bool, event: str, workdir: Path) -> dict:
         az = s["simulator_truth"]["az"]["deg"]
         lo, hi = caps.az.min_deg, caps.az.max_deg
         target = hi - 5.0 if az - lo < hi - az else lo + 5.0
-        if event == "io_stop_10s":
-            # (a silent I/O process stops open-ended motion only: a goto flies on to its
-            # end since issue 33, so the rule is measured on a jog)
+        if event in ("io_stop_10s", "io_kill9"):
+            # (a silent or dead I/O process stops open-ended motion only: a goto flies on
+            # to its end since issue 33 (after a kill -9, to be taken over by the next urc
+            # run), so the rule is measured on a jog)
             r = u.post("/api/move", {"axis": "az", "direction": 1 if target > az else -1})
         else:
             r = u.post("/api/goto", {"az_deg": target, "el_deg": s["el_deg"]})
