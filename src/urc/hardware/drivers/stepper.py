@@ -87,6 +87,7 @@ class StepDirMotor:
         #: the count is the position to within this (deg) until re-referenced: a translator
         #: reset by a motor-supply loss at rest (:meth:`supply_off`)
         self.position_bound_deg = 0.0
+        self.microsteps = int(microsteps)
         self.full_step_deg = microsteps / self.steps_per_deg
         self._reported = ""
         self._lock = threading.Lock()
