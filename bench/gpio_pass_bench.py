@@ -15,6 +15,7 @@ from pathlib import Path
 
 from bench_report import write_json
 
+import urc.registrations  # noqa: F401  (the configuration's owners' checks, before load_config)
 from urc.config import load_config
 from urc.tracking.elements import load_elements
 from urc.testing.evaluate import fly_pass_on_sim

@@ -9,8 +9,13 @@ in beamwidths), the share of scans refused (no significant peak) and the median 
 uncertainty. The beam and the noise are simulated without the control loop (the test
 suite flies scans on the simulated rotator: tests/pointing/test_scan_sim.py); with
 ``--model``, also the residual of a pointing-model fit from N scans of the 3 deg beam.
+With ``--steptrack``, the step-track row: the ISS (tests' fixture elements) flown on the
+simulated rotator (virtual clock) with its elements shifted 30 s along track, the power
+from the true satellite: the true beam's error from AOS + 30 s to LOS with step-track
+and with the prediction alone, and the time offset found (truth -30 s); ``--quick``
+flies the 10 deg beam only.
 Prints a table, writes JSON (default bench/results/pointing.json).
-Usage: python bench/pointing_bench.py [--quick] [--samples N] [--model] [--json PATH]
+Usage: python bench/pointing_bench.py [--quick] [--samples N] [--model] [--steptrack] [--json PATH]
 """
 
 from __future__ import annotations
@@ -99,11 +104,48 @@ def model_rows(n_list, trials, samples):
     return rows
 
 
+def steptrack_rows(beamwidths, snrs):
+    import tempfile
+    from pathlib import Path
+
+    from urc.testing.steptrack_flight import fly_steptrack_pass, shifted_elements
+    from urc.tracking.elements import load_elements
+    from urc.tracking.passes import find_passes
+    from urc.tracking.station import Station
+
+    fixtures = Path(__file__).resolve().parent.parent / "tests" / "tracking" / "fixtures"
+    t0 = 1704110400.0  # 2024-01-01T12:00Z, as the tracking tests
+    station = Station(58.3780, 26.7290, 70.0, "Tartu")
+    es = next(s for s in load_elements(fixtures / "leo.tle") if s.norad_id == 25544)
+    wrong = shifted_elements(es, 30.0)
+    p = max(find_passes(wrong, station, t0, duration_s=86400, min_el_deg=0), key=lambda q: q.max_el_deg)
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for i, w in enumerate(beamwidths):
+            alone = fly_steptrack_pass(es, wrong, station, p, Path(tmp) / f"a{i}", fwhm_deg=w, snr_db=10.0,
+                                       step_track=False)
+            after = alone.t_unix_s >= p.aos_unix_s + 30.0
+            base = alone.error_deg[after]
+            for j, snr in enumerate(snrs):
+                f = fly_steptrack_pass(es, wrong, station, p, Path(tmp) / f"s{i}{j}", fwhm_deg=w, snr_db=snr, seed=j + 1)
+                e = f.error_deg[f.t_unix_s >= p.aos_unix_s + 30.0]
+                st = (f.tracker_status or {}).get("step_track") or {}
+                rows.append({"fwhm_deg": w, "snr_db": snr, "max_el_deg": round(p.max_el_deg, 1),
+                             "rms_deg": float(np.sqrt(np.mean(e ** 2))), "p95_deg": float(np.percentile(e, 95)),
+                             "within_quarter_pct": float(100 * np.mean(e <= w / 4)),
+                             "prediction_rms_deg": float(np.sqrt(np.mean(base ** 2))),
+                             "prediction_within_quarter_pct": float(100 * np.mean(base <= w / 4)),
+                             "time_offset_s": f.time_offset_s, "time_offset_err_s": f.time_offset_err_s,
+                             "fits": st.get("fits"), "programs": f.programs})
+    return rows
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="20 scans per cell (else 200)")
     ap.add_argument("--samples", type=int, default=5, help="readings averaged per scan point")
     ap.add_argument("--model", action="store_true", help="also the pointing-model fit from N scans")
+    ap.add_argument("--steptrack", action="store_true", help="also step-track against the prediction alone")
     ap.add_argument("--json", default="bench/results/pointing.json")
     args = ap.parse_args()
     trials = 20 if args.quick else 200
@@ -128,6 +170,19 @@ def main() -> None:
         for r in mrows:
             print(f"{r['scans']:5d} {r['fit_residual_rms_deg']:18.4f} {r['corrected_pointing_rms_deg']:18.4f}")
         out["model"] = mrows
+    if args.steptrack:
+        srows = steptrack_rows((10.0,) if args.quick else (30.0, 10.0, 3.0), (3.0, 10.0, 30.0))
+        print("\nstep-track: ISS, elements 30 s off along track (time offset -30 s), error from AOS+30 s to LOS")
+        print(f"{'FWHM deg':>8} {'SNR dB':>6} {'RMS deg':>8} {'p95 deg':>8} {'<FWHM/4':>8} {'pred RMS':>8} "
+              f"{'pred <FWHM/4':>12} {'dt s':>7} {'+-':>5} {'fits':>4}")
+        for r in srows:
+            dt = r["time_offset_s"]
+            print(f"{r['fwhm_deg']:8g} {r['snr_db']:6g} {r['rms_deg']:8.3f} {r['p95_deg']:8.3f} "
+                  f"{r['within_quarter_pct']:7.1f}% {r['prediction_rms_deg']:8.3f} "
+                  f"{r['prediction_within_quarter_pct']:11.1f}% "
+                  + (f"{dt:7.2f} {r['time_offset_err_s']:5.2f} {r['fits']:4d}" if dt is not None else
+                     f"{'-':>7} {'-':>5} {'-':>4}"))
+        out["steptrack"] = srows
     out["wall_s"] = round(time.perf_counter() - t0, 2)
     print(f"\n{out['wall_s']} s")
     write_json(out, args.json)

@@ -11,6 +11,7 @@ from typing import Callable
 
 import pytest
 
+import urc.registrations  # noqa: F401  (the configuration's checks, before any test reads one)
 from urc.assembly import build_rotator
 from urc.clock import VirtualClock
 from urc.config import Config

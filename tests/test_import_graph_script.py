@@ -40,3 +40,22 @@ def test_a_cycle_and_its_shortest_round_trip():
 def test_every_urc_package_has_a_layer():
     for module in graph_script.graph():
         graph_script.layer_of(graph_script.package_of(module))
+
+
+def test_no_module_cycle_counting_every_import():
+    """Issue 34: not even an import for the type checker or inside a function closes a
+    cycle (there were three: sim drives <-> world, hardware.interfaces <-> the backends,
+    urc.config -> its checks -> the backends' and the panel's checks -> urc.config)."""
+    edges = graph_script.graph()
+    found = [graph_script.shortest_loop(edges, c) for c in graph_script.cycles(edges)]
+    assert not found, found
+
+
+def test_config_imports_nothing_above_it():
+    """urc.config's owners (hardware, front panel, MQTT, protocols, pointing) register
+    their checks with it; it names none of them, at any depth of its code."""
+    edges = graph_script.graph()
+    config_row = graph_script.layer_of("urc.config")
+    up = sorted(f"{m} -> {d}" for m, deps in edges.items() if graph_script.package_of(m) == "urc.config"
+                for d in deps if graph_script.layer_of(graph_script.package_of(d)) > config_row)
+    assert not up, up

@@ -45,6 +45,7 @@ def test_the_control_process_imports_no_event_loop(tmp_path):
 
 def test_checking_a_configuration_imports_only_the_backends_it_names(tmp_path):
     run_python("import sys\n"
+               "import urc.registrations\n"
                "from urc.config import loads_config\n"
                "from urc.errors import ConfigError\n"
                "loads_config(\"[hardware]\\nbackend = 'sim'\\n\")\n"
@@ -62,6 +63,7 @@ def test_checking_a_configuration_imports_only_the_backends_it_names(tmp_path):
 
 def test_prepare_takeover_imports_the_configured_backend(tmp_path):
     run_python("import sys\n"
+               "import urc.registrations\n"
                "from urc.config import loads_config\n"
                "from urc.assembly import prepare_takeover\n"
                "assert prepare_takeover(loads_config(\"[hardware]\\nbackend = 'sim'\\n\")) == []\n"

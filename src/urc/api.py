@@ -23,7 +23,8 @@ from . import __version__
 from .config import Config
 from .errors import CalibrationError, CommandRejected, UrcError
 from .ipc import bridge
-from .ipc.messages import HardwareInfo
+from .ipc.messages import ClearFaults, Goto, GotoAz, HardwareInfo, Move, Park, SetPosition, Stop
+from .service.effects import call
 from .service.remote import StopQueued
 from .service import Rotator
 from .servers import loop_lag
@@ -102,8 +103,8 @@ def create_api(rotator: Rotator, cfg: Config, *, config_path: str | os.PathLike 
     async def refused(_request, exc: UrcError) -> JSONResponse:
         return JSONResponse({"ok": False, "error": str(exc), "reason": type(exc).__name__}, status_code=409)
 
-    # Handlers are coroutines on the event loop; a command that waits for the control
-    # process runs bridged (urc.ipc.bridge): it suspends this request, never the loop.
+    # Handlers are coroutines on the event loop; a command awaits the control process
+    # (urc.service.effects.call): it suspends this request, never the loop.
     ctl = APIRouter(dependencies=[Depends(control_allowed)], responses=CONTROL_RESPONSES)
 
     @app.get("/api/status", **documented(StatusDoc))
@@ -115,12 +116,12 @@ def create_api(rotator: Rotator, cfg: Config, *, config_path: str | os.PathLike 
     @ctl.post("/api/goto")
     async def goto(req: GotoRequest) -> Accepted:
         if req.el_deg is None:
-            return Accepted(route=await bridge.run(rotator.goto_az, req.az_deg))
-        return Accepted(route=await bridge.run(rotator.goto, req.az_deg, req.el_deg))
+            return Accepted(route=await call(rotator, GotoAz(req.az_deg)))
+        return Accepted(route=await call(rotator, Goto(req.az_deg, req.el_deg)))
 
     @ctl.post("/api/park")
     async def park() -> Accepted:
-        return Accepted(route=await bridge.run(rotator.park))
+        return Accepted(route=await call(rotator, Park()))
 
     @ctl.post("/api/stop")
     async def stop(req: StopRequest | None = None) -> Accepted:
@@ -128,36 +129,38 @@ def create_api(rotator: Rotator, cfg: Config, *, config_path: str | os.PathLike 
         axis = req.axis if req else None
         accepted = Accepted()
         try:  # the stop goes out first: nothing else may delay it
-            await bridge.run(rotator.stop, axis)
+            await call(rotator, Stop(axis))
         except StopQueued as exc:
             accepted = Accepted(queued=True, note=str(exc))
-        await bridge.run(_stop_everything_else, axis)
+        await hub.release(axis)
+        if axis is None:
+            # (a calibration procedure and the tracker are synchronous code that may wait
+            # for the control process: they still run bridged)
+            await bridge.run(_stop_procedure_and_tracking)
         if axis is None and tracker is not None:
             await hub.refresh_tracking()
         return accepted
 
-    def _stop_everything_else(axis: str | None) -> None:
-        hub.release(axis)
-        if axis is None:
-            if hub.procedure is not None:
-                hub.procedure.cancel()
-            trk_stop = getattr(tracker, "stop", None)
-            if trk_stop is not None:
-                trk_stop()
+    def _stop_procedure_and_tracking() -> None:
+        if hub.procedure is not None:
+            hub.procedure.cancel()
+        trk_stop = getattr(tracker, "stop", None)
+        if trk_stop is not None:
+            trk_stop()
 
     @ctl.post("/api/move")
     async def move(req: MoveRequest) -> Ok:
-        await bridge.run(rotator.move, req.axis, req.direction, req.speed)
+        await call(rotator, Move(req.axis, req.direction, req.speed))
         return Ok()
 
     @ctl.post("/api/set-position")
     async def set_position(req: PositionRequest) -> Ok:
-        await bridge.run(rotator.set_position, req.az_deg, req.el_deg)
+        await call(rotator, SetPosition(req.az_deg, req.el_deg))
         return Ok()
 
     @ctl.post("/api/clear-faults")
     async def clear_faults() -> Ok:
-        await bridge.run(rotator.clear_faults)
+        await call(rotator, ClearFaults())
         return Ok()
 
     app.include_router(ctl)

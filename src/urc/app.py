@@ -184,7 +184,7 @@ async def _serve(cfg: Config, state_dir: Path, config_path: Path | None, api_soc
         raise
     rotator = control.wait_ready()
     if adopted is not None:
-        await _took_over(rotator, cfg, adopted.ready.get("config_settings"))
+        await _took_over(rotator, cfg, state_dir, adopted.ready.get("config_settings"))
 
     def hold_outputs():
         from .assembly import take_outputs
@@ -279,7 +279,7 @@ async def _serve(cfg: Config, state_dir: Path, config_path: Path | None, api_soc
           "(the next start treats the position as uncertain)", flush=True)
 
 
-async def _took_over(rotator, cfg: Config, config_settings) -> None:
+async def _took_over(rotator, cfg: Config, state_dir: Path, config_settings) -> None:
     """Said, and this configuration's settings applied if they are not the ones the
     control process was given (the file changed meanwhile: limits, zones, offsets, speeds;
     applying them ends the motion in flight, as a settings save does)."""
@@ -287,7 +287,7 @@ async def _took_over(rotator, cfg: Config, config_settings) -> None:
 
     print(f"urc: took over the control process (process {rotator.pid}) that flew on after the last urc run "
           "ended", flush=True)
-    settings = settings_from_config(cfg)
+    settings = settings_from_config(cfg, state_dir)
     if settings != config_settings:
         await asyncio.to_thread(rotator.reconfigure, settings)
 

@@ -8,6 +8,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any, cast
 
+from . import registrations  # noqa: F401  (the configuration's owners' checks: see that module)
 from .clock import Clock
 from .config import Config
 from .control.faults import FaultLimits

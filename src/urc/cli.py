@@ -1,8 +1,9 @@
 """The ``urc`` command line.
 
 (Over 600 lines on purpose: one thin click command per verb, each only parsing options
-and printing; the work is in the packages they call. ``passes``, ``tle`` and ``fleet``
-live in their own modules, loaded on use.)
+and printing; the work is in the packages they call. ``passes``, ``tle`` and
+``calibrate`` live in their own modules, loaded on use; ``fleet``'s commands are here, so
+that urc.mqtt imports no command line, and its work is in urc.mqtt.fleet.)
 """
 
 from __future__ import annotations
@@ -10,14 +11,18 @@ from __future__ import annotations
 import os
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import click
 
-from . import __version__
+from . import __version__, registrations  # noqa: F401  (before any configuration is read: see urc.registrations)
 from .api_client import CLIENT_TIMEOUT_S, DEFAULT_URL, ClientError, base_url, field_name, invalid_fields
 from .api_client import request as api_request
 from .errors import ConfigError, StateFileError
 from .status_text import format_tracking, render
+
+if TYPE_CHECKING:
+    from .mqtt.fleet import Target
 
 def _load(config_path: str | None, profile: str | None = None):
     from .config import Config, load_config
@@ -35,8 +40,7 @@ class _LazyGroup(click.Group):
     must not pay for numpy and skyfield (the tracking commands)."""
 
     LAZY = {"passes": "urc.tracking.cli:passes_command", "tle": "urc.tracking.cli:tle_command",
-            "fleet": "urc.mqtt.fleet_cli:fleet_command", "calibrate": "urc.pointing.cli:calibrate_command",
-            "pointing": "urc.pointing.cli:pointing_command"}
+            "calibrate": "urc.pointing.cli:calibrate_command", "pointing": "urc.pointing.cli:pointing_command"}
 
     def list_commands(self, ctx: click.Context) -> list[str]:
         return sorted({*super().list_commands(ctx), *self.LAZY})
@@ -600,6 +604,132 @@ def settings_set(assignments: tuple[str, ...], url: str | None, config_path: str
 
 #: how often ``urc settings set`` loads the settings again when a save came in between
 SETTINGS_TRIES = 3
+
+
+# ---------------------------------------------------------------- fleet (MQTT)
+@main.group("fleet", invoke_without_command=True)
+@click.option("--mqtt", "url", envvar="URC_MQTT_URL", metavar="URL",
+              help="Broker: mqtt://[user:password@]host[:port] or mqtts://... (default: [mqtt] url of --config).")
+@click.option("--config", "config_path", type=click.Path(dir_okay=False),
+              help="Take the broker, user, password and TLS files from this file's [mqtt].")
+@click.option("--user", default=None, help="Broker user name.")
+@click.option("--password", envvar="URC_MQTT_PASSWORD", default=None, help="Broker password (or URC_MQTT_PASSWORD).")
+@click.option("--prefix", default="urc", show_default=True, help="Stations' base topics are PREFIX/<station>.")
+@click.option("--once", is_flag=True, help="Print the table once (after --wait-s) and exit.")
+@click.option("--wait-s", type=click.FloatRange(0.1, 600.0), default=2.0, show_default=True,
+              help="With --once: how long to gather the stations' messages.")
+@click.option("--json", "as_json", is_flag=True, help="With --once: the stations as JSON.")
+@click.pass_context
+def fleet_command(ctx: click.Context, url: str | None, config_path: str | None, user: str | None,
+                  password: str | None, prefix: str, once: bool, wait_s: float, as_json: bool) -> None:
+    """Every urc station on an MQTT broker: name, online, az/el, state, faults, tracking,
+    next pass (live; Ctrl-C ends). With a subcommand: send it to one station, e.g.
+    `urc fleet --mqtt mqtt://broker stop dish`."""
+    from .mqtt.config import parse_url
+    from .mqtt.fleet import Target, show
+
+    auth: dict = {}
+    if config_path is not None:
+        section = _load(config_path).mqtt
+        if section is None:
+            raise click.UsageError(f"{config_path} has no [mqtt] section")
+        url = url or section.url
+        auth = {"username": section.username, "password": section.password, "ca_file": section.ca_file,
+                "cert_file": section.cert_file, "key_file": section.key_file}
+    if not url:
+        raise click.UsageError("which broker? --mqtt URL (or URC_MQTT_URL, or --config with an [mqtt] section)")
+    try:
+        broker = parse_url(url)
+    except ValueError as exc:
+        raise click.BadParameter(f"{url}: {exc}", param_hint="--mqtt") from None
+    if user is not None:
+        auth["username"] = user
+    if password is not None:
+        auth["password"] = password
+    ctx.obj = Target(broker, auth, prefix)
+    if ctx.invoked_subcommand is None:
+        _fleet_run(show(ctx.obj, once, wait_s, as_json, click.echo))
+
+
+def _fleet_run(coro: Any) -> Any:
+    import asyncio
+
+    import aiomqtt
+
+    try:
+        return asyncio.run(coro)
+    except aiomqtt.MqttError as exc:
+        raise click.ClickException(f"MQTT broker: {exc}") from None
+    except KeyboardInterrupt:
+        return None
+
+
+def _fleet_send(target: Target, station: str, command: dict) -> None:
+    from .mqtt.fleet import CommandFailed, send_command
+
+    base = target.base(station)
+    try:
+        result = _fleet_run(send_command(target.broker, base, command, **target.auth))
+    except CommandFailed as exc:
+        raise click.ClickException(str(exc)) from None
+    if result is None:
+        return
+    if not result.get("ok"):
+        raise click.ClickException(f"{base}: {command['command']} refused: {result.get('error')}")
+    click.echo(f"{base}: {command['command']} accepted")
+
+
+@fleet_command.command("stop")
+@click.argument("station")
+@click.option("--axis", type=click.Choice(["az", "el"]), default=None, help="One axis only (default: everything).")
+@click.pass_obj
+def fleet_stop(target: Target, station: str, axis: str | None) -> None:
+    """Stop STATION: tracking, a calibration, both axes (always accepted)."""
+    _fleet_send(target, station, {"command": "stop", **({"axis": axis} if axis else {})})
+
+
+@fleet_command.command("park")
+@click.argument("station")
+@click.pass_obj
+def fleet_park(target: Target, station: str) -> None:
+    """Park STATION."""
+    _fleet_send(target, station, {"command": "park"})
+
+
+@fleet_command.command("goto")
+@click.argument("station")
+@click.argument("az", type=float)
+@click.argument("el", type=float, required=False)
+@click.pass_obj
+def fleet_goto(target: Target, station: str, az: float, el: float | None) -> None:
+    """Point STATION at AZ [EL] degrees."""
+    _fleet_send(target, station, {"command": "goto", "az_deg": az, **({"el_deg": el} if el is not None else {})})
+
+
+@fleet_command.command("clear-faults")
+@click.argument("station")
+@click.pass_obj
+def fleet_clear_faults(target: Target, station: str) -> None:
+    """Clear STATION's latched faults."""
+    _fleet_send(target, station, {"command": "clear_faults"})
+
+
+@fleet_command.command("track")
+@click.argument("station")
+@click.argument("target_name", metavar="TARGET")
+@click.pass_obj
+def fleet_track(target: Target, station: str, target_name: str) -> None:
+    """STATION tracks TARGET: sun, moon, a NORAD id or a satellite's name; `none` stops tracking."""
+    t = target_name.strip()
+    if t.lower() == "none":
+        cmd: dict = {"command": "track_stop"}
+    elif t.lower() in ("sun", "moon"):
+        cmd = {"command": "track", "kind": t.lower()}
+    elif t.isdigit():
+        cmd = {"command": "track", "kind": "satellite", "norad": int(t)}
+    else:
+        cmd = {"command": "track", "kind": "satellite", "name": t}
+    _fleet_send(target, station, cmd)
 
 
 if __name__ == "__main__":  # pragma: no cover

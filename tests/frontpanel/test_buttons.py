@@ -8,6 +8,7 @@ import pytest
 from urc.errors import CommandRejected
 from urc.protocols.tartu import TartuSession
 from urc.protocols.tartu_codec import lcd_rows
+from urc.testing.sessions import fed
 
 
 def test_cw_held_jogs_and_release_stops(panel_rig):
@@ -99,7 +100,7 @@ def test_local_operator_wins_over_protocol_client_until_released(panel_rig):
     rig.press("ccw")
     rig.run(1.0)
     # a protocol client's motion is refused on the wire, with the reason
-    reply = b"".join(tartu.receive(b"GOAZ 200\r\n")).decode()
+    reply = b"".join(fed(tartu, b"GOAZ 200\r\n")).decode()
     assert reply.startswith("ERR") and "local control active" in reply and "CCW button" in reply
     with pytest.raises(CommandRejected) as exc:
         rig.rot.goto(200.0, 10.0)
@@ -117,7 +118,7 @@ def test_local_operator_wins_over_protocol_client_until_released(panel_rig):
     rig.settle()
     assert rig.rot.status().local_control == ()
     # released: the client commands again
-    reply = b"".join(tartu.receive(b"GOAZ 20\r\n")).decode()
+    reply = b"".join(fed(tartu, b"GOAZ 20\r\n")).decode()
     assert reply.strip() == "OK", reply
     st = rig.settle()
     assert abs(st.az.pos_deg - 20.0) < 1.0
@@ -167,10 +168,10 @@ def test_rotctld_client_gets_rejected_while_held(panel_rig):
     rig.settle()
     rotctld = RotctldSession(rig.rot)
     rig.press("up")
-    assert b"".join(rotctld.receive(b"P 150 20\n")) == b"RPRT -9\n"  # RIG_ERJCTED
-    assert b"".join(rotctld.receive(b"S\n")) == b"RPRT 0\n"          # stop: accepted
+    assert b"".join(fed(rotctld, b"P 150 20\n")) == b"RPRT -9\n"  # RIG_ERJCTED
+    assert b"".join(fed(rotctld, b"S\n")) == b"RPRT 0\n"          # stop: accepted
     rig.release("up")
-    assert b"".join(rotctld.receive(b"P 150 20\n")) == b"RPRT 0\n"
+    assert b"".join(fed(rotctld, b"P 150 20\n")) == b"RPRT 0\n"
 
 
 def test_run_panel_carries_pin_callbacks_onto_the_event_loop(bench):
@@ -270,7 +271,7 @@ def test_protocols_refuse_during_a_held_button_and_say_why_where_they_can(panel_
     session = make_session(name, rig.rot)
     rig.press("ccw")
     rig.run(0.5)
-    reply = b"".join(session.receive(line))
+    reply = b"".join(fed(session, line))
     assert says in reply, reply
     rig.release("ccw")
     st = rig.settle()

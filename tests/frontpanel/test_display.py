@@ -7,6 +7,7 @@ import pytest
 
 from urc.frontpanel.lcd import CharLcd, Pcf8574Hd44780
 from urc.protocols.tartu_codec import lcd_rows
+from urc.testing.sessions import fed
 
 
 def test_lcd_20x2_shows_the_tartu_rows(panel_rig):
@@ -73,7 +74,7 @@ def test_tartu_lcdc_sets_the_oled_contrast(panel_rig):
     rig = panel_rig(display=Oled(chip, 0x3C, 128, 64))
     rig.panel.refresh_display()
     assert chip.contrast == 0xCF, "luma's power-on contrast until a client sets one"
-    assert TartuSession(rig.rot).receive(b"LCDC 10\r\n") == [b"OK\r\n"]
+    assert fed(TartuSession(rig.rot), b"LCDC 10\r\n") == [b"OK\r\n"]
     rig.panel.refresh_display()
     assert chip.contrast == round(10 * 255 / 63)
 

@@ -10,6 +10,7 @@ from urc.hardware.bridge import BRIDGE_PROTOCOLS, BridgeClient, ClientOptions, m
 from urc.protocols.registry import PROTOCOLS
 from urc.hardware.bridge.dialects import Reply
 from urc.protocols import spid_codec as spid
+from urc.testing.sessions import fed
 
 #: the protocols urc also serves as a controller (a device session to bridge to); the
 #: SatNOGS firmware's dialect is tested against its own emulation (test_bridge_satnogs.py)
@@ -76,8 +77,8 @@ def test_every_dialect_round_trips_through_urcs_own_codec(protocol):
     session = make_session(protocol, rot)
     d = make_dialect(protocol)
     d.resolution_deg = tuple(min(r, 0.5) for r in d.resolution_deg)
-    session.receive(d.goto(123.0, 45.0).request)
-    session.receive(d.stop().request)
+    fed(session, d.goto(123.0, 45.0).request)
+    fed(session, d.stop().request)
     assert rot.calls[0][:2] == ("goto", 123.0), rot.calls
     assert rot.calls[0][2] == 45.0 or not d.has_el, rot.calls   # Rot1Prog: el keeps its own
     assert rot.calls[-1][0] == "stop", rot.calls

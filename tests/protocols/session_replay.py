@@ -2,6 +2,7 @@
 replay one script through a fresh session cut into pieces in different ways."""
 
 from __future__ import annotations
+from urc.testing.sessions import fed
 
 
 def at(b, az: float, el: float) -> None:
@@ -22,7 +23,7 @@ def replay_splits(bench, cls, script: bytes, cuts: tuple[int, int]) -> list[tupl
         s = cls(b.rot)
         out = []
         for chunk in chunks:
-            out += s.receive(chunk)
+            out += fed(s, chunk)
         b.run(0.5)
         st_ = b.rot.status()
         results.append((out, st_.target_az_deg, st_.target_el_deg))

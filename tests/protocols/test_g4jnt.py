@@ -19,6 +19,7 @@ from urc.protocols import make_session
 from urc.protocols import g4jnt_codec as codec
 from urc.protocols.g4jnt import PULSE_DEG, G4jntSession
 from urc.protocols.g4jnt_codec import G4jntCommand, G4jntSyntaxError
+from urc.testing.sessions import fed, ticked
 
 #: bearing vs truth: the pot's coarsest step (0.9 deg), its noise and the relay's 0.9 deg band
 TRUTH_TOL_DEG = 1.5
@@ -33,7 +34,7 @@ def g4(bench):
 def stream(b: Bench, s: G4jntSession) -> tuple[float, int]:
     """The next stream line, whenever it is due."""
     for _ in range(100):
-        out = s.tick(b.clock.now_s())
+        out = ticked(s, b.clock.now_s())
         if out:                          # (the first tick brings the banner too)
             return codec.parse_stream_line(out[-1])
         b.run(0.02)
@@ -127,7 +128,7 @@ def test_sensor_units_round_trip():
 
 # ======================================================================= session
 def power_on(b: Bench, s: G4jntSession) -> bytes:
-    out = s.tick(b.clock.now_s())
+    out = ticked(s, b.clock.now_s())
     assert len(out) == 2
     return out[0]
 
@@ -137,7 +138,7 @@ def test_power_on_banner_lists_the_rotators_pot_constants(g4):
     k = codec.from_sensor(b.rot.hw.az.sensor.calibration())
     assert power_on(b, s) == codec.banner(k)
     assert k == codec.TABLE_1.with_value("Z", 0)        # the simulated g4jnt is Table 1's pot
-    assert s.tick(b.clock.now_s() + 0.5)[0].startswith(b"b")            # then the stream only
+    assert ticked(s, b.clock.now_s() + 0.5)[0].startswith(b"b")            # then the stream only
 
 
 def turned_deg(a_deg: float, b_deg: float) -> float:
@@ -147,13 +148,13 @@ def turned_deg(a_deg: float, b_deg: float) -> float:
 def test_constants_are_the_rotators_calibration_and_persist(g4, bench):
     b, s = g4
     before = b.rot.status().az_deg
-    assert s.receive(b"#Z50\r") == [b"Z 50\r\n"]
+    assert fed(s, b"#Z50\r") == [b"Z 50\r\n"]
     b.run(0.1)                                  # the rotator applies it at its next tick
     # Z applied to the bearing the rotator reports (nothing moves)
     assert turned_deg(before, b.rot.status().az_deg) == pytest.approx(5.0, abs=0.3)
     assert b.rot.hw.az.sensor.calibration()["Z"] == pytest.approx(5.0, abs=1e-9)  # as sent, in 0.1 deg
     # another connection, then a restart of urc: the same constants
-    assert G4jntSession(b.rot).receive(b"?\r") == [b"Z 50\r\nM -15897\r\nC 3758\r\nK 2048\r\n"]
+    assert fed(G4jntSession(b.rot), b"?\r") == [b"Z 50\r\nM -15897\r\nC 3758\r\nK 2048\r\n"]
     b.run(2.0)
     b2 = b.restart()
     again = G4jntSession(b2.rot)
@@ -165,7 +166,7 @@ def test_z_turns_bearings_not_the_travel(g4):
     """Z is the bearing of the end-stop reference: it moves bearings, never the limits
     (a Z of 350.0 used to be refused as 'outside the 0..360 limits')."""
     b, s = g4
-    assert s.receive(b"#Z3500\r") == [b"Z 3500\r\n"]
+    assert fed(s, b"#Z3500\r") == [b"Z 3500\r\n"]
     b.run(0.1)
     st_ = b.rot.status()
     assert st_.limits["az"] == (-10.0, 370.0) and st_.offsets["az"] == pytest.approx(-10.0)
@@ -178,26 +179,26 @@ def test_z_outside_the_documents_range_is_refused(g4, line):
     were taken modulo 360. Refused, and nothing changes."""
     b, s = g4
     before = (b.rot.status().offsets["az"], b.rot.hw.az.sensor.calibration()["Z"])
-    reply = s.receive(line + b"\r")
+    reply = fed(s, line + b"\r")
     assert len(reply) == 1 and reply[0].startswith(b"? #Z: expected a bearing 0..3599"), reply
     b.run(0.1)
     assert (b.rot.status().offsets["az"], b.rot.hw.az.sensor.calibration()["Z"]) == before
-    assert s.receive(b"?\r")[0].startswith(b"Z 0\r\n")
+    assert fed(s, b"?\r")[0].startswith(b"Z 0\r\n")
 
 
 def test_a_constant_the_rotator_refuses_changes_nothing(g4):
     b, s = g4
     b.rot.hold_local("cw", True)              # a button held at the rotator: remote sets wait
-    reply = s.receive(b"#Z50\r")
+    reply = fed(s, b"#Z50\r")
     assert reply[0].startswith(b"? refused (local)")
     b.rot.hold_local("cw", False)
-    assert s.receive(b"?\r")[0].startswith(b"Z 0\r\n")
+    assert fed(s, b"?\r")[0].startswith(b"Z 0\r\n")
 
 
 def table_1_session(b: Bench) -> G4jntSession:
     """A PC loading Table 1's constants in the document's order, one line each."""
     s = G4jntSession(b.rot)
-    assert s.receive(b"#Z1807\r#M-15897\r#C3758\r") == [b"Z 1807\r\n", b"M -15897\r\n", b"C 3758\r\n"]
+    assert fed(s, b"#Z1807\r#M-15897\r#C3758\r") == [b"Z 1807\r\n", b"M -15897\r\n", b"C 3758\r\n"]
     b.run(0.1)
     return s
 
@@ -221,12 +222,12 @@ def test_table_1_end_to_end(g4):
     # that have two thetas (within 10 deg of the reference): the nearer is taken
     for goal, theta in ((170.0, 349.3), (10.0, 189.3), (59.3, 238.6), (190.0, 369.3), (175.0, 354.3),
                         (185.0, 364.3)):
-        assert s.receive(f"G{goal}\r".encode()) == [f"G{goal:g}\r\n".encode()]
+        assert fed(s, f"G{goal}\r".encode()) == [f"G{goal:g}\r\n".encode()]
         b.settle()
         assert not b.rot.status().faults, b.rot.status().faults
         assert b.truth("az") == pytest.approx(theta, abs=TRUTH_TOL_DEG)
         s._next_s = None
-        line = s.tick(b.clock.now_s())[-1]
+        line = ticked(s, b.clock.now_s())[-1]
         bearing, p = codec.parse_stream_line(line)
         # the stream is Table 1's arithmetic on what the pot reads, and true
         assert line == codec.stream_line(codec.bearing_tenths(p, codec.TABLE_1), p)
@@ -240,7 +241,7 @@ def test_m_and_c_load_one_after_the_other(g4):
     puts theta far outside the travel: it is held, not refused (it used to be '?
     refused (limit)'), and stored with C once the pair fits."""
     b, s = g4
-    s.receive(b"G180\r")
+    fed(s, b"G180\r")
     b.settle()
     sensor = b.rot.hw.az.sensor
     # the controller's constants before: another pot's (theta still inside the travel)
@@ -248,17 +249,17 @@ def test_m_and_c_load_one_after_the_other(g4):
     old = codec.Constants(z=0, m=18432, c=-504)
     calibration.apply_sensor_calibration(b.rot, "az", codec.to_sensor(old))
     b.run(0.1)
-    (held,) = s.receive(b"#M-15897\r")
+    (held,) = fed(s, b"#M-15897\r")
     assert held.startswith(b"M -15897 held: ") and b"outside -10..370" in held
     assert codec.from_sensor(sensor.calibration()) == old                 # nothing stored yet
-    assert s.receive(b"?\r") == [b"Z 0\r\nM 18432\r\nC -504\r\nK 2048\r\nHeld (not stored) - M -15897\r\n"]
-    assert s.receive(b"#C3758\r") == [b"C 3758\r\n"]
+    assert fed(s, b"?\r") == [b"Z 0\r\nM 18432\r\nC -504\r\nK 2048\r\nHeld (not stored) - M -15897\r\n"]
+    assert fed(s, b"#C3758\r") == [b"C 3758\r\n"]
     b.run(0.1)
     assert codec.from_sensor(sensor.calibration()) == codec.TABLE_1.with_value("Z", 0)
     assert b.rot.status().az.pos_deg == pytest.approx(b.truth("az"), abs=TRUTH_TOL_DEG)
-    assert s.receive(b"?\r") == [b"Z 0\r\nM -15897\r\nC 3758\r\nK 2048\r\n"]
+    assert fed(s, b"?\r") == [b"Z 0\r\nM -15897\r\nC 3758\r\nK 2048\r\n"]
     # the pair works: a goto is reached
-    s.receive(b"G100\r")
+    fed(s, b"G100\r")
     b.settle()
     assert b.truth("az") == pytest.approx(100.0, abs=TRUTH_TOL_DEG) and not b.rot.status().faults
 
@@ -266,10 +267,10 @@ def test_m_and_c_load_one_after_the_other(g4):
 def test_stream_p_is_the_pot_reading_and_b_comes_from_it(g4):
     b, s = g4
     for az in (20.0, 180.0, 340.0):
-        s.receive(f"G{az}\r".encode())
+        fed(s, f"G{az}\r".encode())
         b.settle()
         s._next_s = None
-        (line,) = s.tick(b.clock.now_s())[-1:]
+        (line,) = ticked(s, b.clock.now_s())[-1:]
         bearing, p = codec.parse_stream_line(line)
         pot = b.rot.hw.az.sensor
         assert p == codec.linearise(pot.last_counts)                      # what the ADC read
@@ -280,27 +281,27 @@ def test_stream_p_is_the_pot_reading_and_b_comes_from_it(g4):
 def test_stream_timing(g4):
     b, s = g4
     t0 = b.clock.now_s()
-    assert len(s.tick(t0)) == 2                  # banner and a line at once
-    assert s.tick(t0 + 0.2) == [] and s.tick(t0 + 0.49) == []
-    assert len(s.tick(t0 + 0.5)) == 1
-    assert len(s.tick(t0 + 10.0)) == 1           # after a stall: one line, not twenty
-    assert s.tick(t0 + 10.1) == [] and len(s.tick(t0 + 10.5)) == 1
+    assert len(ticked(s, t0)) == 2                  # banner and a line at once
+    assert ticked(s, t0 + 0.2) == [] and ticked(s, t0 + 0.49) == []
+    assert len(ticked(s, t0 + 0.5)) == 1
+    assert len(ticked(s, t0 + 10.0)) == 1           # after a stall: one line, not twenty
+    assert ticked(s, t0 + 10.1) == [] and len(ticked(s, t0 + 10.5)) == 1
     fast = G4jntSession(b.rot, interval_s=0.1)
-    assert sum(len(fast.tick(t0 + k * 0.05)) for k in range(21)) == 12
+    assert sum(len(ticked(fast, t0 + k * 0.05)) for k in range(21)) == 12
     with pytest.raises(ValueError):
         G4jntSession(b.rot, interval_s=0)
 
 
 def test_go_left_and_go_right_pulse(g4):
     b, s = g4
-    s.receive(b"G100\r")
+    fed(s, b"G100\r")
     b.settle()
     start = b.truth("az")
-    assert s.receive(b"R\r") == [b"R\r\n"]
+    assert fed(s, b"R\r") == [b"R\r\n"]
     b.settle()
     right = b.truth("az")
     assert 0.5 < right - start < 2 * PULSE_DEG
-    assert s.receive(b"L\rL\r") == [b"L\r\n", b"L\r\n"]
+    assert fed(s, b"L\rL\r") == [b"L\r\n", b"L\r\n"]
     b.settle()
     assert b.truth("az") < right - 0.5
 
@@ -308,16 +309,16 @@ def test_go_left_and_go_right_pulse(g4):
 def test_without_a_pot_the_constants_are_the_connections(bench):
     b = bench("tartu-urc")
     s = G4jntSession(b.rot)
-    assert s.receive(b"#Z100\r") == [b"Z 100\r\n"]
-    line = s.tick(b.clock.now_s())[-1]
+    assert fed(s, b"#Z100\r") == [b"Z 100\r\n"]
+    line = ticked(s, b.clock.now_s())[-1]
     bearing, _ = codec.parse_stream_line(line)
     assert bearing == pytest.approx(b.rot.status().az_deg, abs=0.2)
-    assert G4jntSession(b.rot).receive(b"?\r")[0].startswith(b"Z 0\r\n")
+    assert fed(G4jntSession(b.rot), b"?\r")[0].startswith(b"Z 0\r\n")
 
 
 def test_goto_then_stream_matches_truth(g4):
     b, s = g4
-    assert s.receive(b"G123.4,30\r") == [b"G123.4,30\r\n"]
+    assert fed(s, b"G123.4,30\r") == [b"G123.4,30\r\n"]
     b.settle()
     bearing, _ = stream(b, s)
     assert bearing == pytest.approx(b.truth("az"), abs=TRUTH_TOL_DEG)
@@ -327,16 +328,16 @@ def test_goto_then_stream_matches_truth(g4):
 
 def test_g_keeps_elevation_and_one_chunk_works(g4):
     b, s = g4
-    s.receive(b"G50,40\rG200\r")                                # no tick in between
+    fed(s, b"G50,40\rG200\r")                                # no tick in between
     b.settle()
     assert (b.truth("az"), b.truth("el")) == pytest.approx((200.0, 40.0), abs=TRUTH_TOL_DEG)
 
 
 def test_stop(g4):
     b, s = g4
-    s.receive(b"G300\r")
+    fed(s, b"G300\r")
     b.run(5.0)
-    assert s.receive(b"s\r") == [b"S\r\n"]
+    assert fed(s, b"s\r") == [b"S\r\n"]
     b.settle()
     assert 5.0 < b.truth("az") < 100.0
     bearing, _ = stream(b, s)
@@ -345,7 +346,7 @@ def test_stop(g4):
 
 def test_errors_do_not_move(g4):
     b, s = g4
-    replies = s.receive(b"G400\rGnan\rfoo\rG10,95\r")
+    replies = fed(s, b"G400\rGnan\rfoo\rG10,95\r")
     assert [r[:2] for r in replies] == [b"? "] * 4
     assert b"refused (limit)" in replies[0] and b"'foo'" in replies[2]
     b.run(2.0)
@@ -359,7 +360,7 @@ def test_whole_bytewise_chunked_same(bench):
     outs = []
     for chunk in (len(data), 1, 3):
         s = G4jntSession(bench("tartu-urc").rot)
-        outs.append(b"".join(r for i in range(0, len(data), chunk) for r in s.receive(data[i:i + chunk])))
+        outs.append(b"".join(r for i in range(0, len(data), chunk) for r in fed(s, data[i:i + chunk])))
     assert outs[0] == outs[1] == outs[2]
     assert outs[0].endswith(b"Z 1\r\nM 14400\r\nC 0\r\nK 2040\r\n")
 
@@ -390,7 +391,7 @@ def test_fuzz_never_raises_or_moves(quiet, data, split):
     s = G4jntSession(quiet.rot)
     replies = []
     for i in range(0, len(data), split):
-        replies += s.receive(data[i:i + split])
+        replies += fed(s, data[i:i + split])
     assert all(r.endswith(b"\r\n") and (r.count(b"\n") == 1 or r.startswith(b"Z ")) for r in replies)
     assert len(replies) <= data.count(b"\r") + data.count(b"\n") + 1
     quiet.run(1.0)

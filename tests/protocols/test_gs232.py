@@ -20,6 +20,7 @@ from urc.protocols.gs232_codec import (STYLE_A, STYLE_B, STYLE_GENERIC, Command,
                                        format_error, format_goto, format_help, format_position,
                                        parse_command, parse_position_reply)
 from urc.protocols.lines import LineSplitter
+from urc.testing.sessions import fed, ticked
 
 SESSIONS = [Gs232aSession, Gs232bSession, Gs232GenericSession, FoxDeltaSession]
 STYLE = {Gs232aSession: STYLE_A, Gs232bSession: STYLE_B, Gs232GenericSession: STYLE_GENERIC,
@@ -41,7 +42,7 @@ def hamlib_read(style: str, out: bytes) -> bytes:
 
 
 def c2(session, style: str) -> tuple[float, float]:
-    replies = session.receive(b"C2\r")
+    replies = fed(session, b"C2\r")
     assert len(replies) == 1
     return parse_position_reply(style, hamlib_read(style, replies[0]))
 
@@ -173,21 +174,21 @@ def tartu(bench):
 def test_registry_names(g5500, name, cls):
     s = make_session(name, g5500.rot)
     assert type(s) is cls and isinstance(s, Session)
-    assert s.closed is False and s.tick(0.0) == []
+    assert s.closed is False and ticked(s, 0.0) == []
 
 
 def test_601_capture_transcript(tartu):
     """protocols.md 3.2, Hamlib 601 against a GS-232A: replies byte for byte."""
     s = Gs232aSession(tartu.rot)
     at(tartu, 100, 20)
-    assert s.receive(b"W100 020\r") == [b"\r"]
-    assert s.receive(b"C2\r") == [b"+0100+0020\r\n"]
+    assert fed(s, b"W100 020\r") == [b"\r"]
+    assert fed(s, b"C2\r") == [b"+0100+0020\r\n"]
     at(tartu, 350, 6)
     for cmd in (b"S\r", b"X2\r", b"U\r", b"X1\r", b"D\r", b"X4\r", b"L\r", b"R\r", b"X2\r", b"S\r"):
-        assert s.receive(cmd) == [b"\r"]
+        assert fed(s, cmd) == [b"\r"]
     tartu.settle()
     at(tartu, 350, 6)
-    assert s.receive(b"C2\r") == [b"+0350+0006\r\n"]   # Hamlib prints 350.00 / 6.00
+    assert fed(s, b"C2\r") == [b"+0350+0006\r\n"]   # Hamlib prints 350.00 / 6.00
 
 
 def test_603_capture_transcript(tartu):
@@ -195,15 +196,15 @@ def test_603_capture_transcript(tartu):
     nothing can be read as the answer to the next C2."""
     s = Gs232bSession(tartu.rot)
     at(tartu, 100, 20)
-    assert s.receive(b"W100 020\r") == []
-    assert s.receive(b"\r") == []
-    assert s.receive(b"C2\r") == [b"AZ=100  EL=020\r\n"]
+    assert fed(s, b"W100 020\r") == []
+    assert fed(s, b"\r") == []
+    assert fed(s, b"C2\r") == [b"AZ=100  EL=020\r\n"]
     at(tartu, 350, 6)
     for cmd in (b"S\r", b"X2\r", b"U\r", b"X1\r", b"D\r", b"X4\r", b"L\r", b"R\r", b"X2\r", b"S\r"):
-        assert s.receive(cmd) == [] and s.receive(b"\r") == []
+        assert fed(s, cmd) == [] and fed(s, b"\r") == []
     tartu.settle()
     at(tartu, 350, 6)
-    assert s.receive(b"C2\r") == [b"AZ=350  EL=006\r\n"]
+    assert fed(s, b"C2\r") == [b"AZ=350  EL=006\r\n"]
 
 
 @pytest.mark.parametrize("cls", [Gs232GenericSession, FoxDeltaSession])
@@ -212,12 +213,12 @@ def test_602_608_capture_transcript(tartu, cls):
     sets are never answered; C2 -> +0aaa+0eee CR (11 bytes, what 4.6 reads at most)."""
     s = cls(tartu.rot)
     at(tartu, 100, 20)
-    assert s.receive(b"W100 020\r") == []
-    assert s.receive(b"C2\r") == [b"+0100+0020\r"]
-    assert s.receive(b"S\rW350 006\rS\r") == []
+    assert fed(s, b"W100 020\r") == []
+    assert fed(s, b"C2\r") == [b"+0100+0020\r"]
+    assert fed(s, b"S\rW350 006\rS\r") == []
     tartu.settle()
     at(tartu, 350, 6)
-    assert s.receive(b"C2\r") == [b"+0350+0006\r"]
+    assert fed(s, b"C2\r") == [b"+0350+0006\r"]
 
 
 @pytest.mark.parametrize("cls", SESSIONS)
@@ -226,9 +227,9 @@ def test_single_axis_reads(tartu, cls):
     at(tartu, 123.4, 45.6)
     term = b"\r" if style == STYLE_GENERIC else b"\r\n"
     az, el = (b"AZ=123", b"EL=046") if style == STYLE_B else (b"+0123", b"+0046")
-    assert s.receive(b"C\r") == [az + term]
-    assert s.receive(b"B\r") == [el + term]
-    assert s.receive(b"c\rb\r") == [az + term, el + term]
+    assert fed(s, b"C\r") == [az + term]
+    assert fed(s, b"B\r") == [el + term]
+    assert fed(s, b"c\rb\r") == [az + term, el + term]
 
 
 @pytest.mark.parametrize("cls", SESSIONS)
@@ -248,20 +249,20 @@ def test_terminators_crlf_lf_and_trailing_partial(tartu, cls):
     at(tartu, 200, 30)
     expect = format_position(style, 200, 30)
     # CR, LF and CRLF each end a command; the CRLF's empty half gets no reply
-    assert s.receive(b"C2\r\nC2\nC2\rC") == [expect] * 3
-    assert s.receive(b"2\r") == [expect]          # the trailing partial completes later
+    assert fed(s, b"C2\r\nC2\nC2\rC") == [expect] * 3
+    assert fed(s, b"2\r") == [expect]          # the trailing partial completes later
 
 
 @pytest.mark.parametrize("cls", [Gs232aSession, Gs232bSession])
 def test_errors_answered_with_question_prompt(g5500, cls):
     s = cls(g5500.rot)
     err = format_error(STYLE[cls])
-    assert s.receive(b"Q\r") == [err]
-    assert s.receive(b"X9\r") == [err]
-    assert s.receive(b"W100\r") == [err]
+    assert fed(s, b"Q\r") == [err]
+    assert fed(s, b"X9\r") == [err]
+    assert fed(s, b"W100\r") == [err]
     # refused by the rotator (beyond the 450 deg limit): the same prompt, nothing moves
-    assert s.receive(b"W460 000\r") == [err]
-    assert s.receive(b"W100 181\r") == [err]
+    assert fed(s, b"W460 000\r") == [err]
+    assert fed(s, b"W100 181\r") == [err]
     g5500.run(1.0)
     assert not g5500.rot.status().moving and g5500.rot.status().target_az_deg is None
 
@@ -271,9 +272,9 @@ def test_generic_silent_on_refused_set(g5500, cls):
     """Hamlib 602/608 write back to back and read nothing after W: a refused W is silent
     (a late ?> would be read as the next C2's answer); garbage still gets ?>."""
     s = cls(g5500.rot)
-    assert s.receive(b"W460 000\r") == []
-    assert s.receive(b"Q\r") == [b"?>\r"]
-    assert hamlib_read(STYLE_GENERIC, s.receive(b"C2\r")[0]) == b"+0000+0000\r"
+    assert fed(s, b"W460 000\r") == []
+    assert fed(s, b"Q\r") == [b"?>\r"]
+    assert hamlib_read(STYLE_GENERIC, fed(s, b"C2\r")[0]) == b"+0000+0000\r"
 
 
 def test_rotator_fault_maps_to_error(bench):
@@ -281,14 +282,14 @@ def test_rotator_fault_maps_to_error(bench):
     moves; position reads still work."""
     b = bench("tartu-urc", faults={"overcurrent_a": 100.0})
     s = Gs232aSession(b.rot)
-    assert s.receive(b"W200 045\r") == [b"\r"]
+    assert fed(s, b"W200 045\r") == [b"\r"]
     b.run(1.5)
     b.world.inject("az", "jam")
     b.run(5.0)
     assert [f.kind for f in b.rot.status().faults] == ["stall"]
-    assert s.receive(b"W100 020\rR\rM010\r") == [b"?>\r"] * 3
-    assert s.receive(b"S\r") == [b"\r"]           # stop is always accepted
-    assert s.receive(b"C2\r")[0].startswith(b"+0")
+    assert fed(s, b"W100 020\rR\rM010\r") == [b"?>\r"] * 3
+    assert fed(s, b"S\r") == [b"\r"]           # stop is always accepted
+    assert fed(s, b"C2\r")[0].startswith(b"+0")
     b.run(1.0)
     assert not b.rot.status().moving
 
@@ -298,7 +299,7 @@ def test_rotator_fault_maps_to_error(bench):
 def test_set_then_read_back_matches_truth(g5500, cls):
     s, style = cls(g5500.rot), STYLE[cls]
     for az, el in ((100, 20), (300, 75), (30, 5)):
-        s.receive(format_goto(az, el))
+        fed(s, format_goto(az, el))
         g5500.settle()
         raz, rel = c2(s, style)
         assert abs(raz - g5500.truth("az")) <= AZ_TOL_DEG
@@ -312,7 +313,7 @@ def test_450_azimuth_names_the_wrap_pose(g5500, cls):
     """W400 and W120 elevation go to the overlap and the flipped side, not 40/60: the
     controller frame is the mechanical one, and it is reported back the same way."""
     s, style = cls(g5500.rot), STYLE[cls]
-    s.receive(b"W400 120\r")
+    fed(s, b"W400 120\r")
     g5500.settle()
     assert abs(g5500.truth("az") - 400) <= AZ_TOL_DEG     # mechanically past 360
     assert abs(g5500.truth("el") - 120) <= EL_TOL_DEG
@@ -320,16 +321,16 @@ def test_450_azimuth_names_the_wrap_pose(g5500, cls):
     assert abs(raz - 400) <= 1 and abs(rel - 120) <= 1
     st_ = g5500.rot.status()
     assert abs(st_.az_deg - 220) < 1.5 and abs(st_.el_deg - 60) < 1.5   # the sky direction
-    s.receive(b"W450 000\r")
+    fed(s, b"W450 000\r")
     g5500.settle()
     assert c2(s, style)[0] in (449, 450, 451) and abs(g5500.truth("az") - 450) <= AZ_TOL_DEG
 
 
 def test_m_turns_azimuth_only_keeping_flipped_elevation(g5500):
     s = Gs232bSession(g5500.rot)
-    s.receive(b"W100 120\r")
+    fed(s, b"W100 120\r")
     g5500.settle()
-    s.receive(b"M200\r")
+    fed(s, b"M200\r")
     g5500.settle()
     raz, rel = c2(s, STYLE_B)
     assert abs(raz - 200) <= 1 and abs(rel - 120) <= 1
@@ -343,14 +344,14 @@ def test_m_at_bottom_stop_with_noisy_elevation(bench):
     s = Gs232aSession(b.rot)
     for az in (50, 10, 80):
         assert b.run(5.0, until=lambda st_: st_.el_deg < 0).el_deg < 0
-        assert s.receive(f"M{az:03d}\r".encode()) == [b"\r"]
+        assert fed(s, f"M{az:03d}\r".encode()) == [b"\r"]
         b.settle()
         assert abs(c2(s, STYLE_A)[0] - az) <= 1
 
 
 def test_query_while_moving_reports_where_it_is_now(g5500):
     s = Gs232aSession(g5500.rot)
-    s.receive(b"W300 090\r")
+    fed(s, b"W300 090\r")
     seen = []
     for _ in range(5):
         g5500.run(2.0)
@@ -363,17 +364,17 @@ def test_query_while_moving_reports_where_it_is_now(g5500):
 @pytest.mark.parametrize("cls", SESSIONS)
 def test_stop_all_and_single_axis(g5500, cls):
     s = cls(g5500.rot)
-    s.receive(b"W300 150\r")
+    fed(s, b"W300 150\r")
     g5500.run(3.0)
-    s.receive(b"A\r")              # stop azimuth only: elevation goes on
+    fed(s, b"A\r")              # stop azimuth only: elevation goes on
     g5500.run(3.0)
     az1 = g5500.truth("az")
     g5500.settle()
     assert abs(g5500.truth("az") - az1) < 2.0 and g5500.truth("az") < 250
     assert abs(g5500.truth("el") - 150) <= EL_TOL_DEG
-    s.receive(b"W300 000\r")
+    fed(s, b"W300 000\r")
     g5500.run(3.0)
-    s.receive(b"S\r")             # stop all, both axes halfway
+    fed(s, b"S\r")             # stop all, both axes halfway
     g5500.settle()
     st_ = g5500.rot.status()
     assert not st_.moving
@@ -387,13 +388,13 @@ def test_stop_all_and_single_axis(g5500, cls):
                                              (b"MU", "el", 1), (b"MD", "el", -1)])
 def test_manual_moves(g5500, cmd, axis, sign):
     s = Gs232aSession(g5500.rot)
-    s.receive(b"W200 090\r")
+    fed(s, b"W200 090\r")
     g5500.settle()
     before = g5500.truth(axis)
-    assert s.receive(cmd + b"\r") == [b"\r"]
+    assert fed(s, cmd + b"\r") == [b"\r"]
     g5500.run(3.0)
     assert (g5500.truth(axis) - before) * sign > 5
-    s.receive(b"E\r" if axis == "el" else b"A\r")
+    fed(s, b"E\r" if axis == "el" else b"A\r")
     g5500.settle()
     assert not g5500.rot.status().moving
 
@@ -403,14 +404,14 @@ def test_x_speed_levels(tartu):
     rates = {}
     for level in (1, 2, 4):
         s = Gs232aSession(tartu.rot)
-        s.receive(b"W100 045\r")
+        fed(s, b"W100 045\r")
         tartu.settle()
-        s.receive(f"X{level}\rR\r".encode())
+        fed(s, f"X{level}\rR\r".encode())
         tartu.run(1.0)   # past the start ramp; then measure the true speed
         a0 = tartu.truth("az")
         tartu.run(3.0)
         rates[level] = (tartu.truth("az") - a0) / 3.0
-        s.receive(b"S\r")
+        fed(s, b"S\r")
         tartu.settle()
     # X1 = 1/4, X2 = 1/2 of the top speed
     assert 0.5 < rates[1] < rates[2] < rates[4]
@@ -420,11 +421,11 @@ def test_x_speed_levels(tartu):
 def test_mount_offset_reported_in_controller_frame(bench):
     b = bench("g5500", offsets={"az_deg": 10.0})
     s = Gs232aSession(b.rot)
-    s.receive(b"W100 020\r")
+    fed(s, b"W100 020\r")
     b.settle()
     assert abs(c2(s, STYLE_A)[0] - 100) <= 1
     assert abs(b.truth("az") - 90) <= AZ_TOL_DEG          # the mechanics sit 10 deg back
-    s.receive(b"W400 020\r")
+    fed(s, b"W400 020\r")
     b.settle()
     assert abs(c2(s, STYLE_A)[0] - 400) <= 1 and abs(b.truth("az") - 390) <= AZ_TOL_DEG
 
@@ -448,14 +449,14 @@ def test_overlong_line_dropped_and_resynchronised(g5500, cls):
     junk = b"W" * (MAX_PENDING_BYTES + 10)
     replies = []
     for i in range(0, len(junk), 1000):
-        replies += s.receive(junk[i:i + 1000])
+        replies += fed(s, junk[i:i + 1000])
     assert s._lines.pending <= MAX_PENDING_BYTES
     assert replies == [err]
     # the rest of that overlong line is not a command, even if it looks like one
-    assert s.receive(b"W100 020\r") == []
+    assert fed(s, b"W100 020\r") == []
     g5500.run(1.0)
     assert g5500.rot.status().target_az_deg is None
-    assert len(s.receive(b"C2\r")) == 1                 # back in step
+    assert len(fed(s, b"C2\r")) == 1                 # back in step
 
 
 def _moves(data: bytes) -> bool:
@@ -492,7 +493,7 @@ def test_fuzz_garbage_never_moves_or_raises(fuzz_bench, data, cls, split):
     s = cls(b.rot)
     replies = []
     for i in range(0, len(data), split):
-        replies += s.receive(data[i:i + split])
+        replies += fed(s, data[i:i + split])
     lines = data.count(b"\r") + data.count(b"\n") + 1
     assert len(replies) <= lines
     # every reply is short, but for H's command list (the BIG-RAS extension): garbage such
@@ -552,24 +553,24 @@ def test_bigras_command_list_transcript(bench):
     """The document's command list, in its order, on a BIG-RAS (GS-232B emulation)."""
     b = bench("bigras")
     s = Gs232bSession(b.rot)
-    (help_,) = s.receive(b"H\r")
+    (help_,) = fed(s, b"H\r")
     firsts = [row.split(" - ")[0] for row in help_.decode().splitlines()]
     for doc in ("Waaa eee", "A", "AZ=aaa", "AZ=aaa EL=eee", "E", "EL=eee", "S", "Maaa", "Keee",
                 "ML", "MR", "MU", "MD", "L", "R", "U", "D", "C", "C2", "B"):
         assert doc in firsts, doc
-    assert s.receive(b"AZ=100\r") == []
+    assert fed(s, b"AZ=100\r") == []
     b.settle()
-    assert s.receive(b"C2\r") == [b"AZ=100  EL=000\r\n"]
-    assert s.receive(b"EL=045\r") == []
+    assert fed(s, b"C2\r") == [b"AZ=100  EL=000\r\n"]
+    assert fed(s, b"EL=045\r") == []
     b.settle()
-    assert s.receive(b"C2\r") == [b"AZ=100  EL=045\r\n"]
-    assert s.receive(b"AZ=120 EL=030\r") == []
+    assert fed(s, b"C2\r") == [b"AZ=100  EL=045\r\n"]
+    assert fed(s, b"AZ=120 EL=030\r") == []
     b.settle()
-    assert s.receive(b"C2\r") == [b"AZ=120  EL=030\r\n"]
-    assert s.receive(b"K020\r") == []
+    assert fed(s, b"C2\r") == [b"AZ=120  EL=030\r\n"]
+    assert fed(s, b"K020\r") == []
     b.settle()
-    assert s.receive(b"C\rB\r") == [b"AZ=120\r\n", b"EL=020\r\n"]
-    assert s.receive(b"EL=100\r") == [b"?>\r\n"]                    # above its 90: refused
+    assert fed(s, b"C\rB\r") == [b"AZ=120\r\n", b"EL=020\r\n"]
+    assert fed(s, b"EL=100\r") == [b"?>\r\n"]                    # above its 90: refused
 
 
 def _gga(lat: float, lon: float, alt_m: float) -> bytes:
@@ -593,19 +594,19 @@ def test_bigras_nmea_gga_turns_to_the_reported_point(bench):
     s = make_session("gs232b", b.rot, **station)
     point = GeoPointTarget(Station(47.5, 19.0, 100.0), 47.6, 19.1, 9000.0)
     assert 0 < point.el_deg < 90
-    assert s.receive(_gga(47.6, 19.1, 9000.0) + b"\r\n") == []
+    assert fed(s, _gga(47.6, 19.1, 9000.0) + b"\r\n") == []
     b.settle()
-    az, el = (float(v) for v in s.receive(b"C2\r")[0][3:].split(b"EL="))
+    az, el = (float(v) for v in fed(s, b"C2\r")[0][3:].split(b"EL="))
     assert (az, el) == pytest.approx((point.az_deg, point.el_deg), abs=1.0)
 
 
 def test_bigras_nmea_without_coordinates_or_checksum_is_refused(bench):
     b = bench("bigras")
     sentence = _gga(47.6, 19.1, 9000.0)
-    assert Gs232bSession(b.rot).receive(sentence + b"\r") == [b"?>\r\n"]      # no station set
+    assert fed(Gs232bSession(b.rot), sentence + b"\r") == [b"?>\r\n"]      # no station set
     s = Gs232bSession(b.rot, station_lat_deg=47.5, station_lon_deg=19.0)
     bad = sentence[:-2] + (b"00" if sentence[-2:] != b"00" else b"11")
-    assert s.receive(bad + b"\r") == [b"?>\r\n"]
+    assert fed(s, bad + b"\r") == [b"?>\r\n"]
     b.run(2.0)
     assert b.rot.status().target_az_deg is None
 
@@ -615,7 +616,7 @@ def test_bigras_nmea_without_station_options_answers_and_says_why(bench, caplog)
     the log names the options that are missing."""
     b = bench("bigras")
     with caplog.at_level("WARNING", logger="urc.protocols.gs232b"):
-        assert make_session("gs232b", b.rot).receive(_gga(47.6, 19.1, 9000.0) + b"\r\n") == [b"?>\r\n"]
+        assert fed(make_session("gs232b", b.rot), _gga(47.6, 19.1, 9000.0) + b"\r\n") == [b"?>\r\n"]
     assert any("station_lat_deg" in r.getMessage() and "NMEA" in r.getMessage() for r in caplog.records)
 
 

@@ -8,6 +8,7 @@ import logging
 import pytest
 
 from urc.protocols import make_session
+from urc.testing.sessions import fed
 
 LINE_PROTOCOLS = ["urc", "sarcnet", "g4jnt", "gs232a", "gs232b", "easycomm2", "easycomm3"]
 
@@ -46,7 +47,7 @@ def test_rotctld_junk_is_logged_at_a_bounded_rate_and_answered_with_nothing(benc
     b = bench("tartu-urc")
     s = make_session("rotctld", b.rot)
     caplog.set_level("INFO", logger="urc.protocols")
-    replies = s.receive(b"Z" * 65536) + s.receive(b"Zz\r\n" * 20_000) + s.receive(b"p\n")
+    replies = fed(s, b"Z" * 65536) + fed(s, b"Zz\r\n" * 20_000) + fed(s, b"p\n")
     assert len(replies) == 1 and replies[0].count(b"\n") == 2   # only p is answered
     junk_lines = [r for r in _protocol_records(caplog) if "not found" in r.getMessage()]
     assert len(junk_lines) == 1              # was one line per byte (85 536 here)
@@ -59,7 +60,7 @@ def test_junk_lines_are_answered_briefly_and_logged_at_a_bounded_rate(bench, cap
     caplog.set_level("INFO", logger="urc.protocols")
     replies = []
     for _ in range(20):
-        replies += s.receive(b"x\r\n" * 100 + b"\x01\x02 ??? \r\n")
+        replies += fed(s, b"x\r\n" * 100 + b"\x01\x02 ??? \r\n")
     # at most one short line per bad line: no command list (was ~160 bytes a line on
     # Tartu, 3.4 MB for 64 KiB of junk)
     assert len(replies) <= 2020
@@ -72,5 +73,5 @@ def test_spid_junk_is_logged_at_a_bounded_rate(bench, caplog):
     s = make_session("rot2prog", b.rot)
     caplog.set_level("INFO", logger="urc.protocols")
     for _ in range(2000):
-        assert s.receive(b"junk junk junk\r\n") == []
+        assert fed(s, b"junk junk junk\r\n") == []
     assert len(_protocol_records(caplog)) <= 2

@@ -8,6 +8,7 @@ import pytest
 from conftest import Bench
 from urc.protocols import make_session
 from urc.protocols import spid_codec as spid
+from urc.testing.sessions import fed
 
 
 def at(b: Bench, az_m: float) -> None:
@@ -35,13 +36,13 @@ def tartu(tmp_path):
 def test_the_controllers_own_azimuth_names_the_pose(tartu, protocol, line, start, end):
     at(tartu, start)
     s = make_session(protocol, tartu.rot)
-    s.receive(line)
+    fed(s, line)
     assert settle_on(tartu) == pytest.approx(end, abs=1.0)
 
 
 def test_spid_names_the_pose(tartu):
     at(tartu, 370.0)
-    make_session("rot2prog", tartu.rot).receive(spid.encode_rot2_set(0.0, 45.0, 2, 2))
+    fed(make_session("rot2prog", tartu.rot), spid.encode_rot2_set(0.0, 45.0, 2, 2))
     assert settle_on(tartu) == pytest.approx(0.0, abs=1.0)
 
 
@@ -52,5 +53,5 @@ def test_spid_names_the_pose(tartu):
 ])
 def test_a_compass_bearing_takes_the_nearest_turn(tartu, protocol, line, start, end):
     at(tartu, start)
-    make_session(protocol, tartu.rot).receive(line)
+    fed(make_session(protocol, tartu.rot), line)
     assert settle_on(tartu) == pytest.approx(end, abs=1.0)

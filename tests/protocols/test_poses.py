@@ -8,6 +8,8 @@ from dataclasses import replace as dc_replace
 import pytest
 
 from urc.protocols.poses import ExtendedTarget, extended_pose_deg, frame_offsets_deg
+from urc.service.effects import drive
+from urc.testing.sessions import fed
 
 TOL_DEG = 0.25
 
@@ -43,32 +45,32 @@ def test_single_axis_keeps_the_other_in_the_extended_frame(tartu):
     """380/120 is the overlap, over the top: the service's sky target (200, 60) could
     not say so, and handing it back would unwind and unflip."""
     t = ExtendedTarget(tartu.rot)
-    t.goto(380.0, 120.0)
+    drive(t.goto(380.0, 120.0), t.rotator)
     tartu.settle()
-    t.goto(None, 60.0)
+    drive(t.goto(None, 60.0), t.rotator)
     tartu.settle()
     assert (tartu.truth("az"), tartu.truth("el")) == pytest.approx((380.0, 60.0), abs=TOL_DEG)
-    t.goto(370.0, None)
+    drive(t.goto(370.0, None), t.rotator)
     tartu.settle()
     assert (tartu.truth("az"), tartu.truth("el")) == pytest.approx((370.0, 60.0), abs=TOL_DEG)
 
 
 def test_same_breath_then_stop_then_someone_else(tartu):
     t = ExtendedTarget(tartu.rot)
-    t.goto(100.0, None)                     # no target yet: elevation stays (park, 90)
-    t.goto(None, 20.0)                      # no tick in between: azimuth 100 holds
+    drive(t.goto(100.0, None), t.rotator)                     # no target yet: elevation stays (park, 90)
+    drive(t.goto(None, 20.0), t.rotator)                      # no tick in between: azimuth 100 holds
     tartu.settle()
     assert (tartu.truth("az"), tartu.truth("el")) == pytest.approx((100.0, 20.0), abs=TOL_DEG)
-    t.goto(200.0, 60.0)
+    drive(t.goto(200.0, 60.0), t.rotator)
     tartu.run(3.0)
-    t.stop()                                # like the service: no target from here on
-    t.goto(None, 50.0)                      # azimuth stays where it stopped
+    drive(t.stop(), t.rotator)                                # like the service: no target from here on
+    drive(t.goto(None, 50.0), t.rotator)                      # azimuth stays where it stopped
     tartu.settle()
     az_stop = tartu.truth("az")
     assert 110.0 < az_stop < 190.0 and tartu.truth("el") == pytest.approx(50.0, abs=TOL_DEG)
     tartu.rot.goto(30.0, 40.0)              # another client: its target counts
     tartu.run(0.1)
-    t.goto(None, 10.0)
+    drive(t.goto(None, 10.0), t.rotator)
     tartu.settle()
     assert (tartu.truth("az"), tartu.truth("el")) == pytest.approx((30.0, 10.0), abs=TOL_DEG)
 
@@ -84,7 +86,7 @@ def test_negative_azimuth_is_one_rule_on_every_protocol(bench, profile, mech_az)
     for protocol, line in commands.items():
         b = bench(profile)
         s = make_session(protocol, b.rot)
-        replies = s.receive(line)
+        replies = fed(s, line)
         assert not any(b"RPRT -" in r or b"?>" in r for r in replies), (protocol, replies)
         st_ = b.settle()
         assert st_.az.pos_deg == pytest.approx(mech_az, abs=1.5), (protocol, st_.az.pos_deg)
@@ -104,7 +106,7 @@ def test_gpredict_with_flip_reads_back_what_it_set(bench):
     s = RotctldSession(b.rot)
 
     def get() -> tuple[float, float]:
-        (reply,) = s.receive(b"p\n")
+        (reply,) = fed(s, b"p\n")
         az, el = reply.decode().split("\n")[:2]
         return float(az), float(el)
     sent = 0
@@ -113,7 +115,7 @@ def test_gpredict_with_flip_reads_back_what_it_set(bench):
         az, el = (sky_az + 180.0) % 360.0, 180.0 - sky_el  # what gpredict sends with flip
         pos = get()
         if abs((az - pos[0] + 180.0) % 360.0 - 180.0) > 5.0 or abs(el - pos[1]) > 5.0:
-            assert s.receive(b"P %.2f %.2f\n" % (az, el)) == [b"RPRT 0\n"]
+            assert fed(s, b"P %.2f %.2f\n" % (az, el)) == [b"RPRT 0\n"]
             sent += 1
         b.run(0.8)
     st_ = b.rot.status()
@@ -122,6 +124,6 @@ def test_gpredict_with_flip_reads_back_what_it_set(bench):
     assert sent <= 15, sent
     assert get() == pytest.approx(((st_.az_deg + 180.0) % 360.0, 180.0 - st_.el_deg), abs=0.01)
     # unflipped, p is the sky direction as before
-    s.receive(b"P 100.00 30.00\n")
+    fed(s, b"P 100.00 30.00\n")
     b.settle()
     assert get() == pytest.approx((100.0, 30.0), abs=0.3)

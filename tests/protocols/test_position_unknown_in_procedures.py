@@ -13,6 +13,7 @@ from urc.frontpanel.screen import status_rows
 from urc.protocols import make_session
 from urc.protocols import spid_codec
 from urc.protocols.tartu_codec import lcd_rows
+from urc.testing.sessions import fed, ticked
 
 SPID_STATUS = spid_codec.encode_query(spid_codec.K_STATUS)
 
@@ -48,10 +49,10 @@ def homing(bench):
 def test_a_position_query_during_homing_is_answered_unknown_in_the_protocols_own_form(homing, proto):
     query, unknown = QUERIES[proto]
     s = make_session(proto, homing.rot)
-    assert s.receive(query) == unknown
+    assert fed(s, query) == unknown
     homing.rot.end_search("az")               # the search ends without a find: back to 62
     homing.run(0.2)
-    answer = b"".join(s.receive(query))
+    answer = b"".join(fed(s, query))
     assert answer and answer != b"".join(unknown)
     if proto in ("rot2prog", "md01"):
         az, _el, *_ = spid_codec.decode_rot2_position(answer)
@@ -62,12 +63,12 @@ def test_a_position_query_during_homing_is_answered_unknown_in_the_protocols_own
 
 def test_the_g4jnt_stream_says_why_instead_of_a_bearing(homing):
     s = make_session("g4jnt", homing.rot)
-    lines = s.tick(1.0) + s.tick(3.0)
+    lines = ticked(s, 1.0) + ticked(s, 3.0)
     assert lines[-1] == b"? position unknown: az (reference search) running\r\n"
     assert not any(line.startswith(b"b") for line in lines)
     homing.rot.end_search("az")
     homing.run(0.2)
-    assert s.tick(5.0)[-1].startswith(b"b")
+    assert ticked(s, 5.0)[-1].startswith(b"b")
 
 
 def test_lcd_and_panel_rows_show_dashes_for_the_axis_in_the_procedure(homing):

@@ -19,6 +19,7 @@ from urc.protocols import MAX_PENDING_BYTES, make_session
 from urc.protocols import pstrotator_codec as codec
 from urc.protocols.pstrotator import PstRotatorSession
 from urc.protocols.pstrotator_codec import PstItem
+from urc.testing.sessions import fed
 
 TRUTH_TOL_DEG = 1.2          # BIG-RAS pulse feedback, 0.5 deg steps and tolerance
 REPLY = re.compile(rb"(AZ|EL|TGA|TGE):(-?\d+\.\d)\r\Z")
@@ -93,11 +94,11 @@ def test_reply_format():
 def test_hamlib_set_then_get_position(pst):
     """rotctl -m 3: P 100 20 (two datagrams, no tick between them), then p."""
     b, s = pst
-    assert s.receive(b"<PST><AZIMUTH>100.000000.2</AZIMUTH></PST>") == []
-    assert s.receive(b"<PST><ELEVATION>20.000000.2</ELEVATION></PST>") == []
+    assert fed(s, b"<PST><AZIMUTH>100.000000.2</AZIMUTH></PST>") == []
+    assert fed(s, b"<PST><ELEVATION>20.000000.2</ELEVATION></PST>") == []
     b.settle()
-    (az_reply,) = s.receive(b"<PST>AZ?</PST>")
-    (el_reply,) = s.receive(b"<PST>EL?</PST>")
+    (az_reply,) = fed(s, b"<PST>AZ?</PST>")
+    (el_reply,) = fed(s, b"<PST>EL?</PST>")
     assert REPLY.match(az_reply) and REPLY.match(el_reply)
     (_, az), (_, el) = hamlib_parse(az_reply), hamlib_parse(el_reply)
     assert az == pytest.approx(b.truth("az"), abs=TRUTH_TOL_DEG)
@@ -107,33 +108,33 @@ def test_hamlib_set_then_get_position(pst):
 
 def test_position_is_current_while_moving(pst):
     b, s = pst
-    s.receive(b"<PST><AZIMUTH>200</AZIMUTH><ELEVATION>60</ELEVATION></PST>")
+    fed(s, b"<PST><AZIMUTH>200</AZIMUTH><ELEVATION>60</ELEVATION></PST>")
     b.run(5.0)
-    (_, az), (_, el) = (hamlib_parse(r) for r in s.receive(b"<PST>AZ?EL?</PST>"))
+    (_, az), (_, el) = (hamlib_parse(r) for r in fed(s, b"<PST>AZ?EL?</PST>"))
     assert 5.0 < az < 195.0 and 5.0 < el < 58.0
     assert az == pytest.approx(b.rot.status().az_deg, abs=0.06)
 
 
 def test_targets_and_batched_queries(pst):
     b, s = pst
-    assert s.receive(b"<PST>TGA?TGE?</PST>") == [b"TGA:0.0\r", b"TGE:0.0\r"]   # none: the position
-    s.receive(b"<PST><AZIMUTH>45.5</AZIMUTH><ELEVATION>30</ELEVATION></PST>")
+    assert fed(s, b"<PST>TGA?TGE?</PST>") == [b"TGA:0.0\r", b"TGE:0.0\r"]   # none: the position
+    fed(s, b"<PST><AZIMUTH>45.5</AZIMUTH><ELEVATION>30</ELEVATION></PST>")
     b.run(0.1)
-    assert s.receive(b"<PST>TGA?</PST><PST>TGE?</PST>") == [b"TGA:45.5\r", b"TGE:30.0\r"]
+    assert fed(s, b"<PST>TGA?</PST><PST>TGE?</PST>") == [b"TGA:45.5\r", b"TGE:30.0\r"]
 
 
 def test_stop_and_park(pst):
     b, s = pst
-    s.receive(b"<PST><AZIMUTH>300</AZIMUTH><ELEVATION>80</ELEVATION></PST>")
+    fed(s, b"<PST><AZIMUTH>300</AZIMUTH><ELEVATION>80</ELEVATION></PST>")
     b.run(4.0)
-    assert s.receive(b"<PST><STOP>1</STOP></PST>") == []
+    assert fed(s, b"<PST><STOP>1</STOP></PST>") == []
     b.settle()
     az_stop = b.truth("az")
     assert 5.0 < az_stop < 60.0
-    s.receive(b"<PST><ELEVATION>10</ELEVATION></PST>")      # azimuth stays where it stopped
+    fed(s, b"<PST><ELEVATION>10</ELEVATION></PST>")      # azimuth stays where it stopped
     b.settle()
     assert b.truth("az") == pytest.approx(az_stop, abs=TRUTH_TOL_DEG)
-    s.receive(b"<PST><PARK>1</PARK></PST>")
+    fed(s, b"<PST><PARK>1</PARK></PST>")
     b.settle()
     st_ = b.rot.status()
     assert st_.parked and (st_.target_az_deg, st_.target_el_deg) == (0.0, 0.0)
@@ -143,8 +144,8 @@ def test_stop_and_park(pst):
 
 def test_track_is_accepted(pst):
     b, s = pst
-    assert s.receive(b"<PST><TRACK>1</TRACK></PST>") == []
-    assert s.receive(b"<PST><TRACK>0</TRACK></PST>") == []
+    assert fed(s, b"<PST><TRACK>1</TRACK></PST>") == []
+    assert fed(s, b"<PST><TRACK>0</TRACK></PST>") == []
     assert still(b)
 
 
@@ -155,7 +156,7 @@ def test_garbage_is_logged_and_ignored(pst, caplog):
                       b"<PST><AZIMUTH>12abc</AZIMUTH></PST>", b"<PST><PARK>2</PARK></PST>",
                       b"<PST><FOO>1</FOO>BAR?</PST>", b"<PST><AZIMUTH>100", b"\xff" * 10,
                       b"<PST><ELEVATION>500</ELEVATION></PST>", b"<PST>" + b"x" * MAX_PENDING_BYTES + b"</PST>"):
-            assert s.receive(dgram) == []
+            assert fed(s, dgram) == []
     # one line per kind of bad input (repeats of a kind within 5 s are only counted)
     assert caplog.text.count("WARNING") >= 7
     assert still(b)
@@ -163,7 +164,7 @@ def test_garbage_is_logged_and_ignored(pst, caplog):
 
 def test_good_items_run_despite_a_bad_one(pst):
     b, s = pst
-    replies = s.receive(b"<PST><AZIMUTH>x</AZIMUTH>??<ELEVATION>15</ELEVATION>EL?</PST>")
+    replies = fed(s, b"<PST><AZIMUTH>x</AZIMUTH>??<ELEVATION>15</ELEVATION>EL?</PST>")
     assert len(replies) == 1 and replies[0].startswith(b"EL:")
     b.settle()
     assert b.truth("el") == pytest.approx(15.0, abs=TRUTH_TOL_DEG)
@@ -193,7 +194,7 @@ def test_fuzz_never_raises_or_moves(quiet, data):
     # a well-formed set or park could legitimately move: keep those out
     assume(not re.search(rb"(?i)<(AZIMUTH|ELEVATION)>\s*[+-]?[\d.]|<PARK>\s*1", data))
     s = PstRotatorSession(quiet.rot)
-    replies = s.receive(data)
+    replies = fed(s, data)
     assert all(REPLY.match(r) for r in replies)
     assert len(replies) <= data.count(b"?")
     assert still(quiet)

@@ -23,6 +23,7 @@ from urc.protocols.rotctld import RotctldSession
 from urc.protocols.rotctld import codec
 from urc.protocols.rotctld.commands import BY_NAME, COMMANDS
 from urc.protocols.rotctld.lexer import CLOSE, CMD, UNKNOWN, Lexer
+from urc.testing.sessions import fed, ticked
 
 
 # ------------------------------------------------------------------------- helpers
@@ -43,7 +44,7 @@ def go(b, az_deg: float, el_deg: float) -> None:
 def bytewise(sess, data: bytes) -> list[bytes]:
     out: list[bytes] = []
     for i in range(len(data)):
-        out += sess.receive(data[i:i + 1])
+        out += fed(sess, data[i:i + 1])
     return out
 
 
@@ -103,7 +104,7 @@ def tartu(bench):
 def test_registered_and_is_a_session(tartu):
     assert session_class("rotctld") is RotctldSession
     s = make_session("rotctld", tartu.rot, hamlib_version="4.6")
-    assert isinstance(s, Session) and not s.closed and s.tick(0.0) == []
+    assert isinstance(s, Session) and not s.closed and ticked(s, 0.0) == []
 
 
 def test_bad_version_option(tartu):
@@ -111,7 +112,7 @@ def test_bad_version_option(tartu):
         RotctldSession(tartu.rot, hamlib_version="4.4")
     assert RotctldSession(tartu.rot, hamlib_version=4.6).hamlib_version == "4.6"  # TOML number
     s = RotctldSession(tartu.rot)
-    assert s.receive(bytearray(b"p")) == [b"10.50\n20.50\n"] and s.receive(memoryview(b"_\n")) == [
+    assert fed(s, bytearray(b"p")) == [b"10.50\n20.50\n"] and fed(s, memoryview(b"_\n")) == [
         b"urc tartu-urc\n"]
 
 
@@ -167,7 +168,7 @@ def test_capture(bench, sent, replies, pos, feed):
     b = bench("tartu-urc")
     at(b, *(pos or (10.5, 20.5)))
     s = RotctldSession(b.rot)
-    got = s.receive(sent) if feed == "whole" else bytewise(s, sent)
+    got = fed(s, sent) if feed == "whole" else bytewise(s, sent)
     assert got == replies
 
 
@@ -178,7 +179,7 @@ def test_capture(bench, sent, replies, pos, feed):
 ])
 def test_out_of_range_is_elimit_in_46(tartu, sent, reply):
     s = RotctldSession(tartu.rot, hamlib_version="4.6")
-    assert s.receive(sent) == [reply]
+    assert fed(s, sent) == [reply]
     assert idle(tartu)
 
 
@@ -186,8 +187,8 @@ def test_get_conf_capture_46():
     # protocols.md: `;\get_conf min_az` -> `get_conf: min_az;min_az=-90.000000\nRPRT 0\n`
     b = fresh_bench("sarcnet-mini")  # its azimuth runs from -90
     s = RotctldSession(b.rot, hamlib_version="4.6")
-    assert s.receive(b";\\get_conf min_az\n") == [b"get_conf: min_az;min_az=-90.000000\nRPRT 0\n"]
-    assert s.receive(b"\\get_conf max_az\n") == [b"max_az=450.000000\n"]
+    assert fed(s, b";\\get_conf min_az\n") == [b"get_conf: min_az;min_az=-90.000000\nRPRT 0\n"]
+    assert fed(s, b"\\get_conf max_az\n") == [b"max_az=450.000000\n"]
 
 
 # ---------------------------------------------------------------- \dump_state
@@ -203,7 +204,7 @@ def test_get_conf_capture_46():
 ])
 def test_dump_state_v1_layout(bench, profile, config, limits):
     b = bench(profile, **config)
-    got = RotctldSession(b.rot).receive(b"\\dump_state\n")
+    got = fed(RotctldSession(b.rot), b"\\dump_state\n")
     assert got == [f"1\n1\n{limits}\nsouth_zero=0\nrot_type=AzEl\ndone\n".encode()]
 
 
@@ -223,7 +224,7 @@ def netrotctl_open(reply: bytes) -> dict:
 
 
 def test_dump_state_parses_like_netrotctl(tartu):
-    keys = netrotctl_open(RotctldSession(tartu.rot).receive(b"\\dump_state\n")[0])
+    keys = netrotctl_open(fed(RotctldSession(tartu.rot), b"\\dump_state\n")[0])
     assert float(keys["min_az"]) == 0.0 and float(keys["max_az"]) == 400.0
     assert float(keys["max_el"]) == 180.0 and keys["south_zero"] == "0" and keys["rot_type"] == "AzEl"
 
@@ -231,16 +232,16 @@ def test_dump_state_parses_like_netrotctl(tartu):
 # --------------------------------------------------------------------- framing
 def test_single_char_command_answered_at_once(tartu):
     s = RotctldSession(tartu.rot)
-    assert s.receive(b"p") == [b"10.50\n20.50\n"]
-    assert s.receive(b"\n") == []  # the line end is skipped
+    assert fed(s, b"p") == [b"10.50\n20.50\n"]
+    assert fed(s, b"\n") == []  # the line end is skipped
 
 
 def test_long_name_waits_for_its_terminator(tartu):
     s = RotctldSession(tartu.rot)
-    assert s.receive(b"\\get_pos") == []
-    assert s.receive(b"\r") == [b"10.50\n20.50\n"]
-    assert s.receive(b"\\dump_state") == []
-    assert s.receive(b" ")[0].startswith(b"1\n1\nmin_az=")
+    assert fed(s, b"\\get_pos") == []
+    assert fed(s, b"\r") == [b"10.50\n20.50\n"]
+    assert fed(s, b"\\dump_state") == []
+    assert fed(s, b" ")[0].startswith(b"1\n1\nmin_az=")
 
 
 @pytest.mark.parametrize("sent", [
@@ -249,81 +250,81 @@ def test_long_name_waits_for_its_terminator(tartu):
 ])
 def test_arguments_cross_line_ends(tartu, sent):
     s = RotctldSession(tartu.rot)
-    assert s.receive(sent) == [b"RPRT 0\n"]
+    assert fed(s, sent) == [b"RPRT 0\n"]
     tartu.run(0.1)
     assert tartu.rot.status().target_az_deg == pytest.approx(1.0)
 
 
 def test_incomplete_argument_waits(tartu):
     s = RotctldSession(tartu.rot)
-    assert s.receive(b"P 1 2") == []  # "2" may go on: scanf("%s") waits for whitespace
+    assert fed(s, b"P 1 2") == []  # "2" may go on: scanf("%s") waits for whitespace
     assert idle(tartu)
-    assert s.receive(b"5\n") == [b"RPRT 0\n"]
+    assert fed(s, b"5\n") == [b"RPRT 0\n"]
     tartu.run(0.1)
     assert tartu.rot.status().target_el_deg == pytest.approx(25.0)
 
 
 def test_several_commands_per_chunk_and_trailing_bytes(tartu):
     s = RotctldSession(tartu.rot)
-    got = s.receive(b"p\np\n_\nS\\get_pos\n+p\nP 1")
+    got = fed(s, b"p\np\n_\nS\\get_pos\n+p\nP 1")
     assert got == [b"10.50\n20.50\n"] * 2 + [b"urc tartu-urc\n", b"RPRT 0\n", b"10.50\n20.50\n",
                                              b"get_pos:\nAzimuth: 10.50\nElevation: 20.50\nRPRT 0\n"]
-    assert s.receive(b" 2\n") == [b"RPRT 0\n"]
+    assert fed(s, b" 2\n") == [b"RPRT 0\n"]
 
 
 def test_every_split_gives_the_same_replies(tartu):
     stream = b"p\n+\\get_pos\n;P 1 2\nV SPEED 40 v SPEED # comment K\n\\dump_state\n_\r\n|s\n"
-    whole = RotctldSession(tartu.rot).receive(stream)
+    whole = fed(RotctldSession(tartu.rot), stream)
     assert len(whole) == 8
     for cut in range(1, len(stream)):
         s = RotctldSession(tartu.rot)
-        assert s.receive(stream[:cut]) + s.receive(stream[cut:]) == whole, cut
+        assert fed(s, stream[:cut]) + fed(s, stream[cut:]) == whole, cut
     assert bytewise(RotctldSession(tartu.rot), stream) == whole
 
 
 def test_comments_run_to_the_line_end(tartu):
     s = RotctldSession(tartu.rot)
-    assert s.receive(b"# K park me\np\n") == [b"10.50\n20.50\n"]
-    assert s.receive(b"#K") == [] and s.receive(b" P 1 2 K") == [] and s.receive(b"\rp") == [b"10.50\n20.50\n"]
-    assert s.receive(b"+# K\np") == [b"10.50\n20.50\n"]
+    assert fed(s, b"# K park me\np\n") == [b"10.50\n20.50\n"]
+    assert fed(s, b"#K") == [] and fed(s, b" P 1 2 K") == [] and fed(s, b"\rp") == [b"10.50\n20.50\n"]
+    assert fed(s, b"+# K\np") == [b"10.50\n20.50\n"]
     assert idle(tartu)
 
 
 def test_quit_closes_without_reply_and_ignores_the_rest(tartu):
     for q in (b"q", b"Q", b"q\n", b"+q"):
         s = RotctldSession(tartu.rot)
-        assert s.receive(b"p\n" + q + b"K\n") == [b"10.50\n20.50\n"]
+        assert fed(s, b"p\n" + q + b"K\n") == [b"10.50\n20.50\n"]
         assert s.closed
-        assert s.receive(b"K\n") == []
+        assert fed(s, b"K\n") == []
     assert idle(tartu)
 
 
 def test_unknown_commands_are_silent_and_logged(tartu, caplog):
     s = RotctldSession(tartu.rot)
     caplog.set_level("INFO", logger="urc.protocols.rotctld")
-    assert s.receive(b"Z\n\\foo\nO\n") == []
+    assert fed(s, b"Z\n\\foo\nO\n") == []
     assert "'Z'" in caplog.text and "'\\\\foo'" in caplog.text
 
 
 def test_unknown_long_name_arguments_become_commands(tartu):
     s = RotctldSession(tartu.rot)
-    got = s.receive(b"\\nosuch p _\n")
+    got = fed(s, b"\\nosuch p _\n")
     assert got == [b"10.50\n20.50\n", b"urc tartu-urc\n"]
 
 
 def test_prefix_rules(tartu):
     s = RotctldSession(tartu.rot)
     # '+' then another punctuation: that one is the separator
-    assert s.receive(b"+;p\n") == [b"get_pos:;Azimuth: 10.50;Elevation: 20.50;RPRT 0\n"]
-    assert s.receive(b"++p\n") == [b"get_pos:+Azimuth: 10.50+Elevation: 20.50+RPRT 0\n"]
+    assert fed(s, b"+;p\n") == [b"get_pos:;Azimuth: 10.50;Elevation: 20.50;RPRT 0\n"]
+    assert fed(s, b"++p\n") == [b"get_pos:+Azimuth: 10.50+Elevation: 20.50+RPRT 0\n"]
     # `_` is a command, not a separator; `\` starts a long name after a prefix
-    assert s.receive(b";_\n") == [b"get_info:;Info: urc tartu-urc;RPRT 0\n"]
-    assert s.receive(b"-\\get_pos\n") == [b"get_pos:-Azimuth: 10.50-Elevation: 20.50-RPRT 0\n"]
+    assert fed(s, b";_\n") == [b"get_info:;Info: urc tartu-urc;RPRT 0\n"]
+    assert fed(s, b"-\\get_pos\n") == [b"get_pos:-Azimuth: 10.50-Elevation: 20.50-RPRT 0\n"]
     # a prefix followed by a line end or an unknown character is dropped
-    assert s.receive(b"+\np\n") == [b"10.50\n20.50\n"]
-    assert s.receive(b";;p\n") == [b"10.50\n20.50\n"]
+    assert fed(s, b"+\np\n") == [b"10.50\n20.50\n"]
+    assert fed(s, b";;p\n") == [b"10.50\n20.50\n"]
     # the extended header echoes the arguments as typed (decimal comma included)
-    assert s.receive(b"+P 10,5 20,5\n") == [b"set_pos: 10,5 20,5\nRPRT 0\n"]
+    assert fed(s, b"+P 10,5 20,5\n") == [b"set_pos: 10,5 20,5\nRPRT 0\n"]
 
 
 # ------------------------------------------------------------------ P / set_pos
@@ -334,7 +335,7 @@ def test_prefix_rules(tartu):
 ])
 def test_set_pos_values(tartu, args, az, el):
     s = RotctldSession(tartu.rot)
-    assert s.receive(f"P {args}\n".encode()) == [b"RPRT 0\n"]
+    assert fed(s, f"P {args}\n".encode()) == [b"RPRT 0\n"]
     tartu.run(0.1)
     st_ = tartu.rot.status()
     assert (st_.target_az_deg, st_.target_el_deg) == pytest.approx((az, el))
@@ -348,7 +349,7 @@ def test_set_pos_garbage_is_einval_and_never_moves(tartu, args):
     for version in ("4.5", "4.6"):
         rec = Recorder(tartu.rot)
         s = RotctldSession(rec, hamlib_version=version)
-        assert s.receive(f"P {args}\n".encode()) == [b"RPRT -1\n"]
+        assert fed(s, f"P {args}\n".encode()) == [b"RPRT -1\n"]
         assert rec.calls == []
     assert idle(tartu)
 
@@ -358,34 +359,34 @@ def test_set_pos_garbage_is_einval_and_never_moves(tartu, args):
 def test_set_pos_out_of_range(tartu, version, code, args):
     rec = Recorder(tartu.rot)
     s = RotctldSession(rec, hamlib_version=version)
-    assert s.receive(f"P {args}\n".encode()) == [f"RPRT {code}\n".encode()]
+    assert fed(s, f"P {args}\n".encode()) == [f"RPRT {code}\n".encode()]
     assert rec.calls == [] and idle(tartu)
 
 
 def test_set_pos_inside_the_wrap_range_is_a_wrap_pose(bench):
     b = bench("g5500")
     s = RotctldSession(b.rot)
-    assert s.receive(b"P 400 20\n") == [b"RPRT 0\n"]
+    assert fed(s, b"P 400 20\n") == [b"RPRT 0\n"]
     b.settle()
     assert b.truth("az") == pytest.approx(400.0, abs=1.5)  # the overlap, not 40
-    az, el = (float(x) for x in s.receive(b"p\n")[0].split())
+    az, el = (float(x) for x in fed(s, b"p\n")[0].split())
     assert az == pytest.approx(40.0, abs=1.0) and el == pytest.approx(20.0, abs=1.0)
-    assert "OVERLAP_RIGHT" in s.receive(b"s\n")[0].decode().split()
+    assert "OVERLAP_RIGHT" in fed(s, b"s\n")[0].decode().split()
 
 
 def test_set_pos_negative_azimuth_within_the_range_is_passed_unchanged():
     b = fresh_bench("sarcnet-mini")  # azimuth -90..450
     s = RotctldSession(b.rot)
-    assert s.receive(b"P -45 10\n") == [b"RPRT 0\n"]
+    assert fed(s, b"P -45 10\n") == [b"RPRT 0\n"]
     b.settle()
     assert b.truth("az") == pytest.approx(-45.0, abs=1.5)  # CCW of north, not 315
-    assert "OVERLAP_LEFT" in s.receive(b"s\n")[0].decode().split()
+    assert "OVERLAP_LEFT" in fed(s, b"s\n")[0].decode().split()
 
 
 def test_set_pos_with_offsets_accepts_any_compass_azimuth(bench):
     b = bench("g5500", offsets={"az_deg": 10.0})  # advertises 10..460
     s = RotctldSession(b.rot)
-    assert s.receive(b"P 5 10\n") == [b"RPRT 0\n"]  # sky az 5 = mechanical 355
+    assert fed(s, b"P 5 10\n") == [b"RPRT 0\n"]  # sky az 5 = mechanical 355
     b.settle()
     assert b.rot.status().az_deg == pytest.approx(5.0, abs=1.0)
 
@@ -394,17 +395,17 @@ def test_rejections_map_to_rprt_codes(bench):
     mast = {"name": "mast", "az_min_deg": 80.0, "az_max_deg": 100.0, "el_min_deg": 0.0, "el_max_deg": 20.0}
     b = bench("berkeley", keepout=[mast])
     for version, code in (("4.5", b"RPRT -1\n"), ("4.6", b"RPRT -21\n")):
-        assert RotctldSession(b.rot, hamlib_version=version).receive(b"P 90 10\n") == [code]
+        assert fed(RotctldSession(b.rot, hamlib_version=version), b"P 90 10\n") == [code]
     for _ in range(b.rot.timing.latch_stalls):
         b.rot.note_lateness(2.0)  # stalls that keep happening: a latched fault (watchdog)
     b.run(0.1)
     s = RotctldSession(b.rot)
-    assert s.receive(b"P 10 10\nK\nM 2 50\n") == [b"RPRT -9\n"] * 3
-    assert "BUSY" in s.receive(b"s\n")[0].decode()
-    assert s.receive(b"R 1\n") == [b"RPRT 0\n"]  # stop + clear faults
+    assert fed(s, b"P 10 10\nK\nM 2 50\n") == [b"RPRT -9\n"] * 3
+    assert "BUSY" in fed(s, b"s\n")[0].decode()
+    assert fed(s, b"R 1\n") == [b"RPRT 0\n"]  # stop + clear faults
     b.run(0.1)
     assert not b.rot.status().faults
-    assert s.receive(b"P 10 10\n") == [b"RPRT 0\n"]
+    assert fed(s, b"P 10 10\n") == [b"RPRT 0\n"]
 
 
 # ---------------------------------------------------------------------- M / move
@@ -425,20 +426,20 @@ def test_move_directions(bench, direction, sign_az, sign_el):
     b = bench("tartu-urc")
     go(b, 200.0, 45.0)
     s = RotctldSession(b.rot)
-    assert s.receive(f"M {direction} 50\n".encode()) == [b"RPRT 0\n"]
+    assert fed(s, f"M {direction} 50\n".encode()) == [b"RPRT 0\n"]
     az_rate, el_rate = az_el_rates(b)
     for sign, rate in ((sign_az, az_rate), (sign_el, el_rate)):
         if sign:
             assert rate * sign == pytest.approx(3.0, rel=0.15)  # 50 % of 6 deg/s
         else:
             assert abs(rate) < 0.05
-    flags = s.receive(b"s\n")[0].decode().split()
+    flags = fed(s, b"s\n")[0].decode().split()
     assert "MOVING" in flags
     name = {(0, 1): "MOVING_UP", (0, -1): "MOVING_DOWN", (-1, 0): "MOVING_LEFT", (1, 0): "MOVING_RIGHT"}
     assert name[(sign_az, sign_el)] in flags
-    assert s.receive(b"S\n") == [b"RPRT 0\n"]
+    assert fed(s, b"S\n") == [b"RPRT 0\n"]
     b.settle()
-    assert s.receive(b"s\n") == [b"\n"]
+    assert fed(s, b"s\n") == [b"\n"]
 
 
 @pytest.mark.parametrize("direction,sign_az,sign_el", [
@@ -448,9 +449,9 @@ def test_move_directions(bench, direction, sign_az, sign_el):
 def test_move_diagonals_46_only(bench, direction, sign_az, sign_el):
     b = bench("tartu-urc")
     go(b, 200.0, 45.0)
-    assert RotctldSession(b.rot).receive(f"M {direction} 20\n".encode()) == [b"RPRT -1\n"]
+    assert fed(RotctldSession(b.rot), f"M {direction} 20\n".encode()) == [b"RPRT -1\n"]
     assert az_el_rates(b) == (0.0, 0.0)
-    assert RotctldSession(b.rot, hamlib_version="4.6").receive(f"M {direction} 20\n".encode()) == [b"RPRT 0\n"]
+    assert fed(RotctldSession(b.rot, hamlib_version="4.6"), f"M {direction} 20\n".encode()) == [b"RPRT 0\n"]
     az_rate, el_rate = az_el_rates(b)
     assert az_rate * sign_az == pytest.approx(1.2, rel=0.2) and el_rate * sign_el == pytest.approx(1.2, rel=0.2)
 
@@ -459,9 +460,9 @@ def test_move_speed_level_and_no_change(bench):
     b = bench("tartu-urc")
     go(b, 200.0, 45.0)
     s = RotctldSession(b.rot)
-    assert s.receive(b"V SPEED 25\nM RIGHT -1\n") == [b"RPRT 0\n", b"RPRT 0\n"]
+    assert fed(s, b"V SPEED 25\nM RIGHT -1\n") == [b"RPRT 0\n", b"RPRT 0\n"]
     assert az_el_rates(b)[0] == pytest.approx(1.5, rel=0.15)  # 25 % of 6 deg/s
-    assert s.receive(b"V SPEED 100\nM RIGHT -1\n") == [b"RPRT 0\n", b"RPRT 0\n"]
+    assert fed(s, b"V SPEED 100\nM RIGHT -1\n") == [b"RPRT 0\n", b"RPRT 0\n"]
     assert az_el_rates(b)[0] == pytest.approx(6.0, rel=0.1)
 
 
@@ -470,7 +471,7 @@ def test_move_speed_level_and_no_change(bench):
 def test_move_garbage_is_einval_and_never_moves(tartu, args):
     rec = Recorder(tartu.rot)
     for version in ("4.5", "4.6"):
-        assert RotctldSession(rec, hamlib_version=version).receive(f"M {args}\n".encode()) == [b"RPRT -1\n"]
+        assert fed(RotctldSession(rec, hamlib_version=version), f"M {args}\n".encode()) == [b"RPRT -1\n"]
     assert rec.calls == [] and idle(tartu)
 
 
@@ -479,22 +480,22 @@ def test_park_stop_reset(bench):
     b = bench("tartu-urc")
     go(b, 100.0, 30.0)
     s = RotctldSession(b.rot)
-    assert s.receive(b"K\n") == [b"RPRT 0\n"]
+    assert fed(s, b"K\n") == [b"RPRT 0\n"]
     b.settle()
     assert b.rot.status().parked
     # tartu parks at az 0 el 90 (az 0 is its limit: the service's guard stops ~1.5 short)
     assert (b.truth("az"), b.truth("el")) == pytest.approx((0.0, 90.0), abs=2.0)
-    assert s.receive(b"P 180 10\n") == [b"RPRT 0\n"]
+    assert fed(s, b"P 180 10\n") == [b"RPRT 0\n"]
     b.run(6.0)
-    assert s.receive(b"S\n") == [b"RPRT 0\n"]
+    assert fed(s, b"S\n") == [b"RPRT 0\n"]
     b.settle()
     assert 20.0 < b.truth("az") < 150.0  # stopped on the way
-    assert s.receive(b"P 180 10\n") == [b"RPRT 0\n"]
+    assert fed(s, b"P 180 10\n") == [b"RPRT 0\n"]
     b.run(1.0)
-    assert s.receive(b"R 1\n") == [b"RPRT 0\n"]  # reset stops too
+    assert fed(s, b"R 1\n") == [b"RPRT 0\n"]  # reset stops too
     b.settle()
     assert b.truth("az") < 170.0
-    assert s.receive(b"R x\n") == [b"RPRT -1\n"]
+    assert fed(s, b"R x\n") == [b"RPRT -1\n"]
 
 
 def test_status_while_moving_up(bench):
@@ -502,28 +503,28 @@ def test_status_while_moving_up(bench):
     b = bench("tartu-urc")
     go(b, 10.0, 10.0)
     s = RotctldSession(b.rot)
-    s.receive(b"P 10 60\n")
+    fed(s, b"P 10 60\n")
     b.run(2.0)
-    assert s.receive(b"s\n") == [b"MOVING MOVING_EL MOVING_UP \n"]
-    assert s.receive(b";s\n") == [b"get_status:;Status flags: MOVING MOVING_EL MOVING_UP ;RPRT 0\n"]
+    assert fed(s, b"s\n") == [b"MOVING MOVING_EL MOVING_UP \n"]
+    assert fed(s, b";s\n") == [b"get_status:;Status flags: MOVING MOVING_EL MOVING_UP ;RPRT 0\n"]
 
 
 def test_limit_switch_flag():
     b = fresh_bench("bigras")
     b.world.inject("az", "limit_switch", which="max")
     b.run(0.5)
-    assert "LIMIT_RIGHT" in RotctldSession(b.rot).receive(b"s\n")[0].decode().split()
+    assert "LIMIT_RIGHT" in fed(RotctldSession(b.rot), b"s\n")[0].decode().split()
 
 
 def test_position_reported_while_moving_is_current(bench):
     b = bench("tartu-urc")
     go(b, 0.0, 0.0)
     s = RotctldSession(b.rot)
-    s.receive(b"P 90 0\n")
+    fed(s, b"P 90 0\n")
     seen = []
     for _ in range(5):
         b.run(2.0)
-        seen.append(float(s.receive(b"p\n")[0].split()[0]))
+        seen.append(float(fed(s, b"p\n")[0].split()[0]))
         assert seen[-1] == pytest.approx(b.rot.status().az_deg, abs=0.006)
     assert seen == sorted(seen) and seen[0] > 0.0 and seen[-1] < 90.0
 
@@ -531,64 +532,64 @@ def test_position_reported_while_moving_is_current(bench):
 # ---------------------------------------------------------------- levels, conf, misc
 def test_levels(tartu):
     s = RotctldSession(tartu.rot)
-    assert s.receive(b"v SPEED\n") == [b"100\n"]
-    assert s.receive(b"v ?\n") == [b"SPEED \n"]
-    assert s.receive(b"+v ?\n") == [b"get_level: ?\nSPEED \nRPRT 0\n"]
-    assert s.receive(b"+V ?\n") == [b"set_level: ?\nSPEED \nRPRT 0\n"]
-    assert s.receive(b"V SPEED 0\nV SPEED 101\nV SPEED x\nV SPEED ?\n") == [b"RPRT -1\n"] * 4
-    assert s.receive(b"V FOO 1\n") == [b"RPRT -11\n"]
-    assert s.receive(b"v FOO\n") == [b"RPRT -1\n"]
-    assert s.receive(b"V SPEED 7\n;v SPEED\n") == [b"RPRT 0\n", b"get_level: SPEED;7\nRPRT 0\n"]
+    assert fed(s, b"v SPEED\n") == [b"100\n"]
+    assert fed(s, b"v ?\n") == [b"SPEED \n"]
+    assert fed(s, b"+v ?\n") == [b"get_level: ?\nSPEED \nRPRT 0\n"]
+    assert fed(s, b"+V ?\n") == [b"set_level: ?\nSPEED \nRPRT 0\n"]
+    assert fed(s, b"V SPEED 0\nV SPEED 101\nV SPEED x\nV SPEED ?\n") == [b"RPRT -1\n"] * 4
+    assert fed(s, b"V FOO 1\n") == [b"RPRT -11\n"]
+    assert fed(s, b"v FOO\n") == [b"RPRT -1\n"]
+    assert fed(s, b"V SPEED 7\n;v SPEED\n") == [b"RPRT 0\n", b"get_level: SPEED;7\nRPRT 0\n"]
     assert s.speed == 7
 
 
 def test_funcs_and_parms(tartu):
     s = RotctldSession(tartu.rot)
-    assert s.receive(b"U ?\nu ?\nX ?\nx ?\n") == [b"\nRPRT 0\n", b"\n", b"\nRPRT 0\n", b"\n"]
-    assert s.receive(b"U FOO 1\nu FOO\nX FOO 1\nx FOO\n") == \
+    assert fed(s, b"U ?\nu ?\nX ?\nx ?\n") == [b"\nRPRT 0\n", b"\n", b"\nRPRT 0\n", b"\n"]
+    assert fed(s, b"U FOO 1\nu FOO\nX FOO 1\nx FOO\n") == \
         [b"RPRT -11\n", b"RPRT -1\n", b"RPRT -1\n", b"RPRT -1\n"]
 
 
 def test_conf(tartu):
     s = RotctldSession(tartu.rot)
-    assert s.receive(b"\\get_conf min_az\n\\get_conf max_az\n\\get_conf min_el\n"
+    assert fed(s, b"\\get_conf min_az\n\\get_conf max_az\n\\get_conf min_el\n"
                      b"\\get_conf max_el\n\\get_conf south_zero\n") == [
         b"min_az=0.000000\n", b"max_az=400.000000\n", b"min_el=0.000000\n", b"max_el=180.000000\n",
         b"south_zero=0\n"]
-    assert s.receive(b"\\get_conf foo\n") == [b"RPRT -1\n"]
+    assert fed(s, b"\\get_conf foo\n") == [b"RPRT -1\n"]
     # limits and the azimuth frame are the rotator's: changing them is not available
-    assert s.receive(b"C min_az -90\nC max_el 90\nC south_zero 1\n") == [b"RPRT -11\n"] * 3
+    assert fed(s, b"C min_az -90\nC max_el 90\nC south_zero 1\n") == [b"RPRT -11\n"] * 3
     # ... and saying what they already are is fine
-    assert s.receive(b"C min_az 0\n\\set_conf max_az 400.0\nC south_zero 0\n") == [b"RPRT 0\n"] * 3
-    assert s.receive(b"C foo 1\nC min_az abc\n") == [b"RPRT -1\n"] * 2
-    assert s.receive(b"+C min_az -90\n") == [b"set_conf: min_az -90\nRPRT -11\n"]
-    assert s.receive(b"\\dump_state\n")[0].startswith(b"1\n1\nmin_az=0.000000\n")
+    assert fed(s, b"C min_az 0\n\\set_conf max_az 400.0\nC south_zero 0\n") == [b"RPRT 0\n"] * 3
+    assert fed(s, b"C foo 1\nC min_az abc\n") == [b"RPRT -1\n"] * 2
+    assert fed(s, b"+C min_az -90\n") == [b"set_conf: min_az -90\nRPRT -11\n"]
+    assert fed(s, b"\\dump_state\n")[0].startswith(b"1\n1\nmin_az=0.000000\n")
     assert idle(tartu)
 
 
 def test_conf_list(tartu):
-    assert RotctldSession(tartu.rot).receive(b"C ?\n") == [b"RPRT -1\n"]  # 4.5
+    assert fed(RotctldSession(tartu.rot), b"C ?\n") == [b"RPRT -1\n"]  # 4.5
     s = RotctldSession(tartu.rot, hamlib_version="4.6")
-    listing = s.receive(b"C ?\n")[0].decode()
+    listing = fed(s, b"C ?\n")[0].decode()
     assert listing.startswith('min_az: "Minimum rotator azimuth in degrees"\n\tDefault: -180, Value: 0.000000\n')
     assert "south_zero" in listing and listing.endswith("\tCheckbox: 0,1\nRPRT 0\n")
-    assert s.receive(b"3\n") == [listing.encode()]
-    assert s.receive(b"\\get_conf ?\n") == [listing[:-len("RPRT 0\n")].encode()]
+    assert fed(s, b"3\n") == [listing.encode()]
+    assert fed(s, b"\\get_conf ?\n") == [listing[:-len("RPRT 0\n")].encode()]
 
 
 def test_dump_caps(tartu):
     s = RotctldSession(tartu.rot)
-    caps = s.receive(b"1\n")[0].decode()
+    caps = fed(s, b"1\n")[0].decode()
     assert caps.startswith("Caps dump for model:\t1\nModel name:\t\turc tartu-urc\n")
     assert "Max Azimuth:\t\t400.00\n" in caps and "Can set Position:\tY\n" in caps
     assert caps.endswith("\nOverall backend warnings: 0\nRPRT 0\n")
-    assert s.receive(b"+1\n")[0].decode() == "dump_caps:\n" + caps
+    assert fed(s, b"+1\n")[0].decode() == "dump_caps:\n" + caps
 
 
 def test_helpers_not_offered_but_read_their_arguments(tartu):
     s = RotctldSession(tartu.rot)
     # each helper's arguments are consumed: the digits are not run as dump_caps etc.
-    got = s.receive(b"L 1 2 3\nl JO\nD 1 2 3 4\nd 1\nE 1 2 3\ne 1\nB 1 2 3 4\nA 1\na 1\n"
+    got = fed(s, b"L 1 2 3\nl JO\nD 1 2 3 4\nd 1\nE 1 2 3\ne 1\nB 1 2 3 4\nA 1\na 1\n"
                     b"\\pause 1\nw K K K\np\n")
     assert got == [b"RPRT -11\n"] * 11 + [b"10.50\n20.50\n"]
     assert idle(tartu)
@@ -600,19 +601,19 @@ def test_overlong_argument_is_dropped_answered_and_resynchronised(tartu, caplog)
     junk = b"9" * (MAX_PENDING_BYTES + 10)
     got = []
     for i in range(0, len(junk), 1000):
-        got += s.receive((b"P 1 " if i == 0 else b"") + junk[i:i + 1000])
+        got += fed(s, (b"P 1 " if i == 0 else b"") + junk[i:i + 1000])
     assert got == [b"RPRT -1\n"]  # gpredict waits for an answer to every P
     # the rest of the cut word is not read as commands (9s, and a K glued to it)
-    assert s.receive(b"999K1K p\n") == [b"10.50\n20.50\n"]
+    assert fed(s, b"999K1K p\n") == [b"10.50\n20.50\n"]
     assert idle(tartu) and "unfinished command" in caplog.text
 
 
 def test_overlong_long_name_and_comment(tartu):
     s = RotctldSession(tartu.rot)
-    assert s.receive(b"\\" + b"x" * (MAX_PENDING_BYTES + 5)) == []
-    assert s.receive(b"xxK p\n") == [b"10.50\n20.50\n"]
-    s.receive(b"#" + b" K" * 5000)  # a comment is skipped, however long, never buffered
-    assert s.receive(b" K P 1 2\np\n") == [b"10.50\n20.50\n"]
+    assert fed(s, b"\\" + b"x" * (MAX_PENDING_BYTES + 5)) == []
+    assert fed(s, b"xxK p\n") == [b"10.50\n20.50\n"]
+    fed(s, b"#" + b" K" * 5000)  # a comment is skipped, however long, never buffered
+    assert fed(s, b" K P 1 2\np\n") == [b"10.50\n20.50\n"]
     assert idle(tartu)
 
 
@@ -663,29 +664,29 @@ def test_hamlib_netrotctl_exchange_45(bench):
     b = bench("tartu-urc")
     at(b, 10.5, 20.5)
     s = RotctldSession(b.rot)
-    keys = netrotctl_open(s.receive(b"\\dump_state\n")[0])
+    keys = netrotctl_open(fed(s, b"\\dump_state\n")[0])
     assert float(keys["max_az"]) >= 100.0
-    assert s.receive(b"P 100.000000 20.000000\n") == [b"RPRT 0\n"]
+    assert fed(s, b"P 100.000000 20.000000\n") == [b"RPRT 0\n"]
     b.run(2.0)
-    az, el = s.receive(b"p\n")[0].split(b"\n")[:2]  # atof of two lines
+    az, el = fed(s, b"p\n")[0].split(b"\n")[:2]  # atof of two lines
     assert 10.5 < float(az) < 100.0
     for cmd in (b"S\n", b"K\n", b"R 1\n", b"M 2 50\n"):
-        reply = s.receive(cmd)
+        reply = fed(s, cmd)
         assert reply == [b"RPRT 0\n"], cmd  # the client reads the first line only
-    assert s.receive(b"M 64 10\n") == [b"RPRT -1\n"]  # a 4.5 server has no diagonals
-    assert s.receive(b"_\n") == [b"urc tartu-urc\n"]
-    assert s.receive(b"q\n") == [] and s.closed
+    assert fed(s, b"M 64 10\n") == [b"RPRT -1\n"]  # a 4.5 server has no diagonals
+    assert fed(s, b"_\n") == [b"urc tartu-urc\n"]
+    assert fed(s, b"q\n") == [] and s.closed
 
 
 def test_hamlib_netrotctl_exchange_46(bench):
     b = bench("tartu-urc")
     at(b, 100.0, 20.0)
     s = RotctldSession(b.rot, hamlib_version="4.6")
-    s.receive(b"\\dump_state\n")
-    assert s.receive(b"M 64 10\n") == [b"RPRT 0\n"]  # up and right
+    fed(s, b"\\dump_state\n")
+    assert fed(s, b"M 64 10\n") == [b"RPRT 0\n"]  # up and right
     az_rate, el_rate = az_el_rates(b, 2.0)
     assert az_rate > 0.3 and el_rate > 0.3
-    assert s.receive(b"S\nq\n") == [b"RPRT 0\n"] and s.closed
+    assert fed(s, b"S\nq\n") == [b"RPRT 0\n"] and s.closed
 
 
 class Gpredict:
@@ -704,13 +705,13 @@ class Gpredict:
         text = "P %.2f %.2f\n" % (az, el)
         if self.comma:
             text = text.replace(".", ",")
-        replies = self.s.receive(text.encode())
+        replies = fed(self.s, text.encode())
         assert len(replies) == 1, "gpredict reads one recv(); a missing reply hangs it"
         if float(replies[0][4:].split()[0]) != 0:  # strtod(buf + 4)
             self.errors += 1
 
     def get(self) -> tuple[float, float]:
-        replies = self.s.receive(b"p\n")
+        replies = fed(self.s, b"p\n")
         assert len(replies) == 1, "both lines must come in one segment"
         buf = replies[0]
         assert not buf.startswith(b"RPRT")
@@ -718,7 +719,7 @@ class Gpredict:
         return float(parts[0]), float(parts[1])
 
     def close(self) -> None:
-        assert self.s.receive(b"q\n") == [] and self.s.closed
+        assert fed(self.s, b"q\n") == [] and self.s.closed
 
 
 def test_gpredict_bytes(tartu):
@@ -727,12 +728,12 @@ def test_gpredict_bytes(tartu):
     s = RotctldSession(tartu.rot)
     for sent, target in ((b"P 180.00 45.00\n", (180.0, 45.0)), (b"P -90.00 10.00\n", (270.0, 10.0)),
                          (b"P 180,00 45,00\n", (180.0, 45.0)), (b"P 123,45 6,70\n", (123.45, 6.7))):
-        assert s.receive(sent) == [b"RPRT 0\n"]
+        assert fed(s, sent) == [b"RPRT 0\n"]
         tartu.run(0.05)
         st_ = tartu.rot.status()
         assert (st_.target_az_deg, st_.target_el_deg) == pytest.approx(target)
-        assert s.receive(b"p\n") == [b"%.2f\n%.2f\n" % (st_.az_deg, st_.el_deg)]
-    assert s.receive(b"q\n") == [] and s.closed
+        assert fed(s, b"p\n") == [b"%.2f\n%.2f\n" % (st_.az_deg, st_.el_deg)]
+    assert fed(s, b"q\n") == [] and s.closed
 
 
 @pytest.mark.parametrize("comma", [False, True], ids=["C-locale", "de_DE-locale"])
@@ -767,10 +768,10 @@ def test_radiosonde_auto_rx_connection_per_command(bench):
     """Section 1.8: a new connection per operation, `P %.1f %.1f\\n` or `p\\n`, never `q`."""
     b = bench("berkeley")
     for az, el in ((123.4, 12.3), (250.0, 45.6)):
-        reply = RotctldSession(b.rot).receive(b"P %.1f %.1f\n" % (az, el))
+        reply = fed(RotctldSession(b.rot), b"P %.1f %.1f\n" % (az, el))
         assert b"RPRT 0" in reply[0]
         b.settle()
-        lines = RotctldSession(b.rot).receive(b"p\n")[0].decode().split("\n")
+        lines = fed(RotctldSession(b.rot), b"p\n")[0].decode().split("\n")
         assert not lines[0].startswith("RPRT")
         assert (float(lines[0]), float(lines[1])) == pytest.approx((az, el), abs=0.2)
         assert float(lines[0]) == pytest.approx(b.truth("az") % 360, abs=0.2)
@@ -797,7 +798,7 @@ def check_no_motion_and_bounded(chunks: list[bytes]) -> None:
     s = RotctldSession(rec, hamlib_version="4.6")
     replies = []
     for chunk in chunks:
-        replies += s.receive(chunk)
+        replies += fed(s, chunk)
     total = sum(len(c) for c in chunks)
     assert len(replies) <= total and all(0 < len(r) <= 4096 for r in replies)
     assert all(r.endswith(b"\n") for r in replies)
@@ -857,7 +858,7 @@ def command_streams(draw):
 def test_fuzz_every_command_gets_one_reply_whatever_the_split(commands):
     stream = "".join(commands).encode()
     b1, b2 = fresh_bench(), fresh_bench()
-    whole = RotctldSession(b1.rot).receive(stream)
+    whole = fed(RotctldSession(b1.rot), stream)
     assert len(whole) == len(commands)
     assert bytewise(RotctldSession(b2.rot), stream) == whole
     for cmd, reply in zip(commands, whole):

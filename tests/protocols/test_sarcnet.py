@@ -20,6 +20,7 @@ from urc.protocols import make_session
 from urc.protocols import sarcnet_codec as codec
 from urc.protocols.sarcnet import SarcnetSession
 from urc.protocols.sarcnet_codec import SarcnetCommand, SarcnetSyntaxError
+from urc.testing.sessions import fed, ticked
 
 #: compass/tilt sensor noise (0.15/0.1 deg), 0.1 deg quantisation, 0.3 deg tolerance
 TRUTH_TOL_DEG = 1.0
@@ -34,7 +35,7 @@ def sarc(bench):
 
 def hamlib45_get(s: SarcnetSession) -> tuple[float, float]:
     """Hamlib 4.5 `p`: `AZ EL \\n`, one line parsed as AZ%f EL%f."""
-    (reply,) = s.receive(b"AZ EL \n")
+    (reply,) = fed(s, b"AZ EL \n")
     m = re.fullmatch(rb"AZ(-?[\d.]+) EL(-?[\d.]+)\n", reply)
     assert m, reply
     return float(m.group(1)), float(m.group(2))
@@ -53,7 +54,7 @@ def ticks(b: Bench, s: SarcnetSession, seconds: float, step_s: float = 0.04) -> 
     end = b.clock.now_s() + seconds - 1e-9
     while b.clock.now_s() < end:
         b.run(step_s)
-        out += s.tick(b.clock.now_s())
+        out += ticked(s, b.clock.now_s())
     return out
 
 
@@ -102,12 +103,12 @@ def test_formats():
 # =================================================================== transcripts
 def test_help_and_letters(sarc):
     b, s = sarc
-    (help_,) = s.receive(b"h\r")
+    (help_,) = fed(s, b"h\r")
     assert help_.startswith(b"Commands:\r\n") and b"m -Monitor\r\n" in help_
-    assert s.receive(b"c\r")[0] == b"Calibration in progress: Press 'a' to abort\r\n"
-    assert s.receive(b"a\r") == [b"Calibration aborted: nothing changed\r\n"]
-    assert s.receive(b"s\r")[0].startswith(b"Saved")
-    assert s.receive(b"xyz\r")[0].startswith(b"Error: unknown command 'xyz': expected 'az el'")
+    assert fed(s, b"c\r")[0] == b"Calibration in progress: Press 'a' to abort\r\n"
+    assert fed(s, b"a\r") == [b"Calibration aborted: nothing changed\r\n"]
+    assert fed(s, b"s\r")[0].startswith(b"Saved")
+    assert fed(s, b"xyz\r")[0].startswith(b"Error: unknown command 'xyz': expected 'az el'")
     assert held(b)
 
 
@@ -116,23 +117,23 @@ def test_easycomm_queries_hamlib_45_and_46(sarc):
     az, el = hamlib45_get(s)
     st_ = b.rot.status()
     assert (az, el) == pytest.approx((st_.az_deg, st_.el_deg), abs=0.06)
-    (a,) = s.receive(b"AZ\n")
-    (e,) = s.receive(b"EL\n")
+    (a,) = fed(s, b"AZ\n")
+    (e,) = fed(s, b"EL\n")
     assert re.fullmatch(rb"AZ\d+\.\d\n", a) and re.fullmatch(rb"EL-?\d+\.\d\n", e)
 
 
 def test_whole_bytewise_chunked_same(sarc):
     b, s = sarc
     data = b"h\rAZ\nxyz\r\nEL\ns\r"
-    whole = b"".join(s.receive(data))
-    assert b"".join(r for byte in data for r in s.receive(bytes([byte]))) == whole
-    assert b"".join(r for i in range(0, len(data), 4) for r in s.receive(data[i:i + 4])) == whole
+    whole = b"".join(fed(s, data))
+    assert b"".join(r for byte in data for r in fed(s, bytes([byte]))) == whole
+    assert b"".join(r for i in range(0, len(data), 4) for r in fed(s, data[i:i + 4])) == whole
 
 
 # =================================================================== end to end
 def test_console_goto_then_read(sarc):
     b, s = sarc
-    assert s.receive(b"120 30\r") == []                  # silent, like the Arduino
+    assert fed(s, b"120 30\r") == []                  # silent, like the Arduino
     b.settle()
     az, el = hamlib45_get(s)
     assert az == pytest.approx(b.truth("az"), abs=TRUTH_TOL_DEG)
@@ -142,7 +143,7 @@ def test_console_goto_then_read(sarc):
 
 def test_console_negative_azimuth_is_west(sarc):
     b, s = sarc
-    s.receive(b"-90 20\r")
+    fed(s, b"-90 20\r")
     b.settle()
     assert hamlib45_get(s) == pytest.approx((270.0, 20.0), abs=TRUTH_TOL_DEG)
     assert b.truth("az") % 360 == pytest.approx(270.0, abs=TRUTH_TOL_DEG)
@@ -150,32 +151,32 @@ def test_console_negative_azimuth_is_west(sarc):
 
 def test_easycomm_set_then_get_46(sarc):
     b, s = sarc
-    assert s.receive(b"AZ200.0 EL45.0\n") == []
+    assert fed(s, b"AZ200.0 EL45.0\n") == []
     b.settle()
-    (a,) = s.receive(b"AZ\n")
-    (e,) = s.receive(b"EL\n")
+    (a,) = fed(s, b"AZ\n")
+    (e,) = fed(s, b"EL\n")
     assert float(a[2:]) == pytest.approx(b.truth("az") % 360, abs=TRUTH_TOL_DEG)
     assert float(e[2:]) == pytest.approx(b.truth("el"), abs=TRUTH_TOL_DEG)
-    assert s.receive(b"EL10\n") == []                    # azimuth keeps its target
+    assert fed(s, b"EL10\n") == []                    # azimuth keeps its target
     b.settle()
     assert (b.truth("az") % 360, b.truth("el")) == pytest.approx((200.0, 10.0), abs=TRUTH_TOL_DEG)
 
 
 def test_errors_do_not_move(sarc):
     b, s = sarc
-    replies = s.receive(b"500 10\r10 185\rnan 1\r")
+    replies = fed(s, b"500 10\r10 185\rnan 1\r")
     assert [r[:6] for r in replies] == [b"Error:"] * 3
     assert b"0..360" in replies[0] and b"limits" in replies[1]
-    assert s.receive(b"AZfoo\nAZ500 EL10\nEL185\nAZ-200\n") == []     # Easycomm: logged, no reply
+    assert fed(s, b"AZfoo\nAZ500 EL10\nEL185\nAZ-200\n") == []     # Easycomm: logged, no reply
     assert held(b)
     assert b.rot.status().target_az_deg is None
 
 
 def test_easycomm_stop(sarc):
     b, s = sarc
-    s.receive(b"AZ180.0 EL60.0\n")
+    fed(s, b"AZ180.0 EL60.0\n")
     b.run(5.0)
-    assert s.receive(b"SA SE \n") == []
+    assert fed(s, b"SA SE \n") == []
     b.settle()
     assert 5.0 < b.truth("az") < 100.0 and b.truth("el") < 50.0
     assert held(b)
@@ -183,28 +184,28 @@ def test_easycomm_stop(sarc):
 
 def test_monitor_stream(sarc):
     b, s = sarc
-    s.receive(b"90 20\r")
+    fed(s, b"90 20\r")
     b.settle()
-    assert s.tick(b.clock.now_s()) == []                  # no stream in tracking mode
-    assert s.receive(b"m\r") == [b"Monitoring in progress: Press 'a' to abort\r\n"]
+    assert ticked(s, b.clock.now_s()) == []                  # no stream in tracking mode
+    assert fed(s, b"m\r") == [b"Monitoring in progress: Press 'a' to abort\r\n"]
     rows = ticks(b, s, 1.0)
     assert 9 <= len(rows) <= 11                          # every 0.1 s
     assert all(MONITOR.match(r) for r in rows)
     az, el, az_set, el_set, windup_az, windup, az_err, el_err = map(int, rows[-1].split(b","))
     assert (az, el, az_set, el_set, windup_az, windup) == (90, 20, 90, 20, 90, 0)
     assert abs(az_err) <= 1 and abs(el_err) <= 1
-    assert s.receive(b"a\r") == [b"Function aborted\r\n"]
+    assert fed(s, b"a\r") == [b"Function aborted\r\n"]
     assert ticks(b, s, 0.5) == []
 
 
 def test_monitor_shows_windup(sarc):
     """-60 via the west overlap: the azimuth with its wrap is -60, outside 0..360."""
     b, s = sarc
-    s.receive(b"AZ300.0 EL10.0\n")
+    fed(s, b"AZ300.0 EL10.0\n")
     b.settle()
     b.rot.goto(-60.0, 10.0)                              # the overlap pose (-90..450 rotator)
     b.settle()
-    s.receive(b"m\r")
+    fed(s, b"m\r")
     row = ticks(b, s, 0.2)[-1]
     fields = row.strip().split(b",")
     assert fields[0] == b"-60" and fields[4] == b"-60" and fields[5] == b"1"
@@ -212,7 +213,7 @@ def test_monitor_shows_windup(sarc):
 
 def test_debug_stream(sarc):
     b, s = sarc
-    s.receive(b"b\r")
+    fed(s, b"b\r")
     rows = ticks(b, s, 0.5)
     assert len(rows) == 5
     # the raw sensor data, Mx My Mz Gx Gy Gz (the document's b)
@@ -222,44 +223,44 @@ def test_debug_stream(sarc):
     # what the parts deliver (the simulated magnetometer and accelerometer)
     assert (mx, my, mz) == pytest.approx(b.rot.hw.az.sensor.mag.read_vector(), abs=0.05)
     assert (gx, gy, gz) == pytest.approx((math.sin(math.radians(el)), 0.0, math.cos(math.radians(el))), abs=0.02)
-    s.receive(b"a\r")
+    fed(s, b"a\r")
     assert ticks(b, s, 0.3) == []
 
 
 def test_demo_moves_and_abort_holds(sarc):
     b, s = sarc
     az0 = b.truth("az")
-    assert s.receive(b"d\r") == [b"Demo in progress: Press 'a' to abort\r\n"]
+    assert fed(s, b"d\r") == [b"Demo in progress: Press 'a' to abort\r\n"]
     rows = ticks(b, s, 10.0, step_s=0.1)
     assert len(rows) >= 95 and all(re.fullmatch(rb"-?\d+,-?\d+\r\n", r) for r in rows)
     az_set, el_set = map(int, rows[-1].split(b","))
     assert el_set == pytest.approx(10.0, abs=1.5)        # 1 deg/s up from 0
     assert b.truth("el") == pytest.approx(9.0, abs=2.0)   # following it
     assert abs(b.truth("az") - az0) > 5.0
-    s.receive(b"a\r")
+    fed(s, b"a\r")
     b.settle()
     assert held(b)
 
 
 def test_pause_holds_and_resume_flies(sarc):
     b, s = sarc
-    s.receive(b"60 40\r")
+    fed(s, b"60 40\r")
     b.run(4.0)
-    assert s.receive(b"p\r") == [b"Paused\r\n"]
+    assert fed(s, b"p\r") == [b"Paused\r\n"]
     b.settle()
-    assert s.receive(b"10 10\r") == []                    # kept for later
+    assert fed(s, b"10 10\r") == []                    # kept for later
     assert held(b)
     assert b.truth("el") > 5 and b.truth("el") < 38
-    assert s.receive(b"p\r") == [b"Resumed\r\n"]
+    assert fed(s, b"p\r") == [b"Resumed\r\n"]
     b.settle()
     assert (b.truth("az") % 360, b.truth("el")) == pytest.approx((10.0, 10.0), abs=TRUTH_TOL_DEG)
 
 
 def test_reset_stops(sarc):
     b, s = sarc
-    s.receive(b"m\r180 60\r")
+    fed(s, b"m\r180 60\r")
     b.run(4.0)
-    s.receive(b"r\r")
+    fed(s, b"r\r")
     assert s.mode == "tracking"
     b.settle()
     assert b.truth("el") < 50.0
@@ -269,7 +270,7 @@ def test_reset_stops(sarc):
 def test_interval_option(sarc):
     b, _ = sarc
     s = SarcnetSession(b.rot, interval_s=0.25)
-    s.receive(b"m\r")
+    fed(s, b"m\r")
     assert len(ticks(b, s, 1.0)) == 4
     with pytest.raises(ValueError):
         SarcnetSession(b.rot, interval_s=0)
@@ -311,7 +312,7 @@ def test_fuzz_never_raises_or_moves(quiet, data, split):
     s = SarcnetSession(quiet.rot)
     replies = []
     for i in range(0, len(data), split):
-        replies += s.receive(data[i:i + split])
+        replies += fed(s, data[i:i + split])
     replies += ticks(quiet, s, 0.3, step_s=0.1)
     assert all(r.endswith(b"\n") for r in replies)
     assert len(replies) <= 2 * (data.count(b"\r") + data.count(b"\n")) + 3
@@ -325,34 +326,34 @@ def test_console_session_from_the_document(sarc, bench):
     """The document's set-up session: b (raw data), a, e11.7 then s, r (calibration
     data, reset home), m (monitor), a, 30 45 (the arm swings to about 30/45)."""
     b, s = sarc
-    assert s.receive(b"b\r") == [b"Debugging in progress: Press 'a' to abort\r\n"]
+    assert fed(s, b"b\r") == [b"Debugging in progress: Press 'a' to abort\r\n"]
     assert len(ticks(b, s, 0.3)[-1].split(b",")) == 6             # six numbers
-    assert s.receive(b"a\r") == [b"Function aborted\r\n"]
+    assert fed(s, b"a\r") == [b"Function aborted\r\n"]
     az0 = b.rot.status().az_deg
-    assert s.receive(b"e11.7\r") == [b"Magnetic declination: 11.7\r\n"]
+    assert fed(s, b"e11.7\r") == [b"Magnetic declination: 11.7\r\n"]
     b.run(0.2)
     assert b.rot.status().az_deg == pytest.approx((az0 + 11.7 - 12.5) % 360, abs=0.3)   # was 12.5
-    assert s.receive(b"s\r")[0].startswith(b"Saved")
-    assert s.receive(b"e\r") == [b"Magnetic declination: 11.7\r\n"]
+    assert fed(s, b"s\r")[0].startswith(b"Saved")
+    assert fed(s, b"e\r") == [b"Magnetic declination: 11.7\r\n"]
     b.rot.goto(40.0, 20.0)
     b.settle()
-    reset = s.receive(b"r\r")
+    reset = fed(s, b"r\r")
     assert reset[0] == b"Reset in progress\r\n" and reset[-1] == b"Reset complete\r\n"
     assert b"az declination_deg: 11.7\r\n" in reset
     b.settle()
     home = b.rot.status()
     assert abs((home.az_deg + 180) % 360 - 180) < 1.0 and home.el_deg == pytest.approx(0.0, abs=1.0)
     assert abs(home.az.pos_deg) < 1.0                                # the unwound 0: windup reset
-    assert s.receive(b"m\r") == [b"Monitoring in progress: Press 'a' to abort\r\n"]
+    assert fed(s, b"m\r") == [b"Monitoring in progress: Press 'a' to abort\r\n"]
     assert len(ticks(b, s, 0.3)[-1].split(b",")) == 8
-    s.receive(b"a\r")
-    assert s.receive(b"30 45\r") == []
+    fed(s, b"a\r")
+    assert fed(s, b"30 45\r") == []
     b.settle()
     assert (b.rot.status().az_deg, b.rot.status().el_deg) == pytest.approx((30.0, 45.0), abs=1.0)
     # the declination outlives the connection and a restart of urc
     b.run(2.0)
     b2 = b.restart()
-    assert SarcnetSession(b2.rot).receive(b"e\r") == [b"Magnetic declination: 11.7\r\n"]
+    assert fed(SarcnetSession(b2.rot), b"e\r") == [b"Magnetic declination: 11.7\r\n"]
 
 
 # ===================================================== elevation range of the document
@@ -376,8 +377,8 @@ def test_demo_runs_the_documents_cycle_over_the_top():
     lines at 1 deg/s per axis (8 legs of 90 s)."""
     rot = _DemoRotator()
     s = SarcnetSession(rot)
-    s.receive(b"d\r")
-    rows = [s.tick(1000.0 + 0.1 * k) for k in range(1, 7300)]
+    fed(s, b"d\r")
+    rows = [ticked(s, 1000.0 + 0.1 * k) for k in range(1, 7300)]
     sets = [tuple(map(int, r[0].split(b","))) for r in rows]
     corners = [sets[round(90 * 10 * i) - 1] for i in range(1, 9)]
     assert corners == [(90, 90), (0, 180), (90, 90), (0, 0), (-90, 90), (-180, 0), (-90, 90), (0, 0)]
@@ -393,12 +394,12 @@ def test_elevation_0_to_180_and_a_reading_below_zero(sarc):
     from urc.hardware.sim.sensors import rotation_taking
     b, s = sarc
     assert b.rot.status().limits["el"] == (0.0, 180.0)
-    assert s.receive(b"0 180\r") == []
+    assert fed(s, b"0 180\r") == []
     b.settle()
     assert b.truth("el") == pytest.approx(180.0, abs=TRUTH_TOL_DEG)
-    assert s.receive(b"0 0\r") == []
+    assert fed(s, b"0 0\r") == []
     b.settle()
-    assert s.receive(b"m\r")[0].startswith(b"Monitoring")
+    assert fed(s, b"m\r")[0].startswith(b"Monitoring")
     for deg in range(0, 46):                      # tilt the sensor down slowly
         a = math.radians(deg)
         # the board's Y (the boresight, seed 001's mounting) tilted down
@@ -408,4 +409,4 @@ def test_elevation_0_to_180_and_a_reading_below_zero(sarc):
     st = b.rot.status()
     assert any(f.kind == "sensor_range" and f.axis == "el" for f in st.faults)
     assert b.truth("el") == pytest.approx(0.0, abs=1.0)       # nothing drove on it
-    assert s.receive(b"45 200\r")[0].startswith(b"Error: ")  # past the top: refused
+    assert fed(s, b"45 200\r")[0].startswith(b"Error: ")  # past the top: refused

@@ -20,6 +20,7 @@ from urc.clock import VirtualClock
 from urc.config import Config, load_config
 from urc.protocols.sarcnet import CALIBRATION_HOLD, SarcnetSession
 from urc.service.loop import run_virtual
+from urc.testing.sessions import fed, hung_up, ticked
 
 SARCNET_EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "sarcnet-mini.toml"
 
@@ -69,7 +70,7 @@ def rig(bench):
 
     def tick():
         b.run(0.1)
-        return s.tick(b.clock.now_s())
+        return ticked(s, b.clock.now_s())
     return b, s, tick
 
 
@@ -79,14 +80,14 @@ def test_document_calibration_session(rig):
     b, s, tick = rig
     before = az_errors(b)
     assert max(before) > 3.0, "the new iron spoils the heading"
-    assert s.receive(b"e11.7\r") == [b"Magnetic declination: 11.7\r\n"]
-    assert s.receive(b"s\r")[0].startswith(b"Saved")
-    out = s.receive(b"c\r")
+    assert fed(s, b"e11.7\r") == [b"Magnetic declination: 11.7\r\n"]
+    assert fed(s, b"s\r")[0].startswith(b"Saved")
+    out = fed(s, b"c\r")
     assert out[0] == b"Calibration in progress: Press 'a' to abort\r\n"
     assert out[-1] == b"Next: +X face down (0 of 12 done)\r\n"
     b.run(0.1)
     assert b.rot.status().local_control == (CALIBRATION_HOLD,)
-    assert s.receive(b"30 45\r") == [b"Error: calibrating: s to save, a to abort\r\n"]
+    assert fed(s, b"30 45\r") == [b"Error: calibrating: s to save, a to abort\r\n"]
     out = operator(b.world, s, tick)
     done = [line for line in out if line.startswith(b"Point ")]
     assert done[0] == b"Point 1 of 12 done: +X face down\r\n"
@@ -97,7 +98,7 @@ def test_document_calibration_session(rig):
     assert pairs and all(a != b for a, b in zip(pairs, pairs[1:])), "shown only when it changes"
     assert all(line.endswith(b"\r\n") for line in out)
 
-    saved = s.receive(b"s\r")
+    saved = fed(s, b"s\r")
     assert saved[-1] == b"Calibration saved: put the sensor back on the boom, then r to reset\r\n"
     b.run(0.1)
     assert b.rot.status().local_control == ()
@@ -115,7 +116,7 @@ def test_document_calibration_session(rig):
 
     b.world.board.release()                      # back on the boom
     b.run(1.0)
-    reset = s.receive(b"r\r")
+    reset = fed(s, b"r\r")
     assert reset[-1] == b"Reset complete\r\n" and b"az hard_iron_z: " + f"{cal['hard_iron_z']:g}".encode() + b"\r\n" in reset
     b.settle()
     after = az_errors(b)
@@ -133,28 +134,28 @@ def _unchanged(b):
 def test_aborted_or_bad_calibration_changes_nothing(rig, how):
     b, s, tick = rig
     start = _unchanged(b)
-    s.receive(b"c\r")
+    fed(s, b"c\r")
     few = [("gravity", "+x"), ("gravity", "+z"), ("field", "+x")]
     out = operator(b.world, s, tick, directions=few if how == "too few" else None)
     if how != "too few":
         assert out[-1].startswith(b"All 12 directions done")
     if how == "a":
-        assert s.receive(b"a\r") == [b"Calibration aborted: nothing changed\r\n"]
+        assert fed(s, b"a\r") == [b"Calibration aborted: nothing changed\r\n"]
     elif how == "esc":
-        assert s.receive(b"s\x1b") == [b"Calibration aborted: nothing changed\r\n"]
+        assert fed(s, b"s\x1b") == [b"Calibration aborted: nothing changed\r\n"]
     elif how == "ctrl-c":
-        assert s.receive(b"\x03") == [b"Calibration aborted: nothing changed\r\n"]
+        assert fed(s, b"\x03") == [b"Calibration aborted: nothing changed\r\n"]
     elif how == "disconnect":
-        s.disconnected()
+        hung_up(s)
     else:
-        (reply,) = s.receive(b"s\r")
+        (reply,) = fed(s, b"s\r")
         assert reply.startswith(b"Error: calibration not saved: 3 of 12 directions done (missing: -X along gravity, ")
         assert reply.endswith(b"; nothing changed\r\n")
         assert s.mode == "calibrating" and b.rot.local_controls() == (CALIBRATION_HOLD,)
-        assert s.receive(b"a\r") == [b"Calibration aborted: nothing changed\r\n"]
+        assert fed(s, b"a\r") == [b"Calibration aborted: nothing changed\r\n"]
     assert _unchanged(b) == start
     assert b.rot.local_controls() == ()
-    assert s.receive(b"s\r")[0].startswith(b"Saved")      # an ordinary s again
+    assert fed(s, b"s\r")[0].startswith(b"Saved")      # an ordinary s again
     assert _unchanged(b) == start
 
 
@@ -185,13 +186,13 @@ def test_calibration_on_the_emulated_lsm303d(tmp_path):
     world = rot.hw.world
     disturb(world)
     s = SarcnetSession(rot)
-    s.receive(b"c\r")
+    fed(s, b"c\r")
 
     def tick():
         run_virtual(rot, clock, 0.1)
-        return s.tick(clock.now_s())
+        return ticked(s, clock.now_s())
     assert operator(world, s, tick)[-1].startswith(b"All 12 directions done")
-    assert s.receive(b"s\r")[-1].startswith(b"Calibration saved")
+    assert fed(s, b"s\r")[-1].startswith(b"Calibration saved")
     cal = rot.hw.axis("az").sensor.calibration()
     h_gauss = 0.2
     assert (cal["hard_iron_x"], cal["hard_iron_y"], cal["hard_iron_z"]) == \
@@ -211,18 +212,18 @@ def test_calibration_on_an_azimuth_only_sarcnet_in_the_plain_simulator(bench):
 
     def tick():
         b.run(0.1)
-        return s.tick(b.clock.now_s())
+        return ticked(s, b.clock.now_s())
     before = az_errors(b)
     assert max(before) > 3.0, "the new iron spoils the heading"
-    assert s.receive(b"c\r")[-1] == b"Next: +X face down (0 of 12 done)\r\n"
+    assert fed(s, b"c\r")[-1] == b"Next: +X face down (0 of 12 done)\r\n"
     assert operator(b.world, s, tick)[-1].startswith(b"All 12 directions done")
-    assert s.receive(b"s\r")[-1].startswith(b"Calibration saved")
+    assert fed(s, b"s\r")[-1].startswith(b"Calibration saved")
     cal = b.rot.hw.axis("az").sensor.calibration()
     assert cal["hard_iron_z"] == pytest.approx(0.12, abs=0.01)
     assert cal["accel_offset"] == pytest.approx(list(IRON["accel_bias_g"]), abs=0.005)
     b.world.board.release()                      # back on the boom, then r (as the document)
     b.run(1.0)
-    assert s.receive(b"r\r")[-1] == b"Reset complete\r\n"
+    assert fed(s, b"r\r")[-1] == b"Reset complete\r\n"
     b.settle()
     after = az_errors(b)
     assert max(after) < 1.0, (before, after)
@@ -263,12 +264,12 @@ def _turn_round(b):
 
 
 def _hand_held(b, s, tick):
-    assert s.receive(b"c\r")[-1].startswith(b"Next: ")
+    assert fed(s, b"c\r")[-1].startswith(b"Next: ")
     assert operator(b.world, s, tick)[-1].startswith(b"All 12 directions done")
-    assert s.receive(b"s\r")[-1].startswith(b"Calibration saved")
+    assert fed(s, b"s\r")[-1].startswith(b"Calibration saved")
     b.world.board.release()
     b.run(1.0)
-    assert s.receive(b"r\r")[-1] == b"Reset complete\r\n"
+    assert fed(s, b"r\r")[-1] == b"Reset complete\r\n"
     b.settle()
 
 
@@ -308,11 +309,11 @@ def test_c_during_a_turn_round_stops_it_and_only_c_is_applied(rig):
     # at the last direction, the antenna standing still for its sample
     b.run(600.0, on_tick=proc.poll, until=lambda st: len(proc.samples) == 11 and proc._phase == "dwell")
     assert not proc.finished
-    s.receive(b"c\r")       # its last sample comes next: applying it is refused by c's hold
+    fed(s, b"c\r")       # its last sample comes next: applying it is refused by c's hold
     b.run(30.0, on_tick=proc.poll, until=lambda st: proc.finished)
     assert proc.state == "failed" and "local control active" in proc.error, proc.as_dict()
     assert _soft(b) == before, "nothing of the turn-round applied"
-    assert s.receive(b"a\r") == [b"Calibration aborted: nothing changed\r\n"]
+    assert fed(s, b"a\r") == [b"Calibration aborted: nothing changed\r\n"]
     assert _soft(b) == before
     _hand_held(b, s, tick)
     after_c = _soft(b)

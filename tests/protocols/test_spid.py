@@ -18,6 +18,7 @@ from session_replay import raises_nothing
 from urc.protocols import make_session
 from urc.protocols import spid_codec as codec
 from urc.protocols.spid import Md01Session, Rot1ProgSession, Rot2ProgSession
+from urc.testing.sessions import fed
 
 STATUS = codec.encode_query(codec.K_STATUS)
 STOP = codec.encode_query(codec.K_STOP)
@@ -169,28 +170,28 @@ def test_hamlib_901_transcript(big):
     """protocols.md 4.2: Hamlib `P 100 20` then `p` then `S` against a Rot2Prog."""
     place(big, 123.4, 45.6)
     s = Rot2ProgSession(big.rot)
-    assert s.receive(h("57 00 00 00 00 00 00 00 00 00 00 1f 20")) == \
+    assert fed(s, h("57 00 00 00 00 00 00 00 00 00 00 1f 20")) == \
         [h("57 04 08 03 04 02 04 00 05 06 02 20")]                   # 123.4 / 45.6, PH = PV = 2
-    assert s.receive(h("57 30 39 32 30 02 30 37 36 30 02 2f 20")) == []   # set: no answer
+    assert fed(s, h("57 30 39 32 30 02 30 37 36 30 02 2f 20")) == []   # set: no answer
     big.settle()
-    (reply,) = s.receive(STATUS)
+    (reply,) = fed(s, STATUS)
     az, el, ph, pv = codec.decode_rot2_position(reply)
     assert (ph, pv) == (2, 2)
     assert az == pytest.approx(big.truth("az"), abs=TRUTH_TOL_DEG)
     assert el == pytest.approx(big.truth("el"), abs=TRUTH_TOL_DEG)
     assert az == pytest.approx(100.0, abs=0.6) and el == pytest.approx(20.0, abs=0.6)
-    (reply,) = s.receive(h("57 00 00 00 00 00 00 00 00 00 00 0f 20"))     # S
+    (reply,) = fed(s, h("57 00 00 00 00 00 00 00 00 00 00 0f 20"))     # S
     assert len(reply) == 12
 
 
 def test_hamlib_903_set_gets_a_position_answer(big):
     place(big, 10.0, 5.0)
     s = Md01Session(big.rot)
-    assert s.receive(STATUS) == [codec.encode_rot2_position(10.0, 5.0, 2, 2)]
-    (reply,) = s.receive(h("57 30 39 32 30 02 30 37 36 30 02 2f 20"))
+    assert fed(s, STATUS) == [codec.encode_rot2_position(10.0, 5.0, 2, 2)]
+    (reply,) = fed(s, h("57 30 39 32 30 02 30 37 36 30 02 2f 20"))
     assert codec.decode_rot2_position(reply)[:2] == pytest.approx((10.0, 5.0))  # where it is now
     big.settle()
-    az, el, _, _ = codec.decode_rot2_position(s.receive(STATUS)[0])
+    az, el, _, _ = codec.decode_rot2_position(fed(s, STATUS)[0])
     assert (az, el) == pytest.approx((100.0, 20.0), abs=0.6)
 
 
@@ -198,18 +199,18 @@ def test_hamlib_903_move_frames(big):
     """4.4: stop frame, then the move frame (junk in bytes 5 and 10), no answer."""
     place(big, 100.0, 20.0)
     s = Md01Session(big.rot)
-    assert len(s.receive(STOP)[0]) == 12
-    assert s.receive(h("57 04 00 00 00 7f 00 00 00 00 4c 14 20")) == []      # M 2 = UP
+    assert len(fed(s, STOP)[0]) == 12
+    assert fed(s, h("57 04 00 00 00 7f 00 00 00 00 4c 14 20")) == []      # M 2 = UP
     big.run(2.0)
     assert big.rot.status().el.pos_deg > 21.0
     assert big.rot.status().az.pos_deg == pytest.approx(100.0, abs=0.6)
-    s.receive(STOP)
+    fed(s, STOP)
     big.settle()
-    assert s.receive(h("57 06 00 00 00 7f 00 00 00 00 99 14 20")) == []      # UP_RIGHT (4.6)
+    assert fed(s, h("57 06 00 00 00 7f 00 00 00 00 99 14 20")) == []      # UP_RIGHT (4.6)
     big.run(2.0)
     st_ = big.rot.status()
     assert st_.az.rate_deg_per_s > 0.5 and st_.el.rate_deg_per_s > 0.5
-    s.receive(STOP)
+    fed(s, STOP)
     big.settle()
     assert not big.rot.status().moving
 
@@ -217,10 +218,10 @@ def test_hamlib_903_move_frames(big):
 def test_hamlib_902_transcript(big):
     place(big, 100.0, 30.0)
     s = Rot1ProgSession(big.rot)
-    assert s.receive(STATUS) == [h("57 04 06 00 20")]                       # 100 deg
-    assert s.receive(h("57 34 35 30 30 00 00 00 00 00 00 2f 20")) == []     # set(90)
+    assert fed(s, STATUS) == [h("57 04 06 00 20")]                       # 100 deg
+    assert fed(s, h("57 34 35 30 30 00 00 00 00 00 00 2f 20")) == []     # set(90)
     big.settle()
-    assert codec.decode_rot1_position(s.receive(STATUS)[0]) == pytest.approx(big.truth("az"), abs=TRUTH_TOL_DEG)
+    assert codec.decode_rot1_position(fed(s, STATUS)[0]) == pytest.approx(big.truth("az"), abs=TRUTH_TOL_DEG)
     assert big.rot.status().el.pos_deg == pytest.approx(30.0, abs=0.01)       # elevation untouched
 
 
@@ -228,44 +229,44 @@ def test_hamlib_902_transcript(big):
 def test_status_byte_at_a_time(big):
     s = Rot2ProgSession(big.rot)
     for byte in STATUS[:-1]:
-        assert s.receive(bytes([byte])) == []
-    assert len(s.receive(STATUS[-1:])[0]) == 12
+        assert fed(s, bytes([byte])) == []
+    assert len(fed(s, STATUS[-1:])[0]) == 12
 
 
 def test_several_frames_in_one_chunk_with_trailing_half(big):
     s = Rot2ProgSession(big.rot)
-    replies = s.receive(STATUS + STATUS + STOP + STATUS[:7])
+    replies = fed(s, STATUS + STATUS + STOP + STATUS[:7])
     assert len(replies) == 3 and all(len(r) == 12 for r in replies)
-    assert len(s.receive(STATUS[7:])) == 1
+    assert len(fed(s, STATUS[7:])) == 1
 
 
 @pytest.mark.parametrize("cut", [1, 6, 12])
 def test_half_set_frame_never_moves(big, cut):
     s = Rot2ProgSession(big.rot)
-    assert s.receive(codec.encode_rot2_set(200, 40, 2, 2)[:cut]) == []
+    assert fed(s, codec.encode_rot2_set(200, 40, 2, 2)[:cut]) == []
     assert still(big)
     # and a new frame after it is read correctly; the half frame is not
-    assert len(s.receive(STATUS)) == 1
+    assert len(fed(s, STATUS)) == 1
     assert still(big)
 
 
 def test_half_set_then_full_set_goes_to_the_full_one(big):
     s = Rot2ProgSession(big.rot)
-    s.receive(codec.encode_rot2_set(300, 80, 2, 2)[:9])
-    s.receive(codec.encode_rot2_set(50, 10, 2, 2))
+    fed(s, codec.encode_rot2_set(300, 80, 2, 2)[:9])
+    fed(s, codec.encode_rot2_set(50, 10, 2, 2))
     big.settle()
-    az, el, _, _ = codec.decode_rot2_position(s.receive(STATUS)[0])
+    az, el, _, _ = codec.decode_rot2_position(fed(s, STATUS)[0])
     assert (az, el) == pytest.approx((50.0, 10.0), abs=0.6)
 
 
 def test_resolution_option(big):
     place(big, 12.5, 34.0)
     s = Rot2ProgSession(big.rot, resolution_deg=1)
-    assert s.receive(STATUS) == [codec.encode_rot2_position(12.5, 34.0, 1, 1)]
+    assert fed(s, STATUS) == [codec.encode_rot2_position(12.5, 34.0, 1, 1)]
     # a set frame with PH = PV = 0 is decoded with this resolution (H = 360 + az)
     frame = bytearray(codec.encode_rot2_set(40, 20, 1, 1))
     frame[5] = frame[10] = 0
-    s.receive(bytes(frame))
+    fed(s, bytes(frame))
     big.settle()
     assert big.rot.status().target_az_deg == pytest.approx(40.0)
     assert Rot1ProgSession(big.rot).pulses == 1 and Md01Session(big.rot).pulses == 2
@@ -276,9 +277,9 @@ def test_resolution_option(big):
 def test_overturn_reported_and_commanded(big):
     """Azimuth 400 on a 0..450 rotator is the overlap: set and reported as 400."""
     s = Rot2ProgSession(big.rot)
-    s.receive(codec.encode_rot2_set(400, 10, 2, 2))
+    fed(s, codec.encode_rot2_set(400, 10, 2, 2))
     big.settle()
-    az, _, _, _ = codec.decode_rot2_position(s.receive(STATUS)[0])
+    az, _, _, _ = codec.decode_rot2_position(fed(s, STATUS)[0])
     assert az == pytest.approx(400.0, abs=0.6)
     assert big.truth("az") == pytest.approx(400.0, abs=TRUTH_TOL_DEG)
 
@@ -286,41 +287,41 @@ def test_overturn_reported_and_commanded(big):
 def test_negative_azimuth_goes_the_same_direction(big):
     """-10 (Hamlib's -180..540) on a 0..450 rotator: the same direction, 350."""
     s = Rot2ProgSession(big.rot)
-    s.receive(codec.encode_rot2_set(-10, 10, 2, 2))
+    fed(s, codec.encode_rot2_set(-10, 10, 2, 2))
     big.settle()
-    az, _, _, _ = codec.decode_rot2_position(s.receive(STATUS)[0])
+    az, _, _, _ = codec.decode_rot2_position(fed(s, STATUS)[0])
     assert az == pytest.approx(350.0, abs=0.6)
 
 
 def test_refused_set_is_logged_and_silent(big, caplog):
     s = Rot2ProgSession(big.rot)
     with caplog.at_level(logging.WARNING, logger="urc.protocols.spid"):
-        assert s.receive(codec.encode_rot2_set(100, 150, 2, 2)) == []     # el 150 > 90
+        assert fed(s, codec.encode_rot2_set(100, 150, 2, 2)) == []     # el 150 > 90
     assert "refused" in caplog.text
     assert still(big)
 
 
 def test_rot2_ignores_md01_move(big):
     s = Rot2ProgSession(big.rot)
-    assert s.receive(codec.encode_move(codec.DIR_UP)) == []
+    assert fed(s, codec.encode_move(codec.DIR_UP)) == []
     assert still(big)
 
 
 @pytest.mark.parametrize("direction", [0x00, 0x03, 0x0C, 0x10, 0xFF])
 def test_md01_bad_move_directions_do_nothing(big, direction):
     s = Md01Session(big.rot)
-    assert s.receive(codec.encode_move(direction)) == []
+    assert fed(s, codec.encode_move(direction)) == []
     assert still(big)
 
 
 def test_stop_halts_a_move(big):
     s = Rot2ProgSession(big.rot)
-    s.receive(codec.encode_rot2_set(300, 60, 2, 2))
+    fed(s, codec.encode_rot2_set(300, 60, 2, 2))
     big.run(3.0)
     assert big.rot.status().moving
-    (reply,) = s.receive(STOP)
+    (reply,) = fed(s, STOP)
     big.settle()
-    az, el, _, _ = codec.decode_rot2_position(s.receive(STATUS)[0])
+    az, el, _, _ = codec.decode_rot2_position(fed(s, STATUS)[0])
     assert az < 100 and el < 50                    # stopped well short of the target
     assert az == pytest.approx(big.truth("az"), abs=TRUTH_TOL_DEG)
 
@@ -357,7 +358,7 @@ def test_fuzz_never_raises_or_moves(quiet, pieces, cls, split):
     s = cls(quiet.rot)
     replies = []
     for i in range(0, len(data), split):
-        replies += s.receive(data[i:i + split])
+        replies += fed(s, data[i:i + split])
     size = 5 if cls is Rot1ProgSession else 12
     assert all(len(r) == size and r[0] == 0x57 and r[-1] == 0x20 for r in replies)
     assert len(replies) <= len(data) // 13
@@ -372,6 +373,6 @@ def test_azimuth_outside_the_range_is_refused_not_folded(big, cls, az):
     BIG-RAS's 0..450 (and below the -180 compass bearings) nothing moves."""
     s = cls(big.rot)
     frame = codec.encode_rot1_set(az) if cls is Rot1ProgSession else codec.encode_rot2_set(az, 10, 2, 2)
-    s.receive(frame)
+    fed(s, frame)
     assert still(big)
     assert big.rot.status().target_az_deg is None

@@ -8,7 +8,7 @@ from __future__ import annotations
 import asyncio
 import time
 
-from urc.ipc import bridge
+from urc.ipc.messages import Stop
 from urc.servers import common
 from urc.servers.common import SessionRunner
 
@@ -63,9 +63,16 @@ def test_a_transport_stops_reading_while_too_much_input_waits_and_reads_again_af
     class WaitsFirst(SlowSession):
         reply: asyncio.Future | None = None
 
-        def receive(self, data: bytes) -> list[bytes]:
+        @property
+        def rotator(self):
+            return self
+
+        async def call(self, request):  # (a round trip to the control process)
+            await self.reply
+
+        def receive(self, data: bytes):
             if self.reply is not None and not self.reply.done():
-                bridge.wait(self.reply)        # (a round trip to the control process)
+                yield Stop()
             return super().receive(data)
 
     async def main() -> None:

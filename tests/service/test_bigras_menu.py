@@ -12,6 +12,7 @@ from urc.config import Config, load_config
 from urc.errors import CommandRejected, ConfigError
 from urc.protocols import make_session
 from urc.web.settings_store import SettingsStore
+from urc.testing.sessions import fed
 
 BIGRAS = Path(__file__).resolve().parents[2] / "examples" / "bigras.toml"
 
@@ -74,9 +75,9 @@ def test_south_zero_point(bench):
     s = b.settle(400.0)
     assert b.truth("az") == pytest.approx(270.0, abs=1.0) and s.az_deg == pytest.approx(90.0, abs=1.0)
     rotctld = make_session("rotctld", b.rot)
-    az, _ = rotctld.receive(b"p\n")[0].split(b"\n")[:2]
+    az, _ = fed(rotctld, b"p\n")[0].split(b"\n")[:2]
     assert float(az) == pytest.approx(90.0, abs=1.0)  # protocols speak compass azimuth
-    state = b"".join(rotctld.receive(b"\\dump_state\n")).decode()
+    state = b"".join(fed(rotctld, b"\\dump_state\n")).decode()
     assert "south_zero=0" in state  # urc maps it itself: a client must not add 180 again
 
 

@@ -292,3 +292,26 @@ def test_the_safety_chain_is_tested_before_the_first_tick(tmp_path, fault):
     finally:
         rot.shutdown(save=False)
         rot.hw.close()
+
+
+def test_the_first_goto_after_the_disk_fails_standing_is_refused_across_the_process_boundary(control, tmp_path):
+    """Issue 36.19 in a real control process: the antenna stands (nothing is written),
+    the state dir stops taking writes (``state.json.tmp`` a directory: as root too), and
+    the next goto's reply is the refusal with reason "state", not ok; nothing moves, and
+    the refused goto does not fly once writes work again."""
+    _proc, rot, _lost = control
+    start = rot.status()
+    blocker = tmp_path / "state" / "state.json.tmp"
+    blocker.mkdir()
+    with pytest.raises(CommandRejected) as refused:
+        rot.goto(60.0, 40.0)
+    assert refused.value.reason == "state" and "directory" in str(refused.value)
+    s = wait_until(lambda: (lambda s: s if s.faults else None)(rot.status()))
+    assert [f.kind for f in s.faults] == ["state"] and "directory" in s.state_error
+    blocker.rmdir()  # writes work again: the fault clears itself, the goto stays refused
+    s = wait_until(lambda: (lambda s: s if not s.faults and not s.state_error else None)(rot.status()))
+    time.sleep(0.5)
+    s = rot.status()
+    assert abs(s.az.pos_deg - start.az.pos_deg) < 0.5 and abs(s.el.pos_deg - start.el.pos_deg) < 0.5
+    rot.goto(10.0, 80.0)   # and a goto now is answered ok and flies
+    wait_until(lambda: abs(rot.status().az_deg - 10.0) < 0.3 and not rot.status().moving)

@@ -12,6 +12,7 @@ from __future__ import annotations
 import pytest
 
 from urc.protocols.registry import make_session
+from urc.testing.sessions import fed, ticked
 
 #: (profile, protocol, commands): every command of the session, each sent alone
 CASES = {
@@ -48,11 +49,11 @@ def test_each_protocol_command_costs_at_most_one_round_trip(counted):
     costs = {}
     for command in commands:
         before = len(sent)
-        replies = session.receive(command + b"\r")
+        replies = fed(session, command + b"\r")
         costs[command] = sent[before:]
         if getattr(session, "wants_tick", False):  # (a stream line: one query at most too)
             before = len(sent)
-            session.tick(1e9 + len(costs))
+            ticked(session, 1e9 + len(costs))
             assert len(sent) - before <= 1, (command, "tick", sent[before:])
         assert replies is not None
     over = {c.decode(): names for c, names in costs.items() if len(names) > 1}
@@ -65,5 +66,5 @@ def test_a_hardware_query_is_one_typed_request(counted):
     first = {"tartu": b"RDAP", "g4jnt": b"?", "sarcnet": b"e"}
     name = type(session).__name__.lower()
     command = next(v for k, v in first.items() if k in name)
-    session.receive(command + b"\r")
+    fed(session, command + b"\r")
     assert len(sent) == 1 and sent[0] in ("SensorCount", "PotState", "SensorCalibrations"), sent

@@ -42,6 +42,7 @@ CALLS: dict[str, Callable[[Rotator], Args]] = {
     "move": lambda rot: (("az", 1), {}),
     "stop": lambda rot: ((), {}),
     "stop_open_ended": lambda rot: (("the I/O process was silent",), {}),
+    "bounded_in_flight": lambda rot: ((), {}),
     "fly_program": lambda rot: ((PassProgram(1, "test", (rot.clock.now_s() + 5.0, rot.clock.now_s() + 10.0),
                                              (90.0, 91.0), (20.0, 21.0), (False, False),
                                              rot.clock.now_s()),), {}),

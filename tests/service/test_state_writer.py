@@ -182,13 +182,47 @@ def test_moving_commands_are_refused_while_the_state_cannot_be_saved(bench, how)
     b.rot.goto(120.0, 10.0)
 
 
-@pytest.mark.xfail(strict=True, reason="issue 36.19: a disk that fails while the antenna stands is not "
-                   "known until the goto's first record is written; the fix is in src/urc/service "
-                   "(see the report of branch h-testers3)")
+def answer(b, request, tick=True):
+    """What the control process replies to ``request``: ControlServer._answer on a
+    thread of its own (as its command thread), while this one ticks the bench's loop
+    on virtual time (``tick=False``: no tick, the reply must not wait for one). Returns
+    the reply's value or raises its error."""
+    from urc.ipc import codec
+    from urc.ipc.messages import Envelope
+    from urc.service.control_process import ControlServer
+    from urc.service.remote import exception_from_wire
+
+    class Conn:
+        def __init__(self):
+            self.sent = []
+
+        def send_bytes(self, data):
+            self.sent.append(codec.loads(data))
+    server = ControlServer(Conn(), None, b.rot.store.path.parent, [])
+    server.rot = b.rot
+    thread = threading.Thread(target=server._answer, args=(Envelope(1, None, request),), daemon=True)
+    thread.start()
+    for _ in range(10_000):  # (a reply that never comes fails below, not hangs)
+        if not thread.is_alive():
+            break
+        if tick:
+            b.run(0.02)
+        thread.join(0.001)
+    assert not thread.is_alive(), "no reply"
+    (kind, reply), = server.conn.sent
+    assert kind == "reply"
+    if reply.outcome == "error":
+        raise exception_from_wire(reply.value)
+    return reply.value
+
+
 def test_the_first_goto_after_the_disk_fails_standing_is_refused_not_answered_ok(bench):
     """Issue 36.19: standing still, urc writes nothing, so a disk that has just failed is
     not known; the next goto was answered ok, then its first record failed, the state
-    fault latched and nothing moved."""
+    fault latched and nothing moved. Now its reply waits for that record: refused with
+    reason "state", and the refused goto never flies once the disk works again."""
+    from urc.ipc.messages import Goto
+
     b = bench("tartu-urc", exact=True)
     b.rot.goto(30.0, 10.0)
     b.settle()
@@ -196,21 +230,72 @@ def test_the_first_goto_after_the_disk_fails_standing_is_refused_not_answered_ok
     store = DiskFull(b.rot.store)
     store.full = True
     start = b.rot.status().az.pos_deg
-    try:
-        b.rot.goto(200.0, 10.0)       # the disk's failure is not known yet
-        accepted = True
-    except CommandRejected as exc:
-        accepted = False
-        assert exc.reason == "state"
+    with pytest.raises(CommandRejected) as refused:
+        answer(b, Goto(200.0, 10.0))  # the disk's failure is not known yet
+    assert refused.value.reason == "state" and "No space" in str(refused.value)
     b.run(10.0)
     s = b.rot.status()
-    moved = abs(s.az.pos_deg - start) > 1.0
-    assert not (accepted and not moved), f"goto answered ok, nothing moved; faults {[f.kind for f in s.faults]}"
+    assert abs(s.az.pos_deg - start) < 0.5, "nothing moves"
+    assert [f.kind for f in s.faults] == ["state"] and "No space" in s.state_error
+    with pytest.raises(CommandRejected) as again:  # (the state fault latched: "state" too)
+        answer(b, Goto(200.0, 10.0))
+    assert again.value.reason == "state"
+    store.full = False                # space again: the fault clears itself ...
+    b.run(5.0)
+    s = b.rot.status()
+    assert not s.faults and s.state_error == ""
+    assert abs(s.az.pos_deg - start) < 0.5, "... and the refused goto does not fly"
+    answer(b, Goto(200.0, 10.0))
+    b.settle()
+    assert b.rot.status().az.pos_deg == pytest.approx(200.0, abs=1.0)
+
+
+def test_a_gotos_reply_comes_once_its_first_record_is_on_disk(bench, monkeypatch):
+    """The reply to a goto from standing waits for the record written ahead of its
+    motion (off the tick, in the command thread); a card slower than
+    FIRST_RECORD_WAIT_S gets an ok all the same, and the goto flies once its record
+    lands. A status read never waits."""
+    from urc.ipc.messages import Goto, OvershootQuery
+    from urc.service import control_process
+    from urc.service.state_writer import StateWriter
+
+    b = bench("tartu-urc", exact=True)
+    b.run(1.0)
+    store = GatedStore(b.rot.store.path)
+    b.rot._records.writer = StateWriter(store, background=True)
+    monkeypatch.setattr(control_process, "FIRST_RECORD_WAIT_S", 60.0)
+    reply: list = []
+    waiting = threading.Thread(target=lambda: reply.append(answer(b, Goto(20.0, 10.0))), daemon=True)
+    waiting.start()
+    for _ in range(3000):
+        if store.entered.wait(0.01) or not waiting.is_alive():
+            break
+    assert waiting.is_alive() and not reply, "no reply before the record is on disk"
+    assert store.entered.is_set(), "the goto's first record is being written"
+    # (a query does not wait, though the disk is stuck)
+    assert answer(b, OvershootQuery("az"), tick=False) >= 0.0
+    store.gate.set()
+    waiting.join(30.0)
+    assert reply and reply[0], "ok, with its route"
+    assert store.load()["axes"]["az"]["moving"]
+    # a card slower than the bound: ok all the same; held until its record lands
+    b.settle()
+    store.gate.clear()
+    store.entered.clear()
+    monkeypatch.setattr(control_process, "FIRST_RECORD_WAIT_S", 0.2)
+    start = b.rot.status().az.pos_deg
+    assert answer(b, Goto(60.0, 10.0))
+    assert store.entered.is_set() and abs(b.rot.status().az.pos_deg - start) < 0.5
+    store.gate.set()
+    b.settle()
+    assert b.rot.status().az.pos_deg == pytest.approx(60.0, abs=1.0)
+    b.rot._records.writer.close()
 
 
 def test_the_readme_names_the_refusals_a_failing_disk_gives(bench):
     """Issue 36.19: the README said a refusal while writes fail is 409 `reason: state`;
-    with the state fault latched it is `fault` (and `state` once that fault was cleared)."""
+    with the state fault latched it was `fault` (and `state` once that fault was cleared
+    by hand). Now it is `state` both ways, as the README says."""
     from pathlib import Path
 
     readme = (Path(__file__).resolve().parents[2] / "README.md").read_text()
@@ -226,7 +311,21 @@ def test_the_readme_names_the_refusals_a_failing_disk_gives(bench):
         reasons.append(refused.value.reason)
         b.rot.clear_faults()
         b.run(1.0)
-    assert reasons == ["fault", "state"]
+    assert reasons == ["state", "state"]
     said = " ".join(readme.split())
-    assert "latched a moving command is refused as for any fault (HTTP 409 `reason: fault`" in said
-    assert "cleared by hand while writes still fail, it is refused with HTTP 409 `reason: state`" in said
+    assert "While writes fail a moving command is refused with HTTP 409 `reason: state`" in said
+    assert "whether that fault is latched (its kind `state` in `faults`" in said
+    assert "or was cleared by hand" in said
+
+
+def test_urc_run_answers_the_first_goto_after_the_disk_fails_with_409_state(urc_processes):
+    """Issue 36.19 end to end: a real ``urc run`` standing at park, its state dir no longer
+    taking writes (``state.json.tmp`` a directory), answers the next goto on the web API
+    with HTTP 409 ``reason: state``, not ``{"ok": true}``."""
+    u = urc_processes().start()
+    (u.state_dir / "state.json.tmp").mkdir()
+    r = u.post("/api/goto", {"az_deg": 60.0, "el_deg": 40.0})
+    assert r.status_code == 409, r.text
+    assert r.json()["reason"] == "state" and "directory" in r.json()["error"]
+    s = u.wait(lambda s: s["faults"])
+    assert [f["kind"] for f in s["faults"]] == ["state"]

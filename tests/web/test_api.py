@@ -374,8 +374,8 @@ class _Recorder:
     def __init__(self):
         self.calls = []
 
-    def move(self, axis, direction, speed):
-        self.calls.append(("move", axis, direction, speed))
+    def move(self, axis, direction, speed_frac=1.0, local=False):
+        self.calls.append(("move", axis, direction, speed_frac))
 
     def stop(self, axis=None):
         self.calls.append(("stop", axis))
@@ -389,15 +389,15 @@ def test_jog_stops_when_the_page_stops_renewing():
         rec = _Recorder()
         hub = Hub(rec, frame_hz=50.0)
         hub.build_frame = lambda: "{}"
-        hub.jog("az", 1, 0.5)
+        await hub.jog("az", 1, 0.5)
         for _ in range(5):  # renewed: no second move, no stop
             await asyncio.sleep(JOG_LEASE_S / 3)
-            hub.jog("az", 1, 0.5)
+            await hub.jog("az", 1, 0.5)
         assert rec.calls == [("move", "az", 1, 0.5)]
         await asyncio.sleep(JOG_LEASE_S + 0.2)
         assert rec.calls[-1] == ("stop", "az") and not hub.jogs
-        hub.jog("el", -1, 1.0)
-        hub.release("el")
+        await hub.jog("el", -1, 1.0)
+        await hub.release("el")
         assert rec.calls[-1] == ("stop", "el")
         hub._task.cancel()
     asyncio.run(scenario())

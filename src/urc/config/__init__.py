@@ -33,6 +33,7 @@ from __future__ import annotations
 
 from importlib import resources
 
+from . import checks  # noqa: F401  (registers the cross-checks the schema's validator runs)
 from .hardware_sections import BridgeSection, GpioAxis, GpioSection, HardwareSection, SimSection
 from .panel_sections import PanelButtons, PanelIr, PanelLcd, PanelLeds, PanelOled, PanelSection
 from .schema import Config

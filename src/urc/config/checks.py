@@ -1,38 +1,24 @@
-"""The checks that need more than one field, or the rotator profile: a known profile and
-backend, limits inside the profile's range, park inside the limits and outside every
-keep-out zone, served protocols and addresses, control overrides the profile allows.
+"""The checks that need more than one field, or the rotator profile: a known profile,
+limits inside the profile's range, park inside the limits and outside every keep-out
+zone, served addresses, control overrides the profile allows.
 
-Each backend's own section is checked beside its builder (registered with
-:func:`urc.hardware.factory.register_backend`: :mod:`urc.hardware.gpio.checks`,
+What a key means to a package above urc.config is checked by that package, registered
+with :mod:`.owners`: the backend's name and each backend's own section beside its
+builder (:mod:`urc.hardware.factory`: :mod:`urc.hardware.gpio.checks`,
 :mod:`urc.hardware.bridge.checks`), the front panel's in :mod:`urc.frontpanel.checks`,
-MQTT's in :mod:`urc.mqtt.config`."""
+MQTT's in :mod:`urc.mqtt.config`, a served protocol's name in :mod:`urc.protocols.registry`."""
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 from ..caps import RotatorCaps
-from ..frontpanel.checks import panel_issues
-from ..hardware.factory import available_backends, backend_issues
-from ..mqtt.config import mqtt_issues
 from ..profiles import PROFILES
 from .issues import Issue, fmt, suggest
+from .owners import owner_issues, register_cross_check
+from .schema import Config
 from .values import parse_host_port
 
-if TYPE_CHECKING:
-    from .schema import Config
-
-#: the backends named when the hardware package cannot be asked (a backend's import failed)
-_BUILTIN_BACKENDS = ("sim", "bridge", "gpio")
 #: elevation range any keep-out zone must lie in (degrees; > 90 is "over the top").
 _KEEPOUT_EL_RANGE = (-90.0, 180.0)
-
-
-def _backends() -> list[str]:
-    try:
-        return list(available_backends())
-    except ImportError:
-        return list(_BUILTIN_BACKENDS)
 
 
 def cross_check(cfg: Config) -> list[Issue]:
@@ -50,14 +36,8 @@ def cross_check(cfg: Config) -> list[Issue]:
         issues.append(("rotator.flip", f"false (profile {caps.name!r} elevation stops at "
                        f"{fmt(caps.el.max_deg)} deg, flip needs 180), or \"auto\"", True, ""))
 
-    backends = _backends()
-    if cfg.hardware.backend not in backends:
-        issues.append(("hardware.backend", "one of " + ", ".join(backends),
-                       cfg.hardware.backend, suggest(cfg.hardware.backend, backends)))
-
-    issues += backend_issues(cfg, caps)   # each backend's own section, beside its builder
-    issues += panel_issues(cfg)
-    issues += mqtt_issues(cfg)
+    # the backend and its section, the panel, MQTT, the protocols: checked by their owners
+    issues += owner_issues(cfg, caps)
 
     for name in ("az", "el"):
         axis = caps.axis(name)
@@ -154,18 +134,12 @@ def cross_check(cfg: Config) -> list[Issue]:
 
 
 def _serve_issues(cfg: Config) -> list[Issue]:
-    """[[serve]]: a known protocol, exactly one well-formed transport each, each once."""
-    # the registry imports the protocol sessions (and through them the rotator): loaded
-    # only when a configuration is validated, never by importing urc.config
-    from ..protocols.registry import PROTOCOLS
-
+    """[[serve]]: exactly one well-formed transport each, each once (a known protocol:
+    urc.protocols.registry's check)."""
     issues: list[Issue] = []
     seen: dict[tuple[str, str], int] = {}
     for i, entry in enumerate(cfg.serve or ()):
         pre = f"serve[{i}]"
-        if entry.protocol not in PROTOCOLS:
-            issues.append((f"{pre}.protocol", "one of " + ", ".join(PROTOCOLS), entry.protocol,
-                           suggest(entry.protocol, list(PROTOCOLS))))
         given = [k for k in ("tcp", "pty", "serial", "udp") if getattr(entry, k) is not None]
         if len(given) != 1:
             issues.append((pre, "exactly one of tcp, pty, serial, udp", given or "none", ""))
@@ -245,3 +219,9 @@ def _single_axis_issues(cfg: Config, caps: RotatorCaps) -> list[Issue]:
         issues.append(("rotator.flip", 'false or "auto" (a single-axis rotator cannot fly over the top)',
                        True, ""))
     return issues
+
+
+
+# the schema's validator runs these through .owners (urc/config/__init__.py imports this
+# module, so they are registered before the package can build a Config)
+register_cross_check(cross_check)

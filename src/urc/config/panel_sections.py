@@ -1,15 +1,35 @@
 """``[panel]``: the local front panel (urc.frontpanel); its cross-checks are
-:mod:`urc.frontpanel.checks`."""
+:mod:`urc.frontpanel.checks` (registered with :mod:`.owners`)."""
 
 from __future__ import annotations
 
 import typing
 from typing import Literal
 
-from pydantic import Field
+from pydantic import BaseModel, ConfigDict, Field
 
-from ..frontpanel.settings import PanelPresets
 from .base import Section, num
+
+
+class PanelPresets(BaseModel):
+    """The preset knobs: each a potentiometer across the ADC's reference (its ends on
+    the supply and ground, the wiper on an input), so the reading is a fraction of the
+    supply whatever the supply is."""
+
+    model_config = ConfigDict(strict=True, frozen=True, extra="forbid", validate_default=False)
+
+    #: 1: one knob (P1) sets both axes; 2: P1 the azimuth, P2 the elevation
+    pots: Literal[1, 2] = 2
+    #: "ads1115" (I2C, ``bus`` and ``address``) or "mcp3008" (SPI0, chip select
+    #: ``spi_device``; its VREF wired to the knobs' supply)
+    adc: Literal["ads1115", "mcp3008"] = "ads1115"
+    bus: int = Field(1, ge=0, le=31)
+    address: int = Field(0x49, ge=0x48, le=0x4B)
+    spi_device: int = Field(1, ge=0, le=1)
+    p1_channel: int = Field(0, ge=0, le=7)
+    p2_channel: int = Field(1, ge=0, le=7)
+    #: the ADS1115 input wired to the knobs' supply (the MCP3008 uses its VREF)
+    reference_channel: int = Field(3, ge=0, le=7)
 
 
 class PanelButtons(Section):

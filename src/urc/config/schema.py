@@ -1,6 +1,7 @@
 """The whole configuration: :class:`Config`, its sections, what it derives from the
 rotator profile, and how it is written back. Validation runs the cross-checks
-(:mod:`.checks`) whenever a Config is built; errors read as :mod:`.issues` words them."""
+(:mod:`.checks`, through :mod:`.owners`) whenever a Config is built; errors read as
+:mod:`.issues` words them."""
 
 from __future__ import annotations
 
@@ -12,13 +13,13 @@ from pydantic import Field, ValidationError, model_validator
 
 from ..caps import AxisCaps, RotatorCaps
 from ..errors import ConfigError
-from ..mqtt.config import MqttSection
 from ..profiles import PROFILES
 from .base import Section
-from .checks import cross_check
 from .explain import error_from_validation
 from .hardware_sections import HardwareSection
 from .issues import describe, error_from_issues
+from .mqtt_section import MqttSection
+from .owners import cross_check
 from .panel_sections import PanelSection
 from .sections import (DEFAULT_SERVE, ApiSection, AxisControl, AxisLimits, ControlSection, FaultsSection,
                        KeepoutZone, LimitsSection, OffsetsSection, ParkSection, PointingSection, RotatorSection,

@@ -328,3 +328,7 @@ class PointingSection(Section):
     #: the antenna stands on each scan point this long, reading the power
     dwell_s: float = num(2.0, gt=0.0, le=60.0)
     samples_per_point: int = Field(default=3, ge=1, le=50)
+    #: step-track (issue 38.5): during a pass, small scans around the prediction on this
+    #: source estimate the satellite's time offset (elements that are off) and correct the
+    #: rest of the pass; a lost signal falls back to the prediction (urc.pointing.steptrack)
+    step_track: bool = False

@@ -7,6 +7,7 @@ control process (some 20 s into a start on a loaded Pi): ``options = { reply_por
 on PstRotator refused the start that late. Here each session is built once on a stand-in
 rotator, which catches an option the protocol does not have and a value its constructor
 refuses; a constructor that asks the rotator something is checked by its signature only.
+The session classes come from urc.protocols.registry, registered with :mod:`.owners`.
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ import inspect
 from typing import Any, Iterable
 
 from ..errors import ConfigError, UrcError
+from .owners import session_class
 
 #: keys of the [[serve]] entry itself, written into its options by mistake
 ENTRY_KEYS = ("baud", "reply_port")
@@ -33,8 +35,6 @@ class _StandIn:
 
 def check_serve_options(entries: Iterable[Any]) -> None:
     """ConfigError naming the first entry whose options its protocol refuses."""
-    from ..protocols.registry import session_class
-
     for i, entry in enumerate(entries):
         cls = session_class(entry.protocol)
         options = dict(entry.options)

@@ -9,6 +9,7 @@ import re
 from typing import TYPE_CHECKING
 
 from ..config.issues import Issue, suggest
+from ..config.owners import register_check
 from .controls import ACTIONS
 from .settings import presets_issues, timezone_issues
 
@@ -43,3 +44,7 @@ def panel_issues(cfg: Config) -> list[Issue]:
                 issues.append((f"panel.ir.keys.{name}", "an evdev key name such as KEY_LEFT, or a key code",
                                name, ""))
     return issues
+
+
+# [panel] is checked whenever a configuration is validated (urc.registrations imports this)
+register_check("panel", lambda cfg, _caps: panel_issues(cfg))

@@ -1,6 +1,6 @@
-"""Settings of the BIG-RAS preset knobs (``[panel.presets]``) and the panel clock's time
-zone: kept out of :mod:`urc.config` (a section of its own, checked by its own function),
-with no heavy imports so that the configuration loads without gpiozero or smbus2.
+"""Checks of the BIG-RAS preset knobs (``[panel.presets]``; its model is config's,
+:class:`urc.config.panel_sections.PanelPresets`) and the panel clock's time zone, with no
+heavy imports so that checking a configuration loads neither gpiozero nor smbus2.
 
 Seed 002: potentiometers P1 and P2 set a direction; SW7 turns the azimuth there, SW8 the
 elevation, SW10 shows the knobs' direction on the display. ``pots = 1``: one knob (P1)
@@ -9,33 +9,12 @@ for both axes, ``pots = 2``: P1 azimuth, P2 elevation (the firmware's ``pot`` pa
 
 from __future__ import annotations
 
-from typing import Any, Literal
+from typing import Any
 
-from pydantic import BaseModel, ConfigDict, Field
+from ..config.panel_sections import PanelPresets
 
 #: inputs per converter (as the axes' ADCs: urc.config)
 ADC_INPUTS = {"ads1115": 4, "mcp3008": 8}
-
-
-class PanelPresets(BaseModel):
-    """The preset knobs: each a potentiometer across the ADC's reference (its ends on
-    the supply and ground, the wiper on an input), so the reading is a fraction of the
-    supply whatever the supply is."""
-
-    model_config = ConfigDict(strict=True, frozen=True, extra="forbid", validate_default=False)
-
-    #: 1: one knob (P1) sets both axes; 2: P1 the azimuth, P2 the elevation
-    pots: Literal[1, 2] = 2
-    #: "ads1115" (I2C, ``bus`` and ``address``) or "mcp3008" (SPI0, chip select
-    #: ``spi_device``; its VREF wired to the knobs' supply)
-    adc: Literal["ads1115", "mcp3008"] = "ads1115"
-    bus: int = Field(1, ge=0, le=31)
-    address: int = Field(0x49, ge=0x48, le=0x4B)
-    spi_device: int = Field(1, ge=0, le=1)
-    p1_channel: int = Field(0, ge=0, le=7)
-    p2_channel: int = Field(1, ge=0, le=7)
-    #: the ADS1115 input wired to the knobs' supply (the MCP3008 uses its VREF)
-    reference_channel: int = Field(3, ge=0, le=7)
 
 
 def presets_issues(presets: PanelPresets | None, pots_buttons: dict[str, Any]) -> list[tuple[str, str, Any, str]]:

@@ -1,4 +1,5 @@
-"""Choose a hardware backend by name (gpiozero's pin-factory idea)."""
+"""Choose a hardware backend by name (gpiozero's pin-factory idea), and check the
+configuration's [hardware] against the backends (registered with urc.config at import)."""
 
 from __future__ import annotations
 
@@ -6,10 +7,12 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable
 
 from ..caps import RotatorCaps
+from ..config.issues import suggest
+from ..config.owners import register_check
 from ..errors import ConfigError
 from .interfaces import Hardware
 
-if TYPE_CHECKING:  # urc.clock imports asyncio: urc.config (which asks for the backends) must not
+if TYPE_CHECKING:  # urc.clock imports asyncio: checking a configuration (which asks for the backends) must not
     from ..clock import Clock
 
 #: builder(caps, clock, state_dir, options) -> Hardware
@@ -43,6 +46,31 @@ def backend_issues(cfg: Any, caps: RotatorCaps) -> list[Issue]:
     """Every registered backend's check of its own section (urc.config's cross-check)."""
     _load_builtin()
     return [issue for check in list(_CHECKS.values()) for issue in check(cfg, caps)]
+
+
+def hardware_issues(cfg: Any, caps: RotatorCaps) -> list[Issue]:
+    """urc.config's check of [hardware]: a backend registered here, each backend's own
+    section, and the simulator's pointing error."""
+    issues: list[Issue] = []
+    backends = available_backends()
+    if cfg.hardware.backend not in backends:
+        issues.append(("hardware.backend", "one of " + ", ".join(backends),
+                       cfg.hardware.backend, suggest(cfg.hardware.backend, backends)))
+    return issues + backend_issues(cfg, caps) + _pointing_error_issues(cfg.hardware.sim.pointing_error)
+
+
+def _pointing_error_issues(terms: dict[str, float] | None) -> list[Issue]:
+    """[hardware.sim] pointing_error: urc.pointing.model's terms (checked whichever backend
+    is chosen, as every section given is; imported only when there are terms)."""
+    if terms is None:
+        return []
+    from ..pointing.model import PointingModel
+
+    try:
+        PointingModel.from_dict(terms)
+    except (TypeError, ValueError) as exc:
+        return [("hardware.sim.pointing_error", f"pointing model terms ({exc})", terms, "")]
+    return []
 
 
 def build_hardware(name: str, caps: RotatorCaps, clock: Clock, state_dir: Path,
@@ -118,3 +146,7 @@ def _load_builtin() -> None:
         register_backend("bridge", _Builtin(_bridge), _bridge_issues)
     if "gpio" not in _BACKENDS:
         register_backend("gpio", _Builtin(_gpio), _gpio_issues)
+
+
+# [hardware] is checked whenever a configuration is validated (urc.registrations imports this)
+register_check("hardware", hardware_issues)

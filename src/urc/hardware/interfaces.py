@@ -10,17 +10,15 @@ from __future__ import annotations
 
 import logging
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, Callable, Protocol, runtime_checkable
+from typing import Any, Callable, Protocol, runtime_checkable
 
 from ..caps import SensorCaps
 
-if TYPE_CHECKING:  # the backends' own types, named for readers and mypy only
-    from ..persistence import StateStore
-    from .bridge import BridgeLink
-    from .fram import FramStore
-    from .gpio import GpioParts, PowerFailInput
-    from .sim.world import SimWorld
-    from .supply_watch import SupplyWatch
+# This module names no backend, not even for the type checker: every backend imports it,
+# so a name of one here (under TYPE_CHECKING too) closes an import cycle (issue 34).
+# What a backend builds besides the axes is typed by the small protocol of what urc
+# outside that backend asks of it, or is the backend's own record (``object``) that only
+# its tools and tests read, knowing its type.
 
 log = logging.getLogger(__name__)
 
@@ -140,6 +138,26 @@ class EnableSense(Protocol):
     def read(self) -> bool: ...
 
 
+class SimulatedPhysics(Protocol):
+    """The physics under the sim backend and the emulated gpio backend
+    (``urc.hardware.sim.world.SimWorld``): the control process injects faults into it."""
+
+    def inject(self, axis: str, kind: str, **kw: Any) -> None: ...
+
+    def clear(self, axis: str, kind: str | None = None) -> None: ...
+
+
+class PowerFailSense(Protocol):
+    """A supply monitor's power-fail line (the gpio backend's ``PowerFailInput``): the
+    composition root sets ``on_fail`` (at once, on the falling edge) and ``save`` (then,
+    on a thread of its own)."""
+
+    on_fail: Any
+    save: Any
+
+    def supply_ok(self) -> bool: ...
+
+
 @dataclass
 class AxisHardware:
     motor: Motor
@@ -175,24 +193,24 @@ class Hardware:
     enable_sense: EnableSense | None = None
     #: the physics simulator under the sim backend and the emulated gpio backend (fault
     #: injection, truth); None on real iron and the bridge
-    world: SimWorld | None = None
+    world: SimulatedPhysics | None = None
     #: per axis, the trip a motor driver's over-current detection would be set to, used
     #: when ``faults.overcurrent_a = 0``; None = the backend has no figure
     overcurrent_a: dict[str, float] | None = None
     #: (label, part) for ``urc hw check`` to identify, in wiring order
     parts: list[tuple[str, Any]] = field(default_factory=list)
-    #: the backend keeps the position state itself (the gpio backend's FRAM); None = the
-    #: state file
-    state_store: StateStore | FramStore | None = None
+    #: the backend keeps the position state itself (the gpio backend's FRAM: StateStore's
+    #: interface, not derived from it); None = the state file
+    state_store: object | None = None
     #: the supply monitor's power-fail input (gpio ``power_fail_pin``); None = not wired
-    power_fail: PowerFailInput | None = None
-    #: the gpio backend's pin factory, buses and emulated parts
-    gpio: GpioParts | None = None
-    #: the bridge backend's client and link to the controller
-    bridge: BridgeLink | None = None
-    #: the read-back watched on every tick (:class:`.supply_watch.SupplyWatch`): made on
-    #: first use where there is a chain (``motor_enable_timeout_s``) and a read-back
-    supply_watch: SupplyWatch | None = None
+    power_fail: PowerFailSense | None = None
+    #: the gpio backend's pin factory, buses and emulated parts (``urc.hardware.gpio.GpioParts``)
+    gpio: object | None = None
+    #: the bridge backend's client and link to the controller (``urc.hardware.bridge.BridgeLink``)
+    bridge: object | None = None
+    #: the read-back watched on every tick (``urc.hardware.supply_watch.SupplyWatch``): made
+    #: on first use where there is a chain (``motor_enable_timeout_s``) and a read-back
+    supply_watch: Any = None
 
     def axis(self, name: str) -> AxisHardware:
         if name == "az":
@@ -244,7 +262,7 @@ class Hardware:
         if watch is not None:   # (after a failed write too: meant, and the chain drops on it)
             watch.beat(level, now_s)
 
-    def watch(self) -> SupplyWatch | None:
+    def watch(self) -> Any:
         """The read-back's watch, or None without a chain and a read-back."""
         if self.supply_watch is None and self.enable_sense is not None and self.motor_enable_timeout_s is not None:
             from .supply_watch import SupplyWatch

@@ -1,18 +1,13 @@
-"""Synchronous code on the event loop that never blocks it: a session's call to the
-control process suspends that session, not the loop.
+"""Synchronous code on the event loop that never blocks it: a call to the control
+process suspends that code, not the loop.
 
-Protocol sessions are sans-I/O and synchronous: ``receive(bytes) -> replies``, calling
-the rotator port as they parse (ten protocols, each tested byte by byte that way). In
-the I/O process a command is a round trip to the control process. Waiting for it on
-the event loop froze every client for as long as the slowest command (6 s against a
-hung control process); a thread per connection would cost a thread hop on every ``p``.
-
-So each ``receive`` (or a web route's rotator call) runs in a greenlet: when the port
-needs a reply it hands the pending future to the event loop and switches out; the
-loop serves everyone else and switches back in with the outcome when it arrives. The
-same technique SQLAlchemy's asyncio layer uses (``greenlet_spawn``/``await_only``); the
-greenlet library is what gevent and Playwright are built on. A call that needs no round
-trip (a status read: every position query) never leaves the greenlet.
+What is left of it: protocol sessions yield their requests and web routes and MQTT await
+them (urc.service.effects), but the tracker (its step and commands) and calibration
+procedures (poll, start, cancel) are still synchronous code that calls the rotator port.
+They run in a greenlet: when the port needs a reply it hands the pending future to the
+event loop and switches out; the loop serves everyone else and switches back in with the
+outcome when it arrives (the technique of SQLAlchemy's asyncio layer). Once those return
+effects too, this module and the greenlet dependency go (issue 34.3).
 """
 
 from __future__ import annotations

@@ -37,11 +37,9 @@ from typing import Any
 import pydantic
 
 from .. import caps, errors
-from ..config import hardware_sections, panel_sections, schema, sections
+from ..config import hardware_sections, mqtt_section, panel_sections, schema, sections
 from ..control import faults, geometry, law
-from ..frontpanel import settings as panel_settings
 from ..hardware import parts
-from ..mqtt import config as mqtt_config
 from ..service import instance, program, settings, snapshot
 from . import messages
 
@@ -50,7 +48,7 @@ from . import messages
 _MODULES: tuple[ModuleType, ...] = (
     messages, snapshot, faults, program,                # requests, replies, statuses, pass programs
     settings, caps, geometry, law,                      # the "ready" message, Reconfigure
-    schema, sections, hardware_sections, panel_sections, mqtt_config, panel_settings,  # "init": the Config
+    schema, sections, hardware_sections, panel_sections, mqtt_section,  # "init": the Config
     errors, parts, instance,                            # urc's exceptions (exception_from_wire)
 )
 

@@ -9,7 +9,6 @@ refused by the gate (it may still fail if the control process is gone).
 
 from __future__ import annotations
 
-import asyncio
 import inspect
 import json
 import logging
@@ -20,6 +19,8 @@ from pydantic import BaseModel, ConfigDict, Field, TypeAdapter, ValidationError
 
 from ..errors import CommandRejected, UrcError
 from ..ipc import bridge
+from ..ipc import messages as msg
+from ..service.effects import call
 from ..protocols.base import RateLimitedLog
 from ..web.routes_tracking import TrackRequest
 from ..web.schemas import AzDeg, ElDeg
@@ -148,9 +149,9 @@ def parse_command(payload: bytes) -> Goto | Stop | Park | ClearFaults | Track | 
 
 class CommandHandler:
     """Runs commands as the HTTP API runs them (``urc.api``), on the same rotator,
-    tracker and dashboard hub. Rotator calls wait on the control process: they run in
-    a worker thread so the event loop never waits. Tracker commands run on the loop's
-    thread, where the tracker is stepped (as the API runs them)."""
+    tracker and dashboard hub. Rotator calls await the control process (only this
+    command waits, never the event loop). Tracker commands run on the loop's thread,
+    where the tracker is stepped, bridged as the API runs them."""
 
     def __init__(self, rotator: Any, tracker: Any = None, hub: Any = None):
         self.rotator = rotator
@@ -178,15 +179,15 @@ class CommandHandler:
         rot = self.rotator
         if isinstance(cmd, Goto):
             if cmd.el_deg is None:
-                await asyncio.to_thread(rot.goto_az, cmd.az_deg)
+                await call(rot, msg.GotoAz(cmd.az_deg))
             else:
-                await asyncio.to_thread(rot.goto, cmd.az_deg, cmd.el_deg)
+                await call(rot, msg.Goto(cmd.az_deg, cmd.el_deg))
         elif isinstance(cmd, Stop):
             await self._stop(cmd.axis)
         elif isinstance(cmd, Park):
-            await asyncio.to_thread(rot.park)
+            await call(rot, msg.Park())
         elif isinstance(cmd, ClearFaults):
-            await asyncio.to_thread(rot.clear_faults)
+            await call(rot, msg.ClearFaults())
         elif isinstance(cmd, Track):
             await self._tracker_call("track", cmd.request())
         elif isinstance(cmd, TrackStop):
@@ -203,8 +204,8 @@ class CommandHandler:
             if self.tracker is not None:
                 await self._tracker_call("stop")
         if hub is not None:
-            await asyncio.to_thread(hub.release, axis)
-        await asyncio.to_thread(self.rotator.stop, axis)
+            await hub.release(axis)
+        await call(self.rotator, msg.Stop(axis))
 
     async def _tracker_call(self, name: str, *args: Any) -> None:
         if self.tracker is None:

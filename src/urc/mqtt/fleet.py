@@ -5,12 +5,13 @@ from __future__ import annotations
 
 import asyncio
 import json
+import sys
 import time
 import uuid
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Callable
 
-from .config import Broker
+from .config import Broker, topic_level
 from .connect import make_client
 from .topics import OFFLINE, ONLINE, Topics, fleet_patterns, station_of
 
@@ -173,3 +174,61 @@ async def send_command(broker: Broker, base: str, command: dict[str, Any], timeo
         except TimeoutError:
             raise CommandFailed(f"no answer from {base} within {timeout_s:g} s (is it running and connected?)") \
                 from None
+
+
+@dataclass
+class Target:
+    """The broker ``urc fleet`` reaches the stations on, its credentials, and the prefix
+    of the stations' base topics."""
+
+    broker: Any
+    auth: dict
+    prefix: str
+
+    def base(self, station: str) -> str:
+        return station.rstrip("/") if "/" in station else f"{self.prefix}/{topic_level(station)}"
+
+
+async def show(target: Target, once: bool, wait_s: float, as_json: bool, echo: Callable[[str], None]) -> None:
+    """``urc fleet``'s table: once (after ``wait_s``, plain or JSON), or live until
+    cancelled (rich on a terminal, else the plain table whenever it changed)."""
+    fleet = Fleet(target.prefix)
+    if once:
+        await watch(target.broker, fleet, lambda: None, seconds=wait_s, **target.auth)
+        if as_json:
+            echo(json.dumps({k: {"online": s.online, "status": s.status} for k, s in fleet.stations.items()},
+                                  indent=2))
+        else:
+            echo(plain_table(fleet.rows()))
+        return
+    try:
+        from rich.live import Live
+        has_live = True
+    except ImportError:
+        has_live = False
+    if has_live and sys.stdout.isatty():
+        with Live(rich_table(fleet.rows()), refresh_per_second=4, transient=False) as live:
+            async def repaint() -> None:
+                while True:
+                    live.update(rich_table(fleet.rows()))
+                    await asyncio.sleep(0.5)
+            painter = asyncio.create_task(repaint())
+            try:
+                await watch(target.broker, fleet, lambda: None, **target.auth)
+            finally:
+                painter.cancel()
+        return
+    # not a terminal: the table again whenever it changed, checked once a second
+    async def reprint() -> None:
+        last = ""
+        while True:
+            await asyncio.sleep(1.0)
+            text = plain_table(fleet.rows())
+            if text != last:
+                echo(text + "\n")
+                last = text
+    printer = asyncio.create_task(reprint())
+    try:
+        await watch(target.broker, fleet, lambda: None, **target.auth)
+    finally:
+        printer.cancel()

@@ -12,7 +12,9 @@ r^2/4 per axis). Each sample has radiometer noise (the radiometer equation): a s
 deviation ``noise_frac`` = 1/sqrt(bandwidth x integration) of the total power, so the
 noise grows on the source. ``snr_db`` sets the peak: S = 10^(snr_db/10) x noise_frac,
 the source's peak over the floor's noise. Reported in dB (10 log10 P), as rtl_power or
-an S-meter would; ``ceiling_db`` clips like a receiver that saturates.
+an S-meter would; ``ceiling_db`` clips like a receiver that saturates. ``horizon_deg``
+(None: no horizon) hides a source below that elevation: the Earth blocks a satellite
+before its AOS (a step-track measures its noise floor then).
 """
 
 from __future__ import annotations
@@ -80,14 +82,14 @@ class SimulatedPower:
     def __init__(self, source: SkySource, *, fwhm_deg: float, snr_db: float,
                  beam_at: Callable[[], tuple[float, float, float]] | None = None,
                  noise_frac: float = 0.01, ceiling_db: float | None = None, seed: int = 1,
-                 name: str = "simulated power"):
+                 name: str = "simulated power", horizon_deg: float | None = None):
         if not (fwhm_deg > 0 and math.isfinite(snr_db) and 0 < noise_frac < 1):
             raise ValueError(f"simulated power: expected fwhm_deg > 0, a finite snr_db and 0 < noise_frac < 1, "
                              f"found {fwhm_deg!r}, {snr_db!r}, {noise_frac!r}")
         self.source, self.fwhm_deg, self.snr_db = source, float(fwhm_deg), float(snr_db)
         self.noise_frac, self.ceiling_db = float(noise_frac), ceiling_db
         self.peak = 10.0 ** (snr_db / 10.0) * noise_frac
-        self.beam_at = beam_at
+        self.beam_at, self.horizon_deg = beam_at, horizon_deg
         self.rng = np.random.default_rng(seed)
         self.name = name
 
@@ -97,6 +99,8 @@ class SimulatedPower:
         pos = np.array([self.source.position(float(u)) for u in t])
         d = great_circle_deg(np.asarray(az_deg), np.asarray(el_deg), pos[:, 0], pos[:, 1])
         p = 1.0 + self.peak * beam_gain(d, self.fwhm_deg, self.source.radius_deg)
+        if self.horizon_deg is not None:
+            p = np.where(pos[:, 1] < self.horizon_deg, 1.0, p)
         return p if np.ndim(az_deg) else float(np.ravel(p)[0])
 
     def measure(self, t_unix_s: Any, az_deg: Any, el_deg: Any) -> np.ndarray:

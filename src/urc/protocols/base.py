@@ -7,6 +7,12 @@ over TCP, a serial port, a pseudo-terminal or UDP, one session per connection.
 Sessions act on the rotator only through :class:`RotatorPort`, which the rotator
 service implements: limits, keep-out zones, wrap and faults are enforced there, once,
 for every protocol. A command the session did not fully understand never reaches it.
+A session reads the status from the port directly (no round trip: the I/O process
+keeps the newest), and asks for everything else by yielding a request
+(:mod:`urc.service.effects`): ``receive()`` is a generator, ``value = yield Goto(az, el)``,
+that returns its replies; its driver performs each request (a test at once, the server
+adapter by awaiting the control process) and sends back the result or throws the
+rotator's exception in at that ``yield``.
 """
 
 from __future__ import annotations
@@ -14,7 +20,7 @@ from __future__ import annotations
 import logging
 import time
 from collections import Counter
-from typing import Callable, Protocol, runtime_checkable
+from typing import Any, Callable, Generator, Protocol, runtime_checkable
 
 from ..errors import UrcError
 from ..service.snapshot import Status
@@ -58,13 +64,20 @@ class Session(Protocol):
     #: the new rate; a serial adapter applies it after writing the replies and clears
     #: it. ``default_baud`` on the class: its serial rate when the config names none.)
     closed: bool
+    #: (its generators are urc.service.effects.Effects: not imported here, since the
+    #: codecs beside this module are imported by the bridge backend, which must not load
+    #: the link's messages)
+    #: the port its status is read from and its requests are performed on
+    rotator: RotatorPort
 
-    def receive(self, data: bytes) -> list[bytes]:
-        """Feed received bytes (any split, even one byte at a time). Returns the complete
-        replies now due, in order; the adapter writes each one with a single write."""
+    def receive(self, data: bytes) -> Generator[Any, Any, list[bytes]]:
+        """Feed received bytes (any split, even one byte at a time): yields the port
+        requests its commands make, in order, and returns the complete replies now due,
+        in order; the adapter writes each one with a single write."""
 
-    def tick(self, now_s: float) -> list[bytes]:
-        """Unsolicited output due by ``now_s`` (the G4JNT position stream). Most return []."""
+    def tick(self, now_s: float) -> list[bytes] | Generator[Any, Any, list[bytes]]:
+        """Unsolicited output due by ``now_s`` (the G4JNT position stream). Most return [];
+        one that acts on the rotator (SARCNET's demo) is a generator as ``receive``."""
 
 
 class ProtocolError(UrcError, ValueError):
@@ -149,15 +162,6 @@ class RateLimitedLog:
     def warning(self, msg: str, *args: object, count: int = 1) -> None:
         self(logging.WARNING, msg, *args, count=count)
 
-
-def goto_named_axes(rotator: RotatorPort, az_deg: float | None, el_deg: float | None) -> None:
-    """Go to whichever of az/el the command named; the other axis keeps its target."""
-    if az_deg is not None and el_deg is not None:
-        rotator.goto(az_deg, el_deg)
-    elif az_deg is not None:
-        rotator.goto_az(az_deg)
-    elif el_deg is not None:
-        rotator.goto_el(el_deg)
 
 
 def protocol_logger(name: str) -> logging.Logger:

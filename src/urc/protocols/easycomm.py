@@ -16,6 +16,8 @@ from __future__ import annotations
 
 from .. import __version__
 from ..errors import CommandRejected, UrcError
+from ..ipc.messages import ClearFaults, Goto, Move, Park, Request, Stop
+from ..service.effects import Effects, as_effects
 from ..service.snapshot import Status
 from .base import RotatorPort, bad_input_log, internal_error, protocol_logger
 from .easycomm_codec import (COMMANDS_II, COMMANDS_III, Command, EasycommParseError, format_axis,
@@ -52,6 +54,14 @@ def _silent(fn, *args):
     return run
 
 
+def _request(request: Request):
+    """A rotator command that sends nothing back (Hamlib reads no reply)."""
+    def run() -> Effects[list[bytes]]:
+        yield request
+        return []
+    return run
+
+
 class _EasycommSession:
     protocol = "easycomm"
     commands: frozenset[str] = COMMANDS_II
@@ -66,13 +76,13 @@ class _EasycommSession:
         self._lines = LineSplitter(log=self._bad)   # an overlong line: logged, no reply
 
     # ------------------------------------------------------------------ Session API
-    def receive(self, data: bytes) -> list[bytes]:
+    def receive(self, data: bytes) -> Effects[list[bytes]]:
         out: list[bytes] = []
         for item in self._lines.feed(data):
             if item.overflowed:
                 continue
             try:
-                out += self._line(item.text)
+                out += yield from self._line(item.text)
             except UrcError as exc:  # a hardware failure: Easycomm has no error reply
                 self._log.warning("line %r failed: %s", item.text[:80], exc)
             except Exception:  # a bug: the connection survives, the bug is counted
@@ -83,7 +93,7 @@ class _EasycommSession:
         return []
 
     # ------------------------------------------------------------------ one line
-    def _line(self, line: bytes) -> list[bytes]:
+    def _line(self, line: bytes) -> Effects[list[bytes]]:
         if not line.strip(b" \t;"):
             return []
         try:
@@ -94,7 +104,7 @@ class _EasycommSession:
         out: list[bytes] = []
         for step in steps:
             try:
-                out += step()
+                out += yield from as_effects(step())
             except CommandRejected as exc:
                 self._bad.warning("line %r: refused (%s): %s", line[:80], exc.reason, exc)
         return out
@@ -111,7 +121,6 @@ class _EasycommSession:
         queries: list[str] = []
         stops: set[str] = set()
         reads: set[tuple[str, object]] = set()
-        rot = self.rotator
         for c in cmds:
             if c.name in ("AZ", "EL"):
                 axis = c.name.lower()
@@ -136,12 +145,12 @@ class _EasycommSession:
                         raise EasycommParseError(f"{c.name} with a velocity 0..{VELOCITY_MAX:.0f}",
                                                  str(c.value).encode())
                     frac = min(1.0, (c.value + 100.0) / VELOCITY_FULL_SCALE)
-                steps.append(_silent(rot.move, axis, direction, frac))
+                steps.append(_request(Move(axis, direction, frac)))
             elif c.name == "PARK":
-                steps.append(_silent(rot.park))
+                steps.append(_request(Park()))
             elif c.name == "RESET":  # Hamlib's own: stop, then clear latched faults
-                steps.append(_silent(rot.stop))
-                steps.append(_silent(rot.clear_faults))
+                steps.append(_request(Stop()))
+                steps.append(_request(ClearFaults()))
             elif c.name in ("VE", "GS", "GE", "CR", "IP", "AN"):
                 if (c.name, c.value) not in reads:
                     reads.add((c.name, c.value))
@@ -155,7 +164,7 @@ class _EasycommSession:
         return steps
 
     # ------------------------------------------------------------------ actions
-    def _goto(self, target: dict[str, float]) -> list[bytes]:
+    def _goto(self, target: dict[str, float]) -> Effects[list[bytes]]:
         if "az" not in target and not has_elevation(self.rotator):
             # ``EL45`` alone on a single-axis rotator: Easycomm answers no set, so there is
             # no error form to give; it is ignored and nothing moves. ``AZ100 EL45`` turns
@@ -165,7 +174,7 @@ class _EasycommSession:
         s = self.rotator.status()
         az = target.get("az", self._hold("az", s))
         el = target.get("el", self._hold("el", s))
-        self.rotator.goto(az, el)
+        yield Goto(az, el)
         return []
 
     @staticmethod
@@ -185,8 +194,8 @@ class _EasycommSession:
         lo, hi = s.limits.get("el", (0.0, 90.0))
         return min(max(el, lo + off), min(hi + off, 90.0))
 
-    def _stop(self, stops: set[str]) -> list[bytes]:
-        self.rotator.stop(None if len(stops) == 2 else next(iter(stops)))
+    def _stop(self, stops: set[str]) -> Effects[list[bytes]]:
+        yield Stop(None if len(stops) == 2 else next(iter(stops)))
         return []
 
     def _position(self, queries: list[str]) -> list[bytes]:

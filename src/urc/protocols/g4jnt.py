@@ -36,7 +36,7 @@ from __future__ import annotations
 from ..errors import CommandRejected, UrcError
 from ..ipc.messages import ApplyCalibration, PotReading, PotState
 from ..service import calibration
-from ..service.queries import ask
+from ..service.effects import Effects, drive
 from .base import MAX_PENDING_BYTES, RotatorPort, bad_input_log, internal_error, protocol_logger
 from . import g4jnt_codec as codec
 from .g4jnt_codec import Constants, G4jntCommand, G4jntSyntaxError
@@ -71,20 +71,22 @@ class G4jntSession:
         #: constants set but not yet consistent (see the module notes): held, not stored
         self._held: dict[str, int] = {}
 
-    def _pot(self) -> PotReading | None:
+    def _pot(self) -> Effects[PotReading | None]:
         """The azimuth's ratiometric pot: its constants and last ADC count (one query, one
         round trip: each command and each stream line asks once), None without one."""
-        return ask(self.rotator, PotState())
+        return (yield PotState())
 
     def _constants(self, pot: PotReading | None) -> Constants:
         return self._own if pot is None else codec.from_sensor(pot.calibration)
 
     @property
     def constants(self) -> Constants:
-        return self._constants(self._pot())
+        """The constants in force now (for tests and tools: the query is performed at
+        once; the session itself yields it)."""
+        return self._constants(drive(self._pot(), self.rotator))
 
     # ------------------------------------------------------------------ Session
-    def receive(self, data: bytes) -> list[bytes]:
+    def receive(self, data: bytes) -> Effects[list[bytes]]:
         out: list[bytes] = []
         for item in self._lines.feed(data):
             if item.overflowed:
@@ -93,7 +95,7 @@ class G4jntSession:
             try:
                 cmd = codec.parse_line(item.text)
                 if cmd is not None:
-                    out.append(self._execute(cmd))
+                    out.append((yield from self._execute(cmd)))
             except G4jntSyntaxError as exc:
                 bad_input.info("rejected %r: %s", item.text[:80], exc)
                 out.append(codec.line(f"? {exc}"))
@@ -108,25 +110,25 @@ class G4jntSession:
                 out.append(codec.line(f"? internal error: {exc}"[:120]))
         return out
 
-    def tick(self, now_s: float) -> list[bytes]:
+    def tick(self, now_s: float) -> Effects[list[bytes]]:
         out = []
         nxt = next_due_s(self._next_s, now_s, self.interval_s)
-        pot = self._pot() if nxt is not None or not self._powered else None
+        pot = (yield from self._pot()) if nxt is not None or not self._powered else None
         if not self._powered:
             self._powered = True
             out.append(codec.banner(self._constants(pot)))
         if nxt is not None:
             self._next_s = nxt
             try:
-                out.append(self.stream_line(pot))
+                out.append((yield from self.stream_line(pot)))
             except PositionUnknown as exc:    # homing: no bearing to stream, say why
                 out.append(codec.line(f"? {exc}"))
         return out
 
-    def stream_line(self, pot: PotReading | None = None) -> bytes:
+    def stream_line(self, pot: PotReading | None = None) -> Effects[bytes]:
         """One stream line from ``pot`` (asked for when not given)."""
         if pot is None:
-            pot = self._pot()
+            pot = yield from self._pot()
         k = self._constants(pot)
         require_known(self.rotator.status())
         if pot is not None:
@@ -136,32 +138,32 @@ class G4jntSession:
         return codec.stream_line(codec.bearing_tenths(p, k), p)
 
     # ----------------------------------------------------------------- commands
-    def _execute(self, cmd: G4jntCommand) -> bytes:
+    def _execute(self, cmd: G4jntCommand) -> Effects[bytes]:
         if cmd.kind == "const":
             assert cmd.value is not None
             # (the rotator applies a re-reference at its next tick: answer with the
             # value accepted, not a read-back that may precede it)
-            return self._set_constant(cmd.name, cmd.value)
+            return (yield from self._set_constant(cmd.name, cmd.value))
         if cmd.kind == "all":
-            constants = self.constants
+            constants = self._constants((yield from self._pot()))
             listing = b"".join(codec.constant_line(n, constants) for n in codec.CONSTANT_ORDER)
             held = [n for n in codec.CONSTANT_ORDER if n in self._held and self._held[n] != constants.get(n)]
             if held:
                 listing += codec.line("Held (not stored) - " + " ".join(f"{n} {self._held[n]}" for n in held))
             return listing
         if cmd.kind == "stop":
-            self._targets.stop()
+            yield from self._targets.stop()
             return codec.line("S")
         if cmd.kind == "pulse":
             az = extended_pose_deg(self.rotator.status())[0]
-            self._targets.goto(az + cmd.direction * PULSE_DEG, None)
+            yield from self._targets.goto(az + cmd.direction * PULSE_DEG, None)
             return codec.line("L" if cmd.direction < 0 else "R")
         assert cmd.kind == "goto" and cmd.az_deg is not None
-        self._targets.goto(cmd.az_deg, cmd.el_deg)
+        yield from self._targets.goto(cmd.az_deg, cmd.el_deg)
         echo = f"G{cmd.az_deg:g}" + ("" if cmd.el_deg is None else f",{cmd.el_deg:g}")
         return codec.line(echo)
 
-    def _set_constant(self, name: str, value: int) -> bytes:
+    def _set_constant(self, name: str, value: int) -> Effects[bytes]:
         """One round trip: the new constant, with those held, goes to the pot (the rotator
         keeps the others in force); a rotator without a ratiometric pot refuses it and the
         connection keeps its own."""
@@ -169,7 +171,7 @@ class G4jntSession:
         # the rotator re-references to what the new constants say, persists them with
         # its state, and refuses (CommandRejected) if that would break its limits
         try:
-            ask(self.rotator, ApplyCalibration("az", codec.sensor_values(changes), require=POT_CONSTANTS))
+            yield ApplyCalibration("az", codec.sensor_values(changes), require=POT_CONSTANTS)
         except calibration.NoSuchConstant:
             self._own = self._own.with_value(name, value)
             return codec.line(f"{name} {value}")

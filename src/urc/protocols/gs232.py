@@ -22,6 +22,8 @@ from __future__ import annotations
 from typing import Any
 
 from ..errors import CommandRejected, UrcError
+from ..ipc.messages import Goto, Move, Stop
+from ..service.effects import Effects
 from ..service.snapshot import Status
 from .base import RotatorPort, bad_input_log, internal_error, protocol_logger
 from .gs232_codec import (SPEED_LEVELS, STYLE_A, STYLE_B, STYLE_GENERIC, Command, Gs232ParseError,
@@ -78,14 +80,14 @@ class _Gs232Session:
         self._speed_frac = SPEED_LEVELS[DEFAULT_SPEED_LEVEL]
 
     # ------------------------------------------------------------------ Session API
-    def receive(self, data: bytes) -> list[bytes]:
+    def receive(self, data: bytes) -> Effects[list[bytes]]:
         out: list[bytes] = []
         for item in self._lines.feed(data):
             if item.overflowed:
                 out.append(format_error(self.style))
                 continue
             try:
-                out += self._line(item.text)
+                out += yield from self._line(item.text)
             except UrcError as exc:  # a hardware failure: the protocol's error
                 self._log.warning("%r failed: %s", item.text[:80], exc)
                 out.append(format_error(self.style))
@@ -98,7 +100,7 @@ class _Gs232Session:
         return []
 
     # ------------------------------------------------------------------ one command
-    def _line(self, line: bytes) -> list[bytes]:
+    def _line(self, line: bytes) -> Effects[list[bytes]]:
         if not line.strip(b" \t"):
             # Hamlib 603 sends a bare CR after every write (an empty line): silence
             # (a late "?>" could land in the next reply Hamlib reads)
@@ -109,7 +111,7 @@ class _Gs232Session:
             self._bad.warning("%s", exc)
             return [format_error(self.style)]
         try:
-            reply = self._do(cmd)
+            reply = yield from self._do(cmd)
         except Gs232ParseError as exc:          # an NMEA sentence it cannot use
             self._bad.warning("%s", exc)
             return [format_error(self.style)]
@@ -126,7 +128,7 @@ class _Gs232Session:
     def _refused(self) -> list[bytes]:
         return [format_error(self.style)]
 
-    def _do(self, cmd: Command) -> bytes | None:
+    def _do(self, cmd: Command) -> Effects[bytes | None]:
         rot = self.rotator
         if cmd.op == "read":
             az, el = controller_pose(rot.status())  # never cached
@@ -144,23 +146,23 @@ class _Gs232Session:
         # (the parser gives each op its fields: asserted for the type checker)
         if cmd.op == "goto":
             assert cmd.az_deg is not None and cmd.el_deg is not None
-            goto_extended(rot, cmd.az_deg, cmd.el_deg)
+            yield from goto_extended(rot, cmd.az_deg, cmd.el_deg)
         elif cmd.op == "goto_az":
             assert cmd.az_deg is not None
-            goto_extended(rot, cmd.az_deg, self._el_to_keep(rot.status()))
+            yield from goto_extended(rot, cmd.az_deg, self._el_to_keep(rot.status()))
         elif cmd.op == "goto_el":
             assert cmd.el_deg is not None
-            goto_extended(rot, self._az_to_keep(rot.status()), cmd.el_deg)
+            yield from goto_extended(rot, self._az_to_keep(rot.status()), cmd.el_deg)
         elif cmd.op == "help":
             return format_help()
         elif cmd.op == "nmea":
             az, el = self._nmea_point(cmd.text)
-            rot.goto(az, el)
+            yield Goto(az, el)
         elif cmd.op == "stop":
-            rot.stop(cmd.what)
+            yield Stop(cmd.what)
         elif cmd.op == "move":
             assert cmd.what is not None
-            rot.move(cmd.what, cmd.direction, self._speed_frac)
+            yield Move(cmd.what, cmd.direction, self._speed_frac)
         elif cmd.op == "speed":
             # applies to the next L/R/U/D (Hamlib sends X just before the direction)
             self._speed_frac = SPEED_LEVELS[cmd.level]

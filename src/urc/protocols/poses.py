@@ -17,7 +17,8 @@ from __future__ import annotations
 import math
 
 from ..errors import CommandRejected
-from ..ipc.messages import Goto, GotoPose
+from ..ipc.messages import Goto, GotoAz, GotoEl, GotoPose, Move, Stop
+from ..service.effects import Effects
 from ..service.snapshot import Status
 from .base import RotatorPort
 from .single_axis import wire_el_axis, wire_el_deg
@@ -113,18 +114,24 @@ def _is_target(asked: tuple[float, float], st: Status) -> bool:
     return abs((az - st.target_az_deg + 180.0) % 360.0 - 180.0) < 1e-6 and abs(el - st.target_el_deg) < 1e-6
 
 
-def goto_extended(rotator: RotatorPort, az_deg: float, el_deg: float) -> None:
+def goto_named_axes(az_deg: float | None, el_deg: float | None) -> Effects[None]:
+    """Go to whichever of az/el the command named; the other axis keeps its target."""
+    if az_deg is not None and el_deg is not None:
+        yield Goto(az_deg, el_deg)
+    elif az_deg is not None:
+        yield GotoAz(az_deg)
+    elif el_deg is not None:
+        yield GotoEl(el_deg)
+
+
+def goto_extended(rotator: RotatorPort, az_deg: float, el_deg: float) -> Effects[None]:
     """Go to (az, el) in the extended frame as a protocol that speaks the controller's
     own azimuth means it: an azimuth within the rotator's range names that pose, the
     wrap turn included (``W000`` from 370 unwinds to 0; ``W010`` from 360 goes back to
     10, not on to 370), an elevation past 90 the flipped pose. Outside the range the
     service's rule applies (a negative down to -180 is a compass bearing, anything else
-    is refused). Raises CommandRejected."""
-    request = extended_goto(rotator.status(), az_deg, el_deg)
-    if isinstance(request, GotoPose):
-        rotator.goto_pose(request.az_m_deg, request.el_m_deg)
-    else:
-        rotator.goto(request.az_deg, request.el_deg)
+    is refused). Raises CommandRejected (at its ``yield``)."""
+    yield extended_goto(rotator.status(), az_deg, el_deg)
 
 
 def extended_goto(st: Status, az_deg: float, el_deg: float) -> Goto | GotoPose:
@@ -163,27 +170,27 @@ class ExtendedTarget:
         #: (status t_s when asked, extended (az, el) asked, or None: stopped / moved)
         self._asked: tuple[float, tuple[float, float] | None] | None = None
 
-    def goto(self, az: float | None, el: float | None) -> None:
-        """``rotator.goto`` with None = that axis keeps its target (raises CommandRejected)."""
+    def goto(self, az: float | None, el: float | None) -> Effects[None]:
+        """A goto with None = that axis keeps its target (raises CommandRejected)."""
         st = self.rotator.status()
         keep_az, keep_el = self._kept(st)
         az = keep_az if az is None else az
         el = keep_el if el is None else el
         if self.named:
-            goto_extended(self.rotator, az, el)
+            yield from goto_extended(self.rotator, az, el)
         else:
-            self.rotator.goto(az, el)
+            yield Goto(az, el)
         self._asked = (st.t_s, (az, el))
 
-    def stop(self, axis: str | None = None) -> None:
-        """``rotator.stop``: like the service, no target from now on (either axis)."""
+    def stop(self, axis: str | None = None) -> Effects[None]:
+        """A stop: like the service, no target from now on (either axis)."""
         st = self.rotator.status()
-        self.rotator.stop(axis)
+        yield Stop(axis)
         self._asked = (st.t_s, None)
 
-    def move(self, axis: str, direction: int, speed_frac: float = 1.0) -> None:
+    def move(self, axis: str, direction: int, speed_frac: float = 1.0) -> Effects[None]:
         st = self.rotator.status()
-        self.rotator.move(axis, direction, speed_frac)
+        yield Move(axis, direction, speed_frac)
         self._asked = (st.t_s, None)
 
     def forget(self) -> None:

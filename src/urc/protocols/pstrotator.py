@@ -23,11 +23,13 @@ Items of one datagram run in order; a bad item does not stop the well-formed one
 from __future__ import annotations
 
 from ..errors import CommandRejected, UrcError
-from .base import (MAX_PENDING_BYTES, RotatorPort, bad_input_log, goto_named_axes, internal_error,
+from ..ipc.messages import Park, Stop
+from ..service.effects import Effects
+from .base import (MAX_PENDING_BYTES, RotatorPort, bad_input_log, internal_error,
                    protocol_logger)
 from . import pstrotator_codec as codec
 from .numbers import compass_tenths
-from .poses import require_known
+from .poses import goto_named_axes, require_known
 from .pstrotator_codec import PstItem
 from .single_axis import wire_el_deg
 
@@ -42,7 +44,7 @@ class PstRotatorSession:
         self.rotator = rotator
         self.closed = False
 
-    def receive(self, data: bytes) -> list[bytes]:
+    def receive(self, data: bytes) -> Effects[list[bytes]]:
         if len(data) > MAX_PENDING_BYTES:
             bad_input.warning("datagram of %d bytes dropped (limit %d)", len(data), MAX_PENDING_BYTES)
             return []
@@ -66,10 +68,10 @@ class PstRotatorSession:
                     pending_el = value
                 continue
             if pending_az is not None or pending_el is not None:
-                self._goto(pending_az, pending_el)
+                yield from self._goto(pending_az, pending_el)
                 pending_az = pending_el = None
             try:
-                out.extend(self._execute(item))
+                out.extend((yield from self._execute(item)))
             except CommandRejected as exc:
                 bad_input.warning("%s refused (%s): %s", item.name, exc.reason, exc)
             except UrcError as exc:     # a hardware failure: PstRotator has no error reply
@@ -81,15 +83,15 @@ class PstRotatorSession:
     def tick(self, now_s: float) -> list[bytes]:
         return []
 
-    def _goto(self, az: float | None, el: float | None) -> None:
+    def _goto(self, az: float | None, el: float | None) -> Effects[None]:
         """One axis alone: the other keeps its target (or where it is, after a stop)."""
         try:
-            goto_named_axes(self.rotator, az, el)
+            yield from goto_named_axes(az, el)
         except CommandRejected as exc:
             given = " ".join(f"{n} {v:.2f}" for n, v in (("az", az), ("el", el)) if v is not None)
             bad_input.warning("goto %s refused (%s): %s", given, exc.reason, exc)
 
-    def _execute(self, item: PstItem) -> list[bytes]:
+    def _execute(self, item: PstItem) -> Effects[list[bytes]]:
         if item.kind == "end":
             return []
         if item.kind == "garbage":
@@ -100,12 +102,12 @@ class PstRotatorSession:
         name, value = item.name, item.value.strip()
         if name == "PARK":
             if value == "1":
-                self.rotator.park()
+                yield Park()
             elif value != "0":
                 bad_input.warning("<PARK> ignored: expected 1, got %r", value[:40])
         elif name == "STOP":
             if value == "1":
-                self.rotator.stop()
+                yield Stop()
             elif value != "0":
                 bad_input.warning("<STOP> ignored: expected 1, got %r", value[:40])
         elif name == "TRACK":

@@ -2,15 +2,22 @@
 
 Loaded lazily by dotted path so a protocol's module is only imported when served.
 Every session class is constructed as ``cls(rotator: RotatorPort, **options)``.
+A [[serve]] entry's protocol is checked against these names, and its options against
+the session class, by urc.config: registered with it when this module is imported.
 """
 
 from __future__ import annotations
 
 import importlib
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
+from ..config.issues import Issue, suggest
+from ..config.owners import register_check, register_session_class
 from ..errors import ConfigError
-from .base import RotatorPort, Session
+
+if TYPE_CHECKING:  # (.base imports the Status, and through urc.service the rotator: not
+    # for checking a configuration, which registers this module's names at every start)
+    from .base import RotatorPort, Session
 
 PROTOCOLS: dict[str, str] = {
     "rotctld": "urc.protocols.rotctld:RotctldSession",
@@ -46,3 +53,15 @@ def make_session(name: str, rotator: RotatorPort, **options: Any) -> Session:
     from .single_axis import session_port
 
     return session_class(name)(session_port(rotator), **options)
+
+
+def serve_issues(cfg: Any, _caps: Any) -> list[Issue]:
+    """urc.config's check of each [[serve]] entry's protocol: one of :data:`PROTOCOLS`."""
+    return [(f"serve[{i}].protocol", "one of " + ", ".join(PROTOCOLS), entry.protocol,
+             suggest(entry.protocol, list(PROTOCOLS)))
+            for i, entry in enumerate(cfg.serve or ()) if entry.protocol not in PROTOCOLS]
+
+
+# (urc.registrations imports this module before any configuration is read)
+register_check("protocols", serve_issues)
+register_session_class(session_class)

@@ -52,16 +52,16 @@ Arduino's 100 ms timer); they are emitted from ``tick(now_s)``.
 from __future__ import annotations
 
 from ..errors import CommandRejected, UrcError
-from ..ipc.messages import (ApplyCalibration, ApplyTwelveDirection, BeginHandCalibration, RawVectors, Reset,
-                            SensorCalibrations)
+from ..ipc.messages import (ApplyCalibration, ApplyTwelveDirection, BeginHandCalibration, Goto, HoldLocal,
+                            RawVectors, Reset, SensorCalibrations, Stop)
 from ..service import calibration
-from ..service.queries import ask
+from ..service.effects import Effects, as_effects
 from ..service.snapshot import Status
-from .base import (MAX_PENDING_BYTES, RotatorPort, bad_input_log, goto_named_axes, internal_error,
+from .base import (MAX_PENDING_BYTES, RotatorPort, bad_input_log, internal_error,
                    protocol_logger)
 from . import sarcnet_codec as codec
 from .lines import LineSplitter, next_due_s
-from .poses import extended_goto, extended_pose_deg, require_known
+from .poses import extended_goto, extended_pose_deg, goto_named_axes, require_known
 from .sarcnet_codec import SarcnetCommand, SarcnetSyntaxError, signed180
 from .single_axis import wire_el_deg
 
@@ -102,13 +102,13 @@ class SarcnetSession:
         self._demo_goto_s = -1e300
 
     # ------------------------------------------------------------------ Session
-    def receive(self, data: bytes) -> list[bytes]:
+    def receive(self, data: bytes) -> Effects[list[bytes]]:
         out: list[bytes] = []
         if self.mode == "calibrating" and (b"\x1b" in data or b"\x03" in data):
             # ESC or ctrl-C: as 'a' (a terminal user's reflex); the rest of the chunk and
             # the line typed so far are dropped with it
             self._lines = LineSplitter(MAX_PENDING_BYTES, backspace=True, log=bad_input)
-            return self._end_calibration("Calibration aborted: nothing changed")
+            return (yield from self._end_calibration("Calibration aborted: nothing changed"))
         for item in self._lines.feed(data):
             if item.overflowed:
                 out.append(codec.console(f"Error: line too long (over {MAX_PENDING_BYTES} characters)"))
@@ -117,7 +117,7 @@ class SarcnetSession:
                 cmd = codec.parse_line(item.text)
                 if cmd is None:
                     continue
-                out.extend(self._execute(cmd))
+                out.extend((yield from self._execute(cmd)))
             except SarcnetSyntaxError as exc:
                 bad_input.info("rejected %r: %s", item.text[:80], exc)
                 # Easycomm has no error reply (Hamlib reads none): log only
@@ -131,7 +131,7 @@ class SarcnetSession:
                 out.append(codec.console("Error: internal error"))
         return out
 
-    def tick(self, now_s: float) -> list[bytes]:
+    def tick(self, now_s: float) -> Effects[list[bytes]]:
         if self.mode not in ("monitoring", "debugging", "demonstrating", "calibrating"):
             self._next_s = self._last_s = None
             return []
@@ -144,13 +144,13 @@ class SarcnetSession:
         if self.mode == "monitoring":
             return [self._monitor_row(st)]
         if self.mode == "debugging":
-            return [self._raw_row()]
+            return [(yield from self._raw_row())]
         if self.mode == "calibrating":
-            return self._calibration_step()
-        return self._demo_step(st, now_s, dt)
+            return (yield from self._calibration_step())
+        return (yield from self._demo_step(st, now_s, dt))
 
     # ----------------------------------------------------------------- commands
-    def _execute(self, cmd: SarcnetCommand) -> list[bytes]:
+    def _execute(self, cmd: SarcnetCommand) -> Effects[list[bytes]]:
         if self.mode == "calibrating" and cmd.kind != "ec_query" and \
                 not (cmd.kind == "letter" and cmd.letter in "ash"):
             # the board is in the operator's hand: no motion, no other mode
@@ -158,7 +158,7 @@ class SarcnetSession:
         if cmd.kind == "goto":
             assert cmd.az_deg is not None and cmd.el_deg is not None
             try:
-                self._set(cmd.az_deg, cmd.el_deg)
+                yield from self._set(cmd.az_deg, cmd.el_deg)
             except CommandRejected as exc:
                 bad_input.info("goto %g %g refused: %s", cmd.az_deg, cmd.el_deg, exc)
                 return [codec.console(f"Error: {exc}")]
@@ -168,17 +168,18 @@ class SarcnetSession:
             return [codec.easycomm_position(cmd.axes, st.az_deg, wire_el_deg(st))]
         if cmd.kind == "ec_set":
             try:
-                self._set(cmd.az_deg, cmd.el_deg)
+                yield from self._set(cmd.az_deg, cmd.el_deg)
             except CommandRejected as exc:
                 given = " ".join(f"{n} {v:g}" for n, v in (("az", cmd.az_deg), ("el", cmd.el_deg)) if v is not None)
                 bad_input.warning("Easycomm set %s refused (%s): %s", given, exc.reason, exc)
             return []
         if cmd.kind == "ec_stop":
-            self.rotator.stop(cmd.axes[0] if len(set(cmd.axes)) == 1 else None)
+            yield Stop(cmd.axes[0] if len(set(cmd.axes)) == 1 else None)
             return []
-        return getattr(self, "_letter_" + cmd.letter)(cmd)
+        # (a letter answers at once, or is a generator: those that act)
+        return (yield from as_effects(getattr(self, "_letter_" + cmd.letter)(cmd)))
 
-    def _set(self, az: float | None, el: float | None) -> None:
+    def _set(self, az: float | None, el: float | None) -> Effects[None]:
         """Fly (az, el), or keep it for later while paused; None (an Easycomm set of one
         axis): that axis keeps its target, or where it is after a stop. Azimuth 0..360
         or -180..180: the SARCNET unwinds by itself, so it names a direction, not a wrap
@@ -197,13 +198,13 @@ class SarcnetSession:
         if self.mode == "demonstrating":
             # as on the Arduino, the cycle carries on from the new set point
             self._demo = [self._demo[0] if az is None else signed180(az), self._demo[1] if el is None else el]
-        goto_named_axes(self.rotator, az, el)
+        yield from goto_named_axes(az, el)
 
-    def _letter_r(self, cmd: SarcnetCommand) -> list[bytes]:
+    def _letter_r(self, cmd: SarcnetCommand) -> Effects[list[bytes]]:
         out = [codec.console("Reset in progress")]
         # the constants listed, stop, clear, home (windup reset): one step over there
         home = extended_goto(self.rotator.status(), 0.0, 0.0)
-        outcome = ask(self.rotator, Reset(home))
+        outcome = yield Reset(home)
         out += [codec.console(f"{name}: {value}") for name, value in calibration_rows(outcome.calibrations)]
         self.mode, self._held = "tracking", None
         if outcome.refused is not None:
@@ -211,15 +212,15 @@ class SarcnetSession:
         out.append(codec.console("Reset complete"))
         return out
 
-    def _raw_vectors(self) -> tuple[tuple[float, ...], tuple[float, ...]] | None:
+    def _raw_vectors(self) -> Effects[tuple[tuple[float, ...], tuple[float, ...]] | None]:
         """(magnetometer, accelerometer) vectors from the compass driver's and the tilt
         driver's (or the compass's own) parts, before any calibration; None where the
         rotator has no such parts. One query: one round trip."""
-        return ask(self.rotator, RawVectors())
+        return (yield RawVectors())
 
-    def _raw_row(self) -> bytes:
+    def _raw_row(self) -> Effects[bytes]:
         """Mx,My,Mz,Gx,Gy,Gz straight from the parts, before any calibration."""
-        vectors = self._raw_vectors()
+        vectors = yield from self._raw_vectors()
         if vectors is None:
             return codec.console("Error: no raw magnetometer/accelerometer on this rotator")
         return codec.console(",".join(f"{v:.3f}" for v in (*vectors[0], *vectors[1])))
@@ -233,11 +234,11 @@ class SarcnetSession:
         return [codec.console("Monitoring in progress: Press 'a' to abort")]
 
     # ------------------------------------------------------ 12-direction calibration
-    def _letter_c(self, cmd: SarcnetCommand) -> list[bytes]:
+    def _letter_c(self, cmd: SarcnetCommand) -> Effects[list[bytes]]:
         # the board is off the boom: nothing may drive on its readings meanwhile (the
         # document has the motor supply disconnected); the hold says why everywhere
         # (stop and hold: one step where the rotator is, one round trip)
-        if not ask(self.rotator, BeginHandCalibration(CALIBRATION_HOLD)):
+        if not (yield BeginHandCalibration(CALIBRATION_HOLD)):
             return [codec.console("Error: no raw magnetometer/accelerometer on this rotator")]
         self._enter("calibrating")
         self._cal = calibration.TwelveDirectionCalibration()
@@ -253,15 +254,15 @@ class SarcnetSession:
         return codec.console(f"Next: {codec.direction_text(face, along)} "
                              f"({len(self._cal.done)} of 12 done)")
 
-    def _calibration_step(self) -> list[bytes]:
+    def _calibration_step(self) -> Effects[list[bytes]]:
         out: list[bytes] = []
         try:
-            vectors = self._raw_vectors()
+            vectors = yield from self._raw_vectors()
             if vectors is None:
                 raise UrcError("the magnetometer/accelerometer is gone")
             got = self._cal.feed(*vectors)
         except UrcError as exc:            # the sensor stopped answering
-            return self._end_calibration(f"Calibration aborted: {exc}; nothing changed")
+            return (yield from self._end_calibration(f"Calibration aborted: {exc}; nothing changed"))
         if got is None:
             return out
         out.append(codec.console(f"Point {len(self._cal.done)} of 12 done: "
@@ -278,10 +279,10 @@ class SarcnetSession:
         out.append(self._next_prompt())
         return out
 
-    def _save_calibration(self) -> list[bytes]:
+    def _save_calibration(self) -> Effects[list[bytes]]:
         try:
             # (loaded, the hold is released with it: one round trip)
-            on_disk = ask(self.rotator, ApplyTwelveDirection(self._cal.result(), release=CALIBRATION_HOLD))
+            on_disk = yield ApplyTwelveDirection(self._cal.result(), release=CALIBRATION_HOLD)
         except (calibration.CalibrationError, UrcError, ValueError) as exc:
             bad_input.info("calibration not saved: %s", exc)
             return [codec.console(f"Error: calibration not saved: {exc}; nothing changed")]
@@ -293,22 +294,21 @@ class SarcnetSession:
         return [codec.console(row) for row in rows] + [codec.console(
             "Calibration saved: put the sensor back on the boom, then r to reset")]
 
-    def _end_calibration(self, text: str) -> list[bytes]:
-        self._hold(False)
+    def _end_calibration(self, text: str) -> Effects[list[bytes]]:
+        yield from self._hold(False)
         self.mode = "tracking"
         return [codec.console(text)]
 
-    def _hold(self, held: bool) -> None:
+    def _hold(self, held: bool) -> Effects[None]:
         """Take or release the local-control hold (a rotator without one: nothing)."""
-        hold = getattr(self.rotator, "hold_local", None)
-        if hold is not None:
-            hold(CALIBRATION_HOLD, held)
+        if getattr(self.rotator, "hold_local", None) is not None:
+            yield HoldLocal(CALIBRATION_HOLD, held)
 
-    def disconnected(self) -> None:
+    def disconnected(self) -> Effects[None]:
         """The client went away (TCP closed, serial port hung up): a calibration under
         way ends unsaved and its hold is released."""
         if self.mode == "calibrating":
-            self._end_calibration("")
+            yield from self._end_calibration("")
             log.info("calibration abandoned by a disconnect: nothing changed")
 
     def _letter_d(self, cmd: SarcnetCommand) -> list[bytes]:
@@ -319,18 +319,18 @@ class SarcnetSession:
         self._enter("demonstrating")
         return [codec.console("Demo in progress: Press 'a' to abort")]
 
-    def _letter_a(self, cmd: SarcnetCommand) -> list[bytes]:
+    def _letter_a(self, cmd: SarcnetCommand) -> Effects[list[bytes]]:
         if self.mode == "calibrating":
-            return self._end_calibration("Calibration aborted: nothing changed")
+            return (yield from self._end_calibration("Calibration aborted: nothing changed"))
         if self.mode == "demonstrating":
-            self.rotator.stop()
+            yield Stop()
         self.mode, self._held = "tracking", None
         return [codec.console("Function aborted")]
 
-    def _letter_e(self, cmd: SarcnetCommand) -> list[bytes]:
+    def _letter_e(self, cmd: SarcnetCommand) -> Effects[list[bytes]]:
         no_compass = [codec.console("Error: this rotator has no magnetic compass")]
         if not cmd.text:
-            cal = ask(self.rotator, SensorCalibrations())["az"]
+            cal = (yield SensorCalibrations())["az"]
             if "declination_deg" not in cal:
                 return no_compass
             return [codec.console(f"Magnetic declination: {cal['declination_deg']:.1f}")]
@@ -340,26 +340,26 @@ class SarcnetSession:
         # the compass driver's setting, persisted with the rotator's calibration; the
         # rotator re-references by the change (refused if that breaks its limits)
         try:
-            ask(self.rotator, ApplyCalibration("az", {"declination_deg": value}, require=("declination_deg",)))
+            yield ApplyCalibration("az", {"declination_deg": value}, require=("declination_deg",))
         except calibration.NoSuchConstant:
             return no_compass
         return [codec.console(f"Magnetic declination: {value:.1f}")]
 
-    def _letter_s(self, cmd: SarcnetCommand) -> list[bytes]:
+    def _letter_s(self, cmd: SarcnetCommand) -> Effects[list[bytes]]:
         if self.mode == "calibrating":
-            return self._save_calibration()
+            return (yield from self._save_calibration())
         return [codec.console("Saved: urc keeps the declination and calibration as they change")]
 
-    def _letter_p(self, cmd: SarcnetCommand) -> list[bytes]:
+    def _letter_p(self, cmd: SarcnetCommand) -> Effects[list[bytes]]:
         if self.mode != "pausing":
-            self.rotator.stop()
+            yield Stop()
             self.mode, self._held = "pausing", None
             return [codec.console("Paused")]
         self.mode = "tracking"
         held, self._held = self._held, None
         if held is not None:
             try:
-                self._set(*held)
+                yield from self._set(*held)
             except CommandRejected as exc:
                 return [codec.console("Resumed"), codec.console(f"Error: {exc}")]
         return [codec.console("Resumed")]
@@ -380,7 +380,7 @@ class SarcnetSession:
         return codec.monitor_line(az, el, az_set, el_set, az_windup, not 0.0 <= az_windup < 360.0,
                                   signed180(az - az_set), el - el_set)
 
-    def _demo_step(self, st: Status, now_s: float, dt: float) -> list[bytes]:
+    def _demo_step(self, st: Status, now_s: float, dt: float) -> Effects[list[bytes]]:
         budget = DEMO_RATE_DEG_PER_S * dt
         for _ in range(len(DEMO_POINTS)):           # several points within one period
             target = DEMO_POINTS[self._demo_next]
@@ -394,7 +394,7 @@ class SarcnetSession:
         if now_s - self._demo_goto_s >= DEMO_GOTO_EVERY_S:
             self._demo_goto_s = now_s
             try:
-                self.rotator.goto(self._demo[0] % 360.0, self._demo[1])
+                yield Goto(self._demo[0] % 360.0, self._demo[1])
             except CommandRejected as exc:
                 self.mode = "tracking"
                 out.append(codec.console(f"Demo stopped: {exc}"))

@@ -25,6 +25,7 @@ malformed input is logged and (like the real controller) left unanswered.
 from __future__ import annotations
 
 from ..errors import CommandRejected, UrcError
+from ..service.effects import Effects
 from .base import MAX_PENDING_BYTES, RotatorPort, bad_input_log, internal_error, protocol_logger
 from . import spid_codec as codec
 from .poses import ExtendedTarget, extended_pose_deg
@@ -50,7 +51,7 @@ class _SpidSession:
         self._targets = ExtendedTarget(rotator, named=True)   # Rot1Prog: az-only sets keep elevation
 
     # ------------------------------------------------------------------ Session
-    def receive(self, data: bytes) -> list[bytes]:
+    def receive(self, data: bytes) -> Effects[list[bytes]]:
         buf = self._buf + data
         if len(buf) > MAX_PENDING_BYTES:   # cannot happen (rest < 13 bytes); kept as a bound
             log.warning("input buffer over %d bytes dropped", MAX_PENDING_BYTES)
@@ -62,7 +63,7 @@ class _SpidSession:
         for frame in frames:
             try:
                 cmd = codec.decode_command(frame, self.variant, (self.pulses, self.pulses))
-                reply = self._execute(cmd)
+                reply = yield from self._execute(cmd)
             except SpidFrameError as exc:   # plausible() let it through: should not happen
                 bad_input.warning("frame %s ignored: %s", frame.hex(" "), exc)
                 continue
@@ -80,34 +81,34 @@ class _SpidSession:
         return []
 
     # ----------------------------------------------------------------- commands
-    def _execute(self, cmd: SpidCommand) -> bytes | None:
+    def _execute(self, cmd: SpidCommand) -> Effects[bytes | None]:
         if cmd.kind == "status":
             return self._position()
         if cmd.kind == "stop":
-            self._targets.stop()
+            yield from self._targets.stop()
             return self._position()
         if cmd.kind == "set":
-            self._set(cmd)
+            yield from self._set(cmd)
             return self._position() if self.variant == "md01" else None
         if cmd.kind == "move":
-            self._move(cmd.direction)
+            yield from self._move(cmd.direction)
         return None
 
-    def _set(self, cmd: SpidCommand) -> None:
+    def _set(self, cmd: SpidCommand) -> Effects[None]:
         assert cmd.az_deg is not None
         try:
-            self._goto(cmd.az_deg, cmd.el_deg)
+            yield from self._goto(cmd.az_deg, cmd.el_deg)
         except CommandRejected as exc:
             bad_input.warning("set az %.1f el %s refused (%s): %s", cmd.az_deg,
                         "-" if cmd.el_deg is None else f"{cmd.el_deg:.1f}", exc.reason, exc)
 
-    def _goto(self, az: float, el: float | None) -> None:
+    def _goto(self, az: float, el: float | None) -> Effects[None]:
         """el None (Rot1Prog): elevation keeps its target. An azimuth outside the range
         is refused by the service (the one rule, README), never folded into 0..360:
         Hamlib's 639 is not 279."""
-        self._targets.goto(az, el)
+        yield from self._targets.goto(az, el)
 
-    def _move(self, direction: int) -> None:
+    def _move(self, direction: int) -> Effects[None]:
         wanted = [(axis, sign) for bit, axis, sign in _MOVES if direction & bit]
         axes = [a for a, _ in wanted]
         if direction & ~0x0F or not wanted or len(set(axes)) != len(axes):
@@ -115,7 +116,7 @@ class _SpidSession:
             return
         for axis, sign in wanted:
             try:
-                self._targets.move(axis, sign, 1.0)   # no target: it rests where it stops
+                yield from self._targets.move(axis, sign, 1.0)   # no target: it rests where it stops
             except CommandRejected as exc:
                 # (up/down on a single-axis rotator: reason no_axis. SPID frames have no
                 # error answer, so it is ignored, as a Rot2Prog with no elevation

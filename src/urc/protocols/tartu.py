@@ -58,8 +58,8 @@ import weakref
 
 from .. import __version__
 from ..errors import CommandRejected, UrcError
-from ..ipc.messages import SensorCount
-from ..service.queries import ask
+from ..ipc.messages import OvershootQuery, SensorCount, SetOvershoot, SetPosition
+from ..service.effects import Effects, as_effects
 from .base import MAX_PENDING_BYTES, RotatorPort, bad_input_log, internal_error, protocol_logger
 from . import tartu_codec as codec
 from .lines import LineSplitter, TerminalEcho
@@ -113,7 +113,7 @@ class TartuSession:
         self._faults_seen: set | None = None
 
     # ------------------------------------------------------------------ Session
-    def receive(self, data: bytes) -> list[bytes]:
+    def receive(self, data: bytes) -> Effects[list[bytes]]:
         out: list[bytes] = []
         for item in self._lines.feed(data):
             if item.overflowed:
@@ -125,7 +125,7 @@ class TartuSession:
             if not item.text.strip():
                 continue
             try:
-                reply = self._execute(codec.parse_line(item.text, self._commands))
+                reply = yield from self._execute(codec.parse_line(item.text, self._commands))
             except TartuSyntaxError as exc:
                 bad_input.info("rejected %r: %s", item.text[:80], exc)
                 reply = codec.error(exc.code, str(exc))
@@ -155,9 +155,10 @@ class TartuSession:
                 for kind, axis, reason in sorted(faults - seen, key=str)]
 
     # ----------------------------------------------------------------- commands
-    def _execute(self, cmd: Command) -> bytes:
+    def _execute(self, cmd: Command) -> Effects[bytes]:
+        # (a handler answers at once, or is a generator: the commands that act)
         handler = getattr(self, "_cmd_" + cmd.name.lower())
-        return handler(*cmd.args)
+        return (yield from as_effects(handler(*cmd.args)))
 
     def _cmd_vers(self) -> bytes:
         return codec.line(f"URC urc-{__version__} (Tartu URC command set)")
@@ -177,21 +178,21 @@ class TartuSession:
         self.echo = on
         return codec.ok()
 
-    def _goto(self, az: float | None, el: float | None) -> bytes:
+    def _goto(self, az: float | None, el: float | None) -> Effects[bytes]:
         if az is None and not has_elevation(self.rotator):
             # GOEL on a unit without elevation: ERR 7 (not supported), nothing moves;
             # GOAE there turns the azimuth and leaves the elevation aside (the service)
             raise CommandRejected("no elevation axis on this rotator (azimuth only)", "no_axis")
-        self._targets.goto(az, el)
+        yield from self._targets.goto(az, el)
         return codec.ok()
 
-    def _cmd_goaz(self, az: float) -> bytes:
+    def _cmd_goaz(self, az: float) -> Effects[bytes]:
         return self._goto(az, None)
 
-    def _cmd_goel(self, el: float) -> bytes:
+    def _cmd_goel(self, el: float) -> Effects[bytes]:
         return self._goto(None, el)
 
-    def _cmd_goae(self, az: float, el: float) -> bytes:
+    def _cmd_goae(self, az: float, el: float) -> Effects[bytes]:
         return self._goto(az, el)
 
     def _cmd_rdaz(self) -> bytes:
@@ -200,56 +201,56 @@ class TartuSession:
     def _cmd_rdel(self) -> bytes:
         return codec.line(codec.format_deg(extended_pose_deg(self.rotator.status())[1]))
 
-    def _cmd_wraz(self, az: float) -> bytes:
-        self.rotator.set_position(az_deg=az)
+    def _cmd_wraz(self, az: float) -> Effects[bytes]:
+        yield SetPosition(az_deg=az)
         self._targets.forget()
         return codec.ok()
 
-    def _cmd_wrel(self, el: float) -> bytes:
-        self.rotator.set_position(el_deg=el)
+    def _cmd_wrel(self, el: float) -> Effects[bytes]:
+        yield SetPosition(el_deg=el)
         self._targets.forget()
         return codec.ok()
 
-    def _pulses(self, axis: str) -> bytes:
+    def _pulses(self, axis: str) -> Effects[bytes]:
         """The axis' position pulse counter: the sensor's own count where it keeps one
         (encoder, pulse feedback), counted from the axis' reference as the position is
         (the counter itself starts at 0 in whatever pose the controller powered up),
         else the position in sensor steps. One query: one round trip at most."""
-        reading = ask(self.rotator, SensorCount(axis))
+        reading = yield SensorCount(axis)
         if reading.count is not None:
             return codec.line(str(reading.count))
         pos = extended_pose_deg(self.rotator.status())[0 if axis == "az" else 1]
         return codec.line(str(round(pos / (reading.resolution_deg or 0.1))))
 
-    def _cmd_rdap(self) -> bytes:
+    def _cmd_rdap(self) -> Effects[bytes]:
         return self._pulses("az")
 
-    def _cmd_rdep(self) -> bytes:
+    def _cmd_rdep(self) -> Effects[bytes]:
         return self._pulses("el")
 
-    def _overshoot(self, axis: str, value: float | None) -> bytes:
+    def _overshoot(self, axis: str, value: float | None) -> Effects[bytes]:
         if value is None:
-            return codec.line(codec.format_deg(self.rotator.overshoot_deg(axis)))
-        self.rotator.set_overshoot(axis, value)
+            return codec.line(codec.format_deg((yield OvershootQuery(axis))))
+        yield SetOvershoot(axis, value)
         return codec.ok()
 
-    def _cmd_ovra(self, value: float | None = None) -> bytes:
+    def _cmd_ovra(self, value: float | None = None) -> Effects[bytes]:
         return self._overshoot("az", value)
 
-    def _cmd_ovre(self, value: float | None = None) -> bytes:
+    def _cmd_ovre(self, value: float | None = None) -> Effects[bytes]:
         return self._overshoot("el", value)
 
-    def _stop(self, axis: str | None) -> bytes:
-        self._targets.stop(axis)
+    def _stop(self, axis: str | None) -> Effects[bytes]:
+        yield from self._targets.stop(axis)
         return codec.ok()
 
-    def _cmd_halt(self) -> bytes:
+    def _cmd_halt(self) -> Effects[bytes]:
         return self._stop(None)
 
-    def _cmd_hlta(self) -> bytes:
+    def _cmd_hlta(self) -> Effects[bytes]:
         return self._stop("az")
 
-    def _cmd_hlte(self) -> bytes:
+    def _cmd_hlte(self) -> Effects[bytes]:
         return self._stop("el")
 
     def _cmd_lcdc(self, contrast: int | None = None) -> bytes:

@@ -35,7 +35,7 @@ E_OVERFLOW = 8       # line too long, dropped
 E_REJECTED = 9       # refused by the rotator for another reason
 
 #: CommandRejected.reason -> error code
-REASON_CODES = {"limit": E_LIMIT, "keepout": E_KEEPOUT, "fault": E_FAULT,
+REASON_CODES = {"limit": E_LIMIT, "keepout": E_KEEPOUT, "fault": E_FAULT, "state": E_FAULT,
                 "uncertain": E_UNCERTAIN, "invalid": E_REJECTED, "no_axis": E_UNSUPPORTED}
 
 BAUD_RATES = (1200, 2400, 4800, 9600, 19200, 38400, 57600, 115200, 230400, 460800)

@@ -3,15 +3,14 @@
 from __future__ import annotations
 
 import asyncio
-import functools
 import logging
 import time
 from collections import deque
 from typing import Any, Callable
 
 from ..errors import UrcError
-from ..ipc import bridge
 from ..protocols.base import Session, internal_error
+from ..service.effects import Effects, as_effects, perform
 
 log = logging.getLogger("urc.servers")
 
@@ -32,25 +31,26 @@ RESUME_BELOW_BYTES = 16 * 1024
 SessionFactory = Callable[[], Session]
 
 
-def feed(session: Session, data: bytes, where: str) -> list[bytes]:
+def feed(session: Session, data: bytes, where: str) -> Effects[list[bytes]]:
     """Give bytes to a session; a session bug costs this connection, never the server."""
     try:
-        return session.receive(data)
+        return (yield from as_effects(session.receive(data)))
     except Exception:  # sessions must not raise; if one does: logged, counted, input dropped
         internal_error(log, type(session).__name__, "%s: session failed on %r", where, data[:64])
         return []
 
 
-def hang_up(session: Session, where: str) -> None:
+def hang_up(session: Session, where: str) -> Effects[list[bytes]]:
     """The client went away: a session that keeps something under way for it (SARCNET
     calibration) gets ``disconnected()`` to end it cleanly."""
     gone = getattr(session, "disconnected", None)
     if gone is None:
-        return
+        return []
     try:
-        gone()
+        yield from as_effects(gone())
     except Exception:
         internal_error(log, type(session).__name__, "%s: session failed on disconnect", where)
+    return []
 
 
 def needs_tick(session: Session) -> bool:
@@ -60,10 +60,12 @@ def needs_tick(session: Session) -> bool:
 class SessionRunner:
     """Feeds one session on the event loop without ever blocking the loop.
 
-    Each input (bytes, a tick, the hang-up) runs in a bridged greenlet: a command that
-    waits for the control process suspends this session only, while every other client
-    is served; input arriving meanwhile queues behind it, so the session still sees its
-    bytes in order and answers in order. ``write(reply)`` gets each reply whole;
+    Each input (bytes, a tick, the hang-up) is a generator of port requests
+    (urc.service.effects) stepped here: an input that needs none (every position query)
+    is answered at once; a request to the control process is awaited in a task, which
+    suspends this session only, while every other client is served; input arriving
+    meanwhile queues behind it, so the session still sees its bytes in order and
+    answers in order. ``write(reply)`` gets each reply whole;
     ``after()`` runs once the replies of an input are written (a serial port applies a
     requested line rate then).
 
@@ -142,7 +144,7 @@ class SessionRunner:
                 if kind == "data" and self.stream:
                     self._account(-len(arg))
                 self._busy = True
-                bridge.start(self._work, (kind, arg), functools.partial(self._done, write=write))
+                self._step(self._work(kind, arg), None, None, write)
         finally:
             self._draining = False
 
@@ -155,16 +157,45 @@ class SessionRunner:
         loop.call_soon(self._drain)
         return True
 
-    def _work(self, kind: str, arg: Any) -> list[bytes]:
+    def _work(self, kind: str, arg: Any) -> Effects[list[bytes]]:
         if kind == "data":
-            return feed(self.session, arg, self.where)
+            return (yield from feed(self.session, arg, self.where))
         if kind == "tick":
             try:
-                return self.session.tick(arg)
+                return (yield from as_effects(self.session.tick(arg))) or []
             except UrcError:  # (a stream with no fresh position to give: it skips a beat)
                 return []
-        hang_up(self.session, self.where)
-        return []
+        return (yield from hang_up(self.session, self.where))
+
+    def _step(self, steps: Effects[list[bytes]], value: Any, error: BaseException | None,
+              write: Callable[[bytes], None]) -> None:
+        """Run ``steps`` on until it ends (its replies written) or yields a request the
+        control process must answer (awaited in a task; stepped on from its outcome)."""
+        port = getattr(self.session, "rotator", None)
+        remote = getattr(port, "call", None)
+        try:
+            while True:
+                request = steps.send(value) if error is None else steps.throw(error)
+                if remote is None:  # (an in-process rotator: answered at once)
+                    try:
+                        value, error = perform(port, request), None
+                    except Exception as exc:
+                        value, error = None, exc
+                    continue
+                task = asyncio.ensure_future(remote(request))
+                task.add_done_callback(lambda t: self._resumed(steps, t, write))
+                return
+        except StopIteration as end:
+            self._done(end.value, None, write)
+        except BaseException as exc:  # (feed and hang_up catch everything: a tick that raised)
+            self._done(None, exc, write)
+
+    def _resumed(self, steps: Effects[list[bytes]], task: asyncio.Future, write: Callable[[bytes], None]) -> None:
+        if task.cancelled():  # (the loop is closing: the session ends with it)
+            steps.close()
+            return
+        error = task.exception()
+        self._step(steps, None if error is not None else task.result(), error, write)
 
     def _done(self, replies: list[bytes] | None, error: BaseException | None, write: Callable[[bytes], None]) -> None:
         self._busy = False

@@ -90,8 +90,12 @@ class Commands:
         core = self.core
         self.refuse_unless_local(local)
         if core.faults:
+            # only the state fault (it clears itself once a write lands): said as "state",
+            # the same refusal as once it is cleared by hand while writes still fail
+            state_only = all(f.kind == "state" for f in core.faults)
             raise CommandRejected("refused: fault latched (" + "; ".join(f.reason for f in core.faults)
-                                  + "); clear faults first", "fault")
+                                  + ("); it clears itself once the state is saved again" if state_only
+                                     else "); clear faults first"), "state" if state_only else "fault")
         if self.records.save_error and any(precord.needs_record(ax) for ax in core.axes.values()):
             # the first tick would hold the axes and latch the state fault: say so now,
             # not "ok" for a move that cannot happen (a fault cleared on a full disk)
@@ -102,6 +106,7 @@ class Commands:
                                if ax.uncertainty_deg)
             raise CommandRejected(f"refused: position uncertain ({bounds}); re-reference first",
                                   "uncertain")
+        self.records.motion_accepted()  # (its reply may wait for the first record: Records)
 
     def goto_pose(self, az_m_deg: float, el_m_deg: float, name: str = "goto_pose",
                   local: bool = False) -> list[tuple[float, float]]:

@@ -46,6 +46,7 @@ from pathlib import Path
 from typing import Any, Callable
 
 from ..clock import RealClock
+from ..errors import CommandRejected
 from ..ipc import codec
 from ..ipc.messages import COMMANDS, Envelope, HardwareInfo, Query, Reconfigure, Reply, Request
 from ..ipc.status_record import ColdGeneration, StatusRecord
@@ -82,6 +83,10 @@ RESTART_WINDOW_S = 60.0
 RESTARTS_MAX = 3
 #: how long building the hardware may take (imports, a bridge's first contact)
 START_TIMEOUT_S = 60.0
+#: how long a moving command's reply waits for the first state record of its motion
+#: (ControlServer._await_first_record): an SD card's write takes up to ~1 s; one slower
+#: than this answers ok (the command stands) rather than hold up the client
+FIRST_RECORD_WAIT_S = 2.0
 #: how long the I/O process waits for an orderly stop: standstill (loop.STANDSTILL_TIMEOUT_S,
 #: 8 s), the loop thread's end (5 s), the state save on a slow card (5 s), and more
 STOP_TIMEOUT_S = 30.0
@@ -170,7 +175,7 @@ class ControlServer:
         try:
             self.rot = build_rotator(self.cfg, RealClock(), self.state_dir)
             from ..assembly import settings_from_config
-            self._config_settings = settings_from_config(self.cfg)
+            self._config_settings = settings_from_config(self.cfg, self.state_dir)
             # what the calibration queries need (numpy): imported now, not while ticking
             import urc.service.calibration  # noqa: F401
         except BaseException as exc:
@@ -360,16 +365,40 @@ class ControlServer:
                 "nothing was done"))
             return
         try:
-            value = self._run(env.request)
+            try:
+                value = self._run(env.request)
+            finally:  # (a moving command needing a record ahead of motion: its number)
+                records = getattr(self.rot, "_records", None)  # (the Rotator's state records)
+                ticket = None if records is None else records.motion_ticket()
             if not travels(value):  # (behaviour stays here: a handler's bug, said as such)
                 raise TypeError(f"{type(env.request).__name__} returned {type(value).__name__}, "
                                 "which cannot leave the control process")
             outcome = "value"
             if isinstance(env.request, Reconfigure):
                 self._config_settings = env.request.settings
+            if ticket is not None:
+                self._await_first_record(records, ticket)
         except Exception as exc:
             outcome, value = "error", exception_to_wire(exc)
         self._send_reply(env.rid, outcome, value, self.rot.status())
+
+    def _await_first_record(self, records: Any, ticket: int) -> None:
+        """Issue 36.19: standing, nothing is written, so a disk that has just failed is
+        found only by the first record of the next motion. A moving command's reply
+        waits for it here (this thread, not the tick, not under the lock: a slow card
+        delays this reply only): on disk, the reply is ok; failed, the motion is stopped
+        with the state fault latched and the command refused (reason "state"); not known
+        within FIRST_RECORD_WAIT_S (a slow card), ok: the command stands, flying as soon
+        as its record lands (or stopped by the state fault if that write fails)."""
+        landed, why = records.await_motion_record(ticket, FIRST_RECORD_WAIT_S)
+        if landed is not False:
+            return
+        with self.rot.lock:
+            if not records.refuse_motion(self.rot.clock.now_s()):
+                return  # (a retry landed meanwhile: the command stands)
+        raise CommandRejected(f"refused: state not saved ({why}): motion stopped so that the saved "
+                              "position stays true; the state fault clears itself once a write succeeds",
+                              "state")
 
     def _run(self, request: Request) -> Any:
         """Each request type runs what COMMANDS names for it, each query its handler

@@ -22,7 +22,7 @@ from __future__ import annotations
 import bisect
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any, Callable
 
 from ..control.geometry import route_time_s
 from ..errors import CommandRejected
@@ -39,6 +39,19 @@ UPDATE_S = 0.2
 ROUTE_SLACK_S = 3.0
 #: what a program does after LOS
 END_ACTIONS = ("park", "hold")
+
+
+def rejoin_aim(g: Any, here: tuple[float, float], pose: tuple[float, float], rates: tuple[float, float],
+               pose_after: Callable[[float], tuple[float, float]]) -> tuple[float, float] | None:
+    """Where to fly round a keep-out zone to rejoin a track (it came out from behind one,
+    a pre-positioning move): None while the straight way from ``here`` to ``pose`` is
+    clear, else the track's pose once the route round the zone is flown
+    (``pose_after(seconds from now)``). The one rule of the control process's program
+    flight and the tracker's own motion (geometry ``g``: mechanical poses)."""
+    if not g.zones or g.segment_clear(here, pose, rates) is None:
+        return None
+    route = g.plan(here, *g.to_sky(*pose), rates) or [pose]
+    return pose_after(route_time_s([here] + route, rates))
 
 
 @dataclass(frozen=True)
@@ -228,14 +241,10 @@ class ProgramFlight:
         """If the straight way to the track crosses a keep-out zone (the track came out
         from behind one), fly round it to where the track will be on arrival; True if so."""
         core = self.core
-        g = core.geometry
-        if not g.zones:
-            return False
         here, rates = core.current_pose(), core.rates()
-        if g.segment_clear(here, pose, rates) is None:
+        aim = rejoin_aim(core.geometry, here, pose, rates, lambda dt_s: p.pose_at(now_s + dt_s)[:2])
+        if aim is None:
             return False
-        route = g.plan(here, *g.to_sky(*pose), rates) or [pose]
-        aim = p.pose_at(now_s + route_time_s([here] + route, rates))[:2]
         if not self._fly_to(aim, now_s):
             return True
         self.route_until_s = now_s + route_time_s([here] + core.route, rates) + ROUTE_SLACK_S

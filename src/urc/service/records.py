@@ -6,11 +6,18 @@ Each tick :meth:`Records.persist` keeps the record one step ahead of the axes (s
 :mod:`urc.service.position_record`): it hands the writer a new record when one is due
 and gives no drive to an axis that could leave the window of the newest record on disk.
 A reference search (homing) works in a temporary frame; the records keep the true one.
+
+A moving command's reply waits for the first record after the command took effect
+(:meth:`Records.motion_ticket`, :meth:`Records.await_motion_record`): while the antenna
+stands nothing is written, so a disk that has just failed is found only by that record,
+and the command is then refused rather than answered ok and held (issue 36.19).
 """
 
 from __future__ import annotations
 
 import collections
+import threading
+import time
 from dataclasses import replace
 from typing import Any, Callable
 
@@ -44,6 +51,14 @@ class Records:
         self.save_error = ""
         #: reference searches in progress (homing): axis -> (uncertainty before, frame shift)
         self.searches: dict[str, tuple[float, float]] = {}
+        #: moving commands accepted that need a record ahead of their motion (counted
+        #: under the rotator's lock), the last one's number per thread, and what the
+        #: last tick made of them: (how many it applied, the number of the writer's
+        #: record they wait for, None: none to wait for)
+        self.motions = 0
+        self._ticket = threading.local()
+        self._applied: tuple[int, int | None] = (0, None)
+        self._applied_cv = threading.Condition()
 
     def mark_dirty(self) -> None:
         """The next tick writes a new record (the axes changed in a way it must show)."""
@@ -191,8 +206,65 @@ class Records:
                 ax.out = replace(ax.out, duty=0.0)
                 held.append(name)
         if held and self.save_error:
-            self.latch(Fault("state", None, f"state not saved ({self.save_error}): motion stopped "
-                             "so the saved position stays true; retrying", now_s))
+            self.latch(self._state_fault(now_s))
+        self._note_applied()
+
+    def motion_accepted(self) -> None:
+        """A moving command passed its checks (under the rotator's lock): if an axis
+        needs a record ahead of motion, its reply may wait for it (:meth:`motion_ticket`)."""
+        if self.writer is None or not any(precord.needs_record(ax) for ax in self.core.axes.values()):
+            return
+        self.motions += 1
+        self._ticket.n = self.motions
+
+    def motion_ticket(self) -> int | None:
+        """The number of the moving command this thread's last call had accepted (None:
+        none, or its rotator needs no record), for :meth:`await_motion_record`; taken once."""
+        n = getattr(self._ticket, "n", None)
+        self._ticket.n = None
+        return n
+
+    def _note_applied(self) -> None:
+        """(The tick, after its record.) The moving commands accepted before this tick have
+        been applied: they wait for the newest record if it is not yet known on disk."""
+        if self._applied[0] == self.motions:
+            return
+        seq = None if self.writer is None or self.durable is self.record else self.writer.last_seq
+        with self._applied_cv:
+            self._applied = (self.motions, seq)
+            self._applied_cv.notify_all()
+
+    def await_motion_record(self, ticket: int, timeout_s: float) -> tuple[bool | None, str]:
+        """Wait (never on the tick, never under the rotator's lock) until the tick has
+        applied moving command ``ticket`` and the record it then needed is on disk: (True,
+        "") so, or no record was needed; (False, why) its write failed; (None, "") not
+        known within ``timeout_s`` (a slow disk, a loop held up)."""
+        deadline_s = time.monotonic() + timeout_s
+        with self._applied_cv:
+            while self._applied[0] < ticket:
+                left_s = deadline_s - time.monotonic()
+                if left_s <= 0:
+                    return None, ""
+                self._applied_cv.wait(left_s)
+            seq = self._applied[1]
+        if seq is None or self.writer is None:
+            return True, ""
+        return self.writer.outcome(seq, max(0.0, deadline_s - time.monotonic()))
+
+    def refuse_motion(self, now_s: float) -> bool:
+        """(Under the rotator's lock.) A moving command's first record failed: latch the
+        state fault (every output off, the motion abandoned, so the refused command never
+        flies once the disk works again). False if a retry has landed meanwhile (the
+        command stands)."""
+        self.take_report(now_s)
+        if not self.save_error:
+            return False
+        self.latch(self._state_fault(now_s))
+        return True
+
+    def _state_fault(self, now_s: float) -> Fault:
+        return Fault("state", None, f"state not saved ({self.save_error}): motion stopped so the saved "
+                     "position stays true; retrying", now_s)
 
     def take_report(self, now_s: float) -> None:
         core = self.core

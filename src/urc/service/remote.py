@@ -17,8 +17,10 @@ This module is the I/O side of the wire between the two, over one Unix socket
   view refuses to give it out as a position;
 * every command is one typed request, answered with its result or its exception (its
   own class, so each protocol still answers in its own error form). It never blocks the
-  event loop: protocol sessions and web routes run in bridged greenlets
-  (:mod:`urc.ipc.bridge`) that suspend while they wait;
+  event loop: web routes and protocol sessions await :meth:`RemoteRotator.call`
+  (:mod:`urc.service.effects`), which suspends the caller only; synchronous code on the
+  loop that still calls the port (the tracker, calibration procedures) runs in a bridged
+  greenlet (:mod:`urc.ipc.bridge`) that suspends the same way;
 * the hardware stays over there: what a protocol or route needs of it (a sensor's count
   or constants, a calibration step) is one typed query (:class:`urc.ipc.messages.Query`,
   :meth:`RemoteRotator.ask`, answered by :mod:`.queries`), one round trip each; only data
@@ -190,8 +192,8 @@ def _settle(fut: asyncio.Future, reply: Reply) -> None:
 
 class ControlLink:
     """The I/O process's end of the socket: a reader thread takes statuses and replies.
-    A request waits for its reply without blocking anyone: from a protocol session or a
-    web route (bridged greenlets on the event loop) it suspends its caller only; from
+    A request waits for its reply without blocking anyone: awaited (:meth:`call_async`)
+    or from a bridged greenlet on the event loop it suspends its caller only; from
     another thread it waits on an event. Either way bounded by ``timeout_s``."""
 
     def __init__(self, conn: Connection, on_lost: Callable[[str], None] | None = None,
@@ -249,12 +251,21 @@ class ControlLink:
         assert pending.reply is not None
         return self._outcome(request, pending.reply)
 
+    async def call_async(self, request: Request, timeout_s: float = CALL_TIMEOUT_S) -> Any:
+        """:meth:`call` from a coroutine: the reply is awaited (bounded by ``timeout_s``
+        as there), so only the caller waits, never the event loop."""
+        import asyncio
+
+        pending = self._submit(request, timeout_s, asyncio.get_running_loop())
+        assert pending.future is not None
+        return self._outcome(request, await pending.future)
+
     def _complain(self, request: Request) -> None:
-        """A round trip from the event loop thread outside a bridge blocks every client:
-        a bug in urc (wrap the caller in urc.ipc.bridge), loud in tests."""
+        """A round trip from the event loop thread, neither awaited nor bridged, blocks
+        every client: a bug in urc (await RemoteRotator.call), loud in tests."""
         name = type(request).__name__
         if os.environ.get(STRICT_ENV):
-            raise RuntimeError(f"{name} would block the event loop: call it through urc.ipc.bridge")
+            raise RuntimeError(f"{name} would block the event loop: await it (urc.service.effects.call)")
         if name not in self._complained:
             self._complained.add(name)
             log.error("%s blocks the event loop while it waits for the control process (a bug)", name,
@@ -386,6 +397,12 @@ class _Shared:
         self.bounded: tuple[str, tuple] | None = None
 
 
+#: motion commands remembered while they are the last one (resumed after a restart) ...
+_BOUNDED = (Goto, GotoAz, GotoEl, GotoPose, Park)
+#: ... and those that end that (an open-ended motion or a re-reference)
+_UNBOUNDED = (Track, TrackPose, Move, SetPosition)
+
+
 class RemoteRotator:
     """Stands in for :class:`~urc.service.rotator.Rotator` in the I/O process: the same
     commands, each a typed request (urc.ipc.messages) run by the real one in the control
@@ -446,19 +463,54 @@ class RemoteRotator:
             return Fault("control", None, f"control process silent for {age_s:.1f} s", s.t_s)
         return None
 
+    # ------------------------------------------------------------- requests
+    def _timeout_s(self, request: Request) -> float:
+        if isinstance(request, Stop):
+            self._shared.bounded = None  # (before: a stop that is only queued cancels it too)
+            return STOP_ACK_S
+        if isinstance(request, SaveNow):
+            return CALL_TIMEOUT_S + request.timeout_s
+        return CALL_TIMEOUT_S
+
+    def _accepted(self, request: Request, value: Any) -> Any:
+        """What the I/O side keeps of an accepted request: the last bounded motion
+        command (a goto, a park: resumed by a control process started again; any other
+        motion command ends it), the settings a reconfigure handed over."""
+        if isinstance(request, _BOUNDED):
+            self._shared.bounded = (request.METHOD, tuple(request.arguments().values()))
+        elif isinstance(request, _UNBOUNDED):
+            self._shared.bounded = None
+        elif isinstance(request, Reconfigure):
+            # accepted: the control process applies them at its next tick, as these are
+            settings = request.settings.completed()
+            self._shared.settings, self._shared.caps = settings, settings.caps
+            self._shared.geometry = settings.geometry()
+        return value
+
+    def request(self, request: Request) -> Any:
+        """Run ``request`` in the control process, waiting for its answer: from a thread,
+        or from code the event loop runs in a bridged greenlet (the tracker); event-loop
+        code awaits :meth:`call` instead. What the hardware is needs no round trip."""
+        if isinstance(request, HardwareInfo):
+            return self.hardware
+        timeout_s = self._timeout_s(request)
+        return self._accepted(request, self._link.call(request, timeout_s=timeout_s))
+
+    async def call(self, request: Request) -> Any:
+        """``await rotator.call(Goto(az, el))`` on the event loop: the round trip
+        suspends its caller only (urc.service.effects)."""
+        if isinstance(request, HardwareInfo):
+            return self.hardware
+        timeout_s = self._timeout_s(request)
+        return self._accepted(request, await self._link.call_async(request, timeout_s=timeout_s))
+
     def ask(self, query: Query) -> Any:
         """A hardware query or calibration procedure, answered by the control process in
         one round trip (urc.service.queries); what the hardware is needs none."""
-        if isinstance(query, HardwareInfo):
-            return self.hardware
-        return self._link.call(query)
+        return self.request(query)
 
     def reconfigure(self, settings: Any) -> None:
-        self._link.call(Reconfigure(settings))
-        # accepted: the control process applies them at its next tick, as these are
-        settings = settings.completed()
-        self._shared.settings, self._shared.caps = settings, settings.caps
-        self._shared.geometry = settings.geometry()
+        self.request(Reconfigure(settings))
 
     def resume_bounded(self) -> str:
         """A control process started again: send the bounded command that was under way
@@ -469,84 +521,77 @@ class RemoteRotator:
         getattr(self, last[0])(*last[1])
         return last[0]
 
-    def _motion(self, request: Request, bounded: tuple[str, tuple] | None = None) -> Any:
-        """A motion command: remembered while it is the last one if it is bounded."""
-        value = self._link.call(request)
-        self._shared.bounded = bounded
-        return value
-
     # ------------------------------------------------------------- the commands (RotatorPort)
     def goto(self, az_deg: float, el_deg: float) -> list:
-        return self._motion(Goto(az_deg, el_deg), ("goto", (az_deg, el_deg)))
+        return self.request(Goto(az_deg, el_deg))
 
     def goto_az(self, az_deg: float) -> list:
-        return self._motion(GotoAz(az_deg), ("goto_az", (az_deg,)))
+        return self.request(GotoAz(az_deg))
 
     def goto_el(self, el_deg: float) -> list:
-        return self._motion(GotoEl(el_deg), ("goto_el", (el_deg,)))
+        return self.request(GotoEl(el_deg))
 
     def goto_pose(self, az_m_deg: float, el_m_deg: float, name: str = "goto_pose", local: bool = False) -> list:
-        return self._motion(GotoPose(az_m_deg, el_m_deg, name, local), ("goto_pose", (az_m_deg, el_m_deg, name, local)))
+        return self.request(GotoPose(az_m_deg, el_m_deg, name, local))
 
     def park(self, local: bool = False) -> list:
-        return self._motion(Park(local), ("park", (local,)))
+        return self.request(Park(local))
 
     def track(self, az_deg: float, el_deg: float, az_rate_deg_per_s: float = 0.0, el_rate_deg_per_s: float = 0.0,
               t_ref_s: float | None = None) -> None:
-        self._motion(Track(az_deg, el_deg, az_rate_deg_per_s, el_rate_deg_per_s, t_ref_s))
+        self.request(Track(az_deg, el_deg, az_rate_deg_per_s, el_rate_deg_per_s, t_ref_s))
 
     def track_pose(self, az_m_deg: float, el_m_deg: float, az_rate_deg_per_s: float = 0.0,
                    el_rate_deg_per_s: float = 0.0, t_ref_s: float | None = None) -> None:
-        self._motion(TrackPose(az_m_deg, el_m_deg, az_rate_deg_per_s, el_rate_deg_per_s, t_ref_s))
+        self.request(TrackPose(az_m_deg, el_m_deg, az_rate_deg_per_s, el_rate_deg_per_s, t_ref_s))
 
     def move(self, axis: str, direction: int, speed_frac: float = 1.0, local: bool = False) -> None:
-        self._motion(Move(axis, direction, speed_frac, local))
+        self.request(Move(axis, direction, speed_frac, local))
 
     def stop(self, axis: str | None = None) -> None:
-        self._shared.bounded = None  # (before: a stop that is only queued cancels it too)
-        self._link.call(Stop(axis), timeout_s=STOP_ACK_S)
+        self.request(Stop(axis))
 
     def fly_program(self, program: Any) -> None:
-        self._link.call(FlyProgram(program))  # (a program is uploaded again by its tracker)
+        self.request(FlyProgram(program))  # (a program is uploaded again by its tracker)
 
     def cancel_program(self, program_id: int | None = None) -> None:
-        self._link.call(CancelProgram(program_id))
+        self.request(CancelProgram(program_id))
 
     def set_position(self, az_deg: float | None = None, el_deg: float | None = None, local: bool = False) -> None:
-        self._motion(SetPosition(az_deg, el_deg, local))
+        self.request(SetPosition(az_deg, el_deg, local))
 
     def adopt_sensor_reading(self, axis: str, local: bool = False) -> float:
-        return self._link.call(AdoptSensorReading(axis, local))
+        return self.request(AdoptSensorReading(axis, local))
 
     def search_frame(self, axis: str, mech_deg: float) -> None:
-        self._link.call(SearchFrame(axis, mech_deg))
+        self.request(SearchFrame(axis, mech_deg))
 
     def end_search(self, axis: str, mech_deg: float | None = None) -> None:
-        self._link.call(EndSearch(axis, mech_deg))
+        self.request(EndSearch(axis, mech_deg))
 
     def set_overshoot(self, axis: str, overshoot_deg: float) -> None:
-        self._link.call(SetOvershoot(axis, overshoot_deg))
+        self.request(SetOvershoot(axis, overshoot_deg))
 
     def overshoot_deg(self, axis: str) -> float:
-        return self._link.call(OvershootQuery(axis))
+        return self.request(OvershootQuery(axis))
 
     def clear_faults(self) -> None:
-        self._link.call(ClearFaults())
+        self.request(ClearFaults())
 
     def hold_local(self, control: str, held: bool) -> None:
-        self._link.call(HoldLocal(control, held))
+        self.request(HoldLocal(control, held))
 
     def local_controls(self) -> tuple[str, ...]:
-        return self._link.call(LocalControls())
+        return self.request(LocalControls())
 
     def announce(self, text: str) -> None:
-        self._link.call(Announce(text))
+        self.request(Announce(text))
 
     def power_fail(self, reason: str = "power-fail input: supply lost") -> None:
-        self._link.call(PowerFail(reason))
+        self.request(PowerFail(reason))
 
     def save_now(self, timeout_s: float = 5.0) -> bool:
-        return self._link.call(SaveNow(timeout_s), timeout_s=CALL_TIMEOUT_S + timeout_s)
+        return self.request(SaveNow(timeout_s))
 
     def position_uncertain(self) -> bool:
-        return self._link.call(PositionUncertain())
+        return self.request(PositionUncertain())

@@ -228,17 +228,16 @@ class Rotator:
     def bounded_in_flight(self) -> str:
         """The bounded motion under way that flies on without the I/O process ("pass
         program", "goto", "park", ...; a program waiting for its pass counts), or ""."""
-        with self.lock:
-            core = self._core
-            if core.program is not None:
-                return "pass program"
-            if core.motion in (None, "move", "track"):
-                return ""
-            # (the route keeps its last waypoint once there: under way while not reached)
-            ahead = len(core.route) > 1 or bool(core.route) and any(
-                abs(p - m) > 2 * core.caps.axis(n).tolerance_deg
-                for n, p, m in zip(core.axes, core.route[-1], core.current_pose()))
-            return core.motion if ahead or core.parking or self.status().moving else ""
+        core = self._core
+        if core.program is not None:
+            return "pass program"
+        if core.motion in (None, "move", "track"):
+            return ""
+        # (the route keeps its last waypoint once there: under way while not reached)
+        ahead = len(core.route) > 1 or bool(core.route) and any(
+            abs(p - m) > 2 * core.caps.axis(n).tolerance_deg
+            for n, p, m in zip(core.axes, core.route[-1], core.current_pose()))
+        return core.motion if ahead or core.parking or self.status().moving else ""
 
     def fly_program(self, program: PassProgram) -> None:
         """Fly a planned pass by this process's clock (program track, urc.service.program)."""

@@ -11,6 +11,10 @@ record on disk that a restart would wrongly trust.
 
 ``background=False`` writes in the caller's thread at once (virtual-clock tests and
 benchmarks: exact and repeatable); retries are then paced by the caller's clock.
+
+Each record handed over gets a number (:meth:`submit` returns it): :meth:`outcome` waits,
+bounded, until that record or a newer one is on disk or an attempt at one has failed
+(a motion command's reply waits so, off the tick: urc.service.control_process).
 """
 
 from __future__ import annotations
@@ -51,6 +55,9 @@ class StateWriter:
         self._cv = threading.Condition()
         self._pending: dict[str, Any] | None = None
         self._durable: dict[str, Any] | None = None
+        #: the number of the newest record handed over, of the pending one, of the newest
+        #: on disk, and of the newest whose attempt failed (0: none)
+        self._seq = self._pending_seq = self._durable_seq = self._failed_seq = 0
         self._error = ""
         self._writes = self._failures = 0
         self._busy = False
@@ -62,13 +69,43 @@ class StateWriter:
             self._thread.start()
 
     # ------------------------------------------------------------------ tick side
-    def submit(self, payload: dict[str, Any]) -> None:
-        """Write ``payload`` as soon as possible (it replaces one still waiting)."""
+    def submit(self, payload: dict[str, Any]) -> int:
+        """Write ``payload`` as soon as possible (it replaces one still waiting); returns
+        its number (for :meth:`outcome`)."""
         with self._cv:
-            self._pending = payload
+            seq = self._hand_over(payload)
             self._cv.notify_all()
         if not self.background:
             self._write_pending(force=True)
+        return seq
+
+    def _hand_over(self, payload: dict[str, Any]) -> int:
+        """(Under ``_cv``.)"""
+        self._seq += 1
+        self._pending, self._pending_seq = payload, self._seq
+        return self._seq
+
+    @property
+    def last_seq(self) -> int:
+        """The number of the newest record handed over (0: none yet)."""
+        return self._seq
+
+    def outcome(self, seq: int, timeout_s: float) -> tuple[bool | None, str]:
+        """Wait up to ``timeout_s`` for record ``seq``: (True, "") once it or a newer one
+        is on disk; (False, why) once an attempt at it or a newer one failed (and none
+        as new is on disk); (None, "") if neither happened in time (a slow disk). Never
+        call it on the tick: it waits for the disk."""
+        deadline_s = time.monotonic() + timeout_s
+        with self._cv:
+            while True:
+                if self._durable_seq >= seq:
+                    return True, ""
+                if self._failed_seq >= seq:
+                    return False, self._error
+                left_s = deadline_s - time.monotonic()
+                if left_s <= 0 or not self.background:  # (nothing else writes without a thread)
+                    return None, ""
+                self._cv.wait(left_s)
 
     def report(self) -> WriterReport:
         if not self.background and self._pending is not None:
@@ -82,7 +119,7 @@ class StateWriter:
         with self._cv:
             while self._busy:
                 self._cv.wait()
-            self._pending = payload
+            self._hand_over(payload)
             self._busy = True
         return self._attempt()
 
@@ -120,13 +157,14 @@ class StateWriter:
     def _attempt(self) -> bool:
         """Write the pending record (``_busy`` is set by the caller)."""
         with self._cv:
-            payload = self._pending
+            payload, seq = self._pending, self._pending_seq
         try:
             assert payload is not None
             self.store.save(payload)
         except (OSError, StateFileError) as exc:
             with self._cv:
                 self._failures += 1
+                self._failed_seq = max(self._failed_seq, seq)
                 if self._error != str(exc):
                     log.error("state not saved: %s", exc)
                 self._error = str(exc)
@@ -139,7 +177,7 @@ class StateWriter:
             if self._error:
                 log.warning("state saved again after: %s", self._error)
             self._error = ""
-            self._durable = payload
+            self._durable, self._durable_seq = payload, seq
             if self._pending is payload:
                 self._pending = None
             self._busy = False

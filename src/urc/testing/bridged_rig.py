@@ -14,6 +14,7 @@ from typing import Any
 
 from ..hardware.bridge.client import BridgeClient
 from ..hardware.bridge.dialects import Exchange
+from .sessions import fed
 
 BITS_PER_BYTE = 10  # 8N1: start + 8 data + stop
 
@@ -89,7 +90,7 @@ class SimLink:
             start_s = self._t_s
             self.sent.append((start_s, ex.request))
             arrived_s = start_s + self.wire_s(ex.request)
-            answers = b"".join(self.session.receive(ex.request))
+            answers = b"".join(fed(self.session, ex.request))
             if ex.reply is None:
                 self._busy = (ex, start_s, arrived_s, None)
                 continue

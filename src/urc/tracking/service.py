@@ -85,6 +85,10 @@ class TrackingService:
             self.tracker = Tracker(self.rot, station, self.unix_at, park_after_pass=self.cfg.tracking.park_after_pass,
                                    min_el_deg=self.cfg.tracking.min_el_deg)
             self.tracker.background = self._executor
+            if self.cfg.pointing.step_track:  # ([pointing] step_track: off by default)
+                from ..pointing import steptrack
+
+                self.tracker.step_track = steptrack.from_config(self.cfg, station)
         else:
             self.tracker.station = station
 

@@ -25,7 +25,7 @@ import numpy as np
 
 from ..control.geometry import route_time_s
 from ..errors import CommandRejected
-from ..service.program import PassProgram
+from ..service.program import PassProgram, rejoin_aim
 from ..service.settings import FIXED_EL_DEG
 from .elements import ElementSet
 from .passes import Pass, find_passes
@@ -72,6 +72,8 @@ class _PassJob:
     #: the program flying it (urc.service.program), and when it was last sent
     program_id: int | None = None
     sent_s: float = -math.inf
+    #: its step-track (urc.pointing.steptrack), made when the tracker has ``step_track``
+    steptrack: Any = None
 
 
 class Tracker:
@@ -103,6 +105,9 @@ class Tracker:
         self._generation = 0        # bumped by every command: a stale search is dropped
         #: newer elements for the satellite being followed, used from its next pass
         self._next_elements: ElementSet | None = None
+        #: step-track: ``step_track(job, tracker)`` makes a pass's StepTrack
+        #: (urc.pointing.steptrack.factory), which corrects its program by the signal
+        self.step_track: Callable[[Any, Any], Any] | None = None
 
     # ------------------------------------------------------------------ commands
     def track(self, target: Target, now_s: float) -> None:
@@ -151,6 +156,8 @@ class Tracker:
 
     def stop_tracking(self) -> None:
         job = self.job
+        if job is not None and job.steptrack is not None:
+            job.steptrack.close()
         if job is not None and job.program_id is not None:
             try:  # (only that program: one the operator loaded since is left alone)
                 self.rot.cancel_program(job.program_id)
@@ -290,6 +297,8 @@ class Tracker:
         if job.program_id is not None:
             if st.program is not None and st.program["id"] == job.program_id:
                 job.state = st.program["state"]
+                if self.step_track is not None:
+                    self._step_track(job, st, now_s)
                 return
             end = st.program_end
             if end is not None and end["id"] == job.program_id:
@@ -317,10 +326,36 @@ class Tracker:
         log.info("pass of %s %s to the control process (AOS %s)", job.target.name,
                  "uploaded again" if resent else "uploaded", job.pass_.aos.isoformat())
 
+    @staticmethod
+    def new_program_id() -> int:
+        return next(_PROGRAM_IDS)
+
+    def _step_track(self, job: _PassJob, st: Any, now_s: float) -> None:
+        """Step-track: the pass's program replaced by the one its signal corrects (the
+        control process checks its poses on accept, as any program's); said in events."""
+        if job.steptrack is None:
+            job.steptrack = self.step_track(job, self)  # type: ignore[misc]
+        track = job.steptrack
+        program = track.step(st, now_s, self.unix_at(now_s) - now_s, job.state)
+        if program is not None:
+            try:
+                self.rot.fly_program(program)
+                job.program_id, job.sent_s = program.program_id, now_s
+            except CommandRejected as exc:  # the program flying keeps flying
+                track.upload_refused(str(exc), self.unix_at(now_s))
+        for text in track.take_events():
+            log.info("%s", text)
+            try:
+                self.rot.announce(text)
+            except Exception:  # (the control link busy or gone: the log line stands)
+                log.debug("step-track event not announced", exc_info=True)
+
     def _program_ended(self, job: _PassJob, why: str, now_s: float) -> None:
         """The pass program is over: flown to LOS, or cut short (a stop or another
         command from a client: a person's word, never resumed by itself)."""
         job.state = "done"
+        if job.steptrack is not None:
+            job.steptrack.close()  # (its reader's thread; the status keeps its estimate)
         if why != "done":
             log.warning("pass of %s not flown on: %s", job.target.name, why)
             job.program_id = None  # (nothing to cancel any more)
@@ -344,12 +379,14 @@ class Tracker:
             return False
         st = self.rot.status()
         here = (st.az.pos_deg, FIXED_EL_DEG if st.el is None else st.el.pos_deg)
-        rates = tuple(lim.max_rate_deg_per_s for lim in self._axis_limits())
-        if g.segment_clear(here, (az_m, el_m), rates) is None:
+        az_lim, el_lim = self._axis_limits()
+        rates = (az_lim.max_rate_deg_per_s, el_lim.max_rate_deg_per_s)
+        pose = (az_m, el_m)
+        aim = rejoin_aim(g, here, pose, rates, (lambda dt_s: plan.pose_at(u + dt_s)[:2]) if plan is not None
+                         else (lambda _dt_s: pose))
+        if aim is None:
             return False
-        if plan is not None:  # aim where the track will be once the route is flown
-            route = g.plan(here, *g.to_sky(az_m, el_m), rates) or [(az_m, el_m)]
-            az_m, el_m, _, _ = plan.pose_at(u + route_time_s([here] + route, rates))
+        az_m, el_m = aim
         route = self.rot.goto_pose(az_m, el_m)
         self._route_until_s = now_s + route_time_s([here] + route, rates) + ROUTE_SLACK_S
         log.info("going round a keep-out zone to az %.1f el %.1f", az_m, el_m)
@@ -490,6 +527,8 @@ class Tracker:
                            **plan.summary(),
                            "track": [[_iso(t), float(a), float(e)] for t, a, e in
                                      zip(plan.t_s[::step], plan.sky_az_deg[::step], plan.sky_el_deg[::step])]}
+            if self.job.steptrack is not None:
+                out["step_track"] = self.job.steptrack.status(u)
         if self._arc is not None and self._arc.notes:
             out["warnings"] = list(self._arc.notes)  # e.g. the midnight sun: no turn holds a day
         if isinstance(self.target, SatelliteTarget):

@@ -23,8 +23,10 @@ from typing import Any
 
 from starlette.websockets import WebSocket, WebSocketDisconnect, WebSocketState
 
-from ..ipc import bridge
 from ..errors import CommandRejected
+from ..ipc import bridge
+from ..ipc.messages import Move, Stop
+from ..service.effects import call
 from ..tracking.cycle import cycle_state, tracking_now
 from .history import History, pointing_error_deg
 
@@ -190,7 +192,7 @@ class Hub:
             try:
                 self.frame_text = self.build_frame()
                 if self.jogs:
-                    await bridge.run(self._expire_jogs)
+                    await self._expire_jogs()
             except Exception:
                 log.exception("live frame failed")
             for fut in self._waiters:
@@ -256,27 +258,27 @@ class Hub:
                     await ws.close()
 
     # ------------------------------------------------------------------ jog leases
-    def jog(self, axis: str, direction: int, speed: float) -> None:
+    async def jog(self, axis: str, direction: int, speed: float) -> None:
         """Start or renew a press-and-hold jog; it ends unless renewed in JOG_LEASE_S."""
         self.ensure_started()
         lease = self.jogs.get(axis)
         now = time.monotonic()
         if lease is None or lease.direction != direction or lease.speed != speed:
-            self.rotator.move(axis, direction, speed)
+            await call(self.rotator, Move(axis, direction, speed))
         self.jogs[axis] = JogLease(direction, speed, now + JOG_LEASE_S)
 
-    def release(self, axis: str | None) -> None:
+    async def release(self, axis: str | None) -> None:
         for name in ([axis] if axis else list(self.jogs)):
             if self.jogs.pop(name, None) is not None:
-                self.rotator.stop(name)
+                await call(self.rotator, Stop(name))
 
-    def _expire_jogs(self) -> None:
+    async def _expire_jogs(self) -> None:
         now = time.monotonic()
         for axis, lease in list(self.jogs.items()):
             if now > lease.expires_s:
                 del self.jogs[axis]
                 with contextlib.suppress(CommandRejected):
-                    self.rotator.stop(axis)
+                    await call(self.rotator, Stop(axis))
                 log.warning("jog of %s not renewed by the page: stopped", axis)
 
     # ------------------------------------------------------------------ procedures
@@ -295,5 +297,7 @@ class Hub:
             status = self.rotator.status()
             if status.t_s != last_t:
                 last_t = status.t_s
+                # (a calibration procedure is synchronous code that may wait for the
+                # control process: it still runs bridged)
                 await bridge.run(proc.poll, status)
             await asyncio.sleep(period_s)

@@ -14,8 +14,8 @@ from fastapi import APIRouter, Depends
 from pydantic import Field
 
 from ..ipc import bridge
-from ..ipc.messages import ControllerHome, DescribeSensors, PotApply, PotUnits
-from ..service.queries import ask
+from ..ipc.messages import ControllerHome, DescribeSensors, PotApply, PotUnits, SetPosition
+from ..service.effects import call
 from .context import WebContext
 from .schemas import CONTROL_RESPONSES, AzDeg, Deg, ElDeg, Ok, Strict
 
@@ -81,29 +81,26 @@ def router(ctx: WebContext) -> APIRouter:
     @r.get("")
     async def overview() -> dict:
         """Per axis: sensor, constants, procedures that apply; the running procedure."""
-        return {"axes": await bridge.run(ask, rot, DescribeSensors()), "procedure": ctx.hub.procedure_dict()}
+        return {"axes": await call(rot, DescribeSensors()), "procedure": ctx.hub.procedure_dict()}
 
     @ctl.post("/zero")
     async def zero(req: ZeroRequest) -> Ok:
         """Declare where the antenna points now (re-reference)."""
-        cal = await _calibration()
-        await bridge.run(cal.zero, rot, req.az_deg, req.el_deg)
+        await call(rot, SetPosition(req.az_deg, req.el_deg))  # (calibration.zero's request)
         return Ok()
 
     @ctl.post("/pot/read")
     async def pot_read(req: AxisRequest) -> PotReading:
         """The pot's linearised reading P here (averaged), for a two-point calibration."""
-        def read() -> dict:
-            p = ask(rot, PotUnits(req.axis))
-            status = rot.status()  # (the reply's: read with P)
-            return {"ok": True, "axis": req.axis, "p": p,
-                    "reading_deg": getattr(status, req.axis).pos_deg + status.offsets.get(req.axis, 0.0)}
-        return await bridge.run(read)
+        p = await call(rot, PotUnits(req.axis))
+        status = rot.status()  # (the reply's: read with P)
+        return PotReading(axis=req.axis, p=p,
+                          reading_deg=getattr(status, req.axis).pos_deg + status.offsets.get(req.axis, 0.0))
 
     @ctl.post("/pot/apply")
     async def pot_apply(req: PotApplyRequest) -> PotApplied:
         """Compute M and C from two (bearing, P) points and load them."""
-        result = await bridge.run(ask, rot, PotApply(req.axis, tuple((p.bearing_deg, p.p) for p in req.points)))
+        result = await call(rot, PotApply(req.axis, tuple((p.bearing_deg, p.p) for p in req.points)))
         # JSON has no NaN (an old constant that was never set): null
         return PotApplied(result={k: v if math.isfinite(v) else None for k, v in result.items()})
 
@@ -125,7 +122,7 @@ def router(ctx: WebContext) -> APIRouter:
     async def controller_home() -> Ok:
         """Have a bridged controller (the SatNOGS firmware) home on its own endstops; its
         position is unknown until it answers again (the status says it homes)."""
-        await bridge.run(ask, rot, ControllerHome())
+        await call(rot, ControllerHome())
         return Ok()
 
     @r.get("/procedure")

@@ -10,7 +10,6 @@ from typing import Literal
 from fastapi import APIRouter, Depends, HTTPException, Query, WebSocket
 from pydantic import Field
 
-from ..ipc import bridge
 from ..ipc.messages import HardwareInfo
 from ..service.queries import ask
 from .. import __version__
@@ -113,12 +112,12 @@ def router(ctx: WebContext) -> APIRouter:
     async def jog(req: MoveRequest) -> JogLease:
         """Start or renew a press-and-hold jog. It stops by itself unless renewed within
         ``jog_lease_s`` (the page renews while the button is held)."""
-        await bridge.run(ctx.hub.jog, req.axis, req.direction, req.speed)
+        await ctx.hub.jog(req.axis, req.direction, req.speed)
         return JogLease(lease_s=JOG_LEASE_S)
 
     @r.post("/api/jog/release", dependencies=control, responses=CONTROL_RESPONSES)
     async def jog_release(req: StopRequest | None = None) -> Ok:
-        await bridge.run(ctx.hub.release, req.axis if req else None)
+        await ctx.hub.release(req.axis if req else None)
         return Ok()
 
     return r

@@ -14,7 +14,6 @@ from fastapi import APIRouter, Depends
 from fastapi.responses import JSONResponse
 
 from ..errors import CommandRejected
-from ..ipc import bridge
 from .context import WebContext
 from .schemas import CONTROL_RESPONSES, AzDeg, ElDeg, Strict
 
@@ -96,7 +95,7 @@ def router(ctx: WebContext) -> APIRouter:
         except OSError as exc:
             return JSONResponse({"ok": False, "errors": [{"key": "", "message": f"could not save: {exc}"}]},
                                 status_code=500)
-        applied, note = await bridge.run(_apply_live, ctx, cfg)
+        applied, note = await _apply_live(ctx, cfg)
         proc.result["applied"] = True
         return JSONResponse({"ok": True, "saved_to": str(path), "offsets": proc.result["offsets_suggested"],
                              "applied_live": applied, "messages": [f"saved to {path}", f"offsets: {note}"]})

@@ -8,21 +8,22 @@ from fastapi import APIRouter, Body, Depends, Header, Response
 from fastapi.responses import JSONResponse
 from pydantic import BaseModel, Field
 
-from ..ipc import bridge
+from ..ipc.messages import Reconfigure
+from ..service.effects import call
 from .context import WebContext
 from .schemas import CONTROL_RESPONSES
 from .settings_store import RESTART_SECTIONS
 
 
-def _apply_live(ctx: WebContext, cfg: Any) -> tuple[bool, str]:
+async def _apply_live(ctx: WebContext, cfg: Any) -> tuple[bool, str]:
     """Hand the new limits, zones, offsets, speeds and park to the rotator, if it can."""
-    reconfigure = getattr(ctx.rotator, "reconfigure", None)
-    if reconfigure is None:
+    if getattr(ctx.rotator, "reconfigure", None) is None:
         return False, "this urc cannot change limits/zones/offsets while running: they apply at the next start"
     from ..assembly import settings_from_config
 
     try:
-        reconfigure(settings_from_config(cfg, ctx.settings.state_dir))  # (the stored pointing model kept)
+        # (the stored pointing model kept)
+        await call(ctx.rotator, Reconfigure(settings_from_config(cfg, ctx.settings.state_dir)))
     except Exception as exc:  # refused (e.g. the antenna sits in a new keep-out zone)
         return False, f"saved, but not applied now: {exc}"
     return True, "applied now"
@@ -109,7 +110,7 @@ def router(ctx: WebContext) -> APIRouter:
         # last save (a port changed in one save still waits after the next)
         restart = store.restart_pending()
         live = [k for k in changed if k not in RESTART_SECTIONS]
-        applied, note = (await bridge.run(_apply_live, ctx, cfg) if live else (True, "nothing to apply"))
+        applied, note = (await _apply_live(ctx, cfg) if live else (True, "nothing to apply"))
         msgs = [f"saved to {path}"] + ([store.note] if store.note else [])
         if started_without_file:
             msgs.append(f"urc run was started without a configuration file; start it with --config {path} "

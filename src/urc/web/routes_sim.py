@@ -10,10 +10,10 @@ from typing import Literal
 from fastapi import APIRouter, Depends, HTTPException
 from pydantic import Field
 
-from ..ipc import bridge
 from ..ipc.messages import HardwareInfo
 from ..ipc.messages import SimClear as ClearQuery
 from ..ipc.messages import SimFault as FaultQuery
+from ..service.effects import call
 from ..service.queries import ask
 from .context import WebContext
 from .schemas import CONTROL_RESPONSES, Deg, Ok, Strict
@@ -54,7 +54,7 @@ def router(ctx: WebContext) -> APIRouter:
                                 ("delay_s", req.delay_s), ("reads", req.reads)) if v is not None}
         try:
             simulated()
-            await bridge.run(ask, ctx.rotator, FaultQuery(req.axis, req.kind, kw))
+            await call(ctx.rotator, FaultQuery(req.axis, req.kind, kw))
         except ValueError as exc:
             raise HTTPException(409, str(exc)) from None
         return Ok()
@@ -63,7 +63,7 @@ def router(ctx: WebContext) -> APIRouter:
     async def clear(req: SimClear) -> Ok:
         """Simulator only: repair the simulated hardware (latched faults still need clearing)."""
         simulated()
-        await bridge.run(ask, ctx.rotator, ClearQuery(req.axis, req.kind))
+        await call(ctx.rotator, ClearQuery(req.axis, req.kind))
         return Ok()
 
     return r

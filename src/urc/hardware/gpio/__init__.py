@@ -215,11 +215,10 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
             syncs.append(sense.feed)       # (each poll, and each read between polls)
             sense.feed()
         parts_list.append(("safety chain read-back", sense))
+    gpio_parts = GpioParts(pin_factory=factory, i2c_buses=buses.i2c, emulated=emulate, pwm_outputs=pwm_outputs)
     hw = Hardware(backend="gpio", az=axes["az"], el=axes.get("el"), heartbeat=heartbeat, parts=parts_list,
                   motor_enable_timeout_s=gpio.motor_enable_timeout_s if gpio.heartbeat_pin is not None else None,
-                  enable_sense=sense,
-                  gpio=GpioParts(pin_factory=factory, i2c_buses=buses.i2c, emulated=emulate,
-                                 pwm_outputs=pwm_outputs))
+                  enable_sense=sense, gpio=gpio_parts)
     if gpio.fram_address is not None:
         from ..fram import FramStore
         fram_bus = buses.bus(gpio.i2c_bus)
@@ -233,8 +232,8 @@ def build_gpio_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
         hw.power_fail = PowerFailInput(factory, gpio.power_fail_pin)
         parts_list.append(("power-fail input", hw.power_fail))
     if world is not None:
-        assert emu is not None and hw.gpio is not None
-        hw.world, hw.gpio.fake_spi, hw.gpio.emulation = world, buses.fake_spi, emu.parts
+        assert emu is not None
+        hw.world, gpio_parts.fake_spi, gpio_parts.emulation = world, buses.fake_spi, emu.parts
         hw.overcurrent_a = {n: 0.8 * params.axis(n).stall_current_a for n in ("az", "el")}
         syncs.append(forget_output_history(factory))
 

@@ -4,14 +4,21 @@ from __future__ import annotations
 
 import math
 from contextlib import AbstractContextManager, nullcontext
-from typing import TYPE_CHECKING, Callable, Literal
+from typing import Callable, Literal, Mapping, Protocol
 
 from ...errors import HardwareError
 from ..drivers.motors import DirectionTracker
 from .physics import AxisPhysics, quantise_relay
 
-if TYPE_CHECKING:
-    from .world import SimWorld
+
+class BrakeWorld(Protocol):
+    """What a brake needs of the world (SimWorld is one): its axes, and the command that
+    starts the brake moving. Named here so drives need not import world, which builds them."""
+
+    @property
+    def axes(self) -> Mapping[str, AxisPhysics]: ...
+
+    def command_brake(self, name: str, released: bool) -> None: ...
 
 
 class SimMotor(DirectionTracker):
@@ -64,7 +71,7 @@ class SimBrake:
     """A brake that needs voltage to release; it moves after ``brake_release_s`` /
     ``brake_engage_s`` of clock time, and ``is_released`` reports the real state."""
 
-    def __init__(self, world: "SimWorld", name: str):
+    def __init__(self, world: BrakeWorld, name: str):
         self._world = world
         self.name = name
 

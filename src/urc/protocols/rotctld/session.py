@@ -15,6 +15,9 @@ from __future__ import annotations
 
 from typing import Callable
 
+from ...ipc.messages import ClearFaults, Goto, Move, Park, Stop
+from ...service.effects import Effects
+
 from ... import __version__
 from ...errors import CommandRejected, ConfigError, HardwareError
 from ..base import MAX_PENDING_BYTES, RotatorPort, bad_input_log, internal_error, protocol_logger
@@ -59,7 +62,7 @@ class RotctldSession:
             raise ConfigError(f"rotctld: hamlib_version must be one of {', '.join(HAMLIB_VERSIONS)}, "
                               f"found {hamlib_version!r}", key="options.hamlib_version",
                               expected=" | ".join(HAMLIB_VERSIONS), found=hamlib_version)
-        self._rot = rotator
+        self.rotator = rotator
         self.hamlib_version = version
         self._v46 = version != "4.5"
         self._limit_code = RIG_ELIMIT if self._v46 else RIG_EINVAL
@@ -69,7 +72,7 @@ class RotctldSession:
         self._lexer = Lexer(MAX_PENDING_BYTES)
 
     # ------------------------------------------------------------------ Session API
-    def receive(self, data: bytes) -> list[bytes]:
+    def receive(self, data: bytes) -> Effects[list[bytes]]:
         if self.closed or not data:
             return []
         if type(data) is not bytes:  # bytearray / memoryview from an adapter
@@ -83,7 +86,7 @@ class RotctldSession:
         out = []
         for kind, spec, args, sep in items:
             if kind == CMD and spec is not None:
-                out.append(self._run(spec, args, sep))
+                out.append((yield from self._run(spec, args, sep)))
             elif kind == CLOSE:
                 self.closed = True
                 break
@@ -104,9 +107,13 @@ class RotctldSession:
         return []
 
     # ----------------------------------------------------------------- dispatch
-    def _run(self, spec: CommandSpec, args: tuple[str, ...], sep: str | None) -> bytes:
+    def _run(self, spec: CommandSpec, args: tuple[str, ...], sep: str | None) -> Effects[bytes]:
         try:
-            code, data = _HANDLERS[spec.code](self, args, sep)
+            acts = _ACTS.get(spec.code)
+            if acts is not None:  # (a command: its port requests yielded)
+                code, data = yield from acts(self, args, sep)
+            else:  # (a query: answered from the status)
+                code, data = _HANDLERS[spec.code](self, args, sep)
         except CommandRejected as exc:
             code, data = self._rejected_code(exc), ""
             bad_input.info("rotctld: %s %s refused: %s", spec.name, " ".join(args), exc)
@@ -121,13 +128,13 @@ class RotctldSession:
     def _rejected_code(self, exc: CommandRejected) -> int:
         if exc.reason in ("limit", "keepout"):
             return self._limit_code
-        if exc.reason in ("fault", "uncertain", "local"):
+        if exc.reason in ("fault", "uncertain", "local", "state"):
             return RIG_ERJCTED
         return RIG_EINVAL
 
     def frame_limits(self) -> tuple[float, float, float, float]:
         """(min_az, max_az, min_el, max_el) in the frame of status() and P."""
-        status = self._rot.status()
+        status = self.rotator.status()
         limits = status.limits or _DEFAULT_LIMITS
         az_lo, az_hi = limits.get("az", _DEFAULT_LIMITS["az"])
         el_lo, el_hi = limits.get("el", _DEFAULT_LIMITS["el"])
@@ -140,7 +147,7 @@ class RotctldSession:
                 "south_zero": 0}
 
     # ------------------------------------------------------------------ motion
-    def _set_pos(self, args: tuple[str, ...], sep: str | None) -> Result:
+    def _set_pos(self, args: tuple[str, ...], sep: str | None) -> Effects[Result]:
         pos = codec.parse_position(*args) if len(args) == 2 else None
         if pos is None:
             bad_input.info("rotctld: set_pos needs two finite numbers, got %r", args)
@@ -158,30 +165,30 @@ class RotctldSession:
             bad_input.info("rotctld: set_pos %s %s outside az %g..%g, el %g..%g",
                      args[0], args[1], min_az, max_az, min_el, max_el)
             return self._limit_code, ""
-        self._rot.goto(az, el)
+        yield Goto(az, el)
         return 0, ""
 
     def _get_pos(self, args: tuple[str, ...], sep: str | None) -> Result:
         # flipped: the pose as a client commands it (poses.readback_pose_deg, README)
-        return 0, codec.format_position(*readback_pose_deg(self._rot.status()), sep)
+        return 0, codec.format_position(*readback_pose_deg(self.rotator.status()), sep)
 
-    def _park(self, args: tuple[str, ...], sep: str | None) -> Result:
-        self._rot.park()
+    def _park(self, args: tuple[str, ...], sep: str | None) -> Effects[Result]:
+        yield Park()
         return 0, ""
 
-    def _stop(self, args: tuple[str, ...], sep: str | None) -> Result:
-        self._rot.stop()
+    def _stop(self, args: tuple[str, ...], sep: str | None) -> Effects[Result]:
+        yield Stop()
         return 0, ""
 
-    def _reset(self, args: tuple[str, ...], sep: str | None) -> Result:
+    def _reset(self, args: tuple[str, ...], sep: str | None) -> Effects[Result]:
         # any integer, as rotctld passes it on; ROT_RESET_ALL (1) is the one defined
         if codec.parse_int(args[0]) is None:
             return RIG_EINVAL, ""
-        self._rot.stop()
-        self._rot.clear_faults()
+        yield Stop()
+        yield ClearFaults()
         return 0, ""
 
-    def _move(self, args: tuple[str, ...], sep: str | None) -> Result:
+    def _move(self, args: tuple[str, ...], sep: str | None) -> Effects[Result]:
         moves = codec.parse_direction(args[0], self._v46) if len(args) == 2 else None
         speed = codec.parse_int(args[1]) if len(args) == 2 else None
         if speed == SPEED_NO_CHANGE:
@@ -195,11 +202,11 @@ class RotctldSession:
         # (0..0); nothing moves (urc's choice: Hamlib has no rule for M on such a rotator)
         try:
             for axis, direction in moves:
-                self._rot.move(axis, direction, speed / 100.0)
+                yield Move(axis, direction, speed / 100.0)
                 started.append(axis)
         except CommandRejected:
             for axis in started:  # a diagonal moves both axes or neither
-                self._rot.stop(axis)
+                yield Stop(axis)
             raise
         return 0, ""
 
@@ -230,11 +237,11 @@ class RotctldSession:
         return (0, "\n") if args[0] == "?" else (RIG_ENAVAIL, "")
 
     def _get_info(self, args: tuple[str, ...], sep: str | None) -> Result:
-        info = f"urc {self._rot.status().profile}"
+        info = f"urc {self.rotator.status().profile}"
         return 0, (info + "\n") if sep is None else f"Info: {info}{sep}"
 
     def _get_status(self, args: tuple[str, ...], sep: str | None) -> Result:
-        status = self._rot.status()
+        status = self.rotator.status()
         text = codec.format_flags(codec.status_flags(status, status.offsets.get("az", 0.0)))
         return 0, (text + "\n") if sep is None else f"Status flags: {text}{sep}"
 
@@ -271,11 +278,11 @@ class RotctldSession:
     def _dump_state(self, args: tuple[str, ...], sep: str | None) -> Result:
         # an azimuth-only rotator: min_el = max_el = 0 and rot_type=Az, as Hamlib's own
         # azimuth-only backends (GS-232A azimuth, Rot1Prog) report them
-        rot_type = "AzEl" if has_elevation(self._rot) else "Az"
+        rot_type = "AzEl" if has_elevation(self.rotator) else "Az"
         return 0, codec.format_dump_state(MODEL, self.frame_limits(), 0, rot_type, sep)
 
     def _dump_caps(self, args: tuple[str, ...], sep: str | None) -> Result:
-        return 0, codec.format_dump_caps(model=MODEL, model_name=f"urc {self._rot.status().profile}",
+        return 0, codec.format_dump_caps(model=MODEL, model_name=f"urc {self.rotator.status().profile}",
                                          version=__version__, limits=self.frame_limits(),
                                          levels=_LEVEL_GRAN)
 
@@ -286,14 +293,17 @@ class RotctldSession:
 
 
 _Handler = Callable[[RotctldSession, tuple, "str | None"], Result]
-#: command code -> handler, built once
-_HANDLERS: dict[int, _Handler] = {
+#: command code -> the handler of a command that acts on the rotator (yields requests)
+_ACTS: dict[int, Callable[[RotctldSession, tuple, "str | None"], Effects[Result]]] = {
     ord("P"): RotctldSession._set_pos,
-    ord("p"): RotctldSession._get_pos,
     ord("K"): RotctldSession._park,
     ord("S"): RotctldSession._stop,
     ord("R"): RotctldSession._reset,
     ord("M"): RotctldSession._move,
+}
+#: command code -> handler, built once
+_HANDLERS: dict[int, _Handler] = {
+    ord("p"): RotctldSession._get_pos,
     ord("V"): RotctldSession._set_level,
     ord("v"): RotctldSession._get_level,
     ord("U"): RotctldSession._set_func,
