@@ -160,3 +160,53 @@ def test_the_self_tests_cut_widens_the_step_counts_bound_by_two_full_steps(tmp_p
     hw.axis("az").sensor.set_reference_deg(10.0)
     assert hw.axis("az").motor.position_bound_deg == 0.0
     hw.close()
+
+
+def test_a_chain_cut_at_rest_on_a_drv8825_bounds_the_position_until_homed(tmp_path):
+    """End to end on a whole rotator (issue 37): goto, settle, the controller frozen long
+    enough for the chain to cut by design, back. The DRV8825's indexer reset snaps the
+    rotor by up to 2 full steps (the model's truth); urc keeps the position, bounded by
+    those 2 full steps as its uncertainty, refuses gotos as uncertain, and homing on the
+    endstops clears it. Before: the thaw's rising edge picked the relay up again before
+    the tick read the read-back, the OFF went unseen and the count claimed to be exact."""
+    rot, clock = satnogs(tmp_path, "drv8825")
+    rot.goto(20.0, 10.0)
+    settle(rot, clock, 20.0, 10.0)
+    motors = {n: rot.hw.axis(n).motor for n in ("az", "el")}
+    # at rest: the last queued pulses out too (a cut before is a cut while stepping)
+    s = run_virtual(rot, clock, 1.0, until=lambda s: all(m.at_rest() for m in motors.values()))
+    assert all(m.at_rest() for m in motors.values()) and not s.faults
+    chips = {n: rot.hw.gpio.emulation[f"{n} stepper"] for n in motors}
+    before = {n: s.sim_truth[n]["deg"] for n in motors}
+    resets = {n: chips[n].translator_resets for n in motors}       # (the first power-on's)
+    snapped = {n: chips[n].axis.snapped_steps for n in motors}
+    for n in motors:
+        assert getattr(s, n).pos_deg == pytest.approx(before[n], abs=FULL_STEP_DEG / 8)   # a microstep
+    clock.advance(1.0)                             # frozen: no heartbeat, the relay drops
+    s = run_virtual(rot, clock, 1.0)
+    assert rot.hw.world.enable.trips == 1 and not s.faults
+    for n, m in motors.items():
+        assert chips[n].translator_resets == resets[n] + 1 and chips[n].axis.steps_lost == 0
+        snap_deg = (chips[n].axis.snapped_steps - snapped[n]) / m.steps_per_deg
+        assert s.sim_truth[n]["deg"] == pytest.approx(before[n] + snap_deg, abs=1e-9)
+        assert not m.position_lost, m.position_lost        # at rest: bounded, not lost
+        assert m.position_bound_deg == pytest.approx(2 * FULL_STEP_DEG)
+        ax = getattr(s, n)
+        assert ax.uncertainty_deg == pytest.approx(2 * FULL_STEP_DEG)
+        assert abs(ax.pos_deg - s.sim_truth[n]["deg"]) <= 2 * FULL_STEP_DEG + FULL_STEP_DEG / 8
+    assert chips["az"].axis.snapped_steps != snapped["az"]  # (20 deg: the rotor did move)
+    assert not s.position_known
+    with pytest.raises(CommandRejected, match="uncertain"):
+        rot.goto(40.0, 20.0)
+    from urc.service import calibration as cal
+    for n in ("az", "el"):
+        proc = cal.LimitSwitchHoming(rot, n)
+        run_virtual(rot, clock, 600.0, on_tick=proc.poll, until=lambda s: proc.finished)
+        assert proc.state == "done", proc.as_dict()
+    s = run_virtual(rot, clock, 0.2)
+    assert s.position_known and s.az.uncertainty_deg == 0.0 and s.el.uncertainty_deg == 0.0
+    assert all(m.position_bound_deg == 0.0 for m in motors.values())
+    rot.goto(40.0, 20.0)                                   # accepted again
+    s = settle(rot, clock, 40.0, 20.0)
+    assert not s.faults
+    rot.hw.close()

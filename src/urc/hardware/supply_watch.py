@@ -17,7 +17,9 @@ status and never clears by itself. Each motor that keeps an open-loop count
 (``supply_lost``: the step/dir driver) marks its position lost.
 
 Every OFF episode is also passed to the motors (``supply_off``), the self-test's cut
-included. A step/dir chip whose logic runs on the motor supply resets its indexer then,
+included, and so is a heartbeat gap long enough to have let the relay drop (a frozen
+controller) in which no reading saw OFF: the edge that ends it picks the relay up again
+before the tick's read, and a Q read-back then reads ON at once. A step/dir chip whose logic runs on the motor supply resets its indexer then,
 so the rotor can snap by up to 2 full steps when power returns.
 
 What it cannot see: a supply lost upstream of the relay's contact (an e-stop in the
@@ -66,6 +68,8 @@ class SupplyWatch:
         self.reason = ""
         self._pending = ""
         self._last_on: bool | None = None
+        #: an OFF episode counted since the last rising edge (read, or by a gap)
+        self._off_since_rise = False
 
     def running(self, now_s: float) -> bool:
         """The heartbeat's edges have kept the chain armed for at least ``ARM_S``."""
@@ -78,7 +82,14 @@ class SupplyWatch:
         if level and not self._level:
             if self._rise_s is None or now_s - self._rise_s > self.max_gap_s:
                 self._armed_s = now_s     # the chain (re)armed by this edge
+                if self._rise_s is not None and not self._off_since_rise:
+                    # the gap may have let the relay drop (a frozen controller: the cut by
+                    # design), and this edge picks it up again before the read below: a Q
+                    # read-back, or the model's instant relay, reads ON and the OFF episode
+                    # goes unseen, while a DRV8825's indexer did reset. Counted as one.
+                    self._off_episode()
             self._rise_s = now_s
+            self._off_since_rise = False
         self._level = level
         running = self.running(now_s)
         try:
@@ -105,11 +116,16 @@ class SupplyWatch:
         goes to the motors' ``supply_off`` (a step/dir chip's indexer resets)."""
         self.reads += 1
         if not on and self._last_on is not False:
-            for motor in self.motors():
-                off = getattr(motor, "supply_off", None)
-                if off is not None:
-                    off()
+            self._off_episode()
         self._last_on = on
+
+    def _off_episode(self) -> None:
+        self._off_since_rise = True
+        self._last_on = False
+        for motor in self.motors():
+            off = getattr(motor, "supply_off", None)
+            if off is not None:
+                off()
 
     def _trip(self, why: str) -> None:
         self.trips += 1

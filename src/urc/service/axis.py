@@ -269,7 +269,17 @@ class Axis:
         if abs(self.meas_deg - self.law.ref_deg) > self.tuning.tolerance_deg + 2 * self.caps.sensor.resolution_deg:
             return None
         rate = self.law.ref_rate_deg_per_s
-        return self.meas_deg + math.copysign(stopping_distance_deg(rate, self.tuning.accel_deg_per_s2), rate)
+        dist = stopping_distance_deg(rate, self.tuning.accel_deg_per_s2)
+        sp = self.sp
+        if sp is not None and sp.rate_deg_per_s == 0.0:
+            # the reference never brakes below the slowest speed (control.profile): it
+            # runs at that speed to a standing target and stops there, short of its own
+            # braking distance (an axis that follows fast, a stepper, sat on the limit
+            # with that distance still ahead of it and was cut short)
+            ahead_deg = (sp.target_at(sp.t_ref_s) - self.law.ref_deg) * math.copysign(1.0, rate)
+            if ahead_deg >= 0.0:
+                dist = min(dist, ahead_deg)
+        return self.meas_deg + math.copysign(dist, rate)
 
     def status(self) -> AxisStatus:
         out = self.out

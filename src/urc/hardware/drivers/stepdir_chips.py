@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Callable
 
 #: the highest step rate the library-timed train is asked for (urc.hardware.gpio.stepdir)
 MAX_LIBRARY_TIMED_HZ = 20000.0
@@ -13,6 +14,29 @@ MAX_LIBRARY_TIMED_HZ = 20000.0
 LG_MIN_PERIOD_US = 11
 #: LG_TX_BUF (lgPthTx.h): entries per pin
 LG_TX_BUF = 10
+
+
+# lg's statuses the step train can meet (joan2937/lg bcccd78, lgpio.h:2960, :2970, :2988)
+LG_TX_QUEUE_FULL = -96
+LG_BAD_PWM_MICROS = -86    # a period of lgMinTxDelay or less, or a cut (0, 0) with no train running
+LG_GPIO_NOT_AN_OUTPUT = -104
+#: lgpio's ``error_text`` for each (lgpio 0.2.2.0; tests compare them with the library's)
+LG_ERROR_TEXT = {LG_TX_QUEUE_FULL: "TX queue full", LG_BAD_PWM_MICROS: "bad PWM micros",
+                 LG_GPIO_NOT_AN_OUTPUT: "GPIO not set as an output"}
+
+
+def lg_error_code(exc: BaseException, error_text: Callable[[int], str] | None = None) -> int:
+    """lg's status back from an ``lgpio.error``. lgpio's Python raises
+    ``error(error_text(status))`` (``_u2i``): the exception carries the text only
+    (``.value``), no code. The text is matched with ``error_text(code)`` (lgpio's own,
+    else :data:`LG_ERROR_TEXT`) for the codes above; -1 for any other."""
+    text = getattr(exc, "value", None)
+    if text is None and exc.args:
+        text = exc.args[0]
+    for code, known in LG_ERROR_TEXT.items():
+        if text == (error_text(code) if error_text is not None else known):
+            return code
+    return -1
 
 
 #: the Trinamic STEP/DIR inputs' minimum high and low time: max(tFILTSD, tCLK + 20 ns)

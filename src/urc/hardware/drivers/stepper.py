@@ -87,6 +87,7 @@ class StepDirMotor:
         #: the count is the position to within this (deg) until re-referenced: a translator
         #: reset by a motor-supply loss at rest (:meth:`supply_off`)
         self.position_bound_deg = 0.0
+        self.microsteps = int(microsteps)
         self.full_step_deg = microsteps / self.steps_per_deg
         self._reported = ""
         self._lock = threading.Lock()
@@ -121,6 +122,12 @@ class StepDirMotor:
                 k = min(abs(steps), math.floor((now - start) / period + 1e-9) + 1)
                 n += int(math.copysign(k, steps))
         return n
+
+    def committed_steps(self) -> int:
+        """Steps emitted and queued (signed): where the rotor is once the queue is out.
+        A drive changes it at once, the emitted count only LEAD_TICKS later."""
+        self.steps()
+        return self._done + sum(int(e[0]) for e in self._sched)
 
     def at_rest(self) -> bool:
         """No step asked for and every queued one out: by the schedule and by lg, whose
@@ -311,7 +318,13 @@ class StepDirMotor:
 
 
 class StepCountSensor:
-    """The step count as the axis angle: ``reference_deg + steps / steps_per_deg``.
+    """The step count as the axis angle: ``reference_deg + steps / steps_per_deg``, the
+    steps queued counted in (:meth:`StepDirMotor.committed_steps`): they go out whatever
+    the next drive is, so that is where the axis is going. Counted as emitted, the law
+    saw its drive two ticks late and a stop at a target ran the queue on past the
+    tolerance (0.06 deg from the slowest speed on satnogs-v3, the tolerance 0.05). At
+    rest the two are the same; a reference set while moving (homing on the endstop) is
+    the emitted count's, where the switch was met.
 
     ``check`` (optional): an absolute sensor on the axis (an AS5600, reading modulo
     360) compared with the count on every read: once the two differ by more than
@@ -336,7 +349,7 @@ class StepCountSensor:
         return self.motor.steps()
 
     def read_deg(self) -> float:
-        deg = self.reference_deg + self.motor.steps() / self.motor.steps_per_deg
+        deg = self.reference_deg + self.motor.committed_steps() / self.motor.steps_per_deg
         if self.check is not None and self.motor.at_rest():
             self._compare(deg)            # (at rest: an I2C read's age is no error then)
         return deg

@@ -68,35 +68,13 @@ if the bench on a Pi shows bursts.
 from __future__ import annotations
 
 import logging
-from typing import Any, Callable
+from typing import Any
 
-from ..drivers.stepdir_chips import (LG_MIN_PERIOD_US, LG_TX_BUF, MAX_LIBRARY_TIMED_HZ, STEPDIR_CHIPS,  # noqa: F401
-                                     StepDirChip, pulse_times_us)
+from ..drivers.stepdir_chips import (LG_BAD_PWM_MICROS, LG_ERROR_TEXT, LG_GPIO_NOT_AN_OUTPUT,  # noqa: F401
+                                     LG_MIN_PERIOD_US, LG_TX_BUF, LG_TX_QUEUE_FULL, MAX_LIBRARY_TIMED_HZ,
+                                     STEPDIR_CHIPS, StepDirChip, lg_error_code, pulse_times_us)
 
 log = logging.getLogger(__name__)
-
-# lg's statuses the step train can meet (joan2937/lg bcccd78, lgpio.h:2960, :2970, :2988)
-LG_TX_QUEUE_FULL = -96
-LG_BAD_PWM_MICROS = -86    # a period of lgMinTxDelay or less, or a cut (0, 0) with no train running
-LG_GPIO_NOT_AN_OUTPUT = -104
-#: lgpio's ``error_text`` for each (lgpio 0.2.2.0; tests compare them with the library's)
-LG_ERROR_TEXT = {LG_TX_QUEUE_FULL: "TX queue full", LG_BAD_PWM_MICROS: "bad PWM micros",
-                 LG_GPIO_NOT_AN_OUTPUT: "GPIO not set as an output"}
-
-
-def lg_error_code(exc: BaseException, error_text: Callable[[int], str] | None = None) -> int:
-    """lg's status back from an ``lgpio.error``. lgpio's Python raises
-    ``error(error_text(status))`` (``_u2i``): the exception carries the text only
-    (``.value``), no code. The text is matched with ``error_text(code)`` (lgpio's own,
-    else :data:`LG_ERROR_TEXT`) for the codes above; -1 for any other."""
-    text = getattr(exc, "value", None)
-    if text is None and exc.args:
-        text = exc.args[0]
-    for code, known in LG_ERROR_TEXT.items():
-        if text == (error_text(code) if error_text is not None else known):
-            return code
-    return -1
-
 
 class LgpioStepPulses:
     """The STEP pin as lgpio's pulse queue (on a Pi; the emulation has its own,

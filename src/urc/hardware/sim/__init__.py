@@ -26,6 +26,10 @@ iron's history appended as JSON lines (:mod:`.truthlog`), for benchmarks; ``poin
 (a mapping of pointing-model terms in degrees, e.g. ``{"ia_deg": 0.5, "tf_deg": 1.0}``,
 :class:`urc.pointing.model.PointingModel`; default none): where the beam truly points,
 for a simulated power source (``world.pointing_error``); the control never sees it.
+``stepper_driver`` ("a4988", the default, "drv8825", "tmc2208", "tmc2209"): the step/dir
+chip of a profile with steppers (satnogs-v3, :attr:`.params.SimAxisParams.stepper`),
+whose axes the simulator drives as the gpio backend does (:mod:`.stepdrive`): urc's
+step/dir driver, the step count as the sensor, the stepper model moving the axis.
 """
 
 from __future__ import annotations
@@ -50,7 +54,8 @@ log = logging.getLogger(__name__)
 
 _OPTIONS = {"seed", "wind", "truth_file", "start_az_deg", "start_el_deg", "fault_injection",
             "sensor_noise", "truth_interval_s", "truth_wall_interval_s", "heartbeat_file",
-            "motor_enable_timeout_s", "motor_enable_sense", "truth_log", "pointing_error"}
+            "motor_enable_timeout_s", "motor_enable_sense", "truth_log", "pointing_error",
+            "stepper_driver"}
 
 
 def build_sim_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
@@ -60,11 +65,25 @@ def build_sim_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
     if unknown:
         log.warning("simulator: ignoring unknown options %s", ", ".join(sorted(unknown)))
     world, params = make_world(caps, clock, state_dir, options)
+    steppers = _steppers(caps, clock, world, params, options.get("stepper_driver", "a4988"))
+    syncs = [sync for _, _, sync, _ in steppers.values()]
 
     def axis_hw(name: str) -> AxisHardware:
         lo, hi = world.limits[name]
-        return AxisHardware(motor=world.motors[name], sensor=world.sensors[name],
-                            brake=world.brakes[name], limit_min=lo, limit_max=hi)
+        motor, sensor, _, _ = steppers.get(name, (world.motors[name], world.sensors[name], None, None))
+        return AxisHardware(motor=motor, sensor=sensor, brake=world.brakes[name], limit_min=lo, limit_max=hi)
+
+    def poll(now_s: float) -> None:
+        with world.lock:             # (the step count and the axis: one state of the iron)
+            world.advance_to(now_s)
+            for sync in syncs:
+                sync()
+
+    def close() -> None:
+        for motor, _, _, _ in steppers.values():
+            motor.close()            # the train cut and the chip disabled, as the gpio backend's
+        heartbeat.close()
+        world.close()
 
     # the file is for watching a running ``urc run`` from outside; on a virtual clock
     # (tests, benchmarks: thousands of rotators) it would only be one more thread each
@@ -90,13 +109,33 @@ def build_sim_hardware(caps: RotatorCaps, clock: Clock, state_dir: Path,
     # a single-axis rotator: the simulated mechanics keep an elevation joint (standing
     # at its park), but no part of it is wired: nothing drives or reads it
     return Hardware(backend="sim", az=axis_hw("az"), el=axis_hw("el") if caps.has_el else None,
-                    poll_hook=world.advance_to, truth_hook=truth, heartbeat=heartbeat,
+                    poll_hook=poll if syncs else world.advance_to, truth_hook=truth, heartbeat=heartbeat,
                     motor_enable_timeout_s=world.enable.timeout_s if world.enable is not None else None,
                     enable_sense=sense,
-                    close_hook=lambda: (heartbeat.close(), world.close()),
+                    close_hook=close,
+                    # (the simulated chips: "az stepper", as the gpio emulation names them)
+                    parts=[(f"{name} stepper", chip) for name, (_, _, _, chip) in steppers.items()],
                     # what a motor driver's over-current trip would be set to: well above
                     # running current, below the stall current a jam draws
                     world=world, overcurrent_a={n: 0.8 * params.axis(n).stall_current_a for n in ("az", "el")})
+
+
+def _steppers(caps: RotatorCaps, clock: Clock, world: SimWorld, params: SimRotatorParams,
+              driver: Any) -> dict[str, tuple[Any, Any, Any, Any]]:
+    """axis -> (motor, sensor, sync, chip) for each wired axis whose physics is a stepper."""
+    from ..drivers.stepdir_chips import STEPDIR_CHIPS
+    names = [n for n in ("az", "el") if (n == "az" or caps.has_el) and params.axis(n).stepper is not None]
+    if not names:
+        return {}
+    if driver not in STEPDIR_CHIPS:
+        raise ConfigError(f"simulator options: unknown stepper_driver {driver!r}", key="hardware.options",
+                          expected=" | ".join(sorted(STEPDIR_CHIPS)), found=driver)
+    from .stepdrive import build_sim_stepper
+    out = {}
+    for name in names:
+        motor, sensor, chip, sync = build_sim_stepper(name, caps, world, clock, driver)
+        out[name] = (motor, sensor, sync, chip)
+    return out
 
 
 def make_world(caps: RotatorCaps, clock: Clock, state_dir: Path,

@@ -23,6 +23,7 @@ from typing import Literal
 from ...caps import AxisCaps, RotatorCaps
 from ...errors import ConfigError
 from ...profiles import PROFILES
+from .stepper import StepperParams, satnogs_v3_stepper
 
 DEG2RAD = math.pi / 180.0
 #: default wind torque (mean, gust 1-sigma) as a share of the antenna bearing's static
@@ -104,6 +105,10 @@ class SimAxisParams:
     wind_gust_nm: float = 0.0
     wind_tau_s: float = 2.0
     sensor: SimSensorParams = SimSensorParams()
+    #: a stepper axis (:mod:`.stepper`): the simulator drives it through its step/dir
+    #: stage (:mod:`.stepdrive`), the step count its sensor; the DC fields above are
+    #: then only its unpowered stand-in, moved to where the steps put it
+    stepper: StepperParams | None = None
 
     @property
     def static_nm(self) -> float:
@@ -293,12 +298,13 @@ def _build(caps: RotatorCaps) -> tuple[SimAxisParams, SimAxisParams]:
                          backlash_deg=0.5, sensor=_pot(el, "linear", 0.3, False),
                          hard=(-2.0, 182.0), noload_current_a=0.5, stall_current_a=2.5))
     if name == "satnogs-v3":
-        # The plain simulator's stand-in: the generic DC axis (its steppers are modelled
-        # by sim/stepper.py under the gpio backend's emulation, which moves this axis).
-        # The homing endstop 2 deg below 0 (LimitSwitchHoming's default), only at the low
-        # end as on the rotator; hard stops 5 deg outside the range.
-        return tuple(dataclasses.replace(_generic_axis(a), switch_max_deg=None)  # type: ignore[return-value]
-                     for a in (az, el))
+        # NEMA17 steppers at 1/8 microstep through the 54:1 worms (sim/stepper.py), which
+        # move the generic DC axis standing in for them (the sim's and the gpio
+        # emulation's step/dir stage, sim/stepdrive.py). The homing endstop 2 deg below 0
+        # (LimitSwitchHoming's default), only at the low end as on the rotator; hard stops
+        # 5 deg outside the range.
+        return tuple(dataclasses.replace(_generic_axis(a), switch_max_deg=None,  # type: ignore[return-value]
+                                         stepper=satnogs_v3_stepper(8)) for a in (az, el))
     # Generic machine for caps variants nobody described: DC for pwm, AC for relay.
     return tuple(_generic_axis(a) for a in (az, el))  # type: ignore[return-value]
 

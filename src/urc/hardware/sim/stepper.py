@@ -83,11 +83,15 @@ class StepperAxis:
     (what the pulse train put out between two looks): its rate is n / duration, its
     acceleration the change from the previous stretch's rate. While the driver is
     disabled or unpowered no step moves the rotor (and the rotor holds nothing: with
-    the worm self-locking, the axis stays)."""
+    the worm self-locking, the axis stays). Nor while the axis is ``jammed``, nor past
+    its hard stops ``stops_deg`` (either None: none that side): a stalled rotor slips."""
 
-    def __init__(self, p: StepperParams, start_deg: float):
+    def __init__(self, p: StepperParams, start_deg: float,
+                 stops_deg: tuple[float | None, float | None] = (None, None)):
         self.p = p
         self.angle_deg = float(start_deg)
+        self.stops_deg = stops_deg
+        self.jammed = False
         self.steps_taken = 0      # signed: steps that moved the rotor
         self.steps_lost = 0       # unsigned: steps received that did not
         self._rate = 0.0          # steps/s of the previous stretch, signed
@@ -139,7 +143,11 @@ class StepperAxis:
         margin = self.p.margin(rate, accel)
         self.worst_margin = min(self.worst_margin, margin)
         self._rate, self._t_s = rate, t_s
-        kept = n if margin > 1.0 else 0
+        kept = n if margin > 1.0 and not self.jammed else 0
+        stop = self.stops_deg[1 if direction > 0 else 0]
+        if stop is not None and kept:
+            room_deg = max(0.0, (stop - self.angle_deg) * direction)
+            kept = min(kept, math.floor(room_deg * self.p.steps_per_deg + 1e-9))
         if self._force_lose and kept:
             lost = min(self._force_lose, kept)
             self._force_lose -= lost
