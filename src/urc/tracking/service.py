@@ -311,6 +311,7 @@ class TrackingService:
         """Follow the target ``spec`` names; the tracking status."""
         if self.tracker is None:
             self._require_station()
+        assert self.tracker is not None  # (made with the station)
         self._stop_reader()
         if spec.get("kind") == "satellite":  # (looked for through the whole catalog: on the worker)
             es = await self._on_worker(self._lookup, self._satellite_key(spec))
@@ -324,6 +325,7 @@ class TrackingService:
         """:meth:`track` from a caller off the event loop (or an in-process rotator)."""
         if self.tracker is None:
             self._require_station()
+        assert self.tracker is not None  # (made with the station)
         self._stop_reader()
         self.tracker.track(self.make_target(spec), self.rot.clock.now_s())
         return self.status() or {}
