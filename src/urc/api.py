@@ -10,6 +10,7 @@ service, which validates it; a refusal is HTTP 409 with the reason. The web dash
 from __future__ import annotations
 
 import asyncio
+import inspect
 import os
 from pathlib import Path
 from typing import Any
@@ -22,7 +23,6 @@ from pydantic import BaseModel
 from . import __version__
 from .config import Config
 from .errors import CalibrationError, CommandRejected, UrcError
-from .ipc import bridge
 from .ipc.messages import ClearFaults, Goto, GotoAz, HardwareInfo, Move, Park, SetPosition, Stop
 from .service.effects import call
 from .service.remote import StopQueued
@@ -134,19 +134,15 @@ def create_api(rotator: Rotator, cfg: Config, *, config_path: str | os.PathLike 
             accepted = Accepted(queued=True, note=str(exc))
         await hub.release(axis)
         if axis is None:
-            # (a calibration procedure and the tracker are synchronous code that may wait
-            # for the control process: they still run bridged)
-            await bridge.run(_stop_procedure_and_tracking)
+            await hub.cancel_procedure()  # (its step runs off the loop: urc.web.live)
+            trk_stop = getattr(tracker, "stop", None)
+            if trk_stop is not None:
+                out = trk_stop()  # (a TrackingService's stop is a coroutine)
+                if inspect.isawaitable(out):
+                    await out
         if axis is None and tracker is not None:
             await hub.refresh_tracking()
         return accepted
-
-    def _stop_procedure_and_tracking() -> None:
-        if hub.procedure is not None:
-            hub.procedure.cancel()
-        trk_stop = getattr(tracker, "stop", None)
-        if trk_stop is not None:
-            trk_stop()
 
     @ctl.post("/api/move")
     async def move(req: MoveRequest) -> Ok:

@@ -302,7 +302,7 @@ class _TrackingOff:
     def start(self) -> None:
         pass
 
-    def step(self, now_s: float) -> None:
+    async def step(self, now_s: float) -> None:
         pass
 
     def close(self) -> None:
@@ -341,13 +341,12 @@ async def _ping_control(control, stop: asyncio.Event) -> None:
 
 
 async def _step_tracker(tracking, clock: Clock, stop: asyncio.Event) -> None:
-    """The tracker runs on the event loop, not the control thread: its propagation and
-    planning never delay a tick, and it shares a thread with the API's track commands."""
-    from .ipc import bridge
-
+    """The tracker runs in this process, not the control process: its propagation and
+    planning never delay a tick. Each step runs on the tracker's own thread, where the
+    API's track commands run too (urc.tracking.service), and is awaited here."""
     while not stop.is_set():
         try:
-            await bridge.run(tracking.step, clock.now_s())  # (its setpoints never block the loop)
+            await tracking.step(clock.now_s())  # (its setpoints never block the loop)
         except Exception:  # the tracker must never take the controller down
             log.exception("tracker step failed")
         try:

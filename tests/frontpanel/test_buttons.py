@@ -244,8 +244,8 @@ def test_tracking_gives_way_to_the_panel_and_resumes_on_release(panel_rig, tmp_p
     cfg = Config.from_dict({"station": {"lat_deg": 58.378, "lon_deg": 26.729, "alt_m": 70},
                             "tracking": {"catalog_dir": str(tmp_path / "cat")}})
     svc = TrackingService(rig.rot, cfg, unix_at=lambda now_s: 1.7e9 + now_s)
-    svc.track({"kind": "azel", "az_deg": 200.0, "el_deg": 30.0})
-    step = lambda s: svc.step(s.t_s)  # noqa: E731
+    svc.track_sync({"kind": "azel", "az_deg": 200.0, "el_deg": 30.0})
+    step = lambda s: svc.step_sync(s.t_s)  # noqa: E731
     st = rig.run(60.0, on_tick=step, until=lambda s: abs(s.az.pos_deg - 200.0) < 0.5 and not s.moving)
     assert abs(st.az.pos_deg - 200.0) < 0.5
     rig.press("ccw")

@@ -2,7 +2,7 @@
 catalog read again after `urc tle import` of 100 000 sets, and a pass planned from the
 web page, held urc run's loop until the control process stopped the axes for its
 silence). A real TrackingService inside a running asyncio loop, driven as urc run drives
-it (bridged calls, its step on the loop); every catalog read, pass search and plan is
+it (its commands and steps awaited on the loop); every catalog read, pass search and plan is
 recorded with the thread that ran it. Judged by threads, not by durations."""
 
 from __future__ import annotations
@@ -15,7 +15,6 @@ import pytest
 
 from conftest import Bench
 from urc.config import Config
-from urc.ipc import bridge
 from urc.tracking import passes as passes_module
 from urc.tracking import service as service_module
 from urc.tracking import tracker as tracker_module
@@ -76,7 +75,7 @@ def test_catalog_reads_and_pass_plans_never_run_on_the_loop_thread(tmp_path, rec
     now = [b.clock.now_s()]
 
     async def step() -> None:  # as urc run steps the tracker
-        await bridge.run(svc.step, now[0])
+        await svc.step(now[0])
 
     def replace_catalog(days_later: float) -> None:  # what `urc tle import` does
         (tmp_path / "iss.tle").write_text(newer_iss_tle(days_later))
@@ -89,13 +88,13 @@ def test_catalog_reads_and_pass_plans_never_run_on_the_loop_thread(tmp_path, rec
         await stepping_until(step, lambda: svc.tracker.job is not None, "the scheduled pass planned")
         # `urc track ISS` just after an import: read again, looked up, its next pass planned
         replace_catalog(0.1)
-        await bridge.run(svc.track, {"kind": "satellite", "name": "iss"})
+        await svc.track({"kind": "satellite", "name": "iss"})
         await stepping_until(step, lambda: svc.tracker.job is not None, "the next pass of ISS planned")
         # the web page's "track this pass" just after another import
         replace_catalog(0.2)
         iss_pass = find_passes(load_elements(tmp_path / "iss.tle"), TARTU, T0_UNIX_S, duration_s=86400.0,
                                min_el_deg=0.0)[0]
-        await bridge.run(svc.track_pass, 25544, iss_pass.aos_unix_s)
+        await svc.track_pass(25544, iss_pass.aos_unix_s)
         # an import while the tracker runs: the step notices it, the worker reads it
         replace_catalog(0.3)
         reads = len(recorded["catalog read"])

@@ -68,12 +68,12 @@ def test_balloon_over_tcp_is_followed(bench, tmp_path):
             await asyncio.sleep(5)
         server = await asyncio.start_server(balloon, "127.0.0.1", 0)
         port = server.sockets[0].getsockname()[1]
-        svc.track({"kind": "nmea", "source": f"tcp:127.0.0.1:{port}"})
+        await svc.track({"kind": "nmea", "source": f"tcp:127.0.0.1:{port}"})
         await wait_for(lambda: svc.tracker.target is not None and _has_position(svc))
-        svc.step(b.clock.now_s())
+        await svc.step(b.clock.now_s())
         b.run(0.1)
         st = svc.status()
-        svc.stop()
+        await svc.stop()
         server.close()
         return st
     st = asyncio.run(scenario())

@@ -11,7 +11,6 @@ import threading
 
 from conftest import Bench
 from urc.config import Config
-from urc.ipc import bridge
 from urc.tracking import service as service_module
 from urc.tracking import tracker as tracker_module
 from urc.tracking.elements import Catalog, load_elements
@@ -58,9 +57,9 @@ def test_track_pass_plans_on_the_worker_while_the_loop_serves(tmp_path, monkeypa
 
     async def main() -> list[str]:
         order: list[str] = []
-        flying = asyncio.create_task(bridge.run(svc.track_pass, 25544, p.aos_unix_s))
+        flying = asyncio.create_task(svc.track_pass(25544, p.aos_unix_s))
         await asyncio.sleep(0)  # the route's call has started and is planning
-        st = await bridge.run(svc.status)  # another client's request
+        st = svc.status()  # another client's request
         order.append("other request served" if st is None else "tracking already")
         served.set()
         await flying
@@ -86,9 +85,9 @@ def test_a_stop_while_a_pass_is_planned_wins(tmp_path, monkeypatch):
     monkeypatch.setattr(service_module, "find_passes", slow_search)
 
     async def main() -> str:
-        flying = asyncio.create_task(bridge.run(svc.track_pass, 25544, p.aos_unix_s))
+        flying = asyncio.create_task(svc.track_pass(25544, p.aos_unix_s))
         await asyncio.sleep(0)
-        await bridge.run(svc.stop)
+        await svc.stop()
         stopped.set()
         try:
             await flying
@@ -111,9 +110,9 @@ def test_a_scheduled_pass_is_planned_on_the_worker(tmp_path, monkeypatch):
         planned_on.append(threading.current_thread().name)
         return real(self, *args, **kw)
     monkeypatch.setattr(tracker_module.Tracker, "_plan", recording)
-    svc.step(b.clock.now_s())  # the first scheduled pass starts: its plan is asked for
+    svc.step_sync(b.clock.now_s())  # the first scheduled pass starts: its plan is asked for
     assert svc.tracker.target is not None and svc.tracker.target.elements.norad_id == 25544
-    wait_until(lambda: (svc.step(b.clock.now_s()), svc.tracker.job is not None)[1], timeout_s=60.0,
+    wait_until(lambda: (svc.step_sync(b.clock.now_s()), svc.tracker.job is not None)[1], timeout_s=60.0,
                what="the scheduled pass planned")
     assert planned_on and threading.current_thread().name not in planned_on, planned_on
     assert svc.status()["plan"]["max_el_deg"] > 0

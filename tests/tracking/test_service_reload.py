@@ -48,20 +48,20 @@ def test_a_satellite_imported_while_running_can_be_tracked(tmp_path):
     new = tmp_path / "iss.tle"
     new.write_text(newer_iss_tle(0.1))
     import_file(new, cat_dir)  # what `urc tle import` does
-    svc.track({"kind": "satellite", "name": "ISS"})
+    svc.track_sync({"kind": "satellite", "name": "ISS"})
     assert svc.tracker.target.elements.norad_id == 25544
     svc.close()
 
 
 def test_newer_elements_are_used_from_the_next_pass_and_said_so(tmp_path):
     b, svc, cat_dir = service(tmp_path)
-    svc.track({"kind": "satellite", "name": "ISS"})
+    svc.track_sync({"kind": "satellite", "name": "ISS"})
     old_epoch = svc.tracker.target.elements.epoch
     first_pass = svc.tracker.job.pass_
     new = tmp_path / "iss.tle"
     new.write_text(newer_iss_tle(0.25))
     import_file(new, cat_dir)
-    b.run(CATALOG_CHECK_S + 1.0, on_tick=lambda s: svc.step(s.t_s))
+    b.run(CATALOG_CHECK_S + 1.0, on_tick=lambda s: svc.step_sync(s.t_s))
     events = " ".join(b.rot.status().events)
     assert "element catalog changed on disk" in events and "from its next pass" in events
     # the pass being flown keeps its plan and elements ...
@@ -83,8 +83,8 @@ def test_passes_are_searched_and_planned_off_the_calling_thread(tmp_path, monkey
         searched_on.append(threading.current_thread().name)
         return real(*args, **kw)
     monkeypatch.setattr(tracker_module, "find_passes", recording)
-    svc.track({"kind": "satellite", "name": "ISS"})
-    wait_until(lambda: (svc.step(b.clock.now_s()), svc.tracker.job is not None)[1], timeout_s=60.0,
+    svc.track_sync({"kind": "satellite", "name": "ISS"})
+    wait_until(lambda: (svc.step_sync(b.clock.now_s()), svc.tracker.job is not None)[1], timeout_s=60.0,
                what="the next pass planned")
     assert searched_on and threading.current_thread().name not in searched_on
     assert svc.status()["plan"]["max_el_deg"] > 0
@@ -94,9 +94,9 @@ def test_passes_are_searched_and_planned_off_the_calling_thread(tmp_path, monkey
 def test_a_stale_background_search_is_dropped(tmp_path):
     """Asked for the Sun while ISS was still being planned: the ISS plan never lands."""
     b, svc, _ = service(tmp_path, background=True)
-    svc.track({"kind": "satellite", "name": "ISS"})
-    svc.track({"kind": "sun"})
-    wait_until(lambda: (svc.step(b.clock.now_s()), not svc.tracker.planning)[1], timeout_s=60.0,
+    svc.track_sync({"kind": "satellite", "name": "ISS"})
+    svc.track_sync({"kind": "sun"})
+    wait_until(lambda: (svc.step_sync(b.clock.now_s()), not svc.tracker.planning)[1], timeout_s=60.0,
                what="the search finished")
     assert svc.tracker.job is None and svc.tracker.target.name.lower().startswith("sun")
     svc.close()

@@ -18,7 +18,6 @@ from typing import Annotated, Any, Literal, Union
 from pydantic import BaseModel, ConfigDict, Field, TypeAdapter, ValidationError
 
 from ..errors import CommandRejected, UrcError
-from ..ipc import bridge
 from ..ipc import messages as msg
 from ..service.effects import call
 from ..protocols.base import RateLimitedLog
@@ -150,8 +149,8 @@ def parse_command(payload: bytes) -> Goto | Stop | Park | ClearFaults | Track | 
 class CommandHandler:
     """Runs commands as the HTTP API runs them (``urc.api``), on the same rotator,
     tracker and dashboard hub. Rotator calls await the control process (only this
-    command waits, never the event loop). Tracker commands run on the loop's thread,
-    where the tracker is stepped, bridged as the API runs them."""
+    command waits, never the event loop). Tracker commands are awaited as the API
+    awaits them."""
 
     def __init__(self, rotator: Any, tracker: Any = None, hub: Any = None):
         self.rotator = rotator
@@ -206,8 +205,8 @@ class CommandHandler:
         """Like POST /api/stop: without an axis, tracking, a calibration and every jog too."""
         hub = self.hub
         if axis is None:
-            if hub is not None and hub.procedure is not None:
-                await bridge.run(hub.procedure.cancel)
+            if hub is not None:
+                await hub.cancel_procedure()
             if self.tracker is not None:
                 await self._tracker_call("stop")
         if hub is not None:
@@ -217,8 +216,8 @@ class CommandHandler:
     async def _tracker_call(self, name: str, *args: Any) -> None:
         if self.tracker is None:
             raise CommandRejected("tracking is off: no [station] configured", "tracking")
-        # (bridged: a tracker command may wait for the control process, never on the loop)
-        out = await bridge.run(getattr(self.tracker, name), *args)
+        # (a TrackingService's commands are coroutines: they wait off the loop)
+        out = getattr(self.tracker, name)(*args)
         if inspect.isawaitable(out):
             await out
         if self.hub is not None:

@@ -18,9 +18,9 @@ This module is the I/O side of the wire between the two, over one Unix socket
 * every command is one typed request, answered with its result or its exception (its
   own class, so each protocol still answers in its own error form). It never blocks the
   event loop: web routes and protocol sessions await :meth:`RemoteRotator.call`
-  (:mod:`urc.service.effects`), which suspends the caller only; synchronous code on the
-  loop that still calls the port (the tracker, calibration procedures) runs in a bridged
-  greenlet (:mod:`urc.ipc.bridge`) that suspends the same way;
+  (:mod:`urc.service.effects`), which suspends the caller only; synchronous code that
+  calls the port (the tracker, calibration procedures) runs on a thread of its own,
+  where :meth:`RemoteRotator.request` blocks that thread only;
 * the hardware stays over there: what a protocol or route needs of it (a sensor's count
   or constants, a calibration step) is one typed query (:class:`urc.ipc.messages.Query`,
   :meth:`RemoteRotator.ask`, answered by :mod:`.queries`), one round trip each; only data
@@ -146,7 +146,7 @@ def exception_from_wire(wire: tuple) -> BaseException:
 
 # ------------------------------------------------------------------ the I/O side
 def on_event_loop() -> bool:
-    """Is the caller on a thread running an event loop (in a bridged greenlet too)?"""
+    """Is the caller on a thread running an event loop?"""
     import asyncio  # (lazy, as in call: the control process never loads asyncio)
 
     try:
@@ -193,8 +193,7 @@ def _settle(fut: asyncio.Future, reply: Reply) -> None:
 class ControlLink:
     """The I/O process's end of the socket: a reader thread takes statuses and replies.
     A request waits for its reply without blocking anyone: awaited (:meth:`call_async`)
-    or from a bridged greenlet on the event loop it suspends its caller only; from
-    another thread it waits on an event. Either way bounded by ``timeout_s``."""
+    it suspends its caller only; from another thread it waits on an event. Either way bounded by ``timeout_s``."""
 
     def __init__(self, conn: Connection, on_lost: Callable[[str], None] | None = None,
                  record: StatusRecord | None = None):
@@ -232,16 +231,6 @@ class ControlLink:
         """Run ``request`` in the control process; its value, or the exception raised there. A stop is always
         applied, however late it arrives; anything else that is not answered within
         ``timeout_s`` is refused over there too (it carries that deadline)."""
-        # (lazy: only the I/O process calls, and has both loaded; the control process
-        # imports this module for its wire format and never loads asyncio or greenlet)
-        import asyncio
-
-        from ..ipc import bridge
-
-        if bridge.in_bridge():
-            pending = self._submit(request, timeout_s, asyncio.get_running_loop())
-            assert pending.future is not None
-            return self._outcome(pending.request, bridge.wait(pending.future))
         if on_event_loop():
             self._complain(request)
         pending = self._submit(request, timeout_s, None)
@@ -261,7 +250,7 @@ class ControlLink:
         return self._outcome(request, await pending.future)
 
     def _complain(self, request: Request) -> None:
-        """A round trip from the event loop thread, neither awaited nor bridged, blocks
+        """A round trip from the event loop thread, not awaited, blocks
         every client: a bug in urc (await RemoteRotator.call), loud in tests."""
         name = type(request).__name__
         if os.environ.get(STRICT_ENV):
@@ -488,9 +477,9 @@ class RemoteRotator:
         return value
 
     def request(self, request: Request) -> Any:
-        """Run ``request`` in the control process, waiting for its answer: from a thread,
-        or from code the event loop runs in a bridged greenlet (the tracker); event-loop
-        code awaits :meth:`call` instead. What the hardware is needs no round trip."""
+        """Run ``request`` in the control process, waiting for its answer: from a thread
+        (the tracker's, a calibration procedure's); event-loop code awaits :meth:`call`
+        instead. What the hardware is needs no round trip."""
         if isinstance(request, HardwareInfo):
             return self.hardware
         timeout_s = self._timeout_s(request)

@@ -10,7 +10,6 @@ from pathlib import Path
 from typing import Any, Callable
 
 from ..config import Config
-from ..ipc import bridge
 from ..service.remote import on_event_loop
 from .catalog_process import read_catalog
 from .elements import Catalog, ElementSet
@@ -38,7 +37,17 @@ def realtime_unix_at(now_s: float) -> float:
 
 
 class TrackingService:
-    """What the API and the loop talk to; None of it runs without a configured station."""
+    """What the API and the loop talk to; None of it runs without a configured station.
+
+    The tracker is synchronous code that calls the rotator port. In ``urc run``
+    (``background``) it runs on a thread of its own, where a port call waits for the
+    control process blocking that thread only, never the event loop: the awaitable
+    :meth:`step`, :meth:`track`, :meth:`track_pass` and :meth:`stop` hand their tracker
+    work to it, one at a time (a command never lands in the middle of a step). What
+    costs seconds (a catalog read, a pass search and plan) runs on the worker as before,
+    the caller awaiting it. Without ``background`` (tests, an in-process rotator) all of
+    it runs on the caller's thread; ``*_sync`` are the same commands for a caller off
+    the event loop."""
 
     def __init__(self, rotator, cfg: Config, unix_at: Callable[[float], float] = realtime_unix_at,
                  catalog_dir: Path | None = None, background: bool = False):
@@ -50,6 +59,8 @@ class TrackingService:
         self.unix_at = unix_at
         self.catalog_dir = catalog_dir or cfg.tracking.resolve_catalog_dir()
         self._executor: Any = None
+        #: the tracker's own thread (``background``): its steps and commands, in turn
+        self._stepper: Any = None
         #: held while the catalog is read and installed: one reader at a time, whichever
         #: thread asked (the worker, a pass search's thread, the schedule's)
         self._catalog_lock = threading.RLock()
@@ -57,6 +68,7 @@ class TrackingService:
             from concurrent.futures import ThreadPoolExecutor
 
             self._executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="urc-tracking")
+            self._stepper = ThreadPoolExecutor(max_workers=1, thread_name_prefix="urc-tracker")
         st = cfg.station
         self.station: Station | None = None
         self.tracker: Tracker | None = None
@@ -101,8 +113,9 @@ class TrackingService:
 
     def close(self) -> None:
         stop_pass_process()
-        if self._executor is not None:
-            self._executor.shutdown(wait=False, cancel_futures=True)
+        for executor in (self._executor, self._stepper):
+            if executor is not None:
+                executor.shutdown(wait=False, cancel_futures=True)
         for task in self._tasks + ([self._target_reader] if self._target_reader else []):
             task.cancel()
 
@@ -133,8 +146,8 @@ class TrackingService:
 
     def catalog(self, reload: bool = False) -> Catalog:
         """The element catalog, read again when the file changed since it was read: on
-        the worker, never on the event loop's thread (a bridged caller is suspended
-        meanwhile; 100 000 sets are seconds of CPU, and the loop's silence stops the axes)."""
+        the worker when asked on the event loop's thread (100 000 sets are seconds of
+        CPU, and the loop's silence stops the axes)."""
         if self._catalog is not None and not reload and self._catalog_signature() == self._catalog_sig:
             return self._catalog
         return self._off_loop(self._load_catalog, reload)
@@ -256,6 +269,21 @@ class TrackingService:
 
     # ---------------------------------------------------------------- commands
     def make_target(self, spec: dict[str, Any]) -> Target:
+        """The target ``spec`` names (a satellite's elements looked up here: off the
+        event loop, or :meth:`track` looks them up on the worker first)."""
+        if spec.get("kind") == "satellite":
+            station = self._require_station()
+            return SatelliteTarget(self._lookup(self._satellite_key(spec)), station)
+        return self._plain_target(spec)
+
+    @staticmethod
+    def _satellite_key(spec: dict[str, Any]) -> str | int:
+        key = spec.get("norad") if spec.get("norad") is not None else spec.get("name")
+        if key is None:
+            raise TrackingError("a satellite needs a name or a NORAD id")
+        return key
+
+    def _plain_target(self, spec: dict[str, Any]) -> Target:
         station = self._require_station()
         kind = spec.get("kind")
         if kind == "sun":
@@ -273,46 +301,71 @@ class TrackingService:
                 raise TrackingError("an NMEA target needs a source: a device path or tcp:HOST:PORT")
             target = NmeaTarget(station)
             target.name = f"NMEA {source}"
+            # (on the event loop's thread: :meth:`track` makes it there)
             self._target_reader = asyncio.get_running_loop().create_task(
                 read_nmea(source, target.feed), name="nmea-target")
             return target
-        if kind == "satellite":
-            key = spec.get("norad") if spec.get("norad") is not None else spec.get("name")
-            if key is None:
-                raise TrackingError("a satellite needs a name or a NORAD id")
-            # (a name is looked for through the whole catalog: on the worker too)
-            return SatelliteTarget(self._off_loop(self._lookup, key), station)
         raise TrackingError(f"unknown target kind {kind!r}; expected sun, moon, azel, point or satellite")
 
-    def track(self, spec: dict[str, Any]) -> dict[str, Any]:
+    async def track(self, spec: dict[str, Any]) -> dict[str, Any]:
+        """Follow the target ``spec`` names; the tracking status."""
         if self.tracker is None:
             self._require_station()
+        assert self.tracker is not None  # (made with the station)
         self._stop_reader()
-        target = self.make_target(spec)
-        self.tracker.track(target, self.rot.clock.now_s())
-        return self._status_off_loop()
+        if spec.get("kind") == "satellite":  # (looked for through the whole catalog: on the worker)
+            es = await self._on_worker(self._lookup, self._satellite_key(spec))
+            target: Target = SatelliteTarget(es, self._require_station())
+        else:
+            target = self._plain_target(spec)
+        await self._on_tracker(self.tracker.track, target, self.rot.clock.now_s())
+        return await self._status_async()
 
-    def track_pass(self, norad: int, aos: Any) -> dict[str, Any]:
-        """Fly the pass of ``norad`` whose AOS is near ``aos`` (datetime or UTC seconds)."""
+    def track_sync(self, spec: dict[str, Any]) -> dict[str, Any]:
+        """:meth:`track` from a caller off the event loop (or an in-process rotator)."""
+        if self.tracker is None:
+            self._require_station()
+        assert self.tracker is not None  # (made with the station)
+        self._stop_reader()
+        self.tracker.track(self.make_target(spec), self.rot.clock.now_s())
+        return self.status() or {}
+
+    async def track_pass(self, norad: int, aos: Any) -> dict[str, Any]:
+        """Fly the pass of ``norad`` whose AOS is near ``aos`` (datetime or UTC seconds):
+        searched and planned on the worker, the caller awaiting it."""
         station = self._require_station()
         aos_unix_s = aos.timestamp() if hasattr(aos, "timestamp") else float(aos)
-        tracker = self.tracker
-        assert tracker is not None  # (made with the station)
-        generation = tracker.generation
-        job = self._off_loop(self._find_and_plan_pass, norad, station, aos_unix_s, self.rot.clock.now_s())
-        if tracker.generation != generation:  # a stop or another target meanwhile: it wins
+        assert self.tracker is not None  # (made with the station)
+        generation = self.tracker.generation
+        job = await self._on_worker(self._find_and_plan_pass, norad, station, aos_unix_s,
+                                    self.rot.clock.now_s())
+        await self._on_tracker(self._fly_unless_superseded, job, generation)
+        return await self._status_async()
+
+    def track_pass_sync(self, norad: int, aos: Any) -> dict[str, Any]:
+        """:meth:`track_pass` from a caller off the event loop (or an in-process rotator)."""
+        station = self._require_station()
+        aos_unix_s = aos.timestamp() if hasattr(aos, "timestamp") else float(aos)
+        assert self.tracker is not None
+        generation = self.tracker.generation
+        job = self._find_and_plan_pass(norad, station, aos_unix_s, self.rot.clock.now_s())
+        self._fly_unless_superseded(job, generation)
+        return self.status() or {}
+
+    def _fly_unless_superseded(self, job: Any, generation: int) -> None:
+        assert self.tracker is not None
+        if self.tracker.generation != generation:  # a stop or another target meanwhile: it wins
             raise TrackingError(f"the pass of {job.target.name} was not flown: another tracking command "
                                 "came while it was being planned")
-        tracker.fly(job)
-        return self._status_off_loop()
+        self.tracker.fly(job)
 
-    def _status_off_loop(self) -> dict[str, Any]:
-        """The status a command answers with: computed in a thread when asked on the event
-        loop (a ground track is tens of ms of skyfield), not on the tracking worker (it
-        may be planning the next pass for seconds)."""
-        if self._executor is None or not on_event_loop() or not bridge.in_bridge():
+    async def _status_async(self) -> dict[str, Any]:
+        """The status a command answers with: computed in a thread in ``urc run`` (a
+        ground track is tens of ms of skyfield), not on the worker (it may be planning
+        the next pass for seconds) nor the tracker's thread (it steps)."""
+        if self._executor is None:
             return self.status() or {}
-        return bridge.wait(asyncio.get_running_loop().run_in_executor(None, self.status)) or {}
+        return await asyncio.get_running_loop().run_in_executor(None, self.status) or {}
 
     def _lookup(self, key: str | int) -> ElementSet:
         return self.catalog().get(key)
@@ -329,28 +382,42 @@ class TrackingService:
         assert self.tracker is not None
         return self.tracker.plan_pass(es, found[0], now_s)
 
+    async def _on_worker(self, fn: Callable[..., Any], *args: Any) -> Any:
+        """``await``: ``fn(*args)`` on the worker (``urc run``), the caller suspended
+        meanwhile, never the loop: a catalog read, a pass search and plan cost seconds
+        of CPU under load, and the loop's silence stops the axes (issues 21, 33)."""
+        if self._executor is None:
+            return fn(*args)
+        return await asyncio.wrap_future(self._executor.submit(fn, *args))
+
+    async def _on_tracker(self, fn: Callable[..., Any], *args: Any) -> Any:
+        """``await``: ``fn(*args)`` on the tracker's thread (``urc run``): it calls the
+        rotator port, whose round trip to the control process blocks that thread only."""
+        if self._stepper is None:
+            return fn(*args)
+        return await asyncio.wrap_future(self._stepper.submit(fn, *args))
+
     def _off_loop(self, fn: Callable[..., Any], *args: Any) -> Any:
-        """``fn(*args)`` never on the event loop's thread when there is a worker (``urc
-        run``): called there (a web route's or MQTT command's bridged call, the tracker's
-        step), it runs on the worker and the caller is suspended meanwhile, never the loop:
-        a catalog read, a pass search and plan cost seconds of CPU under load, and the
-        loop's silence stops the axes (issues 21, 33). Called on any other thread (the
-        worker itself, a pass search's), it runs there."""
+        """``fn(*args)`` from synchronous code: here, off the event loop (the tracker's
+        thread, the worker, a pass search's); on the loop's thread with a worker it runs
+        there, but the loop waits (a bug: await :meth:`_on_worker`), said in the log."""
         if self._executor is None or not on_event_loop():
             return fn(*args)
-        future = self._executor.submit(fn, *args)
-        if bridge.in_bridge():
-            return bridge.wait(asyncio.wrap_future(future))
-        log.warning("%s called on the event loop outside a bridge: the loop waits for it",
-                    getattr(fn, "__name__", fn))
-        return future.result()
+        log.warning("%s called on the event loop: the loop waits for it", getattr(fn, "__name__", fn))
+        return self._executor.submit(fn, *args).result()
 
     def _stop_reader(self) -> None:
         if self._target_reader is not None:
             self._target_reader.cancel()
             self._target_reader = None
 
-    def stop(self) -> None:
+    async def stop(self) -> None:
+        self._stop_reader()
+        if self.tracker is not None:
+            await self._on_tracker(self.tracker.stop_tracking)
+
+    def stop_sync(self) -> None:
+        """:meth:`stop` from a caller off the event loop (or an in-process rotator)."""
         self._stop_reader()
         if self.tracker is not None:
             self.tracker.stop_tracking()
@@ -373,7 +440,13 @@ class TrackingService:
         return schedule
 
     # ---------------------------------------------------------------- the loop
-    def step(self, now_s: float) -> None:
+    async def step(self, now_s: float) -> None:
+        """One step of the tracker (``urc run``'s loop), on the tracker's thread."""
+        if self.tracker is not None:
+            await self._on_tracker(self.step_sync, now_s)
+
+    def step_sync(self, now_s: float) -> None:
+        """:meth:`step` here: off the event loop (or with an in-process rotator)."""
         if self.tracker is None:
             return
         self._watch_catalog(now_s)
@@ -381,8 +454,8 @@ class TrackingService:
             nxt = self._schedule[0]
             if self.unix_at(now_s) < nxt.los_unix_s:
                 # the catalog as installed (a changed file is read by _watch_catalog, on
-                # the worker; none yet: read there, this bridged step suspended meanwhile);
-                # the plan is made there too
+                # the worker; none yet: read here, off the loop); the plan is made on
+                # the worker too
                 cat = self._catalog if self._catalog is not None else self.catalog()
                 self.tracker.start_pass(cat.get(nxt.norad_id), nxt, now_s)
             self._schedule.pop(0)

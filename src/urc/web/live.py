@@ -24,7 +24,6 @@ from typing import Any
 from starlette.websockets import WebSocket, WebSocketDisconnect, WebSocketState
 
 from ..errors import CommandRejected
-from ..ipc import bridge
 from ..ipc.messages import Move, Stop
 from ..service.effects import call
 from ..tracking.cycle import cycle_state, tracking_now
@@ -69,6 +68,8 @@ class Hub:
         self._waiters: set[asyncio.Future] = set()
         self._task: asyncio.Task | None = None
         self._proc_task: asyncio.Task | None = None
+        #: held while a procedure's step runs on a thread: one step at a time
+        self._proc_lock = asyncio.Lock()
         self._tracking: dict | None = None
         self._tracking_t = -math.inf
         self._tracking_busy = False
@@ -282,6 +283,19 @@ class Hub:
                 log.warning("jog of %s not renewed by the page: stopped", axis)
 
     # ------------------------------------------------------------------ procedures
+    async def procedure_step(self, fn: Any, *args: Any) -> Any:
+        """``await``: one step of a calibration procedure (made, polled, cancelled). A
+        procedure is synchronous code that calls the rotator port: it runs on a worker
+        thread, where a round trip to the control process blocks that thread only, never
+        the event loop; one step at a time, so a cancel never lands inside a poll."""
+        async with self._proc_lock:
+            return await asyncio.to_thread(fn, *args)
+
+    async def cancel_procedure(self) -> None:
+        """Cancel the calibration procedure, if one is there (its own step)."""
+        if self.procedure is not None:
+            await self.procedure_step(self.procedure.cancel)
+
     def start_procedure(self, proc: Any) -> None:
         if self.procedure is not None and not self.procedure.finished:
             raise CommandRejected(f"a {self.procedure.kind} calibration is already running", "busy")
@@ -297,7 +311,5 @@ class Hub:
             status = self.rotator.status()
             if status.t_s != last_t:
                 last_t = status.t_s
-                # (a calibration procedure is synchronous code that may wait for the
-                # control process: it still runs bridged)
-                await bridge.run(proc.poll, status)
+                await self.procedure_step(proc.poll, status)
             await asyncio.sleep(period_s)

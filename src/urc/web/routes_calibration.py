@@ -13,7 +13,6 @@ from typing import Literal
 from fastapi import APIRouter, Depends
 from pydantic import Field
 
-from ..ipc import bridge
 from ..ipc.messages import ControllerHome, DescribeSensors, PotApply, PotUnits, SetPosition
 from ..service.effects import call
 from .context import WebContext
@@ -108,14 +107,15 @@ def router(ctx: WebContext) -> APIRouter:
     async def magnetometer() -> ProcedureState:
         """Start the 12-direction hard-iron calibration (the antenna turns all the way round)."""
         cal = await _calibration()
-        ctx.hub.start_procedure(await bridge.run(cal.MagnetometerCalibration, rot))
+        ctx.hub.start_procedure(await ctx.hub.procedure_step(cal.MagnetometerCalibration, rot))
         return ProcedureState(procedure=ctx.hub.procedure_dict())
 
     @ctl.post("/homing")
     async def homing(req: HomingRequest) -> ProcedureState:
         """Start limit-switch homing of one axis (slow jog onto the lower switch)."""
         cal = await _calibration()
-        ctx.hub.start_procedure(await bridge.run(cal.LimitSwitchHoming, rot, req.axis, req.speed_frac, req.switch_deg))
+        ctx.hub.start_procedure(await ctx.hub.procedure_step(cal.LimitSwitchHoming, rot, req.axis, req.speed_frac,
+                                                                req.switch_deg))
         return ProcedureState(procedure=ctx.hub.procedure_dict())
 
     @ctl.post("/controller-home")
@@ -131,8 +131,7 @@ def router(ctx: WebContext) -> APIRouter:
 
     @ctl.post("/procedure/cancel")
     async def cancel() -> ProcedureState:
-        if ctx.hub.procedure is not None:
-            await bridge.run(ctx.hub.procedure.cancel)
+        await ctx.hub.cancel_procedure()
         return ProcedureState(procedure=ctx.hub.procedure_dict())
 
     r.include_router(ctl)

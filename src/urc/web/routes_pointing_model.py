@@ -13,7 +13,6 @@ from fastapi import APIRouter
 from pydantic import Field
 
 from ..errors import CommandRejected
-from ..ipc import bridge
 from ..pointing import store
 from .context import WebContext
 from .schemas import Strict
@@ -66,7 +65,7 @@ def routes(ctx: WebContext, r: APIRouter, ctl: APIRouter) -> None:
     async def apply_live() -> tuple[bool, str]:
         from .routes_settings import _apply_live  # (reads the stored model again)
 
-        return await bridge.run(_apply_live, ctx, ctx.settings.cfg)
+        return await _apply_live(ctx, ctx.settings.cfg)
 
     @r.get("/pointing-model")
     async def show() -> dict:

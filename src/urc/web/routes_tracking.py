@@ -12,7 +12,8 @@ The tracker contract (duck-typed; methods may be plain or ``async``)::
 ``footprint_km`` in the status is the footprint's ground radius (sub-satellite point to
 the edge where the satellite sets). ``passes`` runs in a worker thread; ``status`` is
 called about once a second from a worker thread too (it is expensive), the commands on
-the event loop's thread.
+the event loop's thread: a command that waits for anything (a catalog read, the control
+process) must be ``async``, as TrackingService's are.
 
 Without a tracker these routes do not exist (404): the page then hides its pass list
 and track buttons.
@@ -30,7 +31,6 @@ from typing import Any, Literal
 from fastapi import APIRouter, Depends, HTTPException, Query, Response
 from pydantic import BaseModel, Field, model_validator
 
-from ..ipc import bridge
 from ..errors import CommandRejected, UrcError
 from .context import WebContext
 from .pass_search import MAX_HOURS, PassSearch
@@ -83,7 +83,7 @@ async def _call(fn: Any, *args: Any, **kw: Any) -> Any:
     else it raises (a plan that does not fit, a bad element set) is a refusal too, not
     a server crash: the page shows the reason."""
     try:
-        out = await bridge.run(fn, *args, **kw)
+        out = fn(*args, **kw)  # (a TrackingService's commands are coroutines)
         return await out if inspect.isawaitable(out) else out
     except (UrcError, HTTPException):
         raise
