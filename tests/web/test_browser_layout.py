@@ -291,6 +291,70 @@ def test_the_position_is_unconfirmed_while_the_sensor_is_unreadable(plain_urc, s
     page.problems.check()
 
 
+# --------------------------------------------------------------- axis names on a phone
+#: every visible "az" or "el" (a whole word: a label, a column head, a readout, the
+#: calibration page's axis cell) laid over more than one line box, i.e. broken inside
+#: the word; and the position readouts that take more than one line
+AXIS_NAMES_BROKEN = """() => {
+  const out = [];
+  const shown = (el) => el.getClientRects().length > 0 && !el.closest(".sr-only, svg");
+  const walker = document.createTreeWalker(document.body, NodeFilter.SHOW_TEXT);
+  for (let n = walker.nextNode(); n; n = walker.nextNode()) {
+    if (!n.parentElement || !shown(n.parentElement)) continue;
+    for (const m of n.nodeValue.matchAll(/\\b(az|el)\\b/g)) {
+      const word = document.createRange();
+      word.setStart(n, m.index);
+      word.setEnd(n, m.index + 2);
+      const lines = new Set([...word.getClientRects()].map((r) => Math.round(r.top))).size;
+      if (lines > 1) out.push(`"${m[0]}" on ${lines} lines in ${n.parentElement.tagName} "${n.nodeValue.trim().slice(0, 40)}"`);
+    }
+  }
+  for (const id of ["now-az", "ro-az", "ro-taz", "ro-maz", "ro-raz", "ro-modeaz"]) {
+    const el = document.getElementById(id);
+    if (!el || !shown(el)) continue;
+    const text = document.createRange();
+    text.selectNodeContents(el);
+    const lines = new Set([...text.getClientRects()].map((r) => Math.round(r.top))).size;
+    if (lines > 1) out.push(`#${id} "${el.textContent}" on ${lines} lines`);
+  }
+  return out;
+}"""
+PHONE_WIDTHS = (360, 375, 390, 414)
+
+
+def test_axis_names_and_azimuth_readouts_never_break_on_a_phone(plain_urc, shared_page, artifacts):
+    """Issue 36.9: "az" wrapped at 390 px. It was the calibration page's sensor table: its
+    cells may break anywhere (a long device path must not widen the page), and the long
+    constants beside it squeezed the axis column until "az" stood as "a" over "z" from 360
+    to 414 px ("el", narrower, fitted). Every view at phone widths, standing and with the
+    azimuth sensor dead (its readouts marked unconfirmed, the fault banner open)."""
+    u = plain_urc
+    page = shared_page(u.url + "/", 390, 844, has_touch=True, is_mobile=True)
+    reset(u)
+    try:
+        for state in ("standing", "az sensor dead"):
+            if state == "az sensor dead":
+                assert u.post("/api/sim/fault", {"axis": "az", "kind": "sensor_dead"}).status_code == 200
+                page.evaluate("() => { location.hash = 'dashboard'; }")
+                expect(page.locator("#now-az")).to_have_attribute("data-confirmed", "false", timeout=5000)
+            for width in PHONE_WIDTHS:
+                page.set_viewport_size({"width": width, "height": 844})
+                for view in VIEWS:
+                    page.click(f'nav a[data-view="{view}"]')
+                    expect(page.locator(f"#view-{view}")).to_be_visible()
+                    if view == "calibration":
+                        expect(page.locator("#cal-sensors tr").first).to_be_attached()
+                    elif view == "settings":
+                        expect(page.locator("#settings-form fieldset").first).to_be_attached()
+                    page.evaluate(TWO_FRAMES)
+                    assert page.evaluate(AXIS_NAMES_BROKEN) == [], f"{view} at {width} px, {state}"
+        page.locator("#cal-sensors").screenshot(path=str(artifacts / "calibration-sensors-phone.png"))
+    finally:
+        u.post("/api/sim/clear", {"axis": "az"})
+        reset(u)
+    page.problems.check()
+
+
 def test_a_position_not_referenced_is_unconfirmed_on_every_axis(tmp_path, open_page):
     u = UrcProcess(tmp_path, profile="tartu-urc")
     u.state_dir.mkdir(parents=True)

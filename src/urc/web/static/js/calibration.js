@@ -27,7 +27,8 @@ export async function loadCalibration() {
     const show = (v) => typeof v === "number" ? Number(v.toPrecision(6))
       : Array.isArray(v) ? `[${v.map((x) => Number(Number(x).toPrecision(4))).join(" ")}]` : v;
     const consts = Object.entries(d.calibration).map(([k, v]) => `${k} = ${show(v)}`).join(", ");
-    table.append(h("tr", {}, h("td", { text: axis }), h("td", { text: `${d.kind}${d.absolute ? " (absolute)" : " (incremental)"}, ${fmt(d.resolution_deg, 3)}°/count` }),
+    // (the axis name heads its row: a th, never broken the way a cell's long words may be)
+    table.append(h("tr", {}, h("th", { scope: "row", text: axis }), h("td", { text: `${d.kind}${d.absolute ? " (absolute)" : " (incremental)"}, ${fmt(d.resolution_deg, 3)}°/count` }),
       h("td", { class: "muted small", text: consts || "no constants" })));
   }
   const withProc = (p) => Object.keys(axes).filter((a) => axes[a].procedures.includes(p));
