@@ -68,9 +68,9 @@ CLIENTS = 8
 OFF_DEG = 5.0                # a client sends P when the antenna is this far off the satellite
 BASE = "urc/soak"
 CATALOG_SETS = 30_000
-CONFIGS = {  # profile, request lead before AOS (the pre-position of a slow rotator), axis rates
-    "tartu-sim": ("tartu-urc", 60.0, (40.0, 40.0)),
-    "g5500-emulate": ("g5500", 110.0, (6.2, 2.7)),
+CONFIGS = {  # profile, request lead before AOS (the pre-position of a slow rotator)
+    "tartu-sim": ("tartu-urc", 60.0),
+    "g5500-emulate": ("g5500", 110.0),
 }
 
 
@@ -209,7 +209,11 @@ def main() -> None:
     ap.add_argument("--json", default=None)
     args = ap.parse_args()
     json_path = args.json or f"bench/results/busy-soak-{args.config}.json"
-    profile, lead_s, rates = CONFIGS[args.config]
+    profile, lead_s = CONFIGS[args.config]
+    from urc.profiles import PROFILES   # (the axes' top rates: a goto's time bound)
+
+    caps = PROFILES[profile]
+    rates = (caps.az.max_rate_deg_per_s, caps.el.max_rate_deg_per_s)
     rng = random.Random(args.seed)
 
     with tempfile.TemporaryDirectory() as tmp:
@@ -272,6 +276,13 @@ def main() -> None:
         unstressed = [fly_unstressed(profile, es, p, work / f"virtual-{k}", own) for k, (_, es, p) in enumerate(picks)]
 
     report(args, run, picks, unstressed, sh.counts, pauses, import_s, json_path)
+
+
+def _count(xs) -> dict:
+    out: dict = {}
+    for x in xs:
+        out[x] = out.get(x, 0) + 1
+    return out
 
 
 def fly_unstressed(profile: str, es, p, state_dir: Path, own: dict) -> float:
@@ -403,7 +414,11 @@ def soak(u, sh: Shared, rng, picks, goto_times, end, lead_s, rates, catalog, rel
                         g["status"] = {k: s.get(k) for k in ("az_deg", "el_deg", "state", "moving", "last_stop")}
         time.sleep(max(0.0, t0 + POLL_S - time.time()))
     for g in gotos:
-        res = next((r for r in mq.json_on(f"{BASE}/cmd/result") if r.get("id") == g["id"]), None)
+        results = mq.json_on(f"{BASE}/cmd/result")
+        # (how it ended, said by urc itself: urc.mqtt.outcomes' second result)
+        end_r = next((r for r in results if r.get("id") == g["id"] and r.get("state") not in (None, "accepted")), None)
+        g["outcome"] = None if end_r is None else {k: end_r.get(k) for k in ("state", "kind", "reason")}
+        res = next((r for r in results if r.get("id") == g["id"]), None)
         if g["ok"] is None:
             g["ok"] = None if res is None else bool(res.get("ok"))
             if res is not None and not res.get("ok"):
@@ -477,6 +492,9 @@ def report(args, run, picks, unstressed, counts, pauses, import_s, json_path) ->
              ("gotos sent / accepted / refused", f"{len(run['gotos'])} / {len(accepted)} / "
                                                  f"{len(result['gotos_refused'])}"),
              ("accepted but not completed (goal 0)", str(len(not_completed))),
+             ("gotos' ends as urc said them", "; ".join(
+                 f"{k} x{v}" for k, v in sorted(_count(g["outcome"]["state"] if g.get("outcome") else "none"
+                                                       for g in accepted).items())) or "none"),
              ("takeovers (goal 0)", str(len(takeovers))),
              ("RPRT answers to p (goal 0)", f"{counts['p_rprt']} of {counts['p_rprt'] + counts['p_answers']}"),
              ("p timeouts / reconnects", f"{counts['p_timeouts']} / {counts['client_reconnects']}"),
