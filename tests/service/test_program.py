@@ -12,7 +12,7 @@ import pytest
 from urc.assembly import build_rotator
 from urc.clock import VirtualClock
 from urc.config import Config
-from urc.service.commands import PROGRAM_AGREE_DEG
+from urc.service.core import PROGRAM_AGREE_DEG
 from urc.service.loop import run_virtual
 from urc.service.program import PassProgram
 

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Any
 
 #: path sampling step along the faster-changing axis, degrees.
 PATH_STEP_DEG = 0.25
@@ -326,3 +327,21 @@ def route_time_s(points: list[tuple[float, float]], rates: tuple[float, float]) 
     """Travel time along a route at full speed, both axes moving together."""
     return sum(max(abs(b[0] - a[0]) / rates[0], abs(b[1] - a[1]) / rates[1])
                for a, b in zip(points, points[1:]))
+
+
+def declared_boresight(g: Geometry, values: dict, now: Any) -> dict:
+    """A re-reference's declared beam directions (``values``: {"az", "el"}, None = not
+    given) as the boresight's, under ``g``'s pointing model: the axis not given keeps
+    where the beam points ``now`` (a Status), the azimuth its wrap turn. A flipped
+    elevation (past 90) names a mechanical pose: taken as it is."""
+    az = values["az"] if values["az"] is not None else now.az_deg
+    el = values.get("el") if values.get("el") is not None else now.el_deg
+    if az is None or el is None or not 0.0 <= el <= 90.0:
+        return values
+    b_az, b_el = g.boresight_of(wrap360(az), el)
+    out = dict(values)
+    if values["az"] is not None:
+        out["az"] = values["az"] + ((b_az - wrap360(az) + 180.0) % 360.0 - 180.0)
+    if values.get("el") is not None:
+        out["el"] = b_el
+    return out

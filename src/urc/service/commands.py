@@ -14,9 +14,8 @@ import math
 from dataclasses import dataclass, replace
 from typing import Callable
 
-from ..angles import great_circle_1_deg
 from ..control import law
-from ..control.geometry import wrap360
+from ..control.geometry import declared_boresight, wrap360
 from ..control.profile import stopping_distance_deg
 from ..errors import CommandRejected
 from . import position_record as precord
@@ -33,12 +32,6 @@ from .snapshot import Status
 class _Command:
     name: str
     apply: Callable[[], None]
-
-
-#: a sky goto this close to where the pass program in flight points now does not replace
-#: it (Commands._agrees_with_program): a client tracking the same satellite with the same
-#: elements asks for the same direction, within its own poll's lag
-PROGRAM_AGREE_DEG = 2.0
 
 
 class Commands:
@@ -146,7 +139,7 @@ class Commands:
         agrees with the pass program flying: that program's pose now, and it flies on)."""
         core = self.core
         self.require_motion_ok(automatic=True)
-        agreed = self._agrees_with_program(az_deg, el_deg)
+        agreed = core.agrees_with_program(az_deg, el_deg)
         if agreed is not None:
             return [agreed]
         if "el" not in core.axes:
@@ -347,22 +340,6 @@ class Commands:
         core.note_stop("health", reason, resumes=motion == "track", command=motion)
         return True
 
-    def _agrees_with_program(self, az_deg: float, el_deg: float) -> tuple[float, float] | None:
-        """A sky goto within PROGRAM_AGREE_DEG of where the pass program in flight points
-        now is what that program does (Gpredict, SatNOGS or a script tracking the same
-        satellite beside urc's own tracker): the program flies on rather than be replaced
-        by a track that is its own copy, late by a client's poll. Its pose now, else None."""
-        core = self.core
-        p = core.program
-        if p is None or core.program_state not in ("prepositioning", "tracking") or \
-                not (math.isfinite(az_deg) and math.isfinite(el_deg)):
-            return None
-        az_m, el_m, _, _ = p.pose_at(core.clock.now_s())
-        sky = core.geometry.to_sky(az_m, el_m)
-        if great_circle_1_deg(wrap360(az_deg), el_deg, *sky) > PROGRAM_AGREE_DEG:
-            return None
-        return (az_m, el_m)
-
     def replace_program(self, by: str) -> None:
         """A motion command replaces a program that is flying (a person wins); a program
         still waiting for its pass is kept (it starts on time, as a scheduled pass)."""
@@ -404,7 +381,7 @@ class Commands:
             if not math.isfinite(v):
                 raise CommandRejected(f"{name} {v!r} is not a finite number")
         if g.pointing_deg:  # (the values say where the beam points: the boresight's are set)
-            values = self._boresight_values(values)
+            values = declared_boresight(g, values, self.status())
         for name, v in values.items():
             if v is None:
                 continue
@@ -422,23 +399,6 @@ class Commands:
                 self.rereference(core.axes[name], v - off)
                 core.event(f"{name} re-referenced to {v:.2f} deg")
         self.submit("set_position", apply)
-
-    def _boresight_values(self, values: dict[str, float | None]) -> dict[str, float | None]:
-        """Declared beam directions (a pointing model in force) as the boresight's: the
-        axis not given keeps where the beam points now; the azimuth keeps its wrap turn.
-        A flipped elevation (past 90) names a mechanical pose: taken as it is."""
-        st = self.status()
-        az = values["az"] if values["az"] is not None else st.az_deg
-        el = values.get("el") if values.get("el") is not None else st.el_deg
-        if az is None or el is None or not 0.0 <= el <= 90.0:
-            return values
-        b_az, b_el = self.core.geometry.boresight_of(wrap360(az), el)
-        out = dict(values)
-        if values["az"] is not None:
-            out["az"] = values["az"] + ((b_az - wrap360(az) + 180.0) % 360.0 - 180.0)
-        if values.get("el") is not None:
-            out["el"] = b_el
-        return out
 
     def adopt_sensor_reading(self, axis: str, local: bool = False, reread: bool = True) -> float:
         """An absolute sensor's constants were just changed (a G4JNT zero offset Z, a

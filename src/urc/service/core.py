@@ -11,15 +11,23 @@ from __future__ import annotations
 
 import collections
 import logging
+import math
 from typing import Any
 
+from ..angles import great_circle_1_deg
 from ..clock import Clock
 from ..control.faults import Fault
-from ..control.geometry import Geometry
+from ..control.geometry import Geometry, wrap360
 from .axis import Axis
 from .settings import FIXED_EL_DEG, RotatorSettings
 
 log = logging.getLogger("urc.service.rotator")
+
+
+#: a sky goto this close to where the pass program in flight points now does not replace
+#: it (Core.agrees_with_program): a client tracking the same satellite with the same
+#: elements asks for the same direction, within its own poll's lag
+PROGRAM_AGREE_DEG = 2.0
 
 
 class Core:
@@ -88,6 +96,20 @@ class Core:
         self.event(f"stopped ({kind}): {reason}" + (f"; interrupted {self.last_stop['command']}"
                                                      if self.last_stop["command"] else "")
                    + ("; resumes once healthy" if resumes else ""))
+
+    def agrees_with_program(self, az_deg: float, el_deg: float) -> tuple[float, float] | None:
+        """A sky goto within PROGRAM_AGREE_DEG of where the pass program in flight points
+        now is what that program does (Gpredict, SatNOGS or a script tracking the same
+        satellite beside urc's own tracker): the program flies on rather than be replaced
+        by a track that is its own copy, late by a client's poll. Its pose now, else None."""
+        p = self.program
+        if p is None or self.program_state not in ("prepositioning", "tracking") or \
+                not (math.isfinite(az_deg) and math.isfinite(el_deg)):
+            return None
+        az_m, el_m, _, _ = p.pose_at(self.clock.now_s())
+        if great_circle_1_deg(wrap360(az_deg), el_deg, *self.geometry.to_sky(az_m, el_m)) > PROGRAM_AGREE_DEG:
+            return None
+        return (az_m, el_m)
 
     def program_view(self) -> dict[str, Any] | None:
         """Status' ``program``: one dict per program and state (not one per tick)."""
