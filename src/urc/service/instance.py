@@ -56,8 +56,7 @@ class InstanceLock:
                 os.close(fd)
                 raise InstanceLocked(f"{self.what} is in use by another urc (pid {holder}, lock {self.path}); "
                                      "stop that one first, or give this one another --state-dir") from None
-        os.ftruncate(fd, 0)
-        os.pwrite(fd, f"{os.getpid()}\n".encode(), 0)
+        _say(fd)
         self._fd = fd
         return self
 
@@ -100,35 +99,33 @@ def lock_instance(state_dir: Path, backend: str, real_hardware: bool) -> list[In
     return locks
 
 
+def _say(fd: int, *words: str) -> None:
+    """Write who holds the lock (this process) and how, into the lock file (the lock is
+    the descriptor's: the text is only what a waiting start reads)."""
+    try:
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, (" ".join((str(os.getpid()), *words)) + "\n").encode(), 0)
+    except OSError:
+        pass
+
+
 def mark_stopping(fd: int) -> None:
     """In a control process whose I/O process is gone: say in the lock file (still held
     through the inherited descriptor) that this holder is on its way out."""
-    try:
-        os.ftruncate(fd, 0)
-        os.pwrite(fd, f"{os.getpid()} stopping\n".encode(), 0)
-    except OSError:
-        pass
+    _say(fd, "stopping")
 
 
 def mark_adoptable(fd: int) -> None:
     """In a control process whose I/O process is gone while a bounded motion flies on:
     the next urc run of this state directory takes it over (urc.service.adoption)
     rather than wait for it."""
-    try:
-        os.ftruncate(fd, 0)
-        os.pwrite(fd, f"{os.getpid()} adoptable stopping\n".encode(), 0)
-    except OSError:
-        pass
+    _say(fd, "adoptable", "stopping")
 
 
 def claim(fd: int) -> None:
     """A lock handed over with a control process (urc.service.adoption): held by this
     process from now on, and said so in its file."""
-    try:
-        os.ftruncate(fd, 0)
-        os.pwrite(fd, f"{os.getpid()}\n".encode(), 0)
-    except OSError:
-        pass
+    _say(fd)
 
 
 def _stopping(holder: str) -> bool:
