@@ -437,10 +437,16 @@ def report(args, run, picks, unstressed, counts, pauses, import_s, json_path) ->
         t = samples[:, 0] if len(samples) else np.zeros(0)
         up = (t >= p.aos_unix_s) & (t <= p.los_unix_s)
         rms = err15 = math.nan
+        worst: list = []
         if up.any():
             la = look_angles(es, TARTU, t[up])
             err = great_circle_deg(samples[up, 3], samples[up, 4], la.az_deg, la.el_deg)
             rms = float(np.sqrt(np.mean(err ** 2)))
+            # the largest errors, where in the pass and where the beam was (explains an outlier)
+            worst = [{"s_after_aos": round(float(t[up][i] - p.aos_unix_s), 1), "error_deg": round(float(err[i]), 2),
+                      "beam": [round(float(samples[up][i, 3]), 2), round(float(samples[up][i, 4]), 2)],
+                      "satellite": [round(float(la.az_deg[i]), 2), round(float(la.el_deg[i]), 2)]}
+                     for i in np.argsort(err)[::-1][:5]]
             after = t[up] >= p.aos_unix_s + 15.0
             err15 = float(err[after][0]) if after.any() else math.nan
         early = [e for e in seen["program_ends"] if e.get("why") != "done" or e["t"] < p.los_unix_s - 5.0]
@@ -455,7 +461,7 @@ def report(args, run, picks, unstressed, counts, pauses, import_s, json_path) ->
                        "max_el_deg": round(p.max_el_deg, 1), "rms_deg": round(rms, 3),
                        "unstressed_rms_deg": round(unstressed[k], 3),
                        "ratio": round(rms / unstressed[k], 2) if unstressed[k] > 0 else None,
-                       "error_15s_deg": round(err15, 2), "lost": bool(why), "why": why,
+                       "error_15s_deg": round(err15, 2), "worst": worst, "lost": bool(why), "why": why,
                        "program_states": sorted(x for x in seen["program_states"] if x)})
     health_events = [e for e in run["events"] if "stopped (" in e]
     takeovers = [e for e in run["events"] if "froze" in e or "died" in e or "control process started again" in e]
