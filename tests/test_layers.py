@@ -5,11 +5,18 @@ no two modules import each other, directly or round a cycle."""
 from __future__ import annotations
 
 import ast
+import importlib.util
 from pathlib import Path
 
 import urc
 
 SRC = Path(urc.__file__).resolve().parent
+# (the strongly connected components: scripts/import_graph.py's, one Tarjan for both)
+_SPEC = importlib.util.spec_from_file_location(
+    "import_graph", Path(__file__).resolve().parents[1] / "scripts" / "import_graph.py")
+_GRAPH_SCRIPT = importlib.util.module_from_spec(_SPEC)
+_SPEC.loader.exec_module(_GRAPH_SCRIPT)
+cycles = _GRAPH_SCRIPT.cycles
 
 
 def module_name(path: Path) -> str:
@@ -53,42 +60,6 @@ def graph() -> dict[str, set[str]]:
         # an import of a.b.c also runs a and a.b (their __init__): count the named module only
         edges[name] = {m for m in imports_of(path, set(modules)) if m in modules and m != name}
     return edges
-
-
-def cycles(edges: dict[str, set[str]]) -> list[list[str]]:
-    """Strongly connected components of more than one module (Tarjan)."""
-    index: dict[str, int] = {}
-    low: dict[str, int] = {}
-    stack: list[str] = []
-    on: set[str] = set()
-    out: list[list[str]] = []
-    counter = [0]
-
-    def visit(v: str) -> None:
-        index[v] = low[v] = counter[0]
-        counter[0] += 1
-        stack.append(v)
-        on.add(v)
-        for w in edges[v]:
-            if w not in index:
-                visit(w)
-                low[v] = min(low[v], low[w])
-            elif w in on:
-                low[v] = min(low[v], index[w])
-        if low[v] == index[v]:
-            comp = []
-            while True:
-                w = stack.pop()
-                on.discard(w)
-                comp.append(w)
-                if w == v:
-                    break
-            if len(comp) > 1:
-                out.append(sorted(comp))
-    for v in sorted(edges):
-        if v not in index:
-            visit(v)
-    return out
 
 
 def test_nothing_imports_the_composition_root_but_the_command_line():
