@@ -83,26 +83,27 @@ class Listener:
         self.sock.close()
 
 
-def hand_over(conn: Connection, digest: str, ready: Any, fds: list[int]) -> tuple[bool, str]:
-    """Answer a take-over request on ``conn``: (True, "") once handed over (``ready``: the
-    payload a start's "ready" carries, ``fds``: the status record's then the locks'), else
-    (False, why). A request for other hardware is refused, and the caller stops in order:
-    that ``urc run`` waits for the lock, then builds its own."""
+def hand_over(conn: Connection, digest: str, ready: Any, fds: list[int]) -> tuple[str, str]:
+    """Answer a take-over request on ``conn``: ("taken", who) once handed over (``ready``:
+    the payload a start's "ready" carries, ``fds``: the status record's then the locks');
+    ("other hardware", why) for a ``urc run`` configured for another rotator or hardware,
+    refused: the caller stops in order, and that one waits for the lock, then builds its
+    own; ("failed", why) for anything else (the caller waits on)."""
     if not conn.poll(HANDSHAKE_S):
-        return False, "the new urc run said nothing"
+        return "failed", "the new urc run said nothing"
     msg = codec.loads(conn.recv_bytes())
     if not (isinstance(msg, tuple) and len(msg) == 3 and msg[0] == "adopt"):
-        return False, f"not a take-over request: {msg!r:.80}"
+        return "failed", f"not a take-over request: {msg!r:.80}"
     if msg[2] != digest:
         conn.send_bytes(codec.dumps(("refused", "its configuration names another rotator or other hardware")))
-        return False, f"urc run (process {msg[1]}) has another rotator or hardware configured"
+        return "other hardware", f"urc run (process {msg[1]}) has another rotator or hardware configured"
     conn.send_bytes(codec.dumps(("adopted", ready)))
     dup = socket.socket(fileno=os.dup(conn.fileno()))
     try:
         socket.send_fds(dup, [b"F"], fds)
     finally:
         dup.close()
-    return True, f"urc run (process {msg[1]})"
+    return "taken", f"urc run (process {msg[1]})"
 
 
 # ------------------------------------------------------------- the new urc run's side

@@ -247,11 +247,11 @@ class ControlServer:
                 conn = listener.accept(4 * WATCH_S)
                 if conn is not None:
                     try:
-                        taken, who = adoption.hand_over(conn, adoption.hardware_digest(self.cfg), self._ready(),
-                                                        [self.record.fd, *self.lock_fds])
+                        outcome, who = adoption.hand_over(conn, adoption.hardware_digest(self.cfg), self._ready(),
+                                                          [self.record.fd, *self.lock_fds])
                     except (EOFError, OSError, ValueError) as exc:
-                        taken, who = False, f"the hand-over failed: {exc}"
-                    if taken:
+                        outcome, who = "failed", f"the hand-over failed: {exc}"
+                    if outcome == "taken":
                         with self._send_lock:
                             self.conn = conn
                         self._heard_s, self._io_gone, self._latest_gen = None, False, -1
@@ -259,7 +259,7 @@ class ControlServer:
                         return self._serve()
                     conn.close()
                     log.warning("a take-over was refused: %s", who)
-                    if "another rotator" in who:
+                    if outcome == "other hardware":
                         return f"{IO_GONE}; {who}"
                 now_s = time.monotonic()
                 if self.rot.bounded_in_flight():
