@@ -34,6 +34,14 @@ class _Command:
     apply: Callable[[], None]
 
 
+#: The motion a queued command sets once the tick applies it ("": none, a stop); a name
+#: not here leaves the motion as it is. An accepted command counts from its acceptance,
+#: not from the next tick: the I/O process may die in between (issue 33).
+QUEUED_MOTION = {"goto": "goto", "goto_pose": "goto_pose", "park": "park", "program": "program",
+                 "move": "move", "track": "track", "track_pose": "track", "stop": ""}
+OPEN_ENDED = ("move", "track")  # (only a live client ends these)
+
+
 class Commands:
     def __init__(self, core: Core, planner: Planner, records: Records, guard: Guard,
                  status: Callable[[], Status]):
@@ -51,6 +59,14 @@ class Commands:
         """Apply the accepted commands in order (the tick, under the lock)."""
         while self.queue:
             self.queue.popleft().apply()
+
+    def queued_motion(self) -> str | None:
+        """(Under the lock.) The motion the newest queued motion command sets ("" a
+        stop), or None if none is queued."""
+        for cmd in reversed(self.queue):
+            if cmd.name in QUEUED_MOTION:
+                return QUEUED_MOTION[cmd.name]
+        return None
 
     def submit(self, name: str, apply: Callable[[], None]) -> None:
         core = self.core
@@ -328,11 +344,14 @@ class Commands:
         program: its end was checked when it was accepted, and the guard holds limits
         and zones every tick) flies on to its end. True if something was stopped."""
         core = self.core
-        motion = core.motion
-        if motion not in ("move", "track"):
+        queued = self.queued_motion()
+        motion = core.motion if queued is None else queued or None
+        if motion not in OPEN_ENDED:
             if motion is not None:
                 core.event(f"{reason}: the {motion} flies on to its end (a bounded motion)")
             return False
+        # (a jog accepted but not yet applied must not start after this stop)
+        self.queue = collections.deque(c for c in self.queue if QUEUED_MOTION.get(c.name) not in OPEN_ENDED)
         core.target_sky = None
         self.halt(list(core.axes))
         # a track resumes by itself: the tracker's next update restarts it once the I/O

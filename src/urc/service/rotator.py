@@ -38,7 +38,7 @@ from ..control.geometry import Geometry
 from ..hardware.interfaces import Hardware
 from ..persistence import StateStore
 from .axis import Axis
-from .commands import Commands
+from .commands import OPEN_ENDED, Commands
 from .core import Core
 from .guard import Guard
 from .locking import lock_free, locked_api
@@ -229,9 +229,14 @@ class Rotator:
         """The bounded motion under way that flies on without the I/O process ("pass
         program", "goto", "park", ...; a program waiting for its pass counts), or ""."""
         core = self._core
-        if core.program is not None:
+        # (a command counts once accepted, though the next tick applies it; a program
+        # waiting for its pass starts on time whatever else is queued)
+        queued = self._commands.queued_motion()
+        if queued == "program" or core.program is not None and (queued is None or core.program_state == "waiting"):
             return "pass program"
-        if core.motion in (None, "move", "track"):
+        if queued is not None:
+            return "" if queued in OPEN_ENDED else queued
+        if core.motion in (None, *OPEN_ENDED):
             return ""
         # (the route keeps its last waypoint once there: under way while not reached)
         ahead = len(core.route) > 1 or bool(core.route) and any(
