@@ -184,6 +184,9 @@ def test_the_command_thread_outlives_a_reply_that_cannot_be_sent(tmp_path):
         def overshoot_deg(self, axis):
             return self.answers.pop(0)
 
+        def motion_ticket(self):
+            return None
+
         def status(self):
             return None
     server = ControlServer(Conn(), None, tmp_path, [])

@@ -145,7 +145,8 @@ def test_every_public_method_waits_for_the_lock_or_says_why_not(bench, name):
 
 def test_the_lock_free_methods_are_few_and_each_says_why():
     free = {n: lock_free_reason(n) for n in public_methods() if lock_free_reason(n) is not None}
-    assert set(free) == {"status", "hold_local", "local_controls", "power_fail", "save_now"}
+    assert set(free) == {"status", "hold_local", "local_controls", "power_fail", "save_now",
+                         "motion_ticket", "confirm_motion_record"}
     assert all(len(reason) > 20 for reason in free.values())
 
 

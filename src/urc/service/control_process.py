@@ -46,7 +46,6 @@ from pathlib import Path
 from typing import Any, Callable
 
 from ..clock import RealClock
-from ..errors import CommandRejected
 from ..ipc import codec
 from ..ipc.messages import COMMANDS, Envelope, HardwareInfo, Query, Reconfigure, Reply, Request
 from ..ipc.status_record import ColdGeneration, StatusRecord
@@ -367,9 +366,8 @@ class ControlServer:
         try:
             try:
                 value = self._run(env.request)
-            finally:  # (a moving command needing a record ahead of motion: its number)
-                records = getattr(self.rot, "_records", None)  # (the Rotator's state records)
-                ticket = None if records is None else records.motion_ticket()
+            finally:  # (a moving command whose reply waits for its first state record)
+                ticket = self.rot.motion_ticket()
             if not travels(value):  # (behaviour stays here: a handler's bug, said as such)
                 raise TypeError(f"{type(env.request).__name__} returned {type(value).__name__}, "
                                 "which cannot leave the control process")
@@ -377,28 +375,10 @@ class ControlServer:
             if isinstance(env.request, Reconfigure):
                 self._config_settings = env.request.settings
             if ticket is not None:
-                self._await_first_record(records, ticket)
+                self.rot.confirm_motion_record(ticket, FIRST_RECORD_WAIT_S)
         except Exception as exc:
             outcome, value = "error", exception_to_wire(exc)
         self._send_reply(env.rid, outcome, value, self.rot.status())
-
-    def _await_first_record(self, records: Any, ticket: int) -> None:
-        """Issue 36.19: standing, nothing is written, so a disk that has just failed is
-        found only by the first record of the next motion. A moving command's reply
-        waits for it here (this thread, not the tick, not under the lock: a slow card
-        delays this reply only): on disk, the reply is ok; failed, the motion is stopped
-        with the state fault latched and the command refused (reason "state"); not known
-        within FIRST_RECORD_WAIT_S (a slow card), ok: the command stands, flying as soon
-        as its record lands (or stopped by the state fault if that write fails)."""
-        landed, why = records.await_motion_record(ticket, FIRST_RECORD_WAIT_S)
-        if landed is not False:
-            return
-        with self.rot.lock:
-            if not records.refuse_motion(self.rot.clock.now_s()):
-                return  # (a retry landed meanwhile: the command stands)
-        raise CommandRejected(f"refused: state not saved ({why}): motion stopped so that the saved "
-                              "position stays true; the state fault clears itself once a write succeeds",
-                              "state")
 
     def _run(self, request: Request) -> Any:
         """Each request type runs what COMMANDS names for it, each query its handler

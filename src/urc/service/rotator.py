@@ -36,6 +36,7 @@ from ..control import law
 from ..control.faults import Fault
 from ..control.geometry import Geometry
 from ..hardware.interfaces import Hardware
+from ..errors import CommandRejected
 from ..persistence import StateStore
 from .axis import Axis
 from .commands import OPEN_ENDED, Commands
@@ -350,6 +351,29 @@ class Rotator:
         with self.lock:
             records.take_report(self.clock.now_s())
             return ok and records.durable is records.record
+
+    @lock_free("reads the calling thread's own number (thread-local)")
+    def motion_ticket(self) -> int | None:
+        """The moving command this thread's last call accepted, if its reply must wait
+        for the motion's first state record (urc.service.records); taken once."""
+        return self._records.motion_ticket()
+
+    @lock_free("waits for the tick and the disk, which under the lock would stop the control loop")
+    def confirm_motion_record(self, ticket: int, timeout_s: float) -> None:
+        """Issue 36.19: standing, nothing is written, so a disk that has just failed is
+        found only by the first record of the next motion. Wait for moving command
+        ``ticket``'s first record: on disk (or not known within ``timeout_s``, a slow
+        card: the command stands and flies once it lands), return; failed, stop the
+        motion with the state fault latched and refuse the command (reason "state")."""
+        landed, why = self._records.await_motion_record(ticket, timeout_s)
+        if landed is not False:
+            return
+        with self.lock:
+            if not self._records.refuse_motion(self.clock.now_s()):
+                return  # (a retry landed meanwhile: the command stands)
+        raise CommandRejected(f"refused: state not saved ({why}): motion stopped so that the saved "
+                              "position stays true; the state fault clears itself once a write succeeds",
+                              "state")
 
     def shutdown(self, save: bool = True) -> bool:
         """Motors off, brakes on, every output safe; then the state saved as it is (still
