@@ -26,7 +26,7 @@ from ..ipc.messages import Goto, Move, Stop
 from ..service.effects import Effects
 from ..service.snapshot import Status
 from .base import RotatorPort, bad_input_log, internal_error, protocol_logger
-from .gs232_codec import (SPEED_LEVELS, STYLE_A, STYLE_B, STYLE_GENERIC, Command, Gs232ParseError,
+from ..wire.gs232 import (SPEED_LEVELS, STYLE_A, STYLE_B, STYLE_GENERIC, Command, Gs232ParseError,
                           format_error, format_help, format_position, parse_command)
 from .lines import LineSplitter
 from .poses import extended_pose_deg, frame_offsets_deg, goto_extended
