@@ -27,7 +27,7 @@ SRC = Path(__file__).resolve().parents[1] / "src"
 #: ones before it. One row holds peers that may not import each other's internals
 #: freely but sit at the same height. (From docs/ARCHITECTURE.md, "Layers", and issue 34.)
 LAYERS: list[tuple[str, ...]] = [
-    ("urc", "urc.errors", "urc.angles", "urc.clock", "urc.caps", "urc.profiles"),  # (urc: __version__)
+    ("urc", "urc.errors", "urc.angles", "urc.geodesy", "urc.clock", "urc.caps", "urc.profiles"),  # (urc: __version__)
     # the wire formats both ends speak: the protocol sessions and the bridge's dialects
     ("urc.wire",),
     ("urc.persistence",),
