@@ -8,8 +8,7 @@ the layer order below (lowest first). There are no cycles (issue 34), and
 tests/test_import_graph_script.py keeps it so, with imports for the type checker and
 inside functions counted, and keeps urc.config below every package it holds keys for;
 .importlinter says the same to lint-imports. The upward edges still printed are issue
-34's open ones (the protocols' codecs under the bridge, mqtt.commands' web routes,
-service/ holding both processes' code ...).
+34's open ones (mqtt.commands' web routes, service/ holding both processes' code ...).
 
 Usage: python scripts/import_graph.py [--json]
 """
@@ -28,7 +27,9 @@ SRC = Path(__file__).resolve().parents[1] / "src"
 #: ones before it. One row holds peers that may not import each other's internals
 #: freely but sit at the same height. (From docs/ARCHITECTURE.md, "Layers", and issue 34.)
 LAYERS: list[tuple[str, ...]] = [
-    ("urc", "urc.errors", "urc.angles", "urc.clock", "urc.caps", "urc.profiles"),  # (urc: __version__)
+    ("urc", "urc.errors", "urc.angles", "urc.geodesy", "urc.clock", "urc.caps", "urc.profiles"),  # (urc: __version__)
+    # the wire formats both ends speak: the protocol sessions and the bridge's dialects
+    ("urc.wire",),
     ("urc.persistence",),
     # axis control is pure (law, profile, geometry: .importlinter's control-pure), so the
     # configuration may name its shapes (a keep-out zone is geometry's KeepOut)

@@ -13,7 +13,7 @@ import asyncio
 import inspect
 import os
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 from fastapi import APIRouter, Depends, FastAPI
 from fastapi.responses import JSONResponse
@@ -26,7 +26,7 @@ from .errors import CalibrationError, CommandRejected, UrcError
 from .ipc.messages import ClearFaults, Goto, GotoAz, HardwareInfo, Move, Park, SetPosition, Stop
 from .service.effects import call
 from .service.remote import StopQueued
-from .service import Rotator
+from .service import Rotator, RotatorSettings
 from .servers import loop_lag
 from .service.queries import ask
 from .web import WebContext, install
@@ -59,11 +59,15 @@ class Accepted(BaseModel):
     note: str = ""
 
 
-def create_api(rotator: Rotator, cfg: Config, *, config_path: str | os.PathLike | None = None,
+def create_api(rotator: Rotator, cfg: Config, *,
+               settings_of: Callable[[Config, Path | None], RotatorSettings],
+               config_path: str | os.PathLike | None = None,
                state_dir: str | os.PathLike | None = None, tracker: Any = None,
                frame_hz: float = FRAME_HZ) -> FastAPI:
     """The app ``urc run`` serves.
 
+    ``settings_of``: a configuration's rotator settings (``urc.assembly.settings_from_config``,
+    from the composition root), for saved settings applied while it runs.
     ``config_path``: the file ``urc run`` was started with (the settings page saves
     there; without one it saves to ``<state_dir>/urc.toml``). ``tracker``: the tracking
     service (see ``urc.web.routes_tracking``); None = no tracking endpoints.
@@ -80,7 +84,7 @@ def create_api(rotator: Rotator, cfg: Config, *, config_path: str | os.PathLike 
     hub = Hub(rotator, tracker, frame_hz)
     control_allowed = control_guard(cfg)
     ctx = WebContext(rotator=rotator, cfg=cfg, hub=hub, settings=SettingsStore(cfg, config_path, state_dir),
-                     control=control_allowed, tracker=tracker)
+                     control=control_allowed, settings_of=settings_of, tracker=tracker)
     app.state.web = ctx
     app.add_middleware(RequestGate, cfg=cfg)   # inner: auth and body bounds before any parsing
     app.add_middleware(HostGate, cfg=cfg)      # every request, reads too: DNS rebinding

@@ -204,7 +204,7 @@ async def _serve(cfg: Config, state_dir: Path, config_path: Path | None, api_soc
             loop.add_signal_handler(sig, lambda sig=sig: (asked.append(sig.name), stop.set()))
         # (planning off the event loop)
         tracking = TrackingService(rotator, cfg, background=True) if tracking_on else _TrackingOff()
-        api = create_api(rotator, cfg, config_path=config_path, state_dir=state_dir,
+        api = create_api(rotator, cfg, settings_of=_settings_of, config_path=config_path, state_dir=state_dir,
                          tracker=tracking if tracking.station is not None or tracking.gps is not None else None)
         from uvicorn.protocols.http.auto import AutoHTTPProtocol
 
@@ -277,6 +277,14 @@ async def _serve(cfg: Config, state_dir: Path, config_path: Path | None, api_soc
         raise web.exception()
     print("urc: stopped, state saved" if result["saved"] else "urc: stopped; the state could NOT be saved "
           "(the next start treats the position as uncertain)", flush=True)
+
+
+def _settings_of(cfg: Config, state_dir: Path | None):
+    """A configuration's rotator settings, for the web's settings applied at once: the
+    composition root imported only then (the I/O process needs none of it to start)."""
+    from .assembly import settings_from_config
+
+    return settings_from_config(cfg, state_dir)
 
 
 async def _took_over(rotator, cfg: Config, state_dir: Path, config_settings) -> None:

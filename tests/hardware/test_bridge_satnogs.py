@@ -17,7 +17,7 @@ from urc.errors import CommandRejected
 from urc.hardware.bridge import BridgeClient, ClientOptions, bridge_axes, make_dialect
 from urc.hardware.bridge.dialects import ControllerError, ControllerStatus, ReplyError
 from urc.hardware.interfaces import Hardware
-from urc.protocols import satnogs_codec as sn
+from urc.wire import satnogs as sn
 from urc.testing.bridged_rig import SimLink
 from urc.testing.satnogs_firmware import SatnogsFirmware
 

@@ -591,6 +591,7 @@ def test_urc_runs_app_has_its_routes_built_off_the_loop_before_the_first_request
     import pydantic
 
     from urc.api import create_api
+    from urc.assembly import settings_from_config
 
     built_on: list[str] = []
     real = pydantic.TypeAdapter.__init__
@@ -602,7 +603,7 @@ def test_urc_runs_app_has_its_routes_built_off_the_loop_before_the_first_request
     b = bench("berkeley")
 
     async def main() -> tuple[int, list[str]]:
-        app = create_api(b.rot, b.cfg)   # as urc run builds it: on its running loop
+        app = create_api(b.rot, b.cfg, settings_of=settings_from_config)   # as urc run builds it: on its running loop
         for thread in threading.enumerate():
             if thread.name == "urc-warm-routes":
                 await asyncio.to_thread(thread.join, 60.0)

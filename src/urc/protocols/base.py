@@ -80,22 +80,8 @@ class Session(Protocol):
         one that acts on the rotator (SARCNET's demo) is a generator as ``receive``."""
 
 
-class ProtocolError(UrcError, ValueError):
-    """Input a protocol could not parse; says what was expected and what was found.
-
-    The root of every protocol's input errors (with ``CommandRejected`` from the rotator
-    and ``HardwareError``, the only exceptions a session answers as bad input; anything
-    else is a bug, see :func:`internal_error`). ``ProtocolError("text")`` carries a
-    ready message; ``ProtocolError(expected, found)`` builds one.
-    """
-
-    def __init__(self, expected: str, found: bytes | None = None):
-        self.expected, self.found = expected, found
-        super().__init__(expected if found is None else f"expected {expected}, found {found!r}")
-
-
-#: what a session answers with its protocol's error reply: bad input (ProtocolError and
-#: each protocol's subclass), a refusal by the rotator (CommandRejected), a hardware
+#: what a session answers with its protocol's error reply: bad input (urc.errors.ProtocolError
+#: and each protocol's subclass), a refusal by the rotator (CommandRejected), a hardware
 #: failure. Every one of them is a UrcError; any other exception is a bug in urc.
 EXPECTED_ERRORS: tuple[type[BaseException], ...] = (UrcError,)
 

@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import re
 
-from .base import ProtocolError
+from ..errors import ProtocolError
 
 #: GS values (globals.h:16-18)
 STATUS_IDLE, STATUS_MOVING, STATUS_POINTING, STATUS_ERROR = 1, 2, 4, 8

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from .base import ProtocolError
+from ..errors import ProtocolError
 
 START = 0x57            # 'W'
 END = 0x20              # ' '

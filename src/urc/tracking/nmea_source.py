@@ -3,7 +3,8 @@ a pseudo-terminal or a TCP server, and hand the bytes to a sans-I/O consumer.
 
 Sources: a device path ("/dev/ttyACM0", a pty path) or "tcp:HOST:PORT" (e.g. gpsd's
 NMEA port, or a balloon decoder's output). A dropped source is retried every few
-seconds; nothing here ever raises into the control loop.
+seconds; nothing here ever raises into the control loop. Tracking's own input (the
+station's GPS, an NMEA target), so it lives with tracking, below the servers.
 """
 
 from __future__ import annotations

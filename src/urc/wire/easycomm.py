@@ -16,7 +16,7 @@ import math
 import re
 from dataclasses import dataclass
 
-from .base import ProtocolError
+from ..errors import ProtocolError
 
 
 #: Easycomm II commands (``easycomm.txt``) plus Hamlib's own PARK and RESET.

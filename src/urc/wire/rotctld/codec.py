@@ -1,5 +1,9 @@
 """Pure rotctld value codecs: argument words -> values, values -> reply text.
 
+Both ends use it: urc's rotctld server (:mod:`urc.protocols.rotctld`) and the bridge's
+NET rotctl client (:mod:`urc.hardware.bridge.dialects`). Which status flags a snapshot
+shows is the server's (:mod:`urc.protocols.rotctld.flags`); their wire text is here.
+
 Numbers are read strictly: rotctld's ``sscanf("%f")`` would take ``10abc`` as 10 and
 ``nan``/``inf`` as numbers; here a word is a number only if all of it is one, and
 positions must be finite, so nothing half-understood reaches the rotator.
@@ -11,7 +15,6 @@ import math
 import re
 from typing import Iterable
 
-from ...service.snapshot import AxisStatus, Status
 from .commands import CONF_TOKENS, MOVE_ALL, MOVE_BASIC, STATUS_FLAGS, CommandSpec
 
 _FLOAT = re.compile(r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
@@ -71,51 +74,6 @@ def format_flags(flags: Iterable[str]) -> str:
     """rot_sprintf_status: names in bit order, each followed by a space."""
     present = set(flags)
     return "".join(name + " " for name in STATUS_FLAGS if name in present)
-
-
-#: an axis turning faster than this (deg/s) counts as moving even with the motor off (coasting)
-MOVING_RATE_DEG_PER_S = 0.5
-
-
-def _axis_motion(ax: AxisStatus) -> tuple[bool, int]:
-    """(moving, direction -1/0/+1) of one axis from its snapshot."""
-    driving = ax.mode in ("driving", "releasing")
-    if not driving and abs(ax.rate_deg_per_s) <= MOVING_RATE_DEG_PER_S:
-        return False, 0
-    toward = ax.duty or ax.rate_deg_per_s or \
-        (0.0 if ax.target_deg is None else ax.target_deg - ax.pos_deg)
-    return True, (toward > 0) - (toward < 0)
-
-
-def status_flags(st: Status, az_offset_deg: float = 0.0) -> list[str]:
-    """rot_status_t names for a snapshot, in the mechanical sense of the axes (RIGHT =
-    clockwise, UP = elevation angle increasing), like ``M``'s directions."""
-    flags = []
-    if st.faults:
-        flags.append("BUSY")  # motion commands are refused until faults are cleared
-    if st.moving:
-        flags.append("MOVING")
-        for ax, name, minus, plus in ((st.az, "AZ", "LEFT", "RIGHT"), (st.el, "EL", "DOWN", "UP")):
-            if ax is None:  # no elevation axis
-                continue
-            moving, sign = _axis_motion(ax)
-            if moving:
-                flags.append("MOVING_" + name)
-                if sign:
-                    flags.append("MOVING_" + (plus if sign > 0 else minus))
-    for ax, lo, hi in ((st.az, "LEFT", "RIGHT"), (st.el, "DOWN", "UP")):
-        if ax is None:
-            continue
-        if ax.limit_min:
-            flags.append("LIMIT_" + lo)
-        if ax.limit_max:
-            flags.append("LIMIT_" + hi)
-    az = st.az.pos_deg + az_offset_deg  # past 0 or 360 in the cable-wrap overlap
-    if az < 0.0:
-        flags.append("OVERLAP_LEFT")
-    elif az > 360.0:
-        flags.append("OVERLAP_RIGHT")
-    return flags
 
 
 def format_dump_state(model: int, limits: tuple[float, float, float, float], south_zero: int,

@@ -14,7 +14,7 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 
-from .base import ProtocolError
+from ..errors import ProtocolError
 
 
 #: reply styles: GS-232A, GS-232B, and the generic GS-232 / FoxDelta ST2 family.
