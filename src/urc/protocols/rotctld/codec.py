@@ -11,7 +11,7 @@ import math
 import re
 from typing import Iterable
 
-from ...service.snapshot import AxisStatus, Status
+from ...model.snapshot import AxisStatus, Status
 from .commands import CONF_TOKENS, MOVE_ALL, MOVE_BASIC, STATUS_FLAGS, CommandSpec
 
 _FLOAT = re.compile(r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
