@@ -8,7 +8,8 @@ the layer order below (lowest first). There are no cycles (issue 34), and
 tests/test_import_graph_script.py keeps it so, with imports for the type checker and
 inside functions counted, and keeps urc.config below every package it holds keys for;
 .importlinter says the same to lint-imports. The upward edges still printed are issue
-34's open ones (mqtt.commands' web routes, service/ holding both processes' code ...).
+34's open ones (mqtt.commands' web routes, pointing's imports of cli, hardware and
+tracking ...).
 
 Usage: python scripts/import_graph.py [--json]
 """
@@ -36,9 +37,18 @@ LAYERS: list[tuple[str, ...]] = [
     ("urc.control",),
     # the configuration's owners register their checks with it (urc.config.owners)
     ("urc.config",),
+    # the data both processes share (Status, settings, messages, a pass program, the
+    # request effects): all that the protocols and the front panel import of the rotator
+    ("urc.model",),
     ("urc.pointing",),
     ("urc.hardware",),
-    ("urc.ipc", "urc.service"),
+    # calibration procedures: the one-shot steps the control process's query handlers
+    # run, the long state machines the web hub runs (issue 34 item 4's split of service/)
+    ("urc.procedures",),
+    # the control process: the rotator, its parts and its loop
+    ("urc.rotator",),
+    # the two processes' link: codec, status record, client, server and supervisor
+    ("urc.link",),
     ("urc.protocols",),
     ("urc.status_text", "urc.api_client"),
     ("urc.tracking", "urc.frontpanel", "urc.mqtt"),

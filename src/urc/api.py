@@ -23,12 +23,13 @@ from pydantic import BaseModel
 from . import __version__
 from .config import Config
 from .errors import CalibrationError, CommandRejected, UrcError
-from .ipc.messages import ClearFaults, Goto, GotoAz, HardwareInfo, Move, Park, SetPosition, Stop
-from .service.effects import call
-from .service.remote import StopQueued
-from .service import Rotator, RotatorSettings
+from .model.messages import ClearFaults, Goto, GotoAz, HardwareInfo, Move, Park, SetPosition, Stop
+from .model.effects import call
+from .link.remote import StopQueued
+from .model.settings import RotatorSettings
+from .rotator.rotator import Rotator
 from .servers import loop_lag
-from .service.queries import ask
+from .model.effects import ask
 from .web import WebContext, install
 from .web import warm_routes
 from .web.docs_pages import install_redoc
@@ -108,7 +109,7 @@ def create_api(rotator: Rotator, cfg: Config, *,
         return JSONResponse({"ok": False, "error": str(exc), "reason": type(exc).__name__}, status_code=409)
 
     # Handlers are coroutines on the event loop; a command awaits the control process
-    # (urc.service.effects.call): it suspends this request, never the loop.
+    # (urc.model.effects.call): it suspends this request, never the loop.
     ctl = APIRouter(dependencies=[Depends(control_allowed)], responses=CONTROL_RESPONSES)
 
     @app.get("/api/status", **documented(StatusDoc))

@@ -7,8 +7,8 @@ from __future__ import annotations
 
 import pytest
 
-from urc.ipc.messages import ControllerHome
-from urc.service.queries import ask
+from urc.model.messages import ControllerHome
+from urc.model.effects import ask
 from hypothesis import given
 from hypothesis import strategies as st
 
@@ -114,7 +114,7 @@ class Rig:
         from urc.assembly import settings_from_config
         from urc.config import Config
         from urc.persistence import StateStore
-        from urc.service import Rotator
+        from urc.rotator.rotator import Rotator
 
         self.clock = VirtualClock(0.0)
         fw_args.setdefault("home_delay_s", 3.0)

@@ -402,7 +402,7 @@ class InProcessUrc:
     async def _main(self):
         import uvicorn
 
-        from urc.service.loop import run_realtime
+        from urc.rotator.loop import run_realtime
 
         stop = asyncio.Event()
         self.server = uvicorn.Server(uvicorn.Config(self.app, host="127.0.0.1", port=self.port,

@@ -18,8 +18,8 @@ from typing import Annotated, Any, Literal, Union
 from pydantic import BaseModel, ConfigDict, Field, TypeAdapter, ValidationError
 
 from ..errors import CommandRejected, UrcError
-from ..ipc import messages as msg
-from ..service.effects import call
+from ..model import messages as msg
+from ..model.effects import call
 from ..protocols.base import RateLimitedLog
 from ..web.routes_tracking import TrackRequest
 from ..web.schemas import AzDeg, ElDeg

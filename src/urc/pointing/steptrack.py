@@ -40,7 +40,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from ..service.program import PassProgram
+from ..model.program import PassProgram
 from .fit import FWHM_PER_SIGMA, MIN_SIGNIFICANCE, ScanRefused, _lm
 from .sources import SignalRefused, to_linear
 

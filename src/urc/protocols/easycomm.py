@@ -16,9 +16,9 @@ from __future__ import annotations
 
 from .. import __version__
 from ..errors import CommandRejected, UrcError
-from ..ipc.messages import ClearFaults, Goto, Move, Park, Request, Stop
-from ..service.effects import Effects, as_effects
-from ..service.snapshot import Status
+from ..model.messages import ClearFaults, Goto, Move, Park, Request, Stop
+from ..model.effects import Effects, as_effects
+from ..model.snapshot import Status
 from .base import RotatorPort, bad_input_log, internal_error, protocol_logger
 from ..wire.easycomm import (COMMANDS_II, COMMANDS_III, Command, EasycommParseError, format_axis,
                              format_az_el, format_value, parse_line)

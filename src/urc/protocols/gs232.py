@@ -21,9 +21,9 @@ from __future__ import annotations
 
 from .. import geodesy
 from ..errors import CommandRejected, UrcError
-from ..ipc.messages import Goto, Move, Stop
-from ..service.effects import Effects
-from ..service.snapshot import Status
+from ..model.messages import Goto, Move, Stop
+from ..model.effects import Effects
+from ..model.snapshot import Status
 from .base import RotatorPort, bad_input_log, internal_error, protocol_logger
 from ..wire.gs232 import (SPEED_LEVELS, STYLE_A, STYLE_B, STYLE_GENERIC, Command, Gs232ParseError,
                           format_error, format_help, format_position, parse_command)

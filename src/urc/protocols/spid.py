@@ -25,7 +25,7 @@ malformed input is logged and (like the real controller) left unanswered.
 from __future__ import annotations
 
 from ..errors import CommandRejected, UrcError
-from ..service.effects import Effects
+from ..model.effects import Effects
 from .base import MAX_PENDING_BYTES, RotatorPort, bad_input_log, internal_error, protocol_logger
 from ..wire import spid as codec
 from .poses import ExtendedTarget, extended_pose_deg

@@ -13,8 +13,8 @@ from typing import Literal
 from fastapi import APIRouter, Depends
 from pydantic import Field
 
-from ..ipc.messages import ControllerHome, DescribeSensors, PotApply, PotUnits, SetPosition
-from ..service.effects import call
+from ..model.messages import ControllerHome, DescribeSensors, PotApply, PotUnits, SetPosition
+from ..model.effects import call
 from .context import WebContext
 from .schemas import CONTROL_RESPONSES, AzDeg, Deg, ElDeg, Ok, Strict
 
@@ -59,13 +59,13 @@ class ProcedureState(Ok):
 
 
 def _load_calibration():
-    from ..service import calibration
+    from ..procedures import calibration
 
     return calibration
 
 
 async def _calibration():
-    """urc.service.calibration, imported at the first command that needs it and on a
+    """urc.procedures.calibration, imported at the first command that needs it and on a
     worker thread (lazy: its numpy would cost every start, and the event loop ~0.15 s)."""
     return await asyncio.to_thread(_load_calibration)
 

@@ -10,8 +10,8 @@ from typing import Literal
 from fastapi import APIRouter, Depends, HTTPException, Query, WebSocket
 from pydantic import Field
 
-from ..ipc.messages import HardwareInfo
-from ..service.queries import ask
+from ..model.messages import HardwareInfo
+from ..model.effects import ask
 from .. import __version__
 from ..profiles import PROFILES
 from ..protocols.registry import PROTOCOLS

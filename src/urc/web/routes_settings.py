@@ -8,8 +8,8 @@ from fastapi import APIRouter, Body, Depends, Header, Response
 from fastapi.responses import JSONResponse
 from pydantic import BaseModel, Field
 
-from ..ipc.messages import Reconfigure
-from ..service.effects import call
+from ..model.messages import Reconfigure
+from ..model.effects import call
 from .context import WebContext
 from .schemas import CONTROL_RESPONSES
 from .settings_store import RESTART_SECTIONS

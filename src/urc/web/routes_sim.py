@@ -10,11 +10,11 @@ from typing import Literal
 from fastapi import APIRouter, Depends, HTTPException
 from pydantic import Field
 
-from ..ipc.messages import HardwareInfo
-from ..ipc.messages import SimClear as ClearQuery
-from ..ipc.messages import SimFault as FaultQuery
-from ..service.effects import call
-from ..service.queries import ask
+from ..model.messages import HardwareInfo
+from ..model.messages import SimClear as ClearQuery
+from ..model.messages import SimFault as FaultQuery
+from ..model.effects import call
+from ..model.effects import ask
 from .context import WebContext
 from .schemas import CONTROL_RESPONSES, Deg, Ok, Strict
 

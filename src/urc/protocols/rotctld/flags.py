@@ -1,6 +1,6 @@
 """Which of Hamlib's rotator status flags (``rot_status_t``, rotctld's ``u``) a snapshot
 shows. Their names and wire text are :mod:`urc.wire.rotctld`'s; reading them off a
-:class:`~urc.service.snapshot.Status` is the server's, so the codec stays below it.
+:class:`~urc.model.snapshot.Status` is the server's, so the codec stays below it.
 """
 
 from __future__ import annotations

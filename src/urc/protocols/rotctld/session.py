@@ -15,8 +15,8 @@ from __future__ import annotations
 
 from typing import Callable
 
-from ...ipc.messages import ClearFaults, Goto, Move, Park, Stop
-from ...service.effects import Effects
+from ...model.messages import ClearFaults, Goto, Move, Park, Stop
+from ...model.effects import Effects
 
 from ... import __version__
 from ...errors import CommandRejected, ConfigError, HardwareError
