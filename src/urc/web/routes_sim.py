@@ -10,13 +10,14 @@ from typing import Literal
 from fastapi import APIRouter, Depends, HTTPException
 from pydantic import Field
 
+from ..dispatch.bodies import Deg, Strict
 from ..ipc.messages import HardwareInfo
 from ..ipc.messages import SimClear as ClearQuery
 from ..ipc.messages import SimFault as FaultQuery
 from ..service.effects import call
 from ..service.queries import ask
 from .context import WebContext
-from .schemas import CONTROL_RESPONSES, Deg, Ok, Strict
+from .schemas import CONTROL_RESPONSES, Ok
 
 FaultKind = Literal["sensor_stuck", "sensor_jump", "sensor_dead", "jam", "runaway", "limit_switch",
                     "reverse_wiring", "slow_read"]
