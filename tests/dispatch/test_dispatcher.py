@@ -9,7 +9,7 @@ import math
 
 import pytest
 
-from urc.dispatch import Dispatcher, Invalid, Stopped, TrackerFailed, TrackingOff
+from urc.dispatch import Dispatcher, Invalid, NotSimulated, Stopped, TrackerFailed, TrackingOff
 from urc.errors import CommandRejected
 from urc.ipc import messages as msg
 from urc.service.remote import ControlUnavailable, StopQueued
@@ -19,10 +19,15 @@ class Link:
     """The rotator as the I/O process sees it: ``call`` is one round trip over the link
     (urc.service.effects.call awaits it); every request it is given is recorded."""
 
-    def __init__(self, fail: dict | None = None, answers: dict | None = None):
+    def __init__(self, fail: dict | None = None, answers: dict | None = None, simulator: bool = True):
         self.sent: list = []
         self.fail = fail or {}
         self.answers = answers or {}
+        self.simulator = simulator
+
+    def ask(self, query):  # (a query answered without a round trip: HardwareInfo is sent at start)
+        assert isinstance(query, msg.HardwareInfo), query
+        return msg.HardwareSummary("sim" if self.simulator else "gpio", self.simulator, "")
 
     async def call(self, request):
         self.sent.append(request)
@@ -105,6 +110,9 @@ BAD = [
                                             {"bearing_deg": 90.0, "p": 0.5}]}, "points.0.p"),
     ("homing", {"axis": "az", "speed_frac": 0.0}, "speed_frac"),
     ("homing", {"axis": "az", "switch_deg": 1e6}, "switch_deg"),
+    ("sim_fault", {"axis": "az", "kind": "meteor"}, "kind"),
+    ("sim_fault", {"axis": "az", "kind": "runaway", "duty": 2.0}, "duty"),
+    ("sim_clear", {"axis": "both"}, "axis"),
 ]
 
 
@@ -225,6 +233,19 @@ def test_tracker_commands_plain_or_async_refresh_the_hub_and_a_failure_is_a_refu
     with pytest.raises(CommandRejected) as err2:   # a UrcError keeps its own reason
         asyncio.run(Dispatcher(Link(), Busy([]), None).track({"kind": "sun"}))
     assert err2.value.reason == "busy" and not isinstance(err2.value, TrackerFailed)
+
+
+def test_fault_injection_only_on_a_simulator_and_then_one_request():
+    d = Dispatcher(Link(simulator=False))
+    for run in (d.sim_fault({"axis": "az", "kind": "jam"}), d.sim_clear({"axis": "az"})):
+        with pytest.raises(NotSimulated) as err:
+            asyncio.run(run)
+        assert err.value.reason == "simulator" and "only on the simulator" in str(err.value)
+    assert d.rotator.sent == []
+    d = Dispatcher(Link())
+    asyncio.run(d.sim_fault({"axis": "el", "kind": "slow_read", "delay_s": 0.5, "reads": 3}))
+    asyncio.run(d.sim_clear({"axis": "el"}))
+    assert d.rotator.sent == [msg.SimFault("el", "slow_read", {"delay_s": 0.5, "reads": 3}), msg.SimClear("el", None)]
 
 
 def test_procedures_need_a_hub():

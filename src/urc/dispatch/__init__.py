@@ -4,12 +4,12 @@ each is performed over the link (:mod:`.dispatcher`) and why one is refused
 (:mod:`.errors`, each a CommandRejected with its reason). A front end parses its own
 envelope, hands the body here and answers in its own form what comes back.
 
-Nothing here imports fastapi, starlette, aiomqtt, urc.web or urc.mqtt
-(.importlinter's dispatch-framework-free and tests/test_layers.py)."""
+Nothing here imports fastapi, starlette, aiomqtt, urc.web or urc.mqtt, even indirectly
+(.importlinter's dispatch-framework-free; mqtt-no-web keeps MQTT off the web's modules)."""
 
 from __future__ import annotations
 
 from .dispatcher import Dispatcher, PotReading, Stopped
-from .errors import Invalid, TrackerFailed, TrackingOff
+from .errors import Invalid, NotSimulated, TrackerFailed, TrackingOff
 
-__all__ = ["Dispatcher", "Invalid", "PotReading", "Stopped", "TrackerFailed", "TrackingOff"]
+__all__ = ["Dispatcher", "Invalid", "NotSimulated", "PotReading", "Stopped", "TrackerFailed", "TrackingOff"]

@@ -109,3 +109,25 @@ class HomingRequest(Strict):
     axis: Axis
     speed_frac: float | None = Field(None, strict=True, gt=0.0, le=1.0, allow_inf_nan=False)
     switch_deg: Deg | None = None
+
+
+# ------------------------------------------------------------------ simulator (debug)
+FaultKind = Literal["sensor_stuck", "sensor_jump", "sensor_dead", "jam", "runaway", "limit_switch",
+                    "reverse_wiring", "slow_read"]
+
+
+class SimFault(Strict):
+    axis: Axis
+    kind: FaultKind
+    deg: Deg | None = Field(None, description="sensor_jump: offset of the reading")
+    duty: float | None = Field(None, strict=True, allow_inf_nan=False, ge=-1.0, le=1.0,
+                               description="runaway: stuck duty")
+    which: Literal["min", "max", "both"] | None = Field(None, description="limit_switch: which one")
+    delay_s: float | None = Field(None, strict=True, allow_inf_nan=False, ge=0.0, le=10.0,
+                                  description="slow_read: how long each slow read blocks")
+    reads: int | None = Field(None, strict=True, ge=0, le=1000, description="slow_read: how many reads")
+
+
+class SimClear(Strict):
+    axis: Axis
+    kind: FaultKind | None = None

@@ -18,8 +18,23 @@ from dataclasses import dataclass
 from typing import Any, Protocol
 
 from ..errors import CommandRejected, UrcError
-from ..ipc.messages import ClearFaults, ControllerHome, Goto, GotoAz, Move, Park, PotApply, PotUnits, SetPosition, Stop
+from ..ipc.messages import (
+    ClearFaults,
+    ControllerHome,
+    Goto,
+    GotoAz,
+    HardwareInfo,
+    Move,
+    Park,
+    PotApply,
+    PotUnits,
+    SetPosition,
+    Stop,
+)
+from ..ipc.messages import SimClear as SimClearQuery
+from ..ipc.messages import SimFault as SimFaultQuery
 from ..service.effects import call
+from ..service.queries import ask
 from ..service.remote import StopQueued
 from .bodies import (
     AxisRequest,
@@ -29,11 +44,13 @@ from .bodies import (
     PassRequest,
     PositionRequest,
     PotApplyRequest,
+    SimClear,
+    SimFault,
     StopRequest,
     TrackRequest,
     ZeroRequest,
 )
-from .errors import TrackerFailed, TrackingOff, parse
+from .errors import NotSimulated, TrackerFailed, TrackingOff, parse
 
 log = logging.getLogger(__name__)
 
@@ -207,6 +224,27 @@ class Dispatcher:
         cal = await _calibration()
         hub.start_procedure(await hub.procedure_step(cal.LimitSwitchHoming, self.rotator, req.axis,
                                                      req.speed_frac, req.switch_deg))
+
+    # -------------------------------------------------------------- simulator (debug)
+    async def sim_fault(self, req: SimFault | dict) -> None:
+        """Make the simulated hardware fail (the controller is not told). NotSimulated on
+        other hardware; ValueError: a fault this rotator cannot have."""
+        req = parse(SimFault, req)
+        kw = {k: v for k, v in (("deg", req.deg), ("duty", req.duty), ("which", req.which),
+                                ("delay_s", req.delay_s), ("reads", req.reads)) if v is not None}
+        self._simulated()
+        await call(self.rotator, SimFaultQuery(req.axis, req.kind, kw))
+
+    async def sim_clear(self, req: SimClear | dict) -> None:
+        """Repair the simulated hardware (latched faults still need clearing)."""
+        req = parse(SimClear, req)
+        self._simulated()
+        await call(self.rotator, SimClearQuery(req.axis, req.kind))
+
+    def _simulated(self) -> None:
+        # the simulator, or the gpio backend on emulated parts (the faults reach them)
+        if not ask(self.rotator, HardwareInfo()).simulator:  # (no round trip: sent once at start)
+            raise NotSimulated()
 
     def _procedures(self) -> Hub:
         if self.hub is None:

@@ -30,6 +30,13 @@ class TrackingOff(CommandRejected):
         super().__init__("tracking is off: no [station] configured", "tracking")
 
 
+class NotSimulated(CommandRejected):
+    """Fault injection on hardware that is not simulated: there is nothing to inject into."""
+
+    def __init__(self) -> None:
+        super().__init__("fault injection exists only on the simulator (sim, or gpio emulated)", "simulator")
+
+
 class TrackerFailed(CommandRejected):
     """The tracker raised something other than a UrcError (a plan that does not fit, a
     bad element set): a refusal with reason "tracking", the tracker's exception in
