@@ -8,8 +8,7 @@ the layer order below (lowest first). There are no cycles (issue 34), and
 tests/test_import_graph_script.py keeps it so, with imports for the type checker and
 inside functions counted, and keeps urc.config below every package it holds keys for;
 .importlinter says the same to lint-imports. The upward edges still printed are issue
-34's open ones (mqtt.commands' web routes, pointing's imports of cli, hardware and
-tracking ...).
+34's open ones (pointing's imports of cli, hardware and tracking ...).
 
 Usage: python scripts/import_graph.py [--json]
 """
@@ -50,6 +49,8 @@ LAYERS: list[tuple[str, ...]] = [
     # the two processes' link: codec, status record, client, server and supervisor
     ("urc.link",),
     ("urc.protocols",),
+    # the commands the web API and MQTT share (bodies, dispatch over the link): below both
+    ("urc.dispatch",),
     ("urc.status_text", "urc.api_client"),
     ("urc.tracking", "urc.frontpanel", "urc.mqtt"),
     ("urc.servers", "urc.web", "urc.api"),

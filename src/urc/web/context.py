@@ -7,6 +7,7 @@ from pathlib import Path
 from typing import Any, Callable
 
 from ..config import Config
+from ..dispatch import Dispatcher
 from .live import Hub
 from .settings_store import SettingsStore
 
@@ -23,4 +24,6 @@ class WebContext:
     #: saved setting applied at once: urc.assembly's settings_from_config, handed in by
     #: the composition root (a web route imports no composition root)
     settings_of: Callable[[Config, Path | None], Any]
+    #: the commands shared with MQTT, on this rotator, tracker and hub
+    dispatch: Dispatcher
     tracker: Any = None

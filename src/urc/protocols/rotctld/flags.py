@@ -5,7 +5,7 @@ shows. Their names and wire text are :mod:`urc.wire.rotctld`'s; reading them off
 
 from __future__ import annotations
 
-from ...service.snapshot import AxisStatus, Status
+from ...model.snapshot import AxisStatus, Status
 
 #: an axis turning faster than this (deg/s) counts as moving even with the motor off (coasting)
 MOVING_RATE_DEG_PER_S = 0.5
