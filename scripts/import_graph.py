@@ -54,7 +54,7 @@ LAYERS: list[tuple[str, ...]] = [
     ("urc.status_text", "urc.api_client"),
     ("urc.tracking", "urc.frontpanel", "urc.mqtt"),
     ("urc.servers", "urc.web", "urc.api"),
-    ("urc.registrations", "urc.assembly", "urc.app", "urc.systemd_unit"),
+    ("urc.registrations", "urc.assembly", "urc.app", "urc.systemd_unit", "urc.control_entry"),
     ("urc.cli", "urc.entry", "urc.__main__"),
     ("urc.testing",),
 ]

@@ -33,7 +33,7 @@ HTTP = httpx.Client(timeout=5.0, limits=httpx.Limits(max_keepalive_connections=0
 
 def _is_urc(cmdline: list[bytes]) -> bool:
     """``python -m urc ...``, the ``urc`` script, or a control process."""
-    if any(a == b"urc.link.control_process" for a in cmdline):
+    if any(a == b"urc.control_entry" for a in cmdline):
         return True
     if any(a == b"-m" and b == b"urc" for a, b in zip(cmdline, cmdline[1:])):
         return True
@@ -245,7 +245,7 @@ class UrcProcess:
                     for pid in _read_or_empty(task / "children").split()]
         for pid in children:
             try:
-                if b"urc.link.control_process" in Path(f"/proc/{pid}/cmdline").read_bytes():
+                if b"urc.control_entry" in Path(f"/proc/{pid}/cmdline").read_bytes():
                     return int(pid)
             except FileNotFoundError:
                 pass

@@ -58,6 +58,10 @@ from .remote import (CALL_TIMEOUT_S, ControlLink, ControlUnavailable, RemoteRota
 
 log = logging.getLogger(__name__)
 
+#: builds the control process's rotator and its configured settings, from the
+#: configuration and the state directory (urc.control_entry.build)
+Build = Callable[[Any, Path], tuple[Any, Any]]
+
 #: real-time priority (SCHED_FIFO) of this process's threads; the loop thread raises
 #: itself to loop.RT_PRIORITY, above them
 PROCESS_RT_PRIORITY = 5
@@ -104,8 +108,11 @@ class ControlServer:
     own, in order, so a slow one (a state save on a slow SD card) blinds none of that."""
 
     def __init__(self, conn: Connection, cfg: Any, state_dir: Path, lock_fds: list[int],
-                 record: StatusRecord | None = None):
+                 record: StatusRecord | None = None, build: Build | None = None):
         self.conn = conn
+        #: builds the rotator and its configured settings (urc.control_entry.build: the
+        #: composition root's, handed in so that the link imports no assembly)
+        self.build = build
         #: the shared-memory status record: each tick's count and time, the evidence that
         #: this loop runs which the I/O process reads without a thread (urc.link.status_record)
         self.record = record
@@ -166,15 +173,12 @@ class ControlServer:
 
     # ------------------------------------------------------------- lifetime
     def run(self) -> int:
-        from ..assembly import build_rotator
-
+        assert self.build is not None
         # (SIGABRT: what systemd's watchdog sends by default)
         for sig in (signal.SIGTERM, signal.SIGINT, signal.SIGABRT, signal.SIGUSR1):
             signal.signal(sig, self._on_signal)
         try:
-            self.rot = build_rotator(self.cfg, RealClock(), self.state_dir)
-            from ..assembly import settings_from_config
-            self._config_settings = settings_from_config(self.cfg, self.state_dir)
+            self.rot, self._config_settings = self.build(self.cfg, self.state_dir)
             # what the calibration queries need (numpy): imported now, not while ticking
             import urc.procedures.calibration  # noqa: F401
         except BaseException as exc:
@@ -511,7 +515,7 @@ def _realtime() -> str:
         return "normal"
 
 
-def main(argv: list[str]) -> int:
+def main(argv: list[str], build: Build) -> int:
     conn = Connection(int(argv[0]))
     _die_with_parent()
     if os.getppid() != int(argv[1]):  # the I/O process died before the line above
@@ -521,7 +525,7 @@ def main(argv: list[str]) -> int:
     log.debug("control process: %s priority for its threads", _realtime())
     record = StatusRecord.attach(int(argv[2])) if len(argv) > 2 else None
     try:
-        return ControlServer(conn, cfg, Path(state_dir), lock_fds, record).run()
+        return ControlServer(conn, cfg, Path(state_dir), lock_fds, record, build).run()
     finally:
         skip_exit_collection()
 
@@ -571,7 +575,7 @@ class ControlProcess:
         self.record = StatusRecord.create()
         try:
             # a fresh interpreter, not a fork: this process may already run threads
-            self.proc = subprocess.Popen([sys.executable, "-m", "urc.link.control_process", str(theirs.fileno()),
+            self.proc = subprocess.Popen([sys.executable, "-m", "urc.control_entry", str(theirs.fileno()),
                                           str(os.getpid()), str(self.record.fd)],
                                          pass_fds=(theirs.fileno(), self.record.fd, *self.lock_fds),
                                          start_new_session=True)
@@ -848,7 +852,3 @@ class _Foreign:
 
     def terminate(self) -> None:
         self._signal(signal.SIGTERM)
-
-
-if __name__ == "__main__":
-    sys.exit(main(sys.argv[1:]))
