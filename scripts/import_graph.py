@@ -55,7 +55,7 @@ LAYERS: list[tuple[str, ...]] = [
     ("urc.tracking", "urc.frontpanel", "urc.mqtt"),
     ("urc.servers", "urc.web", "urc.api"),
     ("urc.registrations", "urc.assembly", "urc.app", "urc.systemd_unit", "urc.control_entry"),
-    ("urc.cli", "urc.entry", "urc.__main__"),
+    ("urc.cli", "urc.cli_pointing", "urc.entry", "urc.__main__"),
     ("urc.testing",),
 ]
 

@@ -40,7 +40,7 @@ class _LazyGroup(click.Group):
     must not pay for numpy and skyfield (the tracking commands)."""
 
     LAZY = {"passes": "urc.tracking.cli:passes_command", "tle": "urc.tracking.cli:tle_command",
-            "calibrate": "urc.pointing.cli:calibrate_command", "pointing": "urc.pointing.cli:pointing_command"}
+            "calibrate": "urc.cli_pointing:calibrate_command", "pointing": "urc.cli_pointing:pointing_command"}
 
     def list_commands(self, ctx: click.Context) -> list[str]:
         return sorted({*super().list_commands(ctx), *self.LAZY})

@@ -8,7 +8,7 @@ import time
 
 import click
 
-from ..cli import _client_options, _request
+from .cli import _client_options, _request
 
 
 @click.command("calibrate")
@@ -97,7 +97,7 @@ def pointing_show(url: str | None, config_path: str | None) -> None:
 @_client_options
 def pointing_fit(scans_file: str | None, terms: str | None, url: str | None, config_path: str | None) -> None:
     """Fit the pointing model to the calibration scans, save it and apply it."""
-    from .store import POINTING_TERMS, PointingStoreError, read_scans
+    from .pointing.store import POINTING_TERMS, PointingStoreError, read_scans
 
     body: dict = {}
     if terms:
