@@ -6,7 +6,7 @@ from __future__ import annotations
 from click.testing import CliRunner
 
 from urc.cli import main
-from urc.pointing import cli as pcli
+from urc import cli_pointing as pcli
 
 DONE = {"state": "done", "step": "done", "progress": 1.0, "error": "",
         "result": {"az_offset_deg": 2.5, "az_offset_err_deg": 0.1, "el_offset_deg": -1.5, "el_offset_err_deg": 0.1,

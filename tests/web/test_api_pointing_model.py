@@ -13,7 +13,7 @@ import pytest
 from click.testing import CliRunner
 
 from urc.cli import main
-from urc.pointing import cli as pcli
+from urc import cli_pointing as pcli
 from urc.pointing import store
 from urc.pointing.model import PointingModel
 from urc.pointing.procedure import ScanCalibration, make_sky, make_source
