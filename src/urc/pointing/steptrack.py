@@ -85,6 +85,8 @@ MIN_SKY_RATE_DEG_S = 0.01
 #: a time offset change announced as an event when it moves this much (and 2 sigma)
 ANNOUNCE_S = 1.0
 ANNOUNCE_EVERY_S = 30.0
+#: the Earth's rotation (rad/s, sidereal)
+EARTH_RATE_RAD_S = 7.2921159e-5
 
 
 def _wrap180(x: Any) -> Any:
@@ -92,15 +94,49 @@ def _wrap180(x: Any) -> Any:
 
 
 class Prediction:
-    """The plan's sky track (UTC), interpolated; the sky rate in the tangent frame."""
+    """The plan's sky track (UTC), interpolated; the sky rate in the tangent frame.
 
-    def __init__(self, plan: Any):
+    ``range_km`` (at the plan's times) and ``station`` (a urc.tracking.station.Station)
+    make :meth:`seen` exact for an orbit: without them a time offset is a shift along
+    the sky track alone."""
+
+    def __init__(self, plan: Any, *, range_km: Any = None, station: Any = None):
         self.t = np.asarray(plan.t_s, dtype=float)
         self.az = np.unwrap(np.asarray(plan.sky_az_deg, dtype=float), period=360.0)
         self.el = np.asarray(plan.sky_el_deg, dtype=float)
+        self.range_km = None if range_km is None or station is None else np.asarray(range_km, dtype=float)
+        if self.range_km is not None:
+            self._site, self._enu = np.asarray(station.itrs_km, dtype=float), np.asarray(station.enu, dtype=float)
 
     def at(self, u: Any) -> tuple[Any, Any]:
         return np.interp(u, self.t, self.az) % 360.0, np.interp(u, self.t, self.el)
+
+    def seen(self, u: Any, time_offset_s: float) -> tuple[Any, Any]:
+        """Where the satellite is at UTC ``u`` when it runs ``time_offset_s`` behind its
+        elements along its orbit: where the elements put it at u - time_offset_s, in
+        space, seen from the Earth as it has turned by then. (The Earth turns 0.125 deg
+        in 30 s: seen from the ground, an along-track error is not a pure shift of the
+        sky track in time; taken as one, 30 s read as 31.3-31.9 s on the ISS from Tartu.)"""
+        az, el = self.at(np.asarray(u, dtype=float) - time_offset_s)
+        if self.range_km is None or time_offset_s == 0.0:
+            return az, el
+        r = np.interp(np.asarray(u, dtype=float) - time_offset_s, self.t, self.range_km)
+        a, e = np.radians(az), np.radians(el)
+        local = np.stack([np.sin(a) * np.cos(e), np.cos(a) * np.cos(e), np.sin(e)], axis=-1) * np.expand_dims(r, -1)
+        x = self._site + local @ self._enu              # Earth-fixed at u - time_offset_s
+        th = -EARTH_RATE_RAD_S * time_offset_s        # the Earth turned on by time_offset_s
+        c, s = math.cos(th), math.sin(th)
+        x = np.stack([c * x[..., 0] - s * x[..., 1], s * x[..., 0] + c * x[..., 1], x[..., 2]], axis=-1)
+        d = (x - self._site) @ self._enu.T
+        az1 = np.degrees(np.arctan2(d[..., 0], d[..., 1])) % 360.0
+        el1 = np.degrees(np.arctan2(d[..., 2], np.hypot(d[..., 0], d[..., 1])))
+        return (az1, el1) if np.ndim(u) else (float(az1), float(el1))
+
+    def earth_turn(self, u: Any, time_offset_s: float) -> tuple[Any, Any]:
+        """:meth:`seen` minus the sky track shifted in time, as a sky (dx, dy), deg."""
+        az0, el0 = self.at(np.asarray(u, dtype=float) - time_offset_s)
+        az1, el1 = self.seen(u, time_offset_s)
+        return _wrap180(az1 - az0) * np.cos(np.radians(el1)), el1 - el0
 
     def rate(self, u: float) -> tuple[float, float]:
         """(dx/dt, dy/dt) deg/s on the sky at ``u`` (dx across elevation)."""
@@ -190,11 +226,11 @@ class StepTrack:
 
     def __init__(self, plan: Any, name: str, source: Any, geometry: Any, *, fwhm_deg: float,
                  new_id: Callable[[], int], end: str = "park", floor_db: float | None = None,
-                 ceiling_db: float | None = None):
+                 ceiling_db: float | None = None, prediction: Prediction | None = None):
         self.plan, self.name, self.geometry = plan, name, geometry
         self.fwhm_deg, self.new_id, self.end = float(fwhm_deg), new_id, end
         self.ceiling_db = ceiling_db
-        self.pred = Prediction(plan)
+        self.pred = prediction if prediction is not None else Prediction(plan)
         self.reader = _Reader(source)
         self.state = "floor"          # floor -> waiting -> searching <-> tracking / lost
         self.time_offset_s, self.time_var_s2 = 0.0, TIME_PRIOR_S ** 2
@@ -292,7 +328,7 @@ class StepTrack:
                 why = ", ".join(f"{k} {v}" for k, v in sorted(refused.items())) or "none read"
                 raise ScanRefused("few", f"{len(samples)} usable samples ({why})")
             t, az, el, p = (np.array(c) for c in zip(*samples))
-            paz, pel = self.pred.at(t - self._ref_s)
+            paz, pel = self.pred.seen(t, self._ref_s)
             dx = _wrap180(az - paz) * np.cos(np.radians(el))
             dy = el - pel
             centre, cov, _a, _a_err = fit_beam(dx, dy, p, fwhm_deg=self.fwhm_deg, floor=self.floor)
@@ -390,7 +426,7 @@ class StepTrack:
         cross = self.cross_deg if self.state == "tracking" else 0.0
         az0, el0 = self.pred.at(u)
         x, y = _centre(self.pred, u - self.time_offset_s, cross)
-        az1, el1 = self.pred.at(u - self.time_offset_s)
+        az1, el1 = self.pred.seen(u, self.time_offset_s)
         az1 = az1 + x / max(math.cos(math.radians(el1 + y)), 1e-3)
         return float(_wrap180(az1 - az0)), float(el1 + y - el0)
 
@@ -452,7 +488,8 @@ def build_program(plan: Any, pred: Prediction, geometry: Any, *, program_id: int
     sx = np.where(t < dense_end, sx, 0.0)
     sy = np.where(t < dense_end, sy, 0.0)
     cx, cy = _centre(pred, u_pred, cross_deg)
-    ox, oy = sx + cx, sy + cy
+    ex, ey = pred.earth_turn(t + off, time_offset_s)
+    ox, oy = sx + cx + ex, sy + cy + ey
     _, sky_el = pred.at(u_pred)
     g = geometry
     az = np.empty(len(t))
@@ -486,8 +523,17 @@ def factory(fwhm_deg: float, source_for: Callable[[Any], Any], *, floor_db: floa
     def make(job: Any, tracker: Any) -> StepTrack:
         return StepTrack(job.plan, job.target.name, source_for(job), tracker.rot.geometry, fwhm_deg=fwhm_deg,
                          new_id=tracker.new_program_id, end="park" if tracker.park_after_pass else "hold",
-                         floor_db=floor_db, ceiling_db=ceiling_db)
+                         floor_db=floor_db, ceiling_db=ceiling_db, prediction=orbit_prediction(job, tracker.station))
     return make
+
+
+def orbit_prediction(job: Any, station: Any) -> Prediction:
+    """The pass's :class:`Prediction` with the satellite's range (its elements' at the
+    plan's times): a time offset then moves the satellite along its orbit."""
+    from ..tracking.propagate import look_angles
+
+    la = look_angles(job.target.elements, station, np.asarray(job.plan.t_s, dtype=float))
+    return Prediction(job.plan, range_km=la.range_km, station=station)
 
 
 def from_config(cfg: Any, station: Any) -> Callable[[Any, Any], StepTrack]:

@@ -18,8 +18,10 @@ from .evaluate import fly
 
 def shifted_elements(es: Any, dt_s: float) -> Any:
     """``es`` with its epoch ``dt_s`` later and its elements unchanged: the same orbit,
-    the satellite predicted ``dt_s`` behind where it is (along-track error:
-    prediction(t) = truth(t - dt_s), a time offset of -dt_s in step-track's terms)."""
+    the satellite predicted ``dt_s`` behind where it is on it (along-track error: in
+    space, prediction(t) = truth(t - dt_s), a time offset of -dt_s in step-track's
+    terms; seen from the ground the Earth has turned in between, which step-track's
+    Prediction.seen accounts for)."""
     from sgp4.api import WGS72, Satrec
     from sgp4.exporter import export_tle
 
