@@ -626,5 +626,6 @@ def from_config(cfg: Any, station: Any) -> Callable[[Any, Any], StepTrack]:
 
     def source_for(job: Any) -> Any:
         sky = SkySource.satellite(job.target.elements, station)
-        return make_source(pointing, cfg.hardware.sim.pointing_error, sky, seed=cfg.hardware.sim.seed)
+        return make_source(pointing, cfg.hardware.sim.pointing_error, sky, seed=cfg.hardware.sim.seed,
+                           az_zero_deg=cfg.rotator.zero_offset_deg)
     return factory(pointing.beamwidth_deg, source_for, ceiling_db=pointing.ceiling_db)
