@@ -12,8 +12,10 @@ suite flies scans on the simulated rotator: tests/pointing/test_scan_sim.py); wi
 With ``--steptrack``, the step-track row: the ISS (tests' fixture elements) flown on the
 simulated rotator (virtual clock) with its elements shifted 30 s along track, the power
 from the true satellite: the true beam's error from AOS + 30 s to LOS with step-track
-and with the prediction alone, and the time offset found (truth -30 s); ``--quick``
-flies the 10 deg beam only.
+and with the prediction alone, the time offset found (truth -30 s) and its error
+(dt+30), the locks and losses of the signal in the pass (announced events) and the most
+step-track's error exceeded the prediction's at the same instant; ``--quick`` flies the
+10 deg beam only.
 Prints a table, writes JSON (default bench/results/pointing.json).
 Usage: python bench/pointing_bench.py [--quick] [--samples N] [--model] [--steptrack] [--json PATH]
 """
@@ -129,6 +131,8 @@ def steptrack_rows(beamwidths, snrs):
             for j, snr in enumerate(snrs):
                 f = fly_steptrack_pass(es, wrong, station, p, Path(tmp) / f"s{i}{j}", fwhm_deg=w, snr_db=snr, seed=j + 1)
                 e = f.error_deg[f.t_unix_s >= p.aos_unix_s + 30.0]
+                # the prediction alone's error at the same instants: how much worse step-track is at worst
+                over = e - np.interp(f.t_unix_s[f.t_unix_s >= p.aos_unix_s + 30.0], alone.t_unix_s, alone.error_deg)
                 st = (f.tracker_status or {}).get("step_track") or {}
                 rows.append({"fwhm_deg": w, "snr_db": snr, "max_el_deg": round(p.max_el_deg, 1),
                              "rms_deg": float(np.sqrt(np.mean(e ** 2))), "p95_deg": float(np.percentile(e, 95)),
@@ -136,6 +140,10 @@ def steptrack_rows(beamwidths, snrs):
                              "prediction_rms_deg": float(np.sqrt(np.mean(base ** 2))),
                              "prediction_within_quarter_pct": float(100 * np.mean(base <= w / 4)),
                              "time_offset_s": f.time_offset_s, "time_offset_err_s": f.time_offset_err_s,
+                             "time_offset_bias_s": None if f.time_offset_s is None else f.time_offset_s + 30.0,
+                             "locks": sum("found by its signal" in x for x in f.events),
+                             "losses": sum("signal lost" in x for x in f.events),
+                             "worst_over_prediction_deg": float(over.max()),
                              "fits": st.get("fits"), "programs": f.programs})
     return rows
 
@@ -174,14 +182,16 @@ def main() -> None:
         srows = steptrack_rows((10.0,) if args.quick else (30.0, 10.0, 3.0), (3.0, 10.0, 30.0))
         print("\nstep-track: ISS, elements 30 s off along track (time offset -30 s), error from AOS+30 s to LOS")
         print(f"{'FWHM deg':>8} {'SNR dB':>6} {'RMS deg':>8} {'p95 deg':>8} {'<FWHM/4':>8} {'pred RMS':>8} "
-              f"{'pred <FWHM/4':>12} {'dt s':>7} {'+-':>5} {'fits':>4}")
+              f"{'pred <FWHM/4':>12} {'dt s':>7} {'+-':>5} {'dt+30':>6} {'fits':>4} {'lock/loss':>9} "
+              f"{'>pred deg':>9}")
         for r in srows:
             dt = r["time_offset_s"]
             print(f"{r['fwhm_deg']:8g} {r['snr_db']:6g} {r['rms_deg']:8.3f} {r['p95_deg']:8.3f} "
                   f"{r['within_quarter_pct']:7.1f}% {r['prediction_rms_deg']:8.3f} "
                   f"{r['prediction_within_quarter_pct']:11.1f}% "
-                  + (f"{dt:7.2f} {r['time_offset_err_s']:5.2f} {r['fits']:4d}" if dt is not None else
-                     f"{'-':>7} {'-':>5} {'-':>4}"))
+                  + (f"{dt:7.2f} {r['time_offset_err_s']:5.2f} {dt + 30.0:+6.2f} {r['fits']:4d}" if dt is not None
+                     else f"{'-':>7} {'-':>5} {'-':>6} {'-':>4}")
+                  + f" {r['locks']:>4d}/{r['losses']:<4d} {r['worst_over_prediction_deg']:9.2f}")
         out["steptrack"] = srows
     out["wall_s"] = round(time.perf_counter() - t0, 2)
     print(f"\n{out['wall_s']} s")

@@ -23,12 +23,15 @@ def unix_at(status) -> float:
     return T0_UNIX_S + status.t_s
 
 
-def scan(bench, error: dict | None, *, snr_db: float = 30.0, az_deg=BEACON_AZ_DEG, el_deg=BEACON_EL_DEG):
+def scan(bench, error: dict | None, *, snr_db: float = 30.0, az_deg=BEACON_AZ_DEG, el_deg=BEACON_EL_DEG,
+         rotator: dict | None = None):
     hw = {"sim": {"wind": False, **({"pointing_error": error} if error else {})}}
-    b = bench("tartu-urc", hardware=hw, pointing={"beamwidth_deg": FWHM_DEG, "snr_db": snr_db})
+    b = bench("tartu-urc", hardware=hw, pointing={"beamwidth_deg": FWHM_DEG, "snr_db": snr_db},
+              rotator=dict(rotator or {}))
     cfg = b.cfg
     sky = make_sky("beacon", az_deg=az_deg, el_deg=el_deg)
-    source = make_source(cfg.pointing, cfg.hardware.sim.pointing_error, sky, seed=3)
+    source = make_source(cfg.pointing, cfg.hardware.sim.pointing_error, sky, seed=3,
+                         az_zero_deg=cfg.rotator.zero_offset_deg)
     plan = cross_scan(FWHM_DEG, step_fwhm=0.25, settle_s=0.2, dwell_s=0.4)
     proc = ScanCalibration(b.rot, sky, source, fwhm_deg=FWHM_DEG, plan=plan, samples_per_point=2,
                            target="beacon", unix_at=unix_at)
@@ -64,7 +67,7 @@ def test_a_noise_only_source_is_refused(bench):
     hw = {"sim": {"wind": False, "pointing_error": {"ia_deg": 9.0}}}
     b = bench("tartu-urc", hardware=hw, pointing={"beamwidth_deg": 2.0, "snr_db": 30.0})
     sky = make_sky("beacon", az_deg=BEACON_AZ_DEG, el_deg=BEACON_EL_DEG)
-    source = make_source(b.cfg.pointing, b.cfg.hardware.sim.pointing_error, sky, seed=5)
+    source = make_source(b.cfg.pointing, b.cfg.hardware.sim.pointing_error, sky, seed=5, az_zero_deg=0.0)
     proc = ScanCalibration(b.rot, sky, source, fwhm_deg=2.0, samples_per_point=2,
                            plan=cross_scan(2.0, settle_s=0.2, dwell_s=0.4), unix_at=unix_at)
     b.run(900.0, on_tick=proc.poll, until=lambda s: proc.finished)
@@ -82,9 +85,25 @@ def test_a_sun_scan_needs_the_station():
 def test_a_sim_source_on_hardware_without_truth_fails_with_the_reason(bench):
     b = bench("tartu-urc", pointing={"beamwidth_deg": FWHM_DEG})
     sky = make_sky("beacon", az_deg=BEACON_AZ_DEG, el_deg=BEACON_EL_DEG)
-    proc = ScanCalibration(b.rot, sky, make_source(b.cfg.pointing, None, sky), fwhm_deg=FWHM_DEG,
+    proc = ScanCalibration(b.rot, sky, make_source(b.cfg.pointing, None, sky, az_zero_deg=0.0), fwhm_deg=FWHM_DEG,
                            unix_at=unix_at)
     status = b.rot.status()
     from dataclasses import replace
     proc.poll(replace(status, sim_truth=None))
     assert proc.state == "failed" and "simulator" in proc.error
+
+
+def test_a_south_zero_rotator_scans_the_same_sky(bench):
+    """[rotator] zero = "south": the simulator's axes count from south (compass = axis
+    + 180). The simulated source must see the beam at the compass bearing the iron
+    points to; taking the axis angle as a compass one put the beam 180 deg away from the
+    beacon (the scan was refused as noise)."""
+    error = {"ia_deg": 2.5, "ie_deg": -1.5}
+    b, proc = scan(bench, error, rotator={"zero": "south"})
+    assert b.cfg.rotator.zero_offset_deg == 180.0
+    truth_az = b.rot.status().sim_truth["az"]["deg"]
+    assert abs((b.rot.status().az_deg - truth_az) % 360.0 - 180.0) < 5.0  # the frames differ by 180
+    assert proc.state == "done", proc.as_dict()
+    want_az, want_el = expected_offset(PointingModel.from_dict(error))
+    assert abs(proc.result["az_offset_deg"] - want_az) < 0.1 * FWHM_DEG
+    assert abs(proc.result["el_offset_deg"] - want_el) < 0.1 * FWHM_DEG

@@ -119,7 +119,7 @@ BEACON_AZ_DEG, BEACON_EL_DEG, FWHM_DEG = 120.0, 30.0, 10.0
 
 def scan(b, kept: list) -> ScanCalibration:
     sky = make_sky("beacon", az_deg=BEACON_AZ_DEG, el_deg=BEACON_EL_DEG)
-    source = make_source(b.cfg.pointing, b.cfg.hardware.sim.pointing_error, sky, seed=3)
+    source = make_source(b.cfg.pointing, b.cfg.hardware.sim.pointing_error, sky, seed=3, az_zero_deg=0.0)
     proc = ScanCalibration(b.rot, sky, source, fwhm_deg=FWHM_DEG, samples_per_point=2, target="beacon",
                            plan=cross_scan(FWHM_DEG, step_fwhm=0.25, settle_s=0.2, dwell_s=0.4),
                            unix_at=lambda s: 1704110400.0 + s.t_s, record=kept.append)

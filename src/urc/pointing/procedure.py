@@ -39,19 +39,21 @@ class ScanSetupError(UrcError):
 # ----------------------------------------------------------------------- sources
 class StatusPower:
     """The simulator's source read from a status: the true axes (``sim_truth``) through
-    the configured pointing error model to the beam, then the source seen by the beam."""
+    the configured pointing error model to the beam, then the source seen by the beam.
+    ``az_zero_deg``: the compass bearing of the azimuth axis' zero ([rotator] zero: 180
+    on a south-zero rotator, whose axis angles count from south)."""
 
     name = "simulated power"
 
-    def __init__(self, sim: SimulatedPower, model: PointingModel | None):
-        self.sim, self.model = sim, model
+    def __init__(self, sim: SimulatedPower, model: PointingModel | None, az_zero_deg: float = 0.0):
+        self.sim, self.model, self.az_zero_deg = sim, model, float(az_zero_deg)
 
     def read_at(self, status: Any, unix_s: float) -> Sample:
         truth = status.sim_truth
         if not truth or "az" not in truth:
             raise SignalRefused("missing", 'no simulator truth in the status: source = "sim" needs the simulator')
         el_m = float(truth["el"]["deg"]) if truth.get("el") else 0.0
-        az, el = true_beam(self.model, float(truth["az"]["deg"]), el_m)
+        az, el = true_beam(self.model, float(truth["az"]["deg"]), el_m, self.az_zero_deg)
         value = float(self.sim.measure(unix_s, az, el)[0])
         return judge(unix_s, value, "dB", now_s=unix_s, max_age_s=None, ceiling=self.sim.ceiling_db, what=self.name)
 
@@ -89,13 +91,15 @@ def _host_port(address: str | None, what: str) -> tuple[str, int]:
     return host.strip("[]"), int(port)
 
 
-def make_source(pointing: Any, sim_error: dict[str, float] | None, sky: SkySource, seed: int = 1) -> Any:
-    """The power source ``[pointing]`` names (a :class:`StatusPower` for "sim")."""
+def make_source(pointing: Any, sim_error: dict[str, float] | None, sky: SkySource, seed: int = 1, *,
+                az_zero_deg: float) -> Any:
+    """The power source ``[pointing]`` names (a :class:`StatusPower` for "sim", its
+    axes' azimuth zero at ``az_zero_deg``: ``[rotator]``'s zero_offset_deg)."""
     kind = pointing.source
     if kind == "sim":
         sim = SimulatedPower(sky, fwhm_deg=pointing.beamwidth_deg, snr_db=pointing.snr_db,
                              ceiling_db=pointing.ceiling_db, seed=seed)
-        return StatusPower(sim, PointingModel.from_dict(sim_error) if sim_error else None)
+        return StatusPower(sim, PointingModel.from_dict(sim_error) if sim_error else None, az_zero_deg)
     if kind == "rigctld":
         from .rigctld import RigctldStrength
         return RigctldStrength(*_host_port(pointing.address, kind), ceiling_db=pointing.ceiling_db)

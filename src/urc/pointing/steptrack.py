@@ -19,11 +19,39 @@ truth(t) = prediction(t - time_offset_s)); it updates a Kalman estimate of the t
 offset, weighted by the fit's uncertainty over |v| (a slow satellite near the horizon
 tells little). The component across is kept as a cross-track offset (bounded).
 
-Refused, never fitted: saturated samples, no significant peak (noise), a peak beyond a
-beamwidth, too few samples. Signal loss (LOSS_CYCLES refused cycles, or the source
-refusing) falls back to the prediction: shifted by the time offset estimated so far
-(the issue's "applied for the rest of the pass"), no cross-track offset, no scan; an
-acquisition search is tried again after REACQUIRE_S.
+Refused, never fitted: saturated samples, no signal, a peak beyond a beamwidth, too few
+samples. Signal loss falls back to the prediction: shifted by the time offset estimated
+so far (the issue's "applied for the rest of the pass"), no cross-track offset, no scan;
+an acquisition search is tried again after REACQUIRE_S.
+
+Lock and loss are decided by a detection, not by the fit: is there power over the floor
+in this cycle? z = (mean power - floor) / (sigma / sqrt(n)) over the cycle's n samples,
+sigma the sample noise from successive differences (sqrt(mean(dp^2) / 2): a slow change
+of the signal across the scan hardly enters). With noise alone z is about N(0, 1)
+(independent samples; a source repeating its last reading would make sigma too small).
+The fit's own amplitude test is the wrong judge of that: five points within 0.12
+beamwidth of each other cannot tell a weak peak near the centre from a strong one
+further out, so its amplitude uncertainty is large while the power plainly is there
+(at 3 dB the ISS pass lost and found the signal 8 times, every loss a "no significant
+peak" with the satellite in the beam). A detected cycle whose fit is refused or
+uncertain is not a failure: the estimate is simply not moved (the fit's covariance
+weighs what is fitted). Thresholds:
+- DETECT_Z = 4: a false detection on noise about once in 10 000 cycles (Student's t
+  tail, 50 samples a cycle, the noise estimated); a 3 dB satellite within the tracking
+  scan gives z ~ 13 over a 10 s cycle.
+- LOCK_CYCLES = 2 fitted detections in a row to lock (a search step, then the
+  estimate it gave): a false lock needs two false detections in a row, ~1e-8 a cycle.
+  While tracking, a detected cycle whose fit is refused neither counts toward a loss
+  nor moves the estimate.
+- FIT_SIGNIFICANCE = 3 for a detected cycle's fit (fit.MIN_SIGNIFICANCE = 5 where no
+  detection is made): the detection has said the signal is there.
+- LOSS_CYCLES = 3 failed cycles in a row (30 s) to drop: a miss while the signal is
+  there is then one in ~1e-6 even where a single cycle misses one time in a hundred;
+  the price is 30 s of small scans around the last estimate before the prediction
+  alone, which is where the fallback points anyway (a saturated cycle drops at once:
+  its power says nothing).
+Without a floor (none read before AOS, none configured) there is no detection and the
+fit's own significance decides, as before.
 
 Acquisition: a satellite whose elements are 30 s off is 15 deg from its prediction in
 mid-pass, beyond a narrow beam's reach, and nothing in the power says which way: one
@@ -70,9 +98,16 @@ CROSS_WALK_DEG2_PER_S = 0.002
 #: the noise floor is read before AOS - FLOOR_GUARD_S (a satellite this early is still below)
 FLOOR_GUARD_S = 60.0
 FLOOR_MIN_SAMPLES = 10
-#: refused cycles in a row that make the signal lost; then the prediction alone this
-#: long before an acquisition search again
-LOSS_CYCLES = 2
+#: detection: the cycle's power over the floor in standard errors; detected cycles in a
+#: row to lock; failed cycles in a row to drop (the module docstring says why); once
+#: lost, the prediction alone this long before an acquisition search again
+DETECT_Z = 4.0
+LOCK_CYCLES = 2
+LOSS_CYCLES = 3
+#: a detected cycle's fit is used when its peak is this many standard uncertainties
+#: (the detection already says the signal is there; this keeps the position's
+#: linearised covariance meaningful); where no detection is made, fit.MIN_SIGNIFICANCE
+FIT_SIGNIFICANCE = 3.0
 REACQUIRE_S = 30.0
 #: acquisition: one scan cycle at each time offset along the predicted track, 0, +h, -h,
 #: +2h, ... (h: this many beamwidths of the sky motion), up to MAX_SEARCH_S either way
@@ -85,6 +120,8 @@ MIN_SKY_RATE_DEG_S = 0.01
 #: a time offset change announced as an event when it moves this much (and 2 sigma)
 ANNOUNCE_S = 1.0
 ANNOUNCE_EVERY_S = 30.0
+#: the Earth's rotation (rad/s, sidereal)
+EARTH_RATE_RAD_S = 7.2921159e-5
 
 
 def _wrap180(x: Any) -> Any:
@@ -92,15 +129,49 @@ def _wrap180(x: Any) -> Any:
 
 
 class Prediction:
-    """The plan's sky track (UTC), interpolated; the sky rate in the tangent frame."""
+    """The plan's sky track (UTC), interpolated; the sky rate in the tangent frame.
 
-    def __init__(self, plan: Any):
+    ``range_km`` (at the plan's times) and ``station`` (a urc.tracking.station.Station)
+    make :meth:`seen` exact for an orbit: without them a time offset is a shift along
+    the sky track alone."""
+
+    def __init__(self, plan: Any, *, range_km: Any = None, station: Any = None):
         self.t = np.asarray(plan.t_s, dtype=float)
         self.az = np.unwrap(np.asarray(plan.sky_az_deg, dtype=float), period=360.0)
         self.el = np.asarray(plan.sky_el_deg, dtype=float)
+        self.range_km = None if range_km is None or station is None else np.asarray(range_km, dtype=float)
+        if self.range_km is not None:
+            self._site, self._enu = np.asarray(station.itrs_km, dtype=float), np.asarray(station.enu, dtype=float)
 
     def at(self, u: Any) -> tuple[Any, Any]:
         return np.interp(u, self.t, self.az) % 360.0, np.interp(u, self.t, self.el)
+
+    def seen(self, u: Any, time_offset_s: float) -> tuple[Any, Any]:
+        """Where the satellite is at UTC ``u`` when it runs ``time_offset_s`` behind its
+        elements along its orbit: where the elements put it at u - time_offset_s, in
+        space, seen from the Earth as it has turned by then. (The Earth turns 0.125 deg
+        in 30 s: seen from the ground, an along-track error is not a pure shift of the
+        sky track in time; taken as one, 30 s read as 31.3-31.9 s on the ISS from Tartu.)"""
+        az, el = self.at(np.asarray(u, dtype=float) - time_offset_s)
+        if self.range_km is None or time_offset_s == 0.0:
+            return az, el
+        r = np.interp(np.asarray(u, dtype=float) - time_offset_s, self.t, self.range_km)
+        a, e = np.radians(az), np.radians(el)
+        local = np.stack([np.sin(a) * np.cos(e), np.cos(a) * np.cos(e), np.sin(e)], axis=-1) * np.expand_dims(r, -1)
+        x = self._site + local @ self._enu              # Earth-fixed at u - time_offset_s
+        th = -EARTH_RATE_RAD_S * time_offset_s        # the Earth turned on by time_offset_s
+        c, s = math.cos(th), math.sin(th)
+        x = np.stack([c * x[..., 0] - s * x[..., 1], s * x[..., 0] + c * x[..., 1], x[..., 2]], axis=-1)
+        d = (x - self._site) @ self._enu.T
+        az1 = np.degrees(np.arctan2(d[..., 0], d[..., 1])) % 360.0
+        el1 = np.degrees(np.arctan2(d[..., 2], np.hypot(d[..., 0], d[..., 1])))
+        return (az1, el1) if np.ndim(u) else (float(az1), float(el1))
+
+    def earth_turn(self, u: Any, time_offset_s: float) -> tuple[Any, Any]:
+        """:meth:`seen` minus the sky track shifted in time, as a sky (dx, dy), deg."""
+        az0, el0 = self.at(np.asarray(u, dtype=float) - time_offset_s)
+        az1, el1 = self.seen(u, time_offset_s)
+        return _wrap180(az1 - az0) * np.cos(np.radians(el1)), el1 - el0
 
     def rate(self, u: float) -> tuple[float, float]:
         """(dx/dt, dy/dt) deg/s on the sky at ``u`` (dx across elevation)."""
@@ -111,12 +182,12 @@ class Prediction:
         return float((a1 - a0) * c / (2 * h)), float((e1 - e0) / (2 * h))
 
 
-def fit_beam(dx: Any, dy: Any, power_lin: Any, *, fwhm_deg: float, floor: float | None
-             ) -> tuple[np.ndarray, np.ndarray, float, float]:
+def fit_beam(dx: Any, dy: Any, power_lin: Any, *, fwhm_deg: float, floor: float | None,
+             min_significance: float = MIN_SIGNIFICANCE) -> tuple[np.ndarray, np.ndarray, float, float]:
     """The satellite's (cx, cy) from samples at sky offsets (dx, dy) of linear power:
     a Gaussian beam of the known width over ``floor`` (None: fitted too). Returns
-    (centre, its 2x2 covariance, peak, peak's uncertainty); ScanRefused if no
-    significant peak or a peak off the scan."""
+    (centre, its 2x2 covariance, peak, peak's uncertainty); ScanRefused if no peak of
+    ``min_significance`` standard uncertainties or a peak off the scan."""
     x, y, p = (np.asarray(v, dtype=float) for v in (dx, dy, power_lin))
     if len(p) < MIN_SAMPLES or not np.all(np.isfinite(p)):
         raise ScanRefused("few", f"{len(p)} samples, at least {MIN_SAMPLES} needed")
@@ -139,12 +210,24 @@ def fit_beam(dx: Any, dy: Any, power_lin: Any, *, fwhm_deg: float, floor: float 
     v, cov, _ = _lm(fun, np.array(p0))
     a, cx, cy = (float(c) for c in v[:3])
     a_err = math.sqrt(abs(cov[0, 0]))
-    if not (a > 0 and np.all(np.isfinite(cov[:3, :3])) and a >= MIN_SIGNIFICANCE * a_err):
+    if not (a > 0 and np.all(np.isfinite(cov[:3, :3])) and a >= min_significance * a_err):
         raise ScanRefused("noise", f"no significant peak: {a:.3g} +- {a_err:.2g} (at the noise floor)")
     if math.hypot(cx, cy) > MAX_FIT_FWHM * fwhm_deg:
         raise ScanRefused("off_scan", f"peak {math.hypot(cx, cy):.2f} deg from the prediction, more than "
                           f"{MAX_FIT_FWHM:g} beamwidth")
     return np.array([cx, cy]), np.asarray(cov[1:3, 1:3]), a, a_err
+
+
+def detection_z(power_lin: Any, floor: float) -> float:
+    """The samples' mean over ``floor`` in standard errors, the noise from successive
+    differences (a slow change of the signal hardly enters); about N(0, 1) on noise."""
+    p = np.asarray(power_lin, dtype=float)
+    if len(p) < 3:
+        return math.nan
+    sigma = math.sqrt(float(np.mean(np.diff(p) ** 2)) / 2.0)
+    if sigma <= 0.0:
+        return math.nan  # (a source repeating one value: nothing to judge by)
+    return float((np.mean(p) - floor) / (sigma / math.sqrt(len(p))))
 
 
 class _Reader:
@@ -190,11 +273,11 @@ class StepTrack:
 
     def __init__(self, plan: Any, name: str, source: Any, geometry: Any, *, fwhm_deg: float,
                  new_id: Callable[[], int], end: str = "park", floor_db: float | None = None,
-                 ceiling_db: float | None = None):
+                 ceiling_db: float | None = None, prediction: Prediction | None = None):
         self.plan, self.name, self.geometry = plan, name, geometry
         self.fwhm_deg, self.new_id, self.end = float(fwhm_deg), new_id, end
         self.ceiling_db = ceiling_db
-        self.pred = Prediction(plan)
+        self.pred = prediction if prediction is not None else Prediction(plan)
         self.reader = _Reader(source)
         self.state = "floor"          # floor -> waiting -> searching <-> tracking / lost
         self.time_offset_s, self.time_var_s2 = 0.0, TIME_PRIOR_S ** 2
@@ -205,6 +288,8 @@ class StepTrack:
         self._refused: dict[str, int] = {}
         self._cycle = -1
         self._fails = 0               # refused cycles in a row
+        self._hits = 0                # detected cycles in a row
+        self.detect_z = math.nan      # the last cycle's detection statistic
         self._retry_u = -math.inf     # lost: the prediction alone until then
         self._search_k = 0            # the acquisition search's step (0: the estimate itself)
         self._search_h_s = 0.0
@@ -250,8 +335,11 @@ class StepTrack:
     def _search(self, u: float) -> None:
         """Start an acquisition search along the predicted track."""
         vx, vy = self.pred.rate(u - self.time_offset_s)
-        self.state, self._fails, self._search_k = "searching", 0, 0
-        self._search_h_s = SEARCH_STEP_FWHM * self.fwhm_deg / max(math.hypot(vx, vy), MIN_SKY_RATE_DEG_S)
+        self.state, self._fails, self._hits, self._search_k = "searching", 0, 0, 0
+        # (at most a third of the search's reach: near the horizon the satellite crawls
+        # across the sky and one step would end the search)
+        self._search_h_s = min(SEARCH_STEP_FWHM * self.fwhm_deg / max(math.hypot(vx, vy), MIN_SKY_RATE_DEG_S),
+                               MAX_SEARCH_S / 3.0)
 
     @property
     def search_offset_s(self) -> float:
@@ -292,14 +380,45 @@ class StepTrack:
                 why = ", ".join(f"{k} {v}" for k, v in sorted(refused.items())) or "none read"
                 raise ScanRefused("few", f"{len(samples)} usable samples ({why})")
             t, az, el, p = (np.array(c) for c in zip(*samples))
-            paz, pel = self.pred.at(t - self._ref_s)
+            if self.floor is not None:
+                self.detect_z = detection_z(p, self.floor)
+                if not self.detect_z >= DETECT_Z:
+                    raise ScanRefused("noise", f"no signal: the power {self.detect_z:.1f} standard errors over the "
+                                      f"floor, {DETECT_Z:g} needed")
+            paz, pel = self.pred.seen(t, self._ref_s)
             dx = _wrap180(az - paz) * np.cos(np.radians(el))
             dy = el - pel
-            centre, cov, _a, _a_err = fit_beam(dx, dy, p, fwhm_deg=self.fwhm_deg, floor=self.floor)
+            try:
+                centre, cov, _a, _a_err = fit_beam(dx, dy, p, fwhm_deg=self.fwhm_deg, floor=self.floor,
+                                                   min_significance=MIN_SIGNIFICANCE if self.floor is None
+                                                   else FIT_SIGNIFICANCE)
+            except ScanRefused as exc:
+                if self.floor is None or self.state != "tracking":
+                    raise
+                # tracking, the signal there but the fit cannot place it: no update, no failure
+                self.last_refusal = f"signal detected, fit refused: {exc}"
+                self._fails = 0
+                return
         except ScanRefused as exc:
             self._refuse(exc, u)
             return
-        self._update(float(np.mean(t)), centre, cov, u)
+        self._detected(float(np.mean(t)), centre, cov, u)
+
+    def _detected(self, t_mid: float, centre: np.ndarray, cov: np.ndarray, u: float) -> None:
+        """A cycle with the signal, fitted: the estimate moved; locked after LOCK_CYCLES
+        in a row."""
+        self._fails = 0
+        self._hits += 1
+        if self.state == "searching" and self._search_k:
+            # found at this step of the search: the estimate is where it was flown
+            self.time_offset_s += self.search_offset_s
+            self.time_var_s2 = min(self.time_var_s2, self._search_h_s ** 2)
+            self._search_k = 0
+        self._update(t_mid, centre, cov, u)
+        if self.state == "searching" and self._hits >= LOCK_CYCLES:
+            self.state = "tracking"
+            self._say(f"step-track: {self.name} found by its signal: time offset {self.time_offset_s:+.1f} "
+                      f"+- {self.time_err_s:.1f} s, cross-track {self.cross_deg:+.2f} deg", u)
 
     def _update(self, t_mid: float, centre: np.ndarray, cov: np.ndarray, u: float) -> None:
         vx, vy = self.pred.rate(t_mid - self._ref_s)
@@ -326,12 +445,7 @@ class StepTrack:
         self.cross_deg = float(np.clip(self.cross_deg + k * (across - self.cross_deg), -bound, bound))
         self.cross_var_deg2 *= 1.0 - k
         self.fits += 1
-        self._fails = 0
-        if self.state != "tracking":
-            self.state = "tracking"
-            self._say(f"step-track: {self.name} found by its signal: time offset {self.time_offset_s:+.1f} "
-                      f"+- {self.time_err_s:.1f} s, cross-track {self.cross_deg:+.2f} deg", u)
-        else:
+        if self.state == "tracking":
             last, when = self._announced
             if (abs(self.time_offset_s - last) >= max(ANNOUNCE_S, 2 * self.time_err_s)
                     and u - when >= ANNOUNCE_EVERY_S):
@@ -341,6 +455,7 @@ class StepTrack:
     def _refuse(self, exc: ScanRefused, u: float) -> None:
         self.last_refusal = str(exc)
         self._fails += 1
+        self._hits = 0
         if self.state == "searching" and exc.reason != "saturated":
             self._search_k += 1
             if abs(self.search_offset_s) <= MAX_SEARCH_S:
@@ -390,7 +505,7 @@ class StepTrack:
         cross = self.cross_deg if self.state == "tracking" else 0.0
         az0, el0 = self.pred.at(u)
         x, y = _centre(self.pred, u - self.time_offset_s, cross)
-        az1, el1 = self.pred.at(u - self.time_offset_s)
+        az1, el1 = self.pred.seen(u, self.time_offset_s)
         az1 = az1 + x / max(math.cos(math.radians(el1 + y)), 1e-3)
         return float(_wrap180(az1 - az0)), float(el1 + y - el0)
 
@@ -401,6 +516,7 @@ class StepTrack:
                 "az_offset_deg": round(daz, 3), "el_offset_deg": round(de, 3), "fits": self.fits,
                 "beamwidth_deg": self.fwhm_deg, "scan_radius_deg": round(self.radius_deg, 3),
                 "noise_floor_db": None if self.floor is None else round(10 * math.log10(self.floor), 2),
+                "detection_z": None if not math.isfinite(self.detect_z) else round(self.detect_z, 1),
                 "last_refusal": self.last_refusal or None}
 
     def close(self) -> None:
@@ -452,7 +568,8 @@ def build_program(plan: Any, pred: Prediction, geometry: Any, *, program_id: int
     sx = np.where(t < dense_end, sx, 0.0)
     sy = np.where(t < dense_end, sy, 0.0)
     cx, cy = _centre(pred, u_pred, cross_deg)
-    ox, oy = sx + cx, sy + cy
+    ex, ey = pred.earth_turn(t + off, time_offset_s)
+    ox, oy = sx + cx + ex, sy + cy + ey
     _, sky_el = pred.at(u_pred)
     g = geometry
     az = np.empty(len(t))
@@ -486,8 +603,17 @@ def factory(fwhm_deg: float, source_for: Callable[[Any], Any], *, floor_db: floa
     def make(job: Any, tracker: Any) -> StepTrack:
         return StepTrack(job.plan, job.target.name, source_for(job), tracker.rot.geometry, fwhm_deg=fwhm_deg,
                          new_id=tracker.new_program_id, end="park" if tracker.park_after_pass else "hold",
-                         floor_db=floor_db, ceiling_db=ceiling_db)
+                         floor_db=floor_db, ceiling_db=ceiling_db, prediction=orbit_prediction(job, tracker.station))
     return make
+
+
+def orbit_prediction(job: Any, station: Any) -> Prediction:
+    """The pass's :class:`Prediction` with the satellite's range (its elements' at the
+    plan's times): a time offset then moves the satellite along its orbit."""
+    from ..tracking.propagate import look_angles
+
+    la = look_angles(job.target.elements, station, np.asarray(job.plan.t_s, dtype=float))
+    return Prediction(job.plan, range_km=la.range_km, station=station)
 
 
 def from_config(cfg: Any, station: Any) -> Callable[[Any, Any], StepTrack]:
@@ -500,5 +626,6 @@ def from_config(cfg: Any, station: Any) -> Callable[[Any, Any], StepTrack]:
 
     def source_for(job: Any) -> Any:
         sky = SkySource.satellite(job.target.elements, station)
-        return make_source(pointing, cfg.hardware.sim.pointing_error, sky, seed=cfg.hardware.sim.seed)
+        return make_source(pointing, cfg.hardware.sim.pointing_error, sky, seed=cfg.hardware.sim.seed,
+                           az_zero_deg=cfg.rotator.zero_offset_deg)
     return factory(pointing.beamwidth_deg, source_for, ceiling_db=pointing.ceiling_db)

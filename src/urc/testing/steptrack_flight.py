@@ -16,10 +16,13 @@ from ..clock import VirtualClock
 from .evaluate import fly
 
 
-def shifted_elements(es: Any, dt_s: float) -> Any:
+def shifted_elements(es: Any, dt_s: float, node_deg: float = 0.0) -> Any:
     """``es`` with its epoch ``dt_s`` later and its elements unchanged: the same orbit,
-    the satellite predicted ``dt_s`` behind where it is (along-track error:
-    prediction(t) = truth(t - dt_s), a time offset of -dt_s in step-track's terms)."""
+    the satellite predicted ``dt_s`` behind where it is on it (along-track error: in
+    space, prediction(t) = truth(t - dt_s), a time offset of -dt_s in step-track's
+    terms; seen from the ground the Earth has turned in between, which step-track's
+    Prediction.seen accounts for). ``node_deg`` turns the orbit's ascending node too:
+    a cross-track error as well."""
     from sgp4.api import WGS72, Satrec
     from sgp4.exporter import export_tle
 
@@ -29,7 +32,7 @@ def shifted_elements(es: Any, dt_s: float) -> Any:
     sat = Satrec()
     epoch_days = s.jdsatepoch - 2433281.5 + s.jdsatepochF + dt_s / 86400.0
     sat.sgp4init(WGS72, "i", s.satnum, epoch_days, s.bstar, s.ndot, s.nddot, s.ecco, s.argpo, s.inclo, s.mo,
-                 s.no_kozai, s.nodeo)
+                 s.no_kozai, s.nodeo + math.radians(node_deg))
     sat.intldesg, sat.classification, sat.elnum, sat.revnum, sat.ephtype = "98067A", "U", 999, 1, 0
     l1, l2 = export_tle(sat)
     return parse_tle(f"{es.name}\n{l1}\n{l2}\n")[0]
@@ -54,6 +57,7 @@ class SteptrackFlight(NamedTuple):
     time_offset_err_s: float | None
     events: list[str]
     programs: int                   # programs uploaded
+    flipped: bool                   # the pass was planned over the top (el 90..180, az + 180)
 
 
 def fly_steptrack_pass(true_es: Any, flown_es: Any, station: Any, p: Any, state_dir: Path, *, fwhm_deg: float,
@@ -101,6 +105,8 @@ def fly_steptrack_pass(true_es: Any, flown_es: Any, station: Any, p: Any, state_
 
     def step(now_s: float) -> None:
         tracker.step(now_s)
+        if tracker.job is not None:
+            last["flip"] = bool(tracker.job.plan.flip)
         # (the status costs milliseconds of skyfield: every few seconds, as a client asks)
         if now_s >= last["next_s"] and tracker.job is not None and tracker.job.steptrack is not None:
             last["st"], last["next_s"] = tracker.status(now_s), now_s + 5.0
@@ -112,7 +118,7 @@ def fly_steptrack_pass(true_es: Any, flown_es: Any, station: Any, p: Any, state_
     st = last.get("st")
     track = (st or {}).get("step_track") or {}
     return SteptrackFlight(rot, st, t[up], np.asarray(err), track.get("time_offset_s"),
-                           track.get("time_offset_err_s"), events, uploads[0])
+                           track.get("time_offset_err_s"), events, uploads[0], bool(last.get("flip")))
 
 
 def within(err_deg: np.ndarray, limit_deg: float) -> float:

@@ -32,7 +32,8 @@ def _build(ctx: WebContext, req: ScanRequest) -> Any:
     cfg = ctx.settings.cfg  # (the settings as last saved: [pointing] applies without a restart)
     try:
         sky = pp.make_sky(req.target, cfg.station, req.az_deg, req.el_deg)
-        source = pp.make_source(cfg.pointing, cfg.hardware.sim.pointing_error, sky, seed=cfg.hardware.sim.seed)
+        source = pp.make_source(cfg.pointing, cfg.hardware.sim.pointing_error, sky, seed=cfg.hardware.sim.seed,
+                                az_zero_deg=cfg.rotator.zero_offset_deg)
         proc = pp.ScanCalibration(ctx.rotator, sky, source, fwhm_deg=cfg.pointing.beamwidth_deg,
                                   dwell_s=cfg.pointing.dwell_s, samples_per_point=cfg.pointing.samples_per_point,
                                   target=req.target, record=_recorder(ctx))
