@@ -22,8 +22,13 @@ unstressed on a virtual clock; stops by reason; gotos accepted but not completed
 takeovers; RPRT answers to ``p``; the event loop's lag p99 (when status has it);
 tick_late_p99_ms max. Prints a table, writes JSON. Never gates CI.
 
+``--quiet`` runs the same timetable, clients and gotos without stress-ng, SIGSTOP pauses
+or catalog reloads: the real-time reference (real ticks, real threads) against which the
+virtual-clock reference can be read. (A pass cannot be flown twice in real time: its
+satellite is up once.)
+
 Usage: python bench/busy_soak.py --config {tartu-sim|g5500-emulate} --minutes 60
-       [--no-stress] [--json PATH]
+       [--no-stress | --quiet] [--json PATH]
 """
 
 from __future__ import annotations
@@ -201,6 +206,7 @@ def main() -> None:
     ap.add_argument("--config", choices=sorted(CONFIGS), default="tartu-sim")
     ap.add_argument("--minutes", type=float, default=60.0)
     ap.add_argument("--no-stress", action="store_true")
+    ap.add_argument("--quiet", action="store_true", help="no stress-ng, no SIGSTOP pauses, no catalog reloads")
     ap.add_argument("--pass-every-min", type=float, default=5.0)
     ap.add_argument("--first-pass-min", type=float, default=None, help="first AOS (default: --pass-every-min)")
     ap.add_argument("--reload-every-min", type=float, default=10.0)
@@ -208,6 +214,8 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--json", default=None)
     args = ap.parse_args()
+    if args.quiet:
+        args.no_stress, args.reload_every_min = True, math.inf
     json_path = args.json or f"bench/results/busy-soak-{args.config}.json"
     profile, lead_s = CONFIGS[args.config]
     from urc.profiles import PROFILES   # (the axes' top rates: a goto's time bound)
@@ -224,7 +232,8 @@ def main() -> None:
         first_s = 60.0 * (args.first_pass_min if args.first_pass_min is not None else args.pass_every_min)
         aos_targets, goto_times = timetable(t0, end, 60.0 * args.pass_every_min, first_s, lead_s, rates)
         print(f"{args.config}: {len(aos_targets)} passes, {len(goto_times)} gotos, "
-              f"{'no stress' if args.no_stress else 'stress-ng --cpu 8 --vm 2 --vm-bytes 256M'}", flush=True)
+              f"{'quiet' if args.quiet else 'no stress' if args.no_stress else 'stress-ng --cpu 8 --vm 2 --vm-bytes 256M'}",
+              flush=True)
         picks = satellites_passing_between(
             work, TARTU, [(a - 10.0, a + 30.0) for a in aos_targets], MIN_EL_DEG + 2.0,
             [99100 + k for k in range(len(aos_targets))], [f"SOAK-{k}" for k in range(len(aos_targets))],
@@ -255,7 +264,8 @@ def main() -> None:
             mq = Client(broker.port, subscribe=(f"{BASE}/cmd/result", f"{BASE}/event"))
             for _ in range(CLIENTS):
                 threads.append(threading.Thread(target=rotctld_client, args=(rotctld_port, sh), daemon=True))
-            threads.append(threading.Thread(target=pauser, args=(u.proc.pid, sh, rng, pauses), daemon=True))
+            if not args.quiet:
+                threads.append(threading.Thread(target=pauser, args=(u.proc.pid, sh, rng, pauses), daemon=True))
             if time.time() > t0:
                 print(f"warning: set-up ended {time.time() - t0:.0f} s late", flush=True)
             while time.time() < t0:
@@ -468,7 +478,7 @@ def report(args, run, picks, unstressed, counts, pauses, import_s, json_path) ->
     accepted = [g for g in run["gotos"] if g["ok"] is True]
     not_completed = [g for g in accepted if not g["completed"]]
     result = {
-        "config": args.config, "minutes": args.minutes, "stress": not args.no_stress,
+        "config": args.config, "minutes": args.minutes, "stress": not args.no_stress, "quiet": args.quiet,
         "catalog_sets": args.catalog_sets, "catalog_import_s": round(import_s, 1), "reloads": run["reloads"],
         "passes": passes, "passes_flown": sum(not p["lost"] for p in passes),
         "passes_lost": sum(p["lost"] for p in passes),
@@ -485,7 +495,7 @@ def report(args, run, picks, unstressed, counts, pauses, import_s, json_path) ->
         "faults": run["faults"], "mqtt_event_types": sorted(set(run["mqtt_events"])), "events": run["events"],
     }
     rows = [("config", f"{args.config}, {args.minutes:g} min, "
-                       f"{'stress-ng --cpu 8 --vm 2 --vm-bytes 256M' if result['stress'] else 'no stress'}"),
+                       f"{'stress-ng --cpu 8 --vm 2 --vm-bytes 256M' if result['stress'] else 'quiet' if args.quiet else 'no stress'}"),
             ("catalog", f"{args.catalog_sets} sets, import {import_s:.1f} s, reloads "
                         + ", ".join(f"{r['s']} s (rc {r['rc']})" for r in run["reloads"]) or "none"),
             ("passes flown / lost", f"{result['passes_flown']} / {result['passes_lost']}")]
