@@ -213,7 +213,7 @@ def calibrate_rows(beamwidths, snrs, trials, samples):
                         sky.append(sky_rms_deg(ERROR, fresh, offset=off))
                         break
                 e = np.array(errs)
-                row = {"fwhm_deg": w, "snr_db": snr, "trials": trials, "calibrated": len(errs), "refused": refused,
+                row = {"fwhm_deg": w, "snr_db": snr, "trials": trials, "fitted": len(errs), "refused": refused,
                        "uncorrected_at_sun_deg": float(corrected_error_deg(ERROR, *cal.sun(t))),
                        "uncorrected_sky_rms_deg": uncorrected}
                 if len(e):
@@ -277,12 +277,12 @@ def print_calibrate(off_rows, model_rows_):
     print(f"{'FWHM deg':>8} {'SNR dB':>6} {'fit/try':>7} {'refused':>7} {'t med s':>7} {'t max s':>7} {'tries':>5} "
           f"{'err@Sun med':>11} {'max':>6} {'<FWHM/10':>8} {'sky RMS':>7}")
     for r in off_rows:
-        head = (f"{r['fwhm_deg']:8g} {r['snr_db']:6g} {r['calibrated']:>3d}/{r['trials']:<3d} "
+        head = (f"{r['fwhm_deg']:8g} {r['snr_db']:6g} {r['fitted']:>3d}/{r['trials']:<3d} "
                 f"{sum(r['refused'].values()):7d} ")
         if "time_median_s" in r:
             print(head + f"{r['time_median_s']:7.1f} {r['time_max_s']:7.1f} {r['attempts_max']:5d} "
                   f"{r['error_at_sun_median_deg']:11.3f} {r['error_at_sun_max_deg']:6.3f} "
-                  f"{r['under_tenth']:>4d}/{r['calibrated']:<3d} {r['offset_sky_rms_median_deg']:7.3f}")
+                  f"{r['under_tenth']:>4d}/{r['fitted']:<3d} {r['offset_sky_rms_median_deg']:7.3f}")
         else:
             print(head + "   never calibrated")
     print(f"(b) pointing model: a Sun cross scan every {CAL_EVERY_S / 60:g} min from when the Sun leaves room for "
