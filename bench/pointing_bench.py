@@ -16,8 +16,27 @@ and with the prediction alone, the time offset found (truth -30 s) and its error
 (dt+30), the locks and losses of the signal in the pass (announced events) and the most
 step-track's error exceeded the prediction's at the same instant; ``--quick`` flies the
 10 deg beam only.
+With ``--calibrate``, the time to a calibrated station: the Sun at Tartu on 2024-06-21
+(Sun up 01:45..19:40Z, at most el 55), flown on the simulated rotator (virtual clock,
+tartu-urc profile, 6 deg/s) through the same injected error (urc.testing.calibration_flight).
+(a) One-scan offset calibration: from the antenna parked (az 0, el 90) at 09:00Z, the
+rotator time from the command to the offset fitted (slew to the Sun + the cross scan
++ the fit, which takes no virtual time); a refused scan (noise) is flown again from where
+it ended, up to 5 times, its time counted. Calibrated when the true beam, commanded at
+the Sun through the fitted offset (the [offsets] ``urc calibrate sun`` offers), is off
+it by under a tenth of the beamwidth; also the RMS over the sky (az 60..300, el 10..70)
+with that one offset: a constant offset cannot take out a tilt or a sag.
+(b) The pointing model: a Sun cross scan every 15 min of the day from when the Sun leaves
+room for one (each leg +-1.5 beamwidths, narrowed to no less than 1 to keep its elevation
+within 1..89 deg), the model (all terms; without NPAE when the scans cannot separate it)
+fitted after each; calibrated when the corrected pointing RMS at fresh positions (the same
+sky) is under a tenth of the beamwidth: the scans flown and refused, the rotator time, the
+sky time (hours of the Sun's path from the first scan's command to the last one's end)
+and the RMS reached, or the day's best if never. Scans have ``--samples`` readings per
+point; ``--quick`` runs the 10 deg beam with 3 one-scan trials per cell (else 10).
 Prints a table, writes JSON (default bench/results/pointing.json).
-Usage: python bench/pointing_bench.py [--quick] [--samples N] [--model] [--steptrack] [--json PATH]
+Usage: python bench/pointing_bench.py [--quick] [--samples N] [--model] [--steptrack] [--calibrate]
+       [--json PATH]
 """
 
 from __future__ import annotations
@@ -148,12 +167,146 @@ def steptrack_rows(beamwidths, snrs):
     return rows
 
 
+CAL_T0_UNIX_S = 1718928000.0  # 2024-06-21T00:00Z: midsummer at Tartu, the Sun up 01:45..19:40Z, el to 55
+CAL_ONE_SCAN_AT_S = 9 * 3600.0  # the one-scan calibration commanded at 09:00Z (Sun near el 52)
+CAL_EVERY_S = 900.0             # the day's Sun scans: one every 15 min while the Sun leaves room
+CAL_MAX_ATTEMPTS = 5
+
+
+def calibrate_rows(beamwidths, snrs, trials, samples):
+    """Time to a calibrated station (module docstring): the one-scan offset and the model."""
+    import logging
+    import tempfile
+    from pathlib import Path
+
+    from urc.errors import CalibrationError
+    from urc.pointing.model import TERMS
+    from urc.testing.calibration_flight import SunCalibrator, corrected_error_deg, mech_pose, sky_rms_deg
+    from urc.tracking.station import Station
+
+    logging.getLogger("urc").setLevel(logging.WARNING + 1)  # each fresh rotator's "first start" notice
+    station = Station(58.3780, 26.7290, 70.0, "Tartu")
+    rng = np.random.default_rng(7)
+    fresh = (rng.uniform(60, 300, 300), rng.uniform(10, 70, 300))
+    uncorrected = sky_rms_deg(ERROR, fresh)
+    off_rows, model_rows_ = [], []
+    with tempfile.TemporaryDirectory() as tmp:
+        for w in beamwidths:
+            for snr in snrs:
+                # (a) one scan, from the park position, repeated on refusal
+                times, tries, errs, sky, refused = [], [], [], [], {}
+                for k in range(trials):
+                    cal = SunCalibrator(station, ERROR, fwhm_deg=w, snr_db=snr, seed=1 + k, samples_per_point=samples,
+                                        state_dir=Path(tmp) / f"o{w}-{snr}-{k}")
+                    t = CAL_T0_UNIX_S + CAL_ONE_SCAN_AT_S + 120.0 * k
+                    for attempt in range(1, CAL_MAX_ATTEMPTS + 1):
+                        s = cal.scan(t + cal.clock.now_s())
+                        if s is None:
+                            break
+                        if s.fit is None:
+                            refused[s.refused] = refused.get(s.refused, 0) + 1
+                            continue
+                        off = (s.fit.dx_deg, s.fit.dy_deg)
+                        times.append(cal.clock.now_s())
+                        tries.append(attempt)
+                        errs.append(float(corrected_error_deg(ERROR, s.mid_az_deg, s.mid_el_deg, offset=off)))
+                        sky.append(sky_rms_deg(ERROR, fresh, offset=off))
+                        break
+                e = np.array(errs)
+                row = {"fwhm_deg": w, "snr_db": snr, "trials": trials, "fitted": len(errs), "refused": refused,
+                       "uncorrected_at_sun_deg": float(corrected_error_deg(ERROR, *cal.sun(t))),
+                       "uncorrected_sky_rms_deg": uncorrected}
+                if len(e):
+                    row.update(time_median_s=float(np.median(times)), time_max_s=float(np.max(times)),
+                               attempts_max=int(max(tries)), error_at_sun_median_deg=float(np.median(e)),
+                               error_at_sun_max_deg=float(e.max()),
+                               under_tenth=int(np.sum(e < w / 10)), offset_sky_rms_median_deg=float(np.median(sky)))
+                off_rows.append(row)
+
+                # (b) the pointing model: the Sun through a day, a fit after every scan
+                cal = SunCalibrator(station, ERROR, fwhm_deg=w, snr_db=snr, seed=99, samples_per_point=samples,
+                                    state_dir=Path(tmp) / f"m{w}-{snr}")
+                scans, flown, m_refused, rot_s, first, last, best, met, terms_used = [], 0, {}, 0.0, None, None, None, None, ""
+                for t in np.arange(CAL_T0_UNIX_S, CAL_T0_UNIX_S + 86400.0, CAL_EVERY_S):
+                    s = cal.scan(float(t))
+                    if s is None:
+                        continue
+                    flown += 1
+                    rot_s += s.duration_s
+                    first = s.t_unix_s if first is None else first
+                    last = s.t_unix_s + s.duration_s
+                    if s.fit is None:
+                        m_refused[s.refused] = m_refused.get(s.refused, 0) + 1
+                        continue
+                    scans.append(scan_result(*mech_pose(s), s.fit))
+                    if 2 * len(scans) <= len(TERMS):
+                        continue
+                    fit = None
+                    for terms in (TERMS, tuple(x for x in TERMS if x != "npae")):
+                        try:
+                            fit = fit_model(scans, terms)
+                            break
+                        except (CalibrationError, ValueError):  # too few to separate, or a term beyond +-10 deg
+                            continue
+                    if fit is None:
+                        continue
+                    rms = sky_rms_deg(ERROR, fresh, model=fit.model)
+                    if best is None or rms < best["rms_deg"]:
+                        best = {"rms_deg": rms, "scans_fitted": len(scans), "terms": ",".join(fit.terms)}
+                    if rms < w / 10:
+                        met = s.t_unix_s + s.duration_s
+                        terms_used = ",".join(fit.terms)
+                        break
+                end = met if met is not None else last
+                model_rows_.append({
+                    "fwhm_deg": w, "snr_db": snr, "met": met is not None, "scans_flown": flown,
+                    "scans_refused": m_refused, "scans_fitted": len(scans), "rotator_s": round(rot_s, 1),
+                    "sky_hours": None if first is None or end is None else round((end - first) / 3600.0, 2),
+                    "first_scan_utc_h": None if first is None else round((first - CAL_T0_UNIX_S) / 3600.0, 2),
+                    "corrected_sky_rms_deg": best["rms_deg"] if best else None,
+                    "best_at_scans": best["scans_fitted"] if best else None,
+                    "terms": terms_used or (best["terms"] if best else "")})
+    return off_rows, model_rows_
+
+
+def print_calibrate(off_rows, model_rows_):
+    r0 = off_rows[0]
+    print(f"\ntime to a calibrated station: the Sun at Tartu, 2024-06-21; uncorrected error at the Sun "
+          f"{r0['uncorrected_at_sun_deg']:.2f} deg, over the sky (az 60..300, el 10..70) RMS {r0['uncorrected_sky_rms_deg']:.2f} deg")
+    print("(a) one-scan offset: from park (az 0, el 90) at 09:00Z: slew + cross scan + fit, rescanned on refusal")
+    print(f"{'FWHM deg':>8} {'SNR dB':>6} {'fit/try':>7} {'refused':>7} {'t med s':>7} {'t max s':>7} {'tries':>5} "
+          f"{'err@Sun med':>11} {'max':>6} {'<FWHM/10':>8} {'sky RMS':>7}")
+    for r in off_rows:
+        head = (f"{r['fwhm_deg']:8g} {r['snr_db']:6g} {r['fitted']:>3d}/{r['trials']:<3d} "
+                f"{sum(r['refused'].values()):7d} ")
+        if "time_median_s" in r:
+            print(head + f"{r['time_median_s']:7.1f} {r['time_max_s']:7.1f} {r['attempts_max']:5d} "
+                  f"{r['error_at_sun_median_deg']:11.3f} {r['error_at_sun_max_deg']:6.3f} "
+                  f"{r['under_tenth']:>4d}/{r['fitted']:<3d} {r['offset_sky_rms_median_deg']:7.3f}")
+        else:
+            print(head + "   never calibrated")
+    print(f"(b) pointing model: a Sun cross scan every {CAL_EVERY_S / 60:g} min from when the Sun leaves room for "
+          f"one; fitted after each; until the corrected RMS over the sky < FWHM/10")
+    print(f"{'FWHM deg':>8} {'SNR dB':>6} {'met':>4} {'flown':>5} {'refused':>7} {'fitted':>6} {'rot s':>6} "
+          f"{'sky h':>5} {'from h':>6} {'RMS deg':>8} {'at':>3}  terms")
+    for r in model_rows_:
+        rms = r["corrected_sky_rms_deg"]
+        print(f"{r['fwhm_deg']:8g} {r['snr_db']:6g} {'yes' if r['met'] else 'no':>4} {r['scans_flown']:5d} "
+              f"{sum(r['scans_refused'].values()):7d} {r['scans_fitted']:6d} {r['rotator_s']:6.0f} "
+              + (f"{r['sky_hours']:5.2f} {r['first_scan_utc_h']:6.2f} " if r["sky_hours"] is not None else f"{'-':>5} {'-':>6} ")
+              + (f"{rms:8.3f} {r['best_at_scans']:3d}  {r['terms']}" if rms is not None else f"{'-':>8} {'-':>3}"))
+    easy = sorted({r["fwhm_deg"] for r in model_rows_ if r0["uncorrected_sky_rms_deg"] < r["fwhm_deg"] / 10})
+    if easy:
+        print(f"(the {', '.join(f'{w:g}' for w in easy)} deg beam is within a tenth uncorrected: its 'met' is the first fit)")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="20 scans per cell (else 200)")
     ap.add_argument("--samples", type=int, default=5, help="readings averaged per scan point")
     ap.add_argument("--model", action="store_true", help="also the pointing-model fit from N scans")
     ap.add_argument("--steptrack", action="store_true", help="also step-track against the prediction alone")
+    ap.add_argument("--calibrate", action="store_true", help="also the time to a calibrated station")
     ap.add_argument("--json", default="bench/results/pointing.json")
     args = ap.parse_args()
     trials = 20 if args.quick else 200
@@ -193,6 +346,11 @@ def main() -> None:
                      else f"{'-':>7} {'-':>5} {'-':>6} {'-':>4}")
                   + f" {r['locks']:>4d}/{r['losses']:<4d} {r['worst_over_prediction_deg']:9.2f}")
         out["steptrack"] = srows
+    if args.calibrate:
+        crows, cmrows = calibrate_rows((10.0,) if args.quick else (30.0, 10.0, 3.0), (3.0, 10.0, 30.0),
+                                       3 if args.quick else 10, args.samples)
+        print_calibrate(crows, cmrows)
+        out["calibrate_offset"], out["calibrate_model"] = crows, cmrows
     out["wall_s"] = round(time.perf_counter() - t0, 2)
     print(f"\n{out['wall_s']} s")
     write_json(out, args.json)
