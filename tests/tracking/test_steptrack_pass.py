@@ -10,7 +10,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from urc.angles import great_circle_deg
-from urc.pointing.steptrack import Prediction
+from urc.pointing.prediction import Prediction
 from urc.testing.steptrack_flight import fly_steptrack_pass, shifted_elements
 from urc.tracking.passes import find_passes
 from urc.tracking.propagate import look_angles

@@ -70,6 +70,7 @@ import numpy as np
 
 from ..model.program import PassProgram
 from .fit import FWHM_PER_SIGMA, MIN_SIGNIFICANCE, ScanRefused, _lm
+from .prediction import Prediction, sky_wrap180, orbit_prediction
 from .sources import SignalRefused, to_linear
 
 #: each scan point is held this long (the program's dense samples are DENSE_S apart)
@@ -121,67 +122,6 @@ MIN_SKY_RATE_DEG_S = 0.01
 ANNOUNCE_S = 1.0
 ANNOUNCE_EVERY_S = 30.0
 #: the Earth's rotation (rad/s, sidereal)
-EARTH_RATE_RAD_S = 7.2921159e-5
-
-
-def _wrap180(x: Any) -> Any:
-    return (np.asarray(x) + 180.0) % 360.0 - 180.0
-
-
-class Prediction:
-    """The plan's sky track (UTC), interpolated; the sky rate in the tangent frame.
-
-    ``range_km`` (at the plan's times) and ``station`` (a urc.tracking.station.Station)
-    make :meth:`seen` exact for an orbit: without them a time offset is a shift along
-    the sky track alone."""
-
-    def __init__(self, plan: Any, *, range_km: Any = None, station: Any = None):
-        self.t = np.asarray(plan.t_s, dtype=float)
-        self.az = np.unwrap(np.asarray(plan.sky_az_deg, dtype=float), period=360.0)
-        self.el = np.asarray(plan.sky_el_deg, dtype=float)
-        self.range_km = None if range_km is None or station is None else np.asarray(range_km, dtype=float)
-        if self.range_km is not None:
-            self._site, self._enu = np.asarray(station.itrs_km, dtype=float), np.asarray(station.enu, dtype=float)
-
-    def at(self, u: Any) -> tuple[Any, Any]:
-        return np.interp(u, self.t, self.az) % 360.0, np.interp(u, self.t, self.el)
-
-    def seen(self, u: Any, time_offset_s: float) -> tuple[Any, Any]:
-        """Where the satellite is at UTC ``u`` when it runs ``time_offset_s`` behind its
-        elements along its orbit: where the elements put it at u - time_offset_s, in
-        space, seen from the Earth as it has turned by then. (The Earth turns 0.125 deg
-        in 30 s: seen from the ground, an along-track error is not a pure shift of the
-        sky track in time; taken as one, 30 s read as 31.3-31.9 s on the ISS from Tartu.)"""
-        az, el = self.at(np.asarray(u, dtype=float) - time_offset_s)
-        if self.range_km is None or time_offset_s == 0.0:
-            return az, el
-        r = np.interp(np.asarray(u, dtype=float) - time_offset_s, self.t, self.range_km)
-        a, e = np.radians(az), np.radians(el)
-        local = np.stack([np.sin(a) * np.cos(e), np.cos(a) * np.cos(e), np.sin(e)], axis=-1) * np.expand_dims(r, -1)
-        x = self._site + local @ self._enu              # Earth-fixed at u - time_offset_s
-        th = -EARTH_RATE_RAD_S * time_offset_s        # the Earth turned on by time_offset_s
-        c, s = math.cos(th), math.sin(th)
-        x = np.stack([c * x[..., 0] - s * x[..., 1], s * x[..., 0] + c * x[..., 1], x[..., 2]], axis=-1)
-        d = (x - self._site) @ self._enu.T
-        az1 = np.degrees(np.arctan2(d[..., 0], d[..., 1])) % 360.0
-        el1 = np.degrees(np.arctan2(d[..., 2], np.hypot(d[..., 0], d[..., 1])))
-        return (az1, el1) if np.ndim(u) else (float(az1), float(el1))
-
-    def earth_turn(self, u: Any, time_offset_s: float) -> tuple[Any, Any]:
-        """:meth:`seen` minus the sky track shifted in time, as a sky (dx, dy), deg."""
-        az0, el0 = self.at(np.asarray(u, dtype=float) - time_offset_s)
-        az1, el1 = self.seen(u, time_offset_s)
-        return _wrap180(az1 - az0) * np.cos(np.radians(el1)), el1 - el0
-
-    def rate(self, u: float) -> tuple[float, float]:
-        """(dx/dt, dy/dt) deg/s on the sky at ``u`` (dx across elevation)."""
-        h = 1.0
-        a0, e0 = np.interp(u - h, self.t, self.az), np.interp(u - h, self.t, self.el)
-        a1, e1 = np.interp(u + h, self.t, self.az), np.interp(u + h, self.t, self.el)
-        c = math.cos(math.radians(0.5 * (e0 + e1)))
-        return float((a1 - a0) * c / (2 * h)), float((e1 - e0) / (2 * h))
-
-
 def fit_beam(dx: Any, dy: Any, power_lin: Any, *, fwhm_deg: float, floor: float | None,
              min_significance: float = MIN_SIGNIFICANCE) -> tuple[np.ndarray, np.ndarray, float, float]:
     """The satellite's (cx, cy) from samples at sky offsets (dx, dy) of linear power:
@@ -386,7 +326,7 @@ class StepTrack:
                     raise ScanRefused("noise", f"no signal: the power {self.detect_z:.1f} standard errors over the "
                                       f"floor, {DETECT_Z:g} needed")
             paz, pel = self.pred.seen(t, self._ref_s)
-            dx = _wrap180(az - paz) * np.cos(np.radians(el))
+            dx = sky_wrap180(az - paz) * np.cos(np.radians(el))
             dy = el - pel
             try:
                 centre, cov, _a, _a_err = fit_beam(dx, dy, p, fwhm_deg=self.fwhm_deg, floor=self.floor,
@@ -507,7 +447,7 @@ class StepTrack:
         x, y = _centre(self.pred, u - self.time_offset_s, cross)
         az1, el1 = self.pred.seen(u, self.time_offset_s)
         az1 = az1 + x / max(math.cos(math.radians(el1 + y)), 1e-3)
-        return float(_wrap180(az1 - az0)), float(el1 + y - el0)
+        return float(sky_wrap180(az1 - az0)), float(el1 + y - el0)
 
     def status(self, u: float) -> dict[str, Any]:
         daz, de = self.correction_at(u)
@@ -605,15 +545,6 @@ def factory(fwhm_deg: float, source_for: Callable[[Any], Any], *, floor_db: floa
                          new_id=tracker.new_program_id, end="park" if tracker.park_after_pass else "hold",
                          floor_db=floor_db, ceiling_db=ceiling_db, prediction=orbit_prediction(job, tracker.station))
     return make
-
-
-def orbit_prediction(job: Any, station: Any) -> Prediction:
-    """The pass's :class:`Prediction` with the satellite's range (its elements' at the
-    plan's times): a time offset then moves the satellite along its orbit."""
-    from ..tracking.propagate import look_angles
-
-    la = look_angles(job.target.elements, station, np.asarray(job.plan.t_s, dtype=float))
-    return Prediction(job.plan, range_km=la.range_km, station=station)
 
 
 def from_config(cfg: Any, station: Any) -> Callable[[Any, Any], StepTrack]:
