@@ -24,8 +24,8 @@ from bench_report import write_json  # noqa: E402
 from urc.assembly import build_rotator  # noqa: E402
 from urc.clock import VirtualClock  # noqa: E402
 from urc.config import Config  # noqa: E402
-from urc.ipc import codec  # noqa: E402
-from urc.ipc.messages import Reply  # noqa: E402
+from urc.link import codec  # noqa: E402
+from urc.model.messages import Reply  # noqa: E402
 
 
 def messages(state_dir: Path) -> dict[str, object]:

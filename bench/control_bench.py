@@ -29,7 +29,7 @@ from urc.assembly import build_rotator
 from urc.clock import VirtualClock
 from urc.config import Config
 from urc.profiles import PROFILES
-from urc.service.loop import run_virtual
+from urc.rotator.loop import run_virtual
 
 STEPS_DEG = (10.0, 90.0, 180.0)
 RAMPS_DEG_PER_S = (1.0, 5.0)

@@ -22,8 +22,8 @@ from pathlib import Path
 
 from bench_report import pct, write_json
 from urc.config import Config
-from urc.ipc.messages import OvershootQuery
-from urc.service.control_process import PING_S, ControlProcess
+from urc.model.messages import OvershootQuery
+from urc.link.control_process import PING_S, ControlProcess
 
 
 def wait_still(rot, timeout_s: float = 60.0) -> None:

@@ -26,7 +26,7 @@ from urc.clock import VirtualClock
 from urc.config import Config, load_config
 from urc.hardware.gpio.pins import PinPulseCounter, PinQuadrature
 from urc.profiles import PROFILES
-from urc.service.loop import run_virtual
+from urc.rotator.loop import run_virtual
 
 ROOT = Path(__file__).resolve().parents[1]
 

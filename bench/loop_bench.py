@@ -18,7 +18,7 @@ are read from /api/status (its window is the last 500 ticks = 10 s at 50 Hz):
 Reference, same run: ``rt_probe`` (bench/rt_probe.c, compiled with the system's cc) wakes
 a C thread at the loop's period and priority during every phase. It needs no Python
 lock, so it shows what the host itself (kernel, VM, the curl load) adds. urc's loop runs
-in a control process of its own (urc.service.control_process); with the loop in the
+in a control process of its own (urc.link.control_process); with the loop in the
 same interpreter as the web server it waited for Python's lock behind a preempted
 event-loop thread: 10-19 ms p99 under the pass-search flood (0.9 ms idle).
 
@@ -129,7 +129,7 @@ def main() -> None:
             # the loop thread only ever shortens the interval: patch its setting for this run
             os.environ["URC_BENCH_SWITCH_S"] = str(args.switch_interval_ms / 1000.0)
             launcher = work / "launch.py"
-            launcher.write_text("import os, sys\nimport urc.service.loop as loop\n"
+            launcher.write_text("import os, sys\nimport urc.rotator.loop as loop\n"
                                 "loop.SWITCH_INTERVAL_S = float(os.environ['URC_BENCH_SWITCH_S'])\n"
                                 "sys.setswitchinterval(loop.SWITCH_INTERVAL_S)\n"
                                 "from urc.cli import main\nmain(prog_name='urc')\n")

@@ -1,4 +1,4 @@
-"""The safety property (tests/service/test_safety_properties.py) in benchmark mode: many
+"""The safety property (tests/rotator/test_safety_properties.py) in benchmark mode: many
 more random command sequences per profile than the test runs, each judged by the
 simulator's truth every tick, and the worst measured: how far past a soft limit each
 axis went, and how deep into a keep-out zone (the mast, the roof) the beam went after

@@ -20,7 +20,7 @@ from urc.assembly import build_rotator
 from urc.clock import VirtualClock
 from urc.config import Config
 from urc.profiles import PROFILES
-from urc.service.loop import run_virtual
+from urc.rotator.loop import run_virtual
 
 PASS_S = 600.0
 

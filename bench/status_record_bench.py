@@ -1,4 +1,4 @@
-"""The shared-memory status record (urc.ipc.status_record) against the pickled Status it
+"""The shared-memory status record (urc.link.status_record) against the pickled Status it
 can replace on most ticks: CPU microseconds per status of each step, on real statuses of
 the simulator (tartu-urc, moving, on the virtual clock).
 
@@ -36,10 +36,10 @@ from bench_report import write_json
 from urc.assembly import build_rotator
 from urc.clock import VirtualClock
 from urc.config import Config
-from urc.ipc import codec
-from urc.ipc.status_record import AXIS_HOT, SIZE, ColdGeneration, StatusRecord, merge
-from urc.service.loop import run_virtual
-from urc.service.snapshot import Status
+from urc.link import codec
+from urc.link.status_record import AXIS_HOT, SIZE, ColdGeneration, StatusRecord, merge
+from urc.rotator.loop import run_virtual
+from urc.model.snapshot import Status
 
 
 def run_statuses(tmp: Path, truth: bool, faulted: bool = False, **config) -> list[Status]:

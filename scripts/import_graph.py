@@ -8,8 +8,7 @@ the layer order below (lowest first). There are no cycles (issue 34), and
 tests/test_import_graph_script.py keeps it so, with imports for the type checker and
 inside functions counted, and keeps urc.config below every package it holds keys for;
 .importlinter says the same to lint-imports. The upward edges still printed are issue
-34's open ones (the protocols' codecs under the bridge, mqtt.commands' web routes,
-service/ holding both processes' code ...).
+34's open ones (pointing's imports of cli, hardware and tracking ...).
 
 Usage: python scripts/import_graph.py [--json]
 """
@@ -28,21 +27,34 @@ SRC = Path(__file__).resolve().parents[1] / "src"
 #: ones before it. One row holds peers that may not import each other's internals
 #: freely but sit at the same height. (From docs/ARCHITECTURE.md, "Layers", and issue 34.)
 LAYERS: list[tuple[str, ...]] = [
-    ("urc", "urc.errors", "urc.angles", "urc.clock", "urc.caps", "urc.profiles"),  # (urc: __version__)
+    ("urc", "urc.errors", "urc.angles", "urc.geodesy", "urc.clock", "urc.caps", "urc.profiles"),  # (urc: __version__)
+    # the wire formats both ends speak: the protocol sessions and the bridge's dialects
+    ("urc.wire",),
     ("urc.persistence",),
     # axis control is pure (law, profile, geometry: .importlinter's control-pure), so the
     # configuration may name its shapes (a keep-out zone is geometry's KeepOut)
     ("urc.control",),
     # the configuration's owners register their checks with it (urc.config.owners)
     ("urc.config",),
+    # the data both processes share (Status, settings, messages, a pass program, the
+    # request effects): all that the protocols and the front panel import of the rotator
+    ("urc.model",),
     ("urc.pointing",),
     ("urc.hardware",),
-    ("urc.ipc", "urc.service"),
+    # calibration procedures: the one-shot steps the control process's query handlers
+    # run, the long state machines the web hub runs (issue 34 item 4's split of service/)
+    ("urc.procedures",),
+    # the control process: the rotator, its parts and its loop
+    ("urc.rotator",),
+    # the two processes' link: codec, status record, client, server and supervisor
+    ("urc.link",),
     ("urc.protocols",),
+    # the commands the web API and MQTT share (bodies, dispatch over the link): below both
+    ("urc.dispatch",),
     ("urc.status_text", "urc.api_client"),
     ("urc.tracking", "urc.frontpanel", "urc.mqtt"),
     ("urc.servers", "urc.web", "urc.api"),
-    ("urc.registrations", "urc.assembly", "urc.app", "urc.systemd_unit"),
+    ("urc.registrations", "urc.assembly", "urc.app", "urc.systemd_unit", "urc.control_entry"),
     ("urc.cli", "urc.entry", "urc.__main__"),
     ("urc.testing",),
 ]

@@ -16,7 +16,7 @@ from urc.assembly import build_rotator
 from urc.clock import VirtualClock
 from urc.config import Config
 from urc.profiles import PROFILES
-from urc.service.loop import run_virtual
+from urc.rotator.loop import run_virtual
 
 ALL_PROFILES = sorted(PROFILES)
 EXAMPLES_DIR = Path(__file__).resolve().parents[1] / "examples"
@@ -129,7 +129,7 @@ LEAK_GRACE_S = 30.0   # a control process whose I/O process died stops its axes 
 
 
 def pytest_configure(config):
-    from urc.service.remote import STRICT_ENV
+    from urc.link.remote import STRICT_ENV
     from urc_process import SUITE_MARK
 
     os.environ[SUITE_MARK] = f"{os.getpid()}-{uuid.uuid4().hex[:8]}"
@@ -183,9 +183,9 @@ def start_control(tmp_path):
     """``start_control(profile, on_lost=None) -> (ControlProcess, RemoteRotator)``: a control
     process on the simulator, pinged as ``urc run``'s event loop pings it (a silent I/O
     process makes it stop the axes); killed at the end of the test if still running.
-    (Shared by tests/service's control-process and round-trip tests.)"""
-    from urc.service.control_process import PING_S, ControlProcess
-    from urc.service.remote import RemoteRotator
+    (Shared by tests/link's control-process and round-trip tests.)"""
+    from urc.link.control_process import PING_S, ControlProcess
+    from urc.link.remote import RemoteRotator
 
     started: list[tuple[ControlProcess, threading.Event]] = []
 

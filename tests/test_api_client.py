@@ -271,9 +271,10 @@ def test_a_422_is_one_sentence_naming_the_field(bench, body, said):
     from fastapi.testclient import TestClient
 
     from urc.api import create_api
+    from urc.assembly import settings_from_config
 
     b = bench("berkeley")
-    answer = TestClient(create_api(b.rot, b.cfg), base_url="http://127.0.0.1:8080").post("/api/goto", json=body)
+    answer = TestClient(create_api(b.rot, b.cfg, settings_of=settings_from_config), base_url="http://127.0.0.1:8080").post("/api/goto", json=body)
     assert answer.status_code == 422
     srv, _ = _served(422, answer.content)
     try:

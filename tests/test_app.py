@@ -160,7 +160,7 @@ def test_kill_9_of_the_io_process_during_a_goto_flies_it_to_its_end_then_stops_i
     (it used to stop half-way); nobody takes the control process over, so once at rest it
     waits ORPHAN_GRACE_S for a new urc run, then stops in order (state saved, heartbeat
     off, lock free: the next start is exact, at the goto's target)."""
-    from urc.service.adoption import ORPHAN_GRACE_S
+    from urc.link.adoption import ORPHAN_GRACE_S
 
     u = urc(profile="tartu-urc").start()
     ctl = u.control_pid()
@@ -182,7 +182,7 @@ def test_kill_9_of_the_io_process_during_a_goto_flies_it_to_its_end_then_stops_i
 def test_a_restart_waits_for_the_previous_control_process(urc, tmp_path):
     """Right after a kill -9 of `urc run`, its control process still holds the instance
     lock while it stops the axes: a new start waits for it instead of failing."""
-    from urc.service.instance import STOPPING_WAIT_S
+    from urc.link.instance import STOPPING_WAIT_S
 
     u = urc(profile="tartu-urc").start()
     ctl = u.control_pid()
@@ -215,7 +215,7 @@ def test_a_goto_flies_on_through_a_paused_io_process(urc):
     state idle, no fault. A goto is bounded (its end was checked when it was accepted,
     the guard holds the limits every tick): it reaches its target with the I/O process
     stopped, and the heartbeat (the loop) goes on meanwhile."""
-    from urc.service.control_process import IO_SILENT_S
+    from urc.link.control_process import IO_SILENT_S
 
     u = urc(profile="tartu-urc").start()
     assert u.post("/api/goto", {"az_deg": 50, "el_deg": 10}).status_code == 200
@@ -240,7 +240,7 @@ def test_a_jog_stops_when_the_io_process_is_hung_and_says_why(urc):
     so it stops after IO_SILENT_S and is held while the loop goes on; the stop is in
     status' last_stop (kind, reason, the command it cut) and the events, never a silent
     idle; once the I/O process runs again, commands move the antenna again."""
-    from urc.service.control_process import IO_SILENT_S
+    from urc.link.control_process import IO_SILENT_S
 
     u = urc(profile="tartu-urc").start()
     assert u.post("/api/move", {"axis": "az", "direction": 1}).status_code == 200
@@ -379,7 +379,7 @@ def test_systemd_notify_ready_and_watchdog_pings_only_while_on_time(urc, tmp_pat
             return got
         assert "READY=1" in messages(60.0, until="READY=1")
         assert "WATCHDOG=1" in messages(1.0, until="WATCHDOG=1")
-        from urc.service.control_process import IO_SILENT_S
+        from urc.link.control_process import IO_SILENT_S
 
         for pid, silent_s in ((u.control_pid(), 0.3), (u.proc.pid, IO_SILENT_S + 0.5)):
             os.kill(pid, signal.SIGSTOP)  # a hung control process (or I/O process): no pings

@@ -236,7 +236,7 @@ def test_status_shows_a_position_in_a_reference_search_as_unknown(bench):
     """BIG-RAS homing jogs in a search frame of its own: status printed 'az 434.00 ...
     UNCERTAIN' for an antenna at about 62 deg. During the search the number says nothing:
     it is shown as unknown; after it, the found position again."""
-    from urc.service import calibration as cal
+    from urc.procedures import calibration as cal
     from urc.status_text import format_status as _format_status
 
     b = bench("bigras", hardware={"sim": {"wind": False, "start_az_deg": 62.0}})

@@ -22,7 +22,8 @@ CLICK = [sys.executable, "-c", "import sys; sys.argv[0] = 'urc'; from urc.cli im
 #: event loop and web stack, the tracking package's astronomy, and for a plain http
 #: address http.client, whose ssl and email imports were half of its time
 HEAVY = ("click", "pydantic", "urc.cli", "urc.config", "asyncio", "fastapi", "starlette", "uvicorn",
-         "httpx", "numpy", "skyfield", "urc.tracking", "urc.app", "urc.service", "http.client", "ssl", "email")
+         "httpx", "numpy", "skyfield", "urc.tracking", "urc.app", "urc.model", "urc.rotator",
+         "urc.link", "urc.procedures", "http.client", "ssl", "email")
 
 
 class FakeApi(BaseHTTPRequestHandler):

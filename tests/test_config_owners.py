@@ -15,7 +15,8 @@ from urc.config import loads_config
 from urc.errors import ConfigError
 
 #: urc.config's owners: none of these may load with it
-ABOVE = ("urc.hardware", "urc.frontpanel", "urc.mqtt", "urc.protocols", "urc.pointing", "urc.service")
+ABOVE = ("urc.hardware", "urc.frontpanel", "urc.mqtt", "urc.protocols", "urc.pointing", "urc.model",
+         "urc.procedures", "urc.rotator", "urc.link")
 
 
 def run_python(code: str, cwd) -> subprocess.CompletedProcess:

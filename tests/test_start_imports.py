@@ -23,7 +23,7 @@ def test_the_io_process_web_stack_imports_no_tracking_maths(tmp_path):
                "from urc.web.history import pointing_error_deg\n"
                "assert pointing_error_deg({'az_deg': 10.0, 'el_deg': 20.0, 'target_az_deg': 30.0,"
                " 'target_el_deg': 40.0}) > 0\n"
-               "heavy = [m for m in ('numpy', 'sgp4', 'skyfield', 'urc.service.calibration') if m in sys.modules]\n"
+               "heavy = [m for m in ('numpy', 'sgp4', 'skyfield', 'urc.procedures.calibration') if m in sys.modules]\n"
                "assert not heavy, heavy\n"
                "print('ok')\n", tmp_path)
 
@@ -38,7 +38,7 @@ def test_the_tracking_package_still_offers_its_names(tmp_path):
 
 def test_the_control_process_imports_no_event_loop(tmp_path):
     run_python("import sys\n"
-               "import urc.service.control_process, urc.assembly, urc.clock\n"
+               "import urc.link.control_process, urc.assembly, urc.clock\n"
                "assert 'asyncio' not in sys.modules and 'greenlet' not in sys.modules\n"
                "print('ok')\n", tmp_path)
 

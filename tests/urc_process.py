@@ -33,7 +33,7 @@ HTTP = httpx.Client(timeout=5.0, limits=httpx.Limits(max_keepalive_connections=0
 
 def _is_urc(cmdline: list[bytes]) -> bool:
     """``python -m urc ...``, the ``urc`` script, or a control process."""
-    if any(a == b"urc.service.control_process" for a in cmdline):
+    if any(a == b"urc.control_entry" for a in cmdline):
         return True
     if any(a == b"-m" and b == b"urc" for a, b in zip(cmdline, cmdline[1:])):
         return True
@@ -191,7 +191,7 @@ class UrcProcess:
         self.auth = {"Authorization": f"Bearer {token.group(1)}"} if token else {}
         self.proc: subprocess.Popen | None = None
         self.banner = ""
-        #: a control process this urc run took over (not its child: urc.service.adoption)
+        #: a control process this urc run took over (not its child: urc.link.adoption)
         self.adopted_control_pid: int | None = None
 
     def start(self, timeout_s: float = START_TIMEOUT_S, env: dict | None = None,
@@ -245,7 +245,7 @@ class UrcProcess:
                     for pid in _read_or_empty(task / "children").split()]
         for pid in children:
             try:
-                if b"urc.service.control_process" in Path(f"/proc/{pid}/cmdline").read_bytes():
+                if b"urc.control_entry" in Path(f"/proc/{pid}/cmdline").read_bytes():
                     return int(pid)
             except FileNotFoundError:
                 pass

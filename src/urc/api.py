@@ -2,18 +2,18 @@
 
 On loopback reading is open; listening beyond it, reading needs the control token or
 the read-only one and control needs the control token (``Authorization: Bearer
-<token>``; :mod:`urc.web.security`). Every command goes through the rotator
-service, which validates it; a refusal is HTTP 409 with the reason. The web dashboard
+<token>``; :mod:`urc.web.security`). The commands are urc.dispatch's (shared with
+MQTT): their bodies are checked there (HTTP 422 naming the field), then the rotator
+service validates them; a refusal is HTTP 409 with the reason. The web dashboard
 (``urc.web``) is served from ``/`` by the same app, with its live feed on ``/api/ws``.
 """
 
 from __future__ import annotations
 
 import asyncio
-import inspect
 import os
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 from fastapi import APIRouter, Depends, FastAPI
 from fastapi.responses import JSONResponse
@@ -22,32 +22,21 @@ from pydantic import BaseModel
 
 from . import __version__
 from .config import Config
+from .dispatch import Dispatcher
+from .dispatch.bodies import GotoRequest, MoveRequest, PositionRequest, StopRequest
 from .errors import CalibrationError, CommandRejected, UrcError
-from .ipc.messages import ClearFaults, Goto, GotoAz, HardwareInfo, Move, Park, SetPosition, Stop
-from .service.effects import call
-from .service.remote import StopQueued
-from .service import Rotator
+from .model.messages import HardwareInfo
+from .model.settings import RotatorSettings
+from .rotator.rotator import Rotator
 from .servers import loop_lag
-from .service.queries import ask
+from .model.effects import ask
 from .web import WebContext, install
 from .web import warm_routes
 from .web.docs_pages import install_redoc
 from .web.live import FRAME_HZ, Hub
-from .web.routes_live import MoveRequest, StopRequest
-from .web.schemas import CONTROL_RESPONSES, AzDeg, ElDeg, Ok, StatusDoc, Strict, documented
+from .web.schemas import CONTROL_RESPONSES, Ok, StatusDoc, documented
 from .web.security import HostGate, RequestGate, SecurityHeaders, control_guard
 from .web.settings_store import SettingsStore
-
-
-class GotoRequest(Strict):
-    az_deg: AzDeg
-    #: None: azimuth only (the elevation keeps its target; a single-axis rotator has none)
-    el_deg: ElDeg | None = None
-
-
-class PositionRequest(Strict):
-    az_deg: AzDeg | None = None
-    el_deg: ElDeg | None = None
 
 
 class Accepted(BaseModel):
@@ -59,11 +48,15 @@ class Accepted(BaseModel):
     note: str = ""
 
 
-def create_api(rotator: Rotator, cfg: Config, *, config_path: str | os.PathLike | None = None,
+def create_api(rotator: Rotator, cfg: Config, *,
+               settings_of: Callable[[Config, Path | None], RotatorSettings],
+               config_path: str | os.PathLike | None = None,
                state_dir: str | os.PathLike | None = None, tracker: Any = None,
                frame_hz: float = FRAME_HZ) -> FastAPI:
     """The app ``urc run`` serves.
 
+    ``settings_of``: a configuration's rotator settings (``urc.assembly.settings_from_config``,
+    from the composition root), for saved settings applied while it runs.
     ``config_path``: the file ``urc run`` was started with (the settings page saves
     there; without one it saves to ``<state_dir>/urc.toml``). ``tracker``: the tracking
     service (see ``urc.web.routes_tracking``); None = no tracking endpoints.
@@ -79,8 +72,9 @@ def create_api(rotator: Rotator, cfg: Config, *, config_path: str | os.PathLike 
         state_dir = Path(kept_in) if kept_in else None
     hub = Hub(rotator, tracker, frame_hz)
     control_allowed = control_guard(cfg)
+    commands = Dispatcher(rotator, tracker, hub)
     ctx = WebContext(rotator=rotator, cfg=cfg, hub=hub, settings=SettingsStore(cfg, config_path, state_dir),
-                     control=control_allowed, tracker=tracker)
+                     control=control_allowed, settings_of=settings_of, dispatch=commands, tracker=tracker)
     app.state.web = ctx
     app.add_middleware(RequestGate, cfg=cfg)   # inner: auth and body bounds before any parsing
     app.add_middleware(HostGate, cfg=cfg)      # every request, reads too: DNS rebinding
@@ -104,7 +98,7 @@ def create_api(rotator: Rotator, cfg: Config, *, config_path: str | os.PathLike 
         return JSONResponse({"ok": False, "error": str(exc), "reason": type(exc).__name__}, status_code=409)
 
     # Handlers are coroutines on the event loop; a command awaits the control process
-    # (urc.service.effects.call): it suspends this request, never the loop.
+    # (urc.dispatch, over urc.model.effects.call): it suspends this request, never the loop.
     ctl = APIRouter(dependencies=[Depends(control_allowed)], responses=CONTROL_RESPONSES)
 
     @app.get("/api/status", **documented(StatusDoc))
@@ -115,48 +109,31 @@ def create_api(rotator: Rotator, cfg: Config, *, config_path: str | os.PathLike 
 
     @ctl.post("/api/goto")
     async def goto(req: GotoRequest) -> Accepted:
-        if req.el_deg is None:
-            return Accepted(route=await call(rotator, GotoAz(req.az_deg)))
-        return Accepted(route=await call(rotator, Goto(req.az_deg, req.el_deg)))
+        return Accepted(route=await commands.goto(req))
 
     @ctl.post("/api/park")
     async def park() -> Accepted:
-        return Accepted(route=await call(rotator, Park()))
+        return Accepted(route=await commands.park())
 
     @ctl.post("/api/stop")
     async def stop(req: StopRequest | None = None) -> Accepted:
         """Stop. Without an axis: everything — jogs, a calibration, tracking, both axes."""
-        axis = req.axis if req else None
-        accepted = Accepted()
-        try:  # the stop goes out first: nothing else may delay it
-            await call(rotator, Stop(axis))
-        except StopQueued as exc:
-            accepted = Accepted(queued=True, note=str(exc))
-        await hub.release(axis)
-        if axis is None:
-            await hub.cancel_procedure()  # (its step runs off the loop: urc.web.live)
-            trk_stop = getattr(tracker, "stop", None)
-            if trk_stop is not None:
-                out = trk_stop()  # (a TrackingService's stop is a coroutine)
-                if inspect.isawaitable(out):
-                    await out
-        if axis is None and tracker is not None:
-            await hub.refresh_tracking()
-        return accepted
+        stopped = await commands.stop(req)
+        return Accepted(queued=stopped.queued, note=stopped.note)
 
     @ctl.post("/api/move")
     async def move(req: MoveRequest) -> Ok:
-        await call(rotator, Move(req.axis, req.direction, req.speed))
+        await commands.move(req)
         return Ok()
 
     @ctl.post("/api/set-position")
     async def set_position(req: PositionRequest) -> Ok:
-        await call(rotator, SetPosition(req.az_deg, req.el_deg))
+        await commands.set_position(req)
         return Ok()
 
     @ctl.post("/api/clear-faults")
     async def clear_faults() -> Ok:
-        await call(rotator, ClearFaults())
+        await commands.clear_faults()
         return Ok()
 
     app.include_router(ctl)

@@ -89,7 +89,7 @@ def _hardware_key(cfg: Config) -> str:
 
 async def serve(cfg: Config, state_dir: Path, config_path: Path | None = None) -> None:
     """The ``urc run`` process: servers here, the rotator and its loop in the control
-    process (:mod:`urc.service.control_process`), until SIGINT/SIGTERM.
+    process (:mod:`urc.link.control_process`), until SIGINT/SIGTERM.
 
     Start-up takes the instance lock, binds every port and only then starts the control
     process, so a refused start writes no state. Every exit path stops the axes, waits
@@ -117,10 +117,10 @@ async def serve(cfg: Config, state_dir: Path, config_path: Path | None = None) -
 
 def _adopt_or_lock(cfg: Config, state_dir: Path) -> tuple[Any, list]:
     """Take over the control process a dead ``urc run`` left flying a bounded motion
-    (urc.service.adoption) with the locks it holds; else take the instance locks (waiting
+    (urc.link.adoption) with the locks it holds; else take the instance locks (waiting
     for a previous urc that is still bringing its axes to rest)."""
-    from .service import adoption
-    from .service.instance import LOCK_FILE, InstanceLock, hardware_lock_path, lock_instance
+    from .link import adoption
+    from .link.instance import LOCK_FILE, InstanceLock, hardware_lock_path, lock_instance
 
     try:
         adopted = adoption.adopt(state_dir, cfg)
@@ -149,7 +149,7 @@ def _api_server(config):
 
 async def _serve(cfg: Config, state_dir: Path, config_path: Path | None, api_socket: socket.socket,
                  lock_fds: list[int], adopted: Any = None) -> None:
-    from .service.control_process import ControlProcess
+    from .link.control_process import ControlProcess
 
     stop = asyncio.Event()
     loop = asyncio.get_running_loop()
@@ -172,7 +172,7 @@ async def _serve(cfg: Config, state_dir: Path, config_path: Path | None, api_soc
         from .servers import start_endpoints
         from .servers.limits import (MAX_HTTP_CONNECTIONS, bound_library_logs, capped_http_protocol,
                                      raise_open_file_limit)
-        from .service.loop import sd_notifier
+        from .rotator.loop import sd_notifier
         tracking_on = cfg.station.configured or bool(cfg.station.gps)
         if tracking_on:  # (lazy: tracking off, this process never loads numpy, sgp4, skyfield)
             from .tracking.service import TrackingService
@@ -204,7 +204,7 @@ async def _serve(cfg: Config, state_dir: Path, config_path: Path | None, api_soc
             loop.add_signal_handler(sig, lambda sig=sig: (asked.append(sig.name), stop.set()))
         # (planning off the event loop)
         tracking = TrackingService(rotator, cfg, background=True) if tracking_on else _TrackingOff()
-        api = create_api(rotator, cfg, config_path=config_path, state_dir=state_dir,
+        api = create_api(rotator, cfg, settings_of=_settings_of, config_path=config_path, state_dir=state_dir,
                          tracker=tracking if tracking.station is not None or tracking.gps is not None else None)
         from uvicorn.protocols.http.auto import AutoHTTPProtocol
 
@@ -279,6 +279,14 @@ async def _serve(cfg: Config, state_dir: Path, config_path: Path | None, api_soc
           "(the next start treats the position as uncertain)", flush=True)
 
 
+def _settings_of(cfg: Config, state_dir: Path | None):
+    """A configuration's rotator settings, for the web's settings applied at once: the
+    composition root imported only then (the I/O process needs none of it to start)."""
+    from .assembly import settings_from_config
+
+    return settings_from_config(cfg, state_dir)
+
+
 async def _took_over(rotator, cfg: Config, state_dir: Path, config_settings) -> None:
     """Said, and this configuration's settings applied if they are not the ones the
     control process was given (the file changed meanwhile: limits, zones, offsets, speeds;
@@ -330,7 +338,7 @@ TRACKER_STEP_S = 0.05
 
 async def _ping_control(control, stop: asyncio.Event) -> None:
     """Tell the control process this one is alive (silent too long: it stops the axes)."""
-    from .service.control_process import PING_S
+    from .link.control_process import PING_S
 
     while not stop.is_set():
         control.ping()

@@ -17,8 +17,8 @@ from .hardware import Hardware, build_hardware
 from .persistence import StateStore
 from .pointing.store import pointing_for
 from .profiles import get_profile
-from .service import Rotator, RotatorSettings
-from .service.settings import default_fault_limits, default_tuning
+from .model.settings import RotatorSettings, default_fault_limits, default_tuning
+from .rotator.rotator import Rotator
 
 STATE_FILE = "state.json"
 

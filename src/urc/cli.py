@@ -87,7 +87,7 @@ def run(config_path: str | None, profile: str | None, state_dir: str | None, por
     import logging
 
     from .app import ServiceFailed, serve
-    from .service.instance import InstanceLocked
+    from .link.instance import InstanceLocked
 
     logging.basicConfig(level=logging.DEBUG if verbose else logging.INFO,
                         format="%(asctime)s %(levelname)s %(name)s: %(message)s")
@@ -130,7 +130,7 @@ def run(config_path: str | None, profile: str | None, state_dir: str | None, por
         # something other than files: nothing was started
         raise _Busy(f"cannot start: {exc}") from None
     finally:
-        from .service.instance import skip_exit_collection
+        from .link.instance import skip_exit_collection
 
         skip_exit_collection()
 

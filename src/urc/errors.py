@@ -31,6 +31,21 @@ class CommandRejected(UrcError):
         super().__init__(message)
 
 
+class ProtocolError(UrcError, ValueError):
+    """Input a protocol could not parse; says what was expected and what was found.
+
+    The root of every protocol's input errors (with ``CommandRejected`` from the rotator
+    and ``HardwareError``, the only exceptions a session answers as bad input; anything
+    else is a bug, see :func:`urc.protocols.base.internal_error`), raised by the wire
+    codecs (:mod:`urc.wire`) and the sessions alike. ``ProtocolError("text")`` carries a
+    ready message; ``ProtocolError(expected, found)`` builds one.
+    """
+
+    def __init__(self, expected: str, found: bytes | None = None):
+        self.expected, self.found = expected, found
+        super().__init__(expected if found is None else f"expected {expected}, found {found!r}")
+
+
 class HardwareError(UrcError):
     """A hardware part failed to do what it was asked (bus error, vanished device)."""
 

@@ -99,7 +99,7 @@ PROFILES: dict[str, RotatorCaps] = {
     # bench/berkeley_accuracy.py; at 4 it is 0.032, at 5 0.039 again); the ramp is
     # 30 deg/s^2: at 60 deg/s^2 the axis lags its braking reference and the hold chatters
     # in the 1.5 deg gear play and a goto to az 0 stops 1.3 deg short (limit guard;
-    # tests/service/test_motion.py). Not the 240 deg/s top speed: urc's slew speed is also
+    # tests/rotator/test_motion.py). Not the 240 deg/s top speed: urc's slew speed is also
     # its full-duty speed (duty = rate / max_rate), and flown at 240 deg/s (accel 30) the
     # axes latch runaway faults (el +3.3 deg the wrong way, az +3.4 deg with the motor off)
     # and 8 berkeley goto/track tests in test_motion.py end up to 48 deg off. Elevation: "a

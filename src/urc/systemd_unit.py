@@ -2,7 +2,7 @@
 
 ``Type=notify``: urc says READY=1 once every port is served and the control loop runs;
 ``WatchdogSec``: the control loop pings WATCHDOG=1 only while its ticks are on time
-(``urc.service.loop.WatchdogPing``, from the control process: ``NotifyAccess=all``), so a hung or stalled controller is killed and
+(``urc.rotator.loop.WatchdogPing``, from the control process: ``NotifyAccess=all``), so a hung or stalled controller is killed and
 restarted by systemd, while the heartbeat output lets external hardware cut the motors
 at once. ``TimeoutStopSec`` leaves room for the orderly stop (axes to rest, then save).
 
@@ -21,7 +21,7 @@ import shlex
 import sys
 from pathlib import Path
 
-from .service.control_process import STOP_TIMEOUT_S
+from .link.control_process import STOP_TIMEOUT_S
 
 UNIT_NAME = "urc.service"
 #: systemd kills the service when no WATCHDOG=1 comes for this long
@@ -55,7 +55,7 @@ def unit_text(config_path: Path | None, state_dir: Path | None, user: str | None
              # process in order (axes to rest, save) within TimeoutStopSec. The control
              # process is left alone when urc run dies: a bounded motion it flies (a pass
              # program, a goto, a park) goes on, and the restarted urc run takes it over
-             # (urc.service.adoption); with nothing in flight it stops in order by itself.
+             # (urc.link.adoption); with nothing in flight it stops in order by itself.
              # control-group would SIGTERM it, and lose the pass, on every restart.
              f"TimeoutStopSec={int(STOP_TIMEOUT_S + 5)}",
              "KillMode=process",

@@ -13,8 +13,8 @@ from urc.control.evolve import construct, evolve
 from urc.control.faults import FaultLimits, MonitorInputs, MonitorState
 from urc.control.estimator import Estimate
 from urc.control.law import AxisOutput, AxisState
-from urc.service.snapshot import AxisStatus, Status
-from urc.service.state_writer import WriterReport
+from urc.model.snapshot import AxisStatus, Status
+from urc.rotator.state_writer import WriterReport
 
 
 @pytest.mark.parametrize("record,changes", [

@@ -7,7 +7,7 @@ import pytest
 
 from urc.errors import CommandRejected
 from urc.frontpanel.lcd import CharLcd, Pcf8574Hd44780
-from urc.service.calibration import average_reading_deg
+from urc.procedures.calibration import average_reading_deg
 
 
 def test_zero_setting_changes_and_stores_z(panel_rig):

@@ -9,7 +9,7 @@ from urc.errors import SensorError
 from urc.hardware.bridge import BRIDGE_PROTOCOLS, BridgeClient, ClientOptions, make_dialect
 from urc.protocols.registry import PROTOCOLS
 from urc.hardware.bridge.dialects import Reply
-from urc.protocols import spid_codec as spid
+from urc.wire import spid
 from urc.testing.sessions import fed
 
 #: the protocols urc also serves as a controller (a device session to bridge to); the

@@ -17,7 +17,7 @@ from urc.hardware.bridge import BRIDGE_PROTOCOLS
 from urc.protocols.registry import PROTOCOLS
 from urc.testing.bridged_rig import BridgedRig
 from urc.testing.evaluate import DEFAULT_LEAD_S, start_before_preposition
-from urc.protocols import spid_codec as spid
+from urc.wire import spid
 from urc.tracking.elements import load_elements
 from urc.angles import great_circle_deg
 from urc.tracking.passes import find_passes

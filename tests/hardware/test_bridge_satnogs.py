@@ -7,8 +7,8 @@ from __future__ import annotations
 
 import pytest
 
-from urc.ipc.messages import ControllerHome
-from urc.service.queries import ask
+from urc.model.messages import ControllerHome
+from urc.model.effects import ask
 from hypothesis import given
 from hypothesis import strategies as st
 
@@ -17,7 +17,7 @@ from urc.errors import CommandRejected
 from urc.hardware.bridge import BridgeClient, ClientOptions, bridge_axes, make_dialect
 from urc.hardware.bridge.dialects import ControllerError, ControllerStatus, ReplyError
 from urc.hardware.interfaces import Hardware
-from urc.protocols import satnogs_codec as sn
+from urc.wire import satnogs as sn
 from urc.testing.bridged_rig import SimLink
 from urc.testing.satnogs_firmware import SatnogsFirmware
 
@@ -114,7 +114,7 @@ class Rig:
         from urc.assembly import settings_from_config
         from urc.config import Config
         from urc.persistence import StateStore
-        from urc.service import Rotator
+        from urc.rotator.rotator import Rotator
 
         self.clock = VirtualClock(0.0)
         fw_args.setdefault("home_delay_s", 3.0)

@@ -20,7 +20,7 @@ from urc.clock import VirtualClock
 from urc.config import Config, load_config
 from urc.hardware.drivers.bts7960_sense import Bts7960Sense
 from urc.hardware.gpio.emulate_bts7960 import EmulatedBts7960Is
-from urc.service.loop import run_virtual
+from urc.rotator.loop import run_virtual
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 NODE_OHMS = 1000.0 / 2          # R_IS and L_IS tied

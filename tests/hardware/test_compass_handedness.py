@@ -25,7 +25,7 @@ from urc.hardware.drivers import CompassSensor, TiltSensor
 from urc.hardware.gpio.emulate import FakeLsm303d, FakeSMBus
 from urc.hardware.gpio.i2c import Lsm303Accel, Lsm303dChip, Lsm303Mag
 from urc.profiles import get_profile
-from urc.service.loop import run_virtual
+from urc.rotator.loop import run_virtual
 
 H_GAUSS, DIP_DEG = 0.25, 65.0           # a field 65 deg below the horizon (northern site)
 SARCNET = Path(__file__).resolve().parents[2] / "examples" / "sarcnet-mini.toml"

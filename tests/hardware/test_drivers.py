@@ -457,7 +457,7 @@ def test_tilt_sensor():
 
 
 def test_soft_iron_fit_makes_the_compass_true():
-    from urc.service.calibration import fit_hard_iron, fit_soft_iron
+    from urc.procedures.calibration import fit_hard_iron, fit_soft_iron
     caps = SensorCaps(kind="magnetometer", resolution_deg=0.1, absolute=True, modulo_deg=360.0)
 
     def raw(psi_deg):                      # x stretched 1.25, sheared, hard iron (0.3, -0.1)

@@ -14,7 +14,7 @@ from urc.config import Config, load_config
 from urc.errors import StateFileError
 from urc.hardware.fram import FramStore
 from urc.hardware.gpio.emulate import FakeFram, FakeSMBus
-from urc.service.loop import run_virtual
+from urc.rotator.loop import run_virtual
 
 
 

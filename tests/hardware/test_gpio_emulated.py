@@ -13,7 +13,7 @@ from urc.cli import with_emulation
 from urc.clock import VirtualClock
 from urc.config import Config, load_config
 from urc.errors import ConfigError
-from urc.service.loop import run_virtual
+from urc.rotator.loop import run_virtual
 
 EXAMPLES = sorted(p for p in (Path(__file__).resolve().parents[2] / "examples").glob("*.toml")
                   if 'backend = "gpio"' in p.read_text())   # (a bridge example has no parts of urc's)
@@ -496,7 +496,7 @@ def test_slow_read_stalls_an_emulated_bus_and_the_watchdog_sees_it(tmp_path):
     import time
 
     from urc.clock import RealClock
-    from urc.service.loop import ControlThread
+    from urc.rotator.loop import ControlThread
     data = with_emulation(load_config(next(p for p in EXAMPLES if p.stem == "berkeley"))).to_dict()
     data["hardware"]["sim"] = {"wind": False}
     clock = RealClock()

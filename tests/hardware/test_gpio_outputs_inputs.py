@@ -18,7 +18,7 @@ from urc.hardware.drivers.motors import (LMD18200_TRUTH_TABLE, SENSE_V_PER_A, VN
 from urc.hardware.gpio.feed import emulated_bridge_open
 from urc.hardware.gpio.pins import PinIn, PinOut
 from urc.hardware.gpio.pwm import detect_pwm_chip
-from urc.service.loop import run_virtual
+from urc.rotator.loop import run_virtual
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 

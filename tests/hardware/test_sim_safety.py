@@ -15,7 +15,7 @@ from urc.clock import VirtualClock
 from urc.hardware import build_hardware
 from urc.hardware.sim.safety import MotorPowerEnable
 from urc.profiles import get_profile
-from urc.service.rotator import Rotator, RotatorSettings
+from urc.rotator.rotator import Rotator, RotatorSettings
 
 TIMEOUT_S = 0.22
 
@@ -305,7 +305,7 @@ def test_emulated_examples_wire_the_part_and_a_freeze_cuts_the_motors(path, tmp_
     pin) feeds the modelled monostable, so a controller frozen mid-move stops."""
     from test_gpio_emulated import emulated
 
-    from urc.service.loop import run_virtual
+    from urc.rotator.loop import run_virtual
 
     rot, clock = emulated(path, tmp_path)
     world = rot.hw.world

@@ -16,8 +16,8 @@ from urc.cli import with_emulation
 from urc.clock import VirtualClock
 from urc.config import Config, load_config
 from urc.errors import ConfigError
-from urc.service import calibration as cal
-from urc.service.loop import run_virtual
+from urc.procedures import calibration as cal
+from urc.rotator.loop import run_virtual
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "satnogs-v3.toml"
 STEP_DEG = 1.0 / 240.0

@@ -20,8 +20,8 @@ from urc.errors import CommandRejected
 from urc.hardware import build_hardware
 from urc.hardware.safety_test import self_test
 from urc.profiles import get_profile
-from urc.service.loop import run_virtual
-from urc.service.rotator import Rotator, RotatorSettings
+from urc.rotator.loop import run_virtual
+from urc.rotator.rotator import Rotator, RotatorSettings
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 FULL_STEP_DEG = 8 / 240.0          # satnogs-v3: 1/8 microstep, 1/240 deg a microstep
@@ -198,7 +198,7 @@ def test_a_chain_cut_at_rest_on_a_drv8825_bounds_the_position_until_homed(tmp_pa
     assert not s.position_known
     with pytest.raises(CommandRejected, match="uncertain"):
         rot.goto(40.0, 20.0)
-    from urc.service import calibration as cal
+    from urc.procedures import calibration as cal
     for n in ("az", "el"):
         proc = cal.LimitSwitchHoming(rot, n)
         run_virtual(rot, clock, 600.0, on_tick=proc.poll, until=lambda s: proc.finished)

@@ -133,7 +133,7 @@ def test_a_single_axis_rotator_takes_no_model():
     from dataclasses import replace
 
     from urc.profiles import get_profile
-    from urc.service.settings import RotatorSettings
+    from urc.model.settings import RotatorSettings
 
     caps = get_profile("tartu-urc").single_axis()
     s = replace(RotatorSettings.from_caps(caps), pointing_deg=ERROR.as_terms()).completed()

@@ -74,7 +74,7 @@ def test_the_true_beam_ignores_the_controllers_offsets(tmp_path):
     with the encoders reading 2 deg high in azimuth (IA = 2) and [offsets] az -2 (the
     right correction), a goto of the beacon puts the true beam on it. (Before, the beam
     was taken through the configured offsets as well, counting the error twice: 2 deg off.)"""
-    from urc.service.loop import run_virtual
+    from urc.rotator.loop import run_virtual
 
     rot, clock = sim_rotator(tmp_path, PointingModel(ia_deg=2.0), offsets={"az_deg": -2.0})
     rot.goto(BEACON_AZ_DEG, BEACON_EL_DEG)

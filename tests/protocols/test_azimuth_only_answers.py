@@ -102,7 +102,7 @@ def test_easycomm_reads_el_0_and_ignores_an_elevation_set(trc):
 
 
 def test_spid_reports_el_0_and_ignores_up(trc):
-    from urc.protocols.spid_codec import K_STATUS, decode_rot2_position, encode_move, encode_query, encode_rot2_set
+    from urc.wire.spid import K_STATUS, decode_rot2_position, encode_move, encode_query, encode_rot2_set
 
     s = make_session("md01", trc.rot)
     az, el, _, _ = decode_rot2_position(fed(s, encode_query(K_STATUS))[0])

@@ -245,7 +245,7 @@ def test_m_and_c_load_one_after_the_other(g4):
     b.settle()
     sensor = b.rot.hw.az.sensor
     # the controller's constants before: another pot's (theta still inside the travel)
-    from urc.service import calibration
+    from urc.procedures import calibration
     old = codec.Constants(z=0, m=18432, c=-504)
     calibration.apply_sensor_calibration(b.rot, "az", codec.to_sensor(old))
     b.run(0.1)

@@ -7,7 +7,7 @@ import pytest
 
 from conftest import Bench
 from urc.protocols import make_session
-from urc.protocols import spid_codec as spid
+from urc.wire import spid
 from urc.testing.sessions import fed
 
 

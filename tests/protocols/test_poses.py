@@ -8,7 +8,7 @@ from dataclasses import replace as dc_replace
 import pytest
 
 from urc.protocols.poses import ExtendedTarget, extended_pose_deg, frame_offsets_deg
-from urc.service.effects import drive
+from urc.model.effects import drive
 from urc.testing.sessions import fed
 
 TOL_DEG = 0.25

@@ -11,7 +11,7 @@ import pytest
 
 from urc.frontpanel.screen import status_rows
 from urc.protocols import make_session
-from urc.protocols import spid_codec
+from urc.wire import spid as spid_codec
 from urc.protocols.tartu_codec import lcd_rows
 from urc.testing.sessions import fed, ticked
 

@@ -19,7 +19,7 @@ from urc.cli import with_emulation
 from urc.clock import VirtualClock
 from urc.config import Config, load_config
 from urc.protocols.sarcnet import CALIBRATION_HOLD, SarcnetSession
-from urc.service.loop import run_virtual
+from urc.rotator.loop import run_virtual
 from urc.testing.sessions import fed, hung_up, ticked
 
 SARCNET_EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "sarcnet-mini.toml"
@@ -254,7 +254,7 @@ def assert_same_soft_iron(actual: dict, expected: dict) -> None:
 
 def _turn_round(b):
     """The web page's turn-round calibration (the procedure its route starts)."""
-    from urc.service.calibration import MagnetometerCalibration
+    from urc.procedures.calibration import MagnetometerCalibration
 
     proc = MagnetometerCalibration(b.rot)
     b.run(1200.0, on_tick=proc.poll, until=lambda st: proc.finished)
@@ -301,7 +301,7 @@ def test_c_during_a_turn_round_stops_it_and_only_c_is_applied(rig):
     """The board taken off the boom while the antenna turns round: the turn-round ends
     without applying anything (its samples would mix boom and hand), c's result is the
     one in use and on disk."""
-    from urc.service.calibration import MagnetometerCalibration
+    from urc.procedures.calibration import MagnetometerCalibration
 
     b, s, tick = rig
     before = _soft(b)

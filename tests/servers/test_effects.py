@@ -7,7 +7,7 @@ from __future__ import annotations
 import asyncio
 
 from urc.errors import CommandRejected
-from urc.ipc.messages import Goto, Move, Stop
+from urc.model.messages import Goto, Move, Stop
 from urc.protocols.rotctld import RotctldSession
 from urc.servers.common import SessionRunner
 
@@ -84,8 +84,8 @@ def test_every_command_request_lists_its_fields_in_the_order_its_rotator_method_
     import dataclasses
     import inspect
 
-    from urc.ipc.messages import COMMANDS
-    from urc.service.rotator import Rotator
+    from urc.model.messages import COMMANDS
+    from urc.rotator.rotator import Rotator
 
     for cls, method in COMMANDS.items():
         fields = [f.name for f in dataclasses.fields(cls)]

@@ -8,7 +8,7 @@ from __future__ import annotations
 import asyncio
 import time
 
-from urc.ipc.messages import Stop
+from urc.model.messages import Stop
 from urc.servers import common
 from urc.servers.common import SessionRunner
 

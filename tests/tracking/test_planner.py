@@ -140,7 +140,7 @@ def test_which_profiles_sense_a_flipped_pose():
     from dataclasses import replace
 
     from urc.profiles import PROFILES
-    from urc.service.settings import RotatorSettings
+    from urc.model.settings import RotatorSettings
 
     sensed = {n for n, c in PROFILES.items() if c.senses_flipped_pose}
     assert sensed == {n for n, c in PROFILES.items() if c.can_flip} - {"sarcnet-mini"}

@@ -275,7 +275,7 @@ def fly_continuous(tmp_path, profile: str, target_of, station: Station, start_un
     from urc.assembly import build_rotator
     from urc.clock import VirtualClock
     from urc.config import Config
-    from urc.service.loop import run_virtual
+    from urc.rotator.loop import run_virtual
     from urc.tracking.tracker import Tracker
 
     cfg = Config.from_dict({"rotator": {"profile": profile, "flip": flip}, "hardware": {"sim": {"wind": False}},

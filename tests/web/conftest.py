@@ -9,6 +9,7 @@ import pytest
 from fastapi.testclient import TestClient
 
 from urc.api import create_api
+from urc.assembly import settings_from_config
 
 CHROMIUM = os.environ.get("URC_CHROMIUM", "/usr/bin/chromium")
 CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
@@ -217,7 +218,7 @@ def make_client(bench, tmp_path):
 
     def make(profile="berkeley", tracker=None, config_path=None, **config):
         b = bench(profile, **config)
-        app = create_api(b.rot, b.cfg, config_path=config_path, tracker=tracker)
+        app = create_api(b.rot, b.cfg, settings_of=settings_from_config, config_path=config_path, tracker=tracker)
         c = LoopbackClient(app)
         c.__enter__()
         clients.append(c)

@@ -591,6 +591,7 @@ def test_urc_runs_app_has_its_routes_built_off_the_loop_before_the_first_request
     import pydantic
 
     from urc.api import create_api
+    from urc.assembly import settings_from_config
 
     built_on: list[str] = []
     real = pydantic.TypeAdapter.__init__
@@ -602,7 +603,7 @@ def test_urc_runs_app_has_its_routes_built_off_the_loop_before_the_first_request
     b = bench("berkeley")
 
     async def main() -> tuple[int, list[str]]:
-        app = create_api(b.rot, b.cfg)   # as urc run builds it: on its running loop
+        app = create_api(b.rot, b.cfg, settings_of=settings_from_config)   # as urc run builds it: on its running loop
         for thread in threading.enumerate():
             if thread.name == "urc-warm-routes":
                 await asyncio.to_thread(thread.join, 60.0)
@@ -736,3 +737,38 @@ def test_a_save_never_writes_into_an_example_it_copies_it_to_the_users_config_di
     assert example.read_bytes() == before
     used, note = in_use(example)                               # urc run --config examples/bigras.toml
     assert used == copy and str(copy) in note
+
+
+# ----------------------------------------------------------------------- stop (urc.dispatch)
+def test_a_tracker_that_fails_to_stop_leaves_the_rotator_stopped_and_is_a_409(make_client):
+    """The stop goes to the rotator first; the tracker's failure after it is a refusal
+    with its reason (it was a 500, a crash, with the tracker's exception)."""
+    trk = FakeTracker()
+
+    def stuck():
+        raise RuntimeError("catalog locked")
+    trk.stop = stuck
+    c = make_client(tracker=trk)
+    assert c.post("/api/goto", json={"az_deg": 200.0, "el_deg": 40.0}).status_code == 200
+    c.bench.run(0.5)
+    r = c.post("/api/stop", json={})
+    assert r.status_code == 409 and r.json() == {"ok": False, "error": "catalog locked", "reason": "tracking"}
+    c.bench.run(0.5)  # (the stop is applied at the next tick)
+    s = c.get("/api/status").json()
+    assert s["target_az_deg"] is None and s["target_el_deg"] is None, s
+
+
+def test_a_stop_the_rotator_refuses_still_stops_the_tracker(make_client):
+    """The link down: the 409 says why, and the tracker must not go on commanding."""
+    from urc.link.remote import ControlUnavailable
+
+    trk = FakeTracker()
+    c = make_client(tracker=trk)
+    assert c.post("/api/track", json={"kind": "moon"}).status_code == 200
+
+    def dead(*_args):
+        raise ControlUnavailable("control loop died: it stopped")
+    c.bench.rot.stop = dead
+    r = c.post("/api/stop", json={})
+    assert r.status_code == 409 and r.json()["reason"] == "fault" and "control loop died" in r.json()["error"]
+    assert ("stop",) in trk.calls and c.get("/api/status").json()["tracking"] is None

@@ -384,7 +384,7 @@ class InProcessUrc:
 
     def __init__(self, state_dir: Path, tracker):
         from urc.api import create_api
-        from urc.assembly import build_rotator
+        from urc.assembly import build_rotator, settings_from_config
         from urc.clock import RealClock
         from urc.config import Config
 
@@ -393,7 +393,7 @@ class InProcessUrc:
                                                   "el_min_deg": 0, "el_max_deg": 30}]})
         self.clock = RealClock()
         self.rot = build_rotator(self.cfg, self.clock, state_dir)
-        self.app = create_api(self.rot, self.cfg, tracker=tracker)
+        self.app = create_api(self.rot, self.cfg, settings_of=settings_from_config, tracker=tracker)
         self.port = free_port()
         self.url = f"http://127.0.0.1:{self.port}"
         self.server = None
@@ -402,7 +402,7 @@ class InProcessUrc:
     async def _main(self):
         import uvicorn
 
-        from urc.service.loop import run_realtime
+        from urc.rotator.loop import run_realtime
 
         stop = asyncio.Event()
         self.server = uvicorn.Server(uvicorn.Config(self.app, host="127.0.0.1", port=self.port,

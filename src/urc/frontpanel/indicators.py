@@ -26,7 +26,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ..service.snapshot import Status
+from ..model.snapshot import Status
 
 BLINK_ON_S = 0.25
 BLINK_OFF_S = 0.25

@@ -24,7 +24,7 @@ import datetime
 from zoneinfo import ZoneInfo
 
 from ..protocols.tartu_codec import lcd_rows
-from ..service.snapshot import Status
+from ..model.snapshot import Status
 from .indicators import fault_code
 
 ALTERNATE_S = 2.0

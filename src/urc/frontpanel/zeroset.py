@@ -21,8 +21,8 @@ from __future__ import annotations
 
 from ..protocols.poses import extended_pose_deg
 from ..protocols.single_axis import wire_status
-from ..ipc.messages import ApplyCalibration, SensorCalibrations
-from ..service.queries import ask
+from ..model.messages import ApplyCalibration, SensorCalibrations
+from ..model.effects import ask
 
 HOLD_NAME = "ZERO SET"
 REPEAT_AFTER_S = 0.5

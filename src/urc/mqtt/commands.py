@@ -9,20 +9,17 @@ refused by the gate (it may still fail if the control process is gone).
 
 from __future__ import annotations
 
-import inspect
 import json
 import logging
-from collections.abc import Mapping, Sequence
 from typing import Annotated, Any, Literal, Union
 
 from pydantic import BaseModel, ConfigDict, Field, TypeAdapter, ValidationError
 
+from ..dispatch import Dispatcher, TrackerFailed
+from ..dispatch.bodies import GotoRequest, StopRequest, TrackRequest
+from ..dispatch.errors import describe
 from ..errors import CommandRejected, UrcError
-from ..ipc import messages as msg
-from ..service.effects import call
 from ..protocols.base import RateLimitedLog
-from ..web.routes_tracking import TrackRequest
-from ..web.schemas import AzDeg, ElDeg
 
 log = logging.getLogger("urc.mqtt")
 bad_input = RateLimitedLog(log)
@@ -33,21 +30,22 @@ CommandId = Union[Annotated[str, Field(max_length=64)], Annotated[int, Field(str
 
 
 class _Cmd(BaseModel):
+    """The envelope: an id to answer with and the command's name; the body's fields are
+    the API's (urc.dispatch.bodies), JSON's types taken strictly."""
     model_config = ConfigDict(extra="forbid", strict=True, frozen=True)
     id: CommandId = None
 
 
-class Goto(_Cmd):
+# (the body first: its fields come after the id, as the errors list them)
+class Goto(GotoRequest, _Cmd):
+    model_config = _Cmd.model_config
     command: Literal["goto"]
-    az_deg: AzDeg
-    #: None: azimuth only (the elevation keeps its target)
-    el_deg: ElDeg | None = None
 
 
-class Stop(_Cmd):
+class Stop(StopRequest, _Cmd):
+    """axis None: everything (tracking, a calibration, both axes)."""
+    model_config = _Cmd.model_config
     command: Literal["stop"]
-    #: None: everything (tracking, a calibration, both axes)
-    axis: Literal["az", "el"] | None = None
 
 
 class Park(_Cmd):
@@ -59,7 +57,9 @@ class ClearFaults(_Cmd):
 
 
 class Track(_Cmd):
-    """Track a target: the fields of the API's POST /api/track (kind, name, norad ...)."""
+    """Track a target: the fields of the API's POST /api/track (kind, name, norad ...),
+    typed strictly here, then checked as the API checks them (TrackRequest; its rules
+    judge only a body whose types are right, as before)."""
     command: Literal["track"]
     kind: str
     name: str | None = None
@@ -71,10 +71,12 @@ class Track(_Cmd):
     el_deg: float | None = Field(None, allow_inf_nan=False)
     source: str | None = None
 
+    def body(self) -> TrackRequest:
+        """Checked as the API checks it; ValidationError if wrong."""
+        return TrackRequest.model_validate(self.model_dump(exclude={"id", "command"}, exclude_none=True))
+
     def request(self) -> dict[str, Any]:
-        """Checked as the API checks it (TrackRequest); ValidationError if wrong."""
-        fields = self.model_dump(exclude={"id", "command"}, exclude_none=True)
-        return TrackRequest.model_validate(fields).model_dump(exclude_none=True)
+        return self.body().model_dump(exclude_none=True)
 
 
 class TrackStop(_Cmd):
@@ -90,21 +92,6 @@ class BadCommand(ValueError):
     def __init__(self, message: str, cmd_id: Any = None):
         super().__init__(message)
         self.cmd_id = cmd_id
-
-
-def _describe(errors: Sequence[Mapping[str, Any]]) -> str:
-    out = []
-    for e in errors[:3]:
-        loc = ".".join(str(x) for x in e.get("loc", ()) if x not in COMMANDS) or "command"
-        if e.get("type") == "union_tag_invalid":
-            out.append(f"command: expected one of {', '.join(COMMANDS)}, found {e['input'].get('command')!r}")
-        elif e.get("type") == "union_tag_not_found":
-            out.append(f"command: missing (one of {', '.join(COMMANDS)})")
-        elif e.get("type") == "extra_forbidden":
-            out.append(f"{loc}: unknown field")
-        else:
-            out.append(f"{loc}: {e.get('msg', 'invalid')}, found {e.get('input')!r}"[:200])
-    return "; ".join(out)
 
 
 def parse_command(payload: bytes) -> Goto | Stop | Park | ClearFaults | Track | TrackStop:
@@ -140,22 +127,19 @@ def parse_command(payload: bytes) -> Goto | Stop | Park | ClearFaults | Track | 
     try:
         cmd = _COMMAND.validate_python(doc)
         if isinstance(cmd, Track):
-            cmd.request()
+            cmd.body()
     except ValidationError as exc:
-        raise BadCommand(_describe(exc.errors(include_url=False)), cmd_id) from None
+        raise BadCommand(describe(exc.errors(include_url=False), COMMANDS), cmd_id) from None
     return cmd
 
 
 class CommandHandler:
-    """Runs commands as the HTTP API runs them (``urc.api``), on the same rotator,
-    tracker and dashboard hub. Rotator calls await the control process (only this
-    command waits, never the event loop). Tracker commands are awaited as the API
-    awaits them."""
+    """Runs commands as the HTTP API runs them (urc.dispatch, as ``urc.api`` does), on
+    the same rotator, tracker and dashboard hub. Rotator calls await the control process
+    (only this command waits, never the event loop)."""
 
     def __init__(self, rotator: Any, tracker: Any = None, hub: Any = None):
-        self.rotator = rotator
-        self.tracker = tracker
-        self.hub = hub
+        self.dispatch = Dispatcher(rotator, tracker, hub)
         #: told of each accepted goto and park (id, command, sky target or None for park):
         #: urc.mqtt.outcomes then says how it ended
         self.on_motion: Any = None
@@ -168,57 +152,40 @@ class CommandHandler:
             return {"id": exc.cmd_id, "ok": False, "error": str(exc), "reason": "invalid"}
         try:
             await self.run(cmd)
+        except TrackerFailed as exc:  # a tracker that cannot plan, a bad element set ... (logged there)
+            return self._failed(cmd, exc.cause)
         except UrcError as exc:
             bad_input.info("MQTT %s refused: %s", cmd.command, exc)
             return {"id": cmd.id, "ok": False, "error": str(exc),
                     "reason": getattr(exc, "reason", type(exc).__name__)}
-        except Exception as exc:  # a tracker that cannot plan, a bad element set ...
+        except Exception as exc:
             log.warning("MQTT %s failed: %s", cmd.command, exc, exc_info=True)
-            return {"id": cmd.id, "ok": False, "error": str(exc) or type(exc).__name__, "reason": "failed"}
+            return self._failed(cmd, exc)
         if isinstance(cmd, (Goto, Park)):  # (its end follows as one more result: urc.mqtt.outcomes)
             if self.on_motion is not None:
                 self.on_motion(cmd.id, cmd.command, None if isinstance(cmd, Park) else (cmd.az_deg, cmd.el_deg))
             return {"id": cmd.id, "ok": True, "state": "accepted"}
         return {"id": cmd.id, "ok": True}
 
+    @staticmethod
+    def _failed(cmd: Any, exc: Exception) -> dict[str, Any]:
+        return {"id": cmd.id, "ok": False, "error": str(exc) or type(exc).__name__, "reason": "failed"}
+
     async def run(self, cmd: Any) -> None:
-        rot = self.rotator
+        d = self.dispatch
         if isinstance(cmd, Goto):
-            if cmd.el_deg is None:
-                await call(rot, msg.GotoAz(cmd.az_deg))
-            else:
-                await call(rot, msg.Goto(cmd.az_deg, cmd.el_deg))
+            await d.goto(cmd)
         elif isinstance(cmd, Stop):
-            await self._stop(cmd.axis)
+            stopped = await d.stop(cmd)
+            if stopped.queued:  # (answered as the refusal it was before: reason "fault")
+                raise CommandRejected(stopped.note, "fault")
         elif isinstance(cmd, Park):
-            await call(rot, msg.Park())
+            await d.park()
         elif isinstance(cmd, ClearFaults):
-            await call(rot, msg.ClearFaults())
+            await d.clear_faults()
         elif isinstance(cmd, Track):
-            await self._tracker_call("track", cmd.request())
+            await d.track(cmd.body())
         elif isinstance(cmd, TrackStop):
-            await self._tracker_call("stop")
+            await d.track_stop()
         else:  # pragma: no cover - the union above is the whole list
             raise CommandRejected(f"unknown command {cmd!r}")
-
-    async def _stop(self, axis: str | None) -> None:
-        """Like POST /api/stop: without an axis, tracking, a calibration and every jog too."""
-        hub = self.hub
-        if axis is None:
-            if hub is not None:
-                await hub.cancel_procedure()
-            if self.tracker is not None:
-                await self._tracker_call("stop")
-        if hub is not None:
-            await hub.release(axis)
-        await call(self.rotator, msg.Stop(axis))
-
-    async def _tracker_call(self, name: str, *args: Any) -> None:
-        if self.tracker is None:
-            raise CommandRejected("tracking is off: no [station] configured", "tracking")
-        # (a TrackingService's commands are coroutines: they wait off the loop)
-        out = getattr(self.tracker, name)(*args)
-        if inspect.isawaitable(out):
-            await out
-        if self.hub is not None:
-            await self.hub.refresh_tracking()

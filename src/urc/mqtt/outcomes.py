@@ -11,7 +11,7 @@ ends, from the statuses urc publishes anyway:
 * ``"state": "replaced"`` (``ok`` false): another motion command (from any client) took
   over first.
 
-Pure logic on status dicts (``urc.service.snapshot.Status.as_dict``), so it is tested
+Pure logic on status dicts (``urc.model.snapshot.Status.as_dict``), so it is tested
 without a broker; urc.mqtt.service feeds it every telemetry sample.
 """
 

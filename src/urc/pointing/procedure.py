@@ -2,7 +2,7 @@
 the Moon or a beacon, the power read at each point, the beam fitted, and the az/el
 offset found (or the reason it was refused).
 
-Like the web hub's other calibration procedures (urc.service.calibration) it is a state
+Like the web hub's other calibration procedures (urc.procedures.calibration) it is a state
 machine: :meth:`ScanCalibration.poll` is called with each new status, issues gotos
 through the rotator's public commands and never waits. A source that blocks on I/O
 (rigctld, a TCP feed, a file) is read on a worker thread, one read at a time; the

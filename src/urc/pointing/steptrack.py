@@ -1,6 +1,6 @@
 """Step-track (issue 38 part 5): follow a satellite whose elements are off by its signal.
 
-The control process keeps flying a pass program (urc.service.program); this module, on
+The control process keeps flying a pass program (urc.model.program); this module, on
 the I/O side, re-uploads the rest of the pass corrected by what the received power
 shows. Each upload carries a small cross scan around the corrected prediction for the
 next SCAN_AHEAD_S (five points, centre and +-r in each axis, DWELL_S each, phased on
@@ -40,7 +40,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from ..service.program import PassProgram
+from ..model.program import PassProgram
 from .fit import FWHM_PER_SIGMA, MIN_SIGNIFICANCE, ScanRefused, _lm
 from .sources import SignalRefused, to_linear
 

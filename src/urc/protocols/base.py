@@ -9,7 +9,7 @@ service implements: limits, keep-out zones, wrap and faults are enforced there, 
 for every protocol. A command the session did not fully understand never reaches it.
 A session reads the status from the port directly (no round trip: the I/O process
 keeps the newest), and asks for everything else by yielding a request
-(:mod:`urc.service.effects`): ``receive()`` is a generator, ``value = yield Goto(az, el)``,
+(:mod:`urc.model.effects`): ``receive()`` is a generator, ``value = yield Goto(az, el)``,
 that returns its replies; its driver performs each request (a test at once, the server
 adapter by awaiting the control process) and sends back the result or throws the
 rotator's exception in at that ``yield``.
@@ -23,7 +23,7 @@ from collections import Counter
 from typing import Any, Callable, Generator, Protocol, runtime_checkable
 
 from ..errors import UrcError
-from ..service.snapshot import Status
+from ..model.snapshot import Status
 
 #: no session buffers more than this many bytes of an unfinished command; beyond it the
 #: partial input is dropped (and answered with the protocol's error, where it has one).
@@ -31,7 +31,7 @@ MAX_PENDING_BYTES = 4096
 
 
 class RotatorPort(Protocol):
-    """The rotator service's public command API (see urc.service.rotator.Rotator).
+    """The rotator service's public command API (see urc.rotator.rotator.Rotator).
 
     Every method validates at once and raises ``urc.errors.CommandRejected`` (with a
     ``reason``: "limit", "keepout", "fault", "uncertain", "invalid") before anything moves.
@@ -64,7 +64,7 @@ class Session(Protocol):
     #: the new rate; a serial adapter applies it after writing the replies and clears
     #: it. ``default_baud`` on the class: its serial rate when the config names none.)
     closed: bool
-    #: (its generators are urc.service.effects.Effects: not imported here, since the
+    #: (its generators are urc.model.effects.Effects: not imported here, since the
     #: codecs beside this module are imported by the bridge backend, which must not load
     #: the link's messages)
     #: the port its status is read from and its requests are performed on
@@ -80,22 +80,8 @@ class Session(Protocol):
         one that acts on the rotator (SARCNET's demo) is a generator as ``receive``."""
 
 
-class ProtocolError(UrcError, ValueError):
-    """Input a protocol could not parse; says what was expected and what was found.
-
-    The root of every protocol's input errors (with ``CommandRejected`` from the rotator
-    and ``HardwareError``, the only exceptions a session answers as bad input; anything
-    else is a bug, see :func:`internal_error`). ``ProtocolError("text")`` carries a
-    ready message; ``ProtocolError(expected, found)`` builds one.
-    """
-
-    def __init__(self, expected: str, found: bytes | None = None):
-        self.expected, self.found = expected, found
-        super().__init__(expected if found is None else f"expected {expected}, found {found!r}")
-
-
-#: what a session answers with its protocol's error reply: bad input (ProtocolError and
-#: each protocol's subclass), a refusal by the rotator (CommandRejected), a hardware
+#: what a session answers with its protocol's error reply: bad input (urc.errors.ProtocolError
+#: and each protocol's subclass), a refusal by the rotator (CommandRejected), a hardware
 #: failure. Every one of them is a UrcError; any other exception is a bug in urc.
 EXPECTED_ERRORS: tuple[type[BaseException], ...] = (UrcError,)
 

@@ -1,6 +1,6 @@
 """Easycomm I/II/III device emulation: what Hamlib models 201, 202 and 204 talk to.
 
-One line is one message (see :mod:`.easycomm_codec`). Set, move, stop, park and reset
+One line is one message (see :mod:`urc.wire.easycomm`). Set, move, stop, park and reset
 commands get no reply at all: Hamlib reads none, and with no post-write delay a late
 reply would be taken as the answer to its next query (protocols.md 2.3). Easycomm has
 no error reply either, so bad lines and refused commands are logged and answered with
@@ -16,11 +16,11 @@ from __future__ import annotations
 
 from .. import __version__
 from ..errors import CommandRejected, UrcError
-from ..ipc.messages import ClearFaults, Goto, Move, Park, Request, Stop
-from ..service.effects import Effects, as_effects
-from ..service.snapshot import Status
+from ..model.messages import ClearFaults, Goto, Move, Park, Request, Stop
+from ..model.effects import Effects, as_effects
+from ..model.snapshot import Status
 from .base import RotatorPort, bad_input_log, internal_error, protocol_logger
-from .easycomm_codec import (COMMANDS_II, COMMANDS_III, Command, EasycommParseError, format_axis,
+from ..wire.easycomm import (COMMANDS_II, COMMANDS_III, Command, EasycommParseError, format_axis,
                              format_az_el, format_value, parse_line)
 from .lines import LineSplitter
 from .poses import require_known

@@ -9,7 +9,7 @@ with Table 1's arithmetic.
 
 The constants Z, M, C, K are the rotator's own pot calibration, kept where urc keeps
 every sensor calibration (the rotator's state file, through
-:func:`urc.service.calibration.apply_sensor_calibration`), across connections and
+:func:`urc.procedures.calibration.apply_sensor_calibration`), across connections and
 restarts, like the PIC's non-volatile memory. As in the document, M and C (and K) give
 the angle theta from the end-stop reference, to which the travel limits belong (-10..370
 on the g4jnt profile), and Z is the bearing of that reference: ``#Z1807`` turns the
@@ -33,10 +33,9 @@ Commands: ``#`` + Z/C/K/M + signed integer; ``L``/``R`` go-left/go-right pulses 
 
 from __future__ import annotations
 
-from ..errors import CommandRejected, UrcError
-from ..ipc.messages import ApplyCalibration, PotReading, PotState
-from ..service import calibration
-from ..service.effects import Effects, drive
+from ..errors import CommandRejected, NoSuchConstant, UrcError
+from ..model.messages import ApplyCalibration, PotReading, PotState
+from ..model.effects import Effects, drive
 from .base import MAX_PENDING_BYTES, RotatorPort, bad_input_log, internal_error, protocol_logger
 from . import g4jnt_codec as codec
 from .g4jnt_codec import Constants, G4jntCommand, G4jntSyntaxError
@@ -172,7 +171,7 @@ class G4jntSession:
         # its state, and refuses (CommandRejected) if that would break its limits
         try:
             yield ApplyCalibration("az", codec.sensor_values(changes), require=POT_CONSTANTS)
-        except calibration.NoSuchConstant:
+        except NoSuchConstant:
             self._own = self._own.with_value(name, value)
             return codec.line(f"{name} {value}")
         except CommandRejected as exc:

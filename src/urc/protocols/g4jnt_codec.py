@@ -41,7 +41,7 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass, replace
 
-from .base import ProtocolError
+from ..errors import ProtocolError
 from .lines import crlf_line as line
 from .numbers import DECIMAL
 

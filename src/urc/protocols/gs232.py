@@ -19,14 +19,13 @@ the rotator unchanged.
 
 from __future__ import annotations
 
-from typing import Any
-
+from .. import geodesy
 from ..errors import CommandRejected, UrcError
-from ..ipc.messages import Goto, Move, Stop
-from ..service.effects import Effects
-from ..service.snapshot import Status
+from ..model.messages import Goto, Move, Stop
+from ..model.effects import Effects
+from ..model.snapshot import Status
 from .base import RotatorPort, bad_input_log, internal_error, protocol_logger
-from .gs232_codec import (SPEED_LEVELS, STYLE_A, STYLE_B, STYLE_GENERIC, Command, Gs232ParseError,
+from ..wire.gs232 import (SPEED_LEVELS, STYLE_A, STYLE_B, STYLE_GENERIC, Command, Gs232ParseError,
                           format_error, format_help, format_position, parse_command)
 from .lines import LineSplitter
 from .poses import extended_pose_deg, frame_offsets_deg, goto_extended
@@ -46,21 +45,19 @@ def controller_pose(s: Status) -> tuple[float, float]:
     return az, el
 
 
-def _station(lat_deg: object, lon_deg: object, alt_m: object) -> Any:
-    """The options' station, None without coordinates; TypeError (the server's "bad
-    options", found at start) for half a pair or a value that is not a position."""
+def _station(lat_deg: object, lon_deg: object, alt_m: object) -> tuple[float, float, float] | None:
+    """The options' station (lat_deg, lon_deg, alt_m), None without coordinates;
+    TypeError (the server's "bad options", found at start) for half a pair or a value
+    that is not a position."""
     if lat_deg is None and lon_deg is None:
         return None
     if lat_deg is None or lon_deg is None:
         raise TypeError("station_lat_deg and station_lon_deg go together (the station's position, "
                         "for NMEA GGA points)")
-    from ..tracking.errors import StationError
-    from ..tracking.station import Station
-
-    try:
-        return Station(lat_deg, lon_deg, alt_m)  # type: ignore[arg-type]  # (it checks the types)
-    except StationError as exc:
-        raise TypeError(str(exc)) from None
+    problem = geodesy.position_problem(lat_deg, lon_deg, alt_m)
+    if problem is not None:
+        raise TypeError(f"station {problem}")
+    return float(lat_deg), float(lon_deg), float(alt_m)  # type: ignore[arg-type]  # (checked)
 
 
 class _Gs232Session:
@@ -174,8 +171,6 @@ class _Gs232Session:
         SondeMonitor); urc's own ``track --nmea`` target predicts between reports."""
         import pynmea2
 
-        from ..tracking.targets import GeoPointTarget, TargetError
-
         if self._station is None:
             raise Gs232ParseError("station coordinates (options station_lat_deg, station_lon_deg) "
                                   "before an NMEA point", sentence[:20])
@@ -188,10 +183,16 @@ class _Gs232Session:
         if not int(msg.gps_qual or 0) or not msg.lat:
             raise Gs232ParseError("a GGA sentence with a fix", sentence[:20])
         try:
-            point = GeoPointTarget(self._station, msg.latitude, msg.longitude, float(msg.altitude or 0.0))
-        except (TargetError, ValueError) as exc:
+            point = (msg.latitude, msg.longitude, float(msg.altitude or 0.0))
+        except ValueError as exc:
             raise Gs232ParseError(f"a point on Earth ({exc})"[:80], sentence[:20]) from None
-        return point.az_deg, point.el_deg
+        problem = geodesy.position_problem(*point)
+        if problem is not None:
+            raise Gs232ParseError(f"a point on Earth ({problem})"[:80], sentence[:20])
+        lat_deg, lon_deg, _alt_m = self._station
+        az_deg, el_deg, _range_km = geodesy.look_at(geodesy.itrs_km(*self._station),
+                                                    geodesy.enu_rows(lat_deg, lon_deg), geodesy.itrs_km(*point))
+        return az_deg, el_deg
 
     @staticmethod
     def _az_to_keep(s: Status) -> float:

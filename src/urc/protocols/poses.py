@@ -17,9 +17,9 @@ from __future__ import annotations
 import math
 
 from ..errors import CommandRejected
-from ..ipc.messages import Goto, GotoAz, GotoEl, GotoPose, Move, Stop
-from ..service.effects import Effects
-from ..service.snapshot import Status
+from ..model.messages import Goto, GotoAz, GotoEl, GotoPose, Move, Stop
+from ..model.effects import Effects
+from ..model.snapshot import Status
 from .base import RotatorPort
 from .single_axis import wire_el_axis, wire_el_deg
 

@@ -23,8 +23,8 @@ Items of one datagram run in order; a bad item does not stop the well-formed one
 from __future__ import annotations
 
 from ..errors import CommandRejected, UrcError
-from ..ipc.messages import Park, Stop
-from ..service.effects import Effects
+from ..model.messages import Park, Stop
+from ..model.effects import Effects
 from .base import (MAX_PENDING_BYTES, RotatorPort, bad_input_log, internal_error,
                    protocol_logger)
 from . import pstrotator_codec as codec

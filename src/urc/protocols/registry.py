@@ -15,7 +15,7 @@ from ..config.issues import Issue, suggest
 from ..config.owners import register_check, register_session_class
 from ..errors import ConfigError
 
-if TYPE_CHECKING:  # (.base imports the Status, and through urc.service the rotator: not
+if TYPE_CHECKING:  # (.base imports the Status and the request effects (urc.model): not
     # for checking a configuration, which registers this module's names at every start)
     from .base import RotatorPort, Session
 

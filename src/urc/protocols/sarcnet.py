@@ -51,12 +51,12 @@ Arduino's 100 ms timer); they are emitted from ``tick(now_s)``.
 
 from __future__ import annotations
 
-from ..errors import CommandRejected, UrcError
-from ..ipc.messages import (ApplyCalibration, ApplyTwelveDirection, BeginHandCalibration, Goto, HoldLocal,
+from ..errors import CalibrationError, CommandRejected, NoSuchConstant, UrcError
+from ..model.messages import (ApplyCalibration, ApplyTwelveDirection, BeginHandCalibration, Goto, HoldLocal,
                             RawVectors, Reset, SensorCalibrations, Stop)
-from ..service import calibration
-from ..service.effects import Effects, as_effects
-from ..service.snapshot import Status
+from ..procedures.calibration_twelve import TwelveDirectionCalibration
+from ..model.effects import Effects, as_effects
+from ..model.snapshot import Status
 from .base import (MAX_PENDING_BYTES, RotatorPort, bad_input_log, internal_error,
                    protocol_logger)
 from . import sarcnet_codec as codec
@@ -91,7 +91,7 @@ class SarcnetSession:
         self.interval_s = float(interval_s)
         # tracking | monitoring | debugging | demonstrating | pausing | calibrating
         self.mode = "tracking"
-        self._cal = calibration.TwelveDirectionCalibration()
+        self._cal = TwelveDirectionCalibration()
         self._cal_shown: list[str] | None = None
         self._lines = LineSplitter(MAX_PENDING_BYTES, backspace=True, log=bad_input)
         self._next_s: float | None = None
@@ -241,7 +241,7 @@ class SarcnetSession:
         if not (yield BeginHandCalibration(CALIBRATION_HOLD)):
             return [codec.console("Error: no raw magnetometer/accelerometer on this rotator")]
         self._enter("calibrating")
-        self._cal = calibration.TwelveDirectionCalibration()
+        self._cal = TwelveDirectionCalibration()
         self._cal_shown = None
         return [codec.console(row) for row in codec.CALIBRATION_INTRO] + [self._next_prompt()]
 
@@ -269,7 +269,7 @@ class SarcnetSession:
                                  f"{codec.direction_text(*got)}"))
         try:
             fits = self._cal.fits()
-        except calibration.CalibrationError:
+        except CalibrationError:
             fits = None                    # not enough directions for the ellipsoids yet
         if fits is not None:
             shown = codec.calibration_rows(*fits)
@@ -283,7 +283,7 @@ class SarcnetSession:
         try:
             # (loaded, the hold is released with it: one round trip)
             on_disk = yield ApplyTwelveDirection(self._cal.result(), release=CALIBRATION_HOLD)
-        except (calibration.CalibrationError, UrcError, ValueError) as exc:
+        except (CalibrationError, UrcError, ValueError) as exc:
             bad_input.info("calibration not saved: %s", exc)
             return [codec.console(f"Error: calibration not saved: {exc}; nothing changed")]
         self.mode = "tracking"
@@ -341,7 +341,7 @@ class SarcnetSession:
         # rotator re-references by the change (refused if that breaks its limits)
         try:
             yield ApplyCalibration("az", {"declination_deg": value}, require=("declination_deg",))
-        except calibration.NoSuchConstant:
+        except NoSuchConstant:
             return no_compass
         return [codec.console(f"Magnetic declination: {value:.1f}")]
 

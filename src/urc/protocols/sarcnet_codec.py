@@ -12,7 +12,7 @@ import math
 import re
 from dataclasses import dataclass
 
-from .base import ProtocolError
+from ..errors import ProtocolError
 from .lines import crlf_line as console
 from .numbers import DECIMAL, compass_tenths
 

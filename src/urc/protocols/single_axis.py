@@ -18,7 +18,7 @@ from __future__ import annotations
 from dataclasses import replace
 from typing import Any
 
-from ..service.snapshot import AxisStatus, Status
+from ..model.snapshot import AxisStatus, Status
 from .base import RotatorPort
 
 #: what a single-axis controller answers for elevation

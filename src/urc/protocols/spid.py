@@ -1,6 +1,6 @@
 """SPID controllers: Rot2Prog, Rot1Prog and MD-01/02 in ROT2 mode (protocols.md §4).
 
-Binary 13-byte commands, no checksum; frames in spid_codec. What each session does:
+Binary 13-byte commands, no checksum; frames in urc.wire.spid. What each session does:
 
 * status (K 0x1F) and stop (K 0x0F): answer at once with the position, 12 bytes
   (Rot2Prog, MD) or 5 bytes (Rot1Prog); stop first stops both axes.
@@ -25,11 +25,11 @@ malformed input is logged and (like the real controller) left unanswered.
 from __future__ import annotations
 
 from ..errors import CommandRejected, UrcError
-from ..service.effects import Effects
+from ..model.effects import Effects
 from .base import MAX_PENDING_BYTES, RotatorPort, bad_input_log, internal_error, protocol_logger
-from . import spid_codec as codec
+from ..wire import spid as codec
 from .poses import ExtendedTarget, extended_pose_deg
-from .spid_codec import SpidCommand, SpidFrameError
+from ..wire.spid import SpidCommand, SpidFrameError
 
 log = protocol_logger("spid")
 bad_input = bad_input_log("spid")

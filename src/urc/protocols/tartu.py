@@ -58,8 +58,8 @@ import weakref
 
 from .. import __version__
 from ..errors import CommandRejected, UrcError
-from ..ipc.messages import OvershootQuery, SensorCount, SetOvershoot, SetPosition
-from ..service.effects import Effects, as_effects
+from ..model.messages import OvershootQuery, SensorCount, SetOvershoot, SetPosition
+from ..model.effects import Effects, as_effects
 from .base import MAX_PENDING_BYTES, RotatorPort, bad_input_log, internal_error, protocol_logger
 from . import tartu_codec as codec
 from .lines import LineSplitter, TerminalEcho

@@ -17,7 +17,7 @@ import re
 from dataclasses import dataclass
 from typing import Callable
 
-from .base import ProtocolError
+from ..errors import ProtocolError
 from .lines import crlf_line as line
 from .numbers import DECIMAL, format_deg
 from .poses import extended_targets_deg, shown_pose_deg

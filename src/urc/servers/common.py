@@ -11,7 +11,7 @@ from typing import Any, Callable
 
 from ..errors import UrcError
 from ..protocols.base import Session, internal_error
-from ..service.effects import Effects, perform
+from ..model.effects import Effects, perform
 
 log = logging.getLogger("urc.servers")
 
@@ -40,7 +40,7 @@ class SessionRunner:
     """Feeds one session on the event loop without ever blocking the loop.
 
     Each input (bytes, a tick, the hang-up) is a generator of port requests
-    (urc.service.effects) stepped here: an input that needs none (every position query)
+    (urc.model.effects) stepped here: an input that needs none (every position query)
     is answered at once; a request to the control process is awaited in a task, which
     suspends this session only, while every other client is served; input arriving
     meanwhile queues behind it, so the session still sees its bytes in order and

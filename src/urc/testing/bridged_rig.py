@@ -135,7 +135,7 @@ class BridgedRig:
     def _start_downstream(self) -> None:
         from ..persistence import StateStore
         from ..protocols.registry import make_session
-        from ..service import Rotator
+        from ..rotator.rotator import Rotator
         from ..hardware.interfaces import Hardware
         from ..hardware.bridge import bridge_axes
 

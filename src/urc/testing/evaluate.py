@@ -15,7 +15,7 @@ import numpy as np
 
 from ..angles import great_circle_deg
 from ..clock import VirtualClock
-from ..service.loop import run_virtual
+from ..rotator.loop import run_virtual
 
 
 @dataclass(frozen=True)

@@ -17,7 +17,7 @@ import numpy as np
 from ..clock import VirtualClock
 from ..pointing.scan import ScanPlan, offset_pose, pose_offset
 from ..pointing.sources import SignalRefused
-from ..service.loop import run_virtual
+from ..rotator.loop import run_virtual
 
 
 @dataclass

@@ -1,13 +1,13 @@
 """Drive a protocol session synchronously against an in-process rotator (tests, the
 bridged rig): each port request its generator yields is performed at once
-(urc.service.effects.drive), as the server adapter performs it by awaiting the
+(urc.model.effects.drive), as the server adapter performs it by awaiting the
 control process."""
 
 from __future__ import annotations
 
 from typing import Any
 
-from ..service.effects import as_effects, drive
+from ..model.effects import as_effects, drive
 
 
 def fed(session: Any, data: bytes) -> list[bytes]:

@@ -10,15 +10,15 @@ from pathlib import Path
 from typing import Any, Callable
 
 from ..config import Config
-from ..service.remote import on_event_loop
+from ..link.remote import on_event_loop
 from .catalog_process import read_catalog
 from .elements import Catalog, ElementSet
 from .errors import TrackingError
+from .nmea_source import read_nmea
 from .pass_process import find_passes_isolated
 from .pass_process import shutdown as stop_pass_process
 from .passes import Pass, find_passes
 from .schedule import Request, build_schedule
-from ..servers.nmea_source import read_nmea
 from .station import NmeaStation, Station
 from .targets import (FixedTarget, GeoPointTarget, MoonTarget, NmeaTarget, SatelliteTarget, SunTarget,
                       Target)

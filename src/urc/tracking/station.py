@@ -8,13 +8,13 @@ clock agrees with GPS time. pynmea2 parses and checks each sentence.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from datetime import datetime, time as dtime, timedelta, timezone
 from functools import cached_property
 
 import numpy as np
 
+from .. import geodesy
 from .errors import StationError
 
 __all__ = ["GpsFix", "NmeaStation", "Station"]
@@ -33,13 +33,9 @@ class Station:
     name: str = ""
 
     def __post_init__(self) -> None:
-        for key, value, lo, hi in (("lat_deg", self.lat_deg, -90.0, 90.0),
-                                   ("lon_deg", self.lon_deg, -180.0, 360.0),
-                                   ("alt_m", self.alt_m, -500.0, 100_000.0)):
-            if not isinstance(value, (int, float)) or isinstance(value, bool) \
-                    or not math.isfinite(value) or not lo <= value <= hi:
-                raise StationError(f"station {key}: expected a number in {lo:g}..{hi:g}, "
-                                   f"found {value!r}")
+        problem = geodesy.position_problem(self.lat_deg, self.lon_deg, self.alt_m)
+        if problem is not None:
+            raise StationError(f"station {problem}")
 
     @cached_property
     def skyfield(self):
@@ -55,13 +51,8 @@ class Station:
 
     @cached_property
     def enu(self) -> np.ndarray:
-        """Rows: east, north, up unit vectors (ITRS) of the geodetic horizon.
-
-        skyfield keeps this rotation private; it is three lines of trigonometry.
-        """
-        lat, lon = math.radians(self.lat_deg), math.radians(self.lon_deg)
-        sl, cl, so, co = math.sin(lat), math.cos(lat), math.sin(lon), math.cos(lon)
-        return np.array([[-so, co, 0.0], [-sl * co, -sl * so, cl], [cl * co, cl * so, sl]])
+        """Rows: east, north, up unit vectors (ITRS) of the geodetic horizon."""
+        return geodesy.enu_rows(self.lat_deg, self.lon_deg)
 
     @classmethod
     def from_fix(cls, fix: GpsFix, name: str = "") -> Station:

@@ -14,6 +14,7 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
+from .. import geodesy
 from . import sky
 from .elements import Catalog, ElementSet
 from .errors import StationError, TargetError
@@ -180,17 +181,7 @@ class FixedTarget:
 
 
 def _look_at_point(station: Station, itrs_km: np.ndarray) -> tuple[float, float, float]:
-    d = itrs_km - station.itrs_km
-    e, n, u = station.enu @ d
-    az = math.degrees(math.atan2(e, n)) % 360.0
-    el = math.degrees(math.atan2(u, math.hypot(e, n)))
-    return az, el, float(np.linalg.norm(d))
-
-
-def _itrs_km(lat_deg: float, lon_deg: float, alt_m: float) -> np.ndarray:
-    from skyfield.api import wgs84
-
-    return np.asarray(wgs84.latlon(lat_deg, lon_deg, elevation_m=alt_m).itrs_xyz.km)
+    return geodesy.look_at(station.itrs_km, station.enu, itrs_km)
 
 
 class GeoPointTarget:
@@ -206,7 +197,7 @@ class GeoPointTarget:
         self.lat_deg, self.lon_deg, self.alt_m = float(lat_deg), float(lon_deg), float(alt_m)
         self.name = name or f"{lat_deg:.5f},{lon_deg:.5f}"
         self.az_deg, self.el_deg, self.range_km = _look_at_point(
-            station, _itrs_km(lat_deg, lon_deg, alt_m))
+            station, geodesy.itrs_km(lat_deg, lon_deg, alt_m))
 
     def position(self, t: Any = None) -> tuple[float, float]:
         return self.az_deg, self.el_deg
@@ -285,11 +276,11 @@ class NmeaTarget:
         if age_s > self.max_extrapolation_s:
             raise TargetError(f"{self.name}: the last report is {age_s:.0f} s old; not "
                               f"predicting more than {self.max_extrapolation_s:g} s ahead")
-        p1 = _itrs_km(last.lat_deg, last.lon_deg, last.alt_m)
+        p1 = geodesy.itrs_km(last.lat_deg, last.lon_deg, last.alt_m)
         if len(self.reports) < 2:
             return p1
         prev = self.reports[0]
-        p0 = _itrs_km(prev.lat_deg, prev.lon_deg, prev.alt_m)
+        p0 = geodesy.itrs_km(prev.lat_deg, prev.lon_deg, prev.alt_m)
         v = (p1 - p0) / (last.t_unix_s - prev.t_unix_s)
         return p1 + v * age_s
 

@@ -2,7 +2,7 @@
 
 A satellite is flown pass by pass: each pass is planned whole before it starts (wrap,
 flip, rate limits, keep-out, see planner.py) and the plan is handed to the rotator as a
-program (urc.service.program): the control process then pre-positions at the AOS pose in
+program (urc.model.program): the control process then pre-positions at the AOS pose in
 time, follows the planned trajectory smoothly (moving setpoints, not threshold jumps)
 and parks after LOS if configured, by its own clock, whether or not this process is
 running meanwhile. The tracker watches the program's state in the status, uploads it
@@ -25,8 +25,8 @@ import numpy as np
 
 from ..control.geometry import route_time_s
 from ..errors import CommandRejected
-from ..service.program import PassProgram, rejoin_aim
-from ..service.settings import FIXED_EL_DEG
+from ..model.program import PassProgram, rejoin_aim
+from ..model.settings import FIXED_EL_DEG
 from .elements import ElementSet
 from .passes import Pass, find_passes
 from .planner import AxisLimits, Plan, PlanError, plan_pass
@@ -69,7 +69,7 @@ class _PassJob:
     pass_: Pass
     plan: Plan
     state: str = "waiting"  # waiting -> prepositioning -> tracking -> done
-    #: the program flying it (urc.service.program), and when it was last sent
+    #: the program flying it (urc.model.program), and when it was last sent
     program_id: int | None = None
     sent_s: float = -math.inf
     #: its step-track (urc.pointing.steptrack), made when the tracker has ``step_track``

@@ -24,8 +24,8 @@ from typing import Any
 from starlette.websockets import WebSocket, WebSocketDisconnect, WebSocketState
 
 from ..errors import CommandRejected
-from ..ipc.messages import Move, Stop
-from ..service.effects import call
+from ..model.messages import Move, Stop
+from ..model.effects import call
 from ..tracking.cycle import cycle_state, tracking_now
 from .history import History, pointing_error_deg
 

@@ -10,32 +10,18 @@ from typing import Literal
 from fastapi import APIRouter, Depends, HTTPException, Query, WebSocket
 from pydantic import Field
 
-from ..ipc.messages import HardwareInfo
-from ..service.queries import ask
+from ..dispatch.bodies import MoveRequest, StopRequest
+from ..model.messages import HardwareInfo
+from ..model.effects import ask
 from .. import __version__
 from ..profiles import PROFILES
 from ..protocols.registry import PROTOCOLS
 from .context import WebContext
 from .live import JOG_LEASE_S
-from .schemas import CONTROL_RESPONSES, HistoryDoc, InfoDoc, Ok, Strict, documented
+from .schemas import CONTROL_RESPONSES, HistoryDoc, InfoDoc, Ok, documented
 from .security import WS_PROTOCOL, check_browser_origin
 
 log = logging.getLogger(__name__)
-
-
-class MoveRequest(Strict):
-    """Move (jog) one axis; also the body of the control API's /api/move."""
-
-    axis: Literal["az", "el"]
-    direction: Literal[-1, 1]
-    speed: float = Field(1.0, strict=True, gt=0.0, le=1.0, allow_inf_nan=False,
-                         description="fraction of the axis' top speed")
-
-
-class StopRequest(Strict):
-    """One axis, or both (None); also the body of the control API's /api/stop."""
-
-    axis: Literal["az", "el"] | None = None
 
 
 class JogLease(Ok):

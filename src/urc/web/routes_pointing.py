@@ -13,9 +13,10 @@ from typing import Any, Literal
 from fastapi import APIRouter, Depends
 from fastapi.responses import JSONResponse
 
+from ..dispatch.bodies import AzDeg, ElDeg, Strict
 from ..errors import CommandRejected
 from .context import WebContext
-from .schemas import CONTROL_RESPONSES, AzDeg, ElDeg, Strict
+from .schemas import CONTROL_RESPONSES
 
 
 class ScanRequest(Strict):

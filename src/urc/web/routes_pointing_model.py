@@ -12,10 +12,10 @@ from typing import Any
 from fastapi import APIRouter
 from pydantic import Field
 
+from ..dispatch.bodies import Strict
 from ..errors import CommandRejected
 from ..pointing import store
 from .context import WebContext
-from .schemas import Strict
 
 
 class FitRequest(Strict):

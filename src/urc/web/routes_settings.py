@@ -8,8 +8,8 @@ from fastapi import APIRouter, Body, Depends, Header, Response
 from fastapi.responses import JSONResponse
 from pydantic import BaseModel, Field
 
-from ..ipc.messages import Reconfigure
-from ..service.effects import call
+from ..model.messages import Reconfigure
+from ..model.effects import call
 from .context import WebContext
 from .schemas import CONTROL_RESPONSES
 from .settings_store import RESTART_SECTIONS
@@ -19,11 +19,9 @@ async def _apply_live(ctx: WebContext, cfg: Any) -> tuple[bool, str]:
     """Hand the new limits, zones, offsets, speeds and park to the rotator, if it can."""
     if getattr(ctx.rotator, "reconfigure", None) is None:
         return False, "this urc cannot change limits/zones/offsets while running: they apply at the next start"
-    from ..assembly import settings_from_config
-
     try:
         # (the stored pointing model kept)
-        await call(ctx.rotator, Reconfigure(settings_from_config(cfg, ctx.settings.state_dir)))
+        await call(ctx.rotator, Reconfigure(ctx.settings_of(cfg, ctx.settings.state_dir)))
     except Exception as exc:  # refused (e.g. the antenna sits in a new keep-out zone)
         return False, f"saved, but not applied now: {exc}"
     return True, "applied now"

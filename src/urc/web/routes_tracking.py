@@ -24,47 +24,15 @@ from __future__ import annotations
 import asyncio
 import inspect
 import json
-import logging
-from datetime import datetime
-from typing import Any, Literal
+from typing import Any
 
-from fastapi import APIRouter, Depends, HTTPException, Query, Response
-from pydantic import BaseModel, Field, model_validator
+from fastapi import APIRouter, Depends, Query, Response
+from pydantic import BaseModel, Field
 
-from ..errors import CommandRejected, UrcError
+from ..dispatch.bodies import PassRequest, TrackRequest
 from .context import WebContext
 from .pass_search import MAX_HOURS, PassSearch
-from .schemas import CONTROL_RESPONSES, AzDeg, ElDeg, Ok, Problem, Strict
-
-log = logging.getLogger(__name__)
-
-class TrackRequest(Strict):
-    kind: Literal["sun", "moon", "satellite", "point", "azel", "nmea"]
-    name: str | None = Field(None, min_length=1, max_length=100)
-    #: an NMEA GGA stream (balloon): a device path or tcp:HOST:PORT
-    source: str | None = Field(None, min_length=1, max_length=200, pattern=r"^(tcp:[\w.\-\[\]:]+|/[\w./\-]+)$")
-    norad: int | None = Field(None, ge=1, le=999_999_999)
-    lat_deg: float | None = Field(None, ge=-90.0, le=90.0, strict=True, allow_inf_nan=False)
-    lon_deg: float | None = Field(None, ge=-180.0, le=360.0, strict=True, allow_inf_nan=False)
-    alt_m: float | None = Field(None, ge=-1000.0, le=1e8, strict=True, allow_inf_nan=False)
-    az_deg: AzDeg | None = None
-    el_deg: ElDeg | None = None
-
-    @model_validator(mode="after")
-    def _needs(self) -> "TrackRequest":
-        need = {"satellite": (), "point": ("lat_deg", "lon_deg"), "azel": ("az_deg", "el_deg"),
-                "nmea": ("source",)}.get(self.kind, ())
-        missing = [k for k in need if getattr(self, k) is None]
-        if missing:
-            raise ValueError(f"kind {self.kind!r} needs {', '.join(missing)}")
-        if self.kind == "satellite" and self.name is None and self.norad is None:
-            raise ValueError("kind 'satellite' needs name or norad")
-        return self
-
-
-class PassRequest(Strict):
-    norad: int = Field(ge=1, le=999_999_999, strict=True)
-    aos: datetime
+from .schemas import CONTROL_RESPONSES, Ok, Problem
 
 
 class PassInfo(BaseModel):
@@ -76,20 +44,6 @@ class PassInfo(BaseModel):
     max_el_deg: float
     aos_az_deg: float
     los_az_deg: float
-
-
-async def _call(fn: Any, *args: Any, **kw: Any) -> Any:
-    """Run a tracker command. Its own errors (UrcError) keep their handlers; anything
-    else it raises (a plan that does not fit, a bad element set) is a refusal too, not
-    a server crash: the page shows the reason."""
-    try:
-        out = fn(*args, **kw)  # (a TrackingService's commands are coroutines)
-        return await out if inspect.isawaitable(out) else out
-    except (UrcError, HTTPException):
-        raise
-    except Exception as exc:
-        log.warning("tracker refused %s: %s", getattr(fn, "__name__", fn), exc, exc_info=True)
-        raise CommandRejected(f"{exc}", "tracking") from exc
 
 
 def _sync_call(fn: Any, **kw: Any) -> Any:
@@ -123,22 +77,21 @@ def router(ctx: WebContext) -> APIRouter:
         return Response(await search.get(hours, ctx.cfg.tracking.min_el_deg if min_el is None else min_el),
                         media_type="application/json")
 
+    # (the commands: urc.dispatch, shared with MQTT; a tracker's failure is a 409 with
+    # reason "tracking", the page shows it)
     @ctl.post("/api/track")
     async def track(req: TrackRequest) -> Ok:
-        await _call(trk.track, req.model_dump(exclude_none=True))
-        await ctx.hub.refresh_tracking()
+        await ctx.dispatch.track(req)
         return Ok()
 
     @ctl.post("/api/track/pass")
     async def track_pass(req: PassRequest) -> Ok:
-        await _call(trk.track_pass, norad=req.norad, aos=req.aos)
-        await ctx.hub.refresh_tracking()
+        await ctx.dispatch.track_pass(req)
         return Ok()
 
     @ctl.post("/api/track/stop")
     async def track_stop() -> Ok:
-        await _call(trk.stop)
-        await ctx.hub.refresh_tracking()
+        await ctx.dispatch.track_stop()
         return Ok()
 
     r.include_router(ctl)

@@ -1,28 +1,12 @@
-"""Request and response bodies shared by the HTTP API's routes.
+"""Response bodies shared by the HTTP API's routes, and the answers they document.
 
-Angles are JSON numbers (strict: ``"45"`` and ``true`` are refused, not coerced), finite
-and in range, or the request is a 422 naming the field. Unknown fields are refused too:
-a misspelt ``el_dge`` must not be silently dropped while the antenna moves.
+The commands' request bodies (strict angles, unknown fields refused: a 422 naming the
+field) are urc.dispatch.bodies', shared with MQTT; the web-only ones build on its Strict.
 """
 
 from __future__ import annotations
 
-from typing import Annotated
-
-from pydantic import BaseModel, ConfigDict, Field
-
-#: azimuth in a request: pointing or mechanical, a cable-wrap side beyond 0..360 included
-AzDeg = Annotated[float, Field(strict=True, allow_inf_nan=False, ge=-360.0, le=720.0)]
-#: elevation in a request (over-the-top rotators reach 180)
-ElDeg = Annotated[float, Field(strict=True, allow_inf_nan=False, ge=-90.0, le=180.0)]
-#: any other finite number in degrees (offsets, switch positions)
-Deg = Annotated[float, Field(strict=True, allow_inf_nan=False, ge=-720.0, le=720.0)]
-
-
-class Strict(BaseModel):
-    """Request bodies: unknown fields are an error."""
-
-    model_config = ConfigDict(extra="forbid")
+from pydantic import BaseModel, Field
 
 
 class Ok(BaseModel):

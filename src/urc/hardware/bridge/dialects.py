@@ -1,10 +1,10 @@
-"""What the bridge says to each kind of controller, built on the protocols' own codecs.
+"""What the bridge says to each kind of controller, built on the wire codecs.
 
 One codec serves both ends (as pymodbus does with its framers): urc's protocol servers
-use the device side of :mod:`urc.protocols.gs232_codec`, ``easycomm_codec``,
-``spid_codec`` and ``rotctld.codec``; a dialect here uses their host side to drive a
-real controller. A dialect only builds :class:`Exchange` values (bytes to send, how the
-answer is framed, how it is parsed); the client engine (:mod:`.client`) decides when.
+use the device side of :mod:`urc.wire.gs232`, ``.easycomm``, ``.spid`` and
+``.rotctld``; a dialect here uses their host side to drive a real controller. A dialect
+only builds :class:`Exchange` values (bytes to send, how the answer is framed, how it is
+parsed); the client engine (:mod:`.client`) decides when.
 
 Timing follows Hamlib's backends for the same controllers (protocols.md section 6).
 """
@@ -15,11 +15,11 @@ import math
 from dataclasses import dataclass
 from typing import Any, Callable
 
-from ...protocols import easycomm_codec as ec
-from ...protocols import gs232_codec as gs
-from ...protocols import satnogs_codec as sn
-from ...protocols import spid_codec as spid
-from ...protocols.rotctld import codec as rc
+from ...wire import easycomm as ec
+from ...wire import gs232 as gs
+from ...wire import satnogs as sn
+from ...wire import spid
+from ...wire.rotctld import codec as rc
 
 #: the protocols a bridge can drive (``[hardware.bridge] protocol``)
 BRIDGE_PROTOCOLS = ("gs232a", "gs232b", "easycomm2", "easycomm3", "rot2prog", "rot1prog", "md01", "rotctld",
@@ -384,7 +384,7 @@ class Rotctld(Dialect):
 # ---------------------------------------------------------------------- SatNOGS
 class Satnogs(Dialect):
     """The SatNOGS rotator firmware (stepper_motor_controller): Easycomm II as it speaks
-    it (:mod:`urc.protocols.satnogs_codec` says where each form comes from) plus its
+    it (:mod:`urc.wire.satnogs` says where each form comes from) plus its
     status (GS), error (GE) and homing (RESET, RB) commands.
 
     * A stop is answered with the position line (not silent as Easycomm's).

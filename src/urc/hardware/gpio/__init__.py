@@ -292,7 +292,7 @@ class PowerFailInput:
     """BIG-RAS style power-fail line: a supply monitor pulls the pin low when the mains
     goes (the Pi runs on its hold-up capacitor for a moment). On that falling edge
     ``on_fail`` runs at once on the pin's callback thread (the app: motors off, brakes
-    on, a ``power_fail`` fault, :meth:`urc.service.rotator.Rotator.power_fail`), then
+    on, a ``power_fail`` fault, :meth:`urc.rotator.rotator.Rotator.power_fail`), then
     ``save`` on a thread of its own (``saver``): the state write waits for the disk,
     and the callback thread also serves the encoder edges while the axes coast."""
 

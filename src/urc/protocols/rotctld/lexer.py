@@ -25,7 +25,7 @@ import string
 from typing import Any
 
 from ..base import MAX_PENDING_BYTES
-from .commands import BY_CHAR, BY_NAME, CommandSpec
+from ...wire.rotctld.commands import BY_CHAR, BY_NAME, CommandSpec
 
 # item kinds
 CMD, CLOSE, UNKNOWN, OVERFLOW = range(4)

@@ -15,19 +15,20 @@ from __future__ import annotations
 
 from typing import Callable
 
-from ...ipc.messages import ClearFaults, Goto, Move, Park, Stop
-from ...service.effects import Effects
+from ...model.messages import ClearFaults, Goto, Move, Park, Stop
+from ...model.effects import Effects
 
 from ... import __version__
 from ...errors import CommandRejected, ConfigError, HardwareError
 from ..base import MAX_PENDING_BYTES, RotatorPort, bad_input_log, internal_error, protocol_logger
 from ..poses import readback_pose_deg
 from ..single_axis import has_elevation
-from . import codec
-from .commands import (
+from ...wire.rotctld import codec
+from ...wire.rotctld.commands import (
     CONF_TOKENS, LEVELS, RIG_EINTERNAL, RIG_EINVAL, RIG_EIO, RIG_ELIMIT, RIG_ENAVAIL, RIG_ERJCTED,
     SPEED_MAX, SPEED_MIN, SPEED_NO_CHANGE, CommandSpec,
 )
+from .flags import status_flags
 from .lexer import CLOSE, CMD, OVERFLOW, UNKNOWN, Lexer
 
 log = protocol_logger("rotctld")
@@ -242,7 +243,7 @@ class RotctldSession:
 
     def _get_status(self, args: tuple[str, ...], sep: str | None) -> Result:
         status = self.rotator.status()
-        text = codec.format_flags(codec.status_flags(status, status.offsets.get("az", 0.0)))
+        text = codec.format_flags(status_flags(status, status.offsets.get("az", 0.0)))
         return 0, (text + "\n") if sep is None else f"Status flags: {text}{sep}"
 
     # ----------------------------------------------------------------- configuration

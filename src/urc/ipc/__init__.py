@@ -1,1 +1,0 @@
-"""The link between the I/O process and the control process: messages, codec, the status record."""
