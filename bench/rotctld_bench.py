@@ -6,7 +6,13 @@ concurrent clients each sending ``p`` and waiting for the reply, and a burst of 
 simultaneous connections (how many were accepted and answered). For urc also the control
 loop's tick lateness p99 idle and under the 32-client load (from its status).
 Prints a table with urc/Hamlib ratios, writes JSON (default bench/results/rotctld.json).
-Usage: python bench/rotctld_bench.py [--seconds 3] [--json PATH]
+
+urc runs the simulator with ``--profile`` (default tartu-urc). On a profile whose axes
+need a state record ahead of motion (incremental sensors: tartu-urc, satnogs-v3, bigras)
+a ``P`` that moves answers only once the next tick has applied it and its first record
+is on disk (issue 36.19): that ``P`` costs up to a tick (20 ms) plus a write. g5500
+(potentiometers) needs none: its ``P`` is the link's round trip alone.
+Usage: python bench/rotctld_bench.py [--seconds 3] [--profile NAME] [--json PATH]
 """
 
 from __future__ import annotations
@@ -153,12 +159,13 @@ def measure(port: int, seconds: float) -> dict:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--seconds", type=float, default=3.0, help="per load level")
+    ap.add_argument("--profile", default="tartu-urc", help="urc's profile (simulated)")
     ap.add_argument("--json", default="bench/results/rotctld.json")
     args = ap.parse_args()
     rotctld = shutil.which("rotctld")
     if rotctld is None:
         sys.exit("Hamlib's rotctld is needed as the reference (apt-get install libhamlib-utils)")
-    results: dict = {}
+    results: dict = {"profile": args.profile}
     hport = free_port()
     hamlib = subprocess.Popen([rotctld, "-m", "1", "-T", "127.0.0.1", "-t", str(hport)],
                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
@@ -179,7 +186,8 @@ def main() -> None:
             floor.wait()
     with tempfile.TemporaryDirectory() as tmp:
         uport = free_port()
-        urc = UrcProcess(Path(tmp), serve=[{"protocol": "rotctld", "tcp": f"127.0.0.1:{uport}"}]).start()
+        urc = UrcProcess(Path(tmp), profile=args.profile,
+                         serve=[{"protocol": "rotctld", "tcp": f"127.0.0.1:{uport}"}]).start()
         try:
             wait_port(uport)
             time.sleep(12.0)  # let the lateness window (last 500 ticks = 10 s) fill idle
@@ -202,7 +210,7 @@ def main() -> None:
               f"{h['median_ms']:10.3f} {h['p99_ms']:7.3f} {h['throughput_per_s']:8.0f} | "
               f"{u['throughput_per_s'] / h['throughput_per_s']:9.2f} {u['median_ms'] / h['median_ms']:9.2f}")
     us, hs = results["urc"]["set"], results["hamlib"]["set"]
-    print(f"`P` (set) round trip, 1 client: urc median {us['median_ms']:.3f} ms p99 {us['p99_ms']:.3f} | hamlib "
+    print(f"`P` (set) round trip, 1 client: urc ({args.profile}) median {us['median_ms']:.3f} ms p99 {us['p99_ms']:.3f} | hamlib "
           f"median {hs['median_ms']:.3f} ms p99 {hs['p99_ms']:.3f} | ratio {us['median_ms'] / hs['median_ms']:.2f}")
     for mode in ("thread", "loop"):
         fs = results[f"floor_{mode}"]["set"]

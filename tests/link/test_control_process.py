@@ -318,3 +318,64 @@ def test_the_first_goto_after_the_disk_fails_standing_is_refused_across_the_proc
     assert abs(s.az.pos_deg - start.az.pos_deg) < 0.5 and abs(s.el.pos_deg - start.el.pos_deg) < 0.5
     rot.goto(10.0, 80.0)   # and a goto now is answered ok and flies
     wait_until(lambda: abs(rot.status().az_deg - 10.0) < 0.3 and not rot.status().moving)
+
+
+def test_a_goto_reply_carries_no_status_the_record_and_socket_already_gave(bench, tmp_path):
+    """With the shared record a tick's status goes on the socket only when its cold fields
+    change. A command that leaves the last tick's status (a goto) must not carry it
+    again when the record holds its hot fields and the socket its cold generation: every
+    set's reply carried a whole Status (a pickle dumped there and loaded here, ~0.3 ms
+    of CPU per rotctld P). A status the I/O process lacks a part of still goes along."""
+    import dataclasses
+
+    from urc.link import codec
+    from urc.model.messages import Envelope, Goto
+    from urc.link.status_record import StatusRecord
+    from urc.link.control_process import ControlServer
+
+    class Conn:
+        def __init__(self):
+            self.sent = []
+
+        def send_bytes(self, data):
+            self.sent.append(codec.loads(data))
+
+    b = bench("g5500")
+    b.rot.hw.truth_hook = None  # (as on hardware: the simulator's truth is a cold change every tick)
+    b.run(0.5)
+    first = b.rot.status()
+
+    class Rot:
+        now = first
+
+        def goto(self, az_deg, el_deg):
+            return [(az_deg, el_deg)]
+
+        def motion_ticket(self):
+            return None  # (no record needed ahead of this motion: no wait)
+
+        def status(self):
+            return self.now
+    record = StatusRecord.create()
+    try:
+        server = ControlServer(Conn(), None, tmp_path, [], record=record)
+        server.rot = rot = Rot()
+
+        def goto_reply(rid):
+            server._commands.put(("request", Envelope(rid, None, Goto(10.0, 20.0))))
+            server._commands.put(None)
+            server._command_loop()
+            kind, reply = server.conn.sent[-1]
+            assert kind == "reply" and reply.rid == rid and reply.outcome == "value"
+            return reply
+        server._publish(first)                 # a new cold generation: on its way, not yet sent
+        assert goto_reply(1).status == first
+        server._send_status(server._latest, server._latest_gen)  # (the publisher sends it)
+        rot.now = dataclasses.replace(first, t_s=first.t_s + 0.02, az_deg=first.az_deg + 0.01)
+        server._publish(rot.now)               # hot fields only: the record, no socket
+        assert server.conn.sent[-1][0] == "status" and server.conn.sent[-1][1] == first
+        assert goto_reply(2).status is None    # (every reply carried it before)
+        rot.now = dataclasses.replace(rot.now, t_s=rot.now.t_s + 0.02)  # a tick not yet in the record
+        assert goto_reply(3).status == rot.now
+    finally:
+        record.close()

@@ -45,3 +45,18 @@ def test_an_urc_name_that_is_not_a_data_type_is_refused():
     with pytest.raises(pickle.UnpicklingError, match="urc.link.codec.loads"):
         codec.loads(data)
     assert codec.allowed_class("urc.model.snapshot", "AxisStatus") is AxisStatus
+
+
+def test_every_commands_arguments_are_its_fields_in_order():
+    """What the control process calls the Rotator method with (its field names are
+    looked up once per type): each field by name, in order, for every command, twice."""
+    import dataclasses
+
+    from urc.model.messages import COMMANDS
+
+    for cls in COMMANDS:
+        fields = dataclasses.fields(cls)
+        request = cls(*(f"v{i}" for i in range(len(fields))))
+        expected = {f.name: f"v{i}" for i, f in enumerate(fields)}
+        assert list(request.arguments().items()) == list(expected.items()), cls
+        assert list(cls(*expected.values()).arguments().items()) == list(expected.items()), cls

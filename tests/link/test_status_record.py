@@ -235,17 +235,35 @@ def test_a_corrupted_record_is_not_read(record, bench):
     record.write(s, 1, 1)
     record.write(dataclasses.replace(s, az_deg=10.0), 2, 1)
     assert record.read().tick == 2
+    record.write(dataclasses.replace(s, az_deg=11.0), 3, 1)
     body_end = _BODY_OFF + BODY.size
     record._mm[body_end - 1] ^= 0xFF  # one byte, the sequence even: only the CRC can tell
     assert record.read().tick == 2 and record.crc_rejects > 0  # (the copy it had read before)
     record._mm[body_end - 1] ^= 0xFF
+    assert record.read().tick == 3
     stored = record._mm[body_end:body_end + _CRC.size]
     record._mm[body_end:body_end + _CRC.size] = bytes(4)
     fresh = StatusRecord.attach(os.dup(record.fd))
     assert fresh.read() is None and fresh.liveness() is None and fresh.crc_rejects > 0
     record._mm[body_end:body_end + _CRC.size] = stored
-    assert fresh.read().az_deg == 10.0
+    assert fresh.read().az_deg == 11.0
     fresh.close()
+
+
+def test_a_read_with_nothing_written_since_gives_the_record_it_read(record, bench):
+    """Every rotctld ``p`` reads the record; between two ticks (20 ms) a poller asks many
+    times, and all but the first read find the sequence where it was: no copy, no unpack."""
+    s = bench("tartu-urc").rot.status()
+    record.write(s, 1, 1)
+    first = record.read()
+    assert record.read() is first and record.read() is first
+    record.write(dataclasses.replace(s, az_deg=12.5), 2, 1)
+    second = record.read()
+    assert second is not first and (second.tick, second.az_deg) == (2, 12.5)
+    assert record.read() is second
+    other = StatusRecord.attach(os.dup(record.fd))  # (another reader of the same record)
+    assert other.read() == second and other.read() is other.read()
+    other.close()
 
 
 def test_liveness_advances_with_the_writers_ticks(record, bench):

@@ -91,3 +91,51 @@ def test_every_command_request_lists_its_fields_in_the_order_its_rotator_method_
         fields = [f.name for f in dataclasses.fields(cls)]
         params = list(inspect.signature(getattr(Rotator, method)).parameters)[1:]
         assert params[:len(fields)] == fields, cls.__name__
+
+
+class _Buggy:
+    """A session with a bug on ``boom``, in a step that acts and in one that only answers,
+    and in its hang-up; a tick with no fresh position (UrcError) skips a beat."""
+
+    closed = False
+    rotator = None
+
+    def receive(self, data):
+        if data == b"boom\n":
+            raise TypeError("injected")
+        if data == b"act boom\n":
+            return self._acts()
+        return [b"ok " + data]
+
+    def _acts(self):
+        yield from ()
+        raise TypeError("injected in a step")
+
+    def tick(self, now_s):
+        from urc.errors import UrcError
+        raise UrcError("no fresh position")
+
+    def disconnected(self):
+        raise TypeError("injected at hang-up")
+
+
+def test_a_session_bug_costs_its_input_only_and_is_counted(monkeypatch):
+    """A session that raises is logged and counted as urc's bug (each of its inputs: bytes,
+    a hang-up), that input gets no reply, and the next is answered; a tick that has no
+    fresh position to give is no bug."""
+    import urc.protocols.base as base
+
+    saved = base.INTERNAL_ERRORS.copy()
+    out: list[bytes] = []
+    runner = SessionRunner(_Buggy(), out.append, "test")
+    try:
+        for data in (b"a\n", b"boom\n", b"b\n", b"act boom\n", b"c\n"):
+            runner.feed(data)
+        runner.tick(1.0)
+        assert out == [b"ok a\n", b"ok b\n", b"ok c\n"] and not runner.busy
+        assert base.internal_error_count() == sum(saved.values()) + 2
+        runner.hang_up()
+        assert base.internal_error_count() == sum(saved.values()) + 3 and out == [b"ok a\n", b"ok b\n", b"ok c\n"]
+    finally:
+        base.INTERNAL_ERRORS.clear()
+        base.INTERNAL_ERRORS.update(saved)

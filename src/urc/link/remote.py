@@ -164,7 +164,7 @@ class _Pending:
     """One request awaiting its reply: a thread waits on ``done``, or the event loop
     holds ``future`` (resolved from the reader thread with call_soon_threadsafe)."""
 
-    __slots__ = ("request", "done", "reply", "future", "loop")
+    __slots__ = ("request", "done", "reply", "future", "loop", "timer")
 
     def __init__(self, request: Request, loop: asyncio.AbstractEventLoop | None = None):
         self.request = request
@@ -172,6 +172,7 @@ class _Pending:
         self.loop = loop
         self.done = threading.Event() if loop is None else None
         self.future: asyncio.Future | None = None if loop is None else loop.create_future()
+        self.timer: asyncio.TimerHandle | None = None  # (the loop's bound on the wait)
 
     def deliver(self, reply: Reply) -> None:
         self.reply = reply
@@ -247,7 +248,12 @@ class ControlLink:
 
         pending = self._submit(request, timeout_s, asyncio.get_running_loop())
         assert pending.future is not None
-        return self._outcome(request, await pending.future)
+        try:
+            reply = await pending.future
+        finally:  # (answered: its bound leaves the loop's timers now, not timeout_s later)
+            if pending.timer is not None:
+                pending.timer.cancel()
+        return self._outcome(request, reply)
 
     def _complain(self, request: Request) -> None:
         """A round trip from the event loop thread, not awaited, blocks
@@ -273,7 +279,7 @@ class ControlLink:
             except (OSError, EOFError, ValueError) as exc:
                 pending.deliver(_lost_reply(rid, str(exc)))
         if loop is not None and pending.reply is None:
-            loop.call_later(timeout_s, self._expire, pending, timeout_s)
+            pending.timer = loop.call_later(timeout_s, self._expire, pending, timeout_s)
         return pending
 
     def _expire(self, pending: _Pending, timeout_s: float) -> None:

@@ -190,6 +190,9 @@ class StatusRecord:
         self._pid = os.getpid()
         self._wseq: int | None = None  # the writer's own seq (known from its first write on)
         self._last: HotStatus | None = None
+        #: (seq, the record copied at it): while the record's seq is still that, nothing was
+        #: written since (one tuple: a reader on another thread sees both or neither)
+        self._at_seq: tuple[int, HotStatus | None] = (-1, None)
         self._last_live: tuple[int, float, int] | None = None
         #: reads retried: the writer was mid-write (seq odd), or wrote during the copy (seq
         #: changed), or the copy's CRC did not match (see above: never on x86-64)
@@ -270,9 +273,9 @@ class StatusRecord:
         self._seq[0] = self._wseq = seq + 2
 
     # ------------------------------------------------------------------ readers
-    def _copy(self) -> bytes | None:
-        """A consistent copy of body and CRC; None if nothing was written yet, or the
-        writer held the record through every try."""
+    def _copy(self) -> tuple[bytes, int] | None:
+        """A consistent copy of body and CRC, and the seq it was copied at; None if nothing
+        was written yet, or the writer held the record through every try."""
         seq, mm = self._seq, self._mm
         for _ in range(READ_TRIES):
             s = seq[0]
@@ -288,16 +291,20 @@ class StatusRecord:
             if zlib.crc32(data[:-4]) != _CRC.unpack_from(data, BODY.size)[0]:
                 self.crc_rejects += 1
                 continue
-            return data
+            return data, s
         return None
 
     def read(self) -> HotStatus | None:
         """The newest record; the last good one if the writer held it through every try
         (a writer stopped mid-write: its ``tick`` then stops advancing); None before the
         first write."""
-        data = self._copy()
-        if data is None:
+        at_seq, same = self._at_seq
+        if self._seq[0] == at_seq:  # (nothing written since: each rotctld p between two ticks
+            return same             # costs one load, not a copy and an unpack)
+        copied = self._copy()
+        if copied is None:
             return self._last
+        data, seq = copied
         v = BODY.unpack_from(data)
         e, ta, te = v[5], v[6], v[7]
         try:
@@ -308,16 +315,17 @@ class StatusRecord:
             self.crc_rejects += 1
             return self._last
         self._last = hot
+        self._at_seq = (seq, hot)
         return hot
 
     def liveness(self) -> tuple[int, float, int] | None:
         """``(tick, t_s, pid)`` of the newest record, unpacking no more than those (the
         last good ones if the writer held the record through every try; None before the
         first write)."""
-        data = self._copy()
-        if data is None:
+        copied = self._copy()
+        if copied is None:
             return self._last_live
-        tick, t_s, _gen, pid = _LIVENESS.unpack_from(data)
+        tick, t_s, _gen, pid = _LIVENESS.unpack_from(copied[0])
         self._last_live = (tick, t_s, pid)
         return self._last_live
 

@@ -19,9 +19,15 @@ class Request:
     """Base of every request; ``METHOD`` is the Rotator method it runs."""
 
     METHOD: ClassVar[str] = ""
+    _argument_names: ClassVar[tuple[str, ...]]  # (each type's own, set on first use)
 
     def arguments(self) -> dict[str, Any]:
-        return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+        cls = type(self)
+        names = cls.__dict__.get("_argument_names")
+        if names is None:  # (once per type: dataclasses.fields walks the class on every call)
+            names = tuple(f.name for f in dataclasses.fields(cls))
+            cls._argument_names = names
+        return {name: getattr(self, name) for name in names}
 
 
 # ------------------------------------------------------------------ motion commands

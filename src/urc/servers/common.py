@@ -6,11 +6,12 @@ import asyncio
 import logging
 import time
 from collections import deque
+from types import GeneratorType
 from typing import Any, Callable
 
 from ..errors import UrcError
 from ..protocols.base import Session, internal_error
-from ..model.effects import Effects, as_effects, perform
+from ..model.effects import Effects, perform
 
 log = logging.getLogger("urc.servers")
 
@@ -29,28 +30,6 @@ PAUSE_ABOVE_BYTES = 64 * 1024
 RESUME_BELOW_BYTES = 16 * 1024
 
 SessionFactory = Callable[[], Session]
-
-
-def feed(session: Session, data: bytes, where: str) -> Effects[list[bytes]]:
-    """Give bytes to a session; a session bug costs this connection, never the server."""
-    try:
-        return (yield from as_effects(session.receive(data)))
-    except Exception:  # sessions must not raise; if one does: logged, counted, input dropped
-        internal_error(log, type(session).__name__, "%s: session failed on %r", where, data[:64])
-        return []
-
-
-def hang_up(session: Session, where: str) -> Effects[list[bytes]]:
-    """The client went away: a session that keeps something under way for it (SARCNET
-    calibration) gets ``disconnected()`` to end it cleanly."""
-    gone = getattr(session, "disconnected", None)
-    if gone is None:
-        return []
-    try:
-        yield from as_effects(gone())
-    except Exception:
-        internal_error(log, type(session).__name__, "%s: session failed on disconnect", where)
-    return []
 
 
 def needs_tick(session: Session) -> bool:
@@ -84,6 +63,7 @@ class SessionRunner:
         self.stream = stream
         self.pause = pause
         self._queue: deque[tuple[str, Any, Callable[[bytes], None]]] = deque()
+        self._input: tuple[str, Any] = ("", None)  # (the one being run: what its failure is logged as)
         self._busy = False
         self._draining = False
         self._resume_scheduled = False
@@ -144,7 +124,16 @@ class SessionRunner:
                 if kind == "data" and self.stream:
                     self._account(-len(arg))
                 self._busy = True
-                self._step(self._work(kind, arg), None, None, write)
+                self._input = (kind, arg)
+                try:
+                    steps = self._work(kind, arg)
+                except BaseException as exc:
+                    self._done(None, exc, write)
+                    continue
+                if isinstance(steps, GeneratorType):
+                    self._step(steps, None, None, write)
+                else:  # (a session step that only answers: its replies, no generator to step)
+                    self._done(steps, None, write)  # type: ignore[arg-type]
         finally:
             self._draining = False
 
@@ -157,25 +146,27 @@ class SessionRunner:
         loop.call_soon(self._drain)
         return True
 
-    def _work(self, kind: str, arg: Any) -> Effects[list[bytes]]:
+    def _work(self, kind: str, arg: Any) -> Effects[list[bytes] | None] | list[bytes] | None:
+        """The input given to the session: its steps (a generator of port requests,
+        stepped by :meth:`_step`) or, from a step that only answers, its replies. A client
+        that went away: a session that keeps something under way for it (SARCNET
+        calibration) gets ``disconnected()`` to end it cleanly."""
         if kind == "data":
-            return (yield from feed(self.session, arg, self.where))
+            return self.session.receive(arg)
         if kind == "tick":
-            try:
-                return (yield from as_effects(self.session.tick(arg))) or []
-            except UrcError:  # (a stream with no fresh position to give: it skips a beat)
-                return []
-        return (yield from hang_up(self.session, self.where))
+            return self.session.tick(arg)
+        gone = getattr(self.session, "disconnected", None)
+        return None if gone is None else gone()
 
-    def _step(self, steps: Effects[list[bytes]], value: Any, error: BaseException | None,
+    def _step(self, steps: Effects[list[bytes] | None], value: Any, error: BaseException | None,
               write: Callable[[bytes], None]) -> None:
         """Run ``steps`` on until it ends (its replies written) or yields a request the
         control process must answer (awaited in a task; stepped on from its outcome)."""
-        port = getattr(self.session, "rotator", None)
-        remote = getattr(port, "call", None)
         try:
             while True:
                 request = steps.send(value) if error is None else steps.throw(error)
+                port = getattr(self.session, "rotator", None)
+                remote = getattr(port, "call", None)
                 if remote is None:  # (an in-process rotator: answered at once)
                     try:
                         value, error = perform(port, request), None
@@ -187,10 +178,11 @@ class SessionRunner:
                 return
         except StopIteration as end:
             self._done(end.value, None, write)
-        except BaseException as exc:  # (feed and hang_up catch everything: a tick that raised)
+        except BaseException as exc:
             self._done(None, exc, write)
 
-    def _resumed(self, steps: Effects[list[bytes]], task: asyncio.Future, write: Callable[[bytes], None]) -> None:
+    def _resumed(self, steps: Effects[list[bytes] | None], task: asyncio.Future,
+                 write: Callable[[bytes], None]) -> None:
         if task.cancelled():  # (the loop is closing: the session ends with it)
             steps.close()
             return
@@ -199,13 +191,28 @@ class SessionRunner:
 
     def _done(self, replies: list[bytes] | None, error: BaseException | None, write: Callable[[bytes], None]) -> None:
         self._busy = False
-        if error is not None:  # (feed and hang_up catch everything: a tick that raised)
-            internal_error(log, type(self.session).__name__, "%s: session tick failed: %r", self.where, error)
+        kind, arg = self._input
+        if error is not None:
+            replies = None
+            self._failed(kind, arg, error)
+        elif kind == "hangup":  # (nobody is left to read a reply)
+            replies = None
         for reply in replies or ():
             write(reply)
         if self.after is not None:
             self.after()
         self._kick()
+
+    def _failed(self, kind: str, arg: Any, error: BaseException) -> None:
+        """Sessions must not raise; if one does, it is logged and counted and that input
+        dropped: a session bug costs this connection, never the server."""
+        name = type(self.session).__name__
+        if kind == "data":
+            internal_error(log, name, "%s: session failed on %r", self.where, arg[:64])
+        elif kind == "hangup":
+            internal_error(log, name, "%s: session failed on disconnect", self.where)
+        elif not isinstance(error, UrcError):  # (a stream with no fresh position to give: it skips a beat)
+            internal_error(log, name, "%s: session tick failed: %r", self.where, error)
 
 
 async def tick_loop(runner: SessionRunner, clock_now: Callable[[], float]) -> None:
