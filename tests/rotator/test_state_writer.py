@@ -329,3 +329,29 @@ def test_urc_run_answers_the_first_goto_after_the_disk_fails_with_409_state(urc_
     assert r.json()["reason"] == "state" and "directory" in r.json()["error"]
     s = u.wait(lambda s: s["faults"])
     assert [f["kind"] for f in s["faults"]] == ["state"]
+
+
+def test_a_goto_while_moving_with_its_records_on_disk_answers_without_a_tick(bench, monkeypatch):
+    """The first-record wait is for a command from standing, when nothing has been
+    written for a while: a P while the antenna drives with its newest record on disk
+    (Gpredict's every second while tracking) answers at once, no tick needed; a failed
+    write still makes the next one wait (and be refused)."""
+    from urc.link import control_process
+    from urc.model.messages import Goto
+
+    monkeypatch.setattr(control_process, "FIRST_RECORD_WAIT_S", 60.0)  # (a wait would show)
+    b = bench("tartu-urc", exact=True)
+    b.rot.goto(200.0, 10.0)
+    b.run(2.0)                          # on its way, records written ahead of it
+    assert b.rot.status().moving
+    assert answer(b, Goto(210.0, 10.0), tick=False), "ok at once, without a tick"
+    store = DiskFull(b.rot.store)
+    store.full = True
+    for _ in range(500):                # until a record fails
+        b.run(0.02)
+        if b.rot.status().state_error:
+            break
+    assert "No space" in b.rot.status().state_error
+    with pytest.raises(CommandRejected) as refused:
+        answer(b, Goto(220.0, 10.0))
+    assert refused.value.reason == "state"

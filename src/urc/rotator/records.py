@@ -211,8 +211,16 @@ class Records:
 
     def motion_accepted(self) -> None:
         """A moving command passed its checks (under the rotator's lock): if an axis
-        needs a record ahead of motion, its reply may wait for it (:meth:`motion_ticket`)."""
-        if self.writer is None or not any(precord.needs_record(ax) for ax in self.core.axes.values()):
+        needs a record ahead of motion, its reply may wait for it (:meth:`motion_ticket`).
+        Not while such an axis drives with the newest record on disk and no write
+        failed: the disk has just proved itself on this motion, which is what the wait
+        finds out from standing (a write failing now stops the motion with the state
+        fault, said as such). So a Gpredict-style P every second while tracking answers
+        at once."""
+        recorded = [ax for ax in self.core.axes.values() if precord.needs_record(ax)]
+        if self.writer is None or not recorded:
+            return
+        if not self.save_error and self.durable is self.record and any(ax.out.duty != 0.0 for ax in recorded):
             return
         self.motions += 1
         self._ticket.n = self.motions
