@@ -2,22 +2,26 @@
 
 For each server: ``P`` (set_pos) round trip with one client (also for the floor under it:
 bench/link_floor.py, two Python processes and nothing else); ``p`` (get_pos) round trip (median, p99) and throughput with 1, 8 and 32
-concurrent clients each sending ``p`` and waiting for the reply, and a burst of 64
+concurrent clients each sending ``p`` and waiting for the reply (C threads:
+bench/rotctl_load.c, compiled with the system's cc, so that the generator does not limit
+what is measured on 2 cores), and a burst of 64
 simultaneous connections (how many were accepted and answered). For urc also the control
 loop's tick lateness p99 idle and under the 32-client load (from its status).
 Prints a table with urc/Hamlib ratios, writes JSON (default bench/results/rotctld.json).
 
 urc runs the simulator with ``--profile`` (default tartu-urc). On a profile whose axes
 need a state record ahead of motion (incremental sensors: tartu-urc, satnogs-v3, bigras)
-a ``P`` that moves answers only once the next tick has applied it and its first record
-is on disk (issue 36.19): that ``P`` costs up to a tick (20 ms) plus a write. g5500
-(potentiometers) needs none: its ``P`` is the link's round trip alone.
+a ``P`` from standing answers only once the next tick has applied it and its first
+record is on disk (issue 36.19): up to a tick (20 ms) plus a write; while the antenna
+drives with its newest record on disk a ``P`` answers at once. g5500 (potentiometers)
+needs no record: its ``P`` is the link's round trip alone.
 Usage: python bench/rotctld_bench.py [--seconds 3] [--profile NAME] [--json PATH]
 """
 
 from __future__ import annotations
 
 import argparse
+import hashlib
 import shutil
 import socket
 import statistics
@@ -57,49 +61,30 @@ def read_reply(sock: socket.socket, buf: bytearray, lines: int) -> None:
         del buf[: buf.index(b"\n") + 1]
 
 
+def load_generator() -> Path:
+    """bench/rotctl_load.c compiled (once per source change): the clients of the load
+    levels are C threads, so that on 2 cores the generator is not what limits the
+    throughput (a Python client thread costs as much CPU per request as the server)."""
+    src = Path(__file__).with_name("rotctl_load.c")
+    cc = shutil.which("cc") or shutil.which("gcc")
+    if cc is None:
+        sys.exit("a C compiler is needed for the load generator (apt-get install gcc)")
+    tag = hashlib.sha256(src.read_bytes()).hexdigest()[:12]
+    exe = Path(tempfile.gettempdir()) / f"urc-rotctl_load-{tag}"
+    if not exe.exists():
+        subprocess.run([cc, "-O2", "-pthread", "-o", str(exe), str(src)], check=True)
+    return exe
+
+
 def load(port: int, clients: int, seconds: float) -> dict:
-    rtts: list[float] = []
-    lock = threading.Lock()
-    errors = [0]
-    start = threading.Barrier(clients + 1)
-
-    def client() -> None:
-        local = []
-        try:
-            sock = socket.create_connection(("127.0.0.1", port), timeout=5)
-            sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-        except OSError:
-            errors[0] += 1
-            start.wait()
-            return
-        buf = bytearray()
-        start.wait()
-        end = time.perf_counter() + seconds
-        try:
-            while time.perf_counter() < end:
-                t0 = time.perf_counter()
-                sock.sendall(b"p\n")
-                read_reply(sock, buf, 2)
-                local.append(time.perf_counter() - t0)
-        except OSError:
-            errors[0] += 1
-        finally:
-            sock.close()
-        with lock:
-            rtts.extend(local)
-
-    threads = [threading.Thread(target=client) for _ in range(clients)]
-    for t in threads:
-        t.start()
-    start.wait()
-    t0 = time.perf_counter()
-    for t in threads:
-        t.join()
-    elapsed = time.perf_counter() - t0
-    rtts.sort()
-    return {"clients": clients, "requests": len(rtts), "throughput_per_s": len(rtts) / elapsed,
-            "median_ms": 1000 * statistics.median(rtts) if rtts else float("nan"),
-            "p99_ms": 1000 * rtts[int(0.99 * (len(rtts) - 1))] if rtts else float("nan"), "errors": errors[0]}
+    """``clients`` connections each sending ``p`` and waiting for its reply, for
+    ``seconds`` (bench/rotctl_load.c)."""
+    out = subprocess.run([str(load_generator()), "127.0.0.1", str(port), str(clients), str(seconds)],
+                         capture_output=True, text=True, check=True, timeout=seconds + 60).stdout.split()
+    requests, errors, elapsed_s, median_ms, p99_ms = int(out[0]), int(out[1]), *map(float, out[2:5])
+    return {"clients": clients, "requests": requests, "throughput_per_s": requests / elapsed_s,
+            "median_ms": median_ms if requests else float("nan"), "p99_ms": p99_ms if requests else float("nan"),
+            "errors": errors, "generator": "bench/rotctl_load.c"}
 
 
 def burst(port: int, n: int = BURST) -> dict:
