@@ -14,7 +14,8 @@ from pathlib import Path
 
 import pytest
 
-from urc.pointing.adc import AdcPower, ads1115_power
+from urc.hardware.gpio.adc_power import ads1115_power
+from urc.pointing.adc import AdcPower
 from urc.pointing.line_feed import LineFeed, parse_feed_line
 from urc.pointing.rigctld import RigctldStrength, parse_strength
 from urc.pointing.rtl_power import RtlPowerLines, parse_line

@@ -2,10 +2,10 @@
 
 Any :class:`urc.hardware.parts.VoltageIn` (``read_volts()``) or a plain callable
 returning volts. urc's own ADC parts give one through
-:class:`urc.hardware.gpio.i2c.AdcInput`: :func:`ads1115_power` and :func:`mcp3008_power`
-build it and set the saturation from the chip's full scale (the code a clipped input
-reads). The value is volts (unit ``V``): whether volts go up or down with power, and on
-what law, is the receiver's (a log detector's volts are dB; an AGC line often falls as the
+:class:`urc.hardware.gpio.i2c.AdcInput`: ``ads1115_power`` and ``mcp3008_power`` in
+urc.hardware.gpio.adc_power build it (hardware sits above pointing) and set the
+saturation from the chip's full scale (the code a clipped input reads). The value is
+volts (unit ``V``): whether volts go up or down with power, and on what law, is the receiver's (a log detector's volts are dB; an AGC line often falls as the
 signal rises); a ``to_power`` callable turns volts into the unit it returns.
 """
 
@@ -44,23 +44,3 @@ class AdcPower:
             return sample
         value, unit = self.to_power(sample.value)
         return judge(t_s, value, unit, now_s=t_s, max_age_s=None, what=self.name)
-
-
-def ads1115_power(chip: Any, channel: int, **kw: Any) -> AdcPower:
-    """Input ``channel`` of an :class:`~urc.hardware.gpio.i2c.Ads1115Chip`; saturated
-    at its full-scale code 7FFFh (4.096 V at urc's gain)."""
-    from ..hardware.gpio.i2c import AdcInput
-
-    kw.setdefault("ceiling_v", chip.FS_V * 32767 / 32768)
-    kw.setdefault("name", f"ADS1115 AIN{channel}")
-    return AdcPower(AdcInput(chip, channel), **kw)
-
-
-def mcp3008_power(chip: Any, channel: int, **kw: Any) -> AdcPower:
-    """Input ``channel`` of an :class:`~urc.hardware.gpio.spi.Mcp3008Chip`; saturated
-    at code 1023 (VREF)."""
-    from ..hardware.gpio.i2c import AdcInput
-
-    kw.setdefault("ceiling_v", chip.vref_v * 1023 / 1024)
-    kw.setdefault("name", f"MCP3008 CH{channel}")
-    return AdcPower(AdcInput(chip, channel), **kw)
