@@ -28,3 +28,9 @@ def great_circle_1_deg(az1_deg: float, el1_deg: float, az2_deg: float, el2_deg: 
     s, t = math.sin((e2 - e1) / 2), math.sin((a2 - a1) / 2)
     h = s * s + math.cos(e1) * math.cos(e2) * (t * t)
     return math.degrees(2 * math.asin(math.sqrt(min(max(h, 0.0), 1.0))))
+
+
+def wrap180_deg(x):
+    """An angle or a difference of azimuths (deg) folded into [-180, 180): a float or a
+    numpy array alike, elementwise."""
+    return (x + 180.0) % 360.0 - 180.0

@@ -9,13 +9,10 @@ from typing import Any
 
 import numpy as np
 
+from ..angles import wrap180_deg
+
 #: the Earth's rotation rate (rad/s, sidereal)
 EARTH_RATE_RAD_S = 7.2921159e-5
-
-
-def sky_wrap180(x: Any) -> Any:
-    """Angles (deg, arrays too) into -180..180."""
-    return (np.asarray(x) + 180.0) % 360.0 - 180.0
 
 
 class Prediction:
@@ -61,7 +58,7 @@ class Prediction:
         """:meth:`seen` minus the sky track shifted in time, as a sky (dx, dy), deg."""
         az0, el0 = self.at(np.asarray(u, dtype=float) - time_offset_s)
         az1, el1 = self.seen(u, time_offset_s)
-        return sky_wrap180(az1 - az0) * np.cos(np.radians(el1)), el1 - el0
+        return wrap180_deg(az1 - az0) * np.cos(np.radians(el1)), el1 - el0
 
     def rate(self, u: float) -> tuple[float, float]:
         """(dx/dt, dy/dt) deg/s on the sky at ``u`` (dx across elevation)."""

@@ -68,9 +68,10 @@ from typing import Any, Callable
 
 import numpy as np
 
+from ..angles import wrap180_deg
 from ..model.program import PassProgram
 from .fit import FWHM_PER_SIGMA, MIN_SIGNIFICANCE, ScanRefused, _lm
-from .prediction import Prediction, sky_wrap180, orbit_prediction
+from .prediction import Prediction, orbit_prediction
 from .sources import SignalRefused, to_linear
 
 #: each scan point is held this long (the program's dense samples are DENSE_S apart)
@@ -326,7 +327,7 @@ class StepTrack:
                     raise ScanRefused("noise", f"no signal: the power {self.detect_z:.1f} standard errors over the "
                                       f"floor, {DETECT_Z:g} needed")
             paz, pel = self.pred.seen(t, self._ref_s)
-            dx = sky_wrap180(az - paz) * np.cos(np.radians(el))
+            dx = wrap180_deg(az - paz) * np.cos(np.radians(el))
             dy = el - pel
             try:
                 centre, cov, _a, _a_err = fit_beam(dx, dy, p, fwhm_deg=self.fwhm_deg, floor=self.floor,
@@ -447,7 +448,7 @@ class StepTrack:
         x, y = _centre(self.pred, u - self.time_offset_s, cross)
         az1, el1 = self.pred.seen(u, self.time_offset_s)
         az1 = az1 + x / max(math.cos(math.radians(el1 + y)), 1e-3)
-        return float(sky_wrap180(az1 - az0)), float(el1 + y - el0)
+        return float(wrap180_deg(az1 - az0)), float(el1 + y - el0)
 
     def status(self, u: float) -> dict[str, Any]:
         daz, de = self.correction_at(u)

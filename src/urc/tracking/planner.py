@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..angles import great_circle_deg
+from ..angles import great_circle_deg, wrap180_deg
 from ..control.geometry import Geometry, route_time_s
 from .errors import TrackingError
 
@@ -249,10 +249,6 @@ HOLD_HALF_WIDTHS_S = (0.0, 1.0, 2.0, 3.0, 5.0, 8.0, 12.0, 18.0, 25.0, 35.0, 50.0
 HOLD_RAMPS_S = (2.0, 4.0, 7.0, 10.0, 15.0, 22.0, 32.0, 45.0, 65.0, 90.0)
 
 
-def _wrap180(x):
-    return (np.asarray(x) + 180.0) % 360.0 - 180.0
-
-
 def _keyhole_holds(t: np.ndarray, s_az: np.ndarray, s_el: np.ndarray, az_budget: AxisLimits,
                    el_budget: AxisLimits, peak_rate_deg_per_s: float):
     """The minimax plans of a keyhole pass on a rotator that can flip: (az, el, note) in
@@ -289,7 +285,7 @@ def _keyhole_holds(t: np.ndarray, s_az: np.ndarray, s_el: np.ndarray, az_budget:
     before = np.arange(n) <= tca
     for hold_az, over_top in ((heading_deg + 180.0, ~before), (heading_deg, before)):
         pose_az = np.where(over_top, s_az + 180.0, s_az)
-        rel = _wrap180(pose_az - hold_az)  # within +-90 of the hold: the blend's way
+        rel = wrap180_deg(pose_az - hold_az)  # within +-90 of the hold: the blend's way
 
         def blended(w: np.ndarray, hold_az: float = hold_az, rel: np.ndarray = rel):
             az = hold_az + w * rel
