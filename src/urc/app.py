@@ -159,7 +159,7 @@ async def _serve(cfg: Config, state_dir: Path, config_path: Path | None, api_soc
     supervised = cfg.faults.control_takeover_s > 0
     # (supervised: a control process that is lost is started again by its watch, and
     # clients keep their connections meanwhile; else urc run ends and systemd restarts it)
-    control = ControlProcess(cfg, state_dir, lock_fds,
+    control = ControlProcess(cfg, state_dir, lock_fds, loop=loop,
                              on_lost=None if supervised else lambda _why: loop.call_soon_threadsafe(stop.set))
     if adopted is not None:  # (a control process flying on after a dead urc run: taken over)
         control.adopt(adopted)

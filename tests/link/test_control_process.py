@@ -7,6 +7,7 @@ from __future__ import annotations
 import errno
 import os
 import signal
+import socket
 import json
 import threading
 import time
@@ -157,9 +158,9 @@ def test_exceptions_keep_their_class_and_attributes():
 
 
 def test_the_command_thread_outlives_a_reply_that_cannot_be_sent(tmp_path):
-    """A value that cannot be pickled made the reply's send raise: the command thread
-    answered that request with the error and went on (it died on a missing helper, and
-    every later command timed out)."""
+    """A value that cannot be pickled made the reply's send raise: the thread that runs
+    the commands answered that request with the error and went on (it died on a missing
+    helper, and every later command timed out)."""
     from urc.link.control_process import ControlServer
 
     from urc.link import codec
@@ -192,9 +193,7 @@ def test_the_command_thread_outlives_a_reply_that_cannot_be_sent(tmp_path):
     server = ControlServer(Conn(), None, tmp_path, [])
     server.rot = Rot()
     for rid in (1, 2):
-        server._commands.put(("request", Envelope(rid, None, OvershootQuery("az"))))
-    server._commands.put(None)
-    server._command_loop()
+        server._run_command(Envelope(rid, None, OvershootQuery("az")))
     (first, second) = (reply for _, reply in server.conn.sent)
     assert (first.rid, first.outcome) == (1, "error") and "pickle" in first.value[4]
     assert (second.rid, second.outcome, second.value) == (2, "value", 42)
@@ -362,9 +361,7 @@ def test_a_goto_reply_carries_no_status_the_record_and_socket_already_gave(bench
         server.rot = rot = Rot()
 
         def goto_reply(rid):
-            server._commands.put(("request", Envelope(rid, None, Goto(10.0, 20.0))))
-            server._commands.put(None)
-            server._command_loop()
+            server._run_command(Envelope(rid, None, Goto(10.0, 20.0)))
             kind, reply = server.conn.sent[-1]
             assert kind == "reply" and reply.rid == rid and reply.outcome == "value"
             return reply
@@ -379,3 +376,59 @@ def test_a_goto_reply_carries_no_status_the_record_and_socket_already_gave(bench
         assert goto_reply(3).status == rot.now
     finally:
         record.close()
+
+
+def test_commands_run_on_the_reading_thread_and_a_long_one_is_no_silence(tmp_path):
+    """The control process runs each command on the thread that read it (no hand-off to
+    a command thread: tens of microseconds of every set's round trip). While a command
+    runs, the I/O process's messages wait unread: that is not the I/O process falling
+    silent (which stops open-ended motion). A silence after it still is."""
+    from multiprocessing.connection import Connection
+
+    from urc.link import codec
+    from urc.link.control_process import IO_SILENT_S, ControlServer
+    from urc.model.messages import Envelope, OvershootQuery
+
+    stops: list[str] = []
+    ran_on: list[int] = []
+
+    class Rot:
+        def overshoot_deg(self, axis):
+            ran_on.append(threading.get_ident())
+            time.sleep(IO_SILENT_S + 0.6)
+            return 0.5
+
+        def motion_ticket(self):
+            return None
+
+        def status(self):
+            return None
+
+        def stop_open_ended(self, why):
+            stops.append(why)
+    ours, theirs = socket.socketpair()
+    io_side = Connection(ours.detach())
+    server = ControlServer(Connection(theirs.detach()), None, tmp_path, [])
+    server.rot = Rot()
+    server._heard_s = time.monotonic()
+    reader = threading.Thread(target=server._read_and_run, args=(server.conn,), daemon=True)
+    reader.start()
+    try:
+        io_side.send_bytes(codec.dumps(("request", Envelope(1, None, OvershootQuery("az")))))
+        for _ in range(3):   # (pings sent meanwhile wait behind the command)
+            time.sleep(0.2)
+            io_side.send_bytes(codec.dumps(("ping",)))
+        assert io_side.poll(5.0)
+        kind, reply = codec.loads(io_side.recv_bytes())
+        assert (kind, reply.rid, reply.outcome, reply.value) == ("reply", 1, "value", 0.5)
+        assert ran_on == [reader.ident] and stops == []
+        time.sleep(IO_SILENT_S / 2)
+        assert stops == []   # (its pings were read after it: the I/O process was never silent)
+        wait_until(lambda: stops, 3 * IO_SILENT_S, "a real silence after the command stops open-ended motion")
+        assert len(stops) == 1 and "silent" in stops[0]
+        io_side.send_bytes(codec.dumps(("stop",)))
+        reader.join(2.0)
+        assert not reader.is_alive() and server._read_end == "asked to stop"
+    finally:
+        io_side.close()
+        server.conn.close()

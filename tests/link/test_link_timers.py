@@ -1,7 +1,9 @@
-"""An answered request leaves no timer behind on the event loop: each awaited request
-armed a CALL_TIMEOUT_S (6 s) bound with call_later and never took it back, so at a
-thousand rotctld sets a second six thousand timers sat in the loop's heap, each one
-pushed and later popped and run (a scan of the pending requests) for nothing."""
+"""Requests awaited on the event loop keep one timer there, whatever their number, and none
+once they are answered: each awaited request armed a CALL_TIMEOUT_S (6 s) bound with
+call_later and never took it back, so at a thousand rotctld sets a second six thousand
+timers sat in the loop's heap, each one pushed and later popped and run (a scan of the
+pending requests) for nothing; then a timer each, cancelled on the answer (a heap push
+and pop per set). And a request that is not answered is still answered "no answer"."""
 
 from __future__ import annotations
 
@@ -12,8 +14,10 @@ import threading
 from multiprocessing.connection import Connection
 
 from urc.link import codec
-from urc.model.messages import Reply, Stop
-from urc.link.remote import ControlLink
+from urc.model.messages import Goto, Reply, Stop
+import pytest
+
+from urc.link.remote import SWEEP_S, ControlLink, ControlUnavailable
 
 
 def _answering_peer(conn: Connection) -> None:
@@ -40,12 +44,34 @@ def test_an_answered_request_leaves_no_timer_on_the_loop():
     link = ControlLink(Connection(os.dup(ours.fileno()))).start()
     ours.close()
 
-    async def main() -> list:
-        values = [await link.call_async(Stop(), timeout_s=60.0) for _ in range(20)]
+    async def main() -> tuple[int, list]:
+        values = await asyncio.gather(*(link.submit(Stop(), timeout_s=60.0) for _ in range(20)))
         assert values == [42] * 20
-        return _expiry_timers(asyncio.get_running_loop(), link)
+        armed = len(_expiry_timers(asyncio.get_running_loop(), link))
+        await asyncio.sleep(3 * SWEEP_S)
+        return armed, _expiry_timers(asyncio.get_running_loop(), link)
     try:
-        assert asyncio.run(main()) == []   # (20 of them, each due in 60 s, before)
+        armed, left = asyncio.run(main())
+        assert armed <= 1 and left == []   # (20 of them, each due in 60 s, before)
     finally:
         link.conn.close()
         peer.close()
+
+
+def test_a_request_nobody_answers_is_answered_no_answer_after_its_bound():
+    ours, theirs = socket.socketpair()   # (the peer reads nothing and answers nothing)
+    link = ControlLink(Connection(os.dup(ours.fileno()))).start()
+    ours.close()
+
+    async def main() -> float:
+        loop = asyncio.get_running_loop()
+        t0 = loop.time()
+        with pytest.raises(ControlUnavailable, match="did not answer within 0.3 s"):
+            await link.submit(Goto(10.0, 20.0), timeout_s=0.3)
+        return loop.time() - t0
+    try:
+        waited_s = asyncio.run(main())
+        assert 0.3 <= waited_s < 0.3 + 3 * SWEEP_S
+    finally:
+        link.conn.close()
+        theirs.close()

@@ -24,8 +24,13 @@ is in that module's docstring; what this one guarantees:
   jog, an update-fed track), said in status' ``last_stop``; a bounded one (a goto, a
   park, a pass program) flies on to its end, since its end was checked when it was
   accepted and the guard holds the limits and zones every tick.
-* A tick that hangs (a driver blocked on a bus) holds the rotator's lock: the main
-  thread, which only reads messages and keeps watch, makes the outputs safe without it.
+* A tick that hangs (a driver blocked on a bus) holds the rotator's lock: a watch thread
+  makes the outputs safe without it, and the main thread, which only keeps watch, still
+  ends the process in order on a signal.
+* One thread reads the I/O process's messages and runs each command as it reads it: a
+  command crosses no thread here (a hand-off between two Python threads costs tens of
+  microseconds of a set's round trip, bench/rotctld_bench.py), and commands run in the
+  order they were sent.
 """
 
 from __future__ import annotations
@@ -33,7 +38,6 @@ from __future__ import annotations
 import ctypes
 import logging
 import os
-import queue
 import select
 import signal
 import socket
@@ -48,6 +52,7 @@ from typing import Any, Callable
 from ..clock import RealClock
 from . import codec
 from ..model.messages import COMMANDS, Envelope, HardwareInfo, Query, Reconfigure, Reply, Request
+from .frames import FrameReader
 from .status_record import ColdGeneration, StatusRecord
 from . import adoption
 from .instance import mark_adoptable, mark_stopping, skip_exit_collection
@@ -103,9 +108,10 @@ IO_GONE = "the I/O process is gone"
 
 
 class ControlServer:
-    """The control process's main thread only reads the I/O process's messages and keeps
-    watch (signals, a silent I/O process, a hung tick); commands run on a thread of their
-    own, in order, so a slow one (a state save on a slow SD card) blinds none of that."""
+    """The control process's main thread only keeps watch (signals, the I/O process gone,
+    the loop dead); one thread reads the I/O process's messages and runs each command as it
+    reads it, in order (a slow one, a state save on a slow SD card, blinds none of that
+    watch); another watches for a hung tick."""
 
     def __init__(self, conn: Connection, cfg: Any, state_dir: Path, lock_fds: list[int],
                  record: StatusRecord | None = None, build: Build | None = None):
@@ -139,11 +145,16 @@ class ControlServer:
         self._io_gone = False
         #: the I/O process's last message (None: not heard since "ready", as it starts)
         self._heard_s: float | None = None
+        #: a command is under way: the I/O process is not silent while its messages wait
+        #: behind one
+        self._command_under_way = False
+        #: held while a command runs: the orderly stop waits for the one under way
+        self._running = threading.Lock()
+        #: why the reading thread of the current connection ended ("": it reads)
+        self._read_end = ""
         #: when the last tick ended (the loop thread's own clock reading)
         self._ticked_s = time.monotonic()
-        self._commands: queue.SimpleQueue[tuple | None] = queue.SimpleQueue()
-        self._worker = threading.Thread(target=self._command_loop, name="urc-commands", daemon=True)
-        #: set when the orderly stop begins: commands still queued are refused
+        #: set when the orderly stop begins: commands still unread are refused
         self._stopping = False
         #: the tick watch acts (until the loop is stopped on purpose, at the very end)
         self._watching = True
@@ -178,7 +189,8 @@ class ControlServer:
         self.send(("reply", Reply(rid, outcome, value, None if known else status)))
 
     def _io_alive(self) -> bool:
-        return self._heard_s is None or time.monotonic() - self._heard_s < IO_SILENT_S
+        return (self._heard_s is None or self._command_under_way
+                or time.monotonic() - self._heard_s < IO_SILENT_S)
 
     # ------------------------------------------------------------- lifetime
     def run(self) -> int:
@@ -206,7 +218,6 @@ class ControlServer:
             self.send(("ready", self._ready()))
             # (statuses only after "ready": the first message the I/O process reads is that)
             threading.Thread(target=self._publish_loop, name="urc-status-out", daemon=True).start()
-            self._worker.start()
             self._ticked_s = time.monotonic()  # (building the rotator took its time)
             threading.Thread(target=self._watch_ticks, name="urc-tick-watch", daemon=True).start()
             reason = self._serve()
@@ -285,38 +296,86 @@ class ControlServer:
             listener.close()
 
     def _serve(self) -> str:
-        """Read the I/O process's messages, hand commands to the command thread, and
-        watch for signals, a dead loop and a silent I/O process until something ends it
-        (a hung tick has its own watch thread); returns why."""
+        """Read the current connection's messages and run its commands (a thread of its
+        own: :meth:`_read_and_run`), and watch for signals, the I/O process gone and a dead
+        loop until something ends it (a hung tick has its own watch thread); returns why."""
         assert self.control is not None
-        silenced = False
+        self._read_end = ""
+        threading.Thread(target=self._read_and_run, args=(self.conn,), name="urc-commands", daemon=True).start()
         while True:
             if self._signal:
                 return f"{self._signal} received"
             if self._io_gone:
                 return IO_GONE
+            if self._read_end:
+                return self._read_end
             if not self.control.alive:
                 error = repr(self.control.error)
                 self._last_word(("died", error))
                 return f"control loop died: {error}"
+            time.sleep(WATCH_S)
+
+    def _read_and_run(self, conn: Connection) -> None:
+        """Read ``conn`` and run each command as it comes, until the I/O process is gone or
+        asks this process to stop (:attr:`_read_end` says which), or another connection
+        took its place (a take-over). A silence of IO_SILENT_S with no command under way
+        stops open-ended motion, once."""
+        reader = FrameReader(conn)
+        silenced = False
+        try:
+            while conn is self.conn:
+                if not reader.wait(WATCH_S):
+                    silent_s = time.monotonic() - self._heard_s if self._heard_s is not None else 0.0
+                    if silent_s > IO_SILENT_S and not silenced:
+                        silenced = True
+                        self._stop_for_silence(silent_s)
+                    continue
+                try:
+                    messages = reader.read()
+                except (OSError, ValueError) as exc:  # (a socket failed, bytes that are no frame)
+                    log.error("control process: the link to the I/O process failed: %s", exc)
+                    messages = None
+                if messages is None:
+                    self._end_reading(conn, IO_GONE)
+                    return
+                for data in messages:
+                    self._heard_s, silenced = time.monotonic(), False
+                    try:
+                        msg = codec.loads(data)
+                    except BaseException:  # (refused by the codec, whatever it raised: dropped, and on)
+                        log.exception("control process: unreadable message from the I/O process, ignored")
+                        continue
+                    if msg[0] == "stop":
+                        self._end_reading(conn, "asked to stop")
+                        return
+                    if msg[0] == "request" and isinstance(msg[1], Envelope):
+                        self._run_command(msg[1])
+                        self._heard_s = time.monotonic()  # (what it sent meanwhile waits unread)
+        finally:
+            reader.close()
+
+    def _end_reading(self, conn: Connection, why: str) -> None:
+        if conn is self.conn:  # (a connection taken over since is not ended by its old one)
+            self._read_end = why
+
+    def _run_command(self, env: Envelope) -> None:
+        with self._running:
+            self._command_under_way = True
             try:
-                msg = codec.loads(self.conn.recv_bytes()) if self.conn.poll(WATCH_S) else None
-            except (EOFError, OSError):
-                return IO_GONE
-            except BaseException:  # (refused by the codec, whatever it raised: dropped, and on)
-                log.exception("control process: unreadable message from the I/O process, ignored")
-                continue
-            now_s = time.monotonic()
-            if msg is None:
-                if self._heard_s is not None and now_s - self._heard_s > IO_SILENT_S and not silenced:
-                    silenced = True
-                    self._commands.put(("silent", now_s - self._heard_s))
-                continue
-            self._heard_s, silenced = now_s, False
-            if msg[0] == "stop":
-                return "asked to stop"
-            if msg[0] == "request" and isinstance(msg[1], Envelope):
-                self._commands.put(msg)
+                if self._stopping:
+                    self._reply_error(env.rid, ControlUnavailable("the control process is stopping: nothing was done"))
+                else:
+                    self._answer(env)
+            except OSError:  # (the I/O process is gone: its reply with it; a new one may come)
+                pass
+            except Exception as exc:  # (this thread must outlive any one command)
+                log.exception("command %r failed", env)
+                try:
+                    self._reply_error(env.rid, exc)
+                except OSError:
+                    pass
+            finally:
+                self._command_under_way = False
 
     def _watch_ticks(self) -> None:
         """A tick that hangs (in a driver, on a bus) holds the rotator's lock and the loop:
@@ -335,28 +394,6 @@ class ControlServer:
                     log.critical("control loop: no tick for %.1f s (a hung tick): outputs made safe", late_s)
                 except Exception:  # (each write is tried; this thread must go on watching)
                     log.exception("making the outputs safe after a hung tick failed")
-
-    def _command_loop(self) -> None:
-        while True:
-            msg = self._commands.get()
-            if msg is None:
-                return
-            try:
-                if msg[0] == "silent":
-                    self._stop_for_silence(msg[1])
-                elif self._stopping:
-                    self._reply_error(msg[1].rid, ControlUnavailable("the control process is stopping: nothing was done"))
-                else:
-                    self._answer(msg[1])
-            except OSError:  # (the I/O process is gone: its reply with it; a new one may come)
-                continue
-            except Exception as exc:  # (this thread must outlive any one command)
-                log.exception("command %r failed", msg[1])
-                if msg[0] != "silent":
-                    try:
-                        self._reply_error(msg[1].rid, exc)
-                    except OSError:
-                        continue
 
     def _reply_error(self, rid: int, exc: BaseException) -> None:
         self.send(("reply", Reply(rid, "error", exception_to_wire(exc), None)))
@@ -424,9 +461,9 @@ class ControlServer:
         if reason.startswith(IO_GONE):
             for fd in self.lock_fds:  # a new urc waits for this one instead of failing
                 mark_stopping(fd)
-        self._stopping = True  # (commands still queued are refused, none runs after this)
-        self._commands.put(None)
-        self._worker.join(timeout=CALL_TIMEOUT_S)
+        self._stopping = True  # (commands still unread are refused, none runs after this)
+        if self._running.acquire(timeout=CALL_TIMEOUT_S):  # (the one under way ends first)
+            self._running.release()
         # a hung tick holds the lock that the stop command needs (the watch thread has made
         # the outputs safe): no waiting for it
         settled = False
@@ -546,8 +583,10 @@ class ControlProcess:
     """The I/O process's handle on the control process: start it, use its rotator, stop it."""
 
     def __init__(self, cfg: Any, state_dir: Path, lock_fds: list[int],
-                 on_lost: Callable[[str], None] | None = None):
+                 on_lost: Callable[[str], None] | None = None, loop: Any = None):
         self.cfg = cfg
+        #: the event loop that reads the link (``urc run``'s); None: a reader thread does
+        self.loop = loop
         self.state_dir = state_dir
         self.lock_fds = lock_fds
         self.on_lost = on_lost
@@ -629,7 +668,7 @@ class ControlProcess:
         return self._link_up(conn, payload)
 
     def _link_up(self, conn: Connection, payload: dict[str, Any]) -> RemoteRotator:
-        self.link = ControlLink(conn, self.on_lost, self.record).start()
+        self.link = ControlLink(conn, self.on_lost, self.record).start(self.loop)
         remote = RemoteRotator(self.link, payload)
         if self.rotator is None:
             self.rotator = remote

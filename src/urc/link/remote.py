@@ -21,6 +21,10 @@ This module is the I/O side of the wire between the two, over one Unix socket
   (:mod:`urc.model.effects`), which suspends the caller only; synchronous code that
   calls the port (the tracker, calibration procedures) runs on a thread of its own,
   where :meth:`RemoteRotator.request` blocks that thread only;
+* in ``urc run`` the event loop itself reads the socket (``add_reader``): a reply settles
+  its future where it is read, crossing no thread (a hand-off between two Python threads
+  costs tens of microseconds of a set's round trip on a Pi-class machine;
+  bench/rotctld_bench.py). Without an event loop (tests, tools) a reader thread does;
 * the hardware stays over there: what a protocol or route needs of it (a sensor's count
   or constants, a calibration step) is one typed query (:class:`urc.model.messages.Query`,
   :meth:`RemoteRotator.ask`, answered by :mod:`.queries`), one round trip each; only data
@@ -51,6 +55,7 @@ from ..model.messages import (AdoptSensorReading, Announce, CancelProgram, Clear
                             GotoPose, HardwareInfo, HoldLocal, LocalControls, Move, OvershootQuery, Park,
                             PositionUncertain, PowerFail, Query, Reconfigure, Reply, Request, SaveNow,
                             SearchFrame, SetOvershoot, SetPosition, Stop, Track, TrackPose)
+from .frames import FrameReader
 from .status_record import StatusRecord, merge
 from ..model.snapshot import Status
 
@@ -62,6 +67,9 @@ log = logging.getLogger(__name__)
 #: how long a command waits for the control process's answer (its lock is held for a
 #: tick at a time; a state save may wait for a slow SD card up to 5 s: longer means hung)
 CALL_TIMEOUT_S = 6.0
+#: how often an event loop with requests waiting looks for those past their bound (a
+#: request is answered "no answer" up to this much after its timeout)
+SWEEP_S = 0.1
 #: how long a stop waits for its confirmation (it is applied however late it arrives,
 #: so a longer wait would only keep its caller from telling the operator)
 STOP_ACK_S = 1.0
@@ -88,6 +96,8 @@ class StopQueued(ControlUnavailable):
 # ------------------------------------------------------------------ the wire format
 _PLAIN_TYPES = (type(None), bool, int, float, complex, str, bytes, enum.Enum, datetime.date, datetime.time,
                 datetime.timedelta, PurePath)
+#: the plain types a command's value mostly is (one set lookup before the isinstance tests)
+_EXACT_PLAIN = frozenset({type(None), bool, int, float, str})
 
 
 def travels(value: Any, depth: int = 0) -> bool:
@@ -95,6 +105,8 @@ def travels(value: Any, depth: int = 0) -> bool:
     in the control process, so calling a method on what came back can never act on a
     copy. Data: numbers, text, enums, times, paths, containers and dataclasses of those,
     numpy arrays."""
+    if type(value) in _EXACT_PLAIN:
+        return True
     if depth > 8:
         return False
     if isinstance(value, _PLAIN_TYPES) or type(value).__module__ == "numpy":
@@ -147,13 +159,7 @@ def exception_from_wire(wire: tuple) -> BaseException:
 # ------------------------------------------------------------------ the I/O side
 def on_event_loop() -> bool:
     """Is the caller on a thread running an event loop?"""
-    import asyncio  # (lazy, as in call: the control process never loads asyncio)
-
-    try:
-        asyncio.get_running_loop()
-        return True
-    except RuntimeError:
-        return False
+    return _running_loop() is not None
 
 
 #: tests set this: a round trip that would block the event loop raises instead of being logged
@@ -162,39 +168,64 @@ STRICT_ENV = "URC_STRICT_EVENT_LOOP"
 
 class _Pending:
     """One request awaiting its reply: a thread waits on ``done``, or the event loop
-    holds ``future`` (resolved from the reader thread with call_soon_threadsafe)."""
+    holds ``future``, which :meth:`deliver` settles with the request's outcome (its value
+    passed through ``finish``, or its exception) on that loop's thread."""
 
-    __slots__ = ("request", "done", "reply", "future", "loop", "timer")
+    __slots__ = ("rid", "request", "done", "reply", "future", "loop", "link", "finish", "timeout_s", "expires_s")
 
-    def __init__(self, request: Request, loop: asyncio.AbstractEventLoop | None = None):
+    def __init__(self, link: ControlLink, rid: int, request: Request, timeout_s: float,
+                 loop: asyncio.AbstractEventLoop | None = None, finish: Callable[[Any], Any] | None = None):
+        self.link = link
+        self.rid = rid
         self.request = request
+        self.timeout_s = timeout_s
+        self.expires_s = time.monotonic() + timeout_s
         self.reply: Reply | None = None
         self.loop = loop
+        self.finish = finish
         self.done = threading.Event() if loop is None else None
         self.future: asyncio.Future | None = None if loop is None else loop.create_future()
-        self.timer: asyncio.TimerHandle | None = None  # (the loop's bound on the wait)
 
     def deliver(self, reply: Reply) -> None:
+        if self.reply is not None:  # (answered already: a late reply after its expiry)
+            return
         self.reply = reply
         if self.done is not None:
             self.done.set()
+            return
+        assert self.loop is not None
+        if _running_loop() is self.loop:
+            self._settle()
         else:
-            assert self.loop is not None and self.future is not None
             try:
-                self.loop.call_soon_threadsafe(_settle, self.future, reply)
+                self.loop.call_soon_threadsafe(self._settle)
             except RuntimeError:  # (its event loop is closed: nobody is waiting)
                 pass
 
+    def _settle(self) -> None:
+        """On the loop's thread: the future gets the outcome."""
+        fut = self.future
+        assert fut is not None and self.reply is not None
+        if fut.done():
+            return
+        try:
+            value = self.link._outcome(self.request, self.reply)
+            fut.set_result(value if self.finish is None else self.finish(value))
+        except Exception as exc:
+            fut.set_exception(exc)
 
-def _settle(fut: asyncio.Future, reply: Reply) -> None:
-    if not fut.done():
-        fut.set_result(reply)
+
+def _running_loop() -> asyncio.AbstractEventLoop | None:
+    import asyncio  # (lazy: the control process never loads asyncio)
+
+    return asyncio._get_running_loop()  # (None off a loop's thread: the cheap form of get_running_loop)
 
 
 class ControlLink:
-    """The I/O process's end of the socket: a reader thread takes statuses and replies.
-    A request waits for its reply without blocking anyone: awaited (:meth:`call_async`)
-    it suspends its caller only; from another thread it waits on an event. Either way bounded by ``timeout_s``."""
+    """The I/O process's end of the socket: statuses and replies are read by the event loop
+    (:meth:`start` with a loop) or by a reader thread. A request waits for its reply
+    without blocking anyone: awaited (:meth:`submit`) it suspends its caller only; from
+    another thread it waits on an event. Either way bounded by ``timeout_s``."""
 
     def __init__(self, conn: Connection, on_lost: Callable[[str], None] | None = None,
                  record: StatusRecord | None = None):
@@ -214,13 +245,28 @@ class ControlLink:
         self.finished = threading.Event()
         self._ids = itertools.count(1)
         self._pending: dict[int, _Pending] = {}
+        #: each event loop's timer that answers its requests past their bound (_sweep)
+        self._sweeps: dict[asyncio.AbstractEventLoop, asyncio.TimerHandle] = {}
         self._send_lock = threading.Lock()
         self._reader: threading.Thread | None = None
+        #: the event loop that reads the socket (None: the reader thread does)
+        self._loop: asyncio.AbstractEventLoop | None = None
+        self._frames: FrameReader | None = None
         self._complained: set[str] = set()
 
-    def start(self) -> "ControlLink":
-        self._reader = threading.Thread(target=self._read, name="urc-control-link", daemon=True)
-        self._reader.start()
+    def start(self, loop: asyncio.AbstractEventLoop | None = None) -> "ControlLink":
+        """Read the socket from ``loop`` (from any thread: it starts reading on its own
+        thread), or from a reader thread of this link's."""
+        if loop is None:
+            self._reader = threading.Thread(target=self._read, name="urc-control-link", daemon=True)
+            self._reader.start()
+            return self
+        self._loop = loop
+        frames = self._frames = FrameReader(self.conn)
+        if _running_loop() is loop:
+            loop.add_reader(frames.fileno(), self._readable)
+        else:
+            loop.call_soon_threadsafe(loop.add_reader, frames.fileno(), self._readable)
         return self
 
     def send(self, msg: tuple) -> None:
@@ -232,28 +278,28 @@ class ControlLink:
         """Run ``request`` in the control process; its value, or the exception raised there. A stop is always
         applied, however late it arrives; anything else that is not answered within
         ``timeout_s`` is refused over there too (it carries that deadline)."""
-        if on_event_loop():
+        on_loop = _running_loop()
+        if on_loop is not None:
             self._complain(request)
         pending = self._submit(request, timeout_s, None)
         assert pending.done is not None
+        if on_loop is not None and on_loop is self._loop:  # (the reader is this very thread)
+            self._pump(pending, timeout_s)
         if not pending.done.wait(timeout_s):
-            self._expire(pending, timeout_s)
+            self._expire(pending)
         assert pending.reply is not None
         return self._outcome(request, pending.reply)
 
-    async def call_async(self, request: Request, timeout_s: float = CALL_TIMEOUT_S) -> Any:
-        """:meth:`call` from a coroutine: the reply is awaited (bounded by ``timeout_s``
-        as there), so only the caller waits, never the event loop."""
+    def submit(self, request: Request, timeout_s: float = CALL_TIMEOUT_S,
+               finish: Callable[[Any], Any] | None = None) -> asyncio.Future:
+        """:meth:`call` from the event loop: a future of the request's value (passed
+        through ``finish``) or its exception, bounded by ``timeout_s`` as there; awaiting
+        it suspends only the caller. No task: the reply settles the future where it is read."""
         import asyncio
 
-        pending = self._submit(request, timeout_s, asyncio.get_running_loop())
+        pending = self._submit(request, timeout_s, asyncio.get_running_loop(), finish)
         assert pending.future is not None
-        try:
-            reply = await pending.future
-        finally:  # (answered: its bound leaves the loop's timers now, not timeout_s later)
-            if pending.timer is not None:
-                pending.timer.cancel()
-        return self._outcome(request, reply)
+        return pending.future
 
     def _complain(self, request: Request) -> None:
         """A round trip from the event loop thread, not awaited, blocks
@@ -266,11 +312,11 @@ class ControlLink:
             log.error("%s blocks the event loop while it waits for the control process (a bug)", name,
                       stack_info=True)
 
-    def _submit(self, request: Request, timeout_s: float,
-                loop: asyncio.AbstractEventLoop | None) -> _Pending:
+    def _submit(self, request: Request, timeout_s: float, loop: asyncio.AbstractEventLoop | None,
+                finish: Callable[[Any], Any] | None = None) -> _Pending:
         rid = next(self._ids)
-        pending = self._pending[rid] = _Pending(request, loop)  # (before the check: a loss now fills it)
-        deadline_s = None if isinstance(request, Stop) else time.monotonic() + timeout_s
+        pending = self._pending[rid] = _Pending(self, rid, request, timeout_s, loop, finish)  # (before the check: a loss now fills it)
+        deadline_s = None if isinstance(request, Stop) else pending.expires_s
         if self.lost:
             pending.deliver(_lost_reply(rid, self.lost))
         else:
@@ -278,19 +324,30 @@ class ControlLink:
                 self.send(("request", Envelope(rid, deadline_s, request)))
             except (OSError, EOFError, ValueError) as exc:
                 pending.deliver(_lost_reply(rid, str(exc)))
-        if loop is not None and pending.reply is None:
-            pending.timer = loop.call_later(timeout_s, self._expire, pending, timeout_s)
+        if loop is not None and pending.reply is None and loop not in self._sweeps:
+            self._sweeps[loop] = loop.call_later(SWEEP_S, self._sweep, loop)
         return pending
 
-    def _expire(self, pending: _Pending, timeout_s: float) -> None:
-        rid = next((r for r, p in self._pending.items() if p is pending), None)
-        if rid is None or pending.reply is not None:
+    def _sweep(self, loop: asyncio.AbstractEventLoop) -> None:
+        """On ``loop``, every SWEEP_S while it has requests waiting: those past their
+        bound are answered "no answer" (one timer for all of them: a timer each, armed and
+        cancelled per request, was a heap push and pop per rotctld P)."""
+        del self._sweeps[loop]
+        now_s = time.monotonic()
+        waiting = [p for p in self._pending.values() if p.loop is loop]
+        for pending in waiting:
+            if pending.expires_s <= now_s:
+                self._expire(pending)
+        if any(p.reply is None for p in waiting):
+            self._sweeps[loop] = loop.call_later(SWEEP_S, self._sweep, loop)
+
+    def _expire(self, pending: _Pending) -> None:
+        if self._pending.pop(pending.rid, None) is None or pending.reply is not None:
             return
-        self._pending.pop(rid, None)
-        text = f"the control process did not answer within {timeout_s:g} s (hung?): "
+        text = f"the control process did not answer within {pending.timeout_s:g} s (hung?): "
         exc = (StopQueued(text + "the stop is sent and runs as soon as it resumes")
                if isinstance(pending.request, Stop) else ControlUnavailable(text + "nothing was done"))
-        pending.deliver(Reply(rid, "error", exception_to_wire(exc), None))
+        pending.deliver(Reply(pending.rid, "error", exception_to_wire(exc), None))
 
     def _outcome(self, request: Request, reply: Reply) -> Any:
         self._pending.pop(reply.rid, None)
@@ -326,34 +383,82 @@ class ControlLink:
         self._merged = (hot.tick, id(s), merged)
         return merged
 
+    # ------------------------------------------------------------- reading
+    def _take(self, data: bytes) -> None:
+        """One message from the control process."""
+        try:
+            msg = codec.loads(data)
+        except BaseException:  # (whatever the decoder raised: that message dropped, and on)
+            log.exception("control link: an unreadable message from the control process, dropped")
+            return
+        kind = msg[0]
+        if kind == "status":
+            self.offer_status(msg[1], msg[2] if len(msg) > 2 else None)
+        elif kind == "reply":
+            pending = self._pending.get(msg[1].rid)
+            if pending is not None:
+                pending.deliver(msg[1])
+        elif kind == "died":
+            self._lose(f"control loop died: {msg[1]}")
+        elif kind == "stopped":
+            self.final = msg[1]
+
     def _read(self) -> None:
+        """The reader thread (no event loop reads the socket)."""
         reason = "its socket closed"
         try:
             while True:
-                data = self.conn.recv_bytes()
-                try:
-                    msg = codec.loads(data)
-                except BaseException:  # (whatever the decoder raised: that message dropped, and on)
-                    log.exception("control link: an unreadable message from the control process, dropped")
-                    continue
-                kind = msg[0]
-                if kind == "status":
-                    self.offer_status(msg[1], msg[2] if len(msg) > 2 else None)
-                elif kind == "reply":
-                    pending = self._pending.get(msg[1].rid)
-                    if pending is not None:
-                        pending.deliver(msg[1])
-                elif kind == "died":
-                    reason = f"control loop died: {msg[1]}"
-                    self._lose(reason)
-                elif kind == "stopped":
-                    self.final = msg[1]
+                self._take(self.conn.recv_bytes())
         except (EOFError, OSError) as exc:
             if not isinstance(exc, EOFError):
                 reason = f"its socket failed: {exc}"
         except Exception as exc:  # (a bug in handling a message: the link is unusable)
             log.exception("control link broken")
             reason = f"link failed: {exc!r}"
+        self._end(reason)
+
+    def _readable(self) -> None:
+        """The event loop's reader: everything the socket holds now, message by message."""
+        assert self._frames is not None
+        reason = ""
+        try:
+            messages = self._frames.read()
+            if messages is None:
+                reason = "its socket closed"
+            else:
+                for data in messages:
+                    self._take(data)
+        except OSError as exc:
+            reason = f"its socket failed: {exc}"
+        except Exception as exc:  # (a bug in handling a message, bytes that are no frame)
+            log.exception("control link broken")
+            reason = f"link failed: {exc!r}"
+        if reason:
+            self._stop_reading()
+            self._end(reason)
+
+    def _pump(self, pending: _Pending, timeout_s: float) -> None:
+        """Read the socket on this thread until ``pending`` is answered or ``timeout_s`` has
+        passed: a blocking call on the very loop that reads the socket (a bug, logged by
+        :meth:`_complain`) must not wait for itself."""
+        frames = self._frames
+        assert frames is not None
+        deadline_s = time.monotonic() + timeout_s
+        while pending.reply is None and not frames.closed:
+            if not frames.wait(deadline_s - time.monotonic()):
+                return
+            self._readable()
+
+    def _stop_reading(self) -> None:
+        frames, loop = self._frames, self._loop
+        if frames is not None and loop is not None and not frames.closed:
+            try:
+                loop.remove_reader(frames.fileno())
+            except RuntimeError:  # (its loop is closed)
+                pass
+            frames.close()
+
+    def _end(self, reason: str) -> None:
         self._lose(reason if self.final is None else "it stopped")
         self.finished.set()
 
@@ -491,13 +596,17 @@ class RemoteRotator:
         timeout_s = self._timeout_s(request)
         return self._accepted(request, self._link.call(request, timeout_s=timeout_s))
 
-    async def call(self, request: Request) -> Any:
+    def call(self, request: Request) -> asyncio.Future:
         """``await rotator.call(Goto(az, el))`` on the event loop: the round trip
-        suspends its caller only (urc.model.effects)."""
+        suspends its caller only (urc.model.effects). A future, not a coroutine: a
+        protocol session's request needs no task of its own (urc.servers.common)."""
         if isinstance(request, HardwareInfo):
-            return self.hardware
-        timeout_s = self._timeout_s(request)
-        return self._accepted(request, await self._link.call_async(request, timeout_s=timeout_s))
+            import asyncio
+
+            known = asyncio.get_running_loop().create_future()
+            known.set_result(self.hardware)
+            return known
+        return self._link.submit(request, self._timeout_s(request), finish=lambda value: self._accepted(request, value))
 
     def ask(self, query: Query) -> Any:
         """A hardware query or calibration procedure, answered by the control process in

@@ -77,6 +77,17 @@ class SessionRunner:
 
     def feed(self, data: bytes, write: Callable[[bytes], None] | None = None) -> None:
         write = write or self.write
+        if len(data) <= SLICE_BYTES and not (self._queue or self._busy or self._draining or self._resume_scheduled):
+            # (the common case, a poll's few bytes to an idle session: run now, as _drain
+            # would at once, without the queue's round; a rotctld p is a few microseconds)
+            self._draining = True
+            try:
+                self._run(("data", data), write)
+            finally:
+                self._draining = False
+            if self._queue:  # (input that arrived meanwhile: a session's own hang-up)
+                self._kick()
+            return
         step = SLICE_BYTES if self.stream else max(len(data), 1)
         for i in range(0, max(len(data), 1), step):
             self._queue.append(("data", data[i:i + step], write))
@@ -123,19 +134,24 @@ class SessionRunner:
                 kind, arg, write = self._queue.popleft()
                 if kind == "data" and self.stream:
                     self._account(-len(arg))
-                self._busy = True
-                self._input = (kind, arg)
-                try:
-                    steps = self._work(kind, arg)
-                except BaseException as exc:
-                    self._done(None, exc, write)
-                    continue
-                if isinstance(steps, GeneratorType):
-                    self._step(steps, None, None, write)
-                else:  # (a session step that only answers: its replies, no generator to step)
-                    self._done(steps, None, write)  # type: ignore[arg-type]
+                self._run((kind, arg), write)
         finally:
             self._draining = False
+
+    def _run(self, item: tuple[str, Any], write: Callable[[bytes], None]) -> None:
+        """One input: its replies written, or its first request to the control process
+        under way (this session busy until the answer)."""
+        self._busy = True
+        self._input = item
+        try:
+            steps = self._work(*item)
+        except BaseException as exc:
+            self._done(None, exc, write)
+            return
+        if isinstance(steps, GeneratorType):
+            self._step(steps, None, None, write)
+        else:  # (a session step that only answers: its replies, no generator to step)
+            self._done(steps, None, write)  # type: ignore[arg-type]
 
     def _resume_later(self) -> bool:
         try:

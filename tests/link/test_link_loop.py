@@ -1,0 +1,116 @@
+"""The I/O process's end of the link read by its event loop (``ControlLink.start(loop)``):
+no reader thread, a reply settles its request where it is read, and the cases a thread
+never had to think of (a blocking call made on that very loop, the peer gone)."""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import socket
+import threading
+from multiprocessing.connection import Connection
+
+import pytest
+
+from urc.link import codec
+from urc.link.remote import STRICT_ENV, ControlLink, ControlUnavailable
+from urc.model.messages import Goto, Reply, Stop
+
+
+def _peer(conn: Connection, answered: list[str]) -> None:
+    """The control process reduced to answering each request at once, from a thread
+    it names in ``answered``; it ends when the link's end closes."""
+    while True:
+        try:
+            kind, env = codec.loads(conn.recv_bytes())
+        except (EOFError, OSError, TypeError):  # (TypeError: its end closed by the test meanwhile)
+            return
+        if kind == "request":
+            answered.append(type(env.request).__name__)
+            conn.send_bytes(codec.dumps(("reply", Reply(env.rid, "value", len(answered), None))))
+
+
+@pytest.fixture
+def linked():
+    """(our Connection, the peer's Connection, the requests the peer answered)."""
+    ours, theirs = socket.socketpair()
+    peer = Connection(theirs.detach())
+    answered: list[str] = []
+    threading.Thread(target=_peer, args=(peer, answered), daemon=True).start()
+    conn = Connection(ours.detach())
+    yield conn, peer, answered
+    conn.close()
+    peer.close()
+
+
+def test_the_loop_reads_the_link_and_no_thread_does(linked):
+    conn, _peer_conn, answered = linked
+    link_threads_before = {t.name for t in threading.enumerate()}
+
+    async def main() -> list:
+        link = ControlLink(conn).start(asyncio.get_running_loop())
+        values = [await link.submit(Goto(float(i), 10.0)) for i in range(5)]
+        from_thread = await asyncio.to_thread(link.call, Goto(1.0, 2.0))   # a tracker's call
+        assert "urc-control-link" not in {t.name for t in threading.enumerate()} - link_threads_before
+        return values + [from_thread]
+    assert asyncio.run(main()) == [1, 2, 3, 4, 5, 6]
+    assert answered == ["Goto"] * 6
+
+
+def test_a_blocking_call_on_the_reading_loop_reads_its_own_reply(linked, monkeypatch, caplog):
+    """A bug (a round trip not awaited) must still be answered, at once, not wait for
+    the loop it blocks (6 s, then "no answer"); it is logged as the bug it is."""
+    conn, _peer_conn, _answered = linked
+    monkeypatch.delenv(STRICT_ENV, raising=False)
+
+    async def main() -> int:
+        link = ControlLink(conn).start(asyncio.get_running_loop())
+        loop = asyncio.get_running_loop()
+        t0 = loop.time()
+        value = link.call(Goto(1.0, 2.0))
+        assert loop.time() - t0 < 1.0
+        return value
+    with caplog.at_level(logging.ERROR, logger="urc.link.remote"):
+        assert asyncio.run(main()) == 1
+    assert "blocks the event loop" in caplog.text
+
+
+def test_the_peer_gone_fails_what_waits_and_ends_the_link(linked):
+    conn, peer_conn, _answered = linked
+    lost: list[str] = []
+
+    async def main() -> None:
+        loop = asyncio.get_running_loop()
+        link = ControlLink(conn, on_lost=lost.append).start(loop)
+        peer_conn.close()   # (the control process dies: its end closes)
+        with pytest.raises(ControlUnavailable, match="gone"):
+            await link.submit(Stop(), timeout_s=5.0)
+        await asyncio.wait_for(asyncio.to_thread(link.finished.wait), 2.0)
+        assert link.lost and lost == [link.lost]
+        with pytest.raises(ControlUnavailable, match="gone"):   # and later requests fail at once
+            await link.submit(Goto(1.0, 2.0))
+    asyncio.run(main())
+
+
+def test_started_from_another_thread_it_reads_on_the_loop(linked):
+    """A control process started again by the watch thread (a takeover): its link is
+    made on that thread, and read by the event loop all the same."""
+    conn, _peer_conn, _answered = linked
+
+    async def main() -> int:
+        loop = asyncio.get_running_loop()
+        link = await asyncio.to_thread(lambda: ControlLink(conn).start(loop))
+        return await link.submit(Goto(1.0, 2.0))
+    assert asyncio.run(main()) == 1
+
+
+def test_a_stray_status_and_garbage_between_replies_are_taken_in_stride(linked):
+    conn, peer_conn, _answered = linked
+
+    async def main() -> None:
+        link = ControlLink(conn).start(asyncio.get_running_loop())
+        peer_conn.send_bytes(b"\x80\x05not a pickle")          # dropped, one log line
+        peer_conn.send_bytes(codec.dumps(("stopped", {"saved": True})))
+        assert await link.submit(Goto(1.0, 2.0)) == 1
+        assert link.final == {"saved": True} and not link.lost
+    asyncio.run(main())
