@@ -2,7 +2,7 @@
 
 For beamwidths of 30 deg (a 2 m Yagi), 10 deg (70 cm) and 3 deg (a small S-band dish)
 and SNRs of 3, 10 and 30 dB (the source's peak over the floor's per-sample radiometer
-noise, urc.pointing.simsource): cross scans (+-1.5 beamwidths, 0.2-beamwidth steps,
+noise, urc.peaking.simsource): cross scans (+-1.5 beamwidths, 0.2-beamwidth steps,
 ``--samples`` readings averaged per point) of a beacon at az 120, el 30 through an
 injected pointing error; the fitted offset's error on the sky (RMS, p95, in degrees and
 in beamwidths), the share of scans refused (no significant peak) and the median stated
@@ -52,7 +52,7 @@ from urc.pointing.fit import ScanRefused, fit_cross
 from urc.pointing.model import PointingModel
 from urc.pointing.model_fit import fit_model, scan_result
 from urc.pointing.scan import cross_scan, offset_pose, pose_offset
-from urc.pointing.simsource import SimulatedPower, SkySource
+from urc.peaking.simsource import SimulatedPower, SkySource
 
 AZ_DEG, EL_DEG = 120.0, 30.0
 ERROR = PointingModel(ia_deg=1.2, ie_deg=-1.8, ca_deg=0.3, an_deg=0.4, aw_deg=-0.3, tf_deg=0.9)

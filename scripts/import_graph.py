@@ -53,6 +53,8 @@ LAYERS: list[tuple[str, ...]] = [
     ("urc.dispatch",),
     ("urc.status_text", "urc.api_client"),
     ("urc.tracking", "urc.frontpanel", "urc.mqtt"),
+    # peaking on a signal: its sources are tracking targets, its prediction an orbit
+    ("urc.peaking",),
     ("urc.servers", "urc.web", "urc.api"),
     ("urc.registrations", "urc.assembly", "urc.app", "urc.systemd_unit", "urc.control_entry"),
     ("urc.cli", "urc.cli_pointing", "urc.entry", "urc.__main__"),

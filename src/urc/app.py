@@ -10,7 +10,7 @@ import logging
 import signal
 import socket
 import threading
-from typing import Any
+from typing import Any, Callable
 from pathlib import Path
 
 from .clock import Clock
@@ -203,7 +203,8 @@ async def _serve(cfg: Config, state_dir: Path, config_path: Path | None, api_soc
         for sig in (signal.SIGINT, signal.SIGTERM):
             loop.add_signal_handler(sig, lambda sig=sig: (asked.append(sig.name), stop.set()))
         # (planning off the event loop)
-        tracking = TrackingService(rotator, cfg, background=True) if tracking_on else _TrackingOff()
+        tracking = (TrackingService(rotator, cfg, background=True, step_track=_step_track_maker(cfg))
+                    if tracking_on else _TrackingOff())
         api = create_api(rotator, cfg, settings_of=_settings_of, config_path=config_path, state_dir=state_dir,
                          tracker=tracking if tracking.station is not None or tracking.gps is not None else None)
         from uvicorn.protocols.http.auto import AutoHTTPProtocol
@@ -346,6 +347,15 @@ async def _ping_control(control, stop: asyncio.Event) -> None:
             await asyncio.wait_for(stop.wait(), PING_S)
         except asyncio.TimeoutError:
             pass
+
+
+def _step_track_maker(cfg: Config) -> Callable[[Config, Any], Any] | None:
+    """What makes the tracker's step-track from ``[pointing]`` (off by default)."""
+    if not cfg.pointing.step_track:
+        return None
+    from .peaking.steptrack import from_config
+
+    return from_config
 
 
 async def _step_tracker(tracking, clock: Clock, stop: asyncio.Event) -> None:

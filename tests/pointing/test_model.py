@@ -15,7 +15,7 @@ from urc.pointing.fit import fit_cross
 from urc.pointing.model import TERMS, PointingModel
 from urc.pointing.model_fit import ScanResult, fit_model, scan_result
 from urc.pointing.scan import cross_scan, offset_pose, pose_offset
-from urc.pointing.simsource import SimulatedPower, SkySource
+from urc.peaking.simsource import SimulatedPower, SkySource
 
 FULL = PointingModel(ia_deg=0.8, ie_deg=-0.5, ca_deg=0.2, npae_deg=0.15, an_deg=0.3, aw_deg=-0.25, tf_deg=0.6)
 

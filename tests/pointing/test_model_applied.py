@@ -18,7 +18,7 @@ from urc.pointing import store
 from urc.pointing.model import PointingModel
 from urc.pointing.model_fit import fit_records
 from urc.pointing.scan import pose_offset
-from urc.pointing.simsource import world_beam
+from urc.peaking.simsource import world_beam
 
 from .test_model import simulated_scans
 

@@ -16,7 +16,7 @@ from urc.config import Config
 from urc.pointing.fit import ScanRefused, fit_cross, fit_gauss_2d
 from urc.pointing.model import PointingModel
 from urc.pointing.scan import cross_scan, pose_offset, raster_scan
-from urc.pointing.simsource import SimulatedPower, SkySource, world_beam
+from urc.peaking.simsource import SimulatedPower, SkySource, world_beam
 from urc.testing.scan_flight import fly_scan
 
 BEACON_AZ_DEG, BEACON_EL_DEG = 120.0, 30.0

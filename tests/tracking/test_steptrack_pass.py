@@ -10,7 +10,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from urc.angles import great_circle_deg
-from urc.pointing.prediction import Prediction
+from urc.peaking.prediction import Prediction
 from urc.testing.steptrack_flight import fly_steptrack_pass, shifted_elements
 from urc.tracking.passes import find_passes
 from urc.tracking.propagate import look_angles
@@ -81,10 +81,10 @@ def test_a_time_offset_moves_the_satellite_along_its_orbit(leo_sets, station):
 
 def test_steptrack_at_3_db_locks_once_and_is_never_much_worse_than_the_prediction(tmp_path, leo_sets, station):
     """At 3 dB the fit of one cycle is often too uncertain to judge by; lock and loss go
-    by the detection with hysteresis (urc.pointing.steptrack's docstring). One lock and
+    by the detection with hysteresis (urc.peaking.steptrack's docstring). One lock and
     at most one loss in the pass: the true satellite sets 30 s before its predicted LOS,
     so its signal really goes then (before, 8 locks and 8 losses in this pass)."""
-    from urc.pointing.steptrack import ACQUIRE_RADIUS_FWHM
+    from urc.peaking.steptrack import ACQUIRE_RADIUS_FWHM
 
     es, wrong, p = _pass(leo_sets, station)
     flown = fly_steptrack_pass(es, wrong, station, p, tmp_path / "st3", fwhm_deg=FWHM, snr_db=3.0, seed=1)

@@ -16,9 +16,9 @@ from urc.cli import main
 from urc import cli_pointing as pcli
 from urc.pointing import store
 from urc.pointing.model import PointingModel
-from urc.pointing.procedure import ScanCalibration, make_sky, make_source
+from urc.peaking.procedure import ScanCalibration, make_sky, make_source
 from urc.pointing.scan import cross_scan, pose_offset
-from urc.pointing.simsource import world_beam
+from urc.peaking.simsource import world_beam
 
 from pointing.test_model import simulated_scans
 from pointing.test_model_applied import ERROR, SCAN_POSITIONS, record, sky_error_deg

@@ -330,5 +330,5 @@ class PointingSection(Section):
     samples_per_point: int = Field(default=3, ge=1, le=50)
     #: step-track (issue 38.5): during a pass, small scans around the prediction on this
     #: source estimate the satellite's time offset (elements that are off) and correct the
-    #: rest of the pass; a lost signal falls back to the prediction (urc.pointing.steptrack)
+    #: rest of the pass; a lost signal falls back to the prediction (urc.peaking.steptrack)
     step_track: bool = False

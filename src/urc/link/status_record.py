@@ -1,8 +1,8 @@
 """The control process's status in shared memory: one fixed-layout record the tick writes
 and the I/O process reads whenever it likes, from any thread, with no thread of its own.
 
-Why (issues 33 and 34): the pickled Status goes over the socket to a reader thread in the
-I/O process, and a busy machine starves that thread. The I/O process judged from it
+Why (issues 33 and 34): the pickled Status went over the socket to a reader thread in the
+I/O process (now its event loop reads the socket), and a busy machine starves either. The I/O process judged from it
 whether the control process was frozen, so a starved I/O process killed a healthy control
 process. This record's ``tick`` and ``t_s`` show whether the control loop runs, whatever
 the I/O process's own threads are doing. It also carries the Status fields that change

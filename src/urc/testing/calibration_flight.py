@@ -57,7 +57,7 @@ class SunCalibrator:
                  dwell_s: float = 1.0, profile: str = "tartu-urc"):
         from ..assembly import build_rotator
         from ..config import Config
-        from ..pointing.simsource import SimulatedPower, SkySource, world_beam
+        from ..peaking.simsource import SimulatedPower, SkySource, world_beam
 
         cfg = Config.from_dict({"rotator": {"profile": profile}, "hardware": {"sim": {"wind": False}}})
         self.clock = VirtualClock(0.0)

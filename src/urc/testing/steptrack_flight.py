@@ -68,8 +68,8 @@ def fly_steptrack_pass(true_es: Any, flown_es: Any, station: Any, p: Any, state_
     simulated rotator, from ``lead_s`` before its AOS to its LOS plus a minute."""
     from ..assembly import build_rotator
     from ..config import Config
-    from ..pointing.simsource import SimulatedPower, SkySource, world_beam
-    from ..pointing.steptrack import factory
+    from ..peaking.simsource import SimulatedPower, SkySource, world_beam
+    from ..peaking.steptrack import factory
     from ..tracking.propagate import look_angles
     from ..tracking.tracker import Tracker
 

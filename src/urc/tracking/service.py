@@ -50,12 +50,17 @@ class TrackingService:
     the event loop."""
 
     def __init__(self, rotator, cfg: Config, unix_at: Callable[[float], float] = realtime_unix_at,
-                 catalog_dir: Path | None = None, background: bool = False):
+                 catalog_dir: Path | None = None, background: bool = False,
+                 step_track: Callable[[Config, Station], Any] | None = None):
         """``background``: read the catalog, search and plan passes on a worker thread
         (``urc run``: the event loop must never go silent, issue 33), and import what the
-        first requests need on another (:mod:`urc.tracking.warm_up`); else at once."""
+        first requests need on another (:mod:`urc.tracking.warm_up`); else at once.
+        ``step_track(cfg, station)`` makes the tracker's step-track once a station is
+        known (urc.peaking.steptrack.from_config, handed in by the composition root: the
+        peaking package sits above tracking); None: no step-track."""
         self.rot = rotator
         self.cfg = cfg
+        self._make_step_track = step_track
         self.unix_at = unix_at
         self.catalog_dir = catalog_dir or cfg.tracking.resolve_catalog_dir()
         self._executor: Any = None
@@ -97,10 +102,8 @@ class TrackingService:
             self.tracker = Tracker(self.rot, station, self.unix_at, park_after_pass=self.cfg.tracking.park_after_pass,
                                    min_el_deg=self.cfg.tracking.min_el_deg)
             self.tracker.background = self._executor
-            if self.cfg.pointing.step_track:  # ([pointing] step_track: off by default)
-                from ..pointing import steptrack
-
-                self.tracker.step_track = steptrack.from_config(self.cfg, station)
+            if self._make_step_track is not None:
+                self.tracker.step_track = self._make_step_track(self.cfg, station)
         else:
             self.tracker.station = station
 

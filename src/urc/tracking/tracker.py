@@ -72,7 +72,7 @@ class _PassJob:
     #: the program flying it (urc.model.program), and when it was last sent
     program_id: int | None = None
     sent_s: float = -math.inf
-    #: its step-track (urc.pointing.steptrack), made when the tracker has ``step_track``
+    #: its step-track (urc.peaking.steptrack), made when the tracker has ``step_track``
     steptrack: Any = None
 
 
@@ -106,7 +106,7 @@ class Tracker:
         #: newer elements for the satellite being followed, used from its next pass
         self._next_elements: ElementSet | None = None
         #: step-track: ``step_track(job, tracker)`` makes a pass's StepTrack
-        #: (urc.pointing.steptrack.factory), which corrects its program by the signal
+        #: (urc.peaking.steptrack.factory), which corrects its program by the signal
         self.step_track: Callable[[Any, Any], Any] | None = None
 
     # ------------------------------------------------------------------ commands

@@ -27,7 +27,7 @@ class ScanRequest(Strict):
 
 def _build(ctx: WebContext, req: ScanRequest) -> Any:
     """The procedure (on a worker thread: the Sun's first position reads the ephemeris)."""
-    from ..pointing import procedure as pp
+    from ..peaking import procedure as pp
 
     cfg = ctx.settings.cfg  # (the settings as last saved: [pointing] applies without a restart)
     try:

@@ -73,7 +73,7 @@ class SimWorld:
         self.caps = caps
         #: where the beam truly points differs from the axes' angles by this
         #: :class:`urc.pointing.model.PointingModel` (None: the beam is the boresight).
-        #: Only a simulated power source reads it (urc.pointing.simsource.true_beam);
+        #: Only a simulated power source reads it (urc.peaking.simsource.true_beam);
         #: the axes, the sensors and the control never see it.
         self.pointing_error = pointing_error
         self.params = params

@@ -25,7 +25,7 @@ from typing import Any, Callable
 import numpy as np
 
 from ..angles import great_circle_deg
-from .sources import Sample, judge
+from ..pointing.sources import Sample, judge
 
 #: mean angular radii (the Sun 959.6"/Moon 932.6" at mean distance: the Astronomical
 #: Almanac's semidiameters)

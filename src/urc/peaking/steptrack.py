@@ -70,9 +70,9 @@ import numpy as np
 
 from ..angles import wrap180_deg
 from ..model.program import PassProgram
-from .fit import FWHM_PER_SIGMA, MIN_SIGNIFICANCE, ScanRefused, _lm
+from ..pointing.fit import FWHM_PER_SIGMA, MIN_SIGNIFICANCE, ScanRefused, _lm
 from .prediction import Prediction, orbit_prediction
-from .sources import SignalRefused, to_linear
+from ..pointing.sources import SignalRefused, to_linear
 
 #: each scan point is held this long (the program's dense samples are DENSE_S apart)
 DWELL_S = 2.0

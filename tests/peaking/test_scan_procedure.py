@@ -1,4 +1,4 @@
-"""The calibration scan as the web hub runs it (urc.pointing.procedure): a state machine
+"""The calibration scan as the web hub runs it (urc.peaking.procedure): a state machine
 fed each status, issuing gotos, reading the simulator's source from the status' truth
 through the configured pointing error. On main before this there was no such procedure
 (the module did not exist): every test here fails there."""
@@ -11,7 +11,7 @@ import pytest
 
 from urc.config import Config
 from urc.pointing.model import PointingModel
-from urc.pointing.procedure import ScanCalibration, ScanSetupError, make_sky, make_source
+from urc.peaking.procedure import ScanCalibration, ScanSetupError, make_sky, make_source
 from urc.pointing.scan import cross_scan, pose_offset
 
 BEACON_AZ_DEG, BEACON_EL_DEG = 120.0, 30.0

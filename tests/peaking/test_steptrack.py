@@ -1,4 +1,4 @@
-"""Step-track's math on a virtual clock (urc.pointing.steptrack): a satellite running
+"""Step-track's math on a virtual clock (urc.peaking.steptrack): a satellite running
 across the sky at a steady rate, its elements 30 s off, the program flown by a perfect
 rotator; the simulated power through a Gaussian beam. The whole loop with the control
 process and the real tracker is in tests/tracking/test_steptrack_pass.py."""
@@ -13,9 +13,9 @@ import pytest
 
 from urc.control.geometry import Geometry, KeepOut
 from urc.pointing.fit import ScanRefused
-from urc.pointing.simsource import SimulatedPower, SkySource
+from urc.peaking.simsource import SimulatedPower, SkySource
 from urc.pointing.sources import Sample, SignalRefused, judge
-from urc.pointing.steptrack import (CYCLE_S, DETECT_Z, TRACK_RADIUS_FWHM, Prediction, StepTrack, build_program,
+from urc.peaking.steptrack import (CYCLE_S, DETECT_Z, TRACK_RADIUS_FWHM, Prediction, StepTrack, build_program,
                                     detection_z, fit_beam)
 
 AOS_U = 1_000_000.0

@@ -1,4 +1,4 @@
-"""A pass's predicted sky track for step-track (urc.pointing.steptrack): interpolated
+"""A pass's predicted sky track for step-track (urc.peaking.steptrack): interpolated
 from the plan, its sky rate, and where the satellite is seen when it runs a time offset
 behind its elements along its orbit (the Earth turning meanwhile)."""
 

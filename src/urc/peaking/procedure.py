@@ -23,11 +23,11 @@ from concurrent.futures import Future, ThreadPoolExecutor
 from typing import Any, Callable
 
 from ..errors import CommandRejected, UrcError
-from .fit import ScanRefused, fit_cross
-from .model import PointingModel
-from .scan import ScanPlan, cross_scan, offset_pose, pose_offset
+from ..pointing.fit import ScanRefused, fit_cross
+from ..pointing.model import PointingModel
+from ..pointing.scan import ScanPlan, cross_scan, offset_pose, pose_offset
 from .simsource import SimulatedPower, SkySource, true_beam
-from .sources import Sample, SignalRefused, judge
+from ..pointing.sources import Sample, SignalRefused, judge
 
 TARGETS = ("sun", "moon", "beacon")
 
@@ -62,7 +62,7 @@ class RtlPowerFile:
     """rtl_power's CSV file as it grows: each read takes the lines appended since the last."""
 
     def __init__(self, path: str, *, ceiling_db: float | None = None):
-        from .rtl_power import RtlPowerLines
+        from ..pointing.rtl_power import RtlPowerLines
 
         self.path, self.lines, self._pos = path, RtlPowerLines(ceiling_db=ceiling_db), 0
         self.name = f"rtl_power {path}"
@@ -101,10 +101,10 @@ def make_source(pointing: Any, sim_error: dict[str, float] | None, sky: SkySourc
                              ceiling_db=pointing.ceiling_db, seed=seed)
         return StatusPower(sim, PointingModel.from_dict(sim_error) if sim_error else None, az_zero_deg)
     if kind == "rigctld":
-        from .rigctld import RigctldStrength
+        from ..pointing.rigctld import RigctldStrength
         return RigctldStrength(*_host_port(pointing.address, kind), ceiling_db=pointing.ceiling_db)
     if kind == "tcp":
-        from .line_feed import LineFeed
+        from ..pointing.line_feed import LineFeed
         return LineFeed(*_host_port(pointing.address, kind), ceiling=pointing.ceiling_db)
     if kind == "rtl_power":
         if not pointing.file:
