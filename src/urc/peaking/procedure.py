@@ -24,6 +24,7 @@ from typing import Any, Callable
 
 from ..errors import CommandRejected, UrcError
 from ..pointing.fit import ScanRefused, fit_cross
+from ..procedures.hub import HubProcedure
 from ..pointing.model import PointingModel
 from ..pointing.scan import ScanPlan, cross_scan, offset_pose, pose_offset
 from .simsource import SimulatedPower, SkySource, true_beam
@@ -130,10 +131,11 @@ def make_sky(target: str, station: Any = None, az_deg: float | None = None, el_d
 
 
 # ----------------------------------------------------------------------- the scan
-class ScanCalibration:
+class ScanCalibration(HubProcedure):
     """Fly a cross scan around ``sky`` reading ``source``; fit; report the offset."""
 
     kind = "scan"
+    FAILS_ON = (CommandRejected, ScanSetupError)
     #: give up on one point after this long
     MOVE_TIMEOUT_S = 180.0
     #: still this long after a goto before the antenna counts as there (the command's
@@ -148,7 +150,8 @@ class ScanCalibration:
                  record: Callable[[dict[str, Any]], Any] | None = None):
         """``record``: called with a finished scan's stored form (:meth:`stored_scan`),
         e.g. urc.pointing.store.append_scan into the state directory."""
-        self.rotator, self.sky, self.source = rotator, sky, source
+        super().__init__(rotator, "az")   # (the hub's procedure shape: kind, axis, state...)
+        self.sky, self.source = sky, source
         self.record = record
         #: the pointing model in force when the scan started (the status reports through it)
         self._pointing: tuple[float, ...] = ()
@@ -156,9 +159,6 @@ class ScanCalibration:
         self.plan = plan or cross_scan(fwhm_deg, dwell_s=dwell_s)
         self.target = target or sky.name
         self.unix_at = unix_at or (lambda _status: time.time())
-        self.axis = "az"            # (the hub's procedure shape: kind, axis, state...)
-        self.state, self.step, self.progress, self.error = "running", "starting", 0.0, ""
-        self.result: dict[str, Any] = {}
         self.samples: list[dict[str, Any]] = []
         self.refused: dict[str, int] = {}
         self._phase, self._since_s, self._i, self._taken = "start", 0.0, 0, 0
@@ -169,34 +169,17 @@ class ScanCalibration:
         if not hasattr(source, "read_at"):  # blocking I/O: a thread of its own
             self._pool = ThreadPoolExecutor(1, thread_name_prefix="urc-power")
 
-    @property
-    def finished(self) -> bool:
-        return self.state != "running"
-
     # -------------------------------------------------------------- the hub's interface
-    def poll(self, status: Any) -> None:
-        if self.finished:
-            return
-        try:
-            self._poll(status)
-        except (CommandRejected, ScanSetupError) as exc:
-            self._end("failed", str(exc))
+    def _fail(self, reason: str) -> None:
+        self._end("failed", reason)
 
-    def cancel(self) -> None:
-        if self.finished:
-            return
-        try:
-            self.rotator.stop()
-        except CommandRejected:
-            pass
+    def _cancelled(self) -> None:
         self._end("cancelled", "")
         self.step = "cancelled: antenna stopped"
 
-    def as_dict(self) -> dict[str, Any]:
-        """The hub's progress (sent in every live frame: the samples are left out)."""
-        summary = {k: v for k, v in self.result.items() if k != "samples"}
-        return {"kind": self.kind, "axis": self.axis, "state": self.state, "step": self.step,
-                "progress": round(self.progress, 3), "error": self.error, "result": summary}
+    def _summary(self) -> dict[str, Any]:
+        """(in every live frame: the samples are left out)"""
+        return {k: v for k, v in self.result.items() if k != "samples"}
 
     def report(self) -> dict[str, Any]:
         """Everything: the progress, the result and each sample (offset, power) to plot."""
@@ -229,10 +212,6 @@ class ScanCalibration:
                 self._phase, self._since_s, self._taken = "dwell", status.t_s, 0
         elif self._phase == "dwell":
             self._dwell(status)
-
-    @staticmethod
-    def _still(status: Any) -> bool:
-        return not status.moving and all(a is None or a.mode in ("holding", "idle") for a in (status.az, status.el))
 
     def _move(self, status: Any) -> None:
         p = self.plan.points[self._i]

@@ -29,6 +29,7 @@ from .calibration_maths import (CalibrationError, EllipsoidFit, HardIronFit, NoS
                                 SoftIronFit, circular_mean_deg, fit_ellipsoid, fit_hard_iron,
                                 fit_soft_iron, two_point_pot)
 from .calibration_twelve import TwelveDirectionCalibration  # noqa: F401 (re-exported)
+from .hub import HubProcedure
 from ..model.snapshot import Status
 
 
@@ -189,59 +190,28 @@ def _ask(rotator: Any, query: Any, here: Any) -> Any:
     return remote(query) if remote is not None else here()
 
 
-class Procedure:
+class Procedure(HubProcedure):
     """A calibration that takes time. Call :meth:`poll` with each new status."""
 
-    kind = "procedure"
+    FAILS_ON = (CommandRejected, CalibrationError)
 
     def __init__(self, rotator: Any, axis: str):
         _check_axis(rotator, axis)
-        self.rotator = rotator
-        self.axis = axis
-        self.state = "running"          # running | done | failed | cancelled
-        self.step = "starting"
-        self.progress = 0.0
-        self.error = ""
-        self.result: dict[str, Any] = {}
+        super().__init__(rotator, axis)
         self._phase = "start"
         self._since_s: float | None = None
 
-    @property
-    def finished(self) -> bool:
-        return self.state != "running"
-
-    def poll(self, status: Status) -> None:
-        if self.finished:
-            return
-        try:
-            self._poll(status)
-        except (CommandRejected, CalibrationError) as exc:
-            self._fail(str(exc))
-
-    def cancel(self) -> None:
-        if self.finished:
-            return
-        try:
-            self.rotator.stop()
-        except CommandRejected:
-            pass
-        self._undo()
-        self.state, self.step = "cancelled", "cancelled: antenna stopped" + \
-            (f"; {self.error}" if self.error else "")
-
-    def as_dict(self) -> dict[str, Any]:
-        return {"kind": self.kind, "axis": self.axis, "state": self.state, "step": self.step,
-                "progress": round(self.progress, 3), "error": self.error, "result": self.result}
-
     # -- helpers --------------------------------------------------------------------
     def _fail(self, reason: str) -> None:
-        try:
-            self.rotator.stop()
-        except CommandRejected:
-            pass
+        self._stop_antenna()
         self._undo()
         reason = f"{reason}; {self.error}" if self.error else reason
         self.state, self.error, self.step = "failed", reason, f"failed: {reason}"
+
+    def _cancelled(self) -> None:
+        self._undo()
+        self.state, self.step = "cancelled", "cancelled: antenna stopped" + \
+            (f"; {self.error}" if self.error else "")
 
     def _undo(self) -> None:
         """Put back anything temporary (subclasses)."""
@@ -251,14 +221,6 @@ class Procedure:
 
     def _elapsed_s(self, status: Status) -> float:
         return 0.0 if self._since_s is None else status.t_s - self._since_s
-
-    @staticmethod
-    def _still(status: Status) -> bool:
-        return not status.moving and all(a is None or a.mode in ("holding", "idle")
-                                         for a in (status.az, status.el))
-
-    def _poll(self, status: Status) -> None:
-        raise NotImplementedError
 
 
 class MagnetometerCalibration(Procedure):
