@@ -14,7 +14,6 @@ from pathlib import Path
 
 import pytest
 
-from urc.hardware.gpio.adc_power import ads1115_power
 from urc.pointing.adc import AdcPower
 from urc.pointing.line_feed import LineFeed, parse_feed_line
 from urc.pointing.rigctld import RigctldStrength, parse_strength
@@ -214,29 +213,8 @@ def test_feed_line_forms():
             parse_feed_line(bad, arrived_s=0.0, default_unit="dB")
 
 
-class FakeAdsChip:
-    """What urc's Ads1115Chip offers (volts per input, its full scale)."""
-    FS_V = 4.096
-
-    def __init__(self, volts):
-        self.v = volts
-
-    def volts(self, channel):
-        if self.v is None:
-            from urc.hardware.parts import PartError
-            raise PartError("ADS1115: I2C NACK")
-        return self.v
-
-
-def test_adc_input_read_saturated_and_missing():
-    s = ads1115_power(FakeAdsChip(1.25), 2, clock=lambda: 5.0).read()
-    assert (s.t_s, s.value, s.unit) == (5.0, 1.25, "V")
-    with pytest.raises(SignalRefused) as exc:
-        ads1115_power(FakeAdsChip(4.096 * 32767 / 32768), 2).read()  # the clipped code 7FFFh
-    assert exc.value.reason == "saturated"
-    with pytest.raises(SignalRefused) as exc:
-        ads1115_power(FakeAdsChip(None), 2).read()
-    assert exc.value.reason == "missing"
+def test_adc_input_as_a_calibrated_detector():
+    """(urc's own ADC chips as sources: tests/hardware/test_gpio_adc_power.py)"""
     # a log detector (AD8307: 25 mV/dB, -84 dBm at 0 V) as a callable
     det = AdcPower(lambda: 1.5, to_power=lambda v: (v / 0.025 - 84.0, "dBm"), clock=lambda: 1.0)
     assert det.read().value == pytest.approx(-24.0) and det.read().unit == "dBm"
