@@ -23,6 +23,8 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
+from ..angles import wrap180_deg
+
 #: path sampling step along the faster-changing axis, degrees.
 PATH_STEP_DEG = 0.25
 #: the pointing model's terms in tan E and sec E are taken at most at this elevation:
@@ -341,7 +343,7 @@ def declared_boresight(g: Geometry, values: dict, now: Any) -> dict:
     b_az, b_el = g.boresight_of(wrap360(az), el)
     out = dict(values)
     if values["az"] is not None:
-        out["az"] = values["az"] + ((b_az - wrap360(az) + 180.0) % 360.0 - 180.0)
+        out["az"] = values["az"] + wrap180_deg(b_az - wrap360(az))
     if values.get("el") is not None:
         out["el"] = b_el
     return out

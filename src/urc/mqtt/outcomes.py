@@ -21,7 +21,7 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
-from ..angles import great_circle_1_deg
+from ..angles import great_circle_1_deg, wrap180_deg
 
 #: at most this many commands are watched (the oldest let go first, said as "unknown")
 WATCH_MAX = 64
@@ -112,7 +112,7 @@ class MotionOutcomes:
 
 def _other(target: tuple[float, float | None], t_az: float, t_el: Any) -> bool:
     az, el = target
-    d_az = abs((t_az - az + 180.0) % 360.0 - 180.0)
+    d_az = abs(wrap180_deg(t_az - az))
     return d_az > OTHER_TARGET_DEG or (el is not None and t_el is not None and abs(t_el - el) > OTHER_TARGET_DEG)
 
 
@@ -121,7 +121,7 @@ def _near(target: tuple[float, float | None], az: Any, el: Any) -> bool:
         return False
     t_az, t_el = target
     if t_el is None or el is None:
-        return abs((az - t_az + 180.0) % 360.0 - 180.0) <= AT_TARGET_DEG
+        return abs(wrap180_deg(az - t_az)) <= AT_TARGET_DEG
     return great_circle_1_deg(az, el, t_az, t_el) <= AT_TARGET_DEG
 
 

@@ -16,6 +16,8 @@ from typing import Any, Literal
 
 import numpy as np
 
+from ..angles import wrap180_deg
+
 
 @dataclass(frozen=True)
 class ScanPoint:
@@ -56,7 +58,7 @@ def offset_pose(az_deg: float, el_deg: float, dx_deg: float, dy_deg: float) -> t
 
 def pose_offset(az_deg: Any, el_deg: Any, target_az_deg: Any, target_el_deg: Any) -> tuple[Any, Any]:
     """(dx, dy) of poses from the target: :func:`offset_pose` inverted."""
-    daz = (np.asarray(az_deg) - np.asarray(target_az_deg) + 180.0) % 360.0 - 180.0
+    daz = wrap180_deg(np.asarray(az_deg) - np.asarray(target_az_deg))
     return daz * np.cos(np.radians(np.asarray(el_deg))), np.asarray(el_deg) - np.asarray(target_el_deg)
 
 

@@ -22,6 +22,7 @@ from ..model.effects import Effects
 from ..model.snapshot import Status
 from .base import RotatorPort
 from .single_axis import wire_el_axis, wire_el_deg
+from ..angles import wrap180_deg
 
 
 class PositionUnknown(CommandRejected):
@@ -51,7 +52,7 @@ def frame_offsets_deg(st: Status) -> tuple[float, float]:
     az_m, el_m = st.az.pos_deg, wire_el_axis(st).pos_deg
     el_off = ((180.0 - wire_el_deg(st)) if st.flipped else wire_el_deg(st)) - el_m
     az_sky_base = st.az_deg - 180.0 if st.flipped else st.az_deg
-    az_off = (az_sky_base - az_m + 180.0) % 360.0 - 180.0
+    az_off = wrap180_deg(az_sky_base - az_m)
     # a mount offset beyond +-180 deg: put the azimuth on the wrap turn the service says
     ext = az_m + az_off
     turns = math.floor(ext / 360.0)
@@ -111,7 +112,7 @@ def _is_target(asked: tuple[float, float], st: Status) -> bool:
     if st.target_az_deg is None or st.target_el_deg is None:
         return False
     az, el = _sky(*asked)
-    return abs((az - st.target_az_deg + 180.0) % 360.0 - 180.0) < 1e-6 and abs(el - st.target_el_deg) < 1e-6
+    return abs(wrap180_deg(az - st.target_az_deg)) < 1e-6 and abs(el - st.target_el_deg) < 1e-6
 
 
 def goto_named_axes(az_deg: float | None, el_deg: float | None) -> Effects[None]:

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from ..errors import ProtocolError
 from .lines import crlf_line as console
 from .numbers import DECIMAL, compass_tenths
+from ..angles import wrap180_deg
 
 EASYCOMM_EOL = b"\n"
 
@@ -128,7 +129,7 @@ def demo_line(az_set: float, el_set: float) -> bytes:
 
 def signed180(az_deg: float) -> float:
     """0..360 -> -180..180, the SARCNET controller's azimuth format."""
-    return (az_deg + 180.0) % 360.0 - 180.0
+    return wrap180_deg(az_deg)
 
 
 #: what ``c`` prints first. The document gives no prompt text (its screenshot is lost):

@@ -15,6 +15,7 @@ from ..errors import CommandRejected
 from .axis import AXES
 from .core import Core
 from ..model.settings import FIXED_EL_DEG, RotatorSettings
+from ..angles import wrap180_deg
 
 
 class Planner:
@@ -113,5 +114,5 @@ class Planner:
             z = getattr(self.core.axes[name].hw.sensor, "pointing_offset_deg", None)
             if isinstance(z, (int, float)) and math.isfinite(z) and z:
                 extra[f"{name}_offset_deg"] = getattr(settings, f"{name}_offset_deg") + \
-                    (float(z) + 180.0) % 360.0 - 180.0
+                    wrap180_deg(float(z))
         return replace(settings, **extra).geometry() if extra else settings.geometry()

@@ -13,7 +13,7 @@ from typing import Any, Callable, NamedTuple
 
 import numpy as np
 
-from ..angles import great_circle_deg
+from ..angles import great_circle_deg, wrap180_deg
 from ..clock import VirtualClock
 from ..rotator.loop import run_virtual
 
@@ -107,7 +107,7 @@ class GpredictDriver:
         el = max(el, 0.0)
         if self.flipped:
             az, el = (az + 180.0) % 360.0, 180.0 - el
-        if self.last is None or max(abs((az - self.last[0] + 180) % 360 - 180), abs(el - self.last[1])) > self.threshold:
+        if self.last is None or max(abs(wrap180_deg(az - self.last[0])), abs(el - self.last[1])) > self.threshold:
             try:
                 self.rot.goto(az, el)
                 self.last = (az, el)

@@ -18,6 +18,7 @@ from ..clock import VirtualClock
 from ..pointing.scan import ScanPlan, offset_pose, pose_offset
 from ..pointing.sources import SignalRefused
 from ..rotator.loop import run_virtual
+from ..angles import wrap180_deg
 
 
 @dataclass
@@ -50,7 +51,7 @@ def fly_scan(rot: Any, clock: VirtualClock, plan: ScanPlan, target: Any, source:
         rot.goto(az, el)
 
         def there(s: Any, az: float = az, el: float = el) -> bool:
-            daz = abs((s.az_deg - az + 180.0) % 360.0 - 180.0)
+            daz = abs(wrap180_deg(s.az_deg - az))
             return not s.moving and daz <= tol and abs(s.el_deg - el) <= tol
         run_virtual(rot, clock, max_slew_s, until=there)
         for _ in range(samples_per_point):

@@ -20,6 +20,7 @@ from .elements import Catalog, ElementSet
 from .errors import StationError, TargetError
 from .propagate import LookAngles, look_angles, moon_look_angles, sun_look_angles
 from .station import Station
+from ..angles import wrap180_deg
 
 __all__ = ["FixedTarget", "GeoPointTarget", "GeoReport", "MoonTarget", "NmeaTarget",
            "SatelliteTarget", "SunTarget", "Target", "parse_target"]
@@ -295,7 +296,7 @@ class NmeaTarget:
         u = float(sky.unix_s(t))
         az0, el0, _ = _look_at_point(self.station, self._predict_km(u - 0.5))
         az1, el1, _ = _look_at_point(self.station, self._predict_km(u + 0.5))
-        return (az1 - az0 + 180.0) % 360.0 - 180.0, el1 - el0
+        return wrap180_deg(az1 - az0), el1 - el0
 
 
 def _fix_time(tod, received_unix_s: float) -> float:

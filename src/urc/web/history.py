@@ -14,7 +14,7 @@ import threading
 from dataclasses import dataclass
 from typing import Any
 
-from ..angles import great_circle_1_deg
+from ..angles import great_circle_1_deg, wrap180_deg
 
 #: sample fields, in order (also the keys of the arrays the endpoint returns)
 FIELDS = ("t_wall_s", "az_deg", "el_deg", "target_az_deg", "target_el_deg", "error_deg",
@@ -34,7 +34,7 @@ def _round4(v: float | None) -> float | None:
 def pointing_error_deg(status: dict[str, Any]) -> float | None:
     taz, tel = setpoint(status)
     if taz is not None and status.get("el_deg") is None:  # azimuth only: the azimuth error
-        return abs((status["az_deg"] - taz + 180.0) % 360.0 - 180.0)
+        return abs(wrap180_deg(status["az_deg"] - taz))
     if taz is None or tel is None:
         return None
     return great_circle_1_deg(status["az_deg"], status["el_deg"], taz, tel)

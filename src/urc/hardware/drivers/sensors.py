@@ -15,6 +15,7 @@ from typing import Any, Literal, Sequence
 from ...caps import SensorCaps
 from ..parts import AdcChannel, As5600Part, PartError, PulseCounter, QuadratureCounter, Vector3
 from .motors import DirectionTracker
+from ...angles import wrap180_deg
 
 
 def wrap(v: float, modulo: float | None) -> float:
@@ -476,7 +477,7 @@ class CompassSensor(_Driver, AccelCalibration):
 
     def set_reference_deg(self, angle_deg: float) -> None:
         d = float(angle_deg) - self._heading()
-        self.offset_deg += (d + 180.0) % 360.0 - 180.0
+        self.offset_deg += wrap180_deg(d)
 
     def calibration(self) -> dict[str, Any]:
         return {"hard_iron_x": self.hard_iron_x, "hard_iron_y": self.hard_iron_y,

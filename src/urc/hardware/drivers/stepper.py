@@ -41,6 +41,7 @@ from ...caps import SensorCaps
 from ...errors import HardwareError, SensorError
 from .stepdir_chips import HOME_SNAP_FULL_STEPS, MAX_LIBRARY_TIMED_HZ, StepDirChip, pulse_times_us
 from ..parts import DigitalOut
+from ...angles import wrap180_deg
 
 #: the driver's acceleration envelope over the profile's ramp (see the module's text)
 ENVELOPE_ACCEL_FACTOR = 8.0
@@ -363,7 +364,7 @@ class StepCountSensor:
         if self._check_offset_deg is None:
             self._check_offset_deg = d
             return
-        err = (d - self._check_offset_deg + 180.0) % 360.0 - 180.0
+        err = wrap180_deg(d - self._check_offset_deg)
         if abs(err) > self.check_tol_deg:
             self.motor._lose(f"{self.name}: the step count and the absolute sensor differ by {err:+.2f} deg "
                              f"({round(err * self.motor.steps_per_deg):+d} steps lost); home the axis")
