@@ -129,7 +129,7 @@ LEAK_GRACE_S = 30.0   # a control process whose I/O process died stops its axes 
 
 
 def pytest_configure(config):
-    from urc.link.remote import STRICT_ENV
+    from urc.link.client import STRICT_ENV
     from urc_process import SUITE_MARK
 
     os.environ[SUITE_MARK] = f"{os.getpid()}-{uuid.uuid4().hex[:8]}"

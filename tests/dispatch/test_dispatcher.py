@@ -12,7 +12,7 @@ import pytest
 from urc.dispatch import Dispatcher, Invalid, NotSimulated, Stopped, TrackerFailed, TrackingOff
 from urc.errors import CommandRejected
 from urc.model import messages as msg
-from urc.link.remote import ControlUnavailable, StopQueued
+from urc.link.client import ControlUnavailable, StopQueued
 
 
 class Link:

@@ -23,7 +23,7 @@ from urc.model import messages
 from urc.model.messages import Goto, GotoPose, Reconfigure, Reply
 from urc.model import snapshot
 from urc.model.program import PassProgram
-from urc.link.remote import ControlUnavailable, StopQueued, exception_from_wire, exception_to_wire
+from urc.link.client import ControlUnavailable, StopQueued, exception_from_wire, exception_to_wire
 from urc_process import wait_until
 
 EXAMPLES = sorted((Path(__file__).resolve().parents[2] / "examples").glob("*.toml"))
@@ -256,15 +256,15 @@ def test_the_probes_import_nothing(tmp_path):
 
 
 def test_a_lookup_imports_nothing(tmp_path):
-    """allowed_class (exception_from_wire's too) only looks up: remote's exceptions are
-    found once remote is imported, never imported for the asking."""
+    """allowed_class (exception_from_wire's too) only looks up: the link client's
+    exceptions are found once it is imported, never imported for the asking."""
     code = ("import sys\n"
             "from urc.link import codec\n"
-            "assert 'urc.link.remote' not in sys.modules\n"
-            "assert codec.allowed_class('urc.link.remote', 'ControlUnavailable') is None\n"
-            "assert 'urc.link.remote' not in sys.modules\n"
-            "from urc.link.remote import ControlUnavailable\n"
-            "assert codec.allowed_class('urc.link.remote', 'ControlUnavailable') is ControlUnavailable\n"
+            "assert 'urc.link.client' not in sys.modules\n"
+            "assert codec.allowed_class('urc.link.client', 'ControlUnavailable') is None\n"
+            "assert 'urc.link.client' not in sys.modules\n"
+            "from urc.link.client import ControlUnavailable\n"
+            "assert codec.allowed_class('urc.link.client', 'ControlUnavailable') is ControlUnavailable\n"
             "for module, name in [('urc.api', 'create_api'), ('urc.__main__', 'main'), ('urc.tracking', 'Catalog'),\n"
             "                     ('urc.errors', 'UrcError.__class__'), ('urc.config.base', 'BaseModel')]:\n"
             "    assert codec.allowed_class(module, name) is None, (module, name)\n"

@@ -1,4 +1,4 @@
-"""The control process and the wire to it (urc.link.control_process, urc.link.remote):
+"""The control process and the wire to it (urc.link.control_process, urc.link.client):
 a real child process with the simulator, driven through the RemoteRotator the I/O
 process uses."""
 
@@ -17,7 +17,7 @@ import pytest
 from urc.errors import CommandRejected, ConfigError, UrcError
 from urc.model.messages import (ApplyCalibration, HardwareInfo, MotorDuties, SensorCalibrations, SensorCount, SimClear,
                               SimFault)
-from urc.link.remote import ControlUnavailable, exception_from_wire, exception_to_wire
+from urc.link.client import ControlUnavailable, exception_from_wire, exception_to_wire
 from urc_process import wait_until
 
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import asyncio
 import logging
+import os
 import socket
 import threading
 from multiprocessing.connection import Connection
@@ -13,7 +14,7 @@ from multiprocessing.connection import Connection
 import pytest
 
 from urc.link import codec
-from urc.link.remote import STRICT_ENV, ControlLink, ControlUnavailable
+from urc.link.client import STRICT_ENV, ControlLink, ControlUnavailable
 from urc.model.messages import Goto, Reply, Stop
 
 
@@ -23,11 +24,19 @@ def _peer(conn: Connection, answered: list[str]) -> None:
     while True:
         try:
             kind, env = codec.loads(conn.recv_bytes())
-        except (EOFError, OSError, TypeError):  # (TypeError: its end closed by the test meanwhile)
+        except (EOFError, OSError):
             return
         if kind == "request":
             answered.append(type(env.request).__name__)
             conn.send_bytes(codec.dumps(("reply", Reply(env.rid, "value", len(answered), None))))
+
+
+def _hang_up(conn: Connection) -> None:
+    """The control process's end goes away: shut down (which wakes the peer thread's
+    read, as a close from another thread does not), then closed."""
+    with socket.socket(fileno=os.dup(conn.fileno())) as sock:
+        sock.shutdown(socket.SHUT_RDWR)
+    conn.close()
 
 
 @pytest.fixture
@@ -40,7 +49,8 @@ def linked():
     conn = Connection(ours.detach())
     yield conn, peer, answered
     conn.close()
-    peer.close()
+    if not peer.closed:
+        _hang_up(peer)
 
 
 def test_the_loop_reads_the_link_and_no_thread_does(linked):
@@ -70,7 +80,7 @@ def test_a_blocking_call_on_the_reading_loop_reads_its_own_reply(linked, monkeyp
         value = link.call(Goto(1.0, 2.0))
         assert loop.time() - t0 < 1.0
         return value
-    with caplog.at_level(logging.ERROR, logger="urc.link.remote"):
+    with caplog.at_level(logging.ERROR, logger="urc.link.client"):
         assert asyncio.run(main()) == 1
     assert "blocks the event loop" in caplog.text
 
@@ -82,10 +92,10 @@ def test_the_peer_gone_fails_what_waits_and_ends_the_link(linked):
     async def main() -> None:
         loop = asyncio.get_running_loop()
         link = ControlLink(conn, on_lost=lost.append).start(loop)
-        peer_conn.close()   # (the control process dies: its end closes)
+        _hang_up(peer_conn)   # (the control process dies: its end closes)
         with pytest.raises(ControlUnavailable, match="gone"):
             await link.submit(Stop(), timeout_s=5.0)
-        await asyncio.wait_for(asyncio.to_thread(link.finished.wait), 2.0)
+        assert await asyncio.to_thread(link.finished.wait, 2.0)
         assert link.lost and lost == [link.lost]
         with pytest.raises(ControlUnavailable, match="gone"):   # and later requests fail at once
             await link.submit(Goto(1.0, 2.0))
@@ -113,4 +123,30 @@ def test_a_stray_status_and_garbage_between_replies_are_taken_in_stride(linked):
         peer_conn.send_bytes(codec.dumps(("stopped", {"saved": True})))
         assert await link.submit(Goto(1.0, 2.0)) == 1
         assert link.final == {"saved": True} and not link.lost
+    asyncio.run(main())
+
+
+def test_a_callback_request_is_answered_where_its_reply_is_read_and_never_inside_the_call(linked):
+    """``submit_then`` (a protocol session's request): the callback runs from the reader
+    that read the reply; an answer known at once (the link lost) comes in a loop round of
+    its own, never inside the call that made the request (a session's step would run
+    inside its own step)."""
+    conn, peer_conn, _answered = linked
+
+    async def main() -> None:
+        loop = asyncio.get_running_loop()
+        link = ControlLink(conn).start(loop)
+        got = loop.create_future()
+        link.submit_then(Goto(1.0, 2.0), lambda value, error: got.set_result((value, error)))
+        assert await asyncio.wait_for(got, 2.0) == (1, None)
+        _hang_up(peer_conn)
+        assert await asyncio.to_thread(link.finished.wait, 2.0)
+        inside = [True]
+        answers: list = []
+        link.submit_then(Goto(1.0, 2.0), lambda value, error: answers.append((inside[0], value, error)))
+        inside[0] = False
+        await asyncio.sleep(0)
+        await asyncio.sleep(0)
+        (was_inside, value, error), = answers
+        assert not was_inside and value is None and isinstance(error, ControlUnavailable)
     asyncio.run(main())

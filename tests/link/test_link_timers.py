@@ -17,7 +17,7 @@ from urc.link import codec
 from urc.model.messages import Goto, Reply, Stop
 import pytest
 
-from urc.link.remote import SWEEP_S, ControlLink, ControlUnavailable
+from urc.link.client import SWEEP_S, ControlLink, ControlUnavailable
 
 
 def _answering_peer(conn: Connection) -> None:

@@ -8,7 +8,8 @@ import dataclasses
 import pytest
 
 from urc.clock import RealClock
-from urc.link.remote import MOVING_STATUS_STALE_S, STATUS_STALE_S, ControlUnavailable, RemoteRotator
+from urc.link.client import ControlUnavailable
+from urc.link.remote import MOVING_STATUS_STALE_S, STATUS_STALE_S, RemoteRotator
 
 
 class _Link:

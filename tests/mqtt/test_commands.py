@@ -166,7 +166,7 @@ def test_a_queued_stop_is_answered_as_before():
     import asyncio
 
     from urc.mqtt.commands import CommandHandler
-    from urc.link.remote import StopQueued
+    from urc.link.client import StopQueued
 
     class Held(_Rotator):
         def stop(self, *args):

@@ -190,7 +190,7 @@ def answer(b, request, tick=True):
     from urc.link import codec
     from urc.model.messages import Envelope
     from urc.link.control_process import ControlServer
-    from urc.link.remote import exception_from_wire
+    from urc.link.client import exception_from_wire
 
     class Conn:
         def __init__(self):

@@ -760,7 +760,7 @@ def test_a_tracker_that_fails_to_stop_leaves_the_rotator_stopped_and_is_a_409(ma
 
 def test_a_stop_the_rotator_refuses_still_stops_the_tracker(make_client):
     """The link down: the 409 says why, and the tracker must not go on commanding."""
-    from urc.link.remote import ControlUnavailable
+    from urc.link.client import ControlUnavailable
 
     trk = FakeTracker()
     c = make_client(tracker=trk)

@@ -35,7 +35,7 @@ from ..model.messages import SimClear as SimClearQuery
 from ..model.messages import SimFault as SimFaultQuery
 from ..model.effects import call
 from ..model.effects import ask
-from ..link.remote import StopQueued
+from ..link.client import StopQueued
 from .bodies import (
     AxisRequest,
     GotoRequest,

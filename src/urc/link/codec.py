@@ -13,7 +13,7 @@ module). Anything else fails to load (``pickle.UnpicklingError``). Pickle itself
 it is C, and a Status goes across a hundred times a second.
 
 Two kinds of names are resolved on first use instead, each from a closed list in this
-module: urc.link.remote's exceptions (that module imports this one; they are taken
+module: urc.link.client's exceptions (that module imports this one; they are taken
 from it once it has been imported, never imported from here) and numpy's names in a
 pickled array or scalar (numpy is imported only when one of those exact names arrives:
 the I/O process loads numpy only if it uses it).
@@ -52,10 +52,10 @@ _MODULES: tuple[ModuleType, ...] = (
     errors, parts, instance,                            # urc's exceptions (exception_from_wire)
 )
 
-#: urc.link.remote's exceptions: remote imports this module, so they are taken from
+#: urc.link.client's exceptions: client imports this module, so they are taken from
 #: it (sys.modules) on first use, never imported from here
 _LATER: frozenset[tuple[str, str]] = frozenset({
-    ("urc.link.remote", "ControlUnavailable"), ("urc.link.remote", "StopQueued")})
+    ("urc.link.client", "ControlUnavailable"), ("urc.link.client", "StopQueued")})
 
 #: standard types a message may hold besides containers of plain values
 _STDLIB_TYPES: tuple[type, ...] = (
@@ -125,10 +125,10 @@ def _resolve_later(key: tuple[str, str]) -> Any:
         if key in _NUMPY_NAMES:
             _REGISTRY.update(_numpy_names())
             return _REGISTRY.get(key)
-        remote = sys.modules.get("urc.link.remote")
-        cls = getattr(remote, key[1], None) if remote is not None else None
+        client = sys.modules.get("urc.link.client")
+        cls = getattr(client, key[1], None) if client is not None else None
         if not (isinstance(cls, type) and issubclass(cls, BaseException)):
-            return None  # (remote not imported, or still importing: not kept, asked again later)
+            return None  # (client not imported, or still importing: not kept, asked again later)
         _REGISTRY[key] = cls
         return cls
 

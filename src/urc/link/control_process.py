@@ -58,8 +58,9 @@ from . import adoption
 from .instance import mark_adoptable, mark_stopping, skip_exit_collection
 from ..rotator.loop import ControlThread, WatchdogPing, settle
 from ..rotator.queries import handle as handle_query
-from .remote import (CALL_TIMEOUT_S, ControlLink, ControlUnavailable, RemoteRotator, exception_from_wire,
-                     exception_to_wire, travels)
+from .client import (CALL_TIMEOUT_S, ControlLink, ControlUnavailable, exception_from_wire, exception_to_wire,
+                     travels)
+from .remote import RemoteRotator
 
 log = logging.getLogger(__name__)
 

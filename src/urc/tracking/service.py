@@ -10,7 +10,7 @@ from pathlib import Path
 from typing import Any, Callable
 
 from ..config import Config
-from ..link.remote import on_event_loop
+from ..link.client import on_event_loop
 from .catalog_process import read_catalog
 from .elements import Catalog, ElementSet
 from .errors import TrackingError
