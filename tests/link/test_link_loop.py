@@ -150,3 +150,21 @@ def test_a_callback_request_is_answered_where_its_reply_is_read_and_never_inside
         (was_inside, value, error), = answers
         assert not was_inside and value is None and isinstance(error, ControlUnavailable)
     asyncio.run(main())
+
+
+def test_a_blocking_call_on_the_reading_loop_that_nobody_answers_waits_its_bound_once(monkeypatch):
+    monkeypatch.delenv(STRICT_ENV, raising=False)
+    ours, theirs = socket.socketpair()   # (the peer reads nothing and answers nothing)
+
+    async def main() -> float:
+        link = ControlLink(Connection(ours.detach())).start(asyncio.get_running_loop())
+        loop = asyncio.get_running_loop()
+        t0 = loop.time()
+        with pytest.raises(ControlUnavailable, match="did not answer within 0.3 s"):
+            link.call(Goto(1.0, 2.0), timeout_s=0.3)
+        link.conn.close()
+        return loop.time() - t0
+    try:
+        assert 0.3 <= asyncio.run(main()) < 0.55
+    finally:
+        theirs.close()

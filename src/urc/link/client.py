@@ -277,7 +277,10 @@ class ControlLink:
         assert pending.done is not None
         if on_loop is not None and on_loop is self._loop:  # (the reader is this very thread)
             self._pump(pending, timeout_s)
-        if not pending.done.wait(timeout_s):
+            answered = pending.done.is_set()
+        else:
+            answered = pending.done.wait(timeout_s)
+        if not answered:
             self._expire(pending)
         assert pending.reply is not None
         return self._outcome(request, pending.reply)
