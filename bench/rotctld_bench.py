@@ -9,13 +9,18 @@ simultaneous connections (how many were accepted and answered). For urc also the
 loop's tick lateness p99 idle and under the 32-client load (from its status).
 Prints a table with urc/Hamlib ratios, writes JSON (default bench/results/rotctld.json).
 
+All the servers run side by side for the whole run and are measured in alternating
+rounds (``--rounds``: each round measures every server once, in a rotated order), so a
+ratio compares the same minutes of the machine: on a shared VM the floor's own ``P``
+median moved 0.10-0.28 ms between runs measured one after the other.
+
 urc runs the simulator with ``--profile`` (default tartu-urc). On a profile whose axes
 need a state record ahead of motion (incremental sensors: tartu-urc, satnogs-v3, bigras)
 a ``P`` from standing answers only once the next tick has applied it and its first
 record is on disk (issue 36.19): up to a tick (20 ms) plus a write; while the antenna
 drives with its newest record on disk a ``P`` answers at once. g5500 (potentiometers)
 needs no record: its ``P`` is the link's round trip alone.
-Usage: python bench/rotctld_bench.py [--seconds 3] [--profile NAME] [--json PATH]
+Usage: python bench/rotctld_bench.py [--seconds 3] [--rounds 3] [--profile NAME] [--json PATH]
 """
 
 from __future__ import annotations
@@ -112,9 +117,10 @@ def burst(port: int, n: int = BURST) -> dict:
     return {"connections": n, "answered": ok[0], "seconds": time.perf_counter() - t0}
 
 
-def set_round_trip(port: int, n: int = 400) -> dict:
+def set_round_trip(port: int, n: int = 400) -> list[float]:
     """One client sends ``P`` (set_pos) and waits for its ``RPRT 0``, n times, between
-    two nearby poses: on urc every one is a command to the control process and back."""
+    two nearby poses: on urc every one is a command to the control process and back.
+    The round trips in seconds."""
     rtts: list[float] = []
     with socket.create_connection(("127.0.0.1", port), timeout=10) as sock:
         sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
@@ -133,61 +139,88 @@ def set_round_trip(port: int, n: int = 400) -> dict:
             buf = bytearray(rest)
             if reply != b"RPRT 0":
                 raise RuntimeError(f"P answered {reply!r}")
-    rtts.sort()
-    return {"requests": n, "median_ms": 1000 * statistics.median(rtts), "p99_ms": 1000 * rtts[int(0.99 * (n - 1))]}
+    return rtts
 
 
-def measure(port: int, seconds: float) -> dict:
-    return {"load": [load(port, c, seconds) for c in CLIENTS], "burst": burst(port), "set": set_round_trip(port)}
+def set_round_trips(ports: dict[str, int], rounds: int, n: int = 1200) -> dict[str, dict]:
+    """``set_round_trip`` on every server, ``n`` sets each in all, in ``rounds`` rounds
+    whose order rotates: their medians compare the same minutes of the machine."""
+    rtts: dict[str, list[float]] = {name: [] for name in ports}
+    names = list(ports)
+    for r in range(rounds):
+        for name in names[r % len(names):] + names[:r % len(names)]:
+            rtts[name] += set_round_trip(ports[name], max(n // rounds, 50))
+    out = {}
+    for name, values in rtts.items():
+        values.sort()
+        out[name] = {"requests": len(values), "median_ms": 1000 * statistics.median(values),
+                     "p99_ms": 1000 * values[int(0.99 * (len(values) - 1))]}
+    return out
+
+
+def loads(ports: dict[str, int], clients: int, seconds: float, rounds: int) -> dict[str, dict]:
+    """``load`` on every server in ``rounds`` alternating rounds of ``seconds / rounds``;
+    throughput over them all, the median of the rounds' medians, their largest p99."""
+    runs: dict[str, list[dict]] = {name: [] for name in ports}
+    names = list(ports)
+    for r in range(rounds):
+        for name in names[r % len(names):] + names[:r % len(names)]:
+            runs[name].append(load(ports[name], clients, seconds / rounds))
+    out = {}
+    for name, got in runs.items():
+        requests = sum(g["requests"] for g in got)
+        out[name] = {"clients": clients, "requests": requests, "rounds": rounds,
+                     "throughput_per_s": requests / sum(g["requests"] / g["throughput_per_s"] if g["requests"]
+                                                        else seconds / rounds for g in got),
+                     "median_ms": statistics.median(g["median_ms"] for g in got),
+                     "p99_ms": max(g["p99_ms"] for g in got), "errors": sum(g["errors"] for g in got),
+                     "generator": "bench/rotctl_load.c"}
+    return out
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--seconds", type=float, default=3.0, help="per load level")
+    ap.add_argument("--seconds", type=float, default=3.0, help="per load level and server")
+    ap.add_argument("--rounds", type=int, default=3, help="alternating rounds per measurement")
     ap.add_argument("--profile", default="tartu-urc", help="urc's profile (simulated)")
     ap.add_argument("--json", default="bench/results/rotctld.json")
     args = ap.parse_args()
     rotctld = shutil.which("rotctld")
     if rotctld is None:
         sys.exit("Hamlib's rotctld is needed as the reference (apt-get install libhamlib-utils)")
-    results: dict = {"profile": args.profile}
-    hport = free_port()
-    hamlib = subprocess.Popen([rotctld, "-m", "1", "-T", "127.0.0.1", "-t", str(hport)],
-                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    try:
-        wait_port(hport)
-        results["hamlib"] = measure(hport, args.seconds)
-    finally:
-        hamlib.terminate()
-        hamlib.wait()
-    for mode in ("thread", "loop"):
-        fport = free_port()
-        floor = subprocess.Popen([sys.executable, str(Path(__file__).with_name("link_floor.py")), str(fport), mode])
-        try:
-            wait_port(fport)
-            results[f"floor_{mode}"] = {"set": set_round_trip(fport)}
-        finally:
-            floor.terminate()
-            floor.wait()
+    results: dict = {"profile": args.profile, "rounds": args.rounds}
+    ports = {name: free_port() for name in ("hamlib", "floor_thread", "floor_loop", "urc")}
+    procs = [subprocess.Popen([rotctld, "-m", "1", "-T", "127.0.0.1", "-t", str(ports["hamlib"])],
+                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)]
+    procs += [subprocess.Popen([sys.executable, str(Path(__file__).with_name("link_floor.py")),
+                                str(ports[f"floor_{mode}"]), mode]) for mode in ("thread", "loop")]
     with tempfile.TemporaryDirectory() as tmp:
-        uport = free_port()
         urc = UrcProcess(Path(tmp), profile=args.profile,
-                         serve=[{"protocol": "rotctld", "tcp": f"127.0.0.1:{uport}"}]).start()
+                         serve=[{"protocol": "rotctld", "tcp": f"127.0.0.1:{ports['urc']}"}]).start()
         try:
-            wait_port(uport)
+            for port in ports.values():
+                wait_port(port)
             time.sleep(12.0)  # let the lateness window (last 500 ticks = 10 s) fill idle
             idle_late = urc.status()["tick_late_p99_ms"]
-            results["urc"] = measure(uport, args.seconds)
+            sets = set_round_trips(ports, args.rounds)
+            servers = {name: ports[name] for name in ("hamlib", "urc")}
+            levels = [loads(servers, c, args.seconds, args.rounds) for c in CLIENTS]
+            for name in servers:
+                results[name] = {"load": [level[name] for level in levels], "burst": burst(ports[name]),
+                                 "set": sets[name]}
+            for mode in ("thread", "loop"):
+                results[f"floor_{mode}"] = {"set": sets[f"floor_{mode}"]}
             results["urc"]["tick_late_p99_ms_idle"] = idle_late
-            # lateness under load: 32 clients hammering while we sample
-            t = threading.Thread(target=load, args=(uport, 32, 10.0))
-            t.start()
-            t.join()
+            load(ports["urc"], 32, 10.0)  # lateness under load: 32 clients hammering
             results["urc"]["tick_late_p99_ms_loaded"] = urc.status()["tick_late_p99_ms"]
         finally:
             urc.stop()
+            for proc in procs:
+                proc.terminate()
+                proc.wait()
 
-    print(f"\nrotctld `p` round trip and throughput (localhost, {args.seconds:g} s per level)")
+    print(f"\nrotctld `p` round trip and throughput (localhost, {args.seconds:g} s per level and server, "
+          f"{args.rounds} alternating rounds)")
     print(f"{'clients':>7s} | {'urc med ms':>10s} {'p99 ms':>7s} {'req/s':>8s} | {'hamlib med':>10s} "
           f"{'p99 ms':>7s} {'req/s':>8s} | {'thr ratio':>9s} {'med ratio':>9s}")
     for u, h in zip(results["urc"]["load"], results["hamlib"]["load"]):
