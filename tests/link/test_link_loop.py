@@ -1,6 +1,10 @@
-"""The I/O process's end of the link read by its event loop (``ControlLink.start(loop)``):
-no reader thread, a reply settles its request where it is read, and the cases a thread
-never had to think of (a blocking call made on that very loop, the peer gone)."""
+"""The I/O process's end of the link on its event loop (``ControlLink.start(loop)``): no
+reader thread, a reply settles its request where it is read, the cases a thread never
+had to think of (a blocking call made on that very loop, the peer gone), and the bound on
+a request's wait: one timer per loop, however many requests wait (each awaited request
+armed a CALL_TIMEOUT_S bound with call_later and never took it back, so at a thousand
+rotctld sets a second six thousand timers sat in the loop's heap; then a timer each,
+cancelled on the answer: a heap push and pop per set)."""
 
 from __future__ import annotations
 
@@ -14,7 +18,7 @@ from multiprocessing.connection import Connection
 import pytest
 
 from urc.link import codec
-from urc.link.client import STRICT_ENV, ControlLink, ControlUnavailable
+from urc.link.client import STRICT_ENV, SWEEP_S, ControlLink, ControlUnavailable
 from urc.model.messages import Goto, Reply, Stop
 
 
@@ -166,5 +170,41 @@ def test_a_blocking_call_on_the_reading_loop_that_nobody_answers_waits_its_bound
         return loop.time() - t0
     try:
         assert 0.3 <= asyncio.run(main()) < 0.55
+    finally:
+        theirs.close()
+
+
+def _expiry_timers(loop: asyncio.AbstractEventLoop, link: ControlLink) -> list:
+    return [h for h in loop._scheduled  # type: ignore[attr-defined]
+            if not h.cancelled() and getattr(h._callback, "__self__", None) is link]
+
+
+def test_answered_requests_leave_no_timer_on_the_loop(linked):
+    conn, _peer_conn, _answered = linked
+
+    async def main() -> tuple[int, list]:
+        link = ControlLink(conn).start(asyncio.get_running_loop())
+        values = await asyncio.gather(*(link.submit(Stop(), timeout_s=60.0) for _ in range(20)))
+        assert sorted(values) == list(range(1, 21))
+        armed = len(_expiry_timers(asyncio.get_running_loop(), link))
+        await asyncio.sleep(3 * SWEEP_S)
+        return armed, _expiry_timers(asyncio.get_running_loop(), link)
+    armed, left = asyncio.run(main())
+    assert armed <= 1 and left == []   # (20 of them, each due in 60 s, before)
+
+
+def test_a_request_nobody_answers_is_answered_no_answer_after_its_bound():
+    ours, theirs = socket.socketpair()   # (the peer reads nothing and answers nothing)
+
+    async def main() -> float:
+        link = ControlLink(Connection(ours.detach())).start(asyncio.get_running_loop())
+        loop = asyncio.get_running_loop()
+        t0 = loop.time()
+        with pytest.raises(ControlUnavailable, match="did not answer within 0.3 s"):
+            await link.submit(Goto(10.0, 20.0), timeout_s=0.3)
+        link.conn.close()
+        return loop.time() - t0
+    try:
+        assert 0.3 <= asyncio.run(main()) < 0.3 + 3 * SWEEP_S
     finally:
         theirs.close()
