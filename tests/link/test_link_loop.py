@@ -156,24 +156,6 @@ def test_a_callback_request_is_answered_where_its_reply_is_read_and_never_inside
     asyncio.run(main())
 
 
-def test_a_blocking_call_on_the_reading_loop_that_nobody_answers_waits_its_bound_once(monkeypatch):
-    monkeypatch.delenv(STRICT_ENV, raising=False)
-    ours, theirs = socket.socketpair()   # (the peer reads nothing and answers nothing)
-
-    async def main() -> float:
-        link = ControlLink(Connection(ours.detach())).start(asyncio.get_running_loop())
-        loop = asyncio.get_running_loop()
-        t0 = loop.time()
-        with pytest.raises(ControlUnavailable, match="did not answer within 0.3 s"):
-            link.call(Goto(1.0, 2.0), timeout_s=0.3)
-        link.conn.close()
-        return loop.time() - t0
-    try:
-        assert 0.3 <= asyncio.run(main()) < 0.55
-    finally:
-        theirs.close()
-
-
 def _expiry_timers(loop: asyncio.AbstractEventLoop, link: ControlLink) -> list:
     return [h for h in loop._scheduled  # type: ignore[attr-defined]
             if not h.cancelled() and getattr(h._callback, "__self__", None) is link]
@@ -193,7 +175,11 @@ def test_answered_requests_leave_no_timer_on_the_loop(linked):
     assert armed <= 1 and left == []   # (20 of them, each due in 60 s, before)
 
 
-def test_a_request_nobody_answers_is_answered_no_answer_after_its_bound():
+@pytest.mark.parametrize("how", ["awaited", "blocking on the reading loop"])
+def test_a_request_nobody_answers_is_answered_no_answer_after_its_bound_once(how, monkeypatch):
+    """Awaited: the loop's sweep answers it. Blocking (a bug, logged), on the loop that
+    reads the link: it pumps the socket for its bound, and waits no longer."""
+    monkeypatch.delenv(STRICT_ENV, raising=False)
     ours, theirs = socket.socketpair()   # (the peer reads nothing and answers nothing)
 
     async def main() -> float:
@@ -201,10 +187,13 @@ def test_a_request_nobody_answers_is_answered_no_answer_after_its_bound():
         loop = asyncio.get_running_loop()
         t0 = loop.time()
         with pytest.raises(ControlUnavailable, match="did not answer within 0.3 s"):
-            await link.submit(Goto(10.0, 20.0), timeout_s=0.3)
+            if how == "awaited":
+                await link.submit(Goto(10.0, 20.0), timeout_s=0.3)
+            else:
+                link.call(Goto(10.0, 20.0), timeout_s=0.3)
         link.conn.close()
         return loop.time() - t0
     try:
-        assert 0.3 <= asyncio.run(main()) < 0.3 + 3 * SWEEP_S
+        assert 0.3 <= asyncio.run(main()) < 0.3 + 2.5 * SWEEP_S
     finally:
         theirs.close()
