@@ -184,8 +184,8 @@ def test_moving_commands_are_refused_while_the_state_cannot_be_saved(bench, how)
 
 def answer(b, request, tick=True):
     """What the control process replies to ``request``: ControlServer._answer on a
-    thread of its own (as its command thread), while this one ticks the bench's loop
-    on virtual time (``tick=False``: no tick, the reply must not wait for one). Returns
+    thread of its own (as the control process's reading thread runs it), while this one
+    ticks the bench's loop on virtual time (``tick=False``: no tick, the reply must not wait for one). Returns
     the reply's value or raises its error."""
     from urc.link import codec
     from urc.model.messages import Envelope
@@ -252,7 +252,7 @@ def test_the_first_goto_after_the_disk_fails_standing_is_refused_not_answered_ok
 
 def test_a_gotos_reply_comes_once_its_first_record_is_on_disk(bench, monkeypatch):
     """The reply to a goto from standing waits for the record written ahead of its
-    motion (off the tick, in the command thread); a card slower than
+    motion (off the tick, on the thread that runs the command); a card slower than
     FIRST_RECORD_WAIT_S gets an ok all the same, and the goto flies once its record
     lands. A status read never waits."""
     from urc.model.messages import Goto, OvershootQuery
