@@ -339,7 +339,8 @@ class ControlLink:
         cancelled per request, was a heap push and pop per rotctld P)."""
         del self._sweeps[loop]
         now_s = time.monotonic()
-        waiting = [p for p in self._pending.values() if p.loop is loop]
+        # (a copy first, made in one C call: a thread's call may add to the table meanwhile)
+        waiting = [p for p in tuple(self._pending.values()) if p.loop is loop]
         for pending in waiting:
             if pending.expires_s <= now_s:
                 self._expire(pending)
