@@ -193,7 +193,7 @@ def test_the_command_thread_outlives_a_reply_that_cannot_be_sent(tmp_path):
     server = ControlServer(Conn(), None, tmp_path, [])
     server.rot = Rot()
     for rid in (1, 2):
-        server._run_command(Envelope(rid, None, OvershootQuery("az")))
+        server._run_command(Envelope(rid, None, OvershootQuery("az")), server.conn)
     (first, second) = (reply for _, reply in server.conn.sent)
     assert (first.rid, first.outcome) == (1, "error") and "pickle" in first.value[4]
     assert (second.rid, second.outcome, second.value) == (2, "value", 42)
@@ -361,7 +361,7 @@ def test_a_goto_reply_carries_no_status_the_record_and_socket_already_gave(bench
         server.rot = rot = Rot()
 
         def goto_reply(rid):
-            server._run_command(Envelope(rid, None, Goto(10.0, 20.0)))
+            server._run_command(Envelope(rid, None, Goto(10.0, 20.0)), server.conn)
             kind, reply = server.conn.sent[-1]
             assert kind == "reply" and reply.rid == rid and reply.outcome == "value"
             return reply
@@ -378,57 +378,173 @@ def test_a_goto_reply_carries_no_status_the_record_and_socket_already_gave(bench
         record.close()
 
 
-def test_commands_run_on_the_reading_thread_and_a_long_one_is_no_silence(tmp_path):
-    """The control process runs each command on the thread that read it (no hand-off to
-    a command thread: tens of microseconds of every set's round trip). While a command
-    runs, the I/O process's messages wait unread: that is not the I/O process falling
-    silent (which stops open-ended motion). A silence after it still is."""
+class _SlowRot:
+    """A control process's rotator whose OvershootQuery takes ``slow_s``."""
+
+    def __init__(self, slow_s: float):
+        self.slow_s = slow_s
+        self.stops: list[str] = []
+        self.ran_on: list[int] = []
+
+    def overshoot_deg(self, axis):
+        self.ran_on.append(threading.get_ident())
+        time.sleep(self.slow_s)
+        return 0.5
+
+    def motion_ticket(self):
+        return None
+
+    def status(self):
+        return None
+
+    def stop_open_ended(self, why):
+        self.stops.append(why)
+
+
+@pytest.fixture
+def serving(tmp_path):
+    """``serving(slow_s) -> (server, io_side, serve thread, its outcome)``: a ControlServer's
+    watch (``_serve``, as in the control process's main thread) and reading thread over a
+    socket pair, with a rotator whose OvershootQuery takes ``slow_s``."""
     from multiprocessing.connection import Connection
+    from types import SimpleNamespace
 
-    from urc.link import codec
-    from urc.link.control_process import IO_SILENT_S, ControlServer
-    from urc.model.messages import Envelope, OvershootQuery
+    from urc.link.control_process import ControlServer
 
-    stops: list[str] = []
-    ran_on: list[int] = []
+    made = []
 
-    class Rot:
-        def overshoot_deg(self, axis):
-            ran_on.append(threading.get_ident())
-            time.sleep(IO_SILENT_S + 0.6)
-            return 0.5
-
-        def motion_ticket(self):
-            return None
-
-        def status(self):
-            return None
-
-        def stop_open_ended(self, why):
-            stops.append(why)
-    ours, theirs = socket.socketpair()
-    io_side = Connection(ours.detach())
-    server = ControlServer(Connection(theirs.detach()), None, tmp_path, [])
-    server.rot = Rot()
-    server._heard_s = time.monotonic()
-    reader = threading.Thread(target=server._read_and_run, args=(server.conn,), daemon=True)
-    reader.start()
-    try:
-        io_side.send_bytes(codec.dumps(("request", Envelope(1, None, OvershootQuery("az")))))
-        for _ in range(3):   # (pings sent meanwhile wait behind the command)
-            time.sleep(0.2)
-            io_side.send_bytes(codec.dumps(("ping",)))
-        assert io_side.poll(5.0)
-        kind, reply = codec.loads(io_side.recv_bytes())
-        assert (kind, reply.rid, reply.outcome, reply.value) == ("reply", 1, "value", 0.5)
-        assert ran_on == [reader.ident] and stops == []
-        time.sleep(IO_SILENT_S / 2)
-        assert stops == []   # (its pings were read after it: the I/O process was never silent)
-        wait_until(lambda: stops, 3 * IO_SILENT_S, "a real silence after the command stops open-ended motion")
-        assert len(stops) == 1 and "silent" in stops[0]
-        io_side.send_bytes(codec.dumps(("stop",)))
-        reader.join(2.0)
-        assert not reader.is_alive() and server._read_end == "asked to stop"
-    finally:
+    def make(slow_s: float):
+        ours, theirs = socket.socketpair()
+        io_side = Connection(ours.detach())
+        server = ControlServer(Connection(theirs.detach()), None, tmp_path, [])
+        server.rot = _SlowRot(slow_s)
+        server.control = SimpleNamespace(alive=True, error=None)
+        server._heard_s = time.monotonic()
+        outcome: list[str] = []
+        watch = threading.Thread(target=lambda: outcome.append(server._serve()), daemon=True)
+        watch.start()
+        made.append((server, io_side))
+        return server, io_side, watch, outcome
+    yield make
+    for server, io_side in made:
         io_side.close()
         server.conn.close()
+
+
+def _send(conn, msg) -> None:
+    from urc.link import codec
+    conn.send_bytes(codec.dumps(msg))
+
+
+def _reply(conn, timeout_s: float = 5.0):
+    from urc.link import codec
+    assert conn.poll(timeout_s), "no reply"
+    kind, reply = codec.loads(conn.recv_bytes())
+    assert kind == "reply"
+    return reply
+
+
+def test_commands_run_on_the_reading_thread_and_a_long_one_is_no_silence(serving):
+    """The control process runs each command on the thread that read it (no hand-off to
+    a command thread: tens of microseconds of every set's round trip). While a command
+    runs long the main thread reads on behind it: the I/O process's pings say it is alive
+    (no silence stop, systemd's watchdog fed). A silence after it still stops open-ended
+    motion."""
+    from urc.link.control_process import IO_SILENT_S
+    from urc.model.messages import Envelope, OvershootQuery
+
+    server, io_side, watch, outcome = serving(IO_SILENT_S + 0.6)
+    reader = next(t for t in threading.enumerate() if t.name == "urc-commands")
+    _send(io_side, ("request", Envelope(1, None, OvershootQuery("az"))))
+    alive_meanwhile = []
+    for _ in range(6):
+        time.sleep(0.2)
+        _send(io_side, ("ping",))
+        alive_meanwhile.append(server._io_alive())
+    reply = _reply(io_side)
+    assert (reply.rid, reply.outcome, reply.value) == (1, "value", 0.5)
+    assert server.rot.ran_on == [reader.ident] and server.rot.stops == [] and all(alive_meanwhile)
+    time.sleep(IO_SILENT_S / 2)
+    assert server.rot.stops == []
+    wait_until(lambda: server.rot.stops, 3 * IO_SILENT_S, "a real silence after the command stops open-ended motion")
+    assert len(server.rot.stops) == 1 and "silent" in server.rot.stops[0] and not server._io_alive()
+    _send(io_side, ("stop",))
+    watch.join(2.0)
+    assert outcome == ["asked to stop"]
+
+
+def test_behind_a_long_command_the_socket_is_drained_in_order_and_a_stop_begins_at_once(serving):
+    """Nothing else read the socket while a command ran: the I/O process's pings and
+    requests filled it, and then its event loop blocked in a write. And a stop asked
+    meanwhile waited for the command to end."""
+    from urc.link import codec
+    from urc.model.messages import Envelope, OvershootQuery
+
+    server, io_side, watch, outcome = serving(3.0)
+    _send(io_side, ("request", Envelope(1, None, OvershootQuery("az"))))
+    time.sleep(0.2)
+    server.rot.slow_s = 0.0
+    with socket.socket(fileno=os.dup(io_side.fileno())) as sock:
+        sock.settimeout(2.0)   # (a write that would block is an error here)
+        frame = lambda msg: (lambda data: len(data).to_bytes(4, "big") + data)(codec.dumps(msg))  # noqa: E731
+        for _ in range(20_000):   # (some 500 kB of pings: more than the socket holds)
+            sock.sendall(frame(("ping",)))
+        for rid in (2, 3):
+            sock.sendall(frame(("request", Envelope(rid, None, OvershootQuery("az")))))
+    assert [_reply(io_side).rid for _ in range(3)] == [1, 2, 3]
+    server.rot.slow_s = 3.0
+    _send(io_side, ("request", Envelope(4, None, OvershootQuery("az"))))
+    time.sleep(1.0)
+    t0 = time.monotonic()
+    _send(io_side, ("stop",))
+    watch.join(2.0)
+    assert outcome == ["asked to stop"] and time.monotonic() - t0 < 1.0   # (its command still runs)
+
+
+def test_what_is_no_message_is_dropped_and_the_reading_goes_on(serving, caplog):
+    from urc.model.messages import Envelope, OvershootQuery
+
+    server, io_side, watch, outcome = serving(0.0)
+    for junk in (b"\x80\x05junk", ("request",), ("request", "not an envelope"), ["a", "list"], 42):
+        io_side.send_bytes(junk if isinstance(junk, bytes) else __import__("pickle").dumps(junk))
+    _send(io_side, ("request", Envelope(7, None, OvershootQuery("az"))))
+    assert _reply(io_side).rid == 7 and watch.is_alive() and not outcome
+
+
+def test_a_reading_thread_that_fails_ends_the_process_in_order(serving, monkeypatch):
+    """It ran on deaf (commands unread, no silence watch): now its failure is the
+    process's reason to stop."""
+    from urc.link.control_process import ControlServer
+
+    def broken(data):
+        raise RuntimeError("a bug")
+    monkeypatch.setattr(ControlServer, "_decoded", staticmethod(broken))
+    server, io_side, watch, outcome = serving(0.0)
+    _send(io_side, ("ping",))
+    watch.join(2.0)
+    assert outcome and outcome[0].startswith("reading the I/O process's messages failed") and "a bug" in outcome[0]
+
+
+def test_a_reply_for_a_connection_taken_over_since_is_dropped(tmp_path):
+    """A command still running for a dead I/O process must not answer the next one:
+    request ids start at 1 in every I/O process."""
+    from multiprocessing.connection import Connection
+
+    from urc.link.control_process import ControlServer
+    from urc.model.messages import Envelope, OvershootQuery
+
+    old_ours, old_theirs = socket.socketpair()
+    new_ours, new_theirs = socket.socketpair()
+    old_io, new_io = Connection(old_ours.detach()), Connection(new_ours.detach())
+    old_conn = Connection(old_theirs.detach())
+    server = ControlServer(old_conn, None, tmp_path, [])
+    server.rot = _SlowRot(0.0)
+    try:
+        server.conn = Connection(new_theirs.detach())   # (taken over)
+        server._run_command(Envelope(1, None, OvershootQuery("az")), old_conn)
+        assert not new_io.poll(0.3) and not old_io.poll(0.0)
+        server._run_command(Envelope(1, None, OvershootQuery("az")), server.conn)
+        assert _reply(new_io).rid == 1
+    finally:
+        for c in (old_io, new_io, old_conn, server.conn):
+            c.close()

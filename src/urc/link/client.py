@@ -256,9 +256,9 @@ class ControlLink:
         self._loop = loop
         frames = self._frames = FrameReader(self.conn)
         if _running_loop() is loop:
-            loop.add_reader(frames.fileno(), self._readable)
+            self._start_reading(frames)
         else:
-            loop.call_soon_threadsafe(loop.add_reader, frames.fileno(), self._readable)
+            loop.call_soon_threadsafe(self._start_reading, frames)
         return self
 
     def send(self, msg: tuple) -> None:
@@ -323,12 +323,12 @@ class ControlLink:
         pending = self._pending[rid] = _Pending(self, rid, request, timeout_s, loop, finish, then)
         deadline_s = None if isinstance(request, Stop) else pending.expires_s
         if self.lost:
-            pending.deliver(_lost_reply(rid, self.lost))
+            self._answer(rid, _lost_reply(rid, self.lost))
         else:
             try:
                 self.send(("request", Envelope(rid, deadline_s, request)))
             except (OSError, EOFError, ValueError) as exc:
-                pending.deliver(_lost_reply(rid, str(exc)))
+                self._answer(rid, _lost_reply(rid, str(exc)))
         if loop is not None and pending.reply is None and loop not in self._sweeps:
             self._sweeps[loop] = loop.call_later(SWEEP_S, self._sweep, loop)
         return pending
@@ -347,16 +347,21 @@ class ControlLink:
         if any(p.reply is None for p in waiting):
             self._sweeps[loop] = loop.call_later(SWEEP_S, self._sweep, loop)
 
+    def _answer(self, rid: int, reply: Reply, read_here: bool = False) -> None:
+        """Deliver ``reply`` to request ``rid`` if it still waits. Whoever takes it from the
+        table delivers it (dict.pop is one step under the GIL): a reply read at the very
+        moment its bound expires on another thread goes to the caller once, not twice."""
+        pending = self._pending.pop(rid, None)
+        if pending is not None:
+            pending.deliver(reply, read_here)
+
     def _expire(self, pending: _Pending) -> None:
-        if self._pending.pop(pending.rid, None) is None or pending.reply is not None:
-            return
         text = f"the control process did not answer within {pending.timeout_s:g} s (hung?): "
         exc = (StopQueued(text + "the stop is sent and runs as soon as it resumes")
                if isinstance(pending.request, Stop) else ControlUnavailable(text + "nothing was done"))
-        pending.deliver(Reply(pending.rid, "error", exception_to_wire(exc), None))
+        self._answer(pending.rid, Reply(pending.rid, "error", exception_to_wire(exc), None))
 
     def _outcome(self, request: Request, reply: Reply) -> Any:
-        self._pending.pop(reply.rid, None)
         if reply.outcome == "lost":
             raise ControlUnavailable(f"the control process is gone ({reply.value}): nothing was done")
         self.offer_status(reply.status)
@@ -401,9 +406,7 @@ class ControlLink:
         if kind == "status":
             self.offer_status(msg[1], msg[2] if len(msg) > 2 else None)
         elif kind == "reply":
-            pending = self._pending.get(msg[1].rid)
-            if pending is not None:
-                pending.deliver(msg[1], read_here=self._loop is not None)
+            self._answer(msg[1].rid, msg[1], read_here=self._loop is not None)
         elif kind == "died":
             self._lose(f"control loop died: {msg[1]}")
         elif kind == "stopped":
@@ -422,6 +425,13 @@ class ControlLink:
             log.exception("control link broken")
             reason = f"link failed: {exc!r}"
         self._end(reason)
+
+    def _start_reading(self, frames: FrameReader) -> None:
+        """(On the loop.) Unless the link was lost meanwhile (its descriptor closed, and
+        its number perhaps another socket's by now)."""
+        if not frames.closed:
+            assert self._loop is not None
+            self._loop.add_reader(frames.fileno(), self._readable)
 
     def _readable(self) -> None:
         """The event loop's reader: everything the socket holds now, message by message."""
@@ -472,8 +482,8 @@ class ControlLink:
         if self.lost:
             return
         self.lost = reason
-        for rid, pending in list(self._pending.items()):
-            pending.deliver(_lost_reply(rid, reason))
+        for rid in list(self._pending):
+            self._answer(rid, _lost_reply(rid, reason))
         if self.on_lost is not None:
             try:
                 self.on_lost(reason)

@@ -30,11 +30,14 @@ is in that module's docstring; what this one guarantees:
 * One thread reads the I/O process's messages and runs each command as it reads it: a
   command crosses no thread here (a hand-off between two Python threads costs tens of
   microseconds of a set's round trip, bench/rotctld_bench.py), and commands run in the
-  order they were sent.
+  order they were sent. Behind a command that runs long (a save on a slow card, a query
+  stuck on a bus) the main thread reads on: the I/O process's writes never block on a
+  full socket, its pings still count, and a stop it asks for begins at once.
 """
 
 from __future__ import annotations
 
+import collections
 import ctypes
 import logging
 import os
@@ -92,6 +95,9 @@ RESTART_WINDOW_S = 60.0
 RESTARTS_MAX = 3
 #: how long building the hardware may take (imports, a bridge's first contact)
 START_TIMEOUT_S = 60.0
+#: a command running longer than this: the main thread reads the I/O process's messages
+#: on behind it (ControlServer._drain_behind), so that the socket never fills
+DRAIN_BEHIND_S = 0.5
 #: how long a moving command's reply waits for the first state record of its motion
 #: (ControlServer._await_first_record): an SD card's write takes up to ~1 s; one slower
 #: than this answers ok (the command stands) rather than hold up the client
@@ -146,11 +152,16 @@ class ControlServer:
         self._io_gone = False
         #: the I/O process's last message (None: not heard since "ready", as it starts)
         self._heard_s: float | None = None
-        #: a command is under way: the I/O process is not silent while its messages wait
-        #: behind one
-        self._command_under_way = False
+        #: when the command under way began (None: none is)
+        self._command_since_s: float | None = None
         #: held while a command runs: the orderly stop waits for the one under way
         self._running = threading.Lock()
+        #: the current connection's reader (its frames) and the messages read, not yet
+        #: handled: the reading thread takes them in order; while a command runs long, the
+        #: main thread reads on into it (_drain_behind), so the socket never fills
+        self._reader: FrameReader | None = None
+        self._reader_lock = threading.Lock()
+        self._backlog: collections.deque[bytes] = collections.deque()
         #: why the reading thread of the current connection ended ("": it reads)
         self._read_end = ""
         #: when the last tick ended (the loop thread's own clock reading)
@@ -165,10 +176,14 @@ class ControlServer:
         #: Reconfigure): a urc run taking it over compares its own with these
         self._config_settings: Any = None
 
-    def send(self, msg: tuple) -> None:
+    def send(self, msg: tuple, conn: Connection | None = None) -> None:
+        """``msg`` to the I/O process; with ``conn``, only if that is still the one (a
+        reply for an I/O process taken over since is dropped: its request ids are not the
+        new one's)."""
         data = codec.dumps(msg)
         with self._send_lock:
-            self.conn.send_bytes(data)
+            if conn is None or conn is self.conn:
+                self.conn.send_bytes(data)
 
     def _send_status(self, status: Any, gen: int | None = None) -> None:
         data = codec.dumps(("status", status, gen))
@@ -176,7 +191,7 @@ class ControlServer:
             self.conn.send_bytes(data)
             self._sent, self._sent_gen = status, gen
 
-    def _send_reply(self, rid: int, outcome: str, value: Any, status: Any) -> None:
+    def _send_reply(self, rid: int, outcome: str, value: Any, status: Any, conn: Connection | None = None) -> None:
         """With the status the command left (a cleared fault shows at once), unless the
         I/O process has been sent that one already: most commands leave the last
         tick's. (A Status is ~1.4 kB of pickle, ~40 us to dump and ~50 us to load: a
@@ -187,11 +202,10 @@ class ControlServer:
         generation (else every reply carried a Status, ~0.3 ms of a set's CPU)."""
         recorded, gen = self._recorded
         known = status is self._sent or (status is recorded and gen == self._sent_gen)
-        self.send(("reply", Reply(rid, outcome, value, None if known else status)))
+        self.send(("reply", Reply(rid, outcome, value, None if known else status)), conn)
 
     def _io_alive(self) -> bool:
-        return (self._heard_s is None or self._command_under_way
-                or time.monotonic() - self._heard_s < IO_SILENT_S)
+        return self._heard_s is None or time.monotonic() - self._heard_s < IO_SILENT_S
 
     # ------------------------------------------------------------- lifetime
     def run(self) -> int:
@@ -301,8 +315,7 @@ class ControlServer:
         own: :meth:`_read_and_run`), and watch for signals, the I/O process gone and a dead
         loop until something ends it (a hung tick has its own watch thread); returns why."""
         assert self.control is not None
-        self._read_end = ""
-        threading.Thread(target=self._read_and_run, args=(self.conn,), name="urc-commands", daemon=True).start()
+        self._start_reading()
         while True:
             if self._signal:
                 return f"{self._signal} received"
@@ -314,69 +327,142 @@ class ControlServer:
                 error = repr(self.control.error)
                 self._last_word(("died", error))
                 return f"control loop died: {error}"
+            self._drain_behind()
             time.sleep(WATCH_S)
 
-    def _read_and_run(self, conn: Connection) -> None:
+    def _start_reading(self) -> threading.Thread:
+        """The reading thread of the current connection, started."""
+        self._read_end = ""
+        with self._reader_lock:
+            self._reader, self._backlog = FrameReader(self.conn), collections.deque()
+        thread = threading.Thread(target=self._read_and_run, args=(self.conn, self._reader, self._backlog),
+                                  name="urc-commands", daemon=True)
+        thread.start()
+        return thread
+
+    def _read_and_run(self, conn: Connection, reader: FrameReader, backlog: collections.deque[bytes]) -> None:
         """Read ``conn`` and run each command as it comes, until the I/O process is gone or
         asks this process to stop (:attr:`_read_end` says which), or another connection
         took its place (a take-over). A silence of IO_SILENT_S with no command under way
-        stops open-ended motion, once."""
-        reader = FrameReader(conn)
+        stops open-ended motion, once. A failure here ends the process in order (said as
+        such): a process that no longer reads its commands must not run on."""
         silenced = False
         try:
             while conn is self.conn:
-                if not reader.wait(WATCH_S):
-                    silent_s = time.monotonic() - self._heard_s if self._heard_s is not None else 0.0
-                    if silent_s > IO_SILENT_S and not silenced:
-                        silenced = True
-                        self._stop_for_silence(silent_s)
-                    continue
-                try:
-                    messages = reader.read()
-                except (OSError, ValueError) as exc:  # (a socket failed, bytes that are no frame)
-                    log.error("control process: the link to the I/O process failed: %s", exc)
-                    messages = None
-                if messages is None:
-                    self._end_reading(conn, IO_GONE)
-                    return
-                for data in messages:
-                    self._heard_s, silenced = time.monotonic(), False
-                    try:
-                        msg = codec.loads(data)
-                    except BaseException:  # (refused by the codec, whatever it raised: dropped, and on)
-                        log.exception("control process: unreadable message from the I/O process, ignored")
+                if not backlog:
+                    if not reader.wait(WATCH_S):
+                        silent_s = time.monotonic() - self._heard_s if self._heard_s is not None else 0.0
+                        if silent_s > IO_SILENT_S and not silenced:
+                            silenced = True
+                            self._stop_for_silence(silent_s)
                         continue
-                    if msg[0] == "stop":
-                        self._end_reading(conn, "asked to stop")
+                    if not self._read_into_backlog(conn, reader, backlog):
                         return
-                    if msg[0] == "request" and isinstance(msg[1], Envelope):
-                        self._run_command(msg[1])
-                        self._heard_s = time.monotonic()  # (what it sent meanwhile waits unread)
+                    continue
+                silenced = False
+                msg = self._decoded(backlog.popleft())
+                if msg is None:
+                    continue
+                if msg[0] == "stop":
+                    self._end_reading(conn, "asked to stop")
+                    return
+                if msg[0] == "request":
+                    self._run_command(msg[1], conn)
+        except BaseException as exc:  # (a bug here: this process must not go deaf and run on)
+            log.exception("control process: reading the I/O process's messages failed")
+            self._end_reading(conn, f"reading the I/O process's messages failed: {exc!r}")
         finally:
-            reader.close()
+            with self._reader_lock:
+                reader.close()
+
+    def _read_into_backlog(self, conn: Connection, reader: FrameReader, backlog: collections.deque[bytes]) -> bool:
+        """What has arrived, onto the backlog (the I/O process heard from); False once the
+        I/O process is gone (the reading ends: :attr:`_read_end`)."""
+        with self._reader_lock:
+            try:
+                messages = reader.read() if not reader.closed else None
+            except (OSError, ValueError) as exc:  # (a socket failed, bytes that are no frame)
+                log.error("control process: the link to the I/O process failed: %s", exc)
+                messages = None
+            if messages is None:
+                self._end_reading(conn, IO_GONE)
+                return False
+            if messages:
+                self._heard_s = time.monotonic()
+                backlog.extend(messages)
+            return True
+
+    def _drain_behind(self) -> None:
+        """(The main thread, every WATCH_S.) While a command has run longer than
+        DRAIN_BEHIND_S, read on into the backlog: the I/O process's pings and requests
+        would otherwise fill the socket, and its next write would block its event loop;
+        its pings say it is alive (systemd's watchdog); a stop it asks for begins at once
+        (the orderly stop then waits for the command under way, CALL_TIMEOUT_S at most)."""
+        since_s = self._command_since_s
+        if since_s is None or time.monotonic() - since_s < DRAIN_BEHIND_S:
+            return
+        if not self._reader_lock.acquire(blocking=False):
+            return
+        try:
+            reader = self._reader
+            if reader is None or reader.closed or not reader.wait(0.0):
+                return
+            try:
+                messages = reader.read()
+            except (OSError, ValueError):
+                return  # (the reading thread finds it so too, once its command ends)
+            if not messages:
+                return
+            self._heard_s = time.monotonic()
+            for data in messages:
+                msg = self._decoded(data)
+                if msg is not None and msg[0] == "stop":
+                    self._read_end = "asked to stop"
+                elif msg is not None and msg[0] == "request":
+                    self._backlog.append(data)
+        finally:
+            self._reader_lock.release()
+
+    @staticmethod
+    def _decoded(data: bytes) -> tuple | None:
+        """A message from the I/O process, or None (logged) for one the codec refuses or
+        that is no message of ours: dropped, and on."""
+        try:
+            msg = codec.loads(data)
+        except BaseException:  # (whatever the decoder raised)
+            log.exception("control process: unreadable message from the I/O process, ignored")
+            return None
+        if not (isinstance(msg, tuple) and msg and isinstance(msg[0], str)):
+            log.error("control process: %r is no message, ignored", type(msg).__name__)
+            return None
+        if msg[0] == "request" and not (len(msg) == 2 and isinstance(msg[1], Envelope)):
+            log.error("control process: a request without its envelope, ignored")
+            return None
+        return msg
 
     def _end_reading(self, conn: Connection, why: str) -> None:
         if conn is self.conn:  # (a connection taken over since is not ended by its old one)
             self._read_end = why
 
-    def _run_command(self, env: Envelope) -> None:
+    def _run_command(self, env: Envelope, conn: Connection) -> None:
         with self._running:
-            self._command_under_way = True
+            self._command_since_s = time.monotonic()
             try:
                 if self._stopping:
-                    self._reply_error(env.rid, ControlUnavailable("the control process is stopping: nothing was done"))
+                    self._reply_error(env.rid, ControlUnavailable("the control process is stopping: nothing was done"),
+                                      conn)
                 else:
-                    self._answer(env)
+                    self._answer(env, conn)
             except OSError:  # (the I/O process is gone: its reply with it; a new one may come)
                 pass
             except Exception as exc:  # (this thread must outlive any one command)
                 log.exception("command %r failed", env)
                 try:
-                    self._reply_error(env.rid, exc)
+                    self._reply_error(env.rid, exc, conn)
                 except OSError:
                     pass
             finally:
-                self._command_under_way = False
+                self._command_since_s = None
 
     def _watch_ticks(self) -> None:
         """A tick that hangs (in a driver, on a bus) holds the rotator's lock and the loop:
@@ -396,8 +482,8 @@ class ControlServer:
                 except Exception:  # (each write is tried; this thread must go on watching)
                     log.exception("making the outputs safe after a hung tick failed")
 
-    def _reply_error(self, rid: int, exc: BaseException) -> None:
-        self.send(("reply", Reply(rid, "error", exception_to_wire(exc), None)))
+    def _reply_error(self, rid: int, exc: BaseException, conn: Connection | None = None) -> None:
+        self.send(("reply", Reply(rid, "error", exception_to_wire(exc), None)), conn)
 
     def _stop_for_silence(self, silent_s: float) -> None:
         """Only what a live client must end stops (a jog, an update-fed track); a goto,
@@ -408,12 +494,12 @@ class ControlServer:
         except Exception:
             log.exception("stop after the I/O process went silent failed")
 
-    def _answer(self, env: Envelope) -> None:
+    def _answer(self, env: Envelope, conn: Connection | None = None) -> None:
         if env.deadline_s is not None and time.monotonic() > env.deadline_s:
             # its caller was told "no answer, nothing done" already: keep that true
             self._reply_error(env.rid, ControlUnavailable(
                 f"{type(env.request).__name__} arrived after its deadline (this process was held up): "
-                "nothing was done"))
+                "nothing was done"), conn)
             return
         try:
             try:
@@ -430,7 +516,7 @@ class ControlServer:
                 self.rot.confirm_motion_record(ticket, FIRST_RECORD_WAIT_S)
         except Exception as exc:
             outcome, value = "error", exception_to_wire(exc)
-        self._send_reply(env.rid, outcome, value, self.rot.status())
+        self._send_reply(env.rid, outcome, value, self.rot.status(), conn)
 
     def _run(self, request: Request) -> Any:
         """Each request type runs what COMMANDS names for it, each query its handler
@@ -759,15 +845,17 @@ class ControlProcess:
             if now_s - last_s > WATCH_S + 0.25:  # this process was held up itself (SIGSTOP,
                 awake_since_s = now_s            # swapped out): judge only what it saw
             last_s = now_s
-            if link.lost:
+            exited = self.proc.poll() is not None  # (the link's reader, the event loop, may be what is stuck)
+            if link.lost or exited:
                 try:  # (a loop that died still stops in order, saves and says so)
                     self.proc.wait(5.0)
                 except subprocess.TimeoutExpired:
                     pass
                 if stopping or self.stopping.is_set():
                     return ""
-                return f"the control process ended ({link.lost})" if link.final is not None else \
-                    f"the control process died ({link.lost})"
+                why = link.lost or f"exit code {self.proc.returncode}"
+                return f"the control process ended ({why})" if link.final is not None else \
+                    f"the control process died ({why})"
             if stopping:
                 return ""  # (an orderly stop: silence now is that stop)
             cpu, state = self.progress()
