@@ -466,3 +466,28 @@ def test_an_arc_is_planned_on_the_background_worker_never_by_the_caller(tmp_path
             trk.step(0.2 * i)
             i += 1
     assert trk.arc is not None and threads and threading.current_thread() not in threads
+
+
+def test_a_pass_planned_while_the_antenna_parks_is_pre_positioned_from_the_park(tmp_path, leo_sets, station):
+    """busy_soak lost a G-5500 pass: planned 30 s after the last pass's LOS while the
+    antenna still drove to its park 400 deg away, the pre-positioning's travel was
+    measured from where it was then; the park went on, and the move began 30 s late.
+    The travel is now measured from where the motion under way ends."""
+    from conftest import Bench
+    from urc.tracking.tracker import Tracker
+
+    es = iss(leo_sets)
+    p = next(p for p in find_passes(es, station, T0_UNIX_S, duration_s=86400, min_el_deg=10)
+             if 150.0 < p.aos_az_deg < 330.0)
+    b = Bench("g5500", tmp_path / "state")
+    b.rot.goto_pose(400.0, 0.0)
+    b.run(120.0, until=lambda s: not s.moving and abs(s.az.pos_deg - 400.0) < 1.0)
+    tracker = Tracker(b.rot, station, lambda now_s: p.aos_unix_s - 300.0)
+    b.rot.park()
+    b.run(20.0)   # (on its way: some 120 deg of the 400 behind it)
+    s = b.rot.status()
+    assert s.moving and 100.0 < 400.0 - s.az.pos_deg < 300.0
+    parking = tracker.plan_pass(es, p, b.rot.clock.now_s()).plan
+    b.run(120.0, until=lambda s: not s.moving)
+    parked = tracker.plan_pass(es, p, b.rot.clock.now_s()).plan
+    assert parking.preposition_start_s == pytest.approx(parked.preposition_start_s, abs=1.0)

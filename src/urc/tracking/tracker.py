@@ -76,6 +76,16 @@ class _PassJob:
     steptrack: Any = None
 
 
+def _standing_deg(axis: Any, moving: bool) -> float:
+    """Where an axis will stand, for the pre-positioning's travel: the end of the motion
+    under way (a park after the last pass goes on until the next pass's pre-positioning
+    starts; planned from where it was, a G-5500 parking 400 deg started 30 s late and
+    met a pass 108 deg off: busy_soak), else where it is."""
+    if moving and axis.target_deg is not None:
+        return float(axis.target_deg)
+    return float(axis.pos_deg)
+
+
 class Tracker:
     def __init__(self, rotator, station: Station, unix_at: Callable[[float], float], *,
                  park_after_pass: bool = True, min_el_deg: float = 0.0):
@@ -194,13 +204,13 @@ class Tracker:
         if st.el is not None:
             # the plan's time base is UTC; the pre-positioning start is compared in UTC too
             return plan_pass(t, la.az_deg, la.el_deg, self.rot.geometry, az, el,
-                             (st.az.pos_deg, st.el.pos_deg), self.unix_at(now_s))
+                             (_standing_deg(st.az, st.moving), _standing_deg(st.el, st.moving)), self.unix_at(now_s))
         # a single-axis rotator: the azimuth follows the whole pass (above min_el) with
         # the beam at the horizon; no flip, no elevation targets. The plan keeps the
         # satellite's true elevation for display.
         beam_el = np.full_like(la.el_deg, FIXED_EL_DEG)
         plan = plan_pass(t, la.az_deg, beam_el, self.rot.geometry, az, el,
-                         (st.az.pos_deg, FIXED_EL_DEG), self.unix_at(now_s))
+                         (_standing_deg(st.az, st.moving), FIXED_EL_DEG), self.unix_at(now_s))
         return replace(plan, sky_el_deg=np.asarray(la.el_deg, dtype=float))
 
     def use_elements(self, elements: ElementSet) -> bool:
