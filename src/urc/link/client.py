@@ -164,9 +164,8 @@ class _Pending:
     def deliver(self, reply: Reply, read_here: bool = False) -> None:
         """``read_here``: the reply was read by the loop's own reader, so the outcome is
         given now; else (a loss, an expiry, another thread) in a round of the loop of its
-        own, so that a ``then`` never runs inside the call that made the request."""
-        if self.reply is not None:  # (answered already: a late reply after its expiry)
-            return
+        own, so that a ``then`` never runs inside the call that made the request. (Called
+        once: by whoever took the request from the table, ControlLink._answer.)"""
         self.reply = reply
         if self.done is not None:
             self.done.set()

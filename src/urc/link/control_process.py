@@ -161,7 +161,7 @@ class ControlServer:
         #: main thread reads on into it (_drain_behind), so the socket never fills
         self._reader: FrameReader | None = None
         self._reader_lock = threading.Lock()
-        self._backlog: collections.deque[bytes] = collections.deque()
+        self._backlog: collections.deque[tuple] = collections.deque()
         #: why the reading thread of the current connection ended ("": it reads)
         self._read_end = ""
         #: when the last tick ended (the loop thread's own clock reading)
@@ -340,7 +340,7 @@ class ControlServer:
         thread.start()
         return thread
 
-    def _read_and_run(self, conn: Connection, reader: FrameReader, backlog: collections.deque[bytes]) -> None:
+    def _read_and_run(self, conn: Connection, reader: FrameReader, backlog: collections.deque[tuple]) -> None:
         """Read ``conn`` and run each command as it comes, until the I/O process is gone or
         asks this process to stop (:attr:`_read_end` says which), or another connection
         took its place (a take-over). A silence of IO_SILENT_S with no command under way
@@ -356,13 +356,15 @@ class ControlServer:
                             silenced = True
                             self._stop_for_silence(silent_s)
                         continue
-                    if not self._read_into_backlog(conn, reader, backlog):
+                    with self._reader_lock:
+                        arrived = self._arrived(reader)
+                    if arrived is None:
+                        self._end_reading(conn, IO_GONE)
                         return
+                    backlog.extend(arrived)
                     continue
                 silenced = False
-                msg = self._decoded(backlog.popleft())
-                if msg is None:
-                    continue
+                msg = backlog.popleft()
                 if msg[0] == "stop":
                     self._end_reading(conn, "asked to stop")
                     return
@@ -375,22 +377,19 @@ class ControlServer:
             with self._reader_lock:
                 reader.close()
 
-    def _read_into_backlog(self, conn: Connection, reader: FrameReader, backlog: collections.deque[bytes]) -> bool:
-        """What has arrived, onto the backlog (the I/O process heard from); False once the
-        I/O process is gone (the reading ends: :attr:`_read_end`)."""
-        with self._reader_lock:
-            try:
-                messages = reader.read() if not reader.closed else None
-            except (OSError, ValueError) as exc:  # (a socket failed, bytes that are no frame)
-                log.error("control process: the link to the I/O process failed: %s", exc)
-                messages = None
-            if messages is None:
-                self._end_reading(conn, IO_GONE)
-                return False
-            if messages:
-                self._heard_s = time.monotonic()
-                backlog.extend(messages)
-            return True
+    def _arrived(self, reader: FrameReader) -> list[tuple] | None:
+        """(Under the reader's lock.) The messages that have arrived, decoded (what is no
+        message dropped); [] if none; None once the I/O process is gone."""
+        try:
+            frames = reader.read() if not reader.closed else None
+        except (OSError, ValueError) as exc:  # (a socket failed, bytes that are no frame)
+            log.error("control process: the link to the I/O process failed: %s", exc)
+            frames = None
+        if frames is None:
+            return None
+        if frames:
+            self._heard_s = time.monotonic()
+        return [msg for msg in map(self._decoded, frames) if msg is not None]
 
     def _drain_behind(self) -> None:
         """(The main thread, every WATCH_S.) While a command has run longer than
@@ -407,19 +406,11 @@ class ControlServer:
             reader = self._reader
             if reader is None or reader.closed or not reader.wait(0.0):
                 return
-            try:
-                messages = reader.read()
-            except (OSError, ValueError):
-                return  # (the reading thread finds it so too, once its command ends)
-            if not messages:
-                return
-            self._heard_s = time.monotonic()
-            for data in messages:
-                msg = self._decoded(data)
-                if msg is not None and msg[0] == "stop":
+            for msg in self._arrived(reader) or ():  # (the I/O process gone: the reading thread finds it so too)
+                if msg[0] == "stop":
                     self._read_end = "asked to stop"
-                elif msg is not None and msg[0] == "request":
-                    self._backlog.append(data)
+                elif msg[0] == "request":
+                    self._backlog.append(msg)
         finally:
             self._reader_lock.release()
 

@@ -4,12 +4,13 @@ both: its state, a poll with each new status, a cancel, its progress as a dict."
 
 from __future__ import annotations
 
+import abc
 from typing import Any
 
 from ..errors import CommandRejected
 
 
-class HubProcedure:
+class HubProcedure(abc.ABC):
     """Subclasses write :meth:`_poll` (one step from a new status), :meth:`_fail` and
     :meth:`_cancelled` (the antenna is stopped already), and may narrow :meth:`_summary`."""
 
@@ -62,11 +63,14 @@ class HubProcedure:
     def _still(status: Any) -> bool:
         return not status.moving and all(a is None or a.mode in ("holding", "idle") for a in (status.az, status.el))
 
+    @abc.abstractmethod
     def _poll(self, status: Any) -> None:
-        raise NotImplementedError
+        """One step from a new status."""
 
+    @abc.abstractmethod
     def _fail(self, reason: str) -> None:
-        raise NotImplementedError
+        """End as failed, for ``reason`` (the antenna is not stopped yet)."""
 
+    @abc.abstractmethod
     def _cancelled(self) -> None:
-        raise NotImplementedError
+        """End as cancelled (the antenna is stopped already)."""
