@@ -454,7 +454,8 @@ def test_commands_run_on_the_reading_thread_and_a_long_one_is_no_silence(serving
     from urc.model.messages import Envelope, OvershootQuery
 
     server, io_side, watch, outcome = serving(IO_SILENT_S + 0.6)
-    reader = next(t for t in threading.enumerate() if t.name == "urc-commands")
+    reader = wait_until(lambda: next((t for t in threading.enumerate() if t.name == "urc-commands"), None), 5.0,
+                        "the watch starts the reading thread")
     _send(io_side, ("request", Envelope(1, None, OvershootQuery("az"))))
     alive_meanwhile = []
     for _ in range(6):
